@@ -1,0 +1,478 @@
+"""Figures and tables made from the stored results of a run folder alone.
+
+:func:`make_report` reads the evaluation log of a run folder (see :mod:`benchmarks.storage`)
+and writes, under ``run_folder/report/``:
+
+- ``convergence-<suite>[-<variant>].png``: mean best-so-far F per iteration per optimizer with
+  a shaded 95% bootstrap interval of the mean across seeds (the paper's optimizer comparison);
+- ``summary.csv`` / ``summary.md``: final F and normalised AUC per optimizer with intervals;
+- ``pairwise.csv`` / ``pairwise.md``: pairwise Mann-Whitney U tests, Holm-corrected, with A12.
+
+The same data give the same CSV and Markdown bytes (and, with the same matplotlib, the same PNG
+bytes: no timestamps or software tags are written). Every file is written atomically.
+
+Plots draw on a ``matplotlib.figure.Figure`` rendered by the Agg canvas, never through
+``pyplot``, so no global backend is switched and no window opens. The plotting functions take
+an ``ax`` so that other suites can compose them into their own figures.
+"""
+
+from __future__ import annotations
+
+import io
+import os
+import re
+import zlib
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from matplotlib.axes import Axes
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from .stats import best_so_far_curves, bootstrap_ci, mann_whitney_holm, run_metrics
+from .storage import ResultStore, atomic_write_bytes, atomic_write_text
+
+__all__ = [
+    "DPI",
+    "FIGSIZE",
+    "convergence_table",
+    "figure_png_bytes",
+    "make_report",
+    "new_figure",
+    "optimizer_colors",
+    "pairwise_table",
+    "plot_convergence",
+    "summary_table",
+]
+
+FIGSIZE: tuple[float, float] = (6.4, 4.0)
+"""Figure size in inches of every report figure."""
+
+DPI = 150
+"""Resolution of every report PNG in dots per inch."""
+
+REPORT_DIR = "report"
+GROUP_KEYS: tuple[str, ...] = ("suite", "variant")
+"""A report has one figure and one block of tables per (suite, variant)."""
+
+# The paper draws CMA-ES in blue; fixed colours keep an optimizer recognisable across figures.
+_KNOWN_COLORS: dict[str, str] = {
+    "cmaes": "tab:blue",
+    "bo": "tab:orange",
+    "pso": "tab:green",
+    "random": "tab:red",
+    "random_search": "tab:red",
+}
+_SPARE_COLORS: tuple[str, ...] = (
+    "tab:purple",
+    "tab:brown",
+    "tab:pink",
+    "tab:gray",
+    "tab:olive",
+    "tab:cyan",
+)
+_KNOWN_ORDER: tuple[str, ...] = tuple(_KNOWN_COLORS)
+_METRICS: tuple[str, ...] = ("final_free_energy", "auc")
+
+
+# --- ordering, colours, seeds ------------------------------------------------------------------
+
+
+def _optimizer_order(names: Iterable[str]) -> list[str]:
+    unique = set(names)
+    known = [n for n in _KNOWN_ORDER if n in unique]
+    return known + sorted(unique - set(known))
+
+
+def optimizer_colors(names: Iterable[str]) -> dict[str, str]:
+    """Fixed colours: the paper's optimizers get theirs, others the spare colours by name.
+
+    Args:
+        names: Optimizer names.
+
+    Returns:
+        Name to matplotlib colour, in report order (known optimizers first, then by name).
+    """
+    colors, spare = {}, 0
+    for name in _optimizer_order(names):
+        if name in _KNOWN_COLORS:
+            colors[name] = _KNOWN_COLORS[name]
+        else:
+            colors[name] = _SPARE_COLORS[spare % len(_SPARE_COLORS)]
+            spare += 1
+    return colors
+
+
+def _rng(seed: int, *labels: Any) -> np.random.Generator:
+    # One stream per table cell keyed by its labels (crc32 is stable across processes, unlike
+    # hash()), so adding an optimizer does not change the intervals of the others.
+    key = zlib.crc32("\x1f".join(map(str, labels)).encode("utf-8"))
+    return np.random.default_rng([seed, key])
+
+
+def _groups(frame: pd.DataFrame) -> list[tuple[tuple[Any, ...], pd.DataFrame]]:
+    keys = [k for k in GROUP_KEYS if k in frame.columns]
+    if not keys:
+        return [((), frame)]
+    return [
+        (key if isinstance(key, tuple) else (key,), part)
+        for key, part in frame.groupby(keys, sort=True)
+    ]
+
+
+# --- tables ------------------------------------------------------------------------------------
+
+
+def convergence_table(
+    evaluations: pd.DataFrame,
+    *,
+    level: float = 0.95,
+    n_boot: int = 10_000,
+    seed: int = 0,
+) -> pd.DataFrame:
+    """Mean best-so-far F across seeds per iteration per optimizer, with bootstrap intervals.
+
+    Args:
+        evaluations: The evaluation log (see ``docs/results-format.md``).
+        level: Coverage of the interval.
+        n_boot: Bootstrap resamples per cell.
+        seed: Root seed of the bootstrap.
+
+    Returns:
+        One row per (suite, variant, optimizer, iteration) with ``evaluations`` (mean over
+        seeds of evaluations so far), ``n_seeds`` (seeds with a finite best F there), ``mean``,
+        ``low`` and ``high`` (F).
+    """
+    curves = best_so_far_curves(evaluations)
+    keys = [k for k in (*GROUP_KEYS, "optimizer") if k in curves.columns]
+    rows = []
+    for key, cell in curves.groupby(keys + ["iteration"], sort=True):
+        ci = bootstrap_ci(
+            cell["best_so_far"], n_boot=n_boot, level=level, rng=_rng(seed, "convergence", *key)
+        )
+        rows.append(
+            {
+                **dict(zip([*keys, "iteration"], key, strict=True)),
+                "evaluations": float(cell["evaluations"].mean()),
+                "n_seeds": ci.n,
+                "mean": ci.estimate,
+                "low": ci.low,
+                "high": ci.high,
+            }
+        )
+    columns = [*keys, "iteration", "evaluations", "n_seeds", "mean", "low", "high"]
+    return pd.DataFrame(rows, columns=columns)
+
+
+def summary_table(
+    evaluations: pd.DataFrame,
+    *,
+    level: float = 0.95,
+    n_boot: int = 10_000,
+    seed: int = 0,
+) -> pd.DataFrame:
+    """Final best F and normalised AUC per optimizer, mean over seeds with bootstrap intervals.
+
+    Args:
+        evaluations: The evaluation log.
+        level: Coverage of the intervals.
+        n_boot: Bootstrap resamples per interval.
+        seed: Root seed of the bootstrap.
+
+    Returns:
+        One row per (suite, variant, optimizer) in report order with ``runs``,
+        ``iterations_min``/``iterations_max`` (stored iterations per run), and for ``m`` in
+        ``final_free_energy``, ``auc``: ``m`` (mean), ``m_low``, ``m_high`` and ``m_excluded``
+        (runs without a finite value).
+    """
+    metrics = run_metrics(best_so_far_curves(evaluations))
+    group_names = [k for k in GROUP_KEYS if k in metrics.columns]
+    rows = []
+    for group_key, group in _groups(metrics):
+        group_cols = dict(zip(group_names, group_key, strict=True))
+        for name in _optimizer_order(group["optimizer"]):
+            runs = group[group["optimizer"] == name]
+            row: dict[str, Any] = {**group_cols, "optimizer": name, "runs": len(runs)}
+            row["iterations_min"] = int(runs["iterations"].min())
+            row["iterations_max"] = int(runs["iterations"].max())
+            for metric in _METRICS:
+                ci = bootstrap_ci(
+                    runs[metric],
+                    n_boot=n_boot,
+                    level=level,
+                    rng=_rng(seed, "summary", *group_key, name, metric),
+                )
+                row.update(
+                    {
+                        metric: ci.estimate,
+                        f"{metric}_low": ci.low,
+                        f"{metric}_high": ci.high,
+                        f"{metric}_excluded": ci.n_excluded,
+                    }
+                )
+            rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def pairwise_table(evaluations: pd.DataFrame, *, alpha: float = 0.05) -> pd.DataFrame:
+    """Pairwise two-sided Mann-Whitney U tests of optimizers on final F and on AUC.
+
+    Each (suite, variant, metric) is one Holm family. ``a12 < 0.5`` means optimizer ``a``
+    reached lower (better) values than ``b``.
+
+    Args:
+        evaluations: The evaluation log.
+        alpha: Family-wise error rate.
+
+    Returns:
+        ``suite``, ``variant``, ``metric`` and the columns of
+        :func:`benchmarks.stats.mann_whitney_holm`, one row per pair.
+    """
+    metrics = run_metrics(best_so_far_curves(evaluations))
+    group_names = [k for k in GROUP_KEYS if k in metrics.columns]
+    tables = []
+    for group_key, group in _groups(metrics):
+        for metric in _METRICS:
+            samples = {
+                name: group.loc[group["optimizer"] == name, metric].to_numpy()
+                for name in _optimizer_order(group["optimizer"])
+            }
+            table = mann_whitney_holm(samples, alpha=alpha)
+            table.insert(0, "metric", metric)
+            for position, (name, value) in enumerate(zip(group_names, group_key, strict=True)):
+                table.insert(position, name, value)
+            tables.append(table)
+    return pd.concat(tables, ignore_index=True)
+
+
+# --- figures -----------------------------------------------------------------------------------
+
+
+def new_figure(figsize: tuple[float, float] = FIGSIZE) -> tuple[Figure, Axes]:
+    """A figure with one axes on the Agg canvas, outside pyplot's global state.
+
+    Args:
+        figsize: (width, height) in inches.
+
+    Returns:
+        ``(figure, axes)``.
+    """
+    figure = Figure(figsize=figsize, dpi=DPI, layout="constrained")
+    FigureCanvasAgg(figure)
+    return figure, figure.add_subplot()
+
+
+def figure_png_bytes(figure: Figure) -> bytes:
+    """Render a figure as PNG bytes at :data:`DPI` with no software tag or timestamp."""
+    buffer = io.BytesIO()
+    figure.savefig(buffer, format="png", dpi=DPI, metadata={"Software": None})
+    return buffer.getvalue()
+
+
+def plot_convergence(
+    evaluations: pd.DataFrame,
+    ax: Axes | None = None,
+    *,
+    x: str = "iteration",
+    level: float = 0.95,
+    n_boot: int = 10_000,
+    seed: int = 0,
+    title: str | None = None,
+) -> Axes:
+    """Plot mean best-so-far F per optimizer with a shaded bootstrap interval across seeds.
+
+    Args:
+        evaluations: The evaluation log of one (suite, variant).
+        ax: Axes to draw on; a new :func:`new_figure` if ``None``.
+        x: ``"iteration"`` or ``"evaluations"`` (mean evaluations so far across seeds).
+        level: Coverage of the shaded interval of the mean.
+        n_boot: Bootstrap resamples per point.
+        seed: Root seed of the bootstrap.
+        title: Axes title; the suite (and variant) if ``None``.
+
+    Returns:
+        The axes drawn on.
+
+    Raises:
+        ValueError: If ``x`` is unknown or the rows span several (suite, variant) pairs.
+    """
+    if x not in ("iteration", "evaluations"):
+        raise ValueError(f"x must be 'iteration' or 'evaluations', got {x!r}")
+    groups = _groups(evaluations)
+    if len(groups) != 1:
+        labels = [" / ".join(map(str, key)) for key, _ in groups]
+        raise ValueError(
+            f"plot_convergence draws one (suite, variant); the rows hold {len(groups)}: "
+            f"{labels}; select one first"
+        )
+    table = convergence_table(evaluations, level=level, n_boot=n_boot, seed=seed)
+    if ax is None:
+        _, ax = new_figure()
+    colors = optimizer_colors(table["optimizer"])
+    for name, color in colors.items():
+        line = table[table["optimizer"] == name]
+        runs = int(line["n_seeds"].max())
+        ax.plot(line[x], line["mean"], color=color, linewidth=1.8, label=f"{name} (n={runs})")
+        ax.fill_between(line[x], line["low"], line["high"], color=color, alpha=0.2, linewidth=0)
+    if title is None:
+        title = " / ".join(str(k) for k in groups[0][0] if k != "")
+    ax.set_title(title)
+    ax.set_xlabel("iteration" if x == "iteration" else "evaluations")
+    ax.set_ylabel("best free energy F so far")
+    ax.grid(True, alpha=0.3)
+    ax.legend(frameon=False, title=f"mean, {level:.0%} bootstrap CI")
+    return ax
+
+
+# --- files -------------------------------------------------------------------------------------
+
+
+def _csv_text(frame: pd.DataFrame) -> str:
+    # repr() floats round-trip exactly and do not depend on the locale.
+    return frame.to_csv(index=False, lineterminator="\n", float_format=lambda v: repr(float(v)))
+
+
+def _fmt(value: float, digits: int = 4) -> str:
+    return "n/a" if value is None or not np.isfinite(value) else f"{value:.{digits}g}"
+
+
+def _interval(row: pd.Series, metric: str) -> str:
+    text = f"{_fmt(row[metric])} [{_fmt(row[f'{metric}_low'])}, {_fmt(row[f'{metric}_high'])}]"
+    excluded = int(row[f"{metric}_excluded"])
+    return text + (f" ({excluded} run(s) without a value)" if excluded else "")
+
+
+def _markdown(header: Sequence[str], rows: Iterable[Sequence[str]]) -> list[str]:
+    def cell(text: str) -> str:
+        return str(text).replace("|", "\\|").replace("\n", " ")
+
+    lines = ["| " + " | ".join(cell(h) for h in header) + " |"]
+    lines.append("|" + "|".join("---" for _ in header) + "|")
+    lines += ["| " + " | ".join(cell(c) for c in row) + " |" for row in rows]
+    return lines
+
+
+def _heading(frame: pd.DataFrame) -> str:
+    parts = [str(frame[k].iloc[0]) for k in GROUP_KEYS if k in frame.columns]
+    return " / ".join(p for p in parts if p) or "results"
+
+
+def _summary_markdown(summary: pd.DataFrame, level: float) -> str:
+    lines = [
+        "# Optimizer comparison",
+        "",
+        f"Mean over runs (seeds) with a {level:.0%} percentile bootstrap interval of the mean.",
+        "Final F: best finite free energy after the last stored iteration of a run.",
+        "AUC: mean height of the best-so-far curve over iterations (trapezoid, divided by the",
+        "number of iteration steps), in units of F; lower means F dropped sooner.",
+    ]
+    for _, group in _groups(summary):
+        lines += ["", f"## {_heading(group)}", ""]
+        rows = [
+            [
+                row["optimizer"],
+                str(row["runs"]),
+                str(row["iterations_max"])
+                if row["iterations_min"] == row["iterations_max"]
+                else f"{row['iterations_min']}-{row['iterations_max']}",
+                _interval(row, "final_free_energy"),
+                _interval(row, "auc"),
+            ]
+            for _, row in group.iterrows()
+        ]
+        header = ["optimizer", "runs", "iterations", "final F", "AUC"]
+        lines += _markdown(header, rows)
+    return "\n".join(lines) + "\n"
+
+
+def _pairwise_markdown(pairwise: pd.DataFrame, alpha: float) -> str:
+    lines = [
+        "# Pairwise tests",
+        "",
+        "Two-sided Mann-Whitney U tests over runs, Holm-Bonferroni corrected within each",
+        f"table; significant at alpha = {alpha:g}. A12 is the probability that a run of `a`",
+        "ends higher than a run of `b`: A12 < 0.5 means `a` is better (lower F).",
+    ]
+    if pairwise.empty:
+        return "\n".join(lines + ["", "Fewer than two optimizers: nothing to compare."]) + "\n"
+    keys = [k for k in GROUP_KEYS if k in pairwise.columns]
+    for key, table in pairwise.groupby(keys + ["metric"], sort=False):
+        metric = key[-1] if isinstance(key, tuple) else key
+        lines += ["", f"## {_heading(table)}: {metric}", ""]
+        rows = [
+            [
+                row["a"],
+                row["b"],
+                _fmt(row["U"]),
+                _fmt(row["p"], 3),
+                _fmt(row["p_holm"], 3),
+                _fmt(row["a12"], 3),
+                "yes" if row["significant"] else "no",
+                row["note"],
+            ]
+            for _, row in table.iterrows()
+        ]
+        lines += _markdown(["a", "b", "U", "p", "p (Holm)", "A12", "significant", "note"], rows)
+    return "\n".join(lines) + "\n"
+
+
+def _slug(*names: str) -> str:
+    text = "-".join(n for n in names if n)
+    slug = re.sub(r"[^A-Za-z0-9._-]+", "_", text).strip("._") or "results"
+    # Two names that clean to the same slug must not overwrite each other's figure.
+    return slug if slug == text else f"{slug}-{zlib.crc32(text.encode('utf-8')):08x}"
+
+
+def make_report(
+    run_folder: str | os.PathLike[str],
+    *,
+    out_dir: str | os.PathLike[str] | None = None,
+    level: float = 0.95,
+    n_boot: int = 10_000,
+    seed: int = 0,
+    alpha: float = 0.05,
+) -> list[Path]:
+    """Rebuild the figures and tables of a run folder from its stored results alone.
+
+    Args:
+        run_folder: A run folder written by :class:`benchmarks.storage.ResultStore`.
+        out_dir: Where to write; ``run_folder/report`` if ``None``.
+        level: Coverage of the bootstrap intervals.
+        n_boot: Bootstrap resamples per interval.
+        seed: Root seed of the bootstrap; the same seed and data give the same bytes.
+        alpha: Family-wise error rate of the pairwise tests.
+
+    Returns:
+        The files written: one ``convergence-*.png`` per (suite, variant), then
+        ``summary.csv``, ``summary.md``, ``pairwise.csv`` and ``pairwise.md``.
+
+    Raises:
+        FileNotFoundError: If ``run_folder`` does not exist.
+        NotADirectoryError: If it is a file.
+        benchmarks.storage.EmptyStoreError: If it holds no results.
+        TypeError, ValueError: If a stored file breaks the results format (the message names
+            the file and column) or an argument is out of range.
+    """
+    if not 0.0 < level < 1.0:
+        raise ValueError(f"level must be in (0, 1), got {level!r}")
+    if not 0.0 < alpha < 1.0:
+        raise ValueError(f"alpha must be in (0, 1), got {alpha!r}")
+    evaluations = ResultStore(run_folder).read()
+    target = Path(run_folder) / REPORT_DIR if out_dir is None else Path(out_dir)
+    written = []
+    for key, group in _groups(evaluations):
+        figure, ax = new_figure()
+        plot_convergence(group, ax, level=level, n_boot=n_boot, seed=seed)
+        png = target / f"convergence-{_slug(*map(str, key))}.png"
+        written.append(atomic_write_bytes(png, figure_png_bytes(figure)))
+
+    summary = summary_table(evaluations, level=level, n_boot=n_boot, seed=seed)
+    written.append(atomic_write_text(target / "summary.csv", _csv_text(summary)))
+    written.append(atomic_write_text(target / "summary.md", _summary_markdown(summary, level)))
+    pairwise = pairwise_table(evaluations, alpha=alpha)
+    written.append(atomic_write_text(target / "pairwise.csv", _csv_text(pairwise)))
+    written.append(atomic_write_text(target / "pairwise.md", _pairwise_markdown(pairwise, alpha)))
+    return written
