@@ -1,0 +1,373 @@
+"""The one module that imports PyBullet.
+
+It owns a physics client per instance (never PyBullet's global connection), builds the bodies of the
+scene, saves and restores state, and exposes the few fast calls the control loop needs. Everything
+else in the library asks it.
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+import re
+import tempfile
+import uuid
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import pybullet
+import pybullet_data
+from pybullet_utils.bullet_client import BulletClient
+
+__all__ = ["BulletWorld", "RobotHandles", "panda_urdf_with_tool"]
+
+PANDA_DIR = os.path.join(pybullet_data.getDataPath(), "franka_panda")
+ARM_JOINTS = tuple(f"panda_joint{i}" for i in range(1, 8))
+EE_LINK = "panda_grasptarget"
+TOOL_LINK = "tool"
+
+
+def panda_urdf_with_tool(tool_link_xml: str | None, *, visuals: bool) -> str:
+    """The Panda URDF from ``pybullet_data`` with a tool rigidly attached to the grasp target.
+
+    The fingers become fixed joints: they hold nothing (the tool is a link of the arm), and a
+    7-degree-of-freedom body lets the inverse dynamics run on exactly the 7 arm joints. The tool
+    link hangs rotated by Rx(pi) from ``panda_grasptarget`` so that its z axis points up while the
+    gripper points down.
+
+    Args:
+        tool_link_xml: a ``<link name="tool">`` element, or None for the arm alone.
+        visuals: keep the Panda's visual meshes (needed to render; slower to load).
+
+    Returns:
+        The URDF text, with mesh paths made absolute.
+    """
+    with open(os.path.join(PANDA_DIR, "panda.urdf"), encoding="utf-8") as f:
+        text = f.read()
+    text = text.replace("package://meshes/", os.path.join(PANDA_DIR, "meshes") + "/")
+    text = re.sub(r'(<joint name="panda_finger_joint\d" )type="prismatic"', r'\1type="fixed"', text)
+    text = re.sub(r"\s*<mimic[^>]*/>", "", text)
+    if not visuals:
+        text = re.sub(r"<visual>.*?</visual>", "", text, flags=re.S)
+    if tool_link_xml is not None:
+        joint = (
+            f'<joint name="tool_joint" type="fixed"><parent link="{EE_LINK}"/>'
+            f'<child link="{TOOL_LINK}"/><origin rpy="3.141592653589793 0 0" xyz="0 0 0"/>'
+            "</joint>"
+        )
+        text = text.replace("</robot>", f"{tool_link_xml}\n{joint}\n</robot>")
+    return text
+
+
+@dataclass(frozen=True)
+class RobotHandles:
+    """Indices of a loaded robot.
+
+    Attributes:
+        body: the PyBullet body id.
+        joints: the 7 arm joint indices, in order.
+        ee_link: link index of ``panda_grasptarget``.
+        tool_link: link index of the tool, or -1 when the robot carries none.
+    """
+
+    body: int
+    joints: tuple[int, ...]
+    ee_link: int
+    tool_link: int
+
+
+class BulletWorld:
+    """A PyBullet physics client and the bodies of one scene.
+
+    Args:
+        render_mode: None (DIRECT, the default), ``"human"`` (GUI window) or ``"rgb_array"``
+            (DIRECT with offscreen rendering).
+        time_step: physics time step, s.
+        solver_iterations: constraint-solver iterations per step.
+    """
+
+    def __init__(
+        self,
+        *,
+        render_mode: str | None = None,
+        time_step: float = 1.0 / 240.0,
+        solver_iterations: int = 50,
+    ) -> None:
+        mode = pybullet.GUI if render_mode == "human" else pybullet.DIRECT
+        self._client: BulletClient | None = BulletClient(connection_mode=mode)
+        self.render_mode = render_mode
+        self.time_step = time_step
+        self.solver_iterations = solver_iterations
+        cid = self._client._client
+        self.client_id = cid
+        # Bound once: the control loop calls these thousands of times per episode, and
+        # BulletClient builds a new partial on every attribute access.
+        self._step = functools.partial(pybullet.stepSimulation, physicsClientId=cid)
+        self._joint_states = functools.partial(pybullet.getJointStates, physicsClientId=cid)
+        self._inverse_dynamics = functools.partial(
+            pybullet.calculateInverseDynamics, physicsClientId=cid
+        )
+        self._motor = functools.partial(pybullet.setJointMotorControlArray, physicsClientId=cid)
+        self._base_pose = functools.partial(
+            pybullet.getBasePositionAndOrientation, physicsClientId=cid
+        )
+        self._link_state = functools.partial(pybullet.getLinkState, physicsClientId=cid)
+        self._contacts = functools.partial(pybullet.getContactPoints, physicsClientId=cid)
+        self._base_velocity = functools.partial(pybullet.getBaseVelocity, physicsClientId=cid)
+        self._states: list[int] = []
+        self.reset()
+
+    # ------------------------------------------------------------------ world
+    @property
+    def client(self) -> BulletClient:
+        """The underlying client; raises once the world is closed."""
+        if self._client is None:
+            raise RuntimeError("this BulletWorld is closed")
+        return self._client
+
+    def reset(self) -> None:
+        """Empty the world and set gravity, time step and solver settings."""
+        c = self.client
+        c.resetSimulation()
+        self._states.clear()
+        c.setGravity(0.0, 0.0, -9.81)
+        c.setPhysicsEngineParameter(
+            fixedTimeStep=self.time_step,
+            numSolverIterations=self.solver_iterations,
+            deterministicOverlappingPairs=1,
+        )
+        if self.render_mode == "human":
+            c.configureDebugVisualizer(pybullet.COV_ENABLE_GUI, 0)
+
+    def add_floor(self, *, friction: float) -> int:
+        """A static plane at z = 0; returns its body id."""
+        c = self.client
+        shape = c.createCollisionShape(pybullet.GEOM_PLANE)
+        visual = -1
+        if self.render_mode is not None:
+            visual = c.createVisualShape(pybullet.GEOM_PLANE, rgbaColor=[0.85, 0.85, 0.85, 1])
+        body = c.createMultiBody(0.0, shape, visual, [0, 0, 0])
+        c.changeDynamics(body, -1, lateralFriction=friction)
+        return body
+
+    def add_box(
+        self,
+        *,
+        size: tuple[float, float, float],
+        mass: float,
+        friction: float,
+        position: tuple[float, float, float],
+        yaw: float,
+        rgba: tuple[float, float, float, float] = (0.8, 0.35, 0.1, 1.0),
+    ) -> int:
+        """A dynamic box; ``size`` is its full extents (x, y, z) in m. Returns its body id."""
+        c = self.client
+        half = [s / 2 for s in size]
+        shape = c.createCollisionShape(pybullet.GEOM_BOX, halfExtents=half)
+        visual = -1
+        if self.render_mode is not None:
+            visual = c.createVisualShape(pybullet.GEOM_BOX, halfExtents=half, rgbaColor=rgba)
+        orn = c.getQuaternionFromEuler([0.0, 0.0, yaw])
+        body = c.createMultiBody(mass, shape, visual, list(position), orn)
+        c.changeDynamics(body, -1, lateralFriction=friction)
+        return body
+
+    def add_marker(self, position: tuple[float, float, float], radius: float = 0.03) -> int:
+        """A visual-only sphere (the goal), drawn when rendering; -1 in plain DIRECT mode."""
+        if self.render_mode is None:
+            return -1
+        c = self.client
+        visual = c.createVisualShape(
+            pybullet.GEOM_SPHERE, radius=radius, rgbaColor=[0.1, 0.7, 0.2, 0.8]
+        )
+        return c.createMultiBody(0.0, -1, visual, list(position))
+
+    def load_robot(
+        self,
+        urdf_text: str,
+        *,
+        tool_mass: float | None = None,
+        tool_inertia_diagonal: tuple[float, float, float] | None = None,
+        tool_friction: float = 0.5,
+    ) -> RobotHandles:
+        """Load a robot from URDF text with a fixed base at the origin.
+
+        PyBullet caches URDF files by name (even across ``resetSimulation``), so each load uses a
+        fresh file name, deleted right after loading. PyBullet takes inertia from the collision
+        shapes' bounding box unless told otherwise, so the tool's mass and principal moments are
+        set here explicitly (its inertial frame, with the principal axes, comes from the URDF).
+        """
+        c = self.client
+        fd, path = tempfile.mkstemp(prefix=f"tooldesign-{uuid.uuid4().hex}-", suffix=".urdf")
+        try:
+            with os.fdopen(fd, "w", encoding="utf-8") as f:
+                f.write(urdf_text)
+            body = c.loadURDF(path, [0, 0, 0], useFixedBase=True)
+        finally:
+            os.unlink(path)
+        names = {}
+        for j in range(c.getNumJoints(body)):
+            info = c.getJointInfo(body, j)
+            names[info[1].decode()] = j
+            names[info[12].decode()] = j  # link name -> its index
+        joints = tuple(names[n] for n in ARM_JOINTS)
+        tool = names.get(TOOL_LINK, -1)
+        if tool >= 0 and tool_mass is not None:
+            c.changeDynamics(
+                body,
+                tool,
+                mass=tool_mass,
+                localInertiaDiagonal=list(tool_inertia_diagonal or (0.0, 0.0, 0.0)),
+                lateralFriction=tool_friction,
+            )
+        # The default velocity motors fight torque control unless switched off.
+        c.setJointMotorControlArray(
+            body, list(joints), pybullet.VELOCITY_CONTROL, forces=[0.0] * len(joints)
+        )
+        return RobotHandles(body=body, joints=joints, ee_link=names[EE_LINK], tool_link=tool)
+
+    def remove(self, body: int) -> None:
+        """Remove a body from the world."""
+        self.client.removeBody(body)
+
+    # ----------------------------------------------------------- robot state
+    def set_joint_positions(self, robot: RobotHandles, q: np.ndarray) -> None:
+        """Teleport the arm to joint positions ``q`` (7,) rad with zero velocity."""
+        for j, value in zip(robot.joints, q, strict=True):
+            self.client.resetJointState(robot.body, j, float(value), 0.0)
+
+    def joint_state(self, robot: RobotHandles) -> tuple[list[float], list[float]]:
+        """Joint positions (rad) and velocities (rad/s) of the 7 arm joints, as lists."""
+        states = self._joint_states(robot.body, robot.joints)
+        return [s[0] for s in states], [s[1] for s in states]
+
+    def inverse_dynamics(
+        self, robot: RobotHandles, q: list[float], qd: list[float], qdd: list[float]
+    ) -> tuple[float, ...]:
+        """Joint torques (N m) that produce accelerations ``qdd`` at state (q, qd)."""
+        return self._inverse_dynamics(robot.body, q, qd, qdd)
+
+    def apply_torques(self, robot: RobotHandles, torques: Any) -> None:
+        """Command joint torques (7,) N m for the next steps."""
+        self._motor(robot.body, robot.joints, pybullet.TORQUE_CONTROL, forces=torques)
+
+    def step(self, n: int = 1) -> None:
+        """Advance the physics by ``n`` time steps."""
+        for _ in range(n):
+            self._step()
+
+    def inverse_kinematics(
+        self,
+        robot: RobotHandles,
+        position: tuple[float, float, float],
+        orientation: tuple[float, float, float, float],
+        *,
+        rest_pose: tuple[float, ...],
+        iterations: int = 200,
+        threshold: float = 1e-6,
+    ) -> np.ndarray:
+        """Joint positions (7,) rad that put the end effector at a pose, seeded by the current q."""
+        c = self.client
+        lower, upper = [], []
+        for j in robot.joints:
+            info = c.getJointInfo(robot.body, j)
+            lower.append(info[8])
+            upper.append(info[9])
+        ranges = [u - lo for lo, u in zip(lower, upper, strict=True)]
+        q = c.calculateInverseKinematics(
+            robot.body,
+            robot.ee_link,
+            list(position),
+            list(orientation),
+            lowerLimits=lower,
+            upperLimits=upper,
+            jointRanges=ranges,
+            restPoses=list(rest_pose),
+            maxNumIterations=iterations,
+            residualThreshold=threshold,
+        )
+        return np.asarray(q[:7], dtype=float)
+
+    def link_pose(self, robot: RobotHandles, link: int) -> tuple[tuple, tuple]:
+        """World position (m) and quaternion (x, y, z, w) of a link frame."""
+        state = self._link_state(robot.body, link, computeForwardKinematics=1)
+        return state[4], state[5]
+
+    def link_pose_and_velocity(self, robot: RobotHandles, link: int) -> tuple[tuple, tuple, tuple]:
+        """World position (m), quaternion and linear velocity (m/s) of a link frame."""
+        state = self._link_state(
+            robot.body, link, computeLinkVelocity=1, computeForwardKinematics=1
+        )
+        return state[4], state[5], state[6]
+
+    # ------------------------------------------------------------ the box etc
+    def body_position(self, body: int) -> tuple[float, float, float]:
+        """World position of a body's base, m."""
+        return self._base_pose(body)[0]
+
+    def box_velocity(self, body: int) -> tuple[float, float, float]:
+        """World linear velocity of a body's base, m/s."""
+        return self._base_velocity(body)[0]
+
+    def body_pose(self, body: int) -> tuple[tuple, tuple]:
+        """World position (m) and quaternion of a body's base."""
+        return self._base_pose(body)
+
+    def in_contact(self, body_a: int, body_b: int, link_b: int) -> bool:
+        """Whether body A touches link ``link_b`` of body B after the last step."""
+        return len(self._contacts(body_a, body_b, -1, link_b)) > 0
+
+    def overlaps(self, body_a: int, body_b: int, link_b: int, margin: float = 0.0) -> bool:
+        """Whether two shapes are closer than ``margin`` (m), without stepping the physics."""
+        c = self.client
+        return len(c.getClosestPoints(body_a, body_b, margin, -1, link_b)) > 0
+
+    # ------------------------------------------------------------- snapshots
+    def save_state(self) -> int:
+        """Snapshot the whole world in memory; returns an id for ``restore_state``."""
+        sid = self.client.saveState()
+        self._states.append(sid)
+        return sid
+
+    def restore_state(self, state_id: int) -> None:
+        """Return the world to a snapshot (PyBullet's restore is not exact while in contact)."""
+        self.client.restoreState(stateId=state_id)
+
+    def drop_states(self) -> None:
+        """Free every snapshot taken since the last reset."""
+        for sid in self._states:
+            self.client.removeState(sid)
+        self._states.clear()
+
+    # ------------------------------------------------------------- rendering
+    def render(
+        self,
+        *,
+        width: int = 480,
+        height: int = 360,
+        target: tuple[float, float, float] = (0.4, 0.7, 0.0),
+        distance: float = 2.4,
+        yaw: float = 200.0,
+        pitch: float = -50.0,
+    ) -> np.ndarray:
+        """An RGB frame (height, width, 3) uint8 from a fixed camera, rendered offscreen."""
+        c = self.client
+        view = c.computeViewMatrixFromYawPitchRoll(target, distance, yaw, pitch, 0.0, 2)
+        proj = c.computeProjectionMatrixFOV(50.0, width / height, 0.05, 20.0)
+        _, _, rgba, _, _ = c.getCameraImage(
+            width, height, view, proj, renderer=pybullet.ER_TINY_RENDERER
+        )
+        return np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)[:, :, :3].copy()
+
+    def close(self) -> None:
+        """Disconnect; safe to call more than once."""
+        if self._client is not None:
+            try:
+                self._client.disconnect()
+            except pybullet.error:
+                pass
+            self._client = None
+
+    def __del__(self) -> None:
+        self.close()

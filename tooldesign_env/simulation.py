@@ -1,0 +1,391 @@
+"""One use of a tool: the Panda follows the plan pi_0 under computed-torque control.
+
+The tool is a link of the robot (fixed to the grasp target), so the controller's inverse dynamics
+includes the tool's mass and inertia, and different tools produce different torques U for the same
+plan. A rollout records, per control step, the box position X (3), the torques U (7) and what is
+needed to plot and diagnose (grasp-point pose, joint positions, tool-box contact).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from tooldesign_env.bullet import BulletWorld, RobotHandles, panda_urdf_with_tool
+from tooldesign_env.geometry import ToolGeometry, tool_link_xml
+from tooldesign_env.plan import REST_POSE, JointReference, joint_reference, phases
+from tooldesign_env.specs import ControllerSpec, PlanSpec, SceneSpec
+
+__all__ = ["PHASES", "Trajectory", "ToolSimulator", "principal_inertia"]
+
+PHASES = ("lower", "settle", "sweep", "pull", "hold")
+
+# The plan's joint references depend only on the plan and the control period, not on the tool:
+# solved once per process (about a second of inverse kinematics).
+_REFERENCES: dict[tuple[PlanSpec, float], JointReference] = {}
+
+
+@dataclass(frozen=True, eq=False)
+class Trajectory:
+    """What one rollout recorded, one row per control step.
+
+    Attributes:
+        times: (T,) time at the end of each control step, s.
+        box_position: (T, 3) box centre X in the world frame, m.
+        torques: (T, 7) joint torques U applied during each control step, N m.
+        joint_positions: (T, 7) arm joint positions at the end of each step, rad.
+        tool_position: (T, 3) grasp-point position (tool-frame origin), m.
+        tool_yaw: (T,) yaw of the tool frame, rad.
+        contact: (T,) whether the tool touches the box.
+        phase: (T,) index into :data:`PHASES` of the plan segment of each step.
+        tracking_error: (T,) distance of the grasp point from the plan, m.
+        fast_forward_from: index of the first step that repeats the rest state instead of being
+            simulated (T when nothing was fast-forwarded).
+    """
+
+    times: np.ndarray
+    box_position: np.ndarray
+    torques: np.ndarray
+    joint_positions: np.ndarray
+    tool_position: np.ndarray
+    tool_yaw: np.ndarray
+    contact: np.ndarray
+    phase: np.ndarray
+    tracking_error: np.ndarray
+    fast_forward_from: int
+
+    def __len__(self) -> int:
+        return int(self.times.shape[0])
+
+
+def principal_inertia(inertia: np.ndarray) -> tuple[np.ndarray, float]:
+    """Principal moments (3,) kg m^2 and the yaw (rad) of the principal axes of a planar body.
+
+    PyBullet takes a diagonal inertia in an inertial frame, so the tool's tensor is rotated into
+    its principal axes. The tool is symmetric about its z = 0 plane (Ixz = Iyz = 0), so the
+    principal frame differs from the tool frame by a rotation about z only.
+    """
+    ixx, iyy, ixy = inertia[0, 0], inertia[1, 1], inertia[0, 1]
+    yaw = 0.5 * math.atan2(2.0 * ixy, ixx - iyy)
+    c, s = math.cos(yaw), math.sin(yaw)
+    rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    diag = np.diag(rot.T @ inertia @ rot).copy()
+    return diag, yaw
+
+
+def _principal_link_xml(geometry: ToolGeometry) -> tuple[str, np.ndarray]:
+    """The tool's URDF link with its inertial frame turned to the principal axes."""
+    diag, yaw = principal_inertia(np.asarray(geometry.inertia))
+    xml = tool_link_xml(geometry, "tool")
+    start = xml.index("<inertial>")
+    end = xml.index("</inertial>") + len("</inertial>")
+    com = " ".join(repr(float(v)) for v in geometry.center_of_mass)
+    inertial = (
+        f'<inertial><origin xyz="{com}" rpy="0 0 {yaw!r}"/><mass value="{geometry.mass!r}"/>'
+        f'<inertia ixx="{diag[0]!r}" ixy="0" ixz="0" iyy="{diag[1]!r}" iyz="0" '
+        f'izz="{diag[2]!r}"/></inertial>'
+    )
+    return xml[:start] + inertial + xml[end:], diag
+
+
+@dataclass
+class _Snapshots:
+    """World snapshots taken during a rollout, for re-simulation."""
+
+    every: int
+    ids: dict[int, int] = field(default_factory=dict)
+    rest_from: int | None = None
+    rest_responses: dict[bytes, np.ndarray] = field(default_factory=dict)
+
+
+class ToolSimulator:
+    """A PyBullet world in which a Panda uses one tool after another.
+
+    One instance owns one physics client; reuse it across evaluations (the plan's inverse
+    kinematics is solved once per instance and plan).
+
+    Args:
+        scene: the physical world.
+        plan: the fixed plan pi_0.
+        controller: the computed-torque controller.
+        render_mode: None, ``"human"`` or ``"rgb_array"``.
+    """
+
+    def __init__(
+        self,
+        *,
+        scene: SceneSpec | None = None,
+        plan: PlanSpec | None = None,
+        controller: ControllerSpec | None = None,
+        render_mode: str | None = None,
+    ) -> None:
+        self.scene = scene or SceneSpec()
+        self.plan = plan or PlanSpec()
+        self.controller = controller or ControllerSpec()
+        self.world = BulletWorld(
+            render_mode=render_mode,
+            time_step=self.scene.time_step,
+            solver_iterations=self.scene.solver_iterations,
+        )
+        self._visuals = render_mode is not None
+        self._reference: JointReference | None = None
+        self._robot: RobotHandles | None = None
+        self._box: int | None = None
+        self._snapshots: _Snapshots | None = None
+        self._last_torques: np.ndarray | None = None
+
+    # ---------------------------------------------------------------- setup
+    @property
+    def control_dt(self) -> float:
+        """Control period, s."""
+        return self.scene.time_step * self.controller.control_period
+
+    @property
+    def reference(self) -> JointReference:
+        """Joint references of the plan (computed on first use, then cached)."""
+        if self._reference is None:
+            self._reference = self._solve_reference()
+        return self._reference
+
+    def _solve_reference(self) -> JointReference:
+        key = (self.plan, self.control_dt)
+        if key not in _REFERENCES:
+            _REFERENCES[key] = self._inverse_kinematics()
+        return _REFERENCES[key]
+
+    def _inverse_kinematics(self) -> JointReference:
+        world = self.world
+        world.reset()
+        arm = world.load_robot(panda_urdf_with_tool(None, visuals=False))
+
+        def solve(position: np.ndarray, quaternion: tuple, seed: np.ndarray) -> np.ndarray:
+            world.set_joint_positions(arm, seed)
+            return world.inverse_kinematics(arm, tuple(position), quaternion, rest_pose=REST_POSE)
+
+        reference = joint_reference(self.plan, self.control_dt, solve)
+        world.reset()
+        return reference
+
+    def build(self, geometry: ToolGeometry, *, box_mass: float | None = None) -> None:
+        """Empty the world and set up floor, box, and the arm holding ``geometry`` at q(0)."""
+        scene = self.scene
+        reference = self.reference
+        world = self.world
+        world.reset()
+        world.add_floor(friction=scene.floor_friction)
+        self._box = world.add_box(
+            size=scene.box_size,
+            mass=scene.box_mass if box_mass is None else box_mass,
+            friction=scene.box_friction,
+            position=(*scene.box_position, scene.box_size[2] / 2.0),
+            yaw=scene.box_yaw,
+        )
+        link, diag = _principal_link_xml(geometry)
+        self._robot = world.load_robot(
+            panda_urdf_with_tool(link, visuals=self._visuals),
+            tool_mass=geometry.mass,
+            tool_inertia_diagonal=(float(diag[0]), float(diag[1]), float(diag[2])),
+            tool_friction=scene.tool_friction,
+        )
+        world.set_joint_positions(self._robot, reference.q0)
+
+    def overlaps_box_at_start(self, geometry: ToolGeometry) -> bool:
+        """Whether the tool, lowered to the start of the sweep, would overlap the box.
+
+        Such a tool would be pressed down onto the box while lowering; it is an invalid design.
+        The world is rebuilt at q(0) afterwards.
+        """
+        self.build(geometry)
+        robot, reference = self._robot, self.reference
+        assert robot is not None and self._box is not None
+        lowered = phases(self.plan)[0].duration
+        k = min(int(round(lowered / self.control_dt)) - 1, len(reference.times) - 1)
+        self.world.set_joint_positions(robot, reference.q[max(k, 0)])
+        hit = self.world.overlaps(self._box, robot.body, robot.tool_link)
+        self.world.set_joint_positions(robot, reference.q0)
+        return hit
+
+    # -------------------------------------------------------------- rollout
+    def rollout(
+        self,
+        geometry: ToolGeometry,
+        *,
+        box_mass: float | None = None,
+        snapshot_every: int | None = None,
+        controller: bool = True,
+    ) -> Trajectory:
+        """Use the tool once and record the trajectory.
+
+        Args:
+            geometry: the tool.
+            box_mass: override of the scene's box mass, kg (robustness tests).
+            snapshot_every: also save a world snapshot every this many control steps (before
+                the step's torques are applied), for re-simulation.
+            controller: False steps the same episode with zero torques and no controller: the
+                floor of the cost of a rollout, for benchmarks only.
+
+        Returns:
+            The recorded :class:`Trajectory`.
+        """
+        if box_mass is not None and not (math.isfinite(box_mass) and box_mass > 0):
+            raise ValueError(f"box_mass must be a finite number > 0 kg, got {box_mass!r}")
+        self.build(geometry, box_mass=box_mass)
+        world, robot, box = self.world, self._robot, self._box
+        assert robot is not None and box is not None
+        ref = self.reference
+        scene, ctrl = self.scene, self.controller
+        n = len(ref.times)
+        period = ctrl.control_period
+        limits = np.asarray(ctrl.torque_limits)
+        kp, kd = ctrl.kp, ctrl.kd
+
+        X = np.empty((n, 3))
+        U = np.zeros((n, 7))
+        Q = np.empty((n, 7))
+        P = np.empty((n, 3))
+        yaw = np.empty(n)
+        contact = np.zeros(n, dtype=bool)
+        phase = self._phase_index(ref.times)
+        hold = PHASES.index("hold")
+        rest_needed = max(int(math.ceil(scene.rest_time / self.control_dt)), 1)
+        at_rest = 0
+        fast_forward_from = n
+        self._snapshots = _Snapshots(snapshot_every) if snapshot_every else None
+        zeros = [0.0] * 7
+
+        q, qd = world.joint_state(robot)
+        for k in range(n):
+            if self._snapshots is not None and k % self._snapshots.every == 0:
+                self._snapshots.ids[k] = world.save_state()
+            if controller:
+                qdd = ref.qdd[k] + kp * (ref.q[k] - q) + kd * (ref.qd[k] - np.asarray(qd))
+                tau = np.clip(world.inverse_dynamics(robot, q, qd, qdd.tolist()), -limits, limits)
+                U[k] = tau
+                command = tau.tolist()
+            else:
+                command = zeros
+            # PyBullet forgets torque commands after every step, so each physics step of the
+            # control period gets the command again.
+            for _ in range(period):
+                world.apply_torques(robot, command)
+                world.step()
+            q, qd = world.joint_state(robot)
+            position, orientation, velocity = world.link_pose_and_velocity(robot, robot.ee_link)
+            X[k] = world.body_position(box)
+            Q[k] = q
+            P[k] = position
+            yaw[k] = _tool_yaw(orientation)
+            contact[k] = world.in_contact(box, robot.body, robot.tool_link)
+            if scene.fast_forward_rest and phase[k] == hold and controller:
+                box_speed = np.linalg.norm(world.box_velocity(box))
+                still = box_speed < scene.rest_speed and max(map(abs, qd)) < scene.rest_speed
+                at_rest = at_rest + 1 if still else 0
+                if at_rest >= rest_needed and k + 1 < n:
+                    fast_forward_from = k + 1
+                    if self._snapshots is not None:
+                        # One snapshot of the rest state serves every fast-forwarded step.
+                        self._snapshots.ids[fast_forward_from] = world.save_state()
+                        self._snapshots.rest_from = fast_forward_from
+                    break
+        if fast_forward_from < n:
+            # The scene is static and the reference constant: every remaining step repeats the
+            # last one (the controller's torque at rest is the gravity torque it just applied).
+            last = fast_forward_from - 1
+            for array in (X, U, Q, P, yaw, contact):
+                array[fast_forward_from:] = array[last]
+        tracking = np.linalg.norm(P - ref.ee_position, axis=1)
+        self._last_torques = U
+        return Trajectory(
+            times=ref.times.copy(),
+            box_position=X,
+            torques=U,
+            joint_positions=Q,
+            tool_position=P,
+            tool_yaw=yaw,
+            contact=contact,
+            phase=phase,
+            tracking_error=tracking,
+            fast_forward_from=fast_forward_from,
+        )
+
+    def _phase_index(self, times: np.ndarray) -> np.ndarray:
+        index = np.zeros(times.shape[0], dtype=np.int8)
+        for seg in phases(self.plan):
+            # A step belongs to the segment in which it starts.
+            starts = times - self.control_dt
+            index[starts >= seg.start - 1e-9] = PHASES.index(seg.name)
+        return index
+
+    # ---------------------------------------------------------- re-simulate
+    def replay_responses(self, k: int, horizon: int, offsets: np.ndarray) -> np.ndarray:
+        """Box positions after replaying the recorded torques with constant offsets.
+
+        Restores the snapshot taken before control step ``k`` and, for each row of ``offsets``,
+        replays the torques of steps ``k .. k + horizon - 1`` open loop with that offset added,
+        then reads the box position. Every response starts from the same restore, so differences
+        between responses are free of PyBullet's inexact restore while in contact.
+
+        Args:
+            k: a control step at which a snapshot was taken.
+            horizon: control steps to replay.
+            offsets: (m, 7) torque offsets, N m.
+
+        Returns:
+            (m, 3) box positions, m.
+        """
+        snaps = self._snapshots
+        if snaps is not None and snaps.rest_from is not None and k >= snaps.rest_from:
+            # Every fast-forwarded step is the same rest state under the same torques.
+            key = np.asarray(offsets, dtype=float).tobytes() + horizon.to_bytes(4, "little")
+            if key not in snaps.rest_responses:
+                snaps.rest_responses[key] = self._replay(snaps.rest_from, horizon, offsets)
+            return snaps.rest_responses[key].copy()
+        if snaps is None or k not in snaps.ids:
+            raise ValueError(f"no snapshot at control step {k}: roll out with snapshot_every first")
+        return self._replay(k, horizon, offsets)
+
+    def _replay(self, k: int, horizon: int, offsets: np.ndarray) -> np.ndarray:
+        assert self._snapshots is not None
+        world, robot, box = self.world, self._robot, self._box
+        assert robot is not None and box is not None and self._last_torques is not None
+        torques = self._last_torques
+        n = torques.shape[0]
+        period = self.controller.control_period
+        limits = np.asarray(self.controller.torque_limits)
+        out = np.empty((offsets.shape[0], 3))
+        for i, offset in enumerate(np.asarray(offsets, dtype=float)):
+            world.restore_state(self._snapshots.ids[k])
+            for j in range(k, min(k + horizon, n)):
+                command = np.clip(torques[j] + offset, -limits, limits).tolist()
+                for _ in range(period):
+                    world.apply_torques(robot, command)
+                    world.step()
+            out[i] = world.body_position(box)
+        return out
+
+    def release_snapshots(self) -> None:
+        """Free the snapshots of the last rollout."""
+        self.world.drop_states()
+        self._snapshots = None
+
+    def render(self, **camera: float) -> np.ndarray:
+        """An RGB frame (H, W, 3) uint8 of the current scene."""
+        return self.world.render(**camera)  # type: ignore[arg-type]
+
+    def close(self) -> None:
+        """Release the physics client; safe to call more than once."""
+        self.world.close()
+
+
+def _tool_yaw(ee_orientation: tuple) -> float:
+    """Yaw of the tool frame from the end-effector quaternion (x, y, z, w).
+
+    The tool frame is the end-effector frame turned by Rx(pi); its x axis is the end effector's.
+    """
+    x, y, z, w = ee_orientation
+    # First column of the rotation matrix: the end effector's x axis in the world.
+    r00 = 1.0 - 2.0 * (y * y + z * z)
+    r10 = 2.0 * (x * y + z * w)
+    return math.atan2(r10, r00)

@@ -1,0 +1,254 @@
+"""Every constant of the problem, in frozen keyword-only dataclasses.
+
+The paper leaves the plan, the controller and the scene largely unspecified; the defaults below are
+the values this library chose (see ``docs/model.md`` for why). Each one is a field, so a study can
+change it without editing code: ``dataclasses.replace(PlanSpec(), hold_duration=1.0)``.
+
+Units are SI: metres, seconds, kilograms, newton metres, radians.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+from typing import Any
+
+__all__ = ["ControllerSpec", "ObjectiveSpec", "PlanSpec", "SceneSpec", "TaskSpec", "spec_to_dict"]
+
+
+def _check_positive(obj: object, *names: str, allow_zero: bool = False) -> None:
+    for name in names:
+        value = getattr(obj, name)
+        ok = math.isfinite(value) and (value >= 0 if allow_zero else value > 0)
+        if not ok:
+            bound = ">= 0" if allow_zero else "> 0"
+            raise ValueError(
+                f"{type(obj).__name__}.{name} must be a finite number {bound}, got {value!r}"
+            )
+
+
+def _check_vector(obj: object, name: str, length: int) -> None:
+    value = getattr(obj, name)
+    if len(value) != length or not all(math.isfinite(float(v)) for v in value):
+        raise ValueError(
+            f"{type(obj).__name__}.{name} must be {length} finite numbers, got {value!r}"
+        )
+
+
+@dataclass(frozen=True, kw_only=True)
+class PlanSpec:
+    """The fixed tool-use plan pi_0 of the paper: lower, sweep, pull, hold.
+
+    The grasp point (the centre of the tool's handle) follows straight Cartesian segments with
+    minimum-jerk timing. Positions are in the world frame, whose origin is the robot's base on the
+    floor, z up.
+
+    Attributes:
+        reach: q_a, the distance of the grasp point from the base during the sweep, m.
+        pull_to: q_b, the y coordinate at the end of the pull, m.
+        height: h, the height of the grasp point during sweep and pull, m.
+        lift: how far above ``height`` the tool starts before it is lowered, m.
+        lower_duration: time to lower the tool from ``height + lift`` to ``height``, s.
+        settle_duration: pause after lowering, s.
+        sweep_duration: time of the straight sweep from (q_a, 0, h) to (0, q_a, h), s.
+        pull_duration: time of the pull from (0, q_a, h) to (0, q_b, h), s.
+        hold_duration: final hold at (0, q_b, h), s. It decides how much the final box position
+            weighs in the time-summed objective (see docs/model.md).
+        yaw_start: tool yaw (x axis of the tool frame from the world x axis) at the sweep's start,
+            rad.
+        yaw_end: tool yaw at the sweep's end and during the pull, rad.
+    """
+
+    reach: float = 0.70
+    pull_to: float = 0.35
+    height: float = 0.08
+    lift: float = 0.25
+    lower_duration: float = 1.0
+    settle_duration: float = 0.25
+    sweep_duration: float = 5.0
+    pull_duration: float = 2.0
+    hold_duration: float = 6.0
+    yaw_start: float = 0.0
+    yaw_end: float = math.pi / 2
+
+    def __post_init__(self) -> None:
+        _check_positive(
+            self, "reach", "height", "lower_duration", "sweep_duration", "pull_duration"
+        )
+        _check_positive(
+            self, "pull_to", "lift", "settle_duration", "hold_duration", allow_zero=True
+        )
+        for name in ("yaw_start", "yaw_end"):
+            if not math.isfinite(getattr(self, name)):
+                raise ValueError(f"PlanSpec.{name} must be finite, got {getattr(self, name)!r}")
+
+    @property
+    def duration(self) -> float:
+        """Total length of the plan, s."""
+        return (
+            self.lower_duration
+            + self.settle_duration
+            + self.sweep_duration
+            + self.pull_duration
+            + self.hold_duration
+        )
+
+
+@dataclass(frozen=True, kw_only=True)
+class ControllerSpec:
+    """The computed-torque controller that turns the plan into joint torques U.
+
+    tau = ID(q, qd, qdd_ref + kp (q_ref - q) + kd (qd_ref - qd)), clipped to ``torque_limits``,
+    where ID is the inverse dynamics of the arm INCLUDING the tool (a link of the robot).
+
+    Attributes:
+        kp: proportional gain, 1/s^2.
+        kd: derivative gain, 1/s.
+        torque_limits: per-joint limits of the Panda, N m.
+        control_period: physics steps per control step; torques are held in between.
+    """
+
+    kp: float = 400.0
+    kd: float = 40.0
+    torque_limits: tuple[float, ...] = (87.0, 87.0, 87.0, 87.0, 12.0, 12.0, 12.0)
+    control_period: int = 2
+
+    def __post_init__(self) -> None:
+        _check_positive(self, "kp", "kd")
+        _check_vector(self, "torque_limits", 7)
+        if not all(v > 0 for v in self.torque_limits):
+            raise ValueError(f"ControllerSpec.torque_limits must be > 0, got {self.torque_limits}")
+        if not isinstance(self.control_period, int) or self.control_period < 1:
+            raise ValueError(
+                f"ControllerSpec.control_period must be an int >= 1, got {self.control_period!r}"
+            )
+
+
+@dataclass(frozen=True, kw_only=True)
+class SceneSpec:
+    """The physical world: time step, the box, friction.
+
+    Attributes:
+        time_step: physics time step, s.
+        solver_iterations: PyBullet constraint-solver iterations per step.
+        box_size: box extents (x, y, z), m.
+        box_mass: box mass, kg.
+        box_position: box centre at the start, (x, y) on the floor, m (z is half the height).
+            The default is radius 1.35 m at 30 degrees from the x axis.
+        box_yaw: box yaw at the start, rad.
+        box_friction: lateral friction coefficient of the box.
+        floor_friction: lateral friction coefficient of the floor.
+        tool_friction: lateral friction coefficient of the tool.
+        fast_forward_rest: during the final hold, once the box and the arm have been at rest
+            for ``rest_time``, stop stepping and repeat the rest state for the remaining steps.
+            The scene is static then, so this changes the trajectory by less than the rest
+            tolerance and saves about 40 % of the simulation time (see docs/model.md).
+        rest_speed: box speed (m/s) and joint speed (rad/s) below which the scene is at rest.
+        rest_time: how long the scene must stay at rest before fast-forwarding, s.
+    """
+
+    time_step: float = 1.0 / 240.0
+    solver_iterations: int = 50
+    box_size: tuple[float, float, float] = (0.1, 0.1, 0.2)
+    box_mass: float = 0.1
+    box_position: tuple[float, float] = (
+        1.35 * math.cos(math.radians(30.0)),
+        1.35 * math.sin(math.radians(30.0)),
+    )
+    box_yaw: float = 0.0
+    box_friction: float = 0.4
+    floor_friction: float = 1.0
+    tool_friction: float = 0.5
+    fast_forward_rest: bool = True
+    rest_speed: float = 1e-3
+    rest_time: float = 0.1
+
+    def __post_init__(self) -> None:
+        _check_positive(self, "time_step", "box_mass", "rest_speed")
+        _check_positive(self, "rest_time", allow_zero=True)
+        _check_positive(self, "box_friction", "floor_friction", "tool_friction", allow_zero=True)
+        _check_vector(self, "box_size", 3)
+        _check_vector(self, "box_position", 2)
+        if not all(v > 0 for v in self.box_size):
+            raise ValueError(f"SceneSpec.box_size must be > 0, got {self.box_size}")
+        if not isinstance(self.solver_iterations, int) or self.solver_iterations < 1:
+            raise ValueError(
+                f"SceneSpec.solver_iterations must be an int >= 1, got {self.solver_iterations!r}"
+            )
+        if not math.isfinite(self.box_yaw):
+            raise ValueError(f"SceneSpec.box_yaw must be finite, got {self.box_yaw!r}")
+
+
+@dataclass(frozen=True, kw_only=True)
+class TaskSpec:
+    """What the tool is for: where the box should go.
+
+    Attributes:
+        goal: X^g, the goal position of the box centre (x, y, z), m.
+    """
+
+    goal: tuple[float, float, float] = (0.0, 1.5, 0.1)
+
+    def __post_init__(self) -> None:
+        _check_vector(self, "goal", 3)
+        object.__setattr__(self, "goal", tuple(float(v) for v in self.goal))
+
+
+ESTIMATORS = ("trajectory", "resimulation")
+FORMS = ("clamped", "gauss-newton")
+
+
+@dataclass(frozen=True, kw_only=True)
+class ObjectiveSpec:
+    """The free energy F and how control confidence is estimated.
+
+    Attributes:
+        goal_precision: p^X, the weight of the squared goal error (P^X = p^X I_3), 1/m^2.
+        eps: regularizer of log|Pi_U|, (m/N m)^2: the confidence of one step is
+            1/2 sum_k log(1 + max(lambda_k, 0) / eps) over the eigenvalues lambda_k of Pi_U.
+        form: ``"clamped"``: Pi_U with the second-order term, negative eigenvalues clamped at 0;
+            ``"gauss-newton"``: Pi_U = J^T J only.
+        estimator: how dX/dU (and d2X/dU2) are estimated: ``"trajectory"`` (from the recorded
+            trajectory, cheap, the default) or ``"resimulation"`` (small torque perturbations
+            replayed in the simulator, the reference).
+        window: trajectory estimator: control steps in the sliding regression window.
+        ridge: trajectory estimator: ridge penalty relative to the mean torque-change energy.
+        perturbation: resimulation estimator: torque perturbation, N m.
+        horizon: resimulation estimator: control steps between checkpoints, and the length of
+            each replay.
+        invalid_penalty: the free energy reported for a design that cannot be used (it cannot be
+            built, or it overlaps the box at the start); see docs/model.md.
+    """
+
+    goal_precision: float = 20.0
+    eps: float = 1e-6
+    form: str = "clamped"
+    estimator: str = "trajectory"
+    window: int = 24
+    ridge: float = 1e-3
+    perturbation: float = 0.5
+    horizon: int = 6
+    invalid_penalty: float = 1e5
+
+    def __post_init__(self) -> None:
+        _check_positive(self, "goal_precision", allow_zero=True)
+        _check_positive(self, "eps", "ridge", "perturbation", "invalid_penalty")
+        if self.form not in FORMS:
+            raise ValueError(f"ObjectiveSpec.form must be one of {FORMS}, got {self.form!r}")
+        if self.estimator not in ESTIMATORS:
+            raise ValueError(
+                f"ObjectiveSpec.estimator must be one of {ESTIMATORS}, got {self.estimator!r}"
+            )
+        for name in ("window", "horizon"):
+            value = getattr(self, name)
+            if not isinstance(value, int) or value < 2:
+                raise ValueError(f"ObjectiveSpec.{name} must be an int >= 2, got {value!r}")
+
+
+def spec_to_dict(spec: Any) -> dict[str, Any]:
+    """A spec as a plain JSON-ready dict (tuples become lists)."""
+    out: dict[str, Any] = {}
+    for f in fields(spec):
+        value = getattr(spec, f.name)
+        out[f.name] = list(value) if isinstance(value, tuple) else value
+    return out
