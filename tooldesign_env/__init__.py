@@ -1,0 +1,82 @@
+"""tooldesign_env: the tool-design problem of "Designing Tools with Control Confidence".
+
+Importing the package registers the Gymnasium environment ``ToolDesign-v0``::
+
+    import gymnasium as gym
+    import tooldesign_env  # noqa: F401  (or gym.make("tooldesign_env:ToolDesign-v0"))
+
+    env = gym.make("ToolDesign-v0")
+    goal, _ = env.reset(seed=0)
+    _, reward, terminated, _, info = env.step([0.0, 0.0, 0.0])
+"""
+
+from __future__ import annotations
+
+from gymnasium.envs.registration import register, registry
+
+from tooldesign_env.env import (
+    GOAL_HIGH,
+    GOAL_LOW,
+    WORKSPACE_HIGH,
+    WORKSPACE_LOW,
+    ToolDesignEnv,
+    default_bounds,
+)
+from tooldesign_env.geometry import (
+    ToolGeometry,
+    ToolSpec,
+    export_mesh,
+    make_tool,
+    tool_mesh,
+    tool_urdf,
+)
+from tooldesign_env.objective import ObjectiveTerms, free_energy
+from tooldesign_env.robustness import DEFAULT_MASSES, RobustnessResult, evaluate_robustness
+from tooldesign_env.simulation import ToolSimulator, Trajectory
+from tooldesign_env.specs import ControllerSpec, ObjectiveSpec, PlanSpec, SceneSpec, TaskSpec
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "DEFAULT_MASSES",
+    "GOAL_HIGH",
+    "GOAL_LOW",
+    "ControllerSpec",
+    "ObjectiveSpec",
+    "ObjectiveTerms",
+    "PlanSpec",
+    "RobustnessResult",
+    "SceneSpec",
+    "TaskSpec",
+    "WORKSPACE_HIGH",
+    "WORKSPACE_LOW",
+    "ToolDesignEnv",
+    "ToolGeometry",
+    "ToolSimulator",
+    "ToolSpec",
+    "Trajectory",
+    "default_bounds",
+    "evaluate_robustness",
+    "export_mesh",
+    "free_energy",
+    "make_tool",
+    "register_envs",
+    "tool_mesh",
+    "tool_urdf",
+]
+
+ENV_ID = "ToolDesign-v0"
+
+
+def register_envs() -> None:
+    """Register ``ToolDesign-v0`` with Gymnasium (idempotent)."""
+    if ENV_ID not in registry:
+        register(
+            id=ENV_ID,
+            # No max_episode_steps: the env terminates after its one step by itself, and a
+            # TimeLimit would also flag that step as truncated.
+            entry_point="tooldesign_env.env:ToolDesignEnv",
+        )
+
+
+register_envs()

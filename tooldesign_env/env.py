@@ -1,0 +1,377 @@
+"""The one-step Gymnasium environment ``ToolDesign-v0``."""
+
+from __future__ import annotations
+
+import math
+import os
+import sys
+from collections.abc import Sequence
+from dataclasses import replace
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from tooldesign_env.geometry import ToolGeometry, ToolSpec, make_tool, validate_coefficients
+from tooldesign_env.objective import ObjectiveTerms, free_energy, make_estimator
+from tooldesign_env.robustness import DEFAULT_MASSES, RobustnessResult, evaluate_robustness
+from tooldesign_env.simulation import ToolSimulator, Trajectory
+from tooldesign_env.specs import ControllerSpec, ObjectiveSpec, PlanSpec, SceneSpec, TaskSpec
+
+__all__ = [
+    "GOAL_HIGH",
+    "GOAL_LOW",
+    "WORKSPACE_HIGH",
+    "WORKSPACE_LOW",
+    "ToolDesignEnv",
+    "default_bounds",
+]
+
+#: The paper's range of goals for task randomization, (x, y, z) in m.
+GOAL_LOW = (-0.5, 0.5, 0.1)
+GOAL_HIGH = (0.5, 1.5, 0.1)
+#: Where a goal may be put at all (the observation space), (x, y, z) in m: the floor around the
+#: robot within 2.5 m, up to 1 m high.
+WORKSPACE_LOW = (-2.5, -2.5, 0.0)
+WORKSPACE_HIGH = (2.5, 2.5, 1.0)
+
+
+def default_bounds(degree: int) -> np.ndarray:
+    """Coefficient bounds (degree, 2): +-1.5 for every coefficient but the linear one, +-0.5.
+
+    For the paper's cubic, c1, c2 in [-1.5, 1.5] and c3 in [-0.5, 0.5]: in this box 0.1 % of
+    random tools overlap the box at the start, and the outcomes span hooks, pushers and misses.
+    """
+    bounds = np.tile([-1.5, 1.5], (degree, 1))
+    bounds[-1] = (-0.5, 0.5)
+    return bounds
+
+
+class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
+    """Design a hand tool for a Franka Panda: one action is one tool, the reward is -F.
+
+    ## Description
+
+    The reproduction of "Designing Tools with Control Confidence" (Anil Meera, Torres, Lanillos).
+    A tool is a planar polynomial curve y = c1 x^3 + c2 x^2 + c3 x of fixed arc length L0 = 1.1 m
+    with a straight 0.15 m handle, extruded with a 0.03 m square section. A simulated Panda holds
+    it and follows a fixed plan (lower, sweep, pull, hold) under computed-torque control, and the
+    tool moves a 0.1 x 0.1 x 0.2 m box toward a goal X^g. The designer minimizes the free energy
+    F = sum_t [1/2 p^X |X_t - X^g|^2 - 1/2 log|Pi_U,t|], where the control confidence Pi_U is the
+    curvature of the goal error with respect to the joint torques U. Each episode is one step: a
+    contextual bandit whose context is the task. See ``docs/model.md``.
+
+    ## Action Space
+
+    ``Box(low, high, (degree,), float64)``: the coefficients C = (c1, ..., cn), highest power
+    first. Default bounds (``default_bounds``): c1, c2 in [-1.5, 1.5], c3 in [-0.5, 0.5].
+    Actions with NaN or inf, the wrong shape or a non-numeric type, or outside the bounds,
+    raise ``ValueError`` / ``TypeError`` (rescale an agent's [-1, 1] output with
+    ``gymnasium.wrappers.RescaleAction``).
+
+    ## Observation Space
+
+    ``Box(WORKSPACE_LOW, WORKSPACE_HIGH, (3,), float64)``: the goal X^g = (x, y, z) in m, anywhere
+    in [-2.5, 2.5] x [-2.5, 2.5] x [0, 1]. The fixed default goal is (0, 1.5, 0.1); with
+    ``randomize_goal=True`` each reset draws x in [-0.5, 0.5], y in [0.5, 1.5], z = 0.1 (the
+    paper's range) from ``self.np_random``.
+
+    ## Rewards
+
+    reward = -F. ``info`` holds the terms: ``free_energy`` (= -reward), ``goal_error``
+    (sum_t E_t), ``confidence`` (sum_t 1/2 log|Pi_U,t|), ``penalty``, their per-step series and
+    the trajectories. F = goal_error - confidence + penalty.
+
+    ## Starting State
+
+    The box rests at radius 1.35 m, 30 degrees from the robot's x axis; the arm holds the tool
+    0.25 m above the start of the sweep. Nothing is random except the goal when randomized.
+
+    ## Episode End
+
+    Every episode ends after one step (``terminated=True``). A design that cannot be used (the
+    tube folds into itself, or it overlaps the box at the start of the sweep) is not simulated:
+    ``info["valid"]`` is False, ``info["invalid_reason"]`` says why, and F is the free energy of
+    leaving the box where it is for the whole episode plus ``ObjectiveSpec.invalid_penalty``.
+
+    ## Arguments
+
+    ``gym.make("ToolDesign-v0", goal=(0, 1.5, 0.1), randomize_goal=False, goal_precision=20.0,
+    box_mass=None, estimator="trajectory", bounds=None, tool=ToolSpec(), scene=SceneSpec(),
+    plan=PlanSpec(), controller=ControllerSpec(), objective=ObjectiveSpec(),
+    render_mode=None)``. ``goal_precision``, ``estimator`` and ``box_mass`` are shortcuts for
+    the fields of ``objective`` and ``scene``. ``reset(options={"goal": (x, y, z),
+    "box_mass": m})`` changes the task of one episode.
+
+    ## Version History
+
+    * v0: the initial version.
+    """
+
+    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 4}
+
+    def __init__(
+        self,
+        *,
+        goal: Sequence[float] = TaskSpec().goal,
+        randomize_goal: bool = False,
+        goal_precision: float | None = None,
+        box_mass: float | None = None,
+        estimator: str | None = None,
+        bounds: Any = None,
+        tool: ToolSpec | None = None,
+        scene: SceneSpec | None = None,
+        plan: PlanSpec | None = None,
+        controller: ControllerSpec | None = None,
+        objective: ObjectiveSpec | None = None,
+        render_mode: str | None = None,
+    ) -> None:
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(
+                f"render_mode must be None or one of {self.metadata['render_modes']}, "
+                f"got {render_mode!r}"
+            )
+        if render_mode == "human" and sys.platform.startswith("linux"):
+            if not os.environ.get("DISPLAY"):
+                # PyBullet's GUI ends the whole process when it finds no X server.
+                raise RuntimeError(
+                    "render_mode='human' opens a PyBullet window and needs a display, but "
+                    "DISPLAY is not set; use render_mode='rgb_array' on a headless machine"
+                )
+        self.tool_spec = tool or ToolSpec()
+        scene = scene or SceneSpec()
+        if box_mass is not None:
+            scene = replace(scene, box_mass=box_mass)
+        objective = objective or ObjectiveSpec()
+        if goal_precision is not None:
+            objective = replace(objective, goal_precision=goal_precision)
+        if estimator is not None:
+            objective = replace(objective, estimator=estimator)
+        self.objective = objective
+        self.task = TaskSpec(goal=tuple(goal))  # type: ignore[arg-type]
+        self.randomize_goal = bool(randomize_goal)
+        self.render_mode = render_mode
+
+        degree = self.tool_spec.degree
+        bounds = default_bounds(degree) if bounds is None else np.asarray(bounds, dtype=float)
+        if bounds.shape != (degree, 2) or not np.all(np.isfinite(bounds)):
+            raise ValueError(
+                f"bounds must be {degree} finite [low, high] pairs, got shape {bounds.shape}"
+            )
+        if not np.all(bounds[:, 0] < bounds[:, 1]):
+            raise ValueError(f"bounds must have low < high in every row, got {bounds.tolist()}")
+        self.action_space = spaces.Box(bounds[:, 0], bounds[:, 1], dtype=np.float64)
+        self.observation_space = spaces.Box(
+            np.asarray(WORKSPACE_LOW), np.asarray(WORKSPACE_HIGH), dtype=np.float64
+        )
+        self._check_goal(np.asarray(self.task.goal, dtype=float), "goal")
+
+        self.simulator = ToolSimulator(
+            scene=scene, plan=plan, controller=controller, render_mode=render_mode
+        )
+        self._estimator = make_estimator(objective)
+        self._goal = np.asarray(self.task.goal, dtype=float)
+        self._box_mass = scene.box_mass
+
+    # ------------------------------------------------------------ gym API
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        """Start an episode: set the task and return it as the observation.
+
+        Args:
+            seed: seeds ``self.np_random`` (used for goal randomization).
+            options: ``{"goal": (x, y, z)}`` and/or ``{"box_mass": kg}`` for this episode.
+        """
+        super().reset(seed=seed)
+        options = dict(options or {})
+        unknown = set(options) - {"goal", "box_mass"}
+        if unknown:
+            raise ValueError(f"unknown reset options {sorted(unknown)}; allowed: goal, box_mass")
+        if "goal" in options:
+            self._goal = self._check_goal(options["goal"], "options['goal']")
+        elif self.randomize_goal:
+            self._goal = self.np_random.uniform(GOAL_LOW, GOAL_HIGH)
+        else:
+            self._goal = np.asarray(self.task.goal, dtype=float)
+        mass = options.get("box_mass", self.simulator.scene.box_mass)
+        if isinstance(mass, bool) or not isinstance(mass, (int, float, np.floating, np.integer)):
+            raise TypeError(f"options['box_mass'] must be a number (kg), got {type(mass).__name__}")
+        if not (math.isfinite(float(mass)) and float(mass) > 0):
+            raise ValueError(f"options['box_mass'] must be finite and > 0 kg, got {mass!r}")
+        self._box_mass = float(mass)
+        return self._observation(), {"goal": self._goal.copy(), "box_mass": self._box_mass}
+
+    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        """Build, use and score the tool ``action``; the episode ends."""
+        coeffs = self.check_action(action)
+        geometry = make_tool(coeffs, self.tool_spec)
+        info = self.evaluate_geometry(geometry)
+        if self.render_mode == "human":
+            self.render()
+        return self._observation(), -info["free_energy"], True, False, info
+
+    def render(self) -> np.ndarray | None:
+        """The scene after the last step: an RGB array, or None in ``"human"`` mode."""
+        if self.render_mode == "rgb_array":
+            return self.simulator.render()
+        return None
+
+    def close(self) -> None:
+        """Release the physics client."""
+        self.simulator.close()
+
+    # ------------------------------------------------------------ helpers
+    def check_action(self, action: Any) -> np.ndarray:
+        """The action as (degree,) float64, or a clear error saying what is wrong."""
+        coeffs = validate_coefficients(action, self.tool_spec.degree)
+        low, high = self.action_space.low, self.action_space.high
+        outside = (coeffs < low) | (coeffs > high)
+        if np.any(outside):
+            raise ValueError(
+                f"action {coeffs.tolist()} is outside the action space: each c_i must lie in "
+                f"[low, high] = {np.stack([low, high], 1).tolist()}; clip it, or make the env "
+                "with wider bounds=..."
+            )
+        return coeffs
+
+    def evaluate_geometry(self, geometry: ToolGeometry) -> dict[str, Any]:
+        """Simulate and score a tool for the current task; returns the step's ``info``."""
+        goal = self._goal
+        reason = ""
+        if not geometry.buildable:
+            reason = f"cannot be built: {geometry.why_not_buildable}"
+        elif self.simulator.overlaps_box_at_start(geometry):
+            reason = "overlaps the box at the start of the sweep"
+        if reason:
+            return self._invalid_info(geometry, reason)
+        resim = self.objective.estimator == "resimulation"
+        trajectory = self.simulator.rollout(
+            geometry,
+            box_mass=self._box_mass,
+            snapshot_every=self.objective.horizon if resim else None,
+        )
+        try:
+            terms = free_energy(
+                trajectory.box_position,
+                trajectory.torques,
+                goal,
+                self.objective,
+                estimator=self._estimator,
+                replay=self._replay if resim else None,
+            )
+        finally:
+            if resim:
+                self.simulator.release_snapshots()
+        return self._info(geometry, trajectory, terms)
+
+    def evaluate_robustness(
+        self, action: Any, masses: Sequence[float] = DEFAULT_MASSES
+    ) -> RobustnessResult:
+        """The paper's robustness, accuracy and control deviation of a design (see robustness.py).
+
+        The nominal mass is the current episode's box mass; the goal is the current goal.
+        """
+        geometry = make_tool(self.check_action(action), self.tool_spec)
+        return evaluate_robustness(
+            self.simulator, geometry, self._goal, masses=masses, nominal_mass=self._box_mass
+        )
+
+    def _check_goal(self, goal: Any, label: str) -> np.ndarray:
+        try:
+            arr = np.asarray(goal, dtype=float)
+        except (TypeError, ValueError):
+            raise TypeError(f"{label} must be 3 numbers (x, y, z) in m, got {goal!r}") from None
+        if arr.shape != (3,) or not np.all(np.isfinite(arr)):
+            raise ValueError(f"{label} must be 3 finite numbers (x, y, z) in m, got {goal!r}")
+        if not self.observation_space.contains(arr):
+            raise ValueError(
+                f"{label} {arr.tolist()} is outside the workspace: x, y in [-2.5, 2.5] m, "
+                "z in [0, 1] m"
+            )
+        return arr
+
+    def _replay(self, k: int, offsets: np.ndarray) -> np.ndarray:
+        return self.simulator.replay_responses(k, self.objective.horizon, offsets)
+
+    def _observation(self) -> np.ndarray:
+        return self._goal.astype(np.float64, copy=True)
+
+    def _box_start(self) -> np.ndarray:
+        scene = self.simulator.scene
+        return np.array([*scene.box_position, scene.box_size[2] / 2.0])
+
+    def _idle_goal_error(self) -> float:
+        # The goal error of a box that never moves: what an unusable tool achieves.
+        steps = len(self.simulator.reference.times)
+        dist2 = float(np.sum((self._box_start() - self._goal) ** 2))
+        return steps * 0.5 * self.objective.goal_precision * dist2
+
+    def _common_info(self, geometry: ToolGeometry) -> dict[str, Any]:
+        return {
+            "coefficients": np.asarray(geometry.coeffs, dtype=float).copy(),
+            "goal": self._goal.copy(),
+            "box_mass": self._box_mass,
+            "goal_precision": self.objective.goal_precision,
+            "estimator": self.objective.estimator,
+            "tool_mass": float(geometry.mass),
+        }
+
+    def _info(
+        self, geometry: ToolGeometry, traj: Trajectory, terms: ObjectiveTerms
+    ) -> dict[str, Any]:
+        info = self._common_info(geometry)
+        info.update(
+            valid=True,
+            invalid_reason="",
+            free_energy=terms.free_energy,
+            goal_error=terms.goal_error,
+            confidence=terms.confidence,
+            penalty=0.0,
+            final_distance=terms.final_distance,
+            times=traj.times,
+            box_trajectory=traj.box_position,
+            torques=traj.torques,
+            tool_position=traj.tool_position,
+            tool_yaw=traj.tool_yaw,
+            joint_positions=traj.joint_positions,
+            contact=traj.contact,
+            phase=traj.phase,
+            tracking_error=traj.tracking_error,
+            goal_error_t=terms.goal_error_t,
+            confidence_t=terms.confidence_t,
+            free_energy_t=terms.free_energy_t,
+            jacobian_norm_t=terms.jacobian_norm_t,
+            fast_forward_from=traj.fast_forward_from,
+        )
+        return info
+
+    def _invalid_info(self, geometry: ToolGeometry, reason: str) -> dict[str, Any]:
+        idle = self._idle_goal_error()
+        penalty = float(self.objective.invalid_penalty)
+        info = self._common_info(geometry)
+        info.update(
+            valid=False,
+            invalid_reason=reason,
+            free_energy=idle + penalty,
+            goal_error=idle,
+            confidence=0.0,
+            penalty=penalty,
+            final_distance=float(np.linalg.norm(self._box_start() - self._goal)),
+            times=np.zeros(0),
+            box_trajectory=np.zeros((0, 3)),
+            torques=np.zeros((0, 7)),
+            tool_position=np.zeros((0, 3)),
+            tool_yaw=np.zeros(0),
+            joint_positions=np.zeros((0, 7)),
+            contact=np.zeros(0, dtype=bool),
+            phase=np.zeros(0, dtype=np.int8),
+            tracking_error=np.zeros(0),
+            goal_error_t=np.zeros(0),
+            confidence_t=np.zeros(0),
+            free_energy_t=np.zeros(0),
+            jacobian_norm_t=np.zeros(0),
+            fast_forward_from=0,
+        )
+        return info
