@@ -31,6 +31,7 @@ import pandas as pd
 from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+from matplotlib.ticker import MaxNLocator
 
 from .stats import best_so_far_curves, bootstrap_ci, mann_whitney_holm, run_metrics
 from .storage import ResultStore, atomic_write_bytes, atomic_write_text
@@ -321,6 +322,7 @@ def plot_convergence(
         title = " / ".join(str(k) for k in groups[0][0] if k != "")
     ax.set_title(title)
     ax.set_xlabel("iteration" if x == "iteration" else "evaluations")
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     ax.set_ylabel("best free energy F so far")
     ax.grid(True, alpha=0.3)
     ax.legend(frameon=False, title=f"mean, {level:.0%} bootstrap CI")

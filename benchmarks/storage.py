@@ -457,7 +457,7 @@ _CSV_FLOAT_KW: dict[str, Any] = (
 )
 
 
-def _read_csv(path: Path) -> pd.DataFrame:
+def _read_csv(path: Path | io.StringIO) -> pd.DataFrame:
     # Only empty fields are missing; a suite called "NA" or "nan" stays a string.
     return pd.read_csv(
         path,
@@ -643,6 +643,25 @@ class ResultStore:
         return _with_best_so_far(combined)
 
     def _read_parts(self, units: list[Unit]) -> pd.DataFrame:
+        try:
+            combined = self._read_parts_fast(units)
+        except (TypeError, ValueError):
+            # Find the file to blame (pandas' parser errors are ValueErrors too); the rows carry
+            # their own keys, so the per-file check of the unit is needed only here.
+            for unit in units:
+                path = self.part_path(unit)
+                try:
+                    raw = _read_csv(path)
+                except ValueError as err:
+                    raise ValueError(f"{path}: not a readable CSV part file: {err}") from err
+                frame = validate_evaluations(raw, source=str(path))
+                got = frame[[*RUN_COLUMNS, "iteration"]].drop_duplicates().to_dict("records")
+                if got != [dataclasses.asdict(unit)]:
+                    raise ValueError(f"{path}: rows belong to {got}, not to {unit}") from None
+            raise
+        return combined
+
+    def _read_parts_fast(self, units: list[Unit]) -> pd.DataFrame:
         # One read_csv per distinct header instead of one per file: a suite has hundreds of
         # small parts and pandas' per-call overhead, not parsing, would dominate.
         bodies: dict[str, list[str]] = {}
@@ -652,26 +671,12 @@ class ResultStore:
                 body += "\n"
             bodies.setdefault(header, []).append(body)
         frames = [_read_csv(io.StringIO(h + "\n" + "".join(b))) for h, b in bodies.items()]
-        try:
-            combined = validate_evaluations(
-                pd.concat(frames, ignore_index=True), source=f"part files under {self.parts_dir}"
-            )
-            stored = {
-                Unit(**r)
-                for r in combined[[*RUN_COLUMNS, "iteration"]].drop_duplicates().to_dict("records")
-            }
-            if stored != set(units):
-                raise ValueError(f"part files under {self.parts_dir} do not match their rows")
-        except (TypeError, ValueError):
-            # Find the file to blame; the rows carry their own keys, so the per-file check of
-            # the unit is needed only here.
-            for unit in units:
-                path = self.part_path(unit)
-                frame = validate_evaluations(_read_csv(path), source=str(path))
-                got = frame[[*RUN_COLUMNS, "iteration"]].drop_duplicates().to_dict("records")
-                if got != [dataclasses.asdict(unit)]:
-                    raise ValueError(f"{path}: rows belong to {got}, not to {unit}") from None
-            raise
+        combined = validate_evaluations(
+            pd.concat(frames, ignore_index=True), source=f"part files under {self.parts_dir}"
+        )
+        keys = combined[[*RUN_COLUMNS, "iteration"]].drop_duplicates().to_dict("records")
+        if {Unit(**key) for key in keys} != set(units):
+            raise ValueError(f"part files under {self.parts_dir} do not match their rows")
         return combined
 
     def consolidate(self, format: str = "auto") -> Path:
@@ -837,25 +842,29 @@ def build_manifest(
         A JSON-able dict.
 
     Raises:
-        TypeError: If a time is not a datetime or the config holds a value JSON cannot store.
+        TypeError: If a time has the wrong type or the config holds a value JSON cannot store.
         ValueError: If a datetime is naive, times are negative or the config holds NaN or inf.
     """
-    for name, value in (("start_time", start_time), ("end_time", end_time)):
-        if value is None:
+    for name, moment in (("start_time", start_time), ("end_time", end_time)):
+        if moment is None:
             continue
-        if not isinstance(value, dt.datetime):
-            raise TypeError(f"{name} must be a datetime, got {type(value).__name__}")
-        if value.tzinfo is None or value.utcoffset() is None:
+        if not isinstance(moment, dt.datetime):
+            raise TypeError(f"{name} must be a datetime, got {type(moment).__name__}")
+        if moment.tzinfo is None or moment.utcoffset() is None:
             raise ValueError(f"{name} must be timezone-aware, e.g. datetime.now(timezone.utc)")
     if wall_time is None and end_time is not None:
         wall_time = (end_time - start_time).total_seconds()
-    for name, value in (
+    for name, seconds in (
         ("wall_time", wall_time),
         ("simulation_time", simulation_time),
         ("optimizer_time", optimizer_time),
     ):
-        if value is not None and not (math.isfinite(value) and value >= 0):
-            raise ValueError(f"{name} must be a finite number of seconds >= 0, got {value}")
+        if seconds is None:
+            continue
+        if isinstance(seconds, bool) or not isinstance(seconds, (int, float, np.number)):
+            raise TypeError(f"{name} must be a number of seconds, got {type(seconds).__name__}")
+        if not (math.isfinite(seconds) and seconds >= 0):
+            raise ValueError(f"{name} must be a finite number of seconds >= 0, got {seconds}")
     if dataclasses.is_dataclass(config) and not isinstance(config, type):
         config = dataclasses.asdict(config)
     if not isinstance(config, Mapping):

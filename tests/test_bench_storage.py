@@ -432,6 +432,16 @@ def test_a_corrupt_part_on_disk_is_named(tmp_path: Path) -> None:
         store.read()
 
 
+@pytest.mark.parametrize("content", ["", "suite,optimizer\n", 'a,"b\n'])
+def test_an_unreadable_part_on_disk_is_named(tmp_path: Path, content: str) -> None:
+    store = ResultStore(tmp_path)
+    write_all(store)
+    path = store.part_path(planned_units()[2])
+    path.write_text(content)
+    with pytest.raises(ValueError, match=path.name):
+        store.read()
+
+
 def test_a_part_under_the_wrong_unit_is_named(tmp_path: Path) -> None:
     store = ResultStore(tmp_path)
     unit = store.write_batch(make_batch("cmaes", 0, 0))
