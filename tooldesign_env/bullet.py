@@ -294,13 +294,6 @@ class BulletWorld:
         state = self._link_state(robot.body, link, computeForwardKinematics=1)
         return state[4], state[5]
 
-    def link_pose_and_velocity(self, robot: RobotHandles, link: int) -> tuple[tuple, tuple, tuple]:
-        """World position (m), quaternion and linear velocity (m/s) of a link frame."""
-        state = self._link_state(
-            robot.body, link, computeLinkVelocity=1, computeForwardKinematics=1
-        )
-        return state[4], state[5], state[6]
-
     # ------------------------------------------------------------ the box etc
     def body_position(self, body: int) -> tuple[float, float, float]:
         """World position of a body's base, m."""

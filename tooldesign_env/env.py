@@ -239,19 +239,12 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
     def evaluate_geometry(self, geometry: ToolGeometry) -> dict[str, Any]:
         """Simulate and score a tool for the current task; returns the step's ``info``."""
         goal = self._goal
-        reason = ""
         if not geometry.buildable:
-            reason = f"cannot be built: {geometry.why_not_buildable}"
-        elif self.simulator.overlaps_box_at_start(geometry):
-            reason = "overlaps the box at the start of the sweep"
-        if reason:
-            return self._invalid_info(geometry, reason)
+            return self._invalid_info(geometry, f"cannot be built: {geometry.why_not_buildable}")
+        if self.simulator.build(geometry, box_mass=self._box_mass):
+            return self._invalid_info(geometry, "overlaps the box at the start of the sweep")
         resim = self.objective.estimator == "resimulation"
-        trajectory = self.simulator.rollout(
-            geometry,
-            box_mass=self._box_mass,
-            snapshot_every=self.objective.horizon if resim else None,
-        )
+        trajectory = self.simulator.run(snapshot_every=self.objective.horizon if resim else None)
         try:
             terms = free_energy(
                 trajectory.box_position,

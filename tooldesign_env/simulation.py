@@ -168,8 +168,19 @@ class ToolSimulator:
         world.reset()
         return reference
 
-    def build(self, geometry: ToolGeometry, *, box_mass: float | None = None) -> None:
-        """Empty the world and set up floor, box, and the arm holding ``geometry`` at q(0)."""
+    def build(self, geometry: ToolGeometry, *, box_mass: float | None = None) -> bool:
+        """Empty the world and set up floor, box, and the arm holding ``geometry`` at q(0).
+
+        Args:
+            geometry: the tool.
+            box_mass: override of the scene's box mass, kg.
+
+        Returns:
+            Whether the tool, lowered to the start of the sweep, overlaps the box. Such a tool
+            would be pressed down onto the box while lowering: an invalid design.
+        """
+        if box_mass is not None and not (math.isfinite(box_mass) and box_mass > 0):
+            raise ValueError(f"box_mass must be a finite number > 0 kg, got {box_mass!r}")
         scene = self.scene
         reference = self.reference
         world = self.world
@@ -183,29 +194,18 @@ class ToolSimulator:
             yaw=scene.box_yaw,
         )
         link, diag = _principal_link_xml(geometry)
-        self._robot = world.load_robot(
+        robot = self._robot = world.load_robot(
             panda_urdf_with_tool(link, visuals=self._visuals),
             tool_mass=geometry.mass,
             tool_inertia_diagonal=(float(diag[0]), float(diag[1]), float(diag[2])),
             tool_friction=scene.tool_friction,
         )
-        world.set_joint_positions(self._robot, reference.q0)
-
-    def overlaps_box_at_start(self, geometry: ToolGeometry) -> bool:
-        """Whether the tool, lowered to the start of the sweep, would overlap the box.
-
-        Such a tool would be pressed down onto the box while lowering; it is an invalid design.
-        The world is rebuilt at q(0) afterwards.
-        """
-        self.build(geometry)
-        robot, reference = self._robot, self.reference
-        assert robot is not None and self._box is not None
         lowered = phases(self.plan)[0].duration
-        k = min(int(round(lowered / self.control_dt)) - 1, len(reference.times) - 1)
-        self.world.set_joint_positions(robot, reference.q[max(k, 0)])
-        hit = self.world.overlaps(self._box, robot.body, robot.tool_link)
-        self.world.set_joint_positions(robot, reference.q0)
-        return hit
+        k = min(max(int(round(lowered / self.control_dt)) - 1, 0), len(reference.times) - 1)
+        world.set_joint_positions(robot, reference.q[k])
+        overlaps = world.overlaps(self._box, robot.body, robot.tool_link)
+        world.set_joint_positions(robot, reference.q0)
+        return overlaps
 
     # -------------------------------------------------------------- rollout
     def rollout(
@@ -214,24 +214,27 @@ class ToolSimulator:
         *,
         box_mass: float | None = None,
         snapshot_every: int | None = None,
-        controller: bool = True,
     ) -> Trajectory:
-        """Use the tool once and record the trajectory.
+        """Build the world for ``geometry`` and use the tool once (see :meth:`run`).
+
+        The tool is used even if it overlaps the box at the start; to refuse such tools, call
+        :meth:`build` and then :meth:`run` only when it answers False.
+        """
+        self.build(geometry, box_mass=box_mass)
+        return self.run(snapshot_every=snapshot_every)
+
+    def run(self, *, snapshot_every: int | None = None) -> Trajectory:
+        """Use the tool of the last :meth:`build` once and record the trajectory.
 
         Args:
-            geometry: the tool.
-            box_mass: override of the scene's box mass, kg (robustness tests).
             snapshot_every: also save a world snapshot every this many control steps (before
                 the step's torques are applied), for re-simulation.
-            controller: False steps the same episode with zero torques and no controller: the
-                floor of the cost of a rollout, for benchmarks only.
 
         Returns:
             The recorded :class:`Trajectory`.
         """
-        if box_mass is not None and not (math.isfinite(box_mass) and box_mass > 0):
-            raise ValueError(f"box_mass must be a finite number > 0 kg, got {box_mass!r}")
-        self.build(geometry, box_mass=box_mass)
+        if self._robot is None:
+            raise RuntimeError("call build(geometry) before run()")
         world, robot, box = self.world, self._robot, self._box
         assert robot is not None and box is not None
         ref = self.reference
@@ -253,32 +256,28 @@ class ToolSimulator:
         at_rest = 0
         fast_forward_from = n
         self._snapshots = _Snapshots(snapshot_every) if snapshot_every else None
-        zeros = [0.0] * 7
 
         q, qd = world.joint_state(robot)
         for k in range(n):
             if self._snapshots is not None and k % self._snapshots.every == 0:
                 self._snapshots.ids[k] = world.save_state()
-            if controller:
-                qdd = ref.qdd[k] + kp * (ref.q[k] - q) + kd * (ref.qd[k] - np.asarray(qd))
-                tau = np.clip(world.inverse_dynamics(robot, q, qd, qdd.tolist()), -limits, limits)
-                U[k] = tau
-                command = tau.tolist()
-            else:
-                command = zeros
+            qdd = ref.qdd[k] + kp * (ref.q[k] - q) + kd * (ref.qd[k] - np.asarray(qd))
+            tau = np.clip(world.inverse_dynamics(robot, q, qd, qdd.tolist()), -limits, limits)
+            U[k] = tau
+            command = tau.tolist()
             # PyBullet forgets torque commands after every step, so each physics step of the
             # control period gets the command again.
             for _ in range(period):
                 world.apply_torques(robot, command)
                 world.step()
             q, qd = world.joint_state(robot)
-            position, orientation, velocity = world.link_pose_and_velocity(robot, robot.ee_link)
+            position, orientation = world.link_pose(robot, robot.ee_link)
             X[k] = world.body_position(box)
             Q[k] = q
             P[k] = position
             yaw[k] = _tool_yaw(orientation)
             contact[k] = world.in_contact(box, robot.body, robot.tool_link)
-            if scene.fast_forward_rest and phase[k] == hold and controller:
+            if scene.fast_forward_rest and phase[k] == hold:
                 box_speed = np.linalg.norm(world.box_velocity(box))
                 still = box_speed < scene.rest_speed and max(map(abs, qd)) < scene.rest_speed
                 at_rest = at_rest + 1 if still else 0
@@ -309,6 +308,37 @@ class ToolSimulator:
             tracking_error=tracking,
             fast_forward_from=fast_forward_from,
         )
+
+    def replay_open_loop(
+        self, geometry: ToolGeometry, torques: np.ndarray, *, box_mass: float | None = None
+    ) -> np.ndarray:
+        """Build the scene and apply a torque sequence with no controller in the loop.
+
+        The same physics as a rollout without the controller's reads and inverse dynamics:
+        benchmarks use it as the floor of a rollout's cost.
+
+        Args:
+            geometry: the tool.
+            torques: (n, 7) torques per control step, N m.
+            box_mass: override of the box mass, kg.
+
+        Returns:
+            (n, 3) box positions after each control step, m.
+        """
+        torques = np.asarray(torques, dtype=float)
+        if torques.ndim != 2 or torques.shape[1] != 7 or not np.all(np.isfinite(torques)):
+            raise ValueError(f"torques must be a finite (n, 7) array, got shape {torques.shape}")
+        self.build(geometry, box_mass=box_mass)
+        world, robot, box = self.world, self._robot, self._box
+        assert robot is not None and box is not None
+        period = self.controller.control_period
+        out = np.empty((torques.shape[0], 3))
+        for k, tau in enumerate(torques.tolist()):
+            for _ in range(period):
+                world.apply_torques(robot, tau)
+                world.step()
+            out[k] = world.body_position(box)
+        return out
 
     def _phase_index(self, times: np.ndarray) -> np.ndarray:
         index = np.zeros(times.shape[0], dtype=np.int8)

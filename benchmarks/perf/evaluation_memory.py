@@ -1,0 +1,62 @@
+"""Does evaluating many designs in one process leak memory or temporary files?
+
+Evaluates N designs (default 1000) in one env and prints the resident memory after a warm-up
+and at the end, the growth, and any file left in the temporary directory by the run.
+
+Run: ``python benchmarks/perf/evaluation_memory.py [--evaluations 1000]``.
+Target: growth below 50 MB, no files left.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import tempfile
+import time
+
+import numpy as np
+
+from tooldesign_env import ToolDesignEnv
+
+
+def rss_mb() -> float:
+    """Resident set size of this process, MB (from /proc, Linux)."""
+    with open(f"/proc/{os.getpid()}/status", encoding="ascii") as f:
+        for line in f:
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1]) / 1024.0
+    raise RuntimeError("VmRSS not found")
+
+
+def main() -> None:
+    """Measure and print."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--evaluations", type=int, default=1000)
+    parser.add_argument("--warmup", type=int, default=20)
+    args = parser.parse_args()
+    tmp = tempfile.gettempdir()
+    before_files = set(os.listdir(tmp))
+    env = ToolDesignEnv()
+    env.reset(seed=0)
+    rng = np.random.default_rng(0)
+    lo, hi = env.action_space.low, env.action_space.high
+    for _ in range(args.warmup):
+        env.step(rng.uniform(lo, hi))
+    start = rss_mb()
+    t0 = time.perf_counter()
+    for i in range(args.evaluations):
+        env.step(rng.uniform(lo, hi))
+        if (i + 1) % 100 == 0:
+            print(f"  {i + 1:5d} evaluations: RSS {rss_mb():8.1f} MB", flush=True)
+    end = rss_mb()
+    env.close()
+    left = sorted(set(os.listdir(tmp)) - before_files)
+    print(f"evaluations: {args.evaluations} in {time.perf_counter() - t0:.0f} s")
+    print(
+        f"RSS after warm-up {start:.1f} MB, at the end {end:.1f} MB: growth {end - start:+.1f} MB"
+    )
+    print(f"files left in {tmp}: {len(left)} {left[:5]}")
+
+
+if __name__ == "__main__":
+    main()
