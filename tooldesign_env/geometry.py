@@ -61,7 +61,7 @@ MITRE_LIMIT = 4.0
 # Relative accuracy asked of the arc-length quadrature, per panel. Panels are positive, so the
 # integral over any [0, u] inherits it. 1e-13 sits well above the round-off of a 16-point sum.
 _ARC_RTOL = 1e-13
-# Arc-length inversion stops when |s(u) - target| <= this times the total arc length.
+# Arc-length inversion stops when |s(u) - target| <= this times the largest target.
 _INVERT_ATOL = 1e-13
 # The promise on the curve end, checked after every solve by a second quadrature rule.
 _EXTENT_RTOL = 1e-6
@@ -78,19 +78,27 @@ _EPS = float(np.finfo(np.float64).eps)
 # --------------------------------------------------------------------------------------------
 
 
-def _check_real(owner: str, name: str, value: object) -> float:
-    """Return ``value`` as a float, or raise TypeError if it is not a real number."""
+def _check_real(label: str, value: object) -> float:
+    """Return ``value`` as a float, or raise TypeError naming ``label`` if it is not real."""
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise TypeError(f"{owner}.{name} must be a real number, got {type(value).__name__}")
+        raise TypeError(f"{label} must be a real number, got {type(value).__name__}")
     return float(value)
 
 
-def _check_int(owner: str, name: str, value: object, minimum: int) -> int:
-    """Return ``value`` as an int >= ``minimum`` or raise TypeError/ValueError."""
+def _check_positive(label: str, value: object, unit: str) -> float:
+    """Return ``value`` as a float if it is finite and > 0, else raise naming ``label``."""
+    number = _check_real(label, value)
+    if not (math.isfinite(number) and number > 0):
+        raise ValueError(f"{label} must be a finite number > 0 ({unit}), got {number!r}")
+    return number
+
+
+def _check_int(label: str, value: object, minimum: int) -> int:
+    """Return ``value`` as an int >= ``minimum`` or raise TypeError/ValueError naming ``label``."""
     if isinstance(value, bool) or not isinstance(value, numbers.Integral):
-        raise TypeError(f"{owner}.{name} must be an integer, got {type(value).__name__}")
+        raise TypeError(f"{label} must be an integer, got {type(value).__name__}")
     if value < minimum:
-        raise ValueError(f"{owner}.{name} must be an integer >= {minimum}, got {value!r}")
+        raise ValueError(f"{label} must be an integer >= {minimum}, got {value!r}")
     return int(value)
 
 
@@ -116,15 +124,12 @@ class ToolSpec:
     degree: int = 3
 
     def __post_init__(self) -> None:
-        for name in ("arc_length", "handle_length", "section", "density"):
-            value = _check_real("ToolSpec", name, getattr(self, name))
-            if not (math.isfinite(value) and value > 0):
-                raise ValueError(f"ToolSpec.{name} must be a finite number > 0, got {value!r}")
+        units = {"arc_length": "m", "handle_length": "m", "section": "m", "density": "kg/m^3"}
+        for name, unit in units.items():
+            value = _check_positive(f"ToolSpec.{name}", getattr(self, name), unit)
             object.__setattr__(self, name, value)
-        object.__setattr__(
-            self, "n_segments", _check_int("ToolSpec", "n_segments", self.n_segments, 1)
-        )
-        object.__setattr__(self, "degree", _check_int("ToolSpec", "degree", self.degree, 1))
+        for name in ("n_segments", "degree"):
+            object.__setattr__(self, name, _check_int(f"ToolSpec.{name}", getattr(self, name), 1))
 
 
 def validate_coefficients(coeffs: ArrayLike, degree: int) -> FloatArray:
@@ -144,26 +149,35 @@ def validate_coefficients(coeffs: ArrayLike, degree: int) -> FloatArray:
         ValueError: ``coeffs`` is not a flat sequence of exactly ``degree`` numbers, or holds NaN or
             infinite values (or ints too large for float64); or ``degree`` < 1.
     """
-    degree = _check_int("validate_coefficients", "degree", degree, 1)
-    allowed = f"allowed: a flat sequence of {degree} finite real numbers (c1, ..., c{degree})"
+    degree = _check_int("degree", degree, 1)
+    return _as_coefficients(coeffs, degree)
+
+
+def _as_coefficients(coeffs: object, degree: int | None) -> FloatArray:
+    """Validate ``coeffs`` like :func:`validate_coefficients`; any length >= 1 if degree is None."""
+    count = "n >= 1" if degree is None else str(degree)
+    allowed = f"allowed: a flat sequence of {count} finite real numbers (c1, ..., cn)"
     if coeffs is None or isinstance(coeffs, (str, bytes)):
-        raise TypeError(f"coeffs must be numbers, got {type(coeffs).__name__}; {allowed}")
+        raise TypeError(f"coeffs must be real numbers, got {type(coeffs).__name__}; {allowed}")
     try:
         array = np.asarray(coeffs)
     except (TypeError, ValueError) as error:  # ragged nesting such as [1, [2, 3]]
         raise ValueError(f"coeffs has an irregular shape ({error}); {allowed}") from None
     kind = array.dtype.kind
     if kind == "O":
-        # Mixed Python objects: accept real numbers (Fraction, Decimal, big ints), name the rest.
+        # Python objects: accept real numbers (Fraction, ints beyond int64), name the rest.
         for item in array.flat:
             if isinstance(item, bool) or not isinstance(item, numbers.Real):
                 raise TypeError(f"coeffs holds a {type(item).__name__} ({item!r}); {allowed}")
     elif kind == "c":
         raise TypeError(f"coeffs holds complex numbers (dtype {array.dtype}); {allowed}")
     elif kind not in "iuf":
-        raise TypeError(f"coeffs holds non-numeric data (dtype {array.dtype}); {allowed}")
-    if array.ndim != 1 or array.shape[0] != degree:
-        raise ValueError(f"coeffs has shape {array.shape}, expected ({degree},); {allowed}")
+        raise TypeError(
+            f"coeffs holds values that are not real numbers (dtype {array.dtype}); {allowed}"
+        )
+    if array.ndim != 1 or array.shape[0] < 1 or (degree is not None and array.shape[0] != degree):
+        expected = "(n,)" if degree is None else f"({degree},)"
+        raise ValueError(f"coeffs has shape {array.shape}, expected {expected}; {allowed}")
     try:
         values = np.array([float(item) for item in array.tolist()], dtype=np.float64)
     except OverflowError:
@@ -175,13 +189,6 @@ def validate_coefficients(coeffs: ArrayLike, degree: int) -> FloatArray:
             f"{allowed}"
         )
     return values
-
-
-def _check_arc_length(arc_length: object) -> float:
-    value = _check_real("curve", "arc_length", arc_length)
-    if not (math.isfinite(value) and value > 0):
-        raise ValueError(f"arc_length must be a finite number > 0 (m), got {value!r}")
-    return value
 
 
 # --------------------------------------------------------------------------------------------
@@ -220,29 +227,57 @@ def _gauss_legendre(dcoeffs: FloatArray, a: FloatArray, b: FloatArray) -> FloatA
     """16-point Gauss-Legendre integrals of the speed over each [a_i, b_i]."""
     half = 0.5 * (b - a)
     nodes = (0.5 * (a + b))[..., None] + half[..., None] * _GL_NODES
-    return half * (_speed(dcoeffs, nodes) @ _GL_WEIGHTS)
+    return half * _row_sums(_speed(dcoeffs, nodes) * _GL_WEIGHTS)
 
 
-def _root_candidates(poly: FloatArray) -> list[float]:
-    """Real parts of the roots of a polynomial (highest power first), [] if it is constant.
+def _row_sums(values: FloatArray) -> FloatArray:
+    """Sums over the last axis in a fixed pairwise order, whatever the number of rows.
 
-    Degrees 1 and 2 are solved in closed form (np.roots costs tens of microseconds); the
-    quadratic uses the cancellation-free form of the formula.
+    Neither a BLAS matmul nor np.sum promises an order that is independent of the array's
+    shape; the curve end must not change with how many points are solved together.
     """
-    nonzero = np.flatnonzero(poly)
-    poly = poly[nonzero[0] :] if nonzero.size else poly[:0]
-    if poly.size <= 1:
+    while values.shape[-1] > 1:
+        half = values.shape[-1] // 2
+        summed = values[..., :half] + values[..., half : 2 * half]
+        if values.shape[-1] % 2:
+            summed[..., 0] += values[..., -1]
+        values = summed
+    return values[..., 0]
+
+
+def _root_candidates(poly: FloatArray, scale: float) -> list[float]:
+    """Real parts of the roots of a polynomial (highest power first) that matter on [0, scale].
+
+    The polynomial is first written in t = u / scale, and leading coefficients below round-off
+    of the largest one are dropped: on [0, 1] they change nothing, while a tiny leading
+    coefficient (c1 = 1e-38, say) would make np.roots' companion matrix useless for the roots
+    that do matter. Degrees 1 and 2 are solved in closed form (np.roots costs tens of
+    microseconds), the quadratic in its cancellation-free form. [] if the polynomial is constant.
+    """
+    with np.errstate(over="ignore", invalid="ignore"):
+        scaled = poly * scale ** np.arange(poly.size - 1, -1, -1, dtype=np.float64)
+    if not np.all(np.isfinite(scaled)):
+        scaled, scale = np.asarray(poly, dtype=np.float64), 1.0
+    magnitude = np.abs(scaled)
+    significant = np.flatnonzero(magnitude > 4.0 * _EPS * magnitude.max())
+    if significant.size == 0:
         return []
-    if poly.size == 2:
-        return [-poly[1] / poly[0]]
-    if poly.size == 3:
-        a, b, c = poly.tolist()
+    scaled = scaled[significant[0] :]
+    if scaled.size <= 1:
+        return []
+    if scaled.size == 2:
+        roots = [-scaled[1] / scaled[0]]
+    elif scaled.size == 3:
+        a, b, c = scaled.tolist()
         discriminant = b * b - 4.0 * a * c
         if discriminant < 0.0:
-            return [-b / (2.0 * a)]
-        q = -0.5 * (b + math.copysign(math.sqrt(discriminant), b))
-        return [q / a, c / q] if q != 0.0 else [0.0]
-    return np.real(np.roots(poly)).tolist()
+            roots = [-b / (2.0 * a)]
+        else:
+            q = -0.5 * (b + math.copysign(math.sqrt(discriminant), b))
+            roots = [q / a, c / q] if q != 0.0 else [0.0]
+    else:
+        roots = np.real(np.roots(scaled)).tolist()
+    return [root * scale for root in roots]
 
 
 def _breakpoints(dcoeffs: FloatArray, u_max: float) -> FloatArray:
@@ -252,7 +287,8 @@ def _breakpoints(dcoeffs: FloatArray, u_max: float) -> FloatArray:
     near 0; real parts of the roots of p' and p'' mark those places. Splitting there lets every
     panel see a smooth integrand. Spurious points are harmless: they only add panels.
     """
-    candidates = _root_candidates(dcoeffs) + _root_candidates(np.polyder(dcoeffs))
+    second = np.polyder(dcoeffs) if dcoeffs.size > 1 else np.zeros(1)
+    candidates = _root_candidates(dcoeffs, u_max) + _root_candidates(second, u_max)
     inside = [c for c in candidates if 0.0 < c < u_max and math.isfinite(c)]
     return np.unique(np.asarray(inside, dtype=np.float64))
 
@@ -361,7 +397,7 @@ class _ArcTable:
         b = np.append(edges[1:], u_end)
         half = 0.5 * (b - edges)
         nodes = (0.5 * (b + edges))[:, None] + half[:, None] * _GL24_NODES
-        value = float(np.sum(half * (_speed(self.dcoeffs, nodes) @ _GL24_WEIGHTS)))
+        value = float(np.sum(half * _row_sums(_speed(self.dcoeffs, nodes) * _GL24_WEIGHTS)))
         error = abs(value - arc_length) / arc_length
         if not error < _EXTENT_RTOL:
             raise RuntimeError(
@@ -384,26 +420,14 @@ def curve_arc_length(coeffs: ArrayLike, u: float) -> float:
     Returns:
         Arc length in m.
     """
-    values = validate_coefficients(coeffs, _length_of(coeffs))
-    limit = _check_real("curve_arc_length", "u", u)
+    values = _as_coefficients(coeffs, None)
+    limit = _check_real("u", u)
     if not (math.isfinite(limit) and limit >= 0):
         raise ValueError(f"u must be a finite number >= 0 (m), got {limit!r}")
     if limit == 0.0:
         return 0.0
     table = _ArcTable.build(values, limit)
     return float(table.cumulative[-1])
-
-
-def _length_of(coeffs: ArrayLike) -> int:
-    """Number of coefficients, so functions without a ``degree`` argument take any degree."""
-    if coeffs is None or isinstance(coeffs, (str, bytes)):
-        raise TypeError(f"coeffs must be a sequence of real numbers, got {type(coeffs).__name__}")
-    shape = np.shape(coeffs) if not isinstance(coeffs, (list, tuple)) else (len(coeffs),)
-    if len(shape) != 1 or shape[0] < 1:
-        raise ValueError(
-            f"coeffs must be a flat, non-empty sequence of real numbers, got shape {shape}"
-        )
-    return int(shape[0])
 
 
 def solve_curve_extent(coeffs: ArrayLike, arc_length: float) -> float:
@@ -424,8 +448,8 @@ def solve_curve_extent(coeffs: ArrayLike, arc_length: float) -> float:
     Raises:
         RuntimeError: The check disagrees by 1e-6 or more (never seen; a bug to report).
     """
-    values = validate_coefficients(coeffs, _length_of(coeffs))
-    length = _check_arc_length(arc_length)
+    values = _as_coefficients(coeffs, None)
+    length = _check_positive("arc_length", arc_length, "m")
     table = _ArcTable.build(values, length)
     u_end = float(table.invert(np.array([length]))[0])
     table.check(u_end, length)
@@ -456,9 +480,9 @@ def curve_points(coeffs: ArrayLike, arc_length: float, n: int) -> FloatArray:
         consecutive points is ``arc_length / n`` to about 1e-13 relative (each point is inverted
         to |s(u_k) - k L0 / n| <= 1e-13 L0).
     """
-    values = validate_coefficients(coeffs, _length_of(coeffs))
-    length = _check_arc_length(arc_length)
-    count = _check_int("curve_points", "n", n, 1)
+    values = _as_coefficients(coeffs, None)
+    length = _check_positive("arc_length", arc_length, "m")
+    count = _check_int("n", n, 1)
     u = _curve_parameters(values, length, count)
     return np.column_stack((u, np.polyval(_poly(values), u)))
 
@@ -477,8 +501,9 @@ def _min_radius_of_curvature(coeffs: FloatArray, u_end: float) -> float:
     candidate, and a real root that round-off gave a tiny imaginary part is not lost.
     """
     d1 = _derivative(coeffs)
-    d2 = np.polyder(d1)
-    d3 = np.polyder(d2)
+    # np.polyder of a constant is empty; a zero polynomial keeps the products below defined.
+    d2 = np.polyder(d1) if d1.size > 1 else np.zeros(1)
+    d3 = np.polyder(d2) if d2.size > 1 else np.zeros(1)
     # np.convolve multiplies polynomials; np.polymul does the same at 30 times the cost.
     first = np.convolve(d3, np.convolve(d1, d1))
     first[-1] += d3[-1]  # the third derivative times the 1 of (1 + p'^2)
@@ -487,7 +512,7 @@ def _min_radius_of_curvature(coeffs: FloatArray, u_end: float) -> float:
     q = np.zeros(size)
     q[size - first.size :] += first
     q[size - second.size :] -= second
-    candidates = [0.0, u_end, *_root_candidates(q)]
+    candidates = [0.0, u_end, *_root_candidates(q, u_end)]
     u = np.clip(np.asarray(candidates, dtype=np.float64), 0.0, u_end)
     curvature = np.abs(_horner(d2, u)) / np.hypot(1.0, _horner(d1, u)) ** 3
     top = float(np.max(curvature))
@@ -830,6 +855,9 @@ def tool_mesh(geometry: ToolGeometry) -> trimesh.Trimesh:
 
     The square section is swept along ``geometry.centerline`` (the same polyline as the boxes) with
     mitred joints and closed by end caps; triangles wind counter-clockwise seen from outside.
+    At centreline point k the section's corners are vertices 4k to 4k + 3: (right, bottom),
+    (left, bottom), (left, top), (right, top), "left" being +y for a segment along +x. At an
+    interior point they sit on the mitre: section / 2 from both neighbouring segments' lines.
 
     Args:
         geometry: From :func:`make_tool`.
@@ -919,9 +947,7 @@ def export_mesh(
     suffix = target.suffix.lower()
     if suffix not in (".stl", ".obj"):
         raise ValueError(f"path must end in .stl or .obj, got {str(target)!r}")
-    factor = _check_real("export_mesh", "scale", scale)
-    if not (math.isfinite(factor) and factor > 0):
-        raise ValueError(f"scale must be a finite number > 0, got {factor!r}")
+    factor = _check_positive("scale", scale, "1.0 for m, 1000.0 for mm")
     sweep = _sweep(np.asarray(geometry.centerline), geometry.spec.section)
     writer = _stl_bytes if suffix == ".stl" else _obj_bytes
     _write_atomic(target, writer(sweep.vertices, sweep.faces, factor))
