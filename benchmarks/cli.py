@@ -15,7 +15,8 @@ __all__ = ["main"]
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every subcommand."""
-    from benchmarks import evaluate
+    from benchmarks import evaluate  # noqa: I001  (one import per subcommand)
+    from benchmarks import design
 
     parser = argparse.ArgumentParser(
         prog="tooldesign",
@@ -23,6 +24,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     evaluate.add_parser(sub)
+    design.add_parser(sub)
     return parser
 
 

@@ -126,7 +126,7 @@ def test_confidence_is_higher_in_contact():
             c, touching = info["confidence_t"], info["contact"]
             assert touching.any() and (~touching).any()
             inside, outside = c[touching].mean(), c[~touching].mean()
-            ratio = 1.5 if estimator == "trajectory" else 10.0
+            ratio = 2.5 if estimator == "trajectory" else 10.0
             assert inside > ratio * outside, (estimator, design, inside, outside)
         e.close()
 

@@ -79,8 +79,9 @@ class TrajectoryEstimator:
     """dX/dU and d2X/dU2 from the recorded trajectory alone (cheap; the default).
 
     Over a centred window of ``window`` control steps, the box's step-to-step motion dX is
-    regressed on the torque changes dU (ridge regression): J = (sum dX dU^T)(sum dU dU^T + r I)^-1.
-    How J itself changes is regressed on dU the same way to give H. The ridge r is ``ridge``
+    regressed on the torque changes dU with an intercept (ridge regression on centred moments):
+    J = cov(dX, dU) (cov(dU, dU) + r I)^-1. How J itself changes is regressed on dU the same way
+    to give H. The ridge r is ``ridge``
     times the episode's mean torque-change energy, so where the torques barely change (holds) the
     estimate shrinks to zero instead of dividing noise by noise.
 
@@ -91,7 +92,7 @@ class TrajectoryEstimator:
     """
 
     window: int = 24
-    ridge: float = 1e-3
+    ridge: float = 0.1
     second_order: bool = True
     name: str = "trajectory"
 
@@ -102,22 +103,34 @@ class TrajectoryEstimator:
         dx = np.diff(box_position, axis=0, prepend=box_position[:1])
         du = np.diff(torques, axis=0, prepend=torques[:1])
         scale = float(np.mean(np.sum(du * du, axis=1)))
+        n = box_position.shape[0]
         if scale <= 0.0:
-            n = box_position.shape[0]
             hess = np.zeros((n, 3, 7, 7)) if self.second_order else None
             return Sensitivities(np.zeros((n, 3, 7)), hess)
+        count = _window_sums(np.ones((n, 1)), self.window)[:, 0]  # (T,)
+        mean_du = _window_sums(du, self.window) / count[:, None]
+        # Centred moments: the regression has an intercept, so a steady drift of the box (PyBullet
+        # lets a resting box creep by about 0.4 um per step) is not read as a sensitivity.
         gram = _window_sums(du[:, :, None] * du[:, None, :], self.window)
+        gram -= count[:, None, None] * mean_du[:, :, None] * mean_du[:, None, :]
         gram += (self.ridge * scale) * np.eye(7)
         inv = np.linalg.inv(gram)  # (T, 7, 7), symmetric positive definite
-        cross = _window_sums(dx[:, :, None] * du[:, None, :], self.window)
-        jac = cross @ inv
+        jac = self._regress(dx, du, mean_du, count) @ inv
         hess = None
         if self.second_order:
-            djac = np.diff(jac, axis=0, prepend=jac[:1]).reshape(-1, 21)
-            cross2 = _window_sums(djac[:, :, None] * du[:, None, :], self.window)
-            hess = (cross2 @ inv).reshape(-1, 3, 7, 7)
+            djac = np.diff(jac, axis=0, prepend=jac[:1]).reshape(n, 21)
+            hess = (self._regress(djac, du, mean_du, count) @ inv).reshape(n, 3, 7, 7)
             hess = 0.5 * (hess + np.swapaxes(hess, -1, -2))
         return Sensitivities(jac, hess)
+
+
+    def _regress(
+        self, y: np.ndarray, du: np.ndarray, mean_du: np.ndarray, count: np.ndarray
+    ) -> np.ndarray:
+        """Centred windowed cross moments sum (y - mean y)(du - mean du)^T, (T, m, 7)."""
+        cross = _window_sums(y[:, :, None] * du[:, None, :], self.window)
+        mean_y = _window_sums(y, self.window) / count[:, None]
+        return cross - count[:, None, None] * mean_y[:, :, None] * mean_du[:, None, :]
 
 
 @dataclass(frozen=True)

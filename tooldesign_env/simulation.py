@@ -193,6 +193,7 @@ class ToolSimulator:
             position=(*scene.box_position, scene.box_size[2] / 2.0),
             yaw=scene.box_yaw,
         )
+        world.step(int(round(scene.box_settle_time / scene.time_step)))
         link, diag = _principal_link_xml(geometry)
         robot = self._robot = world.load_robot(
             panda_urdf_with_tool(link, visuals=self._visuals),

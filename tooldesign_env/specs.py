@@ -139,6 +139,9 @@ class SceneSpec:
         box_friction: lateral friction coefficient of the box.
         floor_friction: lateral friction coefficient of the floor.
         tool_friction: lateral friction coefficient of the tool.
+        box_settle_time: the box rests alone on the floor for this long before the arm is
+            loaded, so the episode starts with the box at rest (PyBullet resolves the initial
+            contact over the first tenths of a second), s.
         fast_forward_rest: during the final hold, once the box and the arm have been at rest
             for ``rest_time``, stop stepping and repeat the rest state for the remaining steps.
             The scene is static then, so this changes the trajectory by less than the rest
@@ -159,13 +162,14 @@ class SceneSpec:
     box_friction: float = 0.4
     floor_friction: float = 1.0
     tool_friction: float = 0.5
+    box_settle_time: float = 0.25
     fast_forward_rest: bool = True
     rest_speed: float = 1e-3
     rest_time: float = 0.1
 
     def __post_init__(self) -> None:
         _check_positive(self, "time_step", "box_mass", "rest_speed")
-        _check_positive(self, "rest_time", allow_zero=True)
+        _check_positive(self, "rest_time", "box_settle_time", allow_zero=True)
         _check_positive(self, "box_friction", "floor_friction", "tool_friction", allow_zero=True)
         _check_vector(self, "box_size", 3)
         _check_vector(self, "box_position", 2)
@@ -225,7 +229,7 @@ class ObjectiveSpec:
     form: str = "clamped"
     estimator: str = "trajectory"
     window: int = 24
-    ridge: float = 1e-3
+    ridge: float = 0.1
     perturbation: float = 0.5
     horizon: int = 6
     invalid_penalty: float = 1e5
