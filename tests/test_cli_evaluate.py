@@ -1,0 +1,70 @@
+"""``tooldesign evaluate``: the files it writes and its answers to bad input."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+import trimesh
+
+from benchmarks.cli import main
+
+
+@pytest.mark.slow
+def test_evaluate_writes_terms_trajectory_mesh_and_plots(tmp_path, capsys):
+    out = tmp_path / "hook"
+    assert main(["evaluate", "--coeffs", "0", "1.5", "0", "--out", str(out)]) == 0
+    assert "free energy F" in capsys.readouterr().out
+    for name in (
+        "terms.json",
+        "trajectory.csv",
+        "tool.stl",
+        "tool.obj",
+        "tool.urdf",
+        "tool_shape.png",
+        "box_path.png",
+        "free_energy.png",
+    ):
+        assert (out / name).stat().st_size > 0, name
+    terms = json.loads((out / "terms.json").read_text())
+    table = pd.read_csv(out / "trajectory.csv")
+    assert terms["valid"] is True
+    assert terms["free_energy"] == pytest.approx(terms["goal_error"] - terms["confidence"])
+    np.testing.assert_allclose(table["free_energy_t"].sum(), terms["free_energy"], rtol=1e-9)
+    final = table[["box_x", "box_y", "box_z"]].to_numpy()[-1]
+    assert np.linalg.norm(final - np.array(terms["goal"])) == pytest.approx(
+        terms["final_distance"], abs=1e-12
+    )
+    assert trimesh.load(out / "tool.stl").is_watertight
+
+
+def test_evaluate_an_invalid_design_still_writes_its_card(tmp_path):
+    out = tmp_path / "overlap"
+    assert main(["evaluate", "--coeffs", "0", "4.35", "0", "--out", str(out)]) == 0
+    terms = json.loads((out / "terms.json").read_text())
+    assert terms["valid"] is False and "overlaps" in terms["invalid_reason"]
+    assert not (out / "trajectory.csv").exists()
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["evaluate", "--coeffs", "nan", "0", "0", "--out", "x"],
+        ["evaluate", "--coeffs", "inf", "0", "0", "--out", "x"],
+        ["evaluate", "--coeffs", "a", "0", "0", "--out", "x"],
+        ["evaluate", "--coeffs", "0", "0", "0"],
+        ["evaluate", "--coeffs", "0", "0", "0", "--out", "x", "--box-mass", "-1"],
+        ["evaluate", "--coeffs", "0", "0", "0", "--out", "x", "--goal", "9", "0", "0"],
+        ["evaluate", "--coeffs", "0", "0", "0", "--out", "x", "--estimator", "magic"],
+        ["frobnicate"],
+    ],
+)
+def test_bad_arguments_exit_2_with_a_message(argv, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit) as excinfo:
+        main(argv)
+    assert excinfo.value.code == 2
+    assert "error" in capsys.readouterr().err
+    assert not (tmp_path / "x").exists()
