@@ -1,0 +1,76 @@
+"""Speed-up of evaluating a batch of designs on a local process pool instead of serially.
+
+Prints, in one run, for the same designs:
+
+* serial: the wall time of evaluating them one after another in this process, once warm (the
+  plan's inverse kinematics and the PyBullet client already made), and the cold time;
+* pool: the wall time on a ``ProcessPoolExecutor`` of ``--workers`` processes, cold (including
+  starting the workers, their imports and their first env) and warm (the same pool again, so
+  only evaluation and the pool's messaging are measured);
+* the warm speed-up serial / pool (target >= 1.7 with 2 workers on 2 cores);
+* whether the pool's rows equal the serial ones apart from ``eval_time``.
+
+Run: ``python benchmarks/perf/pool_speedup.py [--designs 16] [--workers 2] [--repeats 1]``.
+Nothing else should be running on the machine: the pool needs the cores to itself.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import time
+
+import numpy as np
+
+from benchmarks.evaluation import TaskSettings, evaluate_batch, make_executor
+
+
+def designs(n: int, seed: int) -> np.ndarray:
+    """(n, 3) uniform random designs in the default bounds."""
+    rng = np.random.default_rng(seed)
+    return rng.uniform([-1.5, -1.5, -0.5], [1.5, 1.5, 0.5], size=(n, 3))
+
+
+def timed(executor: object, batch: np.ndarray, task: TaskSettings) -> tuple[float, list[dict]]:
+    """Wall time in s of evaluating ``batch``, and the rows."""
+    start = time.perf_counter()
+    rows = evaluate_batch(executor, batch, task)  # type: ignore[arg-type]
+    return time.perf_counter() - start, rows
+
+
+def strip(rows: list[dict]) -> list[dict]:
+    """Rows without their timings."""
+    return [{k: v for k, v in r.items() if k != "eval_time"} for r in rows]
+
+
+def main() -> None:
+    """Measure and print."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--designs", type=int, default=16)
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--repeats", type=int, default=1, help="warm repeats (median is shown)")
+    parser.add_argument("--seed", type=int, default=0)
+    args = parser.parse_args()
+    batch = designs(args.designs, args.seed)
+    task = TaskSettings()
+
+    print(f"{args.designs} designs, {args.workers} workers, {os.cpu_count()} CPUs")
+    with make_executor("serial") as serial:
+        serial_cold, serial_rows = timed(serial, batch, task)
+        serial_warm = statistics.median(timed(serial, batch, task)[0] for _ in range(args.repeats))
+    with make_executor("process", workers=args.workers) as pool:
+        pool_cold, pool_rows = timed(pool, batch, task)
+        # Warm every worker: a cold batch may not have reached all of them.
+        timed(pool, batch[: args.workers * 2], task)
+        pool_warm = statistics.median(timed(pool, batch, task)[0] for _ in range(args.repeats))
+    statuses = {s: sum(r["status"] == s for r in serial_rows) for s in ("ok", "invalid", "failed")}
+    print(f"statuses: {statuses}")
+    print(f"serial   cold {serial_cold:7.2f} s   warm {serial_warm:7.2f} s")
+    print(f"pool     cold {pool_cold:7.2f} s   warm {pool_warm:7.2f} s")
+    print(f"speed-up (warm serial / warm pool): {serial_warm / pool_warm:.2f}x (target >= 1.7x)")
+    print(f"pool rows equal serial rows (timings aside): {strip(pool_rows) == strip(serial_rows)}")
+
+
+if __name__ == "__main__":
+    main()
