@@ -86,6 +86,7 @@ FILES: dict[str, str] = {
 """Files of a finished run folder, besides ``manifest.json`` and ``parts/``."""
 
 _ESTIMATORS = ("trajectory", "resimulation")
+_DEFAULT_GOAL = (0.0, 1.5, 0.1)
 # Fields that do not change the results, so a resumed run may set them differently.
 _RUNTIME_FIELDS = frozenset({"iterations", "workers", "executor", "scheduler"})
 
@@ -169,19 +170,19 @@ class DesignConfig:
     """
 
     optimizer: str = "cmaes"
-    optimizer_settings: tuple[tuple[str, Any], ...] = ()
+    optimizer_settings: tuple[tuple[str, Any], ...] | Mapping[str, Any] = ()
     seed: int = 0
     iterations: int = 15
     batch_size: int = 8
     workers: int | None = None
     executor: str = "process"
     scheduler: str | None = None
-    goal: tuple[float, float, float] = (0.0, 1.5, 0.1)
+    goal: Sequence[float] = _DEFAULT_GOAL
     goal_precision: float = 20.0
     box_mass: float = 0.1
     estimator: str = "trajectory"
-    bounds: tuple[tuple[float, float], ...] | None = None
-    robustness_masses: tuple[float, ...] = (0.3, 0.5, 0.7, 0.9)
+    bounds: Sequence[Sequence[float]] | np.ndarray | None = None
+    robustness_masses: Sequence[float] = (0.3, 0.5, 0.7, 0.9)
 
     def __post_init__(self) -> None:
         if not isinstance(self.optimizer, str) or not self.optimizer.strip():
@@ -961,7 +962,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         "--goal",
         type=float,
         nargs=3,
-        default=list(defaults["goal"].default),
+        default=list(_DEFAULT_GOAL),
         metavar=("X", "Y", "Z"),
         help="goal X^g in m (default: 0 1.5 0.1)",
     )

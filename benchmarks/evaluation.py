@@ -45,6 +45,7 @@ import numpy as np
 
 __all__ = [
     "EXECUTORS",
+    "Designs",
     "METRIC_FIELDS",
     "EvaluationRequest",
     "RobustnessRequest",
@@ -59,6 +60,8 @@ __all__ = [
 ]
 
 ExecutorKind = Literal["serial", "process", "dask"]
+Designs = Sequence[Sequence[float]] | Sequence[np.ndarray] | np.ndarray
+"""(batch_size, n) coefficients: an array or a sequence of designs."""
 EXECUTORS: tuple[str, ...] = ("serial", "process", "dask")
 """Executor kinds accepted by :func:`make_executor`."""
 
@@ -85,7 +88,7 @@ class TaskSettings:
     """The task a design is scored on, and the env settings it is scored with.
 
     Attributes:
-        goal: Goal position X^g, (x, y, z) in m.
+        goal: Goal position X^g, (x, y, z) in m; stored as a tuple of floats.
         goal_precision: p^X, weight of the squared goal error in F, 1/m^2, >= 0.
         box_mass: Mass of the box in kg, > 0.
         estimator: How dX/dU is estimated: ``"trajectory"`` or ``"resimulation"``.
@@ -94,11 +97,11 @@ class TaskSettings:
             and picklable (the frozen specs are). A mapping is accepted and sorted.
     """
 
-    goal: tuple[float, float, float] = (0.0, 1.5, 0.1)
+    goal: Sequence[float] = (0.0, 1.5, 0.1)
     goal_precision: float = 20.0
     box_mass: float = 0.1
     estimator: str = "trajectory"
-    env_kwargs: tuple[tuple[str, Any], ...] = ()
+    env_kwargs: tuple[tuple[str, Any], ...] | Mapping[str, Any] = ()
 
     def __post_init__(self) -> None:
         goal = self.goal
@@ -145,12 +148,12 @@ class EvaluationRequest:
     """One design to simulate and score: what a worker receives.
 
     Attributes:
-        coeffs: Design ``(c1, ..., cn)``, highest power first.
+        coeffs: Design ``(c1, ..., cn)``, highest power first; stored as a tuple of floats.
         task: Goal, precision, box mass, estimator and env settings.
         keep_trajectory: Also return the (T, 3) box trajectory in m (for plots).
     """
 
-    coeffs: tuple[float, ...]
+    coeffs: Sequence[float] | np.ndarray
     task: TaskSettings = field(default_factory=TaskSettings)
     keep_trajectory: bool = False
 
@@ -165,14 +168,14 @@ class RobustnessRequest:
     """One design to test under the paper's box-mass changes.
 
     Attributes:
-        coeffs: Design ``(c1, ..., cn)``.
+        coeffs: Design ``(c1, ..., cn)``; stored as a tuple of floats.
         task: The task; ``task.box_mass`` is the nominal mass m.
-        masses: Altered masses m_i in kg.
+        masses: Altered masses m_i in kg; stored as a tuple.
     """
 
-    coeffs: tuple[float, ...]
+    coeffs: Sequence[float] | np.ndarray
     task: TaskSettings = field(default_factory=TaskSettings)
-    masses: tuple[float, ...] = (0.3, 0.5, 0.7, 0.9)
+    masses: Sequence[float] = (0.3, 0.5, 0.7, 0.9)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "coeffs", _as_coeffs(self.coeffs))
@@ -516,7 +519,7 @@ def _outcome(future: Future[Any], start: float) -> tuple[Any, BaseException | No
 
 def evaluate_batch(
     executor: Executor,
-    designs: Sequence[Sequence[float]] | np.ndarray,
+    designs: Designs,
     task: TaskSettings,
     *,
     keep_trajectory: bool = False,

@@ -90,7 +90,7 @@ def _colors(colors: Sequence[object] | None, n: int) -> list[object]:
 
 def plot_tool_shapes(
     ax: Axes,
-    coeffs_list: Sequence[Sequence[float]] | np.ndarray,
+    coeffs_list: Sequence[Sequence[float]] | Sequence[np.ndarray] | np.ndarray,
     labels: Sequence[str] | None = None,
     *,
     colors: Sequence[object] | None = None,
