@@ -1,0 +1,225 @@
+"""Checks of the public arguments.
+
+Each error names the argument, what was wrong and what is allowed.
+"""
+
+from __future__ import annotations
+
+import numbers
+import os
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "check_bounds",
+    "check_batch_size",
+    "check_ids",
+    "check_path",
+    "check_values",
+    "make_rng",
+]
+
+SeedLike = int | np.integer | np.random.Generator | np.random.SeedSequence | None
+
+
+def _is_int(value: Any) -> bool:
+    return isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_))
+
+
+def _is_real(value: Any) -> bool:
+    return isinstance(value, (numbers.Real, np.floating, np.integer)) and not isinstance(
+        value, (bool, np.bool_)
+    )
+
+
+def _real_array(value: Any, name: str, what: str) -> np.ndarray:
+    """``value`` as a float64 array; TypeError for anything that is not real numbers."""
+    if isinstance(value, (str, bytes)):
+        raise TypeError(f"{name} must be {what}, got a {type(value).__name__}")
+    try:
+        raw = np.asarray(value)
+    except (TypeError, ValueError) as error:
+        raise ValueError(f"{name} must be {what}, got {value!r} ({error})") from None
+    if raw.dtype.kind == "O":
+        # A ragged nesting or a list with non-numbers: say which.
+        flat = list(raw.ravel())
+        if any(isinstance(v, (list, tuple, np.ndarray)) for v in flat):
+            raise ValueError(f"{name} must be {what}, got a ragged nesting {value!r}")
+        if not all(_is_real(v) for v in flat):
+            raise TypeError(f"{name} must be {what}, got {value!r}")
+    elif raw.dtype.kind not in "iuf":
+        raise TypeError(f"{name} must be {what}, got dtype {raw.dtype} in {value!r}")
+    return raw.astype(np.float64)
+
+
+def check_bounds(bounds: Any, low: Any = None, high: Any = None) -> tuple[np.ndarray, np.ndarray]:
+    """Lower and upper bounds from ``bounds`` (d, 2) or from ``low`` and ``high`` (d,).
+
+    Args:
+        bounds: (d, 2) [low, high] per dimension in physical units, or None.
+        low: (d,) lower bounds, only when ``bounds`` is None.
+        high: (d,) upper bounds, only when ``bounds`` is None.
+
+    Returns:
+        (low, high), two (d,) float64 arrays with finite low < high.
+
+    Raises:
+        TypeError: Not numbers.
+        ValueError: Wrong shape, both or neither form given, non-finite, or low >= high.
+    """
+    if bounds is not None:
+        if low is not None or high is not None:
+            raise ValueError("give either bounds=(d, 2) or low=(d,) and high=(d,), not both")
+        array = _real_array(bounds, "bounds", "a (d, 2) array of [low, high] numbers")
+        if array.ndim != 2 or array.shape[1] != 2 or array.shape[0] < 1:
+            raise ValueError(
+                f"bounds must have shape (d, 2) with d >= 1, one [low, high] row per dimension; "
+                f"got shape {array.shape}"
+            )
+        lo, hi = array[:, 0].copy(), array[:, 1].copy()
+    else:
+        if low is None or high is None:
+            raise ValueError(
+                "bounds are missing: give bounds=(d, 2) [low, high] rows, or low=(d,) and high=(d,)"
+            )
+        lo = _real_array(low, "low", "a (d,) array of numbers")
+        hi = _real_array(high, "high", "a (d,) array of numbers")
+        if lo.ndim != 1 or hi.ndim != 1 or lo.shape != hi.shape or lo.size < 1:
+            raise ValueError(
+                f"low and high must both have shape (d,) with d >= 1; got {lo.shape} and {hi.shape}"
+            )
+    if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
+        raise ValueError(f"bounds must be finite, got low={lo.tolist()} high={hi.tolist()}")
+    bad = np.flatnonzero(~(lo < hi))
+    if bad.size:
+        raise ValueError(
+            f"bounds need low < high in every dimension; dimension(s) {bad.tolist()} have "
+            f"low={lo[bad].tolist()} high={hi[bad].tolist()} (drop a dimension to fix it)"
+        )
+    return lo, hi
+
+
+def check_batch_size(batch_size: Any, minimum: int = 1, who: str = "the optimizer") -> int:
+    """``batch_size`` as an int >= ``minimum``.
+
+    Raises:
+        TypeError: Not an int (bools are refused).
+        ValueError: Below ``minimum``.
+    """
+    if not _is_int(batch_size):
+        raise TypeError(f"batch_size must be an int, got {batch_size!r}")
+    if batch_size < minimum:
+        raise ValueError(f"batch_size must be >= {minimum} for {who}, got {batch_size}")
+    return int(batch_size)
+
+
+def make_rng(seed: Any) -> np.random.Generator:
+    """The optimizer's generator from ``seed``.
+
+    Args:
+        seed: An int >= 0, a ``numpy.random.SeedSequence``, a ``numpy.random.Generator`` (used
+            as is, not copied) or None for fresh entropy.
+
+    Returns:
+        A ``numpy.random.Generator``.
+
+    Raises:
+        TypeError: Another type (floats and bools are refused).
+        ValueError: A negative int.
+    """
+    if isinstance(seed, np.random.Generator):
+        return seed
+    if seed is None or isinstance(seed, np.random.SeedSequence):
+        return np.random.default_rng(seed)
+    if _is_int(seed):
+        if seed < 0:
+            raise ValueError(f"seed must be >= 0, got {seed}")
+        return np.random.default_rng(int(seed))
+    raise TypeError(
+        "seed must be an int >= 0, a numpy.random.SeedSequence, a numpy.random.Generator or "
+        f"None; got {seed!r}"
+    )
+
+
+def check_ids(ids: Any) -> tuple[int, ...]:
+    """``ids`` as a tuple of ints.
+
+    Raises:
+        TypeError: Not a 1-D sequence of ints.
+    """
+    if isinstance(ids, np.ndarray):
+        if ids.ndim != 1 or (ids.size and ids.dtype.kind not in "iu"):
+            raise TypeError(
+                f"ids must be a 1-D sequence of ints (e.g. batch.ids), got an array of dtype "
+                f"{ids.dtype} and shape {ids.shape}"
+            )
+        return tuple(int(i) for i in ids)
+    if isinstance(ids, (str, bytes)) or not isinstance(ids, Sequence):
+        raise TypeError(f"ids must be a sequence of ints (e.g. batch.ids), got {ids!r}")
+    bad = [i for i in ids if not _is_int(i)]
+    if bad:
+        raise TypeError(f"ids must be ints (e.g. batch.ids), got {bad[0]!r} in {list(ids)!r}")
+    return tuple(int(i) for i in ids)
+
+
+def check_values(values: Any, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Scores and failure mask from ``values``.
+
+    Args:
+        values: n scores; a real number is a result, None or a non-finite number (nan, inf,
+            -inf) a failed evaluation.
+        n: Number of ids told with them.
+
+    Returns:
+        (values, failed): (n,) float64 with NaN at failures, and the (n,) bool failure mask.
+
+    Raises:
+        TypeError: Not a 1-D sequence of numbers or None.
+        ValueError: Not n of them.
+    """
+    what = "a 1-D sequence of numbers (None, nan or inf mark a failed evaluation)"
+    if isinstance(values, np.ndarray):
+        if values.dtype.kind in "iuf":
+            array = values.astype(np.float64)
+        elif values.dtype.kind == "O":
+            array = _object_values(list(values.ravel()), what).reshape(values.shape)
+        else:
+            raise TypeError(f"values must be {what}, got an array of dtype {values.dtype}")
+    elif isinstance(values, (str, bytes)) or not isinstance(values, Sequence):
+        raise TypeError(f"values must be {what}, got {values!r}")
+    else:
+        array = _object_values(list(values), what)
+    if array.ndim != 1:
+        raise ValueError(f"values must be 1-D, one per id; got shape {array.shape}")
+    if array.shape[0] != n:
+        raise ValueError(f"values must have one entry per id: got {array.shape[0]} for {n} ids")
+    failed = ~np.isfinite(array)
+    return np.where(failed, np.nan, array), failed
+
+
+def _object_values(items: list[Any], what: str) -> np.ndarray:
+    out = np.empty(len(items), dtype=np.float64)
+    for k, v in enumerate(items):
+        if v is None:
+            out[k] = np.nan
+        elif _is_real(v):
+            out[k] = float(v)
+        else:
+            raise TypeError(f"values must be {what}; entry {k} is {v!r}")
+    return out
+
+
+def check_path(path: Any, name: str = "path") -> str:
+    """``path`` as a str after checking it is a str or os.PathLike.
+
+    Raises:
+        TypeError: Another type.
+    """
+    if not isinstance(path, (str, os.PathLike)):
+        raise TypeError(f"{name} must be a str or os.PathLike, got {path!r}")
+    result = os.fspath(path)
+    if isinstance(result, bytes):
+        raise TypeError(f"{name} must be a str path, got bytes {result!r}")
+    return result
