@@ -57,6 +57,7 @@ def import_optional(module: str, *, purpose: str) -> ModuleType:
     """
     top = module.split(".")[0]
     try:
+        importlib.import_module(top)  # a submodule already imported would hide a missing top
         return importlib.import_module(module)
     except ImportError as error:
         distribution = _PACKAGES.get(top, (top, ""))[0]

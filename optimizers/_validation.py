@@ -206,6 +206,8 @@ def _object_values(items: list[Any], what: str) -> np.ndarray:
             out[k] = np.nan
         elif _is_real(v):
             out[k] = float(v)
+        elif isinstance(v, (Sequence, np.ndarray)) and not isinstance(v, (str, bytes)):
+            raise ValueError(f"values must be 1-D, one number per id; entry {k} is {v!r}")
         else:
             raise TypeError(f"values must be {what}; entry {k} is {v!r}")
     return out

@@ -191,7 +191,7 @@ class BayesianOptimization(Optimizer):
         X, y = self._training_data()
         chosen: list[np.ndarray] = []
         with threadpool_limits(limits=1, user_api="blas"), warnings.catch_warnings():
-            # GP fits warn about hyperparameters at their bounds; the fit is still usable.
+            # Fits with fixed hyperparameters may warn about ill-conditioning near believers.
             warnings.simplefilter("ignore")
             gp = self._fitted_model(X, y)
             y_opt = float(np.min(y[~np.asarray(self._failed)]))
@@ -235,7 +235,10 @@ class BayesianOptimization(Optimizer):
         if self._theta is not None:
             kernel = kernel.clone_with_theta(self._theta)
         gp.set_params(kernel=kernel)
-        gp.fit(X, y)
+        with warnings.catch_warnings():
+            # Hyperparameters at their bounds (e.g. no noise) are warned about; the fit is fine.
+            warnings.simplefilter("ignore")
+            gp.fit(X, y)
         noise = max(float(gp.noise_ or 0.0), 1e-5)  # WhiteKernel's lower bound
         self._theta = np.append(gp.kernel_.k1.theta, np.log(noise))
         self._model = gp
