@@ -32,6 +32,7 @@ import contextlib
 import math
 import multiprocessing
 import os
+import signal
 import threading
 import time
 import traceback
@@ -355,7 +356,9 @@ class _RestartingProcessPool(Executor):
         self._pool = self._new_pool()
 
     def _new_pool(self) -> ProcessPoolExecutor:
-        return ProcessPoolExecutor(max_workers=self._workers, mp_context=self._context)
+        return ProcessPoolExecutor(
+            max_workers=self._workers, mp_context=self._context, initializer=_ignore_sigint
+        )
 
     @property
     def max_workers(self) -> int:
@@ -378,6 +381,12 @@ class _RestartingProcessPool(Executor):
     def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
         """Shut the pool down."""
         self._pool.shutdown(wait=wait, cancel_futures=cancel_futures)
+
+
+def _ignore_sigint() -> None:
+    # Ctrl-C reaches the whole process group. Workers ignore it and finish their evaluation;
+    # the main process stops the run and shuts the pool down, so no half-told batch is logged.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def _process_context() -> Any:
