@@ -341,3 +341,17 @@ def test_specs_are_frozen_and_validated():
 
 def test_package_exports():
     assert tooldesign_env.ToolDesignEnv is ToolDesignEnv
+
+
+@pytest.mark.slow
+def test_a_fresh_physics_server_gives_the_same_result(monkeypatch):
+    from tooldesign_env import simulation
+
+    e = ToolDesignEnv()
+    e.reset(seed=0)
+    before = e.step((0.3, -0.7, 0.2))[4]
+    monkeypatch.setattr(simulation, "RECONNECT_EVERY", 1)  # every build reconnects
+    after = e.step((0.3, -0.7, 0.2))[4]
+    np.testing.assert_array_equal(before["box_trajectory"], after["box_trajectory"])
+    assert before["free_energy"] == after["free_energy"]
+    e.close()

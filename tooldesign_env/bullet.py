@@ -26,6 +26,9 @@ PANDA_DIR = os.path.join(pybullet_data.getDataPath(), "franka_panda")
 ARM_JOINTS = tuple(f"panda_joint{i}" for i in range(1, 8))
 EE_LINK = "panda_grasptarget"
 TOOL_LINK = "tool"
+# Bound at import: during interpreter shutdown module globals may already be None when
+# __del__ runs.
+_BULLET_ERROR = pybullet.error
 
 
 def panda_urdf_with_tool(tool_link_xml: str | None, *, visuals: bool) -> str:
@@ -94,11 +97,16 @@ class BulletWorld:
         time_step: float = 1.0 / 240.0,
         solver_iterations: int = 50,
     ) -> None:
-        mode = pybullet.GUI if render_mode == "human" else pybullet.DIRECT
-        self._client: BulletClient | None = BulletClient(connection_mode=mode)
         self.render_mode = render_mode
         self.time_step = time_step
         self.solver_iterations = solver_iterations
+        self._client: BulletClient | None = None
+        self._states: list[int] = []
+        self._connect()
+
+    def _connect(self) -> None:
+        mode = pybullet.GUI if self.render_mode == "human" else pybullet.DIRECT
+        self._client = BulletClient(connection_mode=mode)
         cid = self._client._client
         self.client_id = cid
         # Bound once: the control loop calls these thousands of times per episode, and
@@ -115,7 +123,6 @@ class BulletWorld:
         self._link_state = functools.partial(pybullet.getLinkState, physicsClientId=cid)
         self._contacts = functools.partial(pybullet.getContactPoints, physicsClientId=cid)
         self._base_velocity = functools.partial(pybullet.getBaseVelocity, physicsClientId=cid)
-        self._states: list[int] = []
         self.reset()
 
     # ------------------------------------------------------------------ world
@@ -125,6 +132,19 @@ class BulletWorld:
         if self._client is None:
             raise RuntimeError("this BulletWorld is closed")
         return self._client
+
+    def reconnect(self) -> None:
+        """Replace the physics server by a fresh one (the GUI keeps its window).
+
+        PyBullet keeps every URDF it has loaded, by file name, for the life of the server, and
+        each build uses a new name: about 26 KB per build. A fresh server drops them.
+        """
+        if self.render_mode == "human":
+            self.reset()
+            return
+        self.close()
+        self._states.clear()
+        self._connect()
 
     def reset(self) -> None:
         """Empty the world and set gravity, time step and solver settings."""
@@ -358,7 +378,7 @@ class BulletWorld:
         if self._client is not None:
             try:
                 self._client.disconnect()
-            except pybullet.error:
+            except _BULLET_ERROR:
                 pass
             self._client = None
 

@@ -22,6 +22,9 @@ __all__ = ["PHASES", "Trajectory", "ToolSimulator", "principal_inertia"]
 
 PHASES = ("lower", "settle", "sweep", "pull", "hold")
 
+#: Builds between two fresh physics servers (see BulletWorld.reconnect).
+RECONNECT_EVERY = 100
+
 # The plan's joint references depend only on the plan and the control period, not on the tool:
 # solved once per process (about a second of inverse kinematics).
 _REFERENCES: dict[tuple[PlanSpec, float], JointReference] = {}
@@ -135,6 +138,7 @@ class ToolSimulator:
         self._box: int | None = None
         self._snapshots: _Snapshots | None = None
         self._last_torques: np.ndarray | None = None
+        self._builds = 0
 
     # ---------------------------------------------------------------- setup
     @property
@@ -184,6 +188,9 @@ class ToolSimulator:
         scene = self.scene
         reference = self.reference
         world = self.world
+        self._builds += 1
+        if self._builds % RECONNECT_EVERY == 0:
+            world.reconnect()  # else PyBullet's cache of loaded URDFs grows with every build
         world.reset()
         world.add_floor(friction=scene.floor_friction)
         self._box = world.add_box(

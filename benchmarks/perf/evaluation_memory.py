@@ -34,7 +34,11 @@ def main() -> None:
     parser.add_argument("--evaluations", type=int, default=1000)
     parser.add_argument("--warmup", type=int, default=20)
     args = parser.parse_args()
-    tmp = tempfile.gettempdir()
+    # A private temporary folder: whatever is left in it at the end was left by this run, not
+    # by other programs on the machine.
+    tmp = tempfile.mkdtemp(prefix="tooldesign-memory-")
+    tempfile.tempdir = tmp
+    os.environ["TMPDIR"] = tmp
     before_files = set(os.listdir(tmp))
     env = ToolDesignEnv()
     env.reset(seed=0)
@@ -55,7 +59,9 @@ def main() -> None:
     print(
         f"RSS after warm-up {start:.1f} MB, at the end {end:.1f} MB: growth {end - start:+.1f} MB"
     )
-    print(f"files left in {tmp}: {len(left)} {left[:5]}")
+    print(f"files left in the run's temporary folder: {len(left)} {left[:5]}")
+    if not left:
+        os.rmdir(tmp)
 
 
 if __name__ == "__main__":
