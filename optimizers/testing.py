@@ -106,7 +106,7 @@ def check_asks_inside_bounds(factory: Factory) -> None:
     for bounds in boxes:
         d = len(bounds)
         optimizer = _make(factory, bounds=bounds, batch_size=5, seed=3)
-        for _ in range(4):
+        for _ in range(3):
             batch = optimizer.ask()
             assert isinstance(batch, Batch), f"ask() must return a Batch, got {type(batch)}"
             assert isinstance(batch.ids, tuple) and all(
