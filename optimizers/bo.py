@@ -58,8 +58,9 @@ class _Posterior:
     """A fitted skopt GP whose ``predict`` uses scikit-learn's O(n_points n^2) BLAS path.
 
     skopt's ``GaussianProcessRegressor.predict(return_std=True)`` computes the variance with
-    ``einsum("ki,kj,ij->k")``, which is slow for many candidates; scikit-learn's parent method
-    gives the same mean and std (the fitted noise is excluded in both) by a triangular solve.
+    ``einsum("ki,kj,ij->k")`` and an explicit inverse of K, which is slow for many candidates and
+    loses digits when K is ill-conditioned; scikit-learn's parent method gives the same mean and
+    std (the fitted noise is excluded in both) by a triangular solve.
     """
 
     def __init__(self, gp: Any) -> None:
@@ -84,7 +85,9 @@ class BayesianOptimization(Optimizer):
         n_initial_points: Points of the space-filling initial design, >= 1 (skopt's default 10).
         acq_func: ``"EI"`` (expected improvement), ``"PI"`` (probability of improvement) or
             ``"LCB"`` (lower confidence bound).
-        xi: EI and PI: improvement margin, in units of the objective, >= 0.
+        xi: EI and PI: improvement margin, in units of the objective, >= 0. The default 0 is
+            plain EI; skopt's 0.01 stops refining once values differ by less than 0.01 (on a
+            shifted sphere it ends 40 times further from the minimum at 48 evaluations).
         kappa: LCB: weight of the predictive std, >= 0.
         n_points: Uniform candidates the acquisition is evaluated on per point, >= 1.
         acq_optimizer: ``"sampling"`` (refine the best candidate by local sampling rounds) or
@@ -106,7 +109,7 @@ class BayesianOptimization(Optimizer):
         *,
         n_initial_points: int = 10,
         acq_func: str = "EI",
-        xi: float = 0.01,
+        xi: float = 0.0,
         kappa: float = 1.96,
         n_points: int = 1000,
         acq_optimizer: str = "sampling",
