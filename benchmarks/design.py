@@ -57,8 +57,10 @@ __all__ = [
     "FILES",
     "DesignConfig",
     "DesignResult",
+    "DesignStepper",
     "ResumeError",
     "add_parser",
+    "best_evaluation",
     "config_from_args",
     "run_design",
 ]
@@ -429,11 +431,15 @@ def _batch_frame(
     x: np.ndarray,
     rows: Sequence[Mapping[str, Any]],
     opt_time: float,
+    *,
+    suite: str = DESIGN_SUITE,
+    variant: str = "",
+    optimizer: str | None = None,
 ) -> pd.DataFrame:
     n = len(rows)
     data: dict[str, Any] = {
-        "suite": [DESIGN_SUITE] * n,
-        "optimizer": [config.optimizer] * n,
+        "suite": [suite] * n,
+        "optimizer": [config.optimizer if optimizer is None else optimizer] * n,
         "seed": [config.seed] * n,
         "iteration": [iteration] * n,
         "candidate": list(range(n)),
@@ -450,7 +456,7 @@ def _batch_frame(
         data[axis] = [value] * n
     data["goal_precision"] = [config.goal_precision] * n
     data["box_mass"] = [config.box_mass] * n
-    data["variant"] = [""] * n
+    data["variant"] = [variant] * n
     return pd.DataFrame(data)
 
 
@@ -471,6 +477,114 @@ def _manifest(
         optimizer_time=totals.get("optimizer_time"),
         extra={"kind": DESIGN_SUITE, "sessions": sessions},
     )
+
+
+# --- one iteration at a time ------------------------------------------------------------------
+
+
+class DesignStepper:
+    """Algorithm 1 one iteration at a time, for a caller that evaluates the batches itself.
+
+    :func:`run_design` drives one stepper with :func:`~benchmarks.evaluation.evaluate_batch`;
+    ``benchmarks.runner`` drives many at once on one worker pool. The stepper owns the optimizer
+    and the iteration count; the caller owns the executor and the store.
+
+    Args:
+        config: The run's designer, budget and task.
+        suite: ``suite`` column of the rows it makes.
+        variant: ``variant`` column of the rows it makes.
+        label: ``optimizer`` column of the rows; ``config.optimizer`` if ``None``.
+
+    Raises:
+        ValueError: If the optimizer is unknown or its settings are invalid.
+        ImportError: If the optimizer's backend is not installed (the message names the extra).
+    """
+
+    def __init__(
+        self,
+        config: DesignConfig,
+        *,
+        suite: str = DESIGN_SUITE,
+        variant: str = "",
+        label: str | None = None,
+    ) -> None:
+        self.config = config
+        self.optimizer = _make_optimizer(config)
+        self.iteration = 0
+        self._suite, self._variant, self._label = suite, variant, label
+        self._asked: tuple[np.ndarray, np.ndarray, float] | None = None
+
+    def replay(self, logged: Sequence[pd.DataFrame]) -> None:
+        """Ask and tell the logged iterations again, checking each ask against the log.
+
+        Args:
+            logged: The logged batches of iterations 0, 1, ..., in order.
+
+        Raises:
+            ResumeError: If the optimizer asks other designs than the log holds.
+        """
+        if self.iteration or self._asked is not None:
+            raise RuntimeError("replay() must come before the first ask()")
+        _replay(self.optimizer, self.config, list(logged))
+        self.iteration = len(logged)
+
+    def ask(self) -> np.ndarray:
+        """The next batch: (batch_size, n) coefficients to evaluate, in order."""
+        if self._asked is not None:
+            raise RuntimeError("tell() the last batch before asking the next one")
+        tick = time.perf_counter()
+        ids, x = _ask(self.optimizer, self.config)
+        self._asked = (ids, x, time.perf_counter() - tick)
+        return x
+
+    def tell(self, rows: Sequence[Mapping[str, Any]]) -> pd.DataFrame:
+        """Tell the evaluated batch and return its rows of the evaluation log.
+
+        Args:
+            rows: One row of :func:`~benchmarks.evaluation.evaluate_design` per asked design, in
+                the asked order.
+
+        Returns:
+            The batch's evaluation-log rows, ``opt_time`` = (ask + tell time) / batch size.
+        """
+        if self._asked is None:
+            raise RuntimeError("ask() a batch before telling it")
+        ids, x, ask_time = self._asked
+        if len(rows) != len(ids):
+            raise ValueError(f"expected {len(ids)} evaluated rows, got {len(rows)}")
+        frame = _batch_frame(
+            self.config,
+            self.iteration,
+            ids,
+            x,
+            rows,
+            0.0,
+            suite=self._suite,
+            variant=self._variant,
+            optimizer=self._label,
+        )
+        values, failed = _values(frame)
+        tick = time.perf_counter()
+        _tell(self.optimizer, ids, values, failed)
+        frame["opt_time"] = (ask_time + time.perf_counter() - tick) / len(ids)
+        self._asked = None
+        self.iteration += 1
+        return frame
+
+
+def best_evaluation(evaluations: pd.DataFrame) -> pd.Series:
+    """The design of a run: its lowest-F ``ok`` evaluation (the first in log order on ties).
+
+    Args:
+        evaluations: The evaluation-log rows of one run, in log order.
+
+    Returns:
+        That row; the lowest-penalty ``invalid`` row (with a warning) if none is ``ok``.
+
+    Raises:
+        RuntimeError: If every evaluation failed.
+    """
+    return _best_row(evaluations)
 
 
 # --- Algorithm 1 -------------------------------------------------------------------------------
@@ -509,7 +623,7 @@ def run_design(
     session_start = time.perf_counter()
     session = {"start_time": _now().isoformat(), "wall_time": 0.0}
     previous = _previous_session(out, config, bool(resume))
-    optimizer = _make_optimizer(config)
+    stepper = DesignStepper(config)
     store = ResultStore(out)
     if previous is None:
         start_time = _now()
@@ -522,7 +636,7 @@ def run_design(
         store.remove_stale_temp_files()
         store.write_manifest(_manifest(config, start_time, sessions, None, None))
     logged = _logged_iterations(store, config)
-    _replay(optimizer, config, logged)
+    stepper.replay(logged)
     best = min((_best_ok(p) for p in logged), default=math.inf)
     evaluations_done = sum(len(p) for p in logged)
     task = config.task()
@@ -542,15 +656,9 @@ def run_design(
         try:
             bar.set_postfix(evals=evaluations_done, best_F=_fmt(best))
             for iteration in range(len(logged), config.iterations):
-                tick = time.perf_counter()
-                ids, x = _ask(optimizer, config)
-                ask_time = time.perf_counter() - tick
+                x = stepper.ask()
                 rows = evaluate_batch(executor, x, task)
-                frame = _batch_frame(config, iteration, ids, x, rows, 0.0)
-                values, failed = _values(frame)
-                tick = time.perf_counter()
-                _tell(optimizer, ids, values, failed)
-                frame["opt_time"] = (ask_time + time.perf_counter() - tick) / len(ids)
+                frame = stepper.tell(rows)
                 store.write_batch(frame)
                 _warn_failures(iteration, rows)
                 best = min(best, _best_ok(frame))

@@ -58,6 +58,7 @@ __all__ = [
     "evaluate_robustness_of_design",
     "make_executor",
     "map_robust",
+    "outcome_row",
 ]
 
 ExecutorKind = Literal["serial", "process", "dask"]
@@ -549,10 +550,22 @@ def evaluate_batch(
     requests = [
         EvaluationRequest(coeffs=d, task=task, keep_trajectory=keep_trajectory) for d in designs
     ]
-    rows = []
-    for result, exc, seconds in map_robust(executor, evaluate_design, requests):
-        if exc is not None:
-            what = "worker process died" if isinstance(exc, BrokenProcessPool) else "worker error"
-            result = _failed_row(f"{what}: {_describe(exc)}", seconds)
-        rows.append(result)
-    return rows
+    return [outcome_row(*outcome) for outcome in map_robust(executor, evaluate_design, requests)]
+
+
+def outcome_row(result: Any, exc: BaseException | None, seconds: float) -> dict[str, Any]:
+    """The evaluation row of one outcome of :func:`map_robust` over :func:`evaluate_design`.
+
+    Args:
+        result: The row the worker returned (ignored if ``exc`` is given).
+        exc: The exception of a worker that raised or died, or ``None``.
+        seconds: Wall time until the outcome was known.
+
+    Returns:
+        ``result``, or a ``"failed"`` row with NaN metrics, the error in ``message`` and
+        ``seconds`` as ``eval_time``.
+    """
+    if exc is None:
+        return result
+    what = "worker process died" if isinstance(exc, BrokenProcessPool) else "worker error"
+    return _failed_row(f"{what}: {_describe(exc)}", seconds)
