@@ -1,0 +1,798 @@
+"""Benchmark suites, declared: frozen configs written in Python, TOML or JSON.
+
+A suite is a set of design runs (Algorithm 1) that share one task family and one budget: every
+combination of a *variant* (a goal precision p^X, optionally named), an *optimizer* (a registry
+name with its settings) and a *task* (a seed, and a goal when goals are drawn at random). The
+runner (:mod:`benchmarks.runner`) executes the runs into one run folder; the report
+(:mod:`benchmarks.suite_reports`) turns the stored results into the suite's figures and tables.
+
+Randomness is explicit and comes from ONE root seed: task ``i`` is child ``i`` of
+``numpy.random.SeedSequence(root_seed).spawn(n_seeds)``. Its optimizer seed is the child's first
+32-bit state word, and its random goal (if ``goal_box`` is set) is drawn from a generator on the
+child's own first spawned child. Every variant and every optimizer sees the same tasks.
+
+The built-in suites reproduce Section IV of the paper, each at two sizes (``smoke`` for CI,
+``full`` for the paper's scale); :func:`builtin_suite` makes them. ``docs/benchmarks.md`` shows
+how to write a suite file.
+
+Example:
+    >>> from benchmarks.suites import builtin_suite
+    >>> suite = builtin_suite("optimizers", "smoke")
+    >>> [o.name for o in suite.optimizers]
+    ['cmaes', 'bo', 'pso', 'random']
+    >>> len(suite.runs())
+    8
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import os
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from benchmarks.design import DesignConfig
+from benchmarks.evaluation import TaskSettings
+from benchmarks.storage import atomic_write_text
+
+__all__ = [
+    "BUILTIN_SUITES",
+    "ENV_IDS",
+    "FIGURES",
+    "RUNTIME_FIELDS",
+    "SIZES",
+    "OptimizerSpec",
+    "RunSpec",
+    "SuiteConfig",
+    "Task",
+    "Variant",
+    "builtin_suite",
+    "load_suite",
+    "save_suite",
+    "suite_from_json",
+]
+
+SIZES: tuple[str, ...] = ("smoke", "full")
+"""Sizes of the built-in suites: ``smoke`` (CI, minutes for all four), ``full`` (the paper's)."""
+
+ENV_IDS: tuple[str, ...] = ("ToolDesign-v0",)
+"""Environment ids the evaluation workers can build (``benchmarks.evaluation`` makes this one)."""
+
+FIGURES: dict[str, str] = {
+    "tool-shapes": "tool shapes side by side with their box paths (needs keep_paths)",
+    "robustness-table": "the paper's Table I per labelled variant (needs test_robustness)",
+    "robustness-scatter": "robustness against squared goal error (needs test_robustness)",
+    "mass-paths": "box paths under every box mass, per variant (needs test_robustness and "
+    "keep_paths)",
+}
+"""Suite-specific reports a suite may ask for, and what each shows."""
+
+RUNTIME_FIELDS: frozenset[str] = frozenset({"executor", "workers", "scheduler"})
+"""Fields that do not change the results: a resumed suite may set them differently."""
+
+_DEFAULT_GOAL = (0.0, 1.5, 0.1)
+_PAPER_MASSES = (0.3, 0.5, 0.7, 0.9)
+
+
+# --- small validators --------------------------------------------------------------------------
+
+
+def _int(name: str, value: Any, minimum: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise TypeError(f"{name} must be an int, got {type(value).__name__} {value!r}")
+    if value < minimum:
+        raise ValueError(f"{name} must be >= {minimum}, got {value}")
+    return int(value)
+
+
+def _number(name: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise TypeError(f"{name} must be a number, got {type(value).__name__} {value!r}")
+    if not math.isfinite(float(value)):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    return float(value)
+
+
+def _name(name: str, value: Any, *, allow_empty: bool = False) -> str:
+    if not isinstance(value, str):
+        raise TypeError(f"{name} must be a string, got {type(value).__name__} {value!r}")
+    if value != value.strip() or (not value and not allow_empty):
+        raise ValueError(f"{name} must be a non-empty name without surrounding spaces: {value!r}")
+    return value
+
+
+def _sequence(name: str, value: Any) -> tuple[Any, ...]:
+    if isinstance(value, (str, bytes, Mapping)) or not isinstance(value, (Sequence, np.ndarray)):
+        raise TypeError(f"{name} must be a list, got {type(value).__name__} {value!r}")
+    return tuple(value)
+
+
+def _json_settings(name: str, value: Any) -> tuple[tuple[str, Any], ...]:
+    if isinstance(value, Mapping):
+        value = tuple(value.items())
+    try:
+        pairs = tuple(sorted((k, v) for k, v in value))
+    except (TypeError, ValueError):
+        raise TypeError(f"{name} must be a table of names to values, got {value!r}") from None
+    for key, item in pairs:
+        if not isinstance(key, str) or not key.isidentifier():
+            raise ValueError(f"{name} keys must be identifiers, got {key!r}")
+        try:
+            json.dumps(item, allow_nan=False)
+        except (TypeError, ValueError):
+            raise TypeError(
+                f"{name}[{key!r}] must be a JSON value (number, string, bool, list), got {item!r}"
+            ) from None
+    return pairs
+
+
+def _from_mapping(cls: type, data: Any, where: str) -> Any:
+    """``cls(**data)`` with an error that names unknown keys instead of a bare TypeError."""
+    if isinstance(data, cls):
+        return data
+    if not isinstance(data, Mapping):
+        raise TypeError(f"{where} must be a table (mapping), got {type(data).__name__} {data!r}")
+    fields = {f.name for f in dataclasses.fields(cls)}
+    unknown = sorted(set(data) - fields)
+    if unknown:
+        raise ValueError(f"{where}: unknown keys {unknown}; allowed: {sorted(fields)}")
+    return cls(**data)
+
+
+# --- parts of a suite --------------------------------------------------------------------------
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class OptimizerSpec:
+    """One optimizer of a suite.
+
+    Attributes:
+        name: Name in the :mod:`optimizers` registry (``cmaes``, ``bo``, ``pso``, ``random``,
+            ``optuna-tpe``, ...) or a ``"module:Class"`` string.
+        settings: Keyword arguments of the optimizer, JSON values (stored as sorted pairs).
+        label: Name in the evaluation log's ``optimizer`` column; ``name`` if empty. Two specs
+            of one optimizer with different settings need different labels.
+    """
+
+    name: str
+    settings: tuple[tuple[str, Any], ...] | Mapping[str, Any] = ()
+    label: str = ""
+
+    def __post_init__(self) -> None:
+        _name("optimizer name", self.name)
+        object.__setattr__(
+            self, "settings", _json_settings(f"settings of {self.name}", self.settings)
+        )
+        _name("optimizer label", self.label, allow_empty=True)
+
+    @property
+    def column(self) -> str:
+        """The ``optimizer`` column of its runs: ``label`` or ``name``."""
+        return self.label or self.name
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class Variant:
+    """One setting of the objective under which every optimizer and task is run.
+
+    Attributes:
+        name: ``variant`` column of its runs ("" for a suite with one variant); short and
+            path-friendly, e.g. ``"p20"``.
+        goal_precision: p^X of this variant in 1/m^2, >= 0; the suite's if ``None``.
+        label: What the paper calls it, e.g. ``"free energy"``; tables show it.
+    """
+
+    name: str = ""
+    goal_precision: float | None = None
+    label: str = ""
+
+    def __post_init__(self) -> None:
+        _name("variant name", self.name, allow_empty=True)
+        if self.goal_precision is not None:
+            value = _number(f"goal_precision of variant {self.name!r}", self.goal_precision)
+            if value < 0:
+                raise ValueError(f"goal_precision of variant {self.name!r} must be >= 0")
+            object.__setattr__(self, "goal_precision", value)
+        if not isinstance(self.label, str):
+            raise TypeError(f"label of variant {self.name!r} must be a string")
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class Task:
+    """One task of a suite: what every variant and optimizer is run on.
+
+    Attributes:
+        index: Position i in ``SeedSequence(root_seed).spawn(n_seeds)``.
+        seed: The optimizer seed, a 32-bit state word of child i.
+        goal: X^g, (x, y, z) in m.
+    """
+
+    index: int
+    seed: int
+    goal: tuple[float, float, float]
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class RunSpec:
+    """One design run of a suite: a variant, an optimizer and a task.
+
+    Attributes:
+        suite: The suite name (``suite`` column).
+        variant: The variant.
+        optimizer: The optimizer.
+        task: The task.
+        design: The run as a :class:`~benchmarks.design.DesignConfig` (designer, budget, goal,
+            p^X, executor).
+    """
+
+    suite: str
+    variant: Variant
+    optimizer: OptimizerSpec
+    task: Task
+    design: DesignConfig
+
+    @property
+    def key(self) -> tuple[str, str, str, int]:
+        """``(suite, variant, optimizer column, seed)``: the run's key in the evaluation log."""
+        return (self.suite, self.variant.name, self.optimizer.column, self.task.seed)
+
+
+# --- the suite ---------------------------------------------------------------------------------
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class SuiteConfig:
+    """A benchmark suite: the task family, the optimizers, the budget, the seeds, the executor.
+
+    Runs: every (task, variant, optimizer), in that order, so that an interrupted suite has
+    whole tasks for every optimizer first.
+
+    Attributes:
+        name: Suite name (the log's ``suite`` column), e.g. ``"optimizers"``.
+        description: One line saying what the suite shows.
+        env_id: The Gymnasium env the designs are scored with (see :data:`ENV_IDS`).
+        goal: X^g, (x, y, z) in m, used when ``goal_box`` is ``None``.
+        goal_box: ``((x_lo, x_hi), (y_lo, y_hi), (z_lo, z_hi))`` in m: draw each task's goal
+            uniformly in this box from the task's seed; ``None`` uses ``goal`` for every task.
+        goal_precision: p^X in 1/m^2 of variants that do not set their own.
+        box_mass: Nominal box mass in kg.
+        estimator: ``"trajectory"`` or ``"resimulation"`` estimate of dX/dU.
+        bounds: (n, 2) coefficient bounds; ``None`` is ``default_bounds(3)``.
+        variants: The variants, names unique.
+        optimizers: The optimizers, log names (labels) unique.
+        batch_size: Designs per iteration (the population size), the same for every optimizer.
+        iterations: Iterations K of every run.
+        root_seed: The one root seed of the tasks.
+        n_seeds: Number of tasks (seeds; goals when ``goal_box`` is set).
+        test_robustness: Test each run's design under ``robustness_masses``.
+        robustness_masses: Altered box masses m_i in kg.
+        keep_paths: Keep the box paths of each run's design (nominal mass, and every altered
+            mass with ``test_robustness``) for the figures.
+        figures: Suite-specific reports (keys of :data:`FIGURES`).
+        executor: ``"serial"``, ``"process"`` or ``"dask"``.
+        workers: Worker processes; ``None`` is ``os.cpu_count()``.
+        scheduler: Address of a running Dask scheduler (with ``executor="dask"``).
+    """
+
+    name: str
+    description: str = ""
+    env_id: str = "ToolDesign-v0"
+    goal: Sequence[float] = _DEFAULT_GOAL
+    goal_box: Sequence[Sequence[float]] | None = None
+    goal_precision: float = 20.0
+    box_mass: float = 0.1
+    estimator: str = "trajectory"
+    bounds: Sequence[Sequence[float]] | None = None
+    variants: Sequence[Variant] = (Variant(),)
+    optimizers: Sequence[OptimizerSpec] = (OptimizerSpec(name="cmaes"),)
+    batch_size: int = 8
+    iterations: int = 15
+    root_seed: int = 0
+    n_seeds: int = 10
+    test_robustness: bool = False
+    robustness_masses: Sequence[float] = _PAPER_MASSES
+    keep_paths: bool = False
+    figures: Sequence[str] = ()
+    executor: str = "process"
+    workers: int | None = None
+    scheduler: str | None = None
+
+    def __post_init__(self) -> None:
+        _name("name", self.name)
+        if not isinstance(self.description, str):
+            raise TypeError("description must be a string")
+        if self.env_id not in ENV_IDS:
+            raise ValueError(
+                f"env_id must be one of {list(ENV_IDS)} (the env the evaluation workers build), "
+                f"got {self.env_id!r}"
+            )
+        task = TaskSettings(
+            goal=self.goal,
+            goal_precision=self.goal_precision,
+            box_mass=self.box_mass,
+            estimator=self.estimator,
+        )
+        object.__setattr__(self, "goal", task.goal)
+        object.__setattr__(self, "goal_precision", task.goal_precision)
+        object.__setattr__(self, "box_mass", task.box_mass)
+        object.__setattr__(self, "goal_box", self._checked_goal_box())
+        variants = tuple(
+            _from_mapping(Variant, v, f"variants[{i}]")
+            for i, v in enumerate(_sequence("variants", self.variants))
+        )
+        optimizers = tuple(
+            _from_mapping(OptimizerSpec, o, f"optimizers[{i}]")
+            for i, o in enumerate(_sequence("optimizers", self.optimizers))
+        )
+        for what, items, key in (
+            ("variants", variants, lambda v: v.name),
+            ("optimizers", optimizers, lambda o: o.column),
+        ):
+            if not items:
+                raise ValueError(f"{what} must hold at least one entry")
+            names = [key(item) for item in items]
+            if len(set(names)) != len(names):
+                raise ValueError(f"{what} must have unique names (labels), got {names}")
+        object.__setattr__(self, "variants", variants)
+        object.__setattr__(self, "optimizers", optimizers)
+        object.__setattr__(self, "batch_size", _int("batch_size", self.batch_size, 1))
+        object.__setattr__(self, "iterations", _int("iterations", self.iterations, 1))
+        object.__setattr__(self, "root_seed", _int("root_seed", self.root_seed, 0))
+        object.__setattr__(self, "n_seeds", _int("n_seeds", self.n_seeds, 1))
+        for flag in ("test_robustness", "keep_paths"):
+            if not isinstance(getattr(self, flag), bool):
+                raise TypeError(f"{flag} must be true or false, got {getattr(self, flag)!r}")
+        masses = tuple(
+            _number("robustness_masses", m)
+            for m in _sequence("robustness_masses", self.robustness_masses)
+        )
+        if not masses or min(masses) <= 0:
+            raise ValueError(f"robustness_masses must be one or more masses > 0 kg, got {masses}")
+        object.__setattr__(self, "robustness_masses", masses)
+        figures = tuple(_sequence("figures", self.figures))
+        for figure in figures:
+            if figure not in FIGURES:
+                raise ValueError(f"unknown figure {figure!r}; allowed: {sorted(FIGURES)}")
+        needs = {
+            "tool-shapes": ("keep_paths",),
+            "robustness-table": ("test_robustness",),
+            "robustness-scatter": ("test_robustness",),
+            "mass-paths": ("test_robustness", "keep_paths"),
+        }
+        for figure in figures:
+            missing = [flag for flag in needs[figure] if not getattr(self, flag)]
+            if missing:
+                raise ValueError(f"figure {figure!r} needs {' and '.join(missing)} = true")
+        object.__setattr__(self, "figures", figures)
+        # One DesignConfig per variant checks the rest (bounds, executor, workers, scheduler,
+        # estimator) with the messages the design command gives; the bounds come back as tuples.
+        for variant in variants:
+            design = self._design(variant, OptimizerSpec(name="random"), 0, self.goal)
+        object.__setattr__(self, "bounds", design.bounds)
+        object.__setattr__(self, "workers", design.workers)
+
+    def _checked_goal_box(self) -> tuple[tuple[float, float], ...] | None:
+        if self.goal_box is None:
+            return None
+        rows = _sequence("goal_box", self.goal_box)
+        if len(rows) != 3:
+            raise ValueError(f"goal_box must be 3 [low, high] pairs (x, y, z) in m, got {rows}")
+        box = []
+        for axis, row in zip("xyz", rows, strict=True):
+            pair = tuple(_number(f"goal_box {axis}", v) for v in _sequence(f"goal_box {axis}", row))
+            if len(pair) != 2 or pair[0] > pair[1]:
+                raise ValueError(f"goal_box {axis} must be [low, high] with low <= high: {pair}")
+            box.append(pair)
+        return tuple(box)
+
+    def _design(
+        self, variant: Variant, optimizer: OptimizerSpec, seed: int, goal: Sequence[float]
+    ) -> DesignConfig:
+        precision = (
+            self.goal_precision if variant.goal_precision is None else variant.goal_precision
+        )
+        return DesignConfig(
+            optimizer=optimizer.name,
+            optimizer_settings=optimizer.settings,
+            seed=seed,
+            iterations=self.iterations,
+            batch_size=self.batch_size,
+            workers=self.workers,
+            executor=self.executor,
+            scheduler=self.scheduler,
+            goal=tuple(goal),
+            goal_precision=precision,
+            box_mass=self.box_mass,
+            estimator=self.estimator,
+            bounds=self.bounds,
+            robustness_masses=self.robustness_masses,
+        )
+
+    # derived plans
+
+    def seeds(self) -> tuple[int, ...]:
+        """The optimizer seed of each task, from ``SeedSequence(root_seed).spawn(n_seeds)``."""
+        children = np.random.SeedSequence(self.root_seed).spawn(self.n_seeds)
+        return tuple(int(child.generate_state(1, dtype=np.uint32)[0]) for child in children)
+
+    def tasks(self) -> tuple[Task, ...]:
+        """The tasks every variant and optimizer runs: seed and goal of each."""
+        children = np.random.SeedSequence(self.root_seed).spawn(self.n_seeds)
+        tasks = []
+        for index, (child, seed) in enumerate(zip(children, self.seeds(), strict=True)):
+            goal = self.goal
+            if self.goal_box is not None:
+                # A stream of its own (the child's first child), apart from the optimizer seed.
+                rng = np.random.default_rng(child.spawn(1)[0])
+                low, high = np.asarray(self.goal_box, dtype=np.float64).T
+                goal = tuple(float(v) for v in rng.uniform(low, high))
+            tasks.append(Task(index=index, seed=seed, goal=tuple(goal)))  # type: ignore[arg-type]
+        return tuple(tasks)
+
+    def runs(self) -> tuple[RunSpec, ...]:
+        """Every design run, task by task, then variant, then optimizer."""
+        runs = []
+        for task in self.tasks():
+            for variant in self.variants:
+                for optimizer in self.optimizers:
+                    runs.append(
+                        RunSpec(
+                            suite=self.name,
+                            variant=variant,
+                            optimizer=optimizer,
+                            task=task,
+                            design=self._design(variant, optimizer, task.seed, task.goal),
+                        )
+                    )
+        return tuple(runs)
+
+    def evaluations(self) -> int:
+        """Planned evaluations of the design runs (final tests not counted)."""
+        runs = self.n_seeds * len(self.variants) * len(self.optimizers)
+        return runs * self.iterations * self.batch_size
+
+    # conversions
+
+    def to_json(self) -> dict[str, Any]:
+        """The suite as JSON values: what :func:`suite_from_json` and suite files accept."""
+        data = dataclasses.asdict(self)
+        data["optimizers"] = [
+            {**dataclasses.asdict(o), "settings": dict(o.settings)} for o in self.optimizers
+        ]
+        return json.loads(json.dumps(data, allow_nan=False))
+
+    def replace(self, **changes: Any) -> SuiteConfig:
+        """A copy with some fields changed (validated again)."""
+        return dataclasses.replace(self, **changes)
+
+
+def suite_from_json(data: Mapping[str, Any], *, where: str = "suite") -> SuiteConfig:
+    """Make a :class:`SuiteConfig` from JSON values (``SuiteConfig.to_json`` or a suite file).
+
+    Args:
+        data: The fields; ``variants`` and ``optimizers`` as lists of tables.
+        where: What ``data`` is, for error messages (e.g. the file path).
+
+    Returns:
+        The validated suite.
+
+    Raises:
+        TypeError, ValueError: If a key is unknown or a value is invalid; the message names it.
+    """
+    try:
+        if not isinstance(data, Mapping):
+            raise TypeError(f"must be a table (mapping), got {type(data).__name__}")
+        fields = dict(data)
+        for key, cls in (("variants", Variant), ("optimizers", OptimizerSpec)):
+            if key in fields:
+                items = _sequence(key, fields[key])
+                fields[key] = tuple(
+                    _from_mapping(cls, item, f"{key}[{i}]") for i, item in enumerate(items)
+                )
+        return _from_mapping(SuiteConfig, fields, where)  # type: ignore[no-any-return]
+    except (TypeError, ValueError) as err:
+        message = str(err)
+        raise type(err)(message if message.startswith(where) else f"{where}: {message}") from None
+
+
+# --- the paper's suites ------------------------------------------------------------------------
+
+
+def _precision_variants(
+    values: Sequence[float], labels: Mapping[float, str] | None = None
+) -> tuple[Variant, ...]:
+    labels = labels or {}
+    return tuple(
+        Variant(name=f"p{v:g}", goal_precision=float(v), label=labels.get(v, "")) for v in values
+    )
+
+
+_PAPER_OPTIMIZERS = ("cmaes", "bo", "pso", "random")
+_PEERS = ("optuna-tpe", "optuna-cmaes", "nevergrad")
+_SMOKE = {"n_seeds": 2, "iterations": 2, "batch_size": 4}
+
+# The seven p^X values of the robustness scatter: 0, 20 and 50 of Table I, 50 as the top (the
+# paper's caption calls p^X = 50 the pure-performance end), and 5, 10, 30, 40 in between, with
+# 5 added where the two terms of F are of similar size (confidence per step is O(1-10), the goal
+# error per step 1/2 p^X |X - X^g|^2 with |X - X^g| of 0.1-1 m).
+ROBUSTNESS_PRECISIONS: tuple[float, ...] = (0.0, 5.0, 10.0, 20.0, 30.0, 40.0, 50.0)
+OBJECTIVE_LABELS: dict[float, str] = {
+    0.0: "pure confidence",
+    20.0: "free energy",
+    50.0: "pure performance",
+}
+
+
+def _optimizers_suite(size: str) -> SuiteConfig:
+    return SuiteConfig(
+        name="optimizers",
+        description=(
+            "CMA-ES, BO, PSO and random sampling on F with p^X = 20, same batch and iterations "
+            "(the paper's optimizer comparison)"
+        ),
+        goal_precision=20.0,
+        optimizers=tuple(OptimizerSpec(name=n) for n in _PAPER_OPTIMIZERS),
+        batch_size=8,
+        iterations=15,
+        n_seeds=10,
+    )
+
+
+def _peers_suite(size: str) -> SuiteConfig:
+    import optimizers
+
+    installed = set(optimizers.available())
+    peers = [n for n in _PEERS if n in installed]
+    if not peers:
+        raise ValueError(
+            "optimizer-peers needs Optuna or Nevergrad: install them with "
+            "`pip install 'tooldesign[optuna,nevergrad]'`"
+        )
+    base = _optimizers_suite(size)
+    return base.replace(
+        description=(
+            "the optimizers suite's peer variant: Optuna and Nevergrad (those installed) next to "
+            "CMA-ES, same task, budget and seeds"
+        ),
+        variants=(Variant(name="peers", goal_precision=20.0),),
+        optimizers=tuple(OptimizerSpec(name=n) for n in ("cmaes", *peers)),
+    )
+
+
+def _precision_sweep_suite(size: str) -> SuiteConfig:
+    return SuiteConfig(
+        name="precision-sweep",
+        description=(
+            "CMA-ES designs for p^X in {0, 10, 20, 30, 40, 50}: tool shapes and box paths "
+            "(the paper's tool-variation figure)"
+        ),
+        variants=_precision_variants((0, 10, 20, 30, 40, 50)),
+        optimizers=(OptimizerSpec(name="cmaes"),),
+        n_seeds=3,
+        keep_paths=True,
+        figures=("tool-shapes",),
+    )
+
+
+def _robustness_suite(size: str) -> SuiteConfig:
+    values = ROBUSTNESS_PRECISIONS if size == "full" else (0.0, 20.0, 50.0)
+    return SuiteConfig(
+        name="robustness",
+        description=(
+            "CMA-ES designs for random goals and seven p^X values, each tested under box masses "
+            "0.3-0.9 kg: Table I and the robustness scatter"
+        ),
+        goal_box=((-0.5, 0.5), (0.5, 1.5), (0.1, 0.1)),
+        variants=_precision_variants(values, OBJECTIVE_LABELS),
+        optimizers=(OptimizerSpec(name="cmaes"),),
+        n_seeds=10,
+        test_robustness=True,
+        figures=("robustness-table", "robustness-scatter"),
+    )
+
+
+def _mass_perturbation_suite(size: str) -> SuiteConfig:
+    return SuiteConfig(
+        name="mass-perturbation",
+        description=(
+            "box paths under box masses 0.1-0.9 kg for a p^X = 0 and a p^X = 50 CMA-ES design "
+            "(the paper's two trajectory figures)"
+        ),
+        variants=_precision_variants((0, 50), OBJECTIVE_LABELS),
+        optimizers=(OptimizerSpec(name="cmaes"),),
+        n_seeds=3,
+        test_robustness=True,
+        keep_paths=True,
+        figures=("mass-paths",),
+    )
+
+
+_BUILDERS = {
+    "optimizers": _optimizers_suite,
+    "precision-sweep": _precision_sweep_suite,
+    "robustness": _robustness_suite,
+    "mass-perturbation": _mass_perturbation_suite,
+    "optimizer-peers": _peers_suite,
+}
+
+BUILTIN_SUITES: tuple[str, ...] = tuple(_BUILDERS)
+"""Names of the built-in suites; the first four are the paper's."""
+
+
+def builtin_suite(name: str, size: str = "full") -> SuiteConfig:
+    """A built-in suite at a size.
+
+    ``full`` is the paper's scale: batch 8, 15 iterations; 10 seeds for ``optimizers`` (and
+    ``optimizer-peers``) and 10 goals for ``robustness``; 3 seeds per p^X for
+    ``precision-sweep`` and ``mass-perturbation`` (the figures show each p^X's lowest-F design).
+    ``smoke`` keeps every variant (``robustness``: p^X in {0, 20, 50} only) with 2 seeds,
+    2 iterations and batch 4, so the four paper suites run in CI in a few minutes.
+
+    Args:
+        name: One of :data:`BUILTIN_SUITES`.
+        size: One of :data:`SIZES`.
+
+    Returns:
+        The suite.
+
+    Raises:
+        ValueError: If the name or the size is unknown, or (``optimizer-peers``) no peer
+            optimizer is installed.
+    """
+    if name not in _BUILDERS:
+        raise ValueError(
+            f"unknown suite {name!r}; built-in suites: {', '.join(BUILTIN_SUITES)} (or give a "
+            "suite file with --config)"
+        )
+    if size not in SIZES:
+        raise ValueError(f"unknown size {size!r}; sizes: {', '.join(SIZES)}")
+    suite = _BUILDERS[name](size)
+    return suite.replace(**_SMOKE) if size == "smoke" else suite
+
+
+# --- suite files -------------------------------------------------------------------------------
+
+
+def _toml_module() -> Any:
+    try:
+        import tomllib  # Python >= 3.11
+    except ImportError:  # pragma: no cover - Python 3.10
+        try:
+            import tomli as tomllib
+        except ImportError as err:
+            raise ImportError(
+                "reading TOML suite files on Python 3.10 needs tomli: `pip install tomli` "
+                "(or write the suite as JSON)"
+            ) from err
+    return tomllib
+
+
+def _read_file(path: Path) -> dict[str, Any]:
+    if not path.is_file():
+        raise FileNotFoundError(f"suite file {path} does not exist")
+    if path.suffix not in (".toml", ".json"):
+        raise ValueError(f"suite file {path} must end in .toml or .json")
+    text = path.read_text(encoding="utf-8")
+    toml = _toml_module() if path.suffix == ".toml" else None
+    try:
+        data: Any = toml.loads(text) if toml is not None else json.loads(text)
+    except ValueError as err:  # TOMLDecodeError and JSONDecodeError are ValueErrors
+        raise ValueError(
+            f"suite file {path} is not valid {path.suffix[1:].upper()}: {err}"
+        ) from err
+    if not isinstance(data, dict):
+        raise ValueError(f"suite file {path} must hold a table (JSON object) of suite fields")
+    return data
+
+
+def load_suite(path: str | os.PathLike[str], *, size: str | None = None) -> SuiteConfig:
+    """Read a suite from a TOML or JSON file.
+
+    The file holds the fields of :class:`SuiteConfig` (``[[variants]]`` and ``[[optimizers]]``
+    as arrays of tables) and optionally:
+
+    - ``base = "NAME"``: start from the built-in suite NAME at ``size`` (``full`` if none) and
+      override only the fields the file sets;
+    - ``[sizes.smoke]``, ``[sizes.full]`` (any names): fields that override the others when
+      that size is chosen.
+
+    Args:
+        path: A ``.toml`` or ``.json`` file.
+        size: The size to apply, or ``None`` for the file's fields as they are.
+
+    Returns:
+        The validated suite.
+
+    Raises:
+        FileNotFoundError: If the file does not exist.
+        ValueError: If it cannot be parsed, names an unknown field, base or size, or a value is
+            invalid (the message names the file and the field).
+        TypeError: If a value has the wrong type.
+    """
+    source = Path(path)
+    data = _read_file(source)
+    sizes = data.pop("sizes", {})
+    if not isinstance(sizes, dict) or not all(isinstance(v, dict) for v in sizes.values()):
+        raise ValueError(f"{source}: sizes must be tables, e.g. [sizes.smoke]")
+    base = data.pop("base", None)
+    fields: dict[str, Any] = {}
+    if base is not None:
+        if not isinstance(base, str):
+            raise ValueError(f"{source}: base must be the name of a built-in suite")
+        try:
+            fields = builtin_suite(base, size or "full").to_json()
+        except ValueError as err:
+            raise ValueError(f"{source}: base: {err}") from None
+    fields.update(data)
+    if size is not None:
+        if sizes and size not in sizes:
+            raise ValueError(
+                f"{source}: unknown size {size!r}; the file defines {', '.join(sorted(sizes))}"
+            )
+        if size not in SIZES and size not in sizes:
+            raise ValueError(f"unknown size {size!r}; sizes: {', '.join(SIZES)}")
+        fields.update(sizes.get(size, {}))
+    return suite_from_json(fields, where=str(source))
+
+
+def _toml_value(value: Any) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        return repr(value)  # shortest exact text; TOML floats read back bit for bit
+    if isinstance(value, str):
+        return json.dumps(value)  # a JSON string is a valid TOML basic string
+    if isinstance(value, list):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    if isinstance(value, dict):
+        items = ", ".join(f"{json.dumps(k)} = {_toml_value(v)}" for k, v in value.items())
+        return "{" + items + "}"
+    raise TypeError(f"cannot write {value!r} to TOML")
+
+
+def _toml_text(data: Mapping[str, Any]) -> str:
+    # TOML has no null: a None field is left out, which reads back as its default (None).
+    lines = []
+    tables = ("variants", "optimizers")
+    for key, value in data.items():
+        if key in tables or value is None:
+            continue
+        lines.append(f"{key} = {_toml_value(value)}")
+    for key in tables:
+        for item in data.get(key, []):
+            lines += ["", f"[[{key}]]"]
+            lines += [f"{k} = {_toml_value(v)}" for k, v in item.items() if v is not None]
+    return "\n".join(lines) + "\n"
+
+
+def save_suite(config: SuiteConfig, path: str | os.PathLike[str]) -> Path:
+    """Write a suite as a TOML or JSON file (by suffix) that :func:`load_suite` reads back.
+
+    Args:
+        config: The suite.
+        path: A ``.toml`` or ``.json`` file; written atomically.
+
+    Returns:
+        The path written.
+
+    Raises:
+        ValueError: If the suffix is neither.
+    """
+    if not isinstance(config, SuiteConfig):
+        raise TypeError(f"config must be a SuiteConfig, got {type(config).__name__}")
+    target = Path(path)
+    data = config.to_json()
+    if target.suffix == ".json":
+        text = json.dumps(data, indent=2, allow_nan=False) + "\n"
+    elif target.suffix == ".toml":
+        text = _toml_text(data)
+    else:
+        raise ValueError(f"suite file {target} must end in .toml or .json")
+    return atomic_write_text(target, text)
