@@ -17,6 +17,8 @@ def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every subcommand."""
     from benchmarks import evaluate  # noqa: I001  (one import per subcommand)
     from benchmarks import design
+    from benchmarks import runner
+    from benchmarks import suite_reports
 
     parser = argparse.ArgumentParser(
         prog="tooldesign",
@@ -25,6 +27,8 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     evaluate.add_parser(sub)
     design.add_parser(sub)
+    runner.add_parser(sub)
+    suite_reports.add_parser(sub)
     return parser
 
 

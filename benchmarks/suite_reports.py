@@ -1,0 +1,788 @@
+"""The report of a suite run folder, rebuilt from its stored results alone.
+
+:func:`make_suite_report` writes, under ``run_folder/report/``:
+
+- what :func:`benchmarks.report.make_report` writes for every run folder: a convergence figure
+  per (suite, variant), ``summary.csv/md`` (final F and AUC per optimizer with 95% bootstrap
+  intervals) and ``pairwise.csv/md`` (Mann-Whitney U, Holm, A12);
+- ``designs.csv`` / ``designs.md``: one row per run: its design, F and its terms, the shape of
+  the tool (straightness, turning angle, tip offset) and its final test;
+- the figures the suite asks for (``SuiteConfig.figures``):
+
+  - ``tool-shapes``: ``tool-shapes.png`` (per variant, the lowest-F design's tool above its box
+    path, side by side), ``tool-shapes-overlay.png``, ``tool-shapes.csv/md``;
+  - ``robustness-table``: ``table1.csv/md``, the paper's Table I: robustness, accuracy and
+    control deviation per labelled variant, mean over tasks with a 95% bootstrap interval, best
+    in bold;
+  - ``robustness-scatter``: ``robustness-scatter.png`` (robustness against squared goal error,
+    one colour per p^X) and ``robustness-by-precision.csv/md`` (per p^X means with intervals and
+    Spearman rank correlations with p^X);
+  - ``mass-paths``: ``mass-perturbation-<variant>.png`` (the lowest-F design's tool and its box
+    paths at the nominal and every altered mass) and ``mass-perturbation.csv/md``.
+
+Nothing is simulated: the box paths and the robustness metrics were stored by the runner, the
+tool shapes are pure geometry. The same stored results give the same CSV and Markdown bytes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import zlib
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from matplotlib import colormaps
+
+from benchmarks import plots
+from benchmarks.report import REPORT_DIR, make_report
+from benchmarks.runner import read_designs, suite_of_manifest
+from benchmarks.stats import bootstrap_ci
+from benchmarks.storage import atomic_write_text, read_manifest
+from benchmarks.suites import SuiteConfig
+
+__all__ = [
+    "add_parser",
+    "designs_table",
+    "make_suite_report",
+    "robustness_by_precision",
+    "table_one",
+    "tool_shape",
+]
+
+LEVEL = 0.95
+"""Coverage of every bootstrap interval of the suite reports."""
+
+
+# --- helpers -----------------------------------------------------------------------------------
+
+
+def _rng(seed: int, *labels: Any) -> np.random.Generator:
+    # One stream per table cell, keyed by its labels (crc32 is stable across processes).
+    key = zlib.crc32("\x1f".join(map(str, labels)).encode("utf-8"))
+    return np.random.default_rng([seed, key])
+
+
+def _csv_text(frame: pd.DataFrame) -> str:
+    return frame.to_csv(index=False, lineterminator="\n", float_format=lambda v: repr(float(v)))
+
+
+def _fmt(value: Any, digits: int = 4) -> str:
+    if value is None or (isinstance(value, float) and not math.isfinite(value)):
+        return "n/a"
+    value = float(value)
+    # Table I's numbers run to 1e5: whole numbers read better than 6.569e+04.
+    return f"{value:.0f}" if abs(value) >= 10 ** (digits - 1) else f"{value:.{digits}g}"
+
+
+def _interval(mean: float, low: float, high: float) -> str:
+    return f"{_fmt(mean)} [{_fmt(low)}, {_fmt(high)}]"
+
+
+def _markdown(header: Sequence[str], rows: Iterable[Sequence[str]]) -> list[str]:
+    def cell(text: Any) -> str:
+        return str(text).replace("|", "\\|").replace("\n", " ")
+
+    lines = ["| " + " | ".join(cell(h) for h in header) + " |"]
+    lines.append("|" + "|".join("---" for _ in header) + "|")
+    lines += ["| " + " | ".join(cell(c) for c in row) + " |" for row in rows]
+    return lines
+
+
+def _write_table(target: Path, stem: str, frame: pd.DataFrame, markdown: str) -> list[Path]:
+    return [
+        atomic_write_text(target / f"{stem}.csv", _csv_text(frame)),
+        atomic_write_text(target / f"{stem}.md", markdown),
+    ]
+
+
+def _variant_name(record: Mapping[str, Any]) -> str:
+    label = record.get("label") or ""
+    precision = f"p^X = {float(record['goal_precision']):g}"
+    return f"{label} ({precision})" if label else precision
+
+
+def _slug(name: str) -> str:
+    cleaned = "".join(c if c.isalnum() or c in "._-" else "_" for c in name) or "default"
+    return cleaned if cleaned == name else f"{cleaned}-{zlib.crc32(name.encode()):08x}"
+
+
+# --- tool shape --------------------------------------------------------------------------------
+
+
+def tool_shape(coeffs: Sequence[float]) -> dict[str, float]:
+    """How bent a tool is, from its centreline (pure geometry, tool frame).
+
+    Args:
+        coeffs: The design ``(c1, ..., cn)``.
+
+    Returns:
+        ``straightness``: distance from the curve's start to its tip over the arc length L0
+        (1 for a straight tool, smaller the more it bends); ``turning_angle``: total absolute
+        turn of the centreline from the handle to the tip in degrees (a hook that wraps a box
+        turns 90 degrees or more); ``tip_offset``: the tip's y in the tool frame in m (sideways
+        reach; the sign says which side); ``min_radius_of_curvature`` in m (inf if straight).
+    """
+    from tooldesign_env import ToolSpec, make_tool
+
+    values = np.asarray(coeffs, dtype=np.float64)
+    spec = ToolSpec(degree=len(values)) if len(values) != ToolSpec().degree else ToolSpec()
+    geometry = make_tool(values, spec)
+    line = np.asarray(geometry.centerline)
+    curve = line[1:]
+    directions = np.diff(line, axis=0)
+    headings = np.unwrap(np.arctan2(directions[:, 1], directions[:, 0]))
+    return {
+        "straightness": float(np.linalg.norm(curve[-1] - curve[0]) / spec.arc_length),
+        "turning_angle": float(np.degrees(np.sum(np.abs(np.diff(headings))))),
+        "tip_offset": float(curve[-1, 1]),
+        "min_radius_of_curvature": float(geometry.min_radius_of_curvature),
+    }
+
+
+# --- the designs table -------------------------------------------------------------------------
+
+_TEST_FIELDS = (
+    "robustness",
+    "accuracy",
+    "control_deviation",
+    "squared_goal_error",
+    "nominal_final_distance",
+)
+
+
+def designs_table(designs: Sequence[Mapping[str, Any]]) -> pd.DataFrame:
+    """One row per run: keys, task, design, F and its terms, tool shape, final test.
+
+    Args:
+        designs: Design records from :func:`benchmarks.runner.read_designs`.
+
+    Returns:
+        The table, in the records' order; missing values are NaN.
+    """
+    rows = []
+    for record in designs:
+        row: dict[str, Any] = {
+            k: record.get(k) for k in ("suite", "variant", "label", "optimizer", "seed")
+        }
+        row["task_index"] = record.get("task_index")
+        for axis, value in zip(("goal_x", "goal_y", "goal_z"), record["goal"], strict=True):
+            row[axis] = float(value)
+        row["goal_precision"] = float(record["goal_precision"])
+        coeffs = record.get("coefficients") or []
+        for i, value in enumerate(coeffs, start=1):
+            row[f"c{i}"] = float(value)
+        for name in ("free_energy", "goal_error", "confidence", "final_distance"):
+            row[name] = _float(record.get(name))
+        row["status"] = record.get("status") or "failed"
+        shape = tool_shape(coeffs) if coeffs else {}
+        for name in ("straightness", "turning_angle", "tip_offset", "min_radius_of_curvature"):
+            row[name] = _float(shape.get(name))
+        test = record.get("test") or {}
+        for name in _TEST_FIELDS:
+            row[name] = _float(test.get(name))
+        row["test_error"] = test.get("error", "")
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def _float(value: Any) -> float:
+    return math.nan if value is None else float(value)
+
+
+def _designs_markdown(table: pd.DataFrame) -> str:
+    lines = [
+        "# Designs",
+        "",
+        "One row per run: the run's design is its lowest-F valid evaluation. Straightness is the",
+        "tip's distance from the curve start over the arc length (1 = straight); the turning",
+        "angle is the centreline's total absolute turn in degrees. Robustness (m) is",
+        "-sum_i sum_t |X(m_i, t) - X(m, t)| over the altered box masses; the squared goal error",
+        "(m^2) is sum_t |X(m, t) - X^g|^2 at the nominal mass.",
+        "",
+    ]
+    header = ["variant", "optimizer", "seed", "C", "F", "final dist. (m)", "straightness"]
+    header += ["turn (deg)", "robustness (m)", "sq. goal error (m^2)"]
+    coefficient_columns = [c for c in table.columns if c.startswith("c") and c[1:].isdigit()]
+    rows = []
+    for _, row in table.iterrows():
+        coeffs = ", ".join(_fmt(row[c], 3) for c in coefficient_columns)
+        rows.append(
+            [
+                row["variant"] or "-",
+                row["optimizer"],
+                str(row["seed"]),
+                f"({coeffs})",
+                _fmt(row["free_energy"]),
+                _fmt(row["final_distance"], 3),
+                _fmt(row["straightness"], 3),
+                _fmt(row["turning_angle"], 3),
+                _fmt(row["robustness"]),
+                _fmt(row["squared_goal_error"]),
+            ]
+        )
+    return "\n".join(lines + _markdown(header, rows)) + "\n"
+
+
+def _chosen(
+    designs: Sequence[Mapping[str, Any]],
+    config: SuiteConfig,
+    need: Callable[[Mapping[str, Any]], bool],
+) -> list[tuple[Any, Mapping[str, Any]]]:
+    """Per variant (in config order), its lowest-F record that ``need`` accepts."""
+    chosen = []
+    for variant in config.variants:
+        candidates = [
+            d
+            for d in designs
+            if d["variant"] == variant.name and d.get("status") == "ok" and need(d)
+        ]
+        if candidates:
+            best = min(candidates, key=lambda d: (float(d["free_energy"]), d["seed"]))
+            chosen.append((variant, best))
+    return chosen
+
+
+# --- tool shapes (precision sweep) -------------------------------------------------------------
+
+
+def _has_nominal_path(record: Mapping[str, Any]) -> bool:
+    return bool((record.get("paths") or {}).get("nominal"))
+
+
+def _tool_shapes(
+    designs: Sequence[Mapping[str, Any]], config: SuiteConfig, target: Path, seed: int
+) -> list[Path]:
+    from tooldesign_env import make_tool
+
+    chosen = _chosen(designs, config, _has_nominal_path)
+    if not chosen:
+        return []
+    colors = plots.sequential_colors(len(chosen))
+    n = len(chosen)
+    figure, axes = plots.new_figure_grid(2, n, figsize=(2.7 * n, 6.4))
+    lines = []
+    for column, ((_, record), color) in enumerate(zip(chosen, colors, strict=True)):
+        title = f"{_variant_name(record)}\nF = {_fmt(record['free_energy'])}"
+        plots.plot_tool_shapes(axes[0, column], [record["coefficients"]], colors=[color])
+        axes[0, column].set_title(title, fontsize="small")
+        path = np.asarray(record["paths"]["nominal"], dtype=np.float64)
+        plots.plot_box_paths(axes[1, column], [path], record["goal"], colors=[color])
+        final = np.linalg.norm(path[-1] - np.asarray(record["goal"])) if len(path) else math.nan
+        axes[1, column].set_title(f"box ends {_fmt(final, 3)} m from goal", fontsize="small")
+        lines.append(np.asarray(make_tool(record["coefficients"]).centerline))
+    # One scale for every tool and every path, so shapes compare at a glance.
+    _share_limits(axes[0], np.concatenate(lines))
+    paths = [np.asarray(r["paths"]["nominal"])[:, :2] for _, r in chosen]
+    goals = [np.asarray(r["goal"])[:2][None, :] for _, r in chosen]
+    _share_limits(axes[1], np.concatenate(paths + goals))
+    written = [plots.save_png(figure, target / "tool-shapes.png")]
+
+    figure, grid = plots.new_figure_grid(1, 2, figsize=(11.0, 4.5))
+    left, right = grid[0]
+    labels = [_variant_name(r) for _, r in chosen]
+    plots.plot_tool_shapes(left, [r["coefficients"] for _, r in chosen], labels, colors=colors)
+    left.set_title("tools (tool frame)")
+    plots.plot_box_paths(
+        right,
+        [np.asarray(r["paths"]["nominal"]) for _, r in chosen],
+        chosen[0][1]["goal"],
+        labels,
+        colors=colors,
+    )
+    right.set_title("box paths (top view)")
+    written.append(plots.save_png(figure, target / "tool-shapes-overlay.png"))
+
+    table = designs_table([r for _, r in chosen])
+    table = table.drop(columns=["robustness", "accuracy", "control_deviation"], errors="ignore")
+    everything = designs_table([d for d in designs if d.get("status") == "ok"])
+    written += _write_table(
+        target, "tool-shapes", table, _tool_shapes_markdown(table, everything, config)
+    )
+    return written
+
+
+def _share_limits(axes: Iterable[Any], points: np.ndarray) -> None:
+    low, high = points.min(axis=0), points.max(axis=0)
+    margin = 0.08 * max(float(np.max(high - low)), 0.1)
+    for ax in axes:
+        # Equal axes by resizing the box, not the limits, so every panel keeps one scale.
+        ax.set_aspect("equal", adjustable="box")
+        ax.set_xlim(low[0] - margin, high[0] + margin)
+        ax.set_ylim(low[1] - margin, high[1] + margin)
+
+
+def _tool_shapes_markdown(
+    shown: pd.DataFrame, everything: pd.DataFrame, config: SuiteConfig
+) -> str:
+    lines = [
+        "# Tool shapes by goal precision",
+        "",
+        "The design shown per p^X is the lowest-F design over its seeds. Straightness is the",
+        "tip's distance from the curve start over L0 (1 = straight); the turning angle is the",
+        "centreline's total absolute turn in degrees; the final distance is the box's distance",
+        "from the goal at the end, in m.",
+        "",
+        "## Shown designs",
+        "",
+    ]
+    header = ["p^X", "seed", "C", "F", "goal error", "confidence", "final dist. (m)"]
+    header += ["straightness", "turn (deg)", "tip y (m)"]
+    coefficient_columns = [c for c in shown.columns if c.startswith("c") and c[1:].isdigit()]
+    rows = [
+        [
+            _fmt(row["goal_precision"]),
+            str(row["seed"]),
+            "(" + ", ".join(_fmt(row[c], 3) for c in coefficient_columns) + ")",
+            _fmt(row["free_energy"]),
+            _fmt(row["goal_error"]),
+            _fmt(row["confidence"]),
+            _fmt(row["final_distance"], 3),
+            _fmt(row["straightness"], 3),
+            _fmt(row["turning_angle"], 3),
+            _fmt(row["tip_offset"], 3),
+        ]
+        for _, row in shown.iterrows()
+    ]
+    lines += _markdown(header, rows)
+    lines += ["", "## Every seed: mean [min, max] per p^X", ""]
+    header = ["p^X", "runs", "final dist. (m)", "straightness", "turn (deg)"]
+    rows = []
+    for variant in config.variants:
+        part = everything[everything["variant"] == variant.name] if len(everything) else everything
+        if not len(part):
+            continue
+
+        def span(column: str, part: pd.DataFrame = part) -> str:
+            values = part[column].to_numpy(dtype=np.float64)
+            return f"{_fmt(values.mean(), 3)} [{_fmt(values.min(), 3)}, {_fmt(values.max(), 3)}]"
+
+        rows.append(
+            [
+                _fmt(part["goal_precision"].iloc[0]),
+                str(len(part)),
+                span("final_distance"),
+                span("straightness"),
+                span("turning_angle"),
+            ]
+        )
+    lines += _markdown(header, rows)
+    return "\n".join(lines) + "\n"
+
+
+# --- Table I and the robustness scatter --------------------------------------------------------
+
+_TABLE_ONE = (
+    ("robustness", "robustness (m) ↑", max),
+    ("accuracy", "accuracy (m) ↑", max),
+    ("control_deviation", "control deviation (N m) ↓", min),
+)
+
+
+def _tested(designs: Sequence[Mapping[str, Any]]) -> pd.DataFrame:
+    table = designs_table(designs)
+    if not len(table):
+        return table
+    return table[np.isfinite(table["robustness"].to_numpy(dtype=np.float64))]
+
+
+def table_one(
+    designs: Sequence[Mapping[str, Any]],
+    config: SuiteConfig,
+    *,
+    n_boot: int = 10_000,
+    seed: int = 0,
+) -> pd.DataFrame:
+    """The paper's Table I: per labelled variant, the three metrics over tasks.
+
+    Variants with a ``label`` (the paper's "pure confidence", "free energy", "pure
+    performance") are the rows; if no variant has a label, every variant is a row.
+
+    Args:
+        designs: Design records with robustness tests.
+        config: The suite (its variants give the rows and their order).
+        n_boot: Bootstrap resamples per interval.
+        seed: Root seed of the bootstrap.
+
+    Returns:
+        One row per variant: ``variant``, ``label``, ``goal_precision``, ``tasks`` and, per
+        metric m, ``m`` (mean over tasks), ``m_low``, ``m_high`` and ``m_best`` (whether the
+        mean is the best of the table: highest robustness and accuracy, lowest control deviation).
+    """
+    tested = _tested(designs)
+    variants = [v for v in config.variants if v.label] or list(config.variants)
+    rows = []
+    for variant in variants:
+        part = tested[tested["variant"] == variant.name] if len(tested) else tested
+        row: dict[str, Any] = {
+            "variant": variant.name,
+            "label": variant.label,
+            "goal_precision": variant.goal_precision
+            if variant.goal_precision is not None
+            else config.goal_precision,
+            "tasks": int(len(part)),
+        }
+        for metric, _, _ in _TABLE_ONE:
+            values = part[metric].to_numpy(dtype=np.float64) if len(part) else np.array([])
+            ci = bootstrap_ci(
+                values, n_boot=n_boot, level=LEVEL, rng=_rng(seed, metric, variant.name)
+            )
+            row.update({metric: ci.estimate, f"{metric}_low": ci.low, f"{metric}_high": ci.high})
+        rows.append(row)
+    table = pd.DataFrame(rows)
+    for metric, _, pick in _TABLE_ONE:
+        finite = table[metric][np.isfinite(table[metric])]
+        best = pick(finite) if len(finite) else math.nan
+        table[f"{metric}_best"] = table[metric] == best
+    return table
+
+
+def _table_one_markdown(table: pd.DataFrame) -> str:
+    lines = [
+        "# Table I: robustness, accuracy and control deviation under box-mass changes",
+        "",
+        f"Mean over tasks (random goals) with a {LEVEL:.0%} percentile bootstrap interval of the",
+        "mean; the best mean of each column is in bold. Robustness = -sum_i sum_t",
+        "|X(m_i, t) - X(m, t)| (m), accuracy = -sum_i sum_t |X(m_i, t) - X^g| (m), control",
+        "deviation = sum_i sum_t |U(m_i, t) - U(m, t)| (N m), over the altered masses m_i and",
+        "the control steps t.",
+        "",
+    ]
+    header = ["objective", "p^X", "tasks", *[title for _, title, _ in _TABLE_ONE]]
+    rows = []
+    for _, row in table.iterrows():
+        cells = [row["label"] or row["variant"], _fmt(row["goal_precision"]), str(row["tasks"])]
+        for metric, _, _ in _TABLE_ONE:
+            mean = _fmt(row[metric])
+            mean = f"**{mean}**" if row[f"{metric}_best"] else mean
+            cells.append(f"{mean} [{_fmt(row[f'{metric}_low'])}, {_fmt(row[f'{metric}_high'])}]")
+        rows.append(cells)
+    return "\n".join(lines + _markdown(header, rows)) + "\n"
+
+
+def robustness_by_precision(
+    designs: Sequence[Mapping[str, Any]],
+    config: SuiteConfig,
+    *,
+    n_boot: int = 10_000,
+    seed: int = 0,
+) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Per p^X: robustness and goal error over tasks; and their rank correlations with p^X.
+
+    Args:
+        designs: Design records with robustness tests.
+        config: The suite (its variants give the rows).
+        n_boot: Bootstrap resamples per interval.
+        seed: Root seed of the bootstrap.
+
+    Returns:
+        ``(per_precision, correlations)``: one row per variant with ``tasks`` and, for
+        ``robustness``, ``squared_goal_error``, ``nominal_final_distance``, the mean, ``_low``
+        and ``_high``; and one row per metric with the Spearman ``rho`` between p^X and the
+        metric over all tested designs, its two-sided ``p`` and ``n``.
+    """
+    from scipy import stats as sps
+
+    tested = _tested(designs)
+    metrics = ("robustness", "squared_goal_error", "nominal_final_distance")
+    rows = []
+    for variant in config.variants:
+        part = tested[tested["variant"] == variant.name] if len(tested) else tested
+        if not len(part):
+            continue
+        row: dict[str, Any] = {
+            "variant": variant.name,
+            "label": variant.label,
+            "goal_precision": float(part["goal_precision"].iloc[0]),
+            "tasks": int(len(part)),
+        }
+        for metric in metrics:
+            ci = bootstrap_ci(
+                part[metric].to_numpy(dtype=np.float64),
+                n_boot=n_boot,
+                level=LEVEL,
+                rng=_rng(seed, "by-precision", metric, variant.name),
+            )
+            row.update({metric: ci.estimate, f"{metric}_low": ci.low, f"{metric}_high": ci.high})
+        rows.append(row)
+    correlations = []
+    for metric in metrics:
+        if len(tested) >= 3 and tested["goal_precision"].nunique() > 1:
+            result = sps.spearmanr(tested["goal_precision"], tested[metric])
+            rho, p = float(result.statistic), float(result.pvalue)
+        else:
+            rho = p = math.nan
+        correlations.append({"metric": metric, "rho": rho, "p": p, "n": int(len(tested))})
+    return pd.DataFrame(rows), pd.DataFrame(correlations)
+
+
+def _by_precision_markdown(table: pd.DataFrame, correlations: pd.DataFrame) -> str:
+    lines = [
+        "# Robustness and goal error by goal precision",
+        "",
+        f"Mean over tasks with a {LEVEL:.0%} percentile bootstrap interval. Squared goal error:",
+        "sum_t |X(m, t) - X^g|^2 at the nominal mass (m^2, summed over control steps); final",
+        "distance: |X(m, T) - X^g| (m).",
+        "",
+    ]
+    header = ["p^X", "objective", "tasks", "robustness (m)", "squared goal error (m^2)"]
+    header.append("final distance (m)")
+    rows = [
+        [
+            _fmt(row["goal_precision"]),
+            row["label"] or "-",
+            str(row["tasks"]),
+            _interval(row["robustness"], row["robustness_low"], row["robustness_high"]),
+            _interval(
+                row["squared_goal_error"],
+                row["squared_goal_error_low"],
+                row["squared_goal_error_high"],
+            ),
+            _interval(
+                row["nominal_final_distance"],
+                row["nominal_final_distance_low"],
+                row["nominal_final_distance_high"],
+            ),
+        ]
+        for _, row in table.iterrows()
+    ]
+    lines += _markdown(header, rows)
+    lines += [
+        "",
+        "Spearman rank correlation of p^X with each metric over all tested designs (rho > 0:",
+        "the metric grows with p^X):",
+        "",
+    ]
+    rows = [
+        [row["metric"], _fmt(row["rho"], 3), _fmt(row["p"], 3), str(row["n"])]
+        for _, row in correlations.iterrows()
+    ]
+    lines += _markdown(["metric", "rho", "p", "designs"], rows)
+    return "\n".join(lines) + "\n"
+
+
+def _robustness_table(
+    designs: Sequence[Mapping[str, Any]], config: SuiteConfig, target: Path, seed: int
+) -> list[Path]:
+    table = table_one(designs, config, seed=seed)
+    return _write_table(target, "table1", table, _table_one_markdown(table))
+
+
+def _robustness_scatter(
+    designs: Sequence[Mapping[str, Any]], config: SuiteConfig, target: Path, seed: int
+) -> list[Path]:
+    tested = _tested(designs)
+    figure, ax = plots.new_figure(figsize=(6.4, 4.4))
+    variants = (
+        [v for v in config.variants if v.name in set(tested["variant"])] if len(tested) else []
+    )
+    colors = plots.sequential_colors(len(variants), "viridis")
+    for variant, color in zip(variants, colors, strict=True):
+        part = tested[tested["variant"] == variant.name]
+        precision = float(part["goal_precision"].iloc[0])
+        name = f"p^X = {precision:g}" + (f" ({variant.label})" if variant.label else "")
+        ax.scatter(part["squared_goal_error"], part["robustness"], color=color, s=22, label=name)
+        ax.scatter(
+            [part["squared_goal_error"].mean()],
+            [part["robustness"].mean()],
+            color=color,
+            s=110,
+            marker="D",
+            edgecolors="black",
+            linewidths=0.8,
+        )
+    ax.set_xlabel("squared goal error sum_t |X(m, t) - X^g|^2 (m^2)")
+    ax.set_ylabel("robustness (m), higher is better")
+    ax.set_title("robustness vs goal error (diamonds: means per p^X)")
+    ax.grid(True, alpha=0.3)
+    if variants:
+        ax.legend(frameon=False, fontsize="small")
+    written = [plots.save_png(figure, target / "robustness-scatter.png")]
+    table, correlations = robustness_by_precision(designs, config, seed=seed)
+    written += _write_table(
+        target, "robustness-by-precision", table, _by_precision_markdown(table, correlations)
+    )
+    return written
+
+
+# --- mass perturbation -------------------------------------------------------------------------
+
+
+def _has_mass_paths(record: Mapping[str, Any]) -> bool:
+    paths = record.get("paths") or {}
+    return bool(paths.get("nominal")) and bool(paths.get("perturbed"))
+
+
+def _mass_paths(
+    designs: Sequence[Mapping[str, Any]], config: SuiteConfig, target: Path, seed: int
+) -> list[Path]:
+    written = []
+    chosen = _chosen(designs, config, _has_mass_paths)
+    for variant, record in chosen:
+        paths = record["paths"]
+        masses = [float(m) for m in paths["masses"]]
+        figure, grid = plots.new_figure_grid(1, 2, figsize=(11.0, 4.6))
+        left, right = grid[0]
+        plots.plot_tool_shapes(left, [record["coefficients"]], colors=["black"], linewidth=3.0)
+        left.set_title(f"tool: {_variant_name(record)}, seed {record['seed']}", fontsize="small")
+        # Heavier is redder, as in the paper; the nominal mass is black.
+        heat = colormaps["YlOrRd"](np.linspace(0.35, 1.0, len(masses)))
+        colors = ["black", *[tuple(float(v) for v in c) for c in heat]]
+        labels = [f"m = {float(paths['nominal_mass']):g} kg (nominal)"]
+        labels += [f"m = {m:g} kg" for m in masses]
+        trajectories = [np.asarray(paths["nominal"]), *map(np.asarray, paths["perturbed"])]
+        plots.plot_box_paths(right, trajectories, record["goal"], labels, colors=colors)
+        robustness = (record.get("test") or {}).get("robustness")
+        right.set_title(f"box paths under box-mass changes: robustness {_fmt(robustness)} m")
+        written.append(
+            plots.save_png(figure, target / f"mass-perturbation-{_slug(variant.name)}.png")
+        )
+
+    rows = []
+    shown = {id(r) for _, r in chosen}
+    for record in designs:
+        if not _has_mass_paths(record):
+            continue
+        paths = record["paths"]
+        goal = np.asarray(record["goal"], dtype=np.float64)
+        test = record.get("test") or {}
+        row: dict[str, Any] = {
+            "variant": record["variant"],
+            "label": record.get("label", ""),
+            "goal_precision": float(record["goal_precision"]),
+            "seed": record["seed"],
+            "shown": id(record) in shown,
+            "free_energy": _float(record.get("free_energy")),
+        }
+        for name in ("robustness", "accuracy", "control_deviation"):
+            row[name] = _float(test.get(name))
+        row[f"final_distance_m{float(paths['nominal_mass']):g}"] = float(
+            np.linalg.norm(np.asarray(paths["nominal"])[-1] - goal)
+        )
+        for mass, path in zip(paths["masses"], paths["perturbed"], strict=True):
+            row[f"final_distance_m{float(mass):g}"] = float(
+                np.linalg.norm(np.asarray(path)[-1] - goal)
+            )
+        rows.append(row)
+    table = pd.DataFrame(rows)
+    written += _write_table(target, "mass-perturbation", table, _mass_markdown(table))
+    return written
+
+
+def _mass_markdown(table: pd.DataFrame) -> str:
+    lines = [
+        "# Box paths under box-mass changes",
+        "",
+        "Per run: robustness (m), accuracy (m), control deviation (N m) of its design and the",
+        "box's final distance from the goal (m) at each box mass; `*` marks the design shown in",
+        "the figure of its p^X (the lowest F over seeds).",
+        "",
+    ]
+    if not len(table):
+        return "\n".join(lines + ["No run has stored box paths."]) + "\n"
+    distances = [c for c in table.columns if c.startswith("final_distance_m")]
+    header = ["p^X", "seed", "F", "robustness", "accuracy", "control dev."]
+    header += [f"final dist. {c.removeprefix('final_distance_m')} kg" for c in distances]
+    rows = []
+    for _, row in table.iterrows():
+        cells = [
+            _fmt(row["goal_precision"]) + (f" ({row['label']})" if row["label"] else ""),
+            f"{row['seed']}{' *' if row['shown'] else ''}",
+            _fmt(row["free_energy"]),
+            _fmt(row["robustness"]),
+            _fmt(row["accuracy"]),
+            _fmt(row["control_deviation"]),
+        ]
+        cells += [_fmt(row[c], 3) for c in distances]
+        rows.append(cells)
+    return "\n".join(lines + _markdown(header, rows)) + "\n"
+
+
+_FIGURES: dict[str, Callable[..., list[Path]]] = {
+    "tool-shapes": _tool_shapes,
+    "robustness-table": _robustness_table,
+    "robustness-scatter": _robustness_scatter,
+    "mass-paths": _mass_paths,
+}
+
+
+# --- the report --------------------------------------------------------------------------------
+
+
+def make_suite_report(
+    run_folder: str | os.PathLike[str],
+    *,
+    out_dir: str | os.PathLike[str] | None = None,
+    n_boot: int = 10_000,
+    seed: int = 0,
+) -> list[Path]:
+    """Rebuild every report of a run folder from its stored results alone.
+
+    Args:
+        run_folder: A suite run folder (:func:`benchmarks.runner.run_suite`); a design run
+            folder or a bare store gets the generic report of :func:`make_report` only.
+        out_dir: Where to write; ``run_folder/report`` if ``None``.
+        n_boot: Bootstrap resamples per interval.
+        seed: Root seed of the bootstraps; the same results and seed give the same bytes.
+
+    Returns:
+        The files written.
+
+    Raises:
+        FileNotFoundError: If ``run_folder`` does not exist.
+        NotADirectoryError: If it is a file.
+        benchmarks.storage.EmptyStoreError: If it holds no evaluations.
+        ValueError: If a stored file is malformed.
+    """
+    folder = Path(run_folder)
+    if not folder.exists():
+        raise FileNotFoundError(f"run folder {folder} does not exist")
+    if not folder.is_dir():
+        raise NotADirectoryError(f"run folder {folder} is not a folder")
+    target = folder / REPORT_DIR if out_dir is None else Path(out_dir)
+    written = make_report(folder, out_dir=target, n_boot=n_boot, seed=seed)
+    try:
+        config = suite_of_manifest(read_manifest(folder))
+    except (FileNotFoundError, ValueError, TypeError):
+        return written  # not a suite folder: the generic report is all there is
+    designs = read_designs(folder)
+    if not designs:
+        return written
+    table = designs_table(designs)
+    written += _write_table(target, "designs", table, _designs_markdown(table))
+    for figure in config.figures:
+        written += _FIGURES[figure](designs, config, target, seed)
+    return written
+
+
+# --- command line ------------------------------------------------------------------------------
+
+
+def add_parser(subparsers: Any) -> argparse.ArgumentParser:
+    """Register ``tooldesign report`` on the dispatcher's subparsers."""
+    parser = subparsers.add_parser(
+        "report",
+        help="rebuild the figures and tables of a run folder from its stored results",
+        description=(
+            "Rebuild every report of a run folder (convergence, summary, pairwise tests and the "
+            "suite's own figures and tables) from its stored results alone; nothing is "
+            "simulated. See docs/benchmarks.md."
+        ),
+    )
+    parser.add_argument("run_folder", type=Path, metavar="RUN_FOLDER", help="the run folder")
+    parser.add_argument(
+        "--out", type=Path, default=None, metavar="DIR", help="where to write (RUN_FOLDER/report)"
+    )
+    parser.set_defaults(run=_run)
+    return parser
+
+
+def _run(args: argparse.Namespace) -> int:
+    files = make_suite_report(args.run_folder, out_dir=args.out)
+    folder = files[0].parent if files else args.run_folder
+    print(f"{len(files)} report files written to {folder}")
+    return 0

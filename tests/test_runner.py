@@ -1,0 +1,239 @@
+"""Tests of benchmarks.runner: resume after SIGKILL, executors agree, refusals, broken pools."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import signal
+import subprocess
+import sys
+import time
+from concurrent.futures import Future
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from benchmarks import runner
+from benchmarks.cli import main
+from benchmarks.design import DesignConfig, ResumeError, run_design
+from benchmarks.evaluation import make_executor
+from benchmarks.runner import DESIGNS_DIR, read_designs, run_suite
+from benchmarks.storage import ResultStore, Unit
+from benchmarks.suites import builtin_suite, load_suite
+
+ROOT = Path(__file__).resolve().parents[1]
+TIMING = ["eval_time", "opt_time"]
+
+# Two short runs with a robustness test and kept paths: every stage of a run can be killed.
+TINY = (
+    'base = "mass-perturbation"\n'
+    'name = "tiny"\n'
+    "n_seeds = 1\n"
+    "batch_size = 3\n"
+    "iterations = 2\n"
+    "robustness_masses = [0.5, 0.9]\n"
+)
+
+
+@pytest.fixture(scope="module")
+def tiny_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("config") / "tiny.toml"
+    path.write_text(TINY, encoding="utf-8")
+    return path
+
+
+def bench_args(config: Path, out: Path, *extra: str) -> list[str]:
+    return ["bench", "--config", str(config), "--size", "smoke", "--out", str(out), *extra]
+
+
+@pytest.fixture(scope="module")
+def uninterrupted(tiny_file: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("uninterrupted") / "run"
+    assert main(bench_args(tiny_file, out, "--executor", "serial", "--no-progress")) == 0
+    return out
+
+
+def _run_until(args: list[str], done: Path, timeout: float = 300.0) -> None:
+    """Start the command line and SIGKILL it as soon as ``done`` exists."""
+    code = "import sys; from benchmarks.cli import main; sys.exit(main(sys.argv[1:]))"
+    process = subprocess.Popen(
+        [sys.executable, "-c", code, *args],
+        cwd=ROOT,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
+    deadline = time.monotonic() + timeout
+    while not done.exists():
+        if process.poll() is not None:
+            raise AssertionError(f"finished before {done.name}: {process.stderr.read().decode()}")
+        if time.monotonic() > deadline:
+            process.kill()
+            raise AssertionError(f"{done} did not appear within {timeout} s")
+        time.sleep(0.02)  # polling a file; the suite itself takes seconds
+    process.send_signal(signal.SIGKILL)
+    process.wait(timeout=30)
+    process.stderr.close()
+    assert process.returncode == -signal.SIGKILL
+
+
+def _designs_without_timing(folder: Path) -> list[dict]:
+    records = read_designs(folder)
+    for record in records:
+        record.pop("test_time", None)
+    return records
+
+
+def _compare_suites(a: Path, b: Path) -> None:
+    pd.testing.assert_frame_equal(
+        ResultStore(a).read().drop(columns=TIMING), ResultStore(b).read().drop(columns=TIMING)
+    )
+    assert _designs_without_timing(a) == _designs_without_timing(b)
+    paths_a = sorted((a / DESIGNS_DIR).rglob("*.paths.json"))
+    paths_b = sorted((b / DESIGNS_DIR).rglob("*.paths.json"))
+    assert [p.relative_to(a) for p in paths_a] == [p.relative_to(b) for p in paths_b]
+    assert paths_a and all(
+        x.read_bytes() == y.read_bytes() for x, y in zip(paths_a, paths_b, strict=True)
+    )
+    for table in sorted((a / "report").glob("*.csv")) + sorted((a / "report").glob("*.md")):
+        assert table.read_bytes() == (b / "report" / table.name).read_bytes(), table.name
+
+
+@pytest.mark.slow
+def test_resume_after_sigkill_equals_uninterrupted_suite(
+    tiny_file: Path, uninterrupted: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "killed"
+    suite = load_suite(tiny_file, size="smoke")
+    first = suite.runs()[0]
+    unit = Unit(
+        suite=first.suite,
+        variant=first.variant.name,
+        optimizer=first.optimizer.column,
+        seed=first.task.seed,
+        iteration=0,
+    )
+    parts = ResultStore(out)
+    serial = ("--executor", "serial", "--no-progress")
+    # Killed in the ask/tell loop of the first run, after its iteration 0 was logged ...
+    _run_until(bench_args(tiny_file, out, *serial), parts.part_path(unit))
+    assert not (out / DESIGNS_DIR).exists()
+    # ... and again while the first run's design is tested (after its last iteration).
+    last = parts.part_path(dataclasses.replace(unit, iteration=suite.iterations - 1))
+    _run_until(bench_args(tiny_file, out, *serial), last)
+    assert not runner.design_path(out, first).exists()
+    # The same command finishes it, here on the process pool: executors agree.
+    assert main(bench_args(tiny_file, out, "--executor", "process", "--workers", "2")) == 0
+    _compare_suites(uninterrupted, out)
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert len(manifest["extra"]["sessions"]) == 3
+    assert manifest["config"]["executor"] == "process"  # runtime fields may change
+
+
+@pytest.mark.slow
+def test_rerunning_a_finished_suite_changes_no_result(
+    tiny_file: Path, uninterrupted: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "again"
+    out.mkdir()
+    for path in uninterrupted.rglob("*"):
+        if path.is_file():
+            target = out / path.relative_to(uninterrupted)
+            target.parent.mkdir(parents=True, exist_ok=True)
+            target.write_bytes(path.read_bytes())
+    before = {p: p.read_bytes() for p in (out / "parts").rglob("*.csv")}
+    before.update({p: p.read_bytes() for p in (out / DESIGNS_DIR).rglob("*.json")})
+    assert main(bench_args(tiny_file, out, "--executor", "serial", "--no-progress")) == 0
+    assert {p: p.read_bytes() for p in before} == before
+    printed = capsys.readouterr().out
+    assert "total time:" in printed and "simulation:" in printed and "optimizer:" in printed
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert len(manifest["extra"]["sessions"]) == 2
+    assert manifest["wall_time"] >= manifest["extra"]["sessions"][0]["wall_time"]
+
+
+def test_resume_refuses_other_settings_and_foreign_folders(tiny_file: Path, tmp_path: Path) -> None:
+    suite = load_suite(tiny_file, size="smoke")
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / "manifest.json").write_text(
+        json.dumps({"config": suite.to_json(), "extra": {"kind": "suite"}, "start_time": "x"})
+    )
+    with pytest.raises(ResumeError, match="other settings.*iterations"):
+        run_suite(suite.replace(iterations=3), out, progress=False)
+    with pytest.raises(ValueError, match="not empty"):
+        run_suite(suite, out, resume=False, progress=False)
+    stray = tmp_path / "stray"
+    stray.mkdir()
+    (stray / "notes.txt").write_text("mine")
+    with pytest.raises(ResumeError, match="no manifest.json"):
+        run_suite(suite, stray, progress=False)
+    a_file = tmp_path / "file"
+    a_file.write_text("x")
+    with pytest.raises(ValueError, match="is a file"):
+        run_suite(suite, a_file, progress=False)
+    with pytest.raises(TypeError, match="SuiteConfig"):
+        run_suite({"name": "x"}, tmp_path / "new")  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match="out_dir"):
+        run_suite(suite, 3)  # type: ignore[arg-type]
+
+
+@pytest.mark.slow
+def test_a_design_run_folder_is_not_resumed_as_a_suite(tmp_path: Path) -> None:
+    out = tmp_path / "design"
+    config = DesignConfig(iterations=1, batch_size=2, executor="serial")
+    run_design(config, out, progress=False)
+    with pytest.raises(ResumeError, match="another kind"):
+        run_suite(builtin_suite("optimizers", "smoke"), out, progress=False)
+
+
+def test_parts_of_runs_the_suite_does_not_plan_are_refused(tiny_file: Path, tmp_path: Path) -> None:
+    suite = load_suite(tiny_file, size="smoke")
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / "manifest.json").write_text(
+        json.dumps({"config": suite.to_json(), "extra": {"kind": "suite"}, "start_time": "x"})
+    )
+    stray = Unit(suite="other", optimizer="cmaes", seed=1, iteration=0)
+    path = ResultStore(out).part_path(stray)
+    path.parent.mkdir(parents=True)
+    path.write_text("suite\n")
+    with pytest.raises(ResumeError, match="does not plan"):
+        runner._logged_frames(ResultStore(out), suite, suite.runs())
+
+
+def test_a_dead_worker_is_retried_alone_and_fails_only_its_own_item() -> None:
+    # eval is a picklable builtin: one item kills its worker process, the pool breaks and takes
+    # the other run's pending item with it; recovery gives each item its own outcome.
+    with make_executor("process", workers=1) as executor:
+        scheduler = runner._Scheduler(
+            builtin_suite("optimizers", "smoke"),
+            Path("unused"),
+            ResultStore("unused"),
+            executor,
+            bar=None,
+            max_active=2,
+            on_run_done=lambda: None,
+            work=eval,
+        )
+        spec = builtin_suite("optimizers", "smoke").runs()[0]
+        killer = runner._Run(spec=spec, frames=[])
+        other = runner._Run(spec=spec, frames=[])
+        scheduler._submit(killer, ["abs(-2)", "__import__('os')._exit(3)"])
+        scheduler._submit(other, ["abs(-5)", "1 + 1"])
+        scheduler._recover([killer, other])
+        outcomes = [scheduler._outcomes(run) for run in (killer, other)]
+        assert [o[0] for o in outcomes[0]] == [2, None]
+        assert type(outcomes[0][1][1]).__name__ == "BrokenProcessPool"
+        assert [o[:2] for o in outcomes[1]] == [(5, None), (2, None)]
+        assert executor.submit(eval, "3 * 3").result() == 9  # the pool works again
+
+
+def test_a_broken_future_is_recognised() -> None:
+    from concurrent.futures.process import BrokenProcessPool
+
+    broken: Future = Future()
+    broken.set_exception(BrokenProcessPool("gone"))
+    fine: Future = Future()
+    fine.set_result(1)
+    assert runner._broken(broken) and not runner._broken(fine) and not runner._broken(Future())
