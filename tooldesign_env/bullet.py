@@ -26,9 +26,6 @@ PANDA_DIR = os.path.join(pybullet_data.getDataPath(), "franka_panda")
 ARM_JOINTS = tuple(f"panda_joint{i}" for i in range(1, 8))
 EE_LINK = "panda_grasptarget"
 TOOL_LINK = "tool"
-# Bound at import: during interpreter shutdown module globals may already be None when
-# __del__ runs.
-_BULLET_ERROR = pybullet.error
 
 
 def panda_urdf_with_tool(tool_link_xml: str | None, *, visuals: bool) -> str:
@@ -378,7 +375,9 @@ class BulletWorld:
         if self._client is not None:
             try:
                 self._client.disconnect()
-            except _BULLET_ERROR:
+            except Exception:  # noqa: BLE001
+                # Already disconnected, or interpreter shutdown (when __del__ runs, PyBullet's
+                # module globals may be gone): nothing is left to release either way.
                 pass
             self._client = None
 
