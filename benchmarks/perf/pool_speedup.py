@@ -9,7 +9,8 @@ Prints, in one run, for the same designs:
   only evaluation and the pool's messaging are measured);
 * the warm speed-up serial / pool (target >= 1.7 with 2 workers on 2 cores);
 * whether the pool's rows equal the serial ones apart from ``eval_time``;
-* the load average and the CPU share of the serial run, to tell a slow machine from a busy one.
+* the load average, the CPU share of the serial run and the speed-up of a pure CPU-bound loop on
+  the same pool, to tell a slow pool from a busy machine.
 
 Run: ``python benchmarks/perf/pool_speedup.py [--designs 16] [--workers 2] [--repeats 1]``.
 Nothing else should be running on the machine: the pool needs the cores to itself.
@@ -38,6 +39,29 @@ def timed(executor: object, batch: np.ndarray, task: TaskSettings) -> tuple[floa
     start = time.perf_counter()
     rows = evaluate_batch(executor, batch, task)  # type: ignore[arg-type]
     return time.perf_counter() - start, rows
+
+
+def spin(n: int) -> int:
+    """A pure-Python CPU-bound loop: the calibration job."""
+    total = 0
+    for i in range(n):
+        total += i * i
+    return total
+
+
+def available_parallelism(pool: object, workers: int, n: int = 3_000_000) -> float:
+    """Speed-up of ``workers`` spin loops on ``pool`` over running them in turn here.
+
+    About ``workers`` on an idle machine; lower while other work holds the cores, and the
+    evaluation speed-up cannot exceed it.
+    """
+    start = time.perf_counter()
+    for _ in range(workers):
+        spin(n)
+    serial = time.perf_counter() - start
+    start = time.perf_counter()
+    list(pool.map(spin, [n] * workers))  # type: ignore[attr-defined]
+    return serial / (time.perf_counter() - start)
 
 
 def strip(rows: list[dict]) -> list[dict]:
@@ -70,6 +94,7 @@ def main() -> None:
         timed(pool, batch[: args.workers * 2], task)
         warm_runs = [timed(pool, batch, task) for _ in range(args.repeats)]
         pool_warm = statistics.median(seconds for seconds, _ in warm_runs)
+        parallelism = available_parallelism(pool, args.workers)
     statuses = {s: sum(r["status"] == s for r in serial_rows) for s in ("ok", "invalid", "failed")}
     print(f"statuses: {statuses}")
     print(f"serial   cold {serial_cold:7.2f} s   warm {serial_warm:7.2f} s")
@@ -77,6 +102,7 @@ def main() -> None:
     print(f"speed-up (warm serial / warm pool): {serial_warm / pool_warm:.2f}x (target >= 1.7x)")
     # Below 1, this process waited for a CPU: other work competed and all figures are slower.
     print(f"CPU share of the serial run (CPU time / wall time): {serial_cpu / serial_warm:.2f}")
+    print(f"parallelism the machine gave the pool just now (a CPU-bound loop): {parallelism:.2f}x")
     print(f"pool rows equal serial rows (timings aside): {strip(pool_rows) == strip(serial_rows)}")
 
 
