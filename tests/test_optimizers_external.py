@@ -38,10 +38,8 @@ CHECK = textwrap.dedent(
 )
 
 
-@pytest.mark.slow
-def test_a_pip_installed_plugin_is_available_and_passes_the_conformance_suite(
-    tmp_path: Path,
-) -> None:
+def install_plugin(tmp_path: Path) -> Path:
+    """pip-install the fixture plugin into a private folder; returns the folder."""
     source = tmp_path / "external_plugin"
     shutil.copytree(FIXTURE, source)  # a build writes into the source folder: keep the repo clean
     site = tmp_path / "site"
@@ -64,6 +62,14 @@ def test_a_pip_installed_plugin_is_available_and_passes_the_conformance_suite(
         capture_output=True,
         text=True,
     )
+    return site
+
+
+@pytest.mark.slow
+def test_a_pip_installed_plugin_is_available_and_passes_the_conformance_suite(
+    tmp_path: Path,
+) -> None:
+    site = install_plugin(tmp_path)
     result = subprocess.run(
         [sys.executable, "-c", CHECK],
         cwd=tmp_path,
@@ -76,3 +82,38 @@ def test_a_pip_installed_plugin_is_available_and_passes_the_conformance_suite(
     assert "hillclimb" in out["names"] and "cmaes" in out["names"]
     assert out["loaded_before_make"] is False  # listed from metadata, imported only when made
     assert out["class"] == "tooldesign_hillclimb:HillClimb"
+
+
+@pytest.mark.slow
+def test_a_pip_installed_plugin_runs_tooldesign_design_to_the_end(tmp_path: Path) -> None:
+    site = install_plugin(tmp_path)
+    out = tmp_path / "run"
+    argv = [
+        "design",
+        "--optimizer",
+        "hillclimb",
+        "--seed",
+        "0",
+        "--iterations",
+        "2",
+        "--batch-size",
+        "2",
+        "--executor",
+        "serial",
+        "--no-progress",
+        "--out",
+        str(out),
+    ]
+    code = f"from benchmarks.cli import main; raise SystemExit(main({argv!r}))"
+    result = subprocess.run(
+        [sys.executable, "-c", code],
+        cwd=tmp_path,
+        env={**os.environ, "PYTHONPATH": os.pathsep.join([str(site), str(ROOT)])},
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert result.returncode == 0, result.stderr[-2000:]
+    card = json.loads((out / "design.json").read_text())
+    assert "hillclimb" in json.dumps(card)
+    assert (out / "tool.stl").stat().st_size > 0
