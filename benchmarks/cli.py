@@ -38,8 +38,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         return int(args.run(args) or 0)
-    except (ValueError, TypeError, FileNotFoundError) as exc:
-        # Bad input: one clear line instead of a traceback.
+    except (ValueError, TypeError, FileNotFoundError, ImportError) as exc:
+        # Bad input or a missing optional backend (whose message names the pip extra): one
+        # clear line instead of a traceback.
         parser.exit(2, f"tooldesign {args.command}: error: {exc}\n")
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)

@@ -68,3 +68,16 @@ def test_bad_arguments_exit_2_with_a_message(argv, tmp_path, monkeypatch, capsys
     assert excinfo.value.code == 2
     assert "error" in capsys.readouterr().err
     assert not (tmp_path / "x").exists()
+
+
+def test_a_missing_optional_backend_is_one_line(monkeypatch, capsys):
+    import benchmarks.evaluate as evaluate_module
+
+    def missing(*args, **kwargs):
+        raise ImportError("this needs scikit-optimize: pip install 'tooldesign[bo]'")
+
+    monkeypatch.setattr(evaluate_module, "evaluate", missing)
+    with pytest.raises(SystemExit) as excinfo:
+        main(["evaluate", "--coeffs", "0", "0", "0", "--out", "x"])
+    assert excinfo.value.code == 2
+    assert "pip install 'tooldesign[bo]'" in capsys.readouterr().err

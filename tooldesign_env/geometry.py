@@ -24,7 +24,7 @@ from __future__ import annotations
 import math
 import numbers
 import os
-import tempfile
+import uuid
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -903,7 +903,12 @@ def tool_mesh(geometry: ToolGeometry) -> trimesh.Trimesh:
 
 def _write_atomic(path: Path, data: bytes) -> None:
     """Write ``data`` to ``path`` through a temporary file in the same folder and os.replace."""
-    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    # O_EXCL with a random name rather than mkstemp, whose 0600 would make the mesh unreadable
+    # to anyone but its owner; this way the file gets the usual umask permissions.
+    temporary = path.with_name(f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp")
+    handle = os.open(
+        temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o666
+    )
     try:
         with os.fdopen(handle, "wb") as stream:
             stream.write(data)
