@@ -264,8 +264,14 @@ def _tool_shapes(
         return []
     colors = plots.sequential_colors(len(chosen))
     n = len(chosen)
-    figure, axes = plots.new_figure_grid(2, n, figsize=(2.7 * n, 6.4))
-    lines = []
+    lines = [np.asarray(make_tool(r["coefficients"]).centerline) for _, r in chosen]
+    paths = [np.asarray(r["paths"]["nominal"])[:, :2] for _, r in chosen]
+    goals = [np.asarray(r["goal"])[:2][None, :] for _, r in chosen]
+    tool_points, path_points = np.concatenate(lines), np.concatenate(paths + goals)
+    # Panels keep one scale per row; the figure is as tall as the rows' data need.
+    panel = 2.3
+    height = sum(panel * _aspect(points) for points in (tool_points, path_points)) + 1.5
+    figure, axes = plots.new_figure_grid(2, n, figsize=(2.7 * n, height))
     for column, ((_, record), color) in enumerate(zip(chosen, colors, strict=True)):
         title = f"{_variant_name(record)}\nF = {_fmt(record['free_energy'])}"
         plots.plot_tool_shapes(axes[0, column], [record["coefficients"]], colors=[color])
@@ -274,12 +280,9 @@ def _tool_shapes(
         plots.plot_box_paths(axes[1, column], [path], record["goal"], colors=[color])
         final = np.linalg.norm(path[-1] - np.asarray(record["goal"])) if len(path) else math.nan
         axes[1, column].set_title(f"box ends {_fmt(final, 3)} m from goal", fontsize="small")
-        lines.append(np.asarray(make_tool(record["coefficients"]).centerline))
     # One scale for every tool and every path, so shapes compare at a glance.
-    _share_limits(axes[0], np.concatenate(lines))
-    paths = [np.asarray(r["paths"]["nominal"])[:, :2] for _, r in chosen]
-    goals = [np.asarray(r["goal"])[:2][None, :] for _, r in chosen]
-    _share_limits(axes[1], np.concatenate(paths + goals))
+    _share_limits(axes[0], tool_points)
+    _share_limits(axes[1], path_points)
     written = [plots.save_png(figure, target / "tool-shapes.png")]
 
     figure, grid = plots.new_figure_grid(1, 2, figsize=(11.0, 4.5))
@@ -306,9 +309,20 @@ def _tool_shapes(
     return written
 
 
-def _share_limits(axes: Iterable[Any], points: np.ndarray) -> None:
+def _limits(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     low, high = points.min(axis=0), points.max(axis=0)
     margin = 0.08 * max(float(np.max(high - low)), 0.1)
+    return low - margin, high + margin
+
+
+def _aspect(points: np.ndarray) -> float:
+    low, high = _limits(points)
+    return float((high[1] - low[1]) / (high[0] - low[0]))
+
+
+def _share_limits(axes: Iterable[Any], points: np.ndarray) -> None:
+    low, high = _limits(points)
+    margin = 0.0
     for ax in axes:
         # Equal axes by resizing the box, not the limits, so every panel keeps one scale.
         ax.set_aspect("equal", adjustable="box")
