@@ -385,7 +385,38 @@ def _tool_shapes_markdown(
             ]
         )
     lines += _markdown(header, rows)
+    lines += [
+        "",
+        "Spearman rank correlation of p^X with each quantity over every seed's design (rho < 0:",
+        "it falls as p^X grows):",
+        "",
+    ]
+    rows = [
+        [row["metric"], _fmt(row["rho"], 3), _fmt(row["p"], 3), str(row["n"])]
+        for _, row in _spearman(everything, SHAPE_METRICS).iterrows()
+    ]
+    lines += _markdown(["quantity", "rho", "p", "designs"], rows)
     return "\n".join(lines) + "\n"
+
+
+SHAPE_METRICS: tuple[str, ...] = ("turning_angle", "straightness", "tip_offset", "final_distance")
+"""Quantities of the tool-shapes report correlated with p^X."""
+
+
+def _spearman(table: pd.DataFrame, metrics: Sequence[str]) -> pd.DataFrame:
+    """Spearman rho of p^X with each metric over the rows of ``table`` (NaN if undefined)."""
+    from scipy import stats as sps
+
+    rows = []
+    for metric in metrics:
+        part = table[np.isfinite(table[metric])] if len(table) else table
+        if len(part) >= 3 and part["goal_precision"].nunique() > 1 and part[metric].nunique() > 1:
+            result = sps.spearmanr(part["goal_precision"], part[metric])
+            rho, p = float(result.statistic), float(result.pvalue)
+        else:
+            rho = p = math.nan
+        rows.append({"metric": metric, "rho": rho, "p": p, "n": int(len(part))})
+    return pd.DataFrame(rows, columns=["metric", "rho", "p", "n"])
 
 
 # --- Table I and the robustness scatter --------------------------------------------------------
@@ -499,8 +530,6 @@ def robustness_by_precision(
         and ``_high``; and one row per metric with the Spearman ``rho`` between p^X and the
         metric over all tested designs, its two-sided ``p`` and ``n``.
     """
-    from scipy import stats as sps
-
     tested = _tested(designs)
     metrics = ("robustness", "squared_goal_error", "nominal_final_distance")
     rows = []
@@ -523,15 +552,7 @@ def robustness_by_precision(
             )
             row.update({metric: ci.estimate, f"{metric}_low": ci.low, f"{metric}_high": ci.high})
         rows.append(row)
-    correlations = []
-    for metric in metrics:
-        if len(tested) >= 3 and tested["goal_precision"].nunique() > 1:
-            result = sps.spearmanr(tested["goal_precision"], tested[metric])
-            rho, p = float(result.statistic), float(result.pvalue)
-        else:
-            rho = p = math.nan
-        correlations.append({"metric": metric, "rho": rho, "p": p, "n": int(len(tested))})
-    return pd.DataFrame(rows), pd.DataFrame(correlations)
+    return pd.DataFrame(rows), _spearman(tested, metrics)
 
 
 def _by_precision_markdown(table: pd.DataFrame, correlations: pd.DataFrame) -> str:
