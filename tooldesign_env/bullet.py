@@ -269,6 +269,17 @@ class BulletWorld:
         """Command joint torques (7,) N m for the next steps."""
         self._motor(robot.body, robot.joints, pybullet.TORQUE_CONTROL, forces=torques)
 
+    def step_with_torques(self, robot: RobotHandles, torques: list[float], n: int) -> None:
+        """Advance ``n`` physics steps, commanding the same joint torques (7,) N m on each.
+
+        PyBullet forgets a torque command after every step, so it is sent before each one.
+        """
+        motor, step, body, joints = self._motor, self._step, robot.body, robot.joints
+        torque_control = pybullet.TORQUE_CONTROL
+        for _ in range(n):
+            motor(body, joints, torque_control, forces=torques)
+            step()
+
     def step(self, n: int = 1) -> None:
         """Advance the physics by ``n`` time steps."""
         for _ in range(n):

@@ -107,6 +107,15 @@ class TrajectoryEstimator:
         if scale <= 0.0:
             hess = np.zeros((n, 3, 7, 7)) if self.second_order else None
             return Sensitivities(np.zeros((n, 3, 7)), hess)
+        # Past the last step in which anything moved (a fast-forwarded hold), every window sum
+        # is exactly zero and so are J and H: compute up to there and zero-fill the rest.
+        moving = np.flatnonzero(np.any(dx != 0.0, axis=1) | np.any(du != 0.0, axis=1))
+        m = min(n, int(moving[-1]) + 1 + self.window) if moving.size else 0
+        jac_full = np.zeros((n, 3, 7))
+        hess_full = np.zeros((n, 3, 7, 7)) if self.second_order else None
+        if m == 0:
+            return Sensitivities(jac_full, hess_full)
+        dx, du, n = dx[:m], du[:m], m
         count = _window_sums(np.ones((n, 1)), self.window)[:, 0]  # (T,)
         mean_du = _window_sums(du, self.window) / count[:, None]
         # Centred moments: the regression has an intercept, so a steady drift of the box (PyBullet
@@ -116,13 +125,12 @@ class TrajectoryEstimator:
         gram += (self.ridge * scale) * np.eye(7)
         inv = np.linalg.inv(gram)  # (T, 7, 7), symmetric positive definite
         jac = self._regress(dx, du, mean_du, count) @ inv
-        hess = None
         if self.second_order:
             djac = np.diff(jac, axis=0, prepend=jac[:1]).reshape(n, 21)
             hess = (self._regress(djac, du, mean_du, count) @ inv).reshape(n, 3, 7, 7)
-            hess = 0.5 * (hess + np.swapaxes(hess, -1, -2))
-        return Sensitivities(jac, hess)
-
+            hess_full[:m] = 0.5 * (hess + np.swapaxes(hess, -1, -2))  # type: ignore[index]
+        jac_full[:m] = jac
+        return Sensitivities(jac_full, hess_full)
 
     def _regress(
         self, y: np.ndarray, du: np.ndarray, mean_du: np.ndarray, count: np.ndarray
@@ -213,8 +221,14 @@ def control_confidence(
     if form == "clamped" and sens.hessian is not None:
         err = box_position - np.asarray(goal, dtype=float)
         pi = pi + np.einsum("ti,tijk->tjk", err, sens.hessian)
-    lam = np.linalg.eigvalsh(0.5 * (pi + np.swapaxes(pi, -1, -2)))
-    return 0.5 * np.sum(np.log1p(np.maximum(lam, 0.0) / eps), axis=1)
+    # A zero Pi_U (the torques do not move the box) has zero confidence: only the other steps
+    # need an eigendecomposition.
+    nonzero = np.any(pi != 0.0, axis=(1, 2))
+    out = np.zeros(pi.shape[0])
+    sub = pi[nonzero]
+    lam = np.linalg.eigvalsh(0.5 * (sub + np.swapaxes(sub, -1, -2)))
+    out[nonzero] = 0.5 * np.sum(np.log1p(np.maximum(lam, 0.0) / eps), axis=1)
+    return out
 
 
 @dataclass(frozen=True, eq=False)

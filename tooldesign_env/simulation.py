@@ -249,15 +249,15 @@ class ToolSimulator:
         scene, ctrl = self.scene, self.controller
         n = len(ref.times)
         period = ctrl.control_period
-        limits = np.asarray(ctrl.torque_limits)
         kp, kd = ctrl.kp, ctrl.kd
 
-        X = np.empty((n, 3))
-        U = np.zeros((n, 7))
-        Q = np.empty((n, 7))
-        P = np.empty((n, 3))
-        yaw = np.empty(n)
-        contact = np.zeros(n, dtype=bool)
+        # Per-step records, appended as plain tuples and turned into arrays once at the end.
+        box_rows: list[tuple[float, ...]] = []
+        torque_rows: list[list[float]] = []
+        q_rows: list[list[float]] = []
+        tool_rows: list[tuple[float, ...]] = []
+        yaw_rows: list[float] = []
+        contact_rows: list[bool] = []
         phase = self._phase_index(ref.times)
         hold = PHASES.index("hold")
         rest_needed = max(int(math.ceil(scene.rest_time / self.control_dt)), 1)
@@ -265,26 +265,34 @@ class ToolSimulator:
         fast_forward_from = n
         self._snapshots = _Snapshots(snapshot_every) if snapshot_every else None
 
+        # The hot loop works on plain floats: NumPy's per-call overhead on 7-vectors cost more
+        # than the arithmetic. The operations and their order are those of
+        # qdd_ref + kp (q_ref - q) + kd (qd_ref - qd) and clip, so results are bit-identical.
+        ref_q, ref_qd, ref_qdd = ref.q.tolist(), ref.qd.tolist(), ref.qdd.tolist()
+        bounds = [(-lim, lim) for lim in ctrl.torque_limits]
         q, qd = world.joint_state(robot)
         for k in range(n):
             if self._snapshots is not None and k % self._snapshots.every == 0:
                 self._snapshots.ids[k] = world.save_state()
-            qdd = ref.qdd[k] + kp * (ref.q[k] - q) + kd * (ref.qd[k] - np.asarray(qd))
-            tau = np.clip(world.inverse_dynamics(robot, q, qd, qdd.tolist()), -limits, limits)
-            U[k] = tau
-            command = tau.tolist()
-            # PyBullet forgets torque commands after every step, so each physics step of the
-            # control period gets the command again.
-            for _ in range(period):
-                world.apply_torques(robot, command)
-                world.step()
+            qdd = [
+                a + kp * (b - x) + kd * (c - v)
+                for a, b, c, x, v in zip(ref_qdd[k], ref_q[k], ref_qd[k], q, qd, strict=True)
+            ]
+            command = [
+                min(max(t, lo), hi)
+                for t, (lo, hi) in zip(
+                    world.inverse_dynamics(robot, q, qd, qdd), bounds, strict=True
+                )
+            ]
+            torque_rows.append(command)
+            world.step_with_torques(robot, command, period)
             q, qd = world.joint_state(robot)
             position, orientation = world.link_pose(robot, robot.ee_link)
-            X[k] = world.body_position(box)
-            Q[k] = q
-            P[k] = position
-            yaw[k] = _tool_yaw(orientation)
-            contact[k] = world.in_contact(box, robot.body, robot.tool_link)
+            box_rows.append(world.body_position(box))
+            q_rows.append(q)
+            tool_rows.append(position)
+            yaw_rows.append(_tool_yaw(orientation))
+            contact_rows.append(world.in_contact(box, robot.body, robot.tool_link))
             if scene.fast_forward_rest and phase[k] == hold:
                 box_speed = np.linalg.norm(world.box_velocity(box))
                 still = box_speed < scene.rest_speed and max(map(abs, qd)) < scene.rest_speed
@@ -296,24 +304,27 @@ class ToolSimulator:
                         self._snapshots.ids[fast_forward_from] = world.save_state()
                         self._snapshots.rest_from = fast_forward_from
                     break
-        if fast_forward_from < n:
-            # The scene is static and the reference constant: every remaining step repeats the
-            # last one (the controller's torque at rest is the gravity torque it just applied).
-            last = fast_forward_from - 1
-            for array in (X, U, Q, P, yaw, contact):
-                array[fast_forward_from:] = array[last]
-        tracking = np.linalg.norm(P - ref.ee_position, axis=1)
-        self._last_torques = U
+        # The scene is static and the reference constant after a fast-forward: every remaining
+        # step repeats the last one (the controller's torque at rest is the gravity torque it
+        # just applied).
+        repeat = n - fast_forward_from
+
+        def table(rows: list, dtype: type = float) -> np.ndarray:
+            return np.array(rows + rows[-1:] * repeat, dtype=dtype)
+
+        tool_position = table(tool_rows)
+        torques = table(torque_rows)
+        self._last_torques = torques
         return Trajectory(
             times=ref.times.copy(),
-            box_position=X,
-            torques=U,
-            joint_positions=Q,
-            tool_position=P,
-            tool_yaw=yaw,
-            contact=contact,
+            box_position=table(box_rows),
+            torques=torques,
+            joint_positions=table(q_rows),
+            tool_position=tool_position,
+            tool_yaw=table(yaw_rows),
+            contact=table(contact_rows, bool),
             phase=phase,
-            tracking_error=tracking,
+            tracking_error=np.linalg.norm(tool_position - ref.ee_position, axis=1),
             fast_forward_from=fast_forward_from,
         )
 
@@ -342,9 +353,7 @@ class ToolSimulator:
         period = self.controller.control_period
         out = np.empty((torques.shape[0], 3))
         for k, tau in enumerate(torques.tolist()):
-            for _ in range(period):
-                world.apply_torques(robot, tau)
-                world.step()
+            world.step_with_torques(robot, tau, period)
             out[k] = world.body_position(box)
         return out
 
@@ -397,9 +406,7 @@ class ToolSimulator:
             world.restore_state(self._snapshots.ids[k])
             for j in range(k, min(k + horizon, n)):
                 command = np.clip(torques[j] + offset, -limits, limits).tolist()
-                for _ in range(period):
-                    world.apply_torques(robot, command)
-                    world.step()
+                world.step_with_torques(robot, command, period)
             out[i] = world.body_position(box)
         return out
 
