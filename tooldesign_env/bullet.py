@@ -13,7 +13,6 @@ import re
 import tempfile
 import uuid
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 import pybullet
@@ -264,10 +263,6 @@ class BulletWorld:
     ) -> tuple[float, ...]:
         """Joint torques (N m) that produce accelerations ``qdd`` at state (q, qd)."""
         return self._inverse_dynamics(robot.body, q, qd, qdd)
-
-    def apply_torques(self, robot: RobotHandles, torques: Any) -> None:
-        """Command joint torques (7,) N m for the next steps."""
-        self._motor(robot.body, robot.joints, pybullet.TORQUE_CONTROL, forces=torques)
 
     def step_with_torques(self, robot: RobotHandles, torques: list[float], n: int) -> None:
         """Advance ``n`` physics steps, commanding the same joint torques (7,) N m on each.
