@@ -48,6 +48,7 @@ from benchmarks.storage import (
     Unit,
     atomic_write_text,
     build_manifest,
+    json_text,
     read_manifest,
     timing_totals,
 )
@@ -676,7 +677,7 @@ def run_design(
     manifest = _manifest(config, start_time, sessions, evaluations, end_time)
     store.write_manifest(manifest)
     card = _card(config, result, evaluations, manifest)
-    atomic_write_text(out / FILES["card"], _json_text(card))
+    atomic_write_text(out / FILES["card"], json_text(card))
     return dataclasses.replace(result, card=card)
 
 
@@ -758,7 +759,7 @@ def _finish(
     rows = evaluate_batch(executor, designs, config.task(), keep_trajectory=True)
     paths = [r.get("box_trajectory", np.zeros((0, 3))) for r in rows]
     robustness = _robustness(config, best, coeffs, executor)
-    atomic_write_text(out / FILES["robustness"], _json_text(_without_paths(robustness)))
+    atomic_write_text(out / FILES["robustness"], json_text(_without_paths(robustness)))
     _figures(config, out, evaluations, bests, designs, paths, coeffs, best, robustness)
     return DesignResult(
         out_dir=out,
@@ -871,24 +872,6 @@ def _card(
 
 def _finite_or_none(value: float) -> float | None:
     return float(value) if math.isfinite(value) else None
-
-
-def _json_text(data: Mapping[str, Any]) -> str:
-    return json.dumps(_plain(data), indent=2, sort_keys=True, allow_nan=False) + "\n"
-
-
-def _plain(value: Any) -> Any:
-    if isinstance(value, Mapping):
-        return {str(k): _plain(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_plain(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return _plain(value.tolist())
-    if isinstance(value, np.generic):
-        value = value.item()
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
 
 
 # --- figures -----------------------------------------------------------------------------------

@@ -15,7 +15,6 @@ Writes into ``--out``:
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 from typing import Any
 
@@ -29,7 +28,7 @@ from benchmarks.plots import (
     plot_tool_shapes,
     save_png,
 )
-from benchmarks.storage import atomic_write_text, package_versions
+from benchmarks.storage import atomic_write_text, json_ready, json_text, package_versions
 from tooldesign_env import (
     ToolDesignEnv,
     ToolSpec,
@@ -123,14 +122,6 @@ def trajectory_frame(info: dict[str, Any]) -> pd.DataFrame:
     return pd.DataFrame(columns)
 
 
-def _jsonable(value: Any) -> Any:
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, (np.floating, np.integer, np.bool_)):
-        return value.item()
-    return value
-
-
 def evaluate(
     coeffs: Any,
     out: Path | str,
@@ -170,7 +161,7 @@ def evaluate(
         export_mesh(geometry, out / "tool.obj")
         atomic_write_text(out / "tool.urdf", tool_urdf(geometry))
         scalars = {
-            k: _jsonable(v)
+            k: json_ready(v)
             for k, v in info.items()
             if not isinstance(v, np.ndarray) or v.ndim == 1 and k in ("coefficients", "goal")
         }
@@ -218,14 +209,14 @@ def evaluate(
                     "nominal_mass": result.nominal_mass,
                     "masses": list(result.masses),
                 }
-                atomic_write_text(out / "robustness.json", json.dumps(card["robustness"], indent=2))
+                atomic_write_text(out / "robustness.json", json_text(card["robustness"]))
                 fig, ax = new_figure()
                 paths = [result.nominal.box_position] + [t.box_position for t in result.perturbed]
                 labels = [f"{result.nominal_mass} kg"] + [f"{m} kg" for m in result.masses]
                 plot_box_paths(ax, paths, info["goal"], labels)
                 ax.set_title("box paths under altered box masses")
                 save_png(fig, out / "robustness.png")
-        atomic_write_text(out / "terms.json", json.dumps(card, indent=2, sort_keys=True))
+        atomic_write_text(out / "terms.json", json_text(card))
         return info
     finally:
         env.close()

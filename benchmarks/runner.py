@@ -66,6 +66,7 @@ from benchmarks.storage import (
     ResultStore,
     atomic_write_text,
     build_manifest,
+    json_text,
     read_manifest,
     timing_totals,
 )
@@ -205,26 +206,6 @@ def paths_path(design_file: str | os.PathLike[str]) -> Path:
     """The box-path file next to a design file (``seed=<n>.paths.json``)."""
     path = Path(design_file)
     return path.with_name(path.name.removesuffix(".json") + ".paths.json")
-
-
-def _plain(value: Any) -> Any:
-    if isinstance(value, Mapping):
-        return {str(k): _plain(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_plain(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return _plain(value.tolist())
-    if isinstance(value, np.generic):
-        value = value.item()
-    if isinstance(value, float) and not math.isfinite(value):
-        return None  # JSON has no NaN: a failed metric is null
-    return value
-
-
-def _json_text(data: Mapping[str, Any], *, compact: bool = False) -> str:
-    if compact:
-        return json.dumps(_plain(data), separators=(",", ":"), sort_keys=True, allow_nan=False)
-    return json.dumps(_plain(data), indent=2, sort_keys=True, allow_nan=False) + "\n"
 
 
 def suite_of_manifest(manifest: Mapping[str, Any]) -> SuiteConfig:
@@ -530,8 +511,8 @@ class _Scheduler:
                 else [],
                 **paths,
             }
-            atomic_write_text(paths_path(target), _json_text(paths_record, compact=True))
-        atomic_write_text(target, _json_text(record))
+            atomic_write_text(paths_path(target), json_text(paths_record, compact=True))
+        atomic_write_text(target, json_text(record))
         if run.testing:
             self.bar.update(_test_rollouts(self.config))
         self.on_run_done()

@@ -913,6 +913,33 @@ def _jsonable(value: Any, where: str) -> Any:
     raise TypeError(f"{where} is a {type(value).__name__}, which JSON cannot store")
 
 
+def json_ready(value: Any) -> Any:
+    """``value`` as plain JSON types: mappings, lists, numbers, strings, None.
+
+    NumPy arrays and scalars become lists and numbers; a non-finite float becomes None (JSON has
+    no NaN, and a failed metric is null in the files users keep). Manifests use a stricter
+    check that refuses NaN instead.
+    """
+    if isinstance(value, Mapping):
+        return {str(k): json_ready(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [json_ready(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return json_ready(value.tolist())
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def json_text(data: Mapping[str, Any], *, compact: bool = False) -> str:
+    """``data`` as JSON text with sorted keys (see :func:`json_ready`): equal data, equal bytes."""
+    if compact:
+        return json.dumps(json_ready(data), separators=(",", ":"), sort_keys=True, allow_nan=False)
+    return json.dumps(json_ready(data), indent=2, sort_keys=True, allow_nan=False) + "\n"
+
+
 def write_manifest(run_folder: str | os.PathLike[str], manifest: Mapping[str, Any]) -> Path:
     """Write ``run_folder/manifest.json`` atomically, keys sorted, so equal input gives equal bytes.
 
