@@ -38,6 +38,7 @@ from benchmarks.evaluation import (
     METRIC_FIELDS,
     RobustnessRequest,
     TaskSettings,
+    add_task_arguments,
     evaluate_batch,
     evaluate_robustness_of_design,
     make_executor,
@@ -88,7 +89,6 @@ FILES: dict[str, str] = {
 }
 """Files of a finished run folder, besides ``manifest.json`` and ``parts/``."""
 
-_ESTIMATORS = ("trajectory", "resimulation")
 _DEFAULT_GOAL = (0.0, 1.5, 0.1)
 # Fields that do not change the results, so a resumed run may set them differently.
 _RUNTIME_FIELDS = frozenset({"iterations", "workers", "executor", "scheduler"})
@@ -1045,34 +1045,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         metavar="ADDR",
         help="Dask scheduler address, e.g. tcp://host:8786 (with --executor dask)",
     )
-    parser.add_argument(
-        "--goal",
-        type=float,
-        nargs=3,
-        default=list(_DEFAULT_GOAL),
-        metavar=("X", "Y", "Z"),
-        help="goal X^g in m (default: 0 1.5 0.1)",
-    )
-    parser.add_argument(
-        "--goal-precision",
-        type=float,
-        default=defaults["goal_precision"].default,
-        metavar="P",
-        help="goal precision p^X (default: %(default)s)",
-    )
-    parser.add_argument(
-        "--box-mass",
-        type=float,
-        default=defaults["box_mass"].default,
-        metavar="M",
-        help="box mass in kg (default: %(default)s)",
-    )
-    parser.add_argument(
-        "--estimator",
-        choices=_ESTIMATORS,
-        default="trajectory",
-        help="estimator of dX/dU (default: trajectory)",
-    )
+    add_task_arguments(parser)
     parser.add_argument(
         "--option",
         type=_setting,

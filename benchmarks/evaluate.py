@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from benchmarks.evaluation import add_task_arguments
 from benchmarks.plots import (
     new_figure,
     plot_box_paths,
@@ -60,17 +61,7 @@ def add_parser(subparsers: Any) -> None:
         help="coefficients c1 ... cn, highest power first (default degree 3)",
     )
     p.add_argument("--out", type=Path, required=True, help="output folder (created)")
-    p.add_argument(
-        "--goal",
-        type=float,
-        nargs=3,
-        default=(0.0, 1.5, 0.1),
-        metavar=("X", "Y", "Z"),
-        help="goal X^g in m (default 0 1.5 0.1)",
-    )
-    p.add_argument("--goal-precision", type=float, default=20.0, help="p^X (default 20)")
-    p.add_argument("--box-mass", type=float, default=0.1, help="box mass in kg (default 0.1)")
-    p.add_argument("--estimator", choices=("trajectory", "resimulation"), default="trajectory")
+    add_task_arguments(p)
     p.add_argument(
         "--robustness",
         action="store_true",

@@ -28,6 +28,7 @@ Example:
 
 from __future__ import annotations
 
+import argparse
 import contextlib
 import math
 import multiprocessing
@@ -143,6 +144,43 @@ class TaskSettings:
     def env_key(self) -> tuple[Any, ...]:
         """The settings that need a separate env; goal and box mass are set per episode."""
         return (self.goal_precision, self.estimator, self.env_kwargs)
+
+
+def add_task_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add the task options ``--goal``, ``--goal-precision``, ``--box-mass``, ``--estimator``.
+
+    Their defaults are :class:`TaskSettings`'; every command that evaluates designs takes the
+    same options with the same meaning.
+    """
+    defaults = TaskSettings()
+    parser.add_argument(
+        "--goal",
+        type=float,
+        nargs=3,
+        default=list(defaults.goal),
+        metavar=("X", "Y", "Z"),
+        help=f"goal X^g in m (default: {' '.join(f'{v:g}' for v in defaults.goal)})",
+    )
+    parser.add_argument(
+        "--goal-precision",
+        type=float,
+        default=defaults.goal_precision,
+        metavar="P",
+        help="goal precision p^X (default: %(default)s)",
+    )
+    parser.add_argument(
+        "--box-mass",
+        type=float,
+        default=defaults.box_mass,
+        metavar="M",
+        help="box mass in kg (default: %(default)s)",
+    )
+    parser.add_argument(
+        "--estimator",
+        choices=("trajectory", "resimulation"),
+        default=defaults.estimator,
+        help="estimator of dX/dU (default: %(default)s)",
+    )
 
 
 @dataclass(frozen=True, kw_only=True)

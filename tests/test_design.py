@@ -7,15 +7,12 @@ import json
 import math
 import os
 import shutil
-import signal
-import subprocess
-import sys
-import time
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
+from cli_kill import run_until
 
 from benchmarks import design as design_module
 from benchmarks.cli import main
@@ -151,30 +148,6 @@ def _compare_runs(a: Path, b: Path) -> None:
         assert (a / FILES[key]).read_bytes() == (b / FILES[key]).read_bytes(), key
 
 
-def _run_until(args: list[str], done: Path, timeout: float = 240.0) -> subprocess.Popen:
-    """Start the command line and SIGKILL it as soon as ``done`` exists."""
-    code = "import sys; from benchmarks.cli import main; sys.exit(main(sys.argv[1:]))"
-    process = subprocess.Popen(
-        [sys.executable, "-c", code, *args],
-        cwd=ROOT,
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
-    )
-    deadline = time.monotonic() + timeout
-    while not done.exists():
-        if process.poll() is not None:
-            raise AssertionError(f"finished before {done.name}: {process.stderr.read().decode()}")
-        if time.monotonic() > deadline:
-            process.kill()
-            raise AssertionError(f"{done} did not appear within {timeout} s")
-        time.sleep(0.02)  # polling a file; the run itself takes seconds
-    process.send_signal(signal.SIGKILL)
-    process.wait(timeout=30)
-    process.stderr.close()
-    assert process.returncode == -signal.SIGKILL
-    return process
-
-
 @pytest.mark.slow
 def test_resume_after_sigkill_equals_uninterrupted_run(reference, tmp_path: Path) -> None:
     ref, _ = reference
@@ -182,11 +155,11 @@ def test_resume_after_sigkill_equals_uninterrupted_run(reference, tmp_path: Path
     unit = design_module._unit(CONFIG, 0)
     parts = ResultStore(out)
     # Killed in the middle of the ask/tell loop, after iteration 0 was logged ...
-    _run_until(cli_args(out), parts.part_path(unit))
+    run_until(cli_args(out), parts.part_path(unit))
     assert not (out / FILES["card"]).exists()
     # ... and again while the finished run writes its files (after the last iteration).
     last = parts.part_path(dataclasses.replace(unit, iteration=CONFIG.iterations - 1))
-    _run_until(cli_args(out, "--resume"), last)
+    run_until(cli_args(out, "--resume"), last)
     assert not (out / FILES["card"]).exists()
     assert main(cli_args(out, "--resume")) == 0
     _compare_runs(ref, out)

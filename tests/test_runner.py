@@ -4,15 +4,12 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import signal
-import subprocess
-import sys
-import time
 from concurrent.futures import Future
 from pathlib import Path
 
 import pandas as pd
 import pytest
+from cli_kill import run_until
 
 from benchmarks import runner
 from benchmarks.cli import main
@@ -54,29 +51,6 @@ def uninterrupted(tiny_file: Path, tmp_path_factory: pytest.TempPathFactory) -> 
     return out
 
 
-def _run_until(args: list[str], done: Path, timeout: float = 300.0) -> None:
-    """Start the command line and SIGKILL it as soon as ``done`` exists."""
-    code = "import sys; from benchmarks.cli import main; sys.exit(main(sys.argv[1:]))"
-    process = subprocess.Popen(
-        [sys.executable, "-c", code, *args],
-        cwd=ROOT,
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
-    )
-    deadline = time.monotonic() + timeout
-    while not done.exists():
-        if process.poll() is not None:
-            raise AssertionError(f"finished before {done.name}: {process.stderr.read().decode()}")
-        if time.monotonic() > deadline:
-            process.kill()
-            raise AssertionError(f"{done} did not appear within {timeout} s")
-        time.sleep(0.02)  # polling a file; the suite itself takes seconds
-    process.send_signal(signal.SIGKILL)
-    process.wait(timeout=30)
-    process.stderr.close()
-    assert process.returncode == -signal.SIGKILL
-
-
 def _designs_without_timing(folder: Path) -> list[dict]:
     records = read_designs(folder)
     for record in records:
@@ -116,11 +90,11 @@ def test_resume_after_sigkill_equals_uninterrupted_suite(
     parts = ResultStore(out)
     serial = ("--executor", "serial", "--no-progress")
     # Killed in the ask/tell loop of the first run, after its iteration 0 was logged ...
-    _run_until(bench_args(tiny_file, out, *serial), parts.part_path(unit))
+    run_until(bench_args(tiny_file, out, *serial), parts.part_path(unit))
     assert not (out / DESIGNS_DIR).exists()
     # ... and again while the first run's design is tested (after its last iteration).
     last = parts.part_path(dataclasses.replace(unit, iteration=suite.iterations - 1))
-    _run_until(bench_args(tiny_file, out, *serial), last)
+    run_until(bench_args(tiny_file, out, *serial), last)
     assert not runner.design_path(out, first).exists()
     # The same command finishes it, here on the process pool: executors agree.
     assert main(bench_args(tiny_file, out, "--executor", "process", "--workers", "2")) == 0
