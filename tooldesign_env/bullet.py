@@ -119,6 +119,8 @@ class BulletWorld:
         self._link_state = functools.partial(pybullet.getLinkState, physicsClientId=cid)
         self._contacts = functools.partial(pybullet.getContactPoints, physicsClientId=cid)
         self._base_velocity = functools.partial(pybullet.getBaseVelocity, physicsClientId=cid)
+        self._jacobian = functools.partial(pybullet.calculateJacobian, physicsClientId=cid)
+        self._mass_matrix = functools.partial(pybullet.calculateMassMatrix, physicsClientId=cid)
         self.reset()
 
     # ------------------------------------------------------------------ world
@@ -333,6 +335,34 @@ class BulletWorld:
     def in_contact(self, body_a: int, body_b: int, link_b: int) -> bool:
         """Whether body A touches link ``link_b`` of body B after the last step."""
         return len(self._contacts(body_a, body_b, -1, link_b)) > 0
+
+    def contact_points(self, body_a: int, body_b: int, link_b: int) -> list[tuple]:
+        """The contact manifold between body A and link ``link_b`` of body B after the last step.
+
+        Each entry is ``(point on B (3,) m, normal on B (3,) pointing toward A)`` in the world
+        frame. Empty when they do not touch.
+        """
+        return [(c[6], c[7]) for c in self._contacts(body_a, body_b, -1, link_b)]
+
+    def link_com_pose(self, robot: RobotHandles, link: int) -> tuple[tuple, tuple]:
+        """World position (m) and quaternion of a link's centre-of-mass (inertial) frame."""
+        state = self._link_state(robot.body, link, computeForwardKinematics=1)
+        return state[0], state[1]
+
+    def link_com_jacobian(
+        self, robot: RobotHandles, link: int, q: list[float]
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Linear and angular Jacobians (3, 7) of a link's centre of mass at joint positions q.
+
+        Units m/rad and rad/rad, world frame; the arm's 7 joints are its only degrees of freedom.
+        """
+        zeros = [0.0] * len(q)
+        linear, angular = self._jacobian(robot.body, link, (0.0, 0.0, 0.0), q, zeros, zeros)
+        return np.asarray(linear, dtype=float), np.asarray(angular, dtype=float)
+
+    def mass_matrix(self, robot: RobotHandles, q: list[float]) -> np.ndarray:
+        """Joint-space inertia matrix M(q) (7, 7) of the arm with its tool, kg m^2."""
+        return np.asarray(self._mass_matrix(robot.body, list(q)), dtype=float)
 
     def overlaps(self, body_a: int, body_b: int, link_b: int, margin: float = 0.0) -> bool:
         """Whether two shapes are closer than ``margin`` (m), without stepping the physics."""

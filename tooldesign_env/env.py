@@ -244,7 +244,10 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
         if self.simulator.build(geometry, box_mass=self._box_mass):
             return self._invalid_info(geometry, "overlaps the box at the start of the sweep")
         resim = self.objective.estimator == "resimulation"
-        trajectory = self.simulator.run(snapshot_every=self.objective.horizon if resim else None)
+        trajectory = self.simulator.run(
+            snapshot_every=self.objective.horizon if resim else None,
+            record_mobility=self.objective.estimator == "contact",
+        )
         try:
             terms = free_energy(
                 trajectory.box_position,
@@ -253,6 +256,8 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
                 self.objective,
                 estimator=self._estimator,
                 replay=self._replay if resim else None,
+                mobility=trajectory.contact_mobility,
+                control_dt=self.simulator.control_dt,
             )
         finally:
             if resim:

@@ -18,11 +18,14 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol
 
+import math
+
 import numpy as np
 
 from tooldesign_env.specs import ObjectiveSpec
 
 __all__ = [
+    "ContactEstimator",
     "ObjectiveTerms",
     "ReplayFn",
     "ResimulationEstimator",
@@ -63,6 +66,76 @@ class SensitivityEstimator(Protocol):
     ) -> Sensitivities:
         """Sensitivities for a (T, 3) box trajectory under (T, 7) torques."""
         ...
+
+
+@dataclass(frozen=True)
+class ContactEstimator:
+    """dX/dU from a model-based linearization of the contact along the recorded trajectory.
+
+    The simulator records, at every control step in contact, the box's acceleration per unit
+    joint torque through the tool, A_t (``Trajectory.contact_mobility``, from PyBullet's contact
+    manifold, link Jacobian and mass matrix; see
+    :func:`tooldesign_env.simulation.contact_mobility`). A torque offset dU applied at step t and
+    held for ``response_time`` tau moves the box by
+
+        dX = integral_0^tau (tau - s) A(t + s) ds dU,
+
+    so J_t is that integral, taken over the control steps of the window (J_t = tau^2/2 A_t while
+    A is constant). J depends only on the joint configuration and the contact geometry, which
+    are stable under tiny changes of the scene, not on a regression over the torques' small
+    fluctuations, and it is exactly zero when the tool does not touch the box within tau. It
+    gives no second derivative: Pi_U is the Gauss-Newton J^T J (docs/model.md).
+
+    Attributes:
+        response_time: tau, how long a torque perturbation acts before the box's response is
+            read, s (0.05 s = the re-simulation estimator's 6 control steps at 120 Hz).
+        slip_speed: the box's speed over the floor at which it counts as sliding, m/s. Below
+            it the floor's friction is regularized (as in soft-contact simulators): a box moving
+            at speed v follows a push by the fraction v / slip_speed, and a box at rest not at
+            all, since static friction holds it against a small push.
+    """
+
+    response_time: float = 0.05
+    slip_speed: float = 0.01
+    name: str = "contact"
+
+    def estimate(
+        self,
+        box_position: np.ndarray,
+        torques: np.ndarray,
+        replay: ReplayFn | None = None,
+        *,
+        mobility: np.ndarray | None = None,
+        control_dt: float | None = None,
+    ) -> Sensitivities:
+        """Sensitivities from the (T, 3, 7) contact mobility of a rollout with period control_dt (s)."""
+        n = box_position.shape[0]
+        if mobility is None or control_dt is None:
+            raise ValueError(
+                "the contact estimator needs the rollout's contact mobility and control period: "
+                "run the simulator with record_mobility=True"
+            )
+        mobility = np.asarray(mobility, dtype=float)
+        if mobility.shape != (n, 3, 7):
+            raise ValueError(f"mobility must have shape ({n}, 3, 7), got {mobility.shape}")
+        if not (math.isfinite(control_dt) and control_dt > 0):
+            raise ValueError(f"control_dt must be a finite number > 0 s, got {control_dt!r}")
+        # The window's weights (tau - s_j) dt at the midpoints s_j of its control steps; the
+        # last step is cut so that the weights sum to tau^2 / 2 for any tau.
+        tau = self.response_time
+        steps = max(int(math.ceil(tau / control_dt - 1e-9)), 1)
+        widths = np.minimum(control_dt, tau - np.arange(steps) * control_dt)
+        mids = np.arange(steps) * control_dt + 0.5 * widths
+        weights = (tau - mids) * widths
+        # Regularized Coulomb friction between box and floor: a box at rest is held by static
+        # friction, so a small push does not move it; a sliding box follows a push in full.
+        speed = np.linalg.norm(np.diff(box_position, axis=0, prepend=box_position[:1]), axis=1)
+        sliding = np.minimum(speed / (self.slip_speed * control_dt), 1.0)
+        driven = mobility * sliding[:, None, None]
+        jac = np.zeros_like(mobility)
+        for j, w in enumerate(weights):
+            jac[: n - j] += w * driven[j:]
+        return Sensitivities(jac, None)
 
 
 def _window_sums(values: np.ndarray, window: int) -> np.ndarray:
@@ -188,6 +261,8 @@ class ResimulationEstimator:
 
 def make_estimator(spec: ObjectiveSpec) -> SensitivityEstimator:
     """The estimator named by ``spec.estimator``, with its settings."""
+    if spec.estimator == "contact":
+        return ContactEstimator(response_time=spec.response_time, slip_speed=spec.slip_speed)
     if spec.estimator == "trajectory":
         return TrajectoryEstimator(
             window=spec.window, ridge=spec.ridge, second_order=spec.form == "clamped"
@@ -264,6 +339,8 @@ def free_energy(
     *,
     estimator: SensitivityEstimator | None = None,
     replay: ReplayFn | None = None,
+    mobility: np.ndarray | None = None,
+    control_dt: float | None = None,
 ) -> ObjectiveTerms:
     """F and its terms for a recorded trajectory.
 
@@ -274,6 +351,8 @@ def free_energy(
         spec: weights and estimator settings.
         estimator: overrides ``make_estimator(spec)``.
         replay: the simulator's replay function (needed by the resimulation estimator).
+        mobility: (T, 3, 7) the rollout's contact mobility (needed by the contact estimator).
+        control_dt: the rollout's control period, s (needed by the contact estimator).
     """
     box_position = np.asarray(box_position, dtype=float)
     torques = np.asarray(torques, dtype=float)
@@ -287,7 +366,12 @@ def free_energy(
         raise ValueError("box_position and torques must be finite")
     goal = np.asarray(goal, dtype=float)
     est = estimator or make_estimator(spec)
-    sens = est.estimate(box_position, torques, replay)
+    if isinstance(est, ContactEstimator):
+        sens = est.estimate(
+            box_position, torques, replay, mobility=mobility, control_dt=control_dt
+        )
+    else:
+        sens = est.estimate(box_position, torques, replay)
     e_t = goal_error(box_position, goal, spec.goal_precision)
     c_t = control_confidence(sens, box_position, goal, eps=spec.eps, form=spec.form)
     f_t = e_t - c_t

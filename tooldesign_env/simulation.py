@@ -18,7 +18,13 @@ from tooldesign_env.geometry import ToolGeometry, tool_link_xml
 from tooldesign_env.plan import REST_POSE, JointReference, joint_reference, phases
 from tooldesign_env.specs import ControllerSpec, PlanSpec, SceneSpec
 
-__all__ = ["PHASES", "Trajectory", "ToolSimulator", "principal_inertia"]
+__all__ = [
+    "PHASES",
+    "Trajectory",
+    "ToolSimulator",
+    "contact_mobility",
+    "principal_inertia",
+]
 
 PHASES = ("lower", "settle", "sweep", "pull", "hold")
 
@@ -46,6 +52,9 @@ class Trajectory:
         tracking_error: (T,) distance of the grasp point from the plan, m.
         fast_forward_from: index of the first step that repeats the rest state instead of being
             simulated (T when nothing was fast-forwarded).
+        contact_mobility: (T, 3, 7) the box's acceleration per unit joint torque through its
+            contact with the tool, m s^-2 / N m (zero without contact; see
+            :func:`contact_mobility`), or None when the rollout did not record it.
     """
 
     times: np.ndarray
@@ -58,6 +67,7 @@ class Trajectory:
     phase: np.ndarray
     tracking_error: np.ndarray
     fast_forward_from: int
+    contact_mobility: np.ndarray | None = None
 
     def __len__(self) -> int:
         return int(self.times.shape[0])
@@ -76,6 +86,65 @@ def principal_inertia(inertia: np.ndarray) -> tuple[np.ndarray, float]:
     rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
     diag = np.diag(rot.T @ inertia @ rot).copy()
     return diag, yaw
+
+
+def contact_mobility(
+    points: np.ndarray,
+    normals: np.ndarray,
+    tool_com: np.ndarray,
+    linear_jacobian: np.ndarray,
+    angular_jacobian: np.ndarray,
+    inverse_mass_matrix: np.ndarray,
+    box_center: np.ndarray,
+    box_mass: float,
+    box_size: tuple[float, float, float],
+) -> np.ndarray:
+    """The box's acceleration per unit joint torque through each contact point with the tool.
+
+    A small torque offset dU on the arm accelerates the free arm by M^-1 dU, and the tool's
+    contact point i by J_i M^-1 dU, where J_i = J_v - [r_i]x J_w is the point's Jacobian
+    (r_i from the tool's centre of mass). Along the contact normal n_i the arm and the box then
+    move together: the contact force grows by df_i = n_i^T J_i M^-1 dU / (1/Lambda_i + 1/m_i),
+    with 1/Lambda_i = n_i^T J_i M^-1 J_i^T n_i the arm's inverse effective mass at the point and
+    1/m_i = 1/m + (s_i x n_i)_z^2 / I_zz the box's (s_i from the box's centre; the box turns
+    about the vertical only). The box's centre accelerates by n_i,h df_i / m, with n_i,h the
+    horizontal part of the normal (the floor carries the vertical part). Tangential friction
+    between tool and box is left out: PyBullet's pair friction here is 0.2, so pushes act
+    along the normal.
+
+    Every argument is batched over the N contact points (the arm's matrices repeated for the
+    points of one step).
+
+    Args:
+        points: (N, 3) contact points on the tool, world frame, m.
+        normals: (N, 3) unit contact normals, pointing from the tool into the box.
+        tool_com: (N, 3) the tool link's centre of mass, m.
+        linear_jacobian: (N, 3, 7) J_v of the tool's centre of mass, m/rad.
+        angular_jacobian: (N, 3, 7) J_w of the tool link, rad/rad.
+        inverse_mass_matrix: (N, 7, 7) M(q)^-1 of the arm and tool, 1 / (kg m^2).
+        box_center: (N, 3) the box's centre, m.
+        box_mass: kg.
+        box_size: the box's full extents (x, y, z), m.
+
+    Returns:
+        (N, 3, 7) d(box acceleration)/dU per point, m s^-2 / N m.
+    """
+    points = np.asarray(points, dtype=float)
+    normals = np.asarray(normals, dtype=float)
+    arm = points - tool_com
+    # J_i = J_v - [r_i]x J_w, one column per joint: (N, 3, 7).
+    cross = np.cross(arm[:, None, :], np.swapaxes(angular_jacobian, 1, 2))  # (N, 7, 3)
+    point_jac = linear_jacobian - np.swapaxes(cross, 1, 2)
+    push = np.einsum("ni,nij,njk->nk", normals, point_jac, inverse_mass_matrix)  # (N, 7)
+    arm_inv_mass = np.einsum("nj,nij,ni->n", push, point_jac, normals)
+    lever = np.cross(points - box_center, normals)[:, 2]
+    inertia_zz = box_mass * (box_size[0] ** 2 + box_size[1] ** 2) / 12.0
+    box_inv_mass = 1.0 / box_mass + lever**2 / inertia_zz
+    force_per_push = 1.0 / (arm_inv_mass + box_inv_mass)  # (N,), N per (m/s^2)
+    horizontal = normals * np.array([1.0, 1.0, 0.0])
+    return np.asarray(
+        np.einsum("ni,nj,n->nij", horizontal, push, force_per_push) / box_mass
+    )
 
 
 def _principal_link_xml(geometry: ToolGeometry) -> tuple[str, np.ndarray]:
@@ -138,6 +207,7 @@ class ToolSimulator:
         self._box: int | None = None
         self._snapshots: _Snapshots | None = None
         self._last_torques: np.ndarray | None = None
+        self._box_mass = self.scene.box_mass
         self._builds = 0
 
     # ---------------------------------------------------------------- setup
@@ -193,9 +263,10 @@ class ToolSimulator:
             world.reconnect()  # else PyBullet's cache of loaded URDFs grows with every build
         world.reset()
         world.add_floor(friction=scene.floor_friction)
+        self._box_mass = scene.box_mass if box_mass is None else float(box_mass)
         self._box = world.add_box(
             size=scene.box_size,
-            mass=scene.box_mass if box_mass is None else box_mass,
+            mass=self._box_mass,
             friction=scene.box_friction,
             position=(*scene.box_position, scene.box_size[2] / 2.0),
             yaw=scene.box_yaw,
@@ -231,12 +302,16 @@ class ToolSimulator:
         self.build(geometry, box_mass=box_mass)
         return self.run(snapshot_every=snapshot_every)
 
-    def run(self, *, snapshot_every: int | None = None) -> Trajectory:
+    def run(
+        self, *, snapshot_every: int | None = None, record_mobility: bool = False
+    ) -> Trajectory:
         """Use the tool of the last :meth:`build` once and record the trajectory.
 
         Args:
             snapshot_every: also save a world snapshot every this many control steps (before
                 the step's torques are applied), for re-simulation.
+            record_mobility: also record the contact manifold at every step in contact and
+                return :attr:`Trajectory.contact_mobility` (for the contact estimator of Pi_U).
 
         Returns:
             The recorded :class:`Trajectory`.
@@ -258,6 +333,8 @@ class ToolSimulator:
         tool_rows: list[tuple[float, ...]] = []
         yaw_rows: list[float] = []
         contact_rows: list[bool] = []
+        # Steps in contact: (k, q, tool centre of mass, box centre, manifold), when recording.
+        contact_log: list[tuple[int, list[float], tuple, tuple, list[tuple]]] = []
         phase = self._phase_index(ref.times)
         hold = PHASES.index("hold")
         rest_needed = max(int(math.ceil(scene.rest_time / self.control_dt)), 1)
@@ -292,7 +369,14 @@ class ToolSimulator:
             q_rows.append(q)
             tool_rows.append(position)
             yaw_rows.append(_tool_yaw(orientation))
-            contact_rows.append(world.in_contact(box, robot.body, robot.tool_link))
+            if record_mobility:
+                manifold = world.contact_points(box, robot.body, robot.tool_link)
+                if manifold:
+                    com = world.link_com_pose(robot, robot.tool_link)[0]
+                    contact_log.append((k, q, com, box_rows[-1], manifold))
+                contact_rows.append(bool(manifold))
+            else:
+                contact_rows.append(world.in_contact(box, robot.body, robot.tool_link))
             if scene.fast_forward_rest and phase[k] == hold:
                 box_speed = np.linalg.norm(world.box_velocity(box))
                 still = box_speed < scene.rest_speed and max(map(abs, qd)) < scene.rest_speed
@@ -315,6 +399,15 @@ class ToolSimulator:
         tool_position = table(tool_rows)
         torques = table(torque_rows)
         self._last_torques = torques
+        mobility = None
+        if record_mobility:
+            mobility = self._mobility(contact_log, n)
+            if fast_forward_from < n:
+                # The fast-forwarded steps repeat the rest state. Its mobility is the mean over
+                # the steps that found the scene at rest, not the last step alone: one contact
+                # manifold, repeated for seconds, would carry that step's noise into all of them.
+                rest = mobility[fast_forward_from - rest_needed : fast_forward_from]
+                mobility[fast_forward_from:] = rest.mean(axis=0)
         return Trajectory(
             times=ref.times.copy(),
             box_position=table(box_rows),
@@ -326,7 +419,46 @@ class ToolSimulator:
             phase=phase,
             tracking_error=np.linalg.norm(tool_position - ref.ee_position, axis=1),
             fast_forward_from=fast_forward_from,
+            contact_mobility=mobility,
         )
+
+    def _mobility(self, contact_log: list, n: int) -> np.ndarray:
+        """(n, 3, 7) mean :func:`contact_mobility` over the manifold of each logged step.
+
+        The mean, not the sum, so that a manifold that gains or loses a duplicate point does
+        not change it. The Jacobians and the mass matrix are functions of q alone, so they are
+        computed here, after the rollout, rather than inside the control loop.
+        """
+        world, robot = self.world, self._robot
+        assert robot is not None
+        out = np.zeros((n, 3, 7))
+        if not contact_log:
+            return out
+        steps = len(contact_log)
+        linear = np.empty((steps, 3, 7))
+        angular = np.empty((steps, 3, 7))
+        mass = np.empty((steps, 7, 7))
+        for i, (_, q, _, _, _) in enumerate(contact_log):
+            linear[i], angular[i] = world.link_com_jacobian(robot, robot.tool_link, q)
+            mass[i] = world.mass_matrix(robot, q)
+        counts = np.array([len(entry[4]) for entry in contact_log])
+        owner = np.repeat(np.arange(steps), counts)  # the step of each contact point
+        manifold = [point for entry in contact_log for point in entry[4]]
+        per_point = contact_mobility(
+            np.array([m[0] for m in manifold]),
+            np.array([m[1] for m in manifold]),
+            np.array([entry[2] for entry in contact_log])[owner],
+            linear[owner],
+            angular[owner],
+            np.linalg.inv(mass)[owner],
+            np.array([entry[3] for entry in contact_log])[owner],
+            self._box_mass,
+            self.scene.box_size,
+        )
+        per_step = np.zeros((steps, 3, 7))
+        np.add.at(per_step, owner, per_point)
+        out[[entry[0] for entry in contact_log]] = per_step / counts[:, None, None]
+        return out
 
     def replay_open_loop(
         self, geometry: ToolGeometry, torques: np.ndarray, *, box_mass: float | None = None

@@ -198,7 +198,7 @@ class TaskSpec:
         object.__setattr__(self, "goal", tuple(float(v) for v in self.goal))
 
 
-ESTIMATORS = ("trajectory", "resimulation")
+ESTIMATORS = ("contact", "trajectory", "resimulation")
 FORMS = ("clamped", "gauss-newton")
 
 
@@ -217,6 +217,10 @@ class ObjectiveSpec:
             replayed in the simulator, the reference).
         window: trajectory estimator: control steps in the sliding regression window.
         ridge: trajectory estimator: ridge penalty relative to the mean torque-change energy.
+        response_time: contact estimator: how long a torque perturbation acts before the box's
+            response is read, s.
+        slip_speed: contact estimator: the box's speed over the floor at which it counts as
+            sliding (below it static friction holds it against a small push), m/s.
         perturbation: resimulation estimator: torque perturbation, N m.
         horizon: resimulation estimator: control steps between checkpoints, and the length of
             each replay.
@@ -230,13 +234,23 @@ class ObjectiveSpec:
     estimator: str = "trajectory"
     window: int = 24
     ridge: float = 0.1
+    response_time: float = 0.05
+    slip_speed: float = 0.01
     perturbation: float = 0.5
     horizon: int = 6
     invalid_penalty: float = 1e5
 
     def __post_init__(self) -> None:
         _check_positive(self, "goal_precision", allow_zero=True)
-        _check_positive(self, "eps", "ridge", "perturbation", "invalid_penalty")
+        _check_positive(
+            self,
+            "eps",
+            "ridge",
+            "response_time",
+            "slip_speed",
+            "perturbation",
+            "invalid_penalty",
+        )
         if self.form not in FORMS:
             raise ValueError(f"ObjectiveSpec.form must be one of {FORMS}, got {self.form!r}")
         if self.estimator not in ESTIMATORS:

@@ -1,0 +1,165 @@
+"""The noise floor of F: how much each estimator of Pi_U moves under nudges that leave the motion alone.
+
+The same design is evaluated in scenes that differ only by a nudge of the box, at most
+``--shift`` in position and ``--turn`` in yaw, drawn at random (seeded). The goal error barely
+moves (the trajectory is the same); an estimator whose confidence moves much more measures noise.
+For every estimator setting, per design: the relative spread (max - min) / |mean| over the nudges
+of F, of the confidence and of the goal error; printed: the median over the designs.
+
+Every estimator is scored on the SAME rollouts (one per design and nudge), so the differences
+between rows are the estimators' alone. Also printed: what the contact estimator costs, as a share
+of one evaluation with it (its recording in the loop, the Jacobians and the scoring).
+
+Run: ``python benchmarks/perf/confidence_noise.py [--designs 12] [--nudges 6] [--seed 1]``.
+Targets (issue 8): median spread of F <= 1 %, of the confidence <= 2 %, cost <= 30 %.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import statistics
+import time
+from dataclasses import replace
+
+import numpy as np
+
+from tooldesign_env import ObjectiveSpec, SceneSpec, ToolSimulator, make_tool
+from tooldesign_env.env import default_bounds
+from tooldesign_env.objective import free_energy
+
+#: name -> ObjectiveSpec changes; the estimators compared by default.
+SETTINGS: dict[str, dict[str, object]] = {
+    "contact": {"estimator": "contact"},
+    "contact, response_time 0.1 s": {"estimator": "contact", "response_time": 0.1},
+    "contact, response_time 0.025 s": {"estimator": "contact", "response_time": 0.025},
+    "contact, slip_speed 0.003 m/s": {"estimator": "contact", "slip_speed": 0.003},
+    "contact, slip_speed 0.03 m/s": {"estimator": "contact", "slip_speed": 0.03},
+    "contact, eps 1e-4": {"estimator": "contact", "eps": 1e-4},
+    "trajectory (clamped)": {"estimator": "trajectory"},
+    "trajectory (gauss-newton)": {"estimator": "trajectory", "form": "gauss-newton"},
+    "trajectory, window 96": {"estimator": "trajectory", "window": 96},
+}
+
+
+def nudged_scenes(base: SceneSpec, n: int, shift: float, turn: float, seed: int) -> list[SceneSpec]:
+    """``base`` and n - 1 scenes with the box moved by <= shift (m) and turned by <= turn (rad)."""
+    rng = np.random.default_rng(seed)
+    out = [base]
+    for _ in range(n - 1):
+        radius = shift * math.sqrt(rng.uniform())
+        angle = rng.uniform(0.0, 2.0 * math.pi)
+        x, y = base.box_position
+        out.append(
+            replace(
+                base,
+                box_position=(x + radius * math.cos(angle), y + radius * math.sin(angle)),
+                box_yaw=base.box_yaw + rng.uniform(-turn, turn),
+            )
+        )
+    return out
+
+
+def valid_designs(n: int, seed: int, sim: ToolSimulator) -> list[np.ndarray]:
+    """n uniform random designs in the default bounds that can be built and start clear of the box."""
+    rng = np.random.default_rng(seed)
+    bounds = default_bounds(3)
+    out: list[np.ndarray] = []
+    while len(out) < n:
+        c = rng.uniform(bounds[:, 0], bounds[:, 1])
+        geometry = make_tool(c)
+        if geometry.buildable and not sim.build(geometry):
+            out.append(c)
+    return out
+
+
+def spread(values: list[float]) -> float:
+    """(max - min) / |mean| of a list of numbers."""
+    return (max(values) - min(values)) / abs(statistics.fmean(values))
+
+
+def main() -> None:
+    """Measure and print."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--designs", type=int, default=12)
+    parser.add_argument("--nudges", type=int, default=6, help="scenes per design, base included")
+    parser.add_argument("--shift", type=float, default=1e-4, help="largest box shift, m")
+    parser.add_argument("--turn", type=float, default=1e-4, help="largest box turn, rad")
+    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--goal-precision", type=float, default=20.0)
+    parser.add_argument("--goal", type=float, nargs=3, default=(0.0, 1.5, 0.1))
+    parser.add_argument(
+        "--settings", nargs="*", default=list(SETTINGS), help="names of estimator settings"
+    )
+    args = parser.parse_args()
+
+    base = SceneSpec()
+    scenes = nudged_scenes(base, args.nudges, args.shift, args.turn, args.seed)
+    sims = [ToolSimulator(scene=s) for s in scenes]
+    designs = valid_designs(args.designs, args.seed, sims[0])
+    goal = np.asarray(args.goal, dtype=float)
+    specs = {
+        name: ObjectiveSpec(goal_precision=args.goal_precision, **SETTINGS[name])  # type: ignore[arg-type]
+        for name in args.settings
+    }
+    # terms[name][design] -> list over nudges of (F, confidence, goal error)
+    terms: dict[str, list[list[tuple[float, float, float]]]] = {n: [] for n in specs}
+    plain_t, recorded_t, score_t = [], [], []
+    for c in designs:
+        geometry = make_tool(c)
+        rows: dict[str, list[tuple[float, float, float]]] = {n: [] for n in specs}
+        for sim in sims:
+            sim.build(geometry)
+            t0 = time.perf_counter()
+            traj = sim.run(record_mobility=True)
+            recorded_t.append(time.perf_counter() - t0)
+            for name, spec in specs.items():
+                t0 = time.perf_counter()
+                out = free_energy(
+                    traj.box_position,
+                    traj.torques,
+                    goal,
+                    spec,
+                    mobility=traj.contact_mobility,
+                    control_dt=sim.control_dt,
+                )
+                if name == "contact":
+                    score_t.append(time.perf_counter() - t0)
+                rows[name].append((out.free_energy, out.confidence, out.goal_error))
+        # The rollout without recording, for the cost of the contact estimator.
+        sims[0].build(geometry)
+        t0 = time.perf_counter()
+        sims[0].run()
+        plain_t.append(time.perf_counter() - t0)
+        for name in specs:
+            terms[name].append(rows[name])
+
+    print(
+        f"{len(designs)} random valid designs (seed {args.seed}), {args.nudges} scenes each "
+        f"(box shift <= {args.shift * 1e3:g} mm, turn <= {args.turn:g} rad), "
+        f"p^X = {args.goal_precision:g}"
+    )
+    print(f"{'estimator':32s} {'F spread':>9s} {'conf spread':>12s} {'goal-err spread':>16s}"
+          f" {'mean conf':>10s} {'mean F':>9s}")
+    for name in specs:
+        f = [spread([r[0] for r in d]) for d in terms[name]]
+        conf = [spread([r[1] for r in d]) for d in terms[name]]
+        err = [spread([r[2] for r in d]) for d in terms[name]]
+        mean_conf = statistics.fmean(r[1] for d in terms[name] for r in d)
+        mean_f = statistics.fmean(r[0] for d in terms[name] for r in d)
+        print(
+            f"{name:32s} {100 * statistics.median(f):8.2f}% {100 * statistics.median(conf):11.2f}%"
+            f" {100 * statistics.median(err):15.2f}% {mean_conf:10.1f} {mean_f:9.1f}"
+        )
+    if "contact" in specs:
+        evaluation = statistics.median(recorded_t) + statistics.median(score_t)
+        cost = evaluation - statistics.median(plain_t)
+        print(
+            f"contact estimator cost: {cost * 1e3:.1f} ms of a {evaluation * 1e3:.1f} ms evaluation"
+            f" ({100 * cost / evaluation:.1f} %; rollout without recording "
+            f"{statistics.median(plain_t) * 1e3:.1f} ms, scoring {statistics.median(score_t) * 1e3:.1f} ms)"
+        )
+
+
+if __name__ == "__main__":
+    main()
