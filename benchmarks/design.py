@@ -166,7 +166,7 @@ class DesignConfig:
         goal: X^g, (x, y, z) in m.
         goal_precision: p^X in 1/m^2, >= 0 (the paper's Figure 3 uses 40, its comparisons 20).
         box_mass: Box mass in kg (the paper's 0.1).
-        estimator: ``"trajectory"`` or ``"resimulation"`` estimate of dX/dU.
+        estimator: ``"contact"``, ``"trajectory"`` or ``"resimulation"`` estimate of dX/dU.
         bounds: (n, 2) coefficient bounds [low, high]; ``None`` is ``default_bounds(3)``
             (c1, c2 in [-1.5, 1.5], c3 in [-0.5, 0.5]). n is the polynomial degree.
         robustness_masses: Altered box masses m_i in kg of the final tool's robustness test.
@@ -183,7 +183,7 @@ class DesignConfig:
     goal: Sequence[float] = _DEFAULT_GOAL
     goal_precision: float = 20.0
     box_mass: float = 0.1
-    estimator: str = "trajectory"
+    estimator: str = "contact"
     bounds: Sequence[Sequence[float]] | np.ndarray | None = None
     robustness_masses: Sequence[float] = (0.3, 0.5, 0.7, 0.9)
 

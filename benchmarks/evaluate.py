@@ -120,7 +120,7 @@ def evaluate(
     goal: tuple[float, float, float] = (0.0, 1.5, 0.1),
     goal_precision: float = 20.0,
     box_mass: float = 0.1,
-    estimator: str = "trajectory",
+    estimator: str = "contact",
     robustness: bool = False,
 ) -> dict[str, Any]:
     """Evaluate one design and write the files listed in the module docstring.

@@ -71,7 +71,7 @@ EXECUTORS: tuple[str, ...] = ("serial", "process", "dask")
 METRIC_FIELDS: tuple[str, ...] = ("free_energy", "goal_error", "confidence", "final_distance")
 """Metric fields of an evaluation row (the evaluation log's metric columns)."""
 
-_ESTIMATORS: tuple[str, ...] = ("trajectory", "resimulation")
+_ESTIMATORS: tuple[str, ...] = ("contact", "trajectory", "resimulation")
 _DASK_EXTRA = "pip install 'tooldesign[dask]'"
 
 
@@ -94,7 +94,8 @@ class TaskSettings:
         goal: Goal position X^g, (x, y, z) in m; stored as a tuple of floats.
         goal_precision: p^X, weight of the squared goal error in F, 1/m^2, >= 0.
         box_mass: Mass of the box in kg, > 0.
-        estimator: How dX/dU is estimated: ``"trajectory"`` or ``"resimulation"``.
+        estimator: How dX/dU is estimated: ``"contact"``, ``"trajectory"`` or
+            ``"resimulation"`` (see ``ObjectiveSpec.estimator``).
         env_kwargs: Further keyword arguments of ``gym.make("ToolDesign-v0", ...)`` (e.g.
             ``plan=PlanSpec(...)``) as sorted ``(name, value)`` pairs; values must be hashable
             and picklable (the frozen specs are). A mapping is accepted and sorted.
@@ -103,7 +104,7 @@ class TaskSettings:
     goal: Sequence[float] = (0.0, 1.5, 0.1)
     goal_precision: float = 20.0
     box_mass: float = 0.1
-    estimator: str = "trajectory"
+    estimator: str = "contact"
     env_kwargs: tuple[tuple[str, Any], ...] | Mapping[str, Any] = ()
 
     def __post_init__(self) -> None:
@@ -177,7 +178,7 @@ def add_task_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--estimator",
-        choices=("trajectory", "resimulation"),
+        choices=_ESTIMATORS,
         default=defaults.estimator,
         help="estimator of dX/dU (default: %(default)s)",
     )

@@ -261,7 +261,7 @@ class SuiteConfig:
             uniformly in this box from the task's seed; ``None`` uses ``goal`` for every task.
         goal_precision: p^X in 1/m^2 of variants that do not set their own.
         box_mass: Nominal box mass in kg.
-        estimator: ``"trajectory"`` or ``"resimulation"`` estimate of dX/dU.
+        estimator: ``"contact"``, ``"trajectory"`` or ``"resimulation"`` estimate of dX/dU.
         bounds: (n, 2) coefficient bounds; ``None`` is ``default_bounds(3)``.
         variants: The variants, names unique.
         optimizers: The optimizers, log names (labels) unique.
@@ -286,7 +286,7 @@ class SuiteConfig:
     goal_box: Sequence[Sequence[float]] | None = None
     goal_precision: float = 20.0
     box_mass: float = 0.1
-    estimator: str = "trajectory"
+    estimator: str = "contact"
     bounds: Sequence[Sequence[float]] | None = None
     variants: Sequence[Variant] = (Variant(),)
     optimizers: Sequence[OptimizerSpec] = (OptimizerSpec(name="cmaes"),)

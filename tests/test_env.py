@@ -118,7 +118,7 @@ def test_random_designs_give_spread_outcomes(env):
 
 @pytest.mark.slow
 def test_confidence_is_higher_in_contact():
-    for estimator in ("trajectory", "resimulation"):
+    for estimator in ("contact", "trajectory", "resimulation"):
         e = ToolDesignEnv(estimator=estimator)
         e.reset(seed=0)
         for design in (STRAIGHT, HOOK):
@@ -137,12 +137,14 @@ def test_estimators_agree_in_rank():
     designs = [STRAIGHT, HOOK, (1.5, -1.5, 0.5), (-1.5, 1.5, -0.5)]
     designs += [tuple(rng.uniform([-1.5, -1.5, -0.5], [1.5, 1.5, 0.5])) for _ in range(8)]
     scores = {}
-    for estimator in ("trajectory", "resimulation"):
+    for estimator in ("contact", "trajectory", "resimulation"):
         e = ToolDesignEnv(estimator=estimator)
         e.reset(seed=0)
         scores[estimator] = [e.step(d)[4]["confidence"] for d in designs]
         e.close()
     rho = spearmanr(scores["trajectory"], scores["resimulation"]).statistic
+    assert rho >= 0.8, rho
+    rho = spearmanr(scores["contact"], scores["resimulation"]).statistic
     assert rho >= 0.8, rho
 
 

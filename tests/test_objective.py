@@ -155,5 +155,7 @@ def test_objective_spec_rejects_bad_settings(kwargs, match):
 
 
 def test_make_estimator_follows_the_spec():
-    assert make_estimator(ObjectiveSpec()).name == "trajectory"
+    assert make_estimator(ObjectiveSpec()).name == "contact"
+    assert make_estimator(ObjectiveSpec(estimator="trajectory")).name == "trajectory"
+    assert make_estimator(ObjectiveSpec(response_time=0.2)).response_time == 0.2
     assert make_estimator(ObjectiveSpec(estimator="resimulation", horizon=8)).horizon == 8

@@ -98,7 +98,7 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
     ## Arguments
 
     ``gym.make("ToolDesign-v0", goal=(0, 1.5, 0.1), randomize_goal=False, goal_precision=20.0,
-    box_mass=None, estimator="trajectory", bounds=None, tool=ToolSpec(), scene=SceneSpec(),
+    box_mass=None, estimator="contact", bounds=None, tool=ToolSpec(), scene=SceneSpec(),
     plan=PlanSpec(), controller=ControllerSpec(), objective=ObjectiveSpec(),
     render_mode=None)``. ``goal_precision``, ``estimator`` and ``box_mass`` are shortcuts for
     the fields of ``objective`` and ``scene``. ``reset(options={"goal": (x, y, z),

@@ -88,14 +88,15 @@ class ContactEstimator:
 
     Attributes:
         response_time: tau, how long a torque perturbation acts before the box's response is
-            read, s (0.05 s = the re-simulation estimator's 6 control steps at 120 Hz).
+            read, s. The default 0.1 s is the controller's correction time, 2 / omega_n with
+            omega_n = sqrt(kp) = 20 rad/s: past it, feedback has undone most of a disturbance.
         slip_speed: the box's speed over the floor at which it counts as sliding, m/s. Below
             it the floor's friction is regularized (as in soft-contact simulators): a box moving
             at speed v follows a push by the fraction v / slip_speed, and a box at rest not at
             all, since static friction holds it against a small push.
     """
 
-    response_time: float = 0.05
+    response_time: float = 0.1
     slip_speed: float = 0.01
     name: str = "contact"
 
@@ -149,7 +150,7 @@ def _window_sums(values: np.ndarray, window: int) -> np.ndarray:
 
 @dataclass(frozen=True)
 class TrajectoryEstimator:
-    """dX/dU and d2X/dU2 from the recorded trajectory alone (cheap; the default).
+    """dX/dU and d2X/dU2 from the recorded trajectory alone (noisy; kept for comparison).
 
     Over a centred window of ``window`` control steps, the box's step-to-step motion dX is
     regressed on the torque changes dU with an intercept (ridge regression on centred moments):

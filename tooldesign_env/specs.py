@@ -212,9 +212,11 @@ class ObjectiveSpec:
             1/2 sum_k log(1 + max(lambda_k, 0) / eps) over the eigenvalues lambda_k of Pi_U.
         form: ``"clamped"``: Pi_U with the second-order term, negative eigenvalues clamped at 0;
             ``"gauss-newton"``: Pi_U = J^T J only.
-        estimator: how dX/dU (and d2X/dU2) are estimated: ``"trajectory"`` (from the recorded
-            trajectory, cheap, the default) or ``"resimulation"`` (small torque perturbations
-            replayed in the simulator, the reference).
+        estimator: how dX/dU (and d2X/dU2) are estimated: ``"contact"`` (the default: a
+            linearization of the tool-box contact along the rollout, from the arm's Jacobian
+            and mass matrix; stable under nudges of the scene), ``"trajectory"`` (a sliding
+            regression over the recorded torques; noisy, kept for comparison) or
+            ``"resimulation"`` (small torque perturbations replayed in the simulator).
         window: trajectory estimator: control steps in the sliding regression window.
         ridge: trajectory estimator: ridge penalty relative to the mean torque-change energy.
         response_time: contact estimator: how long a torque perturbation acts before the box's
@@ -231,10 +233,10 @@ class ObjectiveSpec:
     goal_precision: float = 20.0
     eps: float = 1e-6
     form: str = "clamped"
-    estimator: str = "trajectory"
+    estimator: str = "contact"
     window: int = 24
     ridge: float = 0.1
-    response_time: float = 0.05
+    response_time: float = 0.1
     slip_speed: float = 0.01
     perturbation: float = 0.5
     horizon: int = 6

@@ -31,8 +31,8 @@ from tooldesign_env.objective import free_energy
 #: name -> ObjectiveSpec changes; the estimators compared by default.
 SETTINGS: dict[str, dict[str, object]] = {
     "contact": {"estimator": "contact"},
-    "contact, response_time 0.1 s": {"estimator": "contact", "response_time": 0.1},
-    "contact, response_time 0.025 s": {"estimator": "contact", "response_time": 0.025},
+    "contact, response_time 0.05 s": {"estimator": "contact", "response_time": 0.05},
+    "contact, response_time 0.2 s": {"estimator": "contact", "response_time": 0.2},
     "contact, slip_speed 0.003 m/s": {"estimator": "contact", "slip_speed": 0.003},
     "contact, slip_speed 0.03 m/s": {"estimator": "contact", "slip_speed": 0.03},
     "contact, eps 1e-4": {"estimator": "contact", "eps": 1e-4},
