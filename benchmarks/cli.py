@@ -18,6 +18,7 @@ def build_parser() -> argparse.ArgumentParser:
     from benchmarks import evaluate  # noqa: I001  (one import per subcommand)
     from benchmarks import design
     from benchmarks import runner
+    from benchmarks import retest
     from benchmarks import suite_reports
 
     parser = argparse.ArgumentParser(
@@ -28,6 +29,7 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_parser(sub)
     design.add_parser(sub)
     runner.add_parser(sub)
+    retest.add_parser(sub)
     suite_reports.add_parser(sub)
     return parser
 

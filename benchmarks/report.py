@@ -19,10 +19,11 @@ an ``ax`` so that other suites can compose them into their own figures.
 from __future__ import annotations
 
 import io
+import math
 import os
 import re
 import zlib
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -218,7 +219,20 @@ def summary_table(
     return pd.DataFrame(rows)
 
 
-def pairwise_table(evaluations: pd.DataFrame, *, alpha: float = 0.05) -> pd.DataFrame:
+def _floor_of(noise_floor: float | Mapping[str, float] | None, variant: Any) -> float | None:
+    """The noise floor of F for one variant: a number, a number per variant name, or None."""
+    if noise_floor is None or isinstance(noise_floor, (int, float)):
+        return noise_floor
+    value = noise_floor.get(str(variant))
+    return None if value is None or not math.isfinite(value) else float(value)
+
+
+def pairwise_table(
+    evaluations: pd.DataFrame,
+    *,
+    alpha: float = 0.05,
+    noise_floor: float | Mapping[str, float] | None = None,
+) -> pd.DataFrame:
     """Pairwise two-sided Mann-Whitney U tests of optimizers on final F and on AUC.
 
     Each (suite, variant, metric) is one Holm family. ``a12 < 0.5`` means optimizer ``a``
@@ -227,10 +241,15 @@ def pairwise_table(evaluations: pd.DataFrame, *, alpha: float = 0.05) -> pd.Data
     Args:
         evaluations: The evaluation log.
         alpha: Family-wise error rate.
+        noise_floor: The noise floor of F (``tooldesign retest``): one number, or one per
+            variant name; None if unmeasured. A pair whose difference of means is below it is
+            not ``significant``, whatever its p.
 
     Returns:
-        ``suite``, ``variant``, ``metric`` and the columns of
-        :func:`benchmarks.stats.mann_whitney_holm`, one row per pair.
+        ``suite``, ``variant``, ``metric``, the columns of
+        :func:`benchmarks.stats.mann_whitney_holm`, ``mean_difference`` (mean of ``a`` minus
+        mean of ``b``, units of F) and ``beyond_noise`` (|mean_difference| > noise floor; True
+        when no floor is given), one row per pair.
     """
     metrics = run_metrics(best_so_far_curves(evaluations))
     group_names = [k for k in GROUP_KEYS if k in metrics.columns]
@@ -242,6 +261,15 @@ def pairwise_table(evaluations: pd.DataFrame, *, alpha: float = 0.05) -> pd.Data
                 for name in _optimizer_order(group["optimizer"])
             }
             table = mann_whitney_holm(samples, alpha=alpha)
+            difference = [
+                float(np.mean(samples[a]) - np.mean(samples[b]))
+                for a, b in zip(table["a"], table["b"], strict=True)
+            ]
+            group_values = dict(zip(group_names, group_key, strict=True))
+            floor = _floor_of(noise_floor, group_values.get("variant", ""))
+            table["mean_difference"] = difference
+            table["beyond_noise"] = [floor is None or abs(d) > floor for d in difference]
+            table["significant"] = table["significant"] & table["beyond_noise"]
             table.insert(0, "metric", metric)
             for position, (name, value) in enumerate(zip(group_names, group_key, strict=True)):
                 table.insert(position, name, value)
@@ -282,6 +310,7 @@ def plot_convergence(
     n_boot: int = 10_000,
     seed: int = 0,
     title: str | None = None,
+    noise_floor: float | None = None,
 ) -> Axes:
     """Plot mean best-so-far F per optimizer with a shaded bootstrap interval across seeds.
 
@@ -293,6 +322,8 @@ def plot_convergence(
         n_boot: Bootstrap resamples per point.
         seed: Root seed of the bootstrap.
         title: Axes title; the suite (and variant) if ``None``.
+        noise_floor: If given, a grey band of that height above the lowest final mean: final
+            values inside it cannot be told apart from the best.
 
     Returns:
         The axes drawn on.
@@ -318,6 +349,17 @@ def plot_convergence(
         runs = int(line["n_seeds"].max())
         ax.plot(line[x], line["mean"], color=color, linewidth=1.8, label=f"{name} (n={runs})")
         ax.fill_between(line[x], line["low"], line["high"], color=color, alpha=0.2, linewidth=0)
+    if noise_floor is not None and math.isfinite(noise_floor) and len(table):
+        last = table[table["iteration"] == table["iteration"].max()]
+        best = float(last["mean"].min())
+        ax.axhspan(
+            best,
+            best + noise_floor,
+            color="0.5",
+            alpha=0.25,
+            linewidth=0,
+            label=f"noise floor of F ({noise_floor:.3g})",
+        )
     if title is None:
         title = " / ".join(str(k) for k in groups[0][0] if k != "")
     ax.set_title(title)
@@ -390,13 +432,32 @@ def _summary_markdown(summary: pd.DataFrame, level: float) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _pairwise_markdown(pairwise: pd.DataFrame, alpha: float) -> str:
+def _pairwise_markdown(
+    pairwise: pd.DataFrame, alpha: float, noise_floor: float | Mapping[str, float] | None
+) -> str:
+    if noise_floor is None:
+        floor = (
+            "No noise floor was measured (run `tooldesign retest` on the folder): significance "
+            "rests on the tests alone."
+        )
+    else:
+        values = (
+            _fmt(noise_floor)
+            if isinstance(noise_floor, (int, float))
+            else ", ".join(f"{k or 'all'}: {_fmt(v)}" for k, v in sorted(noise_floor.items()))
+        )
+        floor = (
+            f"Noise floor of F: {values} (median range of a final design's F over nudged "
+            "scenes, `noise.md`); a pair whose means differ by less is not significant, "
+            "whatever its p."
+        )
     lines = [
         "# Pairwise tests",
         "",
         "Two-sided Mann-Whitney U tests over runs, Holm-Bonferroni corrected within each",
         f"table; significant at alpha = {alpha:g}. A12 is the probability that a run of `a`",
         "ends higher than a run of `b`: A12 < 0.5 means `a` is better (lower F).",
+        floor,
     ]
     if pairwise.empty:
         return "\n".join(lines + ["", "Fewer than two optimizers: nothing to compare."]) + "\n"
@@ -412,12 +473,15 @@ def _pairwise_markdown(pairwise: pd.DataFrame, alpha: float) -> str:
                 _fmt(row["p"], 3),
                 _fmt(row["p_holm"], 3),
                 _fmt(row["a12"], 3),
+                _fmt(row["mean_difference"]),
+                "yes" if row["beyond_noise"] else "no",
                 "yes" if row["significant"] else "no",
                 row["note"],
             ]
             for _, row in table.iterrows()
         ]
-        lines += _markdown(["a", "b", "U", "p", "p (Holm)", "A12", "significant", "note"], rows)
+        header = ["a", "b", "U", "p", "p (Holm)", "A12", "mean a - b", "beyond noise"]
+        lines += _markdown([*header, "significant", "note"], rows)
     return "\n".join(lines) + "\n"
 
 
@@ -436,6 +500,7 @@ def make_report(
     n_boot: int = 10_000,
     seed: int = 0,
     alpha: float = 0.05,
+    noise_floor: float | Mapping[str, float] | None = None,
 ) -> list[Path]:
     """Rebuild the figures and tables of a run folder from its stored results alone.
 
@@ -446,6 +511,9 @@ def make_report(
         n_boot: Bootstrap resamples per interval.
         seed: Root seed of the bootstrap; the same seed and data give the same bytes.
         alpha: Family-wise error rate of the pairwise tests.
+        noise_floor: The noise floor of F, one number or one per variant (see
+            :func:`pairwise_table`), drawn as a band on the convergence figures; None if it was
+            not measured.
 
     Returns:
         The files written: one ``convergence-*.png`` per (suite, variant), then
@@ -467,14 +535,20 @@ def make_report(
     written = []
     for key, group in _groups(evaluations):
         figure, ax = new_figure()
-        plot_convergence(group, ax, level=level, n_boot=n_boot, seed=seed)
+        variant = group["variant"].iloc[0] if "variant" in group.columns else ""
+        floor = _floor_of(noise_floor, variant)
+        plot_convergence(group, ax, level=level, n_boot=n_boot, seed=seed, noise_floor=floor)
         png = target / f"convergence-{_slug(*map(str, key))}.png"
         written.append(atomic_write_bytes(png, figure_png_bytes(figure)))
 
     summary = summary_table(evaluations, level=level, n_boot=n_boot, seed=seed)
     written.append(atomic_write_text(target / "summary.csv", _csv_text(summary)))
     written.append(atomic_write_text(target / "summary.md", _summary_markdown(summary, level)))
-    pairwise = pairwise_table(evaluations, alpha=alpha)
+    pairwise = pairwise_table(evaluations, alpha=alpha, noise_floor=noise_floor)
     written.append(atomic_write_text(target / "pairwise.csv", _csv_text(pairwise)))
-    written.append(atomic_write_text(target / "pairwise.md", _pairwise_markdown(pairwise, alpha)))
+    written.append(
+        atomic_write_text(
+            target / "pairwise.md", _pairwise_markdown(pairwise, alpha, noise_floor)
+        )
+    )
     return written

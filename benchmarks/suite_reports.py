@@ -40,6 +40,8 @@ from matplotlib import colormaps
 
 from benchmarks import plots
 from benchmarks.report import REPORT_DIR, make_report
+from benchmarks.retest import noise_floor, read_retests
+from benchmarks.retest_reports import make_retest_report
 from benchmarks.runner import read_designs, suite_of_manifest
 from benchmarks.stats import bootstrap_ci
 from benchmarks.storage import atomic_write_text, read_manifest
@@ -779,7 +781,15 @@ def make_suite_report(
     if not folder.is_dir():
         raise NotADirectoryError(f"run folder {folder} is not a folder")
     target = folder / REPORT_DIR if out_dir is None else Path(out_dir)
-    written = make_report(folder, out_dir=target, n_boot=n_boot, seed=seed)
+    retests = read_retests(folder)
+    floors = {
+        str(v): noise_floor([r for r in retests if r.get("variant") == v])["free_energy"]
+        for v in {r.get("variant") for r in retests}
+    }
+    written = make_report(
+        folder, out_dir=target, n_boot=n_boot, seed=seed, noise_floor=floors or None
+    )
+    written += make_retest_report(retests, target, n_boot=n_boot, seed=seed)
     try:
         config = suite_of_manifest(read_manifest(folder))
     except (FileNotFoundError, ValueError, TypeError):

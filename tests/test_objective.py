@@ -117,12 +117,19 @@ def test_free_energy_terms_add_up_and_pure_confidence_is_defined():
     u = np.cumsum(rng.normal(size=(120, 7)), axis=0)
     x = np.cumsum(rng.normal(scale=1e-3, size=(120, 3)), axis=0)
     goal = np.array([0.0, 1.5, 0.1])
+    mobility = rng.normal(size=(120, 3, 7))
     for p in (0.0, 20.0):
-        terms = free_energy(x, u, goal, ObjectiveSpec(goal_precision=p))
-        assert terms.free_energy == pytest.approx(terms.goal_error - terms.confidence)
-        np.testing.assert_allclose(terms.free_energy_t, terms.goal_error_t - terms.confidence_t)
-        assert np.all(np.isfinite(terms.free_energy_t))
-    assert free_energy(x, u, goal, ObjectiveSpec(goal_precision=0.0)).goal_error == 0.0
+        for estimator in ("contact", "trajectory"):
+            spec = ObjectiveSpec(goal_precision=p, estimator=estimator)
+            terms = free_energy(x, u, goal, spec, mobility=mobility, control_dt=1 / 120)
+            assert terms.free_energy == pytest.approx(terms.goal_error - terms.confidence)
+            np.testing.assert_allclose(
+                terms.free_energy_t, terms.goal_error_t - terms.confidence_t
+            )
+            assert np.all(np.isfinite(terms.free_energy_t))
+            assert terms.confidence > 0
+    spec = ObjectiveSpec(goal_precision=0.0, estimator="trajectory")
+    assert free_energy(x, u, goal, spec).goal_error == 0.0
 
 
 @pytest.mark.parametrize(

@@ -14,11 +14,10 @@ the re-simulation estimator asks a ``replay`` callable for the box's response to
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol
-
-import math
 
 import numpy as np
 
@@ -109,7 +108,7 @@ class ContactEstimator:
         mobility: np.ndarray | None = None,
         control_dt: float | None = None,
     ) -> Sensitivities:
-        """Sensitivities from the (T, 3, 7) contact mobility of a rollout with period control_dt (s)."""
+        """Sensitivities from a rollout's (T, 3, 7) contact mobility and control period (s)."""
         n = box_position.shape[0]
         if mobility is None or control_dt is None:
             raise ValueError(

@@ -1,0 +1,393 @@
+"""Retest the final designs of a suite: their noise floor, and their robustness over ranges.
+
+A suite's final designs are scored once, in one scene. Pushing is chaotic: a box moved by 0.1 mm
+can end millimetres elsewhere, so one score is one sample. This module re-evaluates every final
+design of a suite run folder, after the suite, in two ways:
+
+* **noise**: in ``nudges`` scenes whose box start differs by at most ``shift`` (m) and ``turn``
+  (rad), drawn once from ``seed`` and the same for every design. The spread of F over them is
+  the design's noise floor; the median over the suite's designs is the suite's
+  (:func:`noise_floor`). Reports do not call a difference significant below it.
+* **stress** (suites that test robustness): in ``repeats`` of those scenes, the design at its
+  nominal box mass and then at every mass of ``masses`` and every box friction of
+  ``frictions``. Each altered rollout is compared with the nominal one IN THE SAME SCENE (so the
+  differences are the change's, not the scene's): robustness -sum_t |X - X_0| (m, per altered
+  condition), accuracy -sum_t |X - X^g| (m), control deviation sum_t |U - U_0| (N m) and the
+  final distance |X_T - X^g| (m). Table I becomes means over repeats and conditions with
+  intervals (see ``benchmarks.suite_reports``).
+
+Results go to ``run_folder/retest/<the design file's path below designs/>``, one JSON per design,
+written atomically; a rerun skips designs whose file was written with the same settings, so an
+interrupted retest resumes. Command: ``tooldesign retest RUN_FOLDER``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import dataclasses
+import json
+import math
+import os
+import time
+from collections.abc import Mapping, Sequence
+from concurrent.futures import Executor
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from benchmarks.evaluation import TaskSettings, _env, make_executor, map_robust
+from benchmarks.runner import DESIGNS_DIR, read_designs, suite_of_manifest
+from benchmarks.storage import atomic_write_text, json_text, read_manifest
+
+__all__ = [
+    "RETEST_DIR",
+    "RetestConfig",
+    "noise_floor",
+    "read_retests",
+    "retest_design",
+    "retest_suite",
+]
+
+RETEST_DIR = "retest"
+"""Folder of the retest files in a run folder."""
+
+RETEST_VERSION = 1
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class RetestConfig:
+    """How the final designs are retested.
+
+    Attributes:
+        nudges: Scenes per design for the noise floor (the first is the scene itself).
+        shift: Largest change of the box's start position, m (0.1 mm: the motion is unchanged).
+        turn: Largest change of the box's start yaw, rad.
+        seed: Seed of the nudges; every design gets the same ones.
+        masses: Box masses of the stress test, kg (empty: no stress test).
+        frictions: Box friction coefficients of the stress test (empty: none).
+        repeats: Scenes (the first ``repeats`` nudges) in which the stress test is repeated.
+    """
+
+    nudges: int = 5
+    shift: float = 1e-4
+    turn: float = 1e-4
+    seed: int = 0
+    masses: tuple[float, ...] = ()
+    frictions: tuple[float, ...] = ()
+    repeats: int = 3
+
+    def __post_init__(self) -> None:
+        for name in ("nudges", "repeats", "seed"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+                raise ValueError(f"RetestConfig.{name} must be an int >= 0, got {value!r}")
+        if not 2 <= self.nudges <= 100:
+            raise ValueError(f"RetestConfig.nudges must be in [2, 100], got {self.nudges}")
+        if not 1 <= self.repeats <= self.nudges:
+            raise ValueError(
+                f"RetestConfig.repeats must be in [1, nudges = {self.nudges}], got {self.repeats}"
+            )
+        for name in ("shift", "turn"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and 0 <= value <= 0.01):
+                raise ValueError(f"RetestConfig.{name} must be in [0, 0.01], got {value!r}")
+        for name, low, high in (("masses", 0.0, 100.0), ("frictions", 0.0, 10.0)):
+            values = tuple(float(v) for v in getattr(self, name))
+            if not all(math.isfinite(v) and low < v <= high for v in values):
+                raise ValueError(f"RetestConfig.{name} must lie in ({low}, {high}], got {values}")
+            object.__setattr__(self, name, values)
+
+    def scenes(self, base: Any) -> list[Any]:
+        """The nudged copies of the SceneSpec ``base``; the first is ``base`` itself."""
+        rng = np.random.default_rng(np.random.SeedSequence(self.seed))
+        out = [base]
+        x, y = base.box_position
+        for _ in range(self.nudges - 1):
+            radius = self.shift * math.sqrt(rng.uniform())
+            angle = rng.uniform(0.0, 2.0 * math.pi)
+            out.append(
+                dataclasses.replace(
+                    base,
+                    box_position=(x + radius * math.cos(angle), y + radius * math.sin(angle)),
+                    box_yaw=base.box_yaw + rng.uniform(-self.turn, self.turn),
+                )
+            )
+        return out
+
+    def to_json(self) -> dict[str, Any]:
+        """The settings as plain JSON types."""
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class RetestItem:
+    """One design to retest, in a worker."""
+
+    coeffs: tuple[float, ...]
+    task: TaskSettings
+    config: RetestConfig
+
+
+def _rollout(task: TaskSettings, scene: Any, coeffs: Sequence[float], **changes: Any) -> dict:
+    from tooldesign_env import SceneSpec  # noqa: F401  (scene is a SceneSpec)
+
+    settings = dataclasses.replace(task, env_kwargs={**dict(task.env_kwargs), "scene": scene})
+    if "box_mass" in changes:
+        settings = dataclasses.replace(settings, box_mass=changes["box_mass"])
+    env = _env(settings)
+    info = env.step(np.asarray(coeffs, dtype=np.float64))[4]
+    if not info["valid"]:
+        raise ValueError(f"the design is invalid in a nudged scene: {info['invalid_reason']}")
+    return info
+
+
+def retest_design(item: RetestItem) -> dict[str, Any]:
+    """Noise and stress rows of one design (see the module docstring); runs in a worker."""
+    from tooldesign_env import SceneSpec
+
+    start = time.perf_counter()
+    config, task, coeffs = item.config, item.task, item.coeffs
+    base = dict(task.env_kwargs).get("scene") or SceneSpec()
+    scenes = config.scenes(base)
+    goal = np.asarray(task.goal, dtype=np.float64)
+    noise, stress = [], []
+    for k, scene in enumerate(scenes):
+        info = _rollout(task, scene, coeffs)
+        noise.append(
+            {
+                "nudge": k,
+                **{
+                    name: float(info[name])
+                    for name in ("free_energy", "goal_error", "confidence", "final_distance")
+                },
+            }
+        )
+        if k >= config.repeats or not (config.masses or config.frictions):
+            continue
+        x0 = np.asarray(info["box_trajectory"])
+        u0 = np.asarray(info["torques"])
+        changes = [("mass", m, {"box_mass": m}, scene) for m in config.masses]
+        changes += [
+            ("friction", f, {}, dataclasses.replace(scene, box_friction=f))
+            for f in config.frictions
+        ]
+        for kind, value, overrides, changed_scene in changes:
+            other = _rollout(task, changed_scene, coeffs, **overrides)
+            x = np.asarray(other["box_trajectory"])
+            u = np.asarray(other["torques"])
+            stress.append(
+                {
+                    "nudge": k,
+                    "change": kind,
+                    "value": float(value),
+                    "robustness": -float(np.sum(np.linalg.norm(x - x0, axis=1))),
+                    "accuracy": -float(np.sum(np.linalg.norm(x - goal, axis=1))),
+                    "control_deviation": float(np.sum(np.linalg.norm(u - u0, axis=1))),
+                    "final_distance": float(np.linalg.norm(x[-1] - goal)),
+                }
+            )
+    return {"noise": noise, "stress": stress, "retest_time": time.perf_counter() - start}
+
+
+def _retest_path(run_folder: Path, design_file: Path) -> Path:
+    return run_folder / RETEST_DIR / design_file.relative_to(run_folder / DESIGNS_DIR)
+
+
+def default_config(suite: Any) -> RetestConfig:
+    """Noise only, or (a suite that tests robustness) noise and stress over ranges."""
+    if not getattr(suite, "test_robustness", False):
+        return RetestConfig()
+    return RetestConfig(
+        masses=tuple(round(m, 2) for m in np.linspace(0.1, 1.0, 10)),
+        frictions=(0.2, 0.3, 0.5, 0.6),
+    )
+
+
+def retest_suite(
+    run_folder: str | os.PathLike[str],
+    config: RetestConfig | None = None,
+    *,
+    executor: Executor | None = None,
+    workers: int | None = None,
+) -> list[Path]:
+    """Retest every final design of a suite run folder; resumes an interrupted retest.
+
+    Args:
+        run_folder: A suite run folder with design files.
+        config: The retest; :func:`default_config` of the folder's suite if None.
+        executor: Where to run; a process pool of ``workers`` if None.
+        workers: Worker processes of the default pool.
+
+    Returns:
+        The retest files written in this call.
+
+    Raises:
+        FileNotFoundError: If the folder has no manifest.
+        ValueError: If it is not a suite run folder, or has no finished design.
+    """
+    folder = Path(run_folder)
+    suite = suite_of_manifest(read_manifest(folder))
+    config = config or default_config(suite)
+    settings = json.loads(json_text(config.to_json()))  # as stored: tuples become lists
+    pending: list[tuple[Path, RetestItem, dict[str, Any]]] = []
+    for path in sorted((folder / DESIGNS_DIR).rglob("seed=*.json")):
+        if path.name.endswith(".paths.json"):
+            continue
+        record = json.loads(path.read_text(encoding="utf-8"))
+        if record.get("status") != "ok" or not record.get("coefficients"):
+            continue
+        target = _retest_path(folder, path)
+        if target.is_file():
+            try:
+                done = json.loads(target.read_text(encoding="utf-8"))
+            except ValueError:
+                done = {}
+            if done.get("settings") == settings:
+                continue
+        task = TaskSettings(
+            goal=record["goal"],
+            goal_precision=record["goal_precision"],
+            box_mass=record["box_mass"],
+            estimator=suite.estimator,
+        )
+        item = RetestItem(coeffs=tuple(record["coefficients"]), task=task, config=config)
+        pending.append((target, item, record))
+    if not pending and not read_designs(folder):
+        raise ValueError(f"{folder} has no finished design to retest")
+    written: list[Path] = []
+    with contextlib.ExitStack() as stack:
+        pool = executor or stack.enter_context(make_executor("process", workers=workers))
+        # In chunks, so that an interrupted retest keeps what it finished.
+        chunk = 2 * int(getattr(pool, "max_workers", None) or os.cpu_count() or 1)
+        for begin in range(0, len(pending), chunk):
+            part = pending[begin : begin + chunk]
+            outcomes = map_robust(pool, retest_design, [item for _, item, _ in part])
+            for (target, _, record), (result, exc, _) in zip(part, outcomes, strict=True):
+                out = {
+                    "format_version": RETEST_VERSION,
+                    "settings": settings,
+                    **{k: record[k] for k in ("variant", "label", "optimizer", "seed", "goal")},
+                    "goal_precision": record["goal_precision"],
+                    "coefficients": record["coefficients"],
+                    "error": "" if exc is None else f"{type(exc).__name__}: {exc}",
+                    **(result or {"noise": [], "stress": []}),
+                }
+                written.append(atomic_write_text(target, json_text(out)))
+    return written
+
+
+def read_retests(run_folder: str | os.PathLike[str]) -> list[dict[str, Any]]:
+    """Every retest file of a run folder (empty if it was not retested), in a fixed order."""
+    folder = Path(run_folder) / RETEST_DIR
+    if not folder.is_dir():
+        return []
+    out = []
+    for path in sorted(folder.rglob("seed=*.json")):
+        try:
+            out.append(json.loads(path.read_text(encoding="utf-8")))
+        except ValueError as err:
+            raise ValueError(f"{path}: not a valid retest file: {err}") from err
+    return out
+
+
+def noise_floor(retests: Sequence[Mapping[str, Any]]) -> dict[str, float]:
+    """The suite's noise floor of each term: the median over designs of its range over nudges.
+
+    Returns:
+        ``{term: median of (max - min)}`` and ``{term + "_relative": median of (max - min) /
+        |mean|}`` for F, goal error, confidence and final distance, and ``designs``; NaN
+        values when no design was retested.
+    """
+    terms = ("free_energy", "goal_error", "confidence", "final_distance")
+    ranges: dict[str, list[float]] = {t: [] for t in terms}
+    relative: dict[str, list[float]] = {t: [] for t in terms}
+    for retest in retests:
+        rows = retest.get("noise") or []
+        if len(rows) < 2:
+            continue
+        for t in terms:
+            values = np.array([r[t] for r in rows], dtype=np.float64)
+            ranges[t].append(float(np.ptp(values)))
+            mean = abs(float(values.mean()))
+            relative[t].append(float(np.ptp(values)) / mean if mean > 0 else math.nan)
+    out: dict[str, float] = {"designs": float(len(ranges["free_energy"]))}
+    for t in terms:
+        out[t] = float(np.median(ranges[t])) if ranges[t] else math.nan
+        finite = [v for v in relative[t] if math.isfinite(v)]
+        out[f"{t}_relative"] = float(np.median(finite)) if finite else math.nan
+    return out
+
+
+# --- command line ------------------------------------------------------------------------------
+
+
+def _positive_floats(text: str) -> tuple[float, ...]:
+    try:
+        return tuple(float(v) for v in text.split(",") if v.strip())
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected comma-separated numbers, e.g. 0.2,0.5, got {text!r}"
+        ) from None
+
+
+def add_parser(subparsers: Any) -> argparse.ArgumentParser:
+    """Register ``tooldesign retest`` on the dispatcher's subparsers."""
+    parser = subparsers.add_parser(
+        "retest",
+        help="measure the noise floor (and robustness over ranges) of a suite's final designs",
+        description=(
+            "Re-evaluate every final design of a suite run folder in nudged scenes (its noise "
+            "floor) and, for suites that test robustness, over a range of box masses and "
+            "frictions; resumes an interrupted retest. Then run `tooldesign report`. See "
+            "docs/benchmarks.md."
+        ),
+    )
+    defaults = RetestConfig()
+    parser.add_argument("run_folder", type=Path, metavar="RUN_FOLDER", help="the run folder")
+    parser.add_argument(
+        "--nudges", type=int, default=defaults.nudges, help="scenes per design (default: 5)"
+    )
+    parser.add_argument(
+        "--masses",
+        type=_positive_floats,
+        default=None,
+        metavar="M1,M2,...",
+        help="box masses of the stress test in kg (default: 0.1 to 1.0 in 10 steps for suites "
+        "that test robustness, else none)",
+    )
+    parser.add_argument(
+        "--frictions",
+        type=_positive_floats,
+        default=None,
+        metavar="MU1,MU2,...",
+        help="box frictions of the stress test (default: 0.2,0.3,0.5,0.6 for suites that test "
+        "robustness, else none)",
+    )
+    parser.add_argument(
+        "--repeats", type=int, default=defaults.repeats, help="scenes of the stress test"
+    )
+    parser.add_argument("--workers", type=int, default=None, help="worker processes")
+    parser.set_defaults(run=_run)
+    return parser
+
+
+def _run(args: argparse.Namespace) -> int:
+    suite = suite_of_manifest(read_manifest(args.run_folder))
+    base = default_config(suite)
+    config = dataclasses.replace(
+        base,
+        nudges=args.nudges,
+        repeats=min(args.repeats, args.nudges),
+        masses=base.masses if args.masses is None else args.masses,
+        frictions=base.frictions if args.frictions is None else args.frictions,
+    )
+    files = retest_suite(args.run_folder, config, workers=args.workers)
+    floor = noise_floor(read_retests(args.run_folder))
+    print(
+        f"{len(files)} designs retested in {Path(args.run_folder) / RETEST_DIR}; noise floor of "
+        f"F over {int(floor['designs'])} designs: {floor['free_energy']:.4g} "
+        f"({100 * floor['free_energy_relative']:.2f} % median range over {config.nudges} nudges)"
+    )
+    return 0

@@ -1,0 +1,270 @@
+"""Reports of a suite's retest (``tooldesign retest``): its noise floor and its stress tests.
+
+Read from the retest files alone (:func:`benchmarks.retest.read_retests`); nothing is simulated.
+:func:`make_retest_report` writes, under ``run_folder/report/``:
+
+- ``noise-floor.json`` and ``noise.csv/md``: per design, the range (max - min) of F, of its two
+  terms and of the final distance over the nudged scenes; the suite's noise floor is the median
+  range over its designs. Every other report of the folder uses it: a difference smaller than
+  the noise floor of F is not called significant.
+- with stress rows: ``stress.csv/md``, Table I over ranges: per variant, robustness, accuracy,
+  control deviation and final distance, each the mean over designs of the design's mean over
+  repeats and altered conditions, with a 95 % bootstrap interval over designs and the median
+  over designs of the range of the design's mean across repeated scenes (its noise);
+  ``stress-mass.png`` and ``stress-friction.png``: final distance against the box mass (or
+  friction) per variant, mean over designs with the interval as a band.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from benchmarks import plots
+from benchmarks.retest import noise_floor
+from benchmarks.stats import bootstrap_ci
+from benchmarks.storage import atomic_write_text, json_text
+
+__all__ = ["make_retest_report", "noise_table", "stress_table"]
+
+LEVEL = 0.95
+TERMS = ("free_energy", "goal_error", "confidence", "final_distance")
+STRESS_METRICS = (
+    ("robustness", "robustness (m)", "higher"),
+    ("accuracy", "accuracy (m)", "higher"),
+    ("control_deviation", "control deviation (N m)", "lower"),
+    ("final_distance", "final distance (m)", "lower"),
+)
+
+
+def _rng(seed: int, *labels: Any) -> np.random.Generator:
+    import zlib
+
+    text = "/".join(map(str, labels))
+    return np.random.default_rng([seed, zlib.crc32(text.encode("utf-8"))])
+
+
+def _fmt(value: float, digits: int = 4) -> str:
+    return "n/a" if not math.isfinite(value) else f"{value:.{digits}g}"
+
+
+def noise_table(retests: Sequence[Mapping[str, Any]]) -> pd.DataFrame:
+    """One row per retested design: for each term, its mean and range over the nudges."""
+    rows = []
+    for retest in retests:
+        noise = retest.get("noise") or []
+        row: dict[str, Any] = {
+            k: retest.get(k) for k in ("variant", "optimizer", "seed", "goal_precision")
+        }
+        row["nudges"] = len(noise)
+        for term in TERMS:
+            values = np.array([r[term] for r in noise], dtype=np.float64)
+            row[f"{term}_mean"] = float(values.mean()) if len(values) else math.nan
+            row[f"{term}_range"] = float(np.ptp(values)) if len(values) else math.nan
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def _design_means(retest: Mapping[str, Any], change: str) -> dict[str, Any] | None:
+    rows = [r for r in retest.get("stress") or [] if r["change"] == change]
+    if not rows:
+        return None
+    frame = pd.DataFrame(rows)
+    per_repeat = frame.groupby("nudge")[[m for m, _, _ in STRESS_METRICS]].mean()
+    out: dict[str, Any] = {}
+    for metric, _, _ in STRESS_METRICS:
+        out[metric] = float(per_repeat[metric].mean())
+        out[f"{metric}_noise"] = float(np.ptp(per_repeat[metric].to_numpy()))
+    return out
+
+
+def stress_table(
+    retests: Sequence[Mapping[str, Any]], change: str, *, n_boot: int = 10_000, seed: int = 0
+) -> pd.DataFrame:
+    """Table I over a range of one change (``"mass"`` or ``"friction"``), one row per variant.
+
+    Returns:
+        ``variant``, ``label``, ``goal_precision``, ``designs`` and, per metric m of
+        :data:`STRESS_METRICS`: ``m`` (mean over designs), ``m_low``/``m_high`` (95 %
+        bootstrap interval over designs), ``m_noise`` (median over designs of the range of
+        the design's mean across repeated scenes) and ``m_best``.
+    """
+    by_variant: dict[str, list[tuple[Mapping[str, Any], dict[str, Any]]]] = {}
+    for retest in retests:
+        means = _design_means(retest, change)
+        if means is not None:
+            by_variant.setdefault(str(retest["variant"]), []).append((retest, means))
+    rows = []
+    for variant, items in by_variant.items():
+        first = items[0][0]
+        row: dict[str, Any] = {
+            "variant": variant,
+            "label": first.get("label") or "",
+            "goal_precision": float(first["goal_precision"]),
+            "designs": len(items),
+        }
+        for metric, _, _ in STRESS_METRICS:
+            values = np.array([m[metric] for _, m in items])
+            ci = bootstrap_ci(
+                values, n_boot=n_boot, level=LEVEL, rng=_rng(seed, change, metric, variant)
+            )
+            row.update(
+                {
+                    metric: ci.estimate,
+                    f"{metric}_low": ci.low,
+                    f"{metric}_high": ci.high,
+                    f"{metric}_noise": float(np.median([m[f"{metric}_noise"] for _, m in items])),
+                }
+            )
+        rows.append(row)
+    table = pd.DataFrame(rows)
+    if len(table):
+        table = table.sort_values("goal_precision", kind="stable").reset_index(drop=True)
+        for metric, _, better in STRESS_METRICS:
+            pick = table[metric].max() if better == "higher" else table[metric].min()
+            table[f"{metric}_best"] = table[metric] == pick
+    return table
+
+
+def _stress_markdown(table: pd.DataFrame, change: str, values: Sequence[float]) -> str:
+    unit = "kg" if change == "mass" else ""
+    lines = [
+        f"# Table I over a range of box {change}",
+        "",
+        f"Each design was rolled out at box {change} "
+        f"{', '.join(f'{v:g}' for v in values)} {unit} in several nudged scenes, and each "
+        "altered rollout was compared with the nominal one in the same scene. Per design: the "
+        "mean over scenes and altered conditions; here: the mean over designs with a "
+        f"{LEVEL:.0%} bootstrap interval over designs, and in parentheses the median over "
+        "designs of the range of that mean across the repeated scenes (its noise). Robustness "
+        "= -sum_t |X - X_0| (m, per altered condition), accuracy = -sum_t |X - X^g| (m), "
+        "control deviation = sum_t |U - U_0| (N m), final distance |X_T - X^g| (m). Best mean "
+        "in bold.",
+        "",
+    ]
+    header = ["objective", "p^X", "designs", *[title for _, title, _ in STRESS_METRICS]]
+    lines += ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    for _, row in table.iterrows():
+        name = str(row["label"] or row["variant"])
+        cells = [name, _fmt(row["goal_precision"]), str(row["designs"])]
+        for metric, _, _ in STRESS_METRICS:
+            mean = _fmt(row[metric])
+            mean = f"**{mean}**" if row[f"{metric}_best"] else mean
+            cells.append(
+                f"{mean} [{_fmt(row[f'{metric}_low'])}, {_fmt(row[f'{metric}_high'])}] "
+                f"({_fmt(row[f'{metric}_noise'], 2)})"
+            )
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def _plot_stress(
+    retests: Sequence[Mapping[str, Any]], change: str, target: Path, seed: int
+) -> Path | None:
+    frames = []
+    for retest in retests:
+        rows = [r for r in retest.get("stress") or [] if r["change"] == change]
+        if rows:
+            frame = pd.DataFrame(rows).groupby("value", as_index=False)["final_distance"].mean()
+            frame["variant"] = retest["variant"]
+            frame["goal_precision"] = float(retest["goal_precision"])
+            frame["label"] = retest.get("label") or ""
+            frames.append(frame)
+    if not frames:
+        return None
+    data = pd.concat(frames, ignore_index=True)
+    figure, ax = plots.new_figure(figsize=(6.4, 4.2))
+    variants = data.drop_duplicates("variant").sort_values("goal_precision")
+    colors = plots.sequential_colors(len(variants), "viridis")
+    for (_, variant), color in zip(variants.iterrows(), colors, strict=True):
+        part = data[data["variant"] == variant["variant"]]
+        xs, means, lows, highs = [], [], [], []
+        for value, cell in part.groupby("value"):
+            ci = bootstrap_ci(
+                cell["final_distance"],
+                n_boot=2000,
+                level=LEVEL,
+                rng=_rng(seed, "stress-plot", change, variant["variant"], value),
+            )
+            xs.append(value)
+            means.append(ci.estimate)
+            lows.append(ci.low)
+            highs.append(ci.high)
+        name = f"p^X = {variant['goal_precision']:g}"
+        if variant["label"]:
+            name += f" ({variant['label']})"
+        ax.plot(xs, means, color=color, marker="o", markersize=3, label=name)
+        ax.fill_between(xs, lows, highs, color=color, alpha=0.15, linewidth=0)
+    ax.set_xlabel("box mass (kg)" if change == "mass" else "box friction coefficient")
+    ax.set_ylabel("final distance to the goal (m)")
+    ax.set_title(f"final distance over a range of box {change} ({LEVEL:.0%} CI over designs)")
+    ax.grid(True, alpha=0.3)
+    ax.legend(frameon=False, fontsize="small", loc="best")
+    return plots.save_png(figure, target / f"stress-{change}.png")
+
+
+def make_retest_report(
+    retests: Sequence[Mapping[str, Any]], target: Path, *, n_boot: int = 10_000, seed: int = 0
+) -> list[Path]:
+    """Write the noise-floor and stress reports of retested designs into ``target``."""
+    if not retests:
+        return []
+    floor = noise_floor(retests)
+    by_variant = {
+        str(v): noise_floor([r for r in retests if r.get("variant") == v])
+        for v in sorted({r.get("variant") for r in retests}, key=str)
+    }
+    written = [
+        atomic_write_text(
+            target / "noise-floor.json", json_text({"all": floor, "by_variant": by_variant})
+        )
+    ]
+    table = noise_table(retests)
+    written.append(atomic_write_text(target / "noise.csv", table.to_csv(index=False)))
+    lines = [
+        "# Noise floor of F",
+        "",
+        f"Each final design was evaluated again in {int(table['nudges'].max())} scenes whose box "
+        "start differs by at most 0.1 mm and 1e-4 rad (the same scenes for every design). Range "
+        "= max - min over those scenes. The noise floor is the median range over designs, per "
+        "variant (F's scale depends on p^X) in `noise-floor.json`; over all "
+        f"{int(floor['designs'])} designs: F {_fmt(floor['free_energy'])} "
+        f"({100 * floor['free_energy_relative']:.2f} %), goal error {_fmt(floor['goal_error'])} "
+        f"({100 * floor['goal_error_relative']:.2f} %), confidence {_fmt(floor['confidence'])} "
+        f"({100 * floor['confidence_relative']:.2f} %), final distance "
+        f"{_fmt(floor['final_distance'])} m. Differences of F below their variant's floor are "
+        "not called significant in this folder's reports.",
+        "",
+        "| variant | optimizer | seed | F (mean) | F range | goal error range | "
+        "confidence range | final distance range (m) |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for _, row in table.iterrows():
+        lines.append(
+            f"| {row['variant'] or '-'} | {row['optimizer']} | {row['seed']} | "
+            f"{_fmt(row['free_energy_mean'])} | {_fmt(row['free_energy_range'])} | "
+            f"{_fmt(row['goal_error_range'])} | {_fmt(row['confidence_range'])} | "
+            f"{_fmt(row['final_distance_range'])} |"
+        )
+    written.append(atomic_write_text(target / "noise.md", "\n".join(lines) + "\n"))
+    for change in ("mass", "friction"):
+        stress = stress_table(retests, change, n_boot=n_boot, seed=seed)
+        if not len(stress):
+            continue
+        values = sorted(
+            {r["value"] for t in retests for r in t.get("stress") or [] if r["change"] == change}
+        )
+        stem = "stress" if change == "mass" else "stress-friction-table"
+        written.append(atomic_write_text(target / f"{stem}.csv", stress.to_csv(index=False)))
+        written.append(
+            atomic_write_text(target / f"{stem}.md", _stress_markdown(stress, change, values))
+        )
+        figure = _plot_stress(retests, change, target, seed)
+        if figure is not None:
+            written.append(figure)
+    return written
