@@ -167,6 +167,8 @@ class DesignConfig:
         goal_precision: p^X in 1/m^2, >= 0 (the paper's Figure 3 uses 40, its comparisons 20).
         box_mass: Box mass in kg (the paper's 0.1).
         estimator: ``"contact"``, ``"trajectory"`` or ``"resimulation"`` estimate of dX/dU.
+        objective: ``"free-energy"`` (F) or ``"expected-goal-error"`` (the robust-design
+            baseline, see ``ObjectiveSpec.kind``).
         bounds: (n, 2) coefficient bounds [low, high]; ``None`` is ``default_bounds(3)``
             (c1, c2 in [-1.5, 1.5], c3 in [-0.5, 0.5]). n is the polynomial degree.
         robustness_masses: Altered box masses m_i in kg of the final tool's robustness test.
@@ -184,6 +186,7 @@ class DesignConfig:
     goal_precision: float = 20.0
     box_mass: float = 0.1
     estimator: str = "contact"
+    objective: str = "free-energy"
     bounds: Sequence[Sequence[float]] | np.ndarray | None = None
     robustness_masses: Sequence[float] = (0.3, 0.5, 0.7, 0.9)
 
@@ -212,6 +215,7 @@ class DesignConfig:
             goal_precision=self.goal_precision,
             box_mass=self.box_mass,
             estimator=self.estimator,
+            objective=self.objective,
         )
         object.__setattr__(self, "goal", task.goal)
         object.__setattr__(self, "goal_precision", task.goal_precision)
@@ -246,6 +250,7 @@ class DesignConfig:
             goal_precision=self.goal_precision,
             box_mass=self.box_mass,
             estimator=self.estimator,
+            objective=self.objective,
             env_kwargs=extra,
         )
 
@@ -1078,6 +1083,7 @@ def config_from_args(args: argparse.Namespace) -> DesignConfig:
         goal_precision=args.goal_precision,
         box_mass=args.box_mass,
         estimator=args.estimator,
+        objective=args.objective,
     )
 
 

@@ -78,6 +78,7 @@ def _run(args: argparse.Namespace) -> int:
         goal_precision=args.goal_precision,
         box_mass=args.box_mass,
         estimator=args.estimator,
+        objective=args.objective,
         robustness=args.robustness,
     )
     status = "valid" if info["valid"] else f"INVALID ({info['invalid_reason']})"
@@ -121,6 +122,7 @@ def evaluate(
     goal_precision: float = 20.0,
     box_mass: float = 0.1,
     estimator: str = "contact",
+    objective: str = "free-energy",
     robustness: bool = False,
 ) -> dict[str, Any]:
     """Evaluate one design and write the files listed in the module docstring.
@@ -140,6 +142,7 @@ def evaluate(
         goal_precision=goal_precision,
         box_mass=box_mass,
         estimator=estimator,
+        objective_kind=objective,
         bounds=bounds,
         tool=spec,
     )
@@ -162,6 +165,7 @@ def evaluate(
                 "goal_precision": goal_precision,
                 "box_mass": box_mass,
                 "estimator": estimator,
+                "objective": objective,
             },
             "versions": package_versions(),
         }

@@ -72,6 +72,7 @@ METRIC_FIELDS: tuple[str, ...] = ("free_energy", "goal_error", "confidence", "fi
 """Metric fields of an evaluation row (the evaluation log's metric columns)."""
 
 _ESTIMATORS: tuple[str, ...] = ("contact", "trajectory", "resimulation")
+OBJECTIVES: tuple[str, ...] = ("free-energy", "expected-goal-error")
 _DASK_EXTRA = "pip install 'tooldesign[dask]'"
 
 
@@ -96,6 +97,8 @@ class TaskSettings:
         box_mass: Mass of the box in kg, > 0.
         estimator: How dX/dU is estimated: ``"contact"``, ``"trajectory"`` or
             ``"resimulation"`` (see ``ObjectiveSpec.estimator``).
+        objective: What is minimized: ``"free-energy"`` (F) or ``"expected-goal-error"`` (the
+            robust-design baseline; see ``ObjectiveSpec.kind``).
         env_kwargs: Further keyword arguments of ``gym.make("ToolDesign-v0", ...)`` (e.g.
             ``plan=PlanSpec(...)``) as sorted ``(name, value)`` pairs; values must be hashable
             and picklable (the frozen specs are). A mapping is accepted and sorted.
@@ -105,6 +108,7 @@ class TaskSettings:
     goal_precision: float = 20.0
     box_mass: float = 0.1
     estimator: str = "contact"
+    objective: str = "free-energy"
     env_kwargs: tuple[tuple[str, Any], ...] | Mapping[str, Any] = ()
 
     def __post_init__(self) -> None:
@@ -124,6 +128,8 @@ class TaskSettings:
         object.__setattr__(self, "box_mass", mass)
         if self.estimator not in _ESTIMATORS:
             raise ValueError(f"estimator must be one of {_ESTIMATORS}, got {self.estimator!r}")
+        if self.objective not in OBJECTIVES:
+            raise ValueError(f"objective must be one of {OBJECTIVES}, got {self.objective!r}")
         extra = self.env_kwargs
         if isinstance(extra, Mapping):
             extra = tuple(extra.items())
@@ -133,7 +139,13 @@ class TaskSettings:
             raise TypeError(
                 f"env_kwargs must be a mapping or (name, value) pairs, got {extra!r}"
             ) from None
-        clash = {k for k, _ in pairs} & {"goal", "goal_precision", "box_mass", "estimator"}
+        clash = {k for k, _ in pairs} & {
+            "goal",
+            "goal_precision",
+            "box_mass",
+            "estimator",
+            "objective_kind",
+        }
         if clash:
             raise ValueError(f"env_kwargs must not repeat the task fields {sorted(clash)}")
         try:
@@ -144,11 +156,11 @@ class TaskSettings:
 
     def env_key(self) -> tuple[Any, ...]:
         """The settings that need a separate env; goal and box mass are set per episode."""
-        return (self.goal_precision, self.estimator, self.env_kwargs)
+        return (self.goal_precision, self.estimator, self.objective, self.env_kwargs)
 
 
 def add_task_arguments(parser: argparse.ArgumentParser) -> None:
-    """Add the task options ``--goal``, ``--goal-precision``, ``--box-mass``, ``--estimator``.
+    """Add the task options (goal, p^X, box mass, estimator, objective) to a parser.
 
     Their defaults are :class:`TaskSettings`'; every command that evaluates designs takes the
     same options with the same meaning.
@@ -181,6 +193,13 @@ def add_task_arguments(parser: argparse.ArgumentParser) -> None:
         choices=_ESTIMATORS,
         default=defaults.estimator,
         help="estimator of dX/dU (default: %(default)s)",
+    )
+    parser.add_argument(
+        "--objective",
+        choices=OBJECTIVES,
+        default=defaults.objective,
+        help="what is minimized: F, or the goal error averaged over box masses (the "
+        "robust-design baseline) (default: %(default)s)",
     )
 
 
@@ -265,6 +284,7 @@ def _env(task: TaskSettings) -> Any:
             "ToolDesign-v0",
             goal_precision=task.goal_precision,
             estimator=task.estimator,
+            objective_kind=task.objective,
             **dict(task.env_kwargs),
         )
         cache[key] = env

@@ -547,8 +547,6 @@ def make_report(
     pairwise = pairwise_table(evaluations, alpha=alpha, noise_floor=noise_floor)
     written.append(atomic_write_text(target / "pairwise.csv", _csv_text(pairwise)))
     written.append(
-        atomic_write_text(
-            target / "pairwise.md", _pairwise_markdown(pairwise, alpha, noise_floor)
-        )
+        atomic_write_text(target / "pairwise.md", _pairwise_markdown(pairwise, alpha, noise_floor))
     )
     return written

@@ -1,4 +1,4 @@
-"""tooldesign retest: the noise floor and stress test of a suite's final designs, and its reports."""
+"""tooldesign retest: the noise floor and stress test of a suite's final designs; its reports."""
 
 from __future__ import annotations
 

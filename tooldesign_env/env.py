@@ -14,7 +14,7 @@ import numpy as np
 from gymnasium import spaces
 
 from tooldesign_env.geometry import ToolGeometry, ToolSpec, make_tool, validate_coefficients
-from tooldesign_env.objective import ObjectiveTerms, free_energy, make_estimator
+from tooldesign_env.objective import ObjectiveTerms, free_energy, goal_error, make_estimator
 from tooldesign_env.robustness import DEFAULT_MASSES, RobustnessResult, evaluate_robustness
 from tooldesign_env.simulation import ToolSimulator, Trajectory
 from tooldesign_env.specs import ControllerSpec, ObjectiveSpec, PlanSpec, SceneSpec, TaskSpec
@@ -98,10 +98,12 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
     ## Arguments
 
     ``gym.make("ToolDesign-v0", goal=(0, 1.5, 0.1), randomize_goal=False, goal_precision=20.0,
-    box_mass=None, estimator="contact", bounds=None, tool=ToolSpec(), scene=SceneSpec(),
-    plan=PlanSpec(), controller=ControllerSpec(), objective=ObjectiveSpec(),
-    render_mode=None)``. ``goal_precision``, ``estimator`` and ``box_mass`` are shortcuts for
-    the fields of ``objective`` and ``scene``. ``reset(options={"goal": (x, y, z),
+    box_mass=None, estimator="contact", objective_kind=None, bounds=None, tool=ToolSpec(),
+    scene=SceneSpec(), plan=PlanSpec(), controller=ControllerSpec(), objective=ObjectiveSpec(),
+    render_mode=None)``. ``goal_precision``, ``estimator``, ``objective_kind`` and ``box_mass``
+    are shortcuts for the fields of ``objective`` and ``scene``; ``objective_kind=
+    "expected-goal-error"`` scores the robust-design baseline instead of F (see
+    ``ObjectiveSpec.kind``). ``reset(options={"goal": (x, y, z),
     "box_mass": m})`` changes the task of one episode.
 
     ## Version History
@@ -119,6 +121,7 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
         goal_precision: float | None = None,
         box_mass: float | None = None,
         estimator: str | None = None,
+        objective_kind: str | None = None,
         bounds: Any = None,
         tool: ToolSpec | None = None,
         scene: SceneSpec | None = None,
@@ -148,6 +151,8 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
             objective = replace(objective, goal_precision=goal_precision)
         if estimator is not None:
             objective = replace(objective, estimator=estimator)
+        if objective_kind is not None:
+            objective = replace(objective, kind=objective_kind)
         self.objective = objective
         self.task = TaskSpec(goal=tuple(goal))  # type: ignore[arg-type]
         self.randomize_goal = bool(randomize_goal)
@@ -243,6 +248,8 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
             return self._invalid_info(geometry, f"cannot be built: {geometry.why_not_buildable}")
         if self.simulator.build(geometry, box_mass=self._box_mass):
             return self._invalid_info(geometry, "overlaps the box at the start of the sweep")
+        if self.objective.kind == "expected-goal-error":
+            return self._expected_goal_error(geometry)
         resim = self.objective.estimator == "resimulation"
         trajectory = self.simulator.run(
             snapshot_every=self.objective.horizon if resim else None,
@@ -263,6 +270,33 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
             if resim:
                 self.simulator.release_snapshots()
         return self._info(geometry, trajectory, terms)
+
+    def _expected_goal_error(self, geometry: ToolGeometry) -> dict[str, Any]:
+        """The robust-design baseline: the summed goal error averaged over box masses.
+
+        ``info`` holds the mean goal error as ``free_energy`` and ``goal_error``, a confidence
+        of 0, the mean final distance, and the trajectories of the episode's own box mass.
+        """
+        masses = self.objective.expected_masses
+        runs = {m: self.simulator.rollout(geometry, box_mass=m) for m in masses}
+        nominal = runs.get(self._box_mass) or self.simulator.rollout(
+            geometry, box_mass=self._box_mass
+        )
+        precision = self.objective.goal_precision
+        e_t = np.mean([goal_error(r.box_position, self._goal, precision) for r in runs.values()], 0)
+        distance = np.mean([np.linalg.norm(r.box_position[-1] - self._goal) for r in runs.values()])
+        zeros = np.zeros_like(e_t)
+        terms = ObjectiveTerms(
+            free_energy=float(np.sum(e_t)),
+            goal_error=float(np.sum(e_t)),
+            confidence=0.0,
+            final_distance=float(distance),
+            goal_error_t=e_t,
+            confidence_t=zeros,
+            free_energy_t=e_t,
+            jacobian_norm_t=zeros,
+        )
+        return self._info(geometry, nominal, terms)
 
     def evaluate_robustness(
         self, action: Any, masses: Sequence[float] = DEFAULT_MASSES

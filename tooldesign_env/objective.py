@@ -367,9 +367,7 @@ def free_energy(
     goal = np.asarray(goal, dtype=float)
     est = estimator or make_estimator(spec)
     if isinstance(est, ContactEstimator):
-        sens = est.estimate(
-            box_position, torques, replay, mobility=mobility, control_dt=control_dt
-        )
+        sens = est.estimate(box_position, torques, replay, mobility=mobility, control_dt=control_dt)
     else:
         sens = est.estimate(box_position, torques, replay)
     e_t = goal_error(box_position, goal, spec.goal_precision)

@@ -142,9 +142,7 @@ def contact_mobility(
     box_inv_mass = 1.0 / box_mass + lever**2 / inertia_zz
     force_per_push = 1.0 / (arm_inv_mass + box_inv_mass)  # (N,), N per (m/s^2)
     horizontal = normals * np.array([1.0, 1.0, 0.0])
-    return np.asarray(
-        np.einsum("ni,nj,n->nij", horizontal, push, force_per_push) / box_mass
-    )
+    return np.asarray(np.einsum("ni,nj,n->nij", horizontal, push, force_per_push) / box_mass)
 
 
 def _principal_link_xml(geometry: ToolGeometry) -> tuple[str, np.ndarray]:

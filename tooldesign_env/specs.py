@@ -199,6 +199,7 @@ class TaskSpec:
 
 
 ESTIMATORS = ("contact", "trajectory", "resimulation")
+KINDS = ("free-energy", "expected-goal-error")
 FORMS = ("clamped", "gauss-newton")
 
 
@@ -207,6 +208,11 @@ class ObjectiveSpec:
     """The free energy F and how control confidence is estimated.
 
     Attributes:
+        kind: ``"free-energy"``: F of the paper (the default). ``"expected-goal-error"``: the
+            robust-design baseline, which asks for robustness directly: the mean over the box
+            masses ``expected_masses`` of the summed goal error sum_t E_t, with no confidence
+            term (it costs one rollout per mass).
+        expected_masses: box masses of ``"expected-goal-error"``, kg.
         goal_precision: p^X, the weight of the squared goal error (P^X = p^X I_3), 1/m^2.
         eps: regularizer of log|Pi_U|, (m/N m)^2: the confidence of one step is
             1/2 sum_k log(1 + max(lambda_k, 0) / eps) over the eigenvalues lambda_k of Pi_U.
@@ -230,6 +236,8 @@ class ObjectiveSpec:
             built, or it overlaps the box at the start); see docs/model.md.
     """
 
+    kind: str = "free-energy"
+    expected_masses: tuple[float, ...] = (0.1, 0.3, 0.5, 0.7, 0.9)
     goal_precision: float = 20.0
     eps: float = 1e-6
     form: str = "clamped"
@@ -253,6 +261,18 @@ class ObjectiveSpec:
             "perturbation",
             "invalid_penalty",
         )
+        if self.kind not in KINDS:
+            raise ValueError(f"ObjectiveSpec.kind must be one of {KINDS}, got {self.kind!r}")
+        masses = tuple(self.expected_masses)
+        if not masses or not all(
+            not isinstance(m, bool) and isinstance(m, (int, float)) and math.isfinite(m) and m > 0
+            for m in masses
+        ):
+            raise ValueError(
+                "ObjectiveSpec.expected_masses must be one or more finite masses > 0 kg, "
+                f"got {self.expected_masses!r}"
+            )
+        object.__setattr__(self, "expected_masses", tuple(float(m) for m in masses))
         if self.form not in FORMS:
             raise ValueError(f"ObjectiveSpec.form must be one of {FORMS}, got {self.form!r}")
         if self.estimator not in ESTIMATORS:

@@ -139,8 +139,10 @@ def main() -> None:
         f"(box shift <= {args.shift * 1e3:g} mm, turn <= {args.turn:g} rad), "
         f"p^X = {args.goal_precision:g}"
     )
-    print(f"{'estimator':32s} {'F spread':>9s} {'conf spread':>12s} {'goal-err spread':>16s}"
-          f" {'mean conf':>10s} {'mean F':>9s}")
+    print(
+        f"{'estimator':32s} {'F spread':>9s} {'conf spread':>12s} {'goal-err spread':>16s}"
+        f" {'mean conf':>10s} {'mean F':>9s}"
+    )
     for name in specs:
         f = [spread([r[0] for r in d]) for d in terms[name]]
         conf = [spread([r[1] for r in d]) for d in terms[name]]
