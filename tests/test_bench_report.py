@@ -136,7 +136,10 @@ def test_single_optimizer_gives_empty_pairwise_table(tmp_path: Path) -> None:
     make_report(tmp_path, n_boot=N_BOOT)
     assert "nothing to compare" in (tmp_path / "report" / "pairwise.md").read_text()
     header = (tmp_path / "report" / "pairwise.csv").read_text().splitlines()
-    assert header == ["suite,variant,metric,a,b,U,p,p_holm,a12,significant,n_a,n_b,note"]
+    assert header == [
+        "suite,variant,metric,a,b,U,p,p_holm,a12,significant,n_a,n_b,note,"
+        "mean_difference,beyond_noise"
+    ]
 
 
 def test_one_seed_gives_nan_p_with_a_note_not_a_crash(tmp_path: Path) -> None:
