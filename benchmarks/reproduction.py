@@ -75,14 +75,16 @@ def _claim_a(folder: Path) -> tuple[str, str, list[str]]:
     report = folder / "report"
     summary, pairwise = _read_csv(report / "summary.csv"), _read_csv(report / "pairwise.csv")
     floor = noise_floor(read_retests(folder))
+    runs = int(summary["runs"].max()) if len(summary) else 0
     lines = [
         "## (a) CMA-ES lowers F fastest",
         "",
-        "Four optimizers, 10 seeds each, batch 8, 15 iterations, p^X = 20 "
+        f"{len(summary)} optimizers, {runs} seeds each "
         "(`docs/results/optimizers/report/summary.md`, `pairwise.md`, "
-        "`convergence-optimizers.png`). Noise floor of F over the 40 final designs: "
-        f"{_fmt(floor['free_energy'])} ({100 * floor['free_energy_relative']:.2f} %, median "
-        "range over 5 nudged scenes, `noise.md`).",
+        f"`convergence-optimizers.png`). Noise floor of F over the {int(floor['designs'])} "
+        f"final designs: {_fmt(floor['free_energy'])} "
+        f"({100 * floor['free_energy_relative']:.2f} %, median range over nudged scenes, "
+        "`noise.md`).",
         "",
         "| optimizer | final F [95 % CI] | AUC [95 % CI] |",
         "|---|---|---|",
@@ -136,7 +138,8 @@ def _claim_b(folder: Path) -> tuple[str, str, list[str]]:
     lines = [
         "## (b) Low p^X gives curved tools that hold the box; high p^X straighter tools",
         "",
-        "All 70 designs of the robustness suite (7 p^X x 10 random goals, CMA-ES), "
+        f"All {len(table)} designs of the robustness suite "
+        f"({table['goal_precision'].nunique()} p^X x {table['seed'].nunique()} random goals), "
         "`docs/results/robustness/report/designs.md`; Spearman rank correlation of p^X with "
         "each shape measure and the final distance (n, p):",
         "",
@@ -202,12 +205,14 @@ def _claim_c(folder: Path, baseline: Path | None) -> tuple[str, str, list[str]]:
     table, retests = _stress_rows(folder)
     per_design = _design_stress(retests)
     labelled = per_design[per_design["label"] != ""]
+    settings = retests[0]["settings"] if retests else {"masses": [], "repeats": 0}
+    masses = ", ".join(f"{m:g}" for m in settings["masses"])
     lines = [
         "## (c) Pure confidence is the most robust and uses the least control deviation",
         "",
-        "Table I over a range of box masses (0.1 to 1.0 kg in 10 steps, each in 3 nudged scenes, "
-        "every altered rollout compared with the nominal one in the same scene; "
-        "`docs/results/robustness/report/stress.md`). Mean over the 10 goals [95 % bootstrap "
+        f"Table I over a range of box masses ({masses} kg, each in {settings['repeats']} nudged "
+        "scenes, every altered rollout compared with the nominal one in the same scene; "
+        "`docs/results/robustness/report/stress.md`). Mean over goals [95 % bootstrap "
         "interval over goals] (median noise of a design's mean across scenes):",
         "",
         "| objective | p^X | robustness (m) | accuracy (m) | control deviation (N m) | "
