@@ -45,12 +45,12 @@ def _read_csv(path: Path) -> pd.DataFrame:
     return pd.read_csv(path) if path.is_file() else pd.DataFrame()
 
 
-def _spearman(x: Sequence[float], y: Sequence[float]) -> tuple[float, float, int]:
-    x, y = np.asarray(x, float), np.asarray(y, float)
-    keep = np.isfinite(x) & np.isfinite(y)
+def _spearman(x: Any, y: Any) -> tuple[float, float, int]:
+    a, b = np.asarray(x, float), np.asarray(y, float)
+    keep = np.isfinite(a) & np.isfinite(b)
     if keep.sum() < 3:
         return math.nan, math.nan, int(keep.sum())
-    result = sstats.spearmanr(x[keep], y[keep])
+    result = sstats.spearmanr(a[keep], b[keep])
     return float(result.statistic), float(result.pvalue), int(keep.sum())
 
 
@@ -97,7 +97,8 @@ def _claim_a(folder: Path) -> tuple[str, str, list[str]]:
         )
     lines += ["", "| a vs b | metric | mean a - b | beyond noise | p (Holm) | significant |"]
     lines.append("|---|---|---|---|---|---|")
-    cmaes_wins, cmaes_losses = [], []
+    cmaes_wins: list[str] = []
+    cmaes_losses: list[str] = []
     for _, row in pairwise.iterrows():
         lines.append(
             f"| {row['a']} vs {row['b']} | {row['metric']} | {_fmt(row['mean_difference'])} | "
@@ -174,7 +175,7 @@ def _claim_b(folder: Path) -> tuple[str, str, list[str]]:
     return cell, verdict, lines
 
 
-def _stress_rows(folder: Path) -> tuple[pd.DataFrame, list[Mapping[str, Any]]]:
+def _stress_rows(folder: Path) -> tuple[pd.DataFrame, list[dict[str, Any]]]:
     retests = read_retests(folder)
     return stress_table(retests, "mass", n_boot=2000), retests
 
@@ -205,7 +206,7 @@ def _claim_c(folder: Path, baseline: Path | None) -> tuple[str, str, list[str]]:
     table, retests = _stress_rows(folder)
     per_design = _design_stress(retests)
     labelled = per_design[per_design["label"] != ""]
-    settings = retests[0]["settings"] if retests else {"masses": [], "repeats": 0}
+    settings: dict[str, Any] = retests[0]["settings"] if retests else {"masses": [], "repeats": 0}
     masses = ", ".join(f"{m:g}" for m in settings["masses"])
     lines = [
         "## (c) Pure confidence is the most robust and uses the least control deviation",

@@ -58,7 +58,10 @@ class Sensitivities:
 class SensitivityEstimator(Protocol):
     """Estimates dX/dU (and d2X/dU2) along a trajectory."""
 
-    name: str
+    @property
+    def name(self) -> str:
+        """The estimator's name (``ObjectiveSpec.estimator``)."""
+        ...
 
     def estimate(
         self, box_position: np.ndarray, torques: np.ndarray, replay: ReplayFn | None

@@ -1,0 +1,26 @@
+"""docs/reproduction.md is what `python -m benchmarks.reproduction` writes from docs/results."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from benchmarks.reproduction import main, reproduction_page
+
+ROOT = Path(__file__).resolve().parents[1]
+RESULTS = ROOT / "docs" / "results"
+
+
+def test_the_committed_page_is_made_from_the_committed_results() -> None:
+    # The reports are rebuilt bit for bit by tests/test_suites.py; here the page from them.
+    page = reproduction_page(RESULTS)
+    assert page == (ROOT / "docs" / "reproduction.md").read_text(encoding="utf-8")
+    assert "| (a) CMA-ES lowers F fastest |" in page and "noise floor" in page.lower()
+
+
+def test_a_missing_results_folder_is_one_clear_error(tmp_path: Path) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        main(["--results", str(tmp_path / "nothing"), "--out", str(tmp_path / "page.md")])
+    assert exit_info.value.code == 2
+    assert not (tmp_path / "page.md").exists()
