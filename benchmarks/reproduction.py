@@ -374,10 +374,11 @@ def reproduction_page(results: Path) -> str:
     lines += [
         "## Does control confidence buy robustness more cheaply than asking for it?",
         "",
-        "The `robust-design` suite optimizes the goal error averaged over box masses 0.1-0.9 kg "
+        "The `robust-design` suite optimizes the goal error averaged over box masses 0.1, 0.5 and "
+        "0.9 kg "
         "(no confidence term) with the same optimizer, budget (120 designs), goals and seeds as "
         "the robustness suite; its row in the table of (c) is `expected goal error`. Each of its "
-        "evaluations costs 5 rollouts instead of 1.",
+        "evaluations costs 3 rollouts instead of 1.",
         "",
         "## How the results were made",
         "",

@@ -609,7 +609,8 @@ def _robust_design_suite(size: str) -> SuiteConfig:
         name="robust-design",
         description=(
             "The robust-design baseline: CMA-ES on the goal error averaged over box masses "
-            "0.1-0.9 kg (no confidence term), on the robustness suite's goals, budget and seeds"
+            "0.1, 0.5 and 0.9 kg (no confidence term), on the robustness suite's goals, budget "
+            "and seeds"
         ),
         objective="expected-goal-error",
         variants=(Variant(name="robust", goal_precision=20.0, label="expected goal error"),),

@@ -237,7 +237,7 @@ class ObjectiveSpec:
     """
 
     kind: str = "free-energy"
-    expected_masses: tuple[float, ...] = (0.1, 0.3, 0.5, 0.7, 0.9)
+    expected_masses: tuple[float, ...] = (0.1, 0.5, 0.9)
     goal_precision: float = 20.0
     eps: float = 1e-6
     form: str = "clamped"
