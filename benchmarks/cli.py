@@ -7,6 +7,7 @@ file only dispatches.
 from __future__ import annotations
 
 import argparse
+import pickle
 import sys
 from collections.abc import Sequence
 
@@ -40,9 +41,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         return int(args.run(args) or 0)
-    except (ValueError, TypeError, FileNotFoundError, ImportError) as exc:
-        # Bad input or a missing optional backend (whose message names the pip extra): one
-        # clear line instead of a traceback.
+    except (
+        ValueError,
+        TypeError,
+        OverflowError,
+        OSError,
+        ImportError,
+        pickle.UnpicklingError,
+    ) as exc:
+        # Bad input, a path that is a file where a folder is wanted (or the reverse), a
+        # scheduler that does not answer, a corrupted state file or a missing optional backend
+        # (whose message names the pip extra): one clear line instead of a traceback.
         parser.exit(2, f"tooldesign {args.command}: error: {exc}\n")
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)

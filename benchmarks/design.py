@@ -101,11 +101,14 @@ class ResumeError(ValueError):
 # --- configuration -----------------------------------------------------------------------------
 
 
-def _int(name: str, value: Any, minimum: int) -> int:
+def _int(name: str, value: Any, minimum: int, maximum: int = 2**63 - 1) -> int:
+    # The maximum is int64's: seeds and counts are stored in Parquet and SQLite columns.
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
         raise TypeError(f"{name} must be an int, got {type(value).__name__}")
     if value < minimum:
         raise ValueError(f"{name} must be >= {minimum}, got {value}")
+    if value > maximum:
+        raise ValueError(f"{name} must be <= {maximum} (int64), got {value}")
     return int(value)
 
 

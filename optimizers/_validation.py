@@ -13,6 +13,9 @@ from typing import Any
 import numpy as np
 
 __all__ = [
+    "BATCH_SIZE_MAX",
+    "BOUND_MAX",
+    "SEED_MAX",
     "check_bounds",
     "check_batch_size",
     "check_ids",
@@ -20,6 +23,17 @@ __all__ = [
     "check_values",
     "make_rng",
 ]
+
+#: Largest magnitude of a bound. A wider box makes high - low or its square overflow float64
+#: inside the backends (every optimizer asked for 1e308 with bounds of +-1e308).
+BOUND_MAX = 1e15
+
+#: Largest batch accepted; backends build (batch, d) matrices and some are quadratic in the
+#: batch (optuna-cmaes with 10^6 hung for over 10 minutes).
+BATCH_SIZE_MAX = 10_000
+
+#: Seeds are stored as signed 64-bit integers (SQLite, Parquet), so larger ones are refused here.
+SEED_MAX = 2**63 - 1
 
 SeedLike = int | np.integer | np.random.Generator | np.random.SeedSequence | None
 
@@ -51,7 +65,10 @@ def _real_array(value: Any, name: str, what: str) -> np.ndarray:
             raise TypeError(f"{name} must be {what}, got {value!r}")
     elif raw.dtype.kind not in "iuf":
         raise TypeError(f"{name} must be {what}, got dtype {raw.dtype} in {value!r}")
-    return raw.astype(np.float64)
+    try:
+        return raw.astype(np.float64)
+    except OverflowError:
+        raise ValueError(f"{name} must be {what} that fit a float64, got {value!r}") from None
 
 
 def check_bounds(bounds: Any, low: Any = None, high: Any = None) -> tuple[np.ndarray, np.ndarray]:
@@ -92,6 +109,12 @@ def check_bounds(bounds: Any, low: Any = None, high: Any = None) -> tuple[np.nda
             )
     if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
         raise ValueError(f"bounds must be finite, got low={lo.tolist()} high={hi.tolist()}")
+    huge = np.flatnonzero((np.abs(lo) > BOUND_MAX) | (np.abs(hi) > BOUND_MAX))
+    if huge.size:
+        raise ValueError(
+            f"bounds must lie within +-{BOUND_MAX:g} (rescale the problem); dimension(s) "
+            f"{huge.tolist()} have low={lo[huge].tolist()} high={hi[huge].tolist()}"
+        )
     bad = np.flatnonzero(~(lo < hi))
     if bad.size:
         raise ValueError(
@@ -106,12 +129,14 @@ def check_batch_size(batch_size: Any, minimum: int = 1, who: str = "the optimize
 
     Raises:
         TypeError: Not an int (bools are refused).
-        ValueError: Below ``minimum``.
+        ValueError: Below ``minimum`` or above ``BATCH_SIZE_MAX``.
     """
     if not _is_int(batch_size):
         raise TypeError(f"batch_size must be an int, got {batch_size!r}")
     if batch_size < minimum:
         raise ValueError(f"batch_size must be >= {minimum} for {who}, got {batch_size}")
+    if batch_size > BATCH_SIZE_MAX:
+        raise ValueError(f"batch_size must be <= {BATCH_SIZE_MAX} for {who}, got {batch_size}")
     return int(batch_size)
 
 
@@ -127,15 +152,15 @@ def make_rng(seed: Any) -> np.random.Generator:
 
     Raises:
         TypeError: Another type (floats and bools are refused).
-        ValueError: A negative int.
+        ValueError: An int outside [0, 2**63 - 1] (seeds are stored as int64).
     """
     if isinstance(seed, np.random.Generator):
         return seed
     if seed is None or isinstance(seed, np.random.SeedSequence):
         return np.random.default_rng(seed)
     if _is_int(seed):
-        if seed < 0:
-            raise ValueError(f"seed must be >= 0, got {seed}")
+        if not 0 <= seed <= SEED_MAX:
+            raise ValueError(f"seed must be an int in [0, 2**63 - 1], got {seed}")
         return np.random.default_rng(int(seed))
     raise TypeError(
         "seed must be an int >= 0, a numpy.random.SeedSequence, a numpy.random.Generator or "
@@ -177,7 +202,7 @@ def check_values(values: Any, n: int) -> tuple[np.ndarray, np.ndarray]:
 
     Raises:
         TypeError: Not a 1-D sequence of numbers or None.
-        ValueError: Not n of them.
+        ValueError: Not n of them, or an int too large for float64.
     """
     what = "a 1-D sequence of numbers (None, nan or inf mark a failed evaluation)"
     if isinstance(values, np.ndarray):
@@ -205,7 +230,12 @@ def _object_values(items: list[Any], what: str) -> np.ndarray:
         if v is None:
             out[k] = np.nan
         elif _is_real(v):
-            out[k] = float(v)
+            try:
+                out[k] = float(v)
+            except OverflowError:
+                raise ValueError(
+                    f"values must fit a float64 (|v| < 1.8e308); entry {k} is {v!r}"
+                ) from None
         elif isinstance(v, (Sequence, np.ndarray)) and not isinstance(v, (str, bytes)):
             raise ValueError(f"values must be 1-D, one number per id; entry {k} is {v!r}")
         else:

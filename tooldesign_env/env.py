@@ -17,7 +17,14 @@ from tooldesign_env.geometry import ToolGeometry, ToolSpec, make_tool, validate_
 from tooldesign_env.objective import ObjectiveTerms, free_energy, goal_error, make_estimator
 from tooldesign_env.robustness import DEFAULT_MASSES, RobustnessResult, evaluate_robustness
 from tooldesign_env.simulation import ToolSimulator, Trajectory
-from tooldesign_env.specs import ControllerSpec, ObjectiveSpec, PlanSpec, SceneSpec, TaskSpec
+from tooldesign_env.specs import (
+    BOX_MASS_MAX,
+    ControllerSpec,
+    ObjectiveSpec,
+    PlanSpec,
+    SceneSpec,
+    TaskSpec,
+)
 
 __all__ = [
     "GOAL_HIGH",
@@ -35,6 +42,21 @@ GOAL_HIGH = (0.5, 1.5, 0.1)
 #: robot within 2.5 m, up to 1 m high.
 WORKSPACE_LOW = (-2.5, -2.5, 0.0)
 WORKSPACE_HIGH = (2.5, 2.5, 1.0)
+
+
+#: Largest magnitude of a coefficient bound; the default box is +-1.5.
+COEFFICIENT_MAX = 1e3
+
+
+def _check_bounds(bounds: Any) -> np.ndarray:
+    """``bounds`` as a float array, refusing strings and bools (which numpy would convert)."""
+    try:
+        raw = np.asarray(bounds)
+    except (TypeError, ValueError) as error:
+        raise ValueError(f"bounds must be (degree, 2) numbers, got {bounds!r} ({error})") from None
+    if raw.dtype.kind not in "iuf":
+        raise TypeError(f"bounds must be (degree, 2) real numbers, got {bounds!r}")
+    return raw.astype(float)
 
 
 def default_bounds(degree: int) -> np.ndarray:
@@ -154,18 +176,28 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
         if objective_kind is not None:
             objective = replace(objective, kind=objective_kind)
         self.objective = objective
+        if isinstance(goal, (str, bytes)) or not hasattr(goal, "__len__"):
+            raise TypeError(f"goal must be 3 numbers (x, y, z) in m, got {goal!r}")
         self.task = TaskSpec(goal=tuple(goal))  # type: ignore[arg-type]
+        if not isinstance(randomize_goal, (bool, np.bool_)):
+            # bool("no") is True: a string or number here is a mistake, not a choice.
+            raise TypeError(f"randomize_goal must be True or False, got {randomize_goal!r}")
         self.randomize_goal = bool(randomize_goal)
         self.render_mode = render_mode
 
         degree = self.tool_spec.degree
-        bounds = default_bounds(degree) if bounds is None else np.asarray(bounds, dtype=float)
+        bounds = default_bounds(degree) if bounds is None else _check_bounds(bounds)
         if bounds.shape != (degree, 2) or not np.all(np.isfinite(bounds)):
             raise ValueError(
                 f"bounds must be {degree} finite [low, high] pairs, got shape {bounds.shape}"
             )
         if not np.all(bounds[:, 0] < bounds[:, 1]):
             raise ValueError(f"bounds must have low < high in every row, got {bounds.tolist()}")
+        if np.any(np.abs(bounds) > COEFFICIENT_MAX):
+            raise ValueError(
+                f"bounds must lie within +-{COEFFICIENT_MAX:g} (coefficients of a 1.1 m tool), "
+                f"got {bounds.tolist()}"
+            )
         self.action_space = spaces.Box(bounds[:, 0], bounds[:, 1], dtype=np.float64)
         self.observation_space = spaces.Box(
             np.asarray(WORKSPACE_LOW), np.asarray(WORKSPACE_HIGH), dtype=np.float64
@@ -203,8 +235,10 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
         mass = options.get("box_mass", self.simulator.scene.box_mass)
         if isinstance(mass, bool) or not isinstance(mass, (int, float, np.floating, np.integer)):
             raise TypeError(f"options['box_mass'] must be a number (kg), got {type(mass).__name__}")
-        if not (math.isfinite(float(mass)) and float(mass) > 0):
-            raise ValueError(f"options['box_mass'] must be finite and > 0 kg, got {mass!r}")
+        if not (math.isfinite(float(mass)) and 0 < float(mass) <= BOX_MASS_MAX):
+            raise ValueError(
+                f"options['box_mass'] must be finite, > 0 and <= {BOX_MASS_MAX:g} kg, got {mass!r}"
+            )
         self._box_mass = float(mass)
         return self._observation(), {"goal": self._goal.copy(), "box_mass": self._box_mass}
 
@@ -311,6 +345,10 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
         )
 
     def _check_goal(self, goal: Any, label: str) -> np.ndarray:
+        if isinstance(goal, (str, bytes)) or (
+            hasattr(goal, "__iter__") and any(isinstance(v, (bool, np.bool_, str)) for v in goal)
+        ):
+            raise TypeError(f"{label} must be 3 numbers (x, y, z) in m, got {goal!r}")
         try:
             arr = np.asarray(goal, dtype=float)
         except (TypeError, ValueError):

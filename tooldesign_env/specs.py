@@ -10,28 +10,80 @@ Units are SI: metres, seconds, kilograms, newton metres, radians.
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass, fields
 from typing import Any
 
-__all__ = ["ControllerSpec", "ObjectiveSpec", "PlanSpec", "SceneSpec", "TaskSpec", "spec_to_dict"]
+import numpy as np
+
+__all__ = [
+    "BOX_MASS_MAX",
+    "GOAL_PRECISION_MAX",
+    "ControllerSpec", "ObjectiveSpec", "PlanSpec", "SceneSpec", "TaskSpec",
+    "check_real",
+    "spec_to_dict",
+]
+
+
+#: Largest goal precision p^X accepted, 1/m^2. With it F stays far inside float64: the goal error
+#: of a step is at most 1/2 p^X d^2 with d below 10 m in the workspace, over at most ~10^4
+#: control steps, so |F| < 10^12 (the paper uses p^X = 20).
+GOAL_PRECISION_MAX = 1e6
+
+#: Largest box mass accepted, kg (the Panda's payload is 3 kg; PyBullet's solver is not
+#: meaningful for a box a thousand times heavier than the arm's links).
+BOX_MASS_MAX = 1e3
+
+
+def check_real(value: Any, label: str) -> float:
+    """``value`` as a finite float, refusing bools, strings and other non-numbers.
+
+    Args:
+        value: the number to check.
+        label: how the error names it, e.g. ``"SceneSpec.box_mass"``.
+
+    Raises:
+        TypeError: a bool, a str or anything that is not a real number.
+        ValueError: NaN or infinite.
+    """
+    if isinstance(value, (bool, np.bool_)) or not isinstance(
+        value, (numbers.Real, np.floating, np.integer)
+    ):
+        raise TypeError(f"{label} must be a real number, got {value!r} ({type(value).__name__})")
+    try:
+        result = float(value)
+    except OverflowError:
+        raise ValueError(f"{label} must be a finite number, got {value!r}") from None
+    if not math.isfinite(result):
+        raise ValueError(f"{label} must be a finite number, got {value!r}")
+    return result
 
 
 def _check_positive(obj: object, *names: str, allow_zero: bool = False) -> None:
     for name in names:
         value = getattr(obj, name)
-        ok = math.isfinite(value) and (value >= 0 if allow_zero else value > 0)
-        if not ok:
+        label = f"{type(obj).__name__}.{name}"
+        number = check_real(value, label)
+        if not (number >= 0 if allow_zero else number > 0):
             bound = ">= 0" if allow_zero else "> 0"
-            raise ValueError(
-                f"{type(obj).__name__}.{name} must be a finite number {bound}, got {value!r}"
-            )
+            raise ValueError(f"{label} must be a finite number {bound}, got {value!r}")
 
 
 def _check_vector(obj: object, name: str, length: int) -> None:
     value = getattr(obj, name)
-    if len(value) != length or not all(math.isfinite(float(v)) for v in value):
-        raise ValueError(
-            f"{type(obj).__name__}.{name} must be {length} finite numbers, got {value!r}"
+    label = f"{type(obj).__name__}.{name}"
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__len__") or len(value) != length:
+        raise ValueError(f"{label} must be {length} finite numbers, got {value!r}")
+    for v in value:
+        check_real(v, label)
+
+
+def _check_bool(obj: object, name: str) -> None:
+    value = getattr(obj, name)
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(
+            f"{type(obj).__name__}.{name} must be True or False, got {value!r} "
+            f"({type(value).__name__})"
         )
 
 
@@ -79,8 +131,7 @@ class PlanSpec:
             self, "pull_to", "lift", "settle_duration", "hold_duration", allow_zero=True
         )
         for name in ("yaw_start", "yaw_end"):
-            if not math.isfinite(getattr(self, name)):
-                raise ValueError(f"PlanSpec.{name} must be finite, got {getattr(self, name)!r}")
+            check_real(getattr(self, name), f"PlanSpec.{name}")
 
     @property
     def duration(self) -> float:
@@ -118,7 +169,11 @@ class ControllerSpec:
         _check_vector(self, "torque_limits", 7)
         if not all(v > 0 for v in self.torque_limits):
             raise ValueError(f"ControllerSpec.torque_limits must be > 0, got {self.torque_limits}")
-        if not isinstance(self.control_period, int) or self.control_period < 1:
+        if (
+            isinstance(self.control_period, bool)
+            or not isinstance(self.control_period, int)
+            or self.control_period < 1
+        ):
             raise ValueError(
                 f"ControllerSpec.control_period must be an int >= 1, got {self.control_period!r}"
             )
@@ -175,12 +230,20 @@ class SceneSpec:
         _check_vector(self, "box_position", 2)
         if not all(v > 0 for v in self.box_size):
             raise ValueError(f"SceneSpec.box_size must be > 0, got {self.box_size}")
-        if not isinstance(self.solver_iterations, int) or self.solver_iterations < 1:
+        if (
+            isinstance(self.solver_iterations, bool)
+            or not isinstance(self.solver_iterations, int)
+            or self.solver_iterations < 1
+        ):
             raise ValueError(
                 f"SceneSpec.solver_iterations must be an int >= 1, got {self.solver_iterations!r}"
             )
-        if not math.isfinite(self.box_yaw):
-            raise ValueError(f"SceneSpec.box_yaw must be finite, got {self.box_yaw!r}")
+        check_real(self.box_yaw, "SceneSpec.box_yaw")
+        _check_bool(self, "fast_forward_rest")
+        if self.box_mass > BOX_MASS_MAX:
+            raise ValueError(
+                f"SceneSpec.box_mass must be <= {BOX_MASS_MAX:g} kg, got {self.box_mass!r}"
+            )
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -252,6 +315,11 @@ class ObjectiveSpec:
 
     def __post_init__(self) -> None:
         _check_positive(self, "goal_precision", allow_zero=True)
+        if self.goal_precision > GOAL_PRECISION_MAX:
+            raise ValueError(
+                f"ObjectiveSpec.goal_precision must be <= {GOAL_PRECISION_MAX:g} 1/m^2 so that F "
+                f"stays finite, got {self.goal_precision!r}"
+            )
         _check_positive(
             self,
             "eps",
@@ -281,7 +349,7 @@ class ObjectiveSpec:
             )
         for name in ("window", "horizon"):
             value = getattr(self, name)
-            if not isinstance(value, int) or value < 2:
+            if isinstance(value, bool) or not isinstance(value, int) or value < 2:
                 raise ValueError(f"ObjectiveSpec.{name} must be an int >= 2, got {value!r}")
 
 
