@@ -82,9 +82,13 @@ _DASK_EXTRA = "pip install 'tooldesign[dask]'"
 def _finite(name: str, value: Any) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise TypeError(f"{name} must be a number, got {type(value).__name__}")
-    if not math.isfinite(float(value)):
+    try:
+        number = float(value)
+    except OverflowError:
+        number = math.inf
+    if not math.isfinite(number):
         raise ValueError(f"{name} must be finite, got {value!r}")
-    return float(value)
+    return number
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -118,13 +122,18 @@ class TaskSettings:
         if len(goal) != 3:
             raise ValueError(f"goal must be 3 numbers (x, y, z) in m, got {len(goal)}")
         object.__setattr__(self, "goal", tuple(_finite("goal", v) for v in goal))
+        from tooldesign_env.specs import BOX_MASS_MAX, GOAL_PRECISION_MAX
+
         precision = _finite("goal_precision", self.goal_precision)
-        if precision < 0:
-            raise ValueError(f"goal_precision (p^X) must be >= 0, got {precision}")
+        if not 0 <= precision <= GOAL_PRECISION_MAX:
+            raise ValueError(
+                f"goal_precision (p^X) must be in [0, {GOAL_PRECISION_MAX:g}] 1/m^2, "
+                f"got {precision}"
+            )
         object.__setattr__(self, "goal_precision", precision)
         mass = _finite("box_mass", self.box_mass)
-        if mass <= 0:
-            raise ValueError(f"box_mass must be > 0 kg, got {mass}")
+        if not 0 < mass <= BOX_MASS_MAX:
+            raise ValueError(f"box_mass must be > 0 and <= {BOX_MASS_MAX:g} kg, got {mass}")
         object.__setattr__(self, "box_mass", mass)
         if self.estimator not in _ESTIMATORS:
             raise ValueError(f"estimator must be one of {_ESTIMATORS}, got {self.estimator!r}")

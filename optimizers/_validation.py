@@ -16,6 +16,7 @@ __all__ = [
     "BATCH_SIZE_MAX",
     "BOUND_MAX",
     "SEED_MAX",
+    "VALUE_MAX",
     "check_bounds",
     "check_batch_size",
     "check_ids",
@@ -34,6 +35,10 @@ BATCH_SIZE_MAX = 10_000
 
 #: Seeds are stored as signed 64-bit integers (SQLite, Parquet), so larger ones are refused here.
 SEED_MAX = 2**63 - 1
+
+#: Largest magnitude of a told value. Backends square and normalize the values (a Gaussian
+#: process fitted to 1e308 and 1 sees NaN); a failed evaluation is told as None, nan or inf.
+VALUE_MAX = 1e100
 
 SeedLike = int | np.integer | np.random.Generator | np.random.SeedSequence | None
 
@@ -54,8 +59,13 @@ def _real_array(value: Any, name: str, what: str) -> np.ndarray:
         raise TypeError(f"{name} must be {what}, got a {type(value).__name__}")
     try:
         raw = np.asarray(value)
+        items = np.asarray(value, dtype=object).ravel().tolist()
     except (TypeError, ValueError) as error:
         raise ValueError(f"{name} must be {what}, got {value!r} ({error})") from None
+    flags = [v for v in items if isinstance(v, (bool, np.bool_))]
+    if flags:
+        # numpy turns [0, True] into ints; a bool among numbers is a mistake.
+        raise TypeError(f"{name} must be {what}, got the bool {flags[0]!r} in {value!r}")
     if raw.dtype.kind == "O":
         # A ragged nesting or a list with non-numbers: say which.
         flat = list(raw.ravel())
@@ -202,7 +212,7 @@ def check_values(values: Any, n: int) -> tuple[np.ndarray, np.ndarray]:
 
     Raises:
         TypeError: Not a 1-D sequence of numbers or None.
-        ValueError: Not n of them, or an int too large for float64.
+        ValueError: Not n of them, or a finite value beyond +-``VALUE_MAX``.
     """
     what = "a 1-D sequence of numbers (None, nan or inf mark a failed evaluation)"
     if isinstance(values, np.ndarray):
@@ -221,6 +231,12 @@ def check_values(values: Any, n: int) -> tuple[np.ndarray, np.ndarray]:
     if array.shape[0] != n:
         raise ValueError(f"values must have one entry per id: got {array.shape[0]} for {n} ids")
     failed = ~np.isfinite(array)
+    huge = np.flatnonzero(~failed & (np.abs(array) > VALUE_MAX))
+    if huge.size:
+        raise ValueError(
+            f"values must lie within +-{VALUE_MAX:g} (tell None, nan or inf for a failed "
+            f"evaluation); entry {int(huge[0])} is {array[huge[0]]!r}"
+        )
     return np.where(failed, np.nan, array), failed
 
 

@@ -51,12 +51,16 @@ COEFFICIENT_MAX = 1e3
 def _check_bounds(bounds: Any) -> np.ndarray:
     """``bounds`` as a float array, refusing strings and bools (which numpy would convert)."""
     try:
+        items = np.asarray(bounds, dtype=object).ravel().tolist()
         raw = np.asarray(bounds)
     except (TypeError, ValueError) as error:
         raise ValueError(f"bounds must be (degree, 2) numbers, got {bounds!r} ({error})") from None
-    if raw.dtype.kind not in "iuf":
+    if raw.dtype.kind not in "iuf" or any(isinstance(v, (bool, np.bool_)) for v in items):
         raise TypeError(f"bounds must be (degree, 2) real numbers, got {bounds!r}")
-    return raw.astype(float)
+    try:
+        return raw.astype(float)
+    except OverflowError:
+        raise ValueError(f"bounds must be numbers that fit a float64, got {bounds!r}") from None
 
 
 def default_bounds(degree: int) -> np.ndarray:
@@ -235,7 +239,11 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
         mass = options.get("box_mass", self.simulator.scene.box_mass)
         if isinstance(mass, bool) or not isinstance(mass, (int, float, np.floating, np.integer)):
             raise TypeError(f"options['box_mass'] must be a number (kg), got {type(mass).__name__}")
-        if not (math.isfinite(float(mass)) and 0 < float(mass) <= BOX_MASS_MAX):
+        try:
+            number = float(mass)
+        except OverflowError:
+            number = math.inf
+        if not (math.isfinite(number) and 0 < number <= BOX_MASS_MAX):
             raise ValueError(
                 f"options['box_mass'] must be finite, > 0 and <= {BOX_MASS_MAX:g} kg, got {mass!r}"
             )
@@ -351,6 +359,10 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
             raise TypeError(f"{label} must be 3 numbers (x, y, z) in m, got {goal!r}")
         try:
             arr = np.asarray(goal, dtype=float)
+        except OverflowError:
+            raise ValueError(
+                f"{label} must be 3 finite numbers (x, y, z) in m, got {goal!r}"
+            ) from None
         except (TypeError, ValueError):
             raise TypeError(f"{label} must be 3 numbers (x, y, z) in m, got {goal!r}") from None
         if arr.shape != (3,) or not np.all(np.isfinite(arr)):

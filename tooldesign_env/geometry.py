@@ -159,6 +159,11 @@ def _as_coefficients(coeffs: object, degree: int | None) -> FloatArray:
     allowed = f"allowed: a flat sequence of {count} finite real numbers (c1, ..., cn)"
     if coeffs is None or isinstance(coeffs, (str, bytes)):
         raise TypeError(f"coeffs must be real numbers, got {type(coeffs).__name__}; {allowed}")
+    if isinstance(coeffs, (list, tuple)):
+        # numpy turns [True, 0, 0] into ints; a bool among numbers is a mistake.
+        flags = [item for item in coeffs if isinstance(item, (bool, np.bool_))]
+        if flags:
+            raise TypeError(f"coeffs holds a bool ({flags[0]!r}); {allowed}")
     try:
         array = np.asarray(coeffs)
     except (TypeError, ValueError) as error:  # ragged nesting such as [1, [2, 3]]

@@ -19,7 +19,11 @@ import numpy as np
 __all__ = [
     "BOX_MASS_MAX",
     "GOAL_PRECISION_MAX",
-    "ControllerSpec", "ObjectiveSpec", "PlanSpec", "SceneSpec", "TaskSpec",
+    "ControllerSpec",
+    "ObjectiveSpec",
+    "PlanSpec",
+    "SceneSpec",
+    "TaskSpec",
     "check_real",
     "spec_to_dict",
 ]
