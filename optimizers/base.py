@@ -26,6 +26,7 @@ Semantics (also in ``docs/optimizer-plugins.md``):
 from __future__ import annotations
 
 import abc
+import hashlib
 import math
 import os
 import pickle
@@ -461,15 +462,20 @@ class Optimizer(abc.ABC):
         x.setflags(write=False)
         return Recommendation(x=x, value=float(self._best_value), id=self._best_id)
 
-    def save_state(self, path: str | os.PathLike[str]) -> None:
+    def save_state(self, path: str | os.PathLike[str]) -> str:
         """Write the whole optimizer, pending points included, to ``path`` atomically.
 
         The file is written to a temporary file in the same folder and moved into place with
         ``os.replace``, so ``path`` holds either the old or the new state, never half of one.
-        The format is a pickle: load only files you trust.
+        The format is a pickle (the backends' states can only be pickled), and unpickling a
+        file can run code: record the returned digest and pass it to :meth:`load_state` for a
+        file that has left your hands.
 
         Args:
             path: File to write; its folder must exist.
+
+        Returns:
+            The hex SHA-256 of the file written.
 
         Raises:
             TypeError: path is not a str or os.PathLike.
@@ -505,17 +511,22 @@ class Optimizer(abc.ABC):
             if os.path.exists(tmp):
                 os.unlink(tmp)
             raise
+        return hashlib.sha256(data).hexdigest()
 
     @classmethod
-    def load_state(cls: type[_O], path: str | os.PathLike[str]) -> _O:
+    def load_state(cls: type[_O], path: str | os.PathLike[str], *, sha256: str | None = None) -> _O:
         """Read an optimizer written by :meth:`save_state`; it continues exactly where it was.
 
         Call it on :class:`Optimizer` to accept any plugin, or on a plugin class to insist on
         it. Warns (RuntimeWarning) if numpy or a backend has another version than at saving,
-        since the continuation may then differ. Load only files you trust (pickle).
+        since the continuation may then differ. The file is a pickle, which can run code when
+        loaded: without ``sha256`` load only files you wrote yourself; with it, the file is
+        read only if its bytes have that digest (the one :meth:`save_state` returned), so a
+        replaced, edited or truncated file is refused before anything is unpickled.
 
         Args:
             path: File written by :meth:`save_state`.
+            sha256: Hex SHA-256 the file must have, from a record you trust.
 
         Returns:
             The optimizer.
@@ -528,12 +539,22 @@ class Optimizer(abc.ABC):
         """
         source = check_path(path)
         with open(source, "rb") as handle:
-            try:
-                payload = pickle.load(handle)
-            except Exception as error:  # any unpickling failure means: not our file
+            data = handle.read()
+        if sha256 is not None:
+            if not isinstance(sha256, str):
+                raise TypeError(f"sha256 must be a hex digest str, got {sha256!r}")
+            actual = hashlib.sha256(data).hexdigest()
+            if actual != sha256.lower():
                 raise ValueError(
-                    f"{source!r} is not an optimizer state file ({type(error).__name__}: {error})"
-                ) from error
+                    f"{source!r} has sha256 {actual}, not the expected {sha256}: the file was "
+                    "replaced, edited or truncated; it was not loaded"
+                )
+        try:
+            payload = pickle.loads(data)
+        except Exception as error:  # any unpickling failure means: not our file
+            raise ValueError(
+                f"{source!r} is not an optimizer state file ({type(error).__name__}: {error})"
+            ) from error
         if not (
             isinstance(payload, dict)
             and payload.get("format") == STATE_FORMAT
@@ -553,6 +574,10 @@ class Optimizer(abc.ABC):
             raise ImportError(
                 f"{source!r} holds a {payload.get('class')} whose module cannot be imported: "
                 f"{error}"
+            ) from error
+        except Exception as error:  # a corrupted body behind a good header
+            raise ValueError(
+                f"{source!r} holds a corrupted optimizer state ({type(error).__name__}: {error})"
             ) from error
         if not isinstance(optimizer, cls):
             raise TypeError(

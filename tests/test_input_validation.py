@@ -210,3 +210,20 @@ def test_report_of_an_existing_file_exits_2(tmp_path: Path, capsys):
     with pytest.raises(SystemExit) as stop:
         main(["report", str(existing)])
     assert stop.value.code == 2
+
+
+@pytest.mark.parametrize("name", ["random", "cmaes"])
+def test_state_loads_only_with_the_recorded_digest(name, tmp_path: Path):
+    opt = optimizers.make(name, bounds=[[0, 1]] * 2, batch_size=4, seed=0)
+    opt.tell(opt.ask().ids, [1.0, 2.0, 3.0, 4.0])
+    path = tmp_path / "state.pkl"
+    digest = opt.save_state(path)
+    again = optimizers.Optimizer.load_state(path, sha256=digest)
+    assert np.array_equal(again.ask().x, opt.ask().x)
+    data = path.read_bytes()
+    for changed in (data[:-7], data[:40] + bytes([data[40] ^ 1]) + data[41:], b"\x80\x05junk"):
+        path.write_bytes(changed)
+        with pytest.raises(ValueError, match="was not loaded"):
+            optimizers.Optimizer.load_state(path, sha256=digest)
+        with pytest.raises(ValueError, match="optimizer state"):
+            optimizers.Optimizer.load_state(path)
