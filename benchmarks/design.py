@@ -45,13 +45,16 @@ from benchmarks.evaluation import (
     map_robust,
 )
 from benchmarks.storage import (
+    MANIFEST_VERSION,
     ResultStore,
     Unit,
     atomic_write_text,
     build_manifest,
     json_text,
+    part_checksums,
     read_manifest,
     timing_totals,
+    verify_checksums,
 )
 
 __all__ = [
@@ -92,6 +95,10 @@ FILES: dict[str, str] = {
 _DEFAULT_GOAL = (0.0, 1.5, 0.1)
 # Fields that do not change the results, so a resumed run may set them differently.
 _RUNTIME_FIELDS = frozenset({"iterations", "workers", "executor", "scheduler"})
+
+
+#: Key in the manifest's ``extra``: ``{part path relative to the run folder: sha256}``.
+PART_CHECKSUMS = "part_sha256"
 
 
 class ResumeError(ValueError):
@@ -139,14 +146,17 @@ def _bounds(value: Any) -> tuple[tuple[float, float], ...]:
         from tooldesign_env import default_bounds
 
         value = default_bounds(3)
-    try:
-        array = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise TypeError(f"bounds must be (n, 2) numbers [low, high], got {value!r}") from None
-    if array.ndim != 2 or array.shape[1] != 2 or len(array) == 0:
-        raise ValueError(f"bounds must be (n, 2) [low, high] pairs, got shape {array.shape}")
-    if not np.all(np.isfinite(array)) or not np.all(array[:, 0] < array[:, 1]):
-        raise ValueError(f"bounds must be finite with low < high, got {array.tolist()}")
+    from optimizers._validation import check_bounds
+    from tooldesign_env.env import COEFFICIENT_MAX
+
+    # The optimizers' check refuses bools, strings, ragged rows and overflowing ints by name.
+    low, high = check_bounds(value)
+    array = np.stack([low, high], axis=1)
+    if np.any(np.abs(array) > COEFFICIENT_MAX):
+        raise ValueError(
+            f"bounds must lie within +-{COEFFICIENT_MAX:g} (coefficients of a 1.1 m tool), "
+            f"got {array.tolist()}"
+        )
     return tuple((float(lo), float(hi)) for lo, hi in array.tolist())
 
 
@@ -401,9 +411,21 @@ def _previous_session(out: Path, config: DesignConfig, resume: bool) -> dict[str
         raise ResumeError(
             f"cannot resume: {out} has no manifest.json, so it is not a design run folder"
         ) from None
+    if manifest.get("format_version") != MANIFEST_VERSION:
+        raise ResumeError(
+            f"cannot resume: {out} was written by an incompatible version (manifest "
+            f"format_version {manifest.get('format_version')!r}, this version writes "
+            f"{MANIFEST_VERSION}); start a new run folder"
+        )
     old = manifest.get("config", {})
-    if not isinstance(old, dict) or manifest.get("extra", {}).get("kind") != DESIGN_SUITE:
+    extra = manifest.get("extra")
+    if (
+        not isinstance(old, dict)
+        or not isinstance(extra, dict)
+        or extra.get("kind") != DESIGN_SUITE
+    ):
         raise ResumeError(f"cannot resume: {out} holds a run of another kind")
+    _verify_parts(out, extra)
     new = config.to_json()
     changed = sorted(k for k in new.keys() - _RUNTIME_FIELDS if old.get(k) != new[k])
     if changed:
@@ -413,6 +435,29 @@ def _previous_session(out: Path, config: DesignConfig, resume: bool) -> dict[str
             "use the same settings or another folder"
         )
     return manifest
+
+
+def _verify_parts(out: Path, extra: Mapping[str, Any]) -> None:
+    """Refuse a run folder whose part files differ from what the manifest records.
+
+    The manifest is rewritten after every part, so at most one part (the last, written just
+    before a kill) may be missing from it; any other unrecorded part is refused too.
+    """
+    recorded = extra.get(PART_CHECKSUMS)
+    if not isinstance(recorded, dict):
+        raise ResumeError(
+            f"cannot resume: {out / 'manifest.json'} records no part checksums "
+            f"({PART_CHECKSUMS!r}): it was written by an incompatible version or edited"
+        )
+    try:
+        verify_checksums(out, recorded)
+    except ValueError as error:
+        raise ResumeError(f"cannot resume: {error}") from None
+    unrecorded = sorted(set(part_checksums(ResultStore(out))) - set(recorded))
+    if len(unrecorded) > 1:
+        raise ResumeError(
+            f"cannot resume: {out} holds part files the manifest does not record: {unrecorded}"
+        )
 
 
 def _logged_iterations(store: ResultStore, config: DesignConfig) -> list[pd.DataFrame]:
@@ -475,6 +520,7 @@ def _manifest(
     sessions: list[dict[str, Any]],
     evaluations: pd.DataFrame | None,
     end_time: dt.datetime | None,
+    store: ResultStore,
 ) -> dict[str, Any]:
     totals = timing_totals(evaluations) if evaluations is not None and len(evaluations) else {}
     return build_manifest(
@@ -484,7 +530,11 @@ def _manifest(
         wall_time=sum(s["wall_time"] for s in sessions),
         simulation_time=totals.get("simulation_time"),
         optimizer_time=totals.get("optimizer_time"),
-        extra={"kind": DESIGN_SUITE, "sessions": sessions},
+        extra={
+            "kind": DESIGN_SUITE,
+            "sessions": sessions,
+            PART_CHECKSUMS: part_checksums(store),
+        },
     )
 
 
@@ -637,13 +687,13 @@ def run_design(
     if previous is None:
         start_time = _now()
         sessions: list[dict[str, Any]] = [session]
-        store.write_manifest(_manifest(config, start_time, sessions, None, None))
+        store.write_manifest(_manifest(config, start_time, sessions, None, None, store))
     else:
         start_time = dt.datetime.fromisoformat(previous["start_time"])
         sessions = [*previous.get("extra", {}).get("sessions", []), session]
         # Only this process writes here; leftovers are from the interrupted session.
         store.remove_stale_temp_files()
-        store.write_manifest(_manifest(config, start_time, sessions, None, None))
+        store.write_manifest(_manifest(config, start_time, sessions, None, None, store))
     logged = _logged_iterations(store, config)
     stepper.replay(logged)
     best = min((_best_ok(p) for p in logged), default=math.inf)
@@ -673,7 +723,7 @@ def run_design(
                 best = min(best, _best_ok(frame))
                 evaluations_done += len(frame)
                 session["wall_time"] = time.perf_counter() - session_start
-                store.write_manifest(_manifest(config, start_time, sessions, None, None))
+                store.write_manifest(_manifest(config, start_time, sessions, None, None, store))
                 bar.set_postfix(evals=evaluations_done, best_F=_fmt(best), refresh=False)
                 bar.update(1)
         finally:
@@ -682,7 +732,7 @@ def run_design(
         result = _finish(config, out, store, evaluations, executor)
     session["wall_time"] = time.perf_counter() - session_start
     end_time = _now()
-    manifest = _manifest(config, start_time, sessions, evaluations, end_time)
+    manifest = _manifest(config, start_time, sessions, evaluations, end_time, store)
     store.write_manifest(manifest)
     card = _card(config, result, evaluations, manifest)
     atomic_write_text(out / FILES["card"], json_text(card))

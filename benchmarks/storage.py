@@ -24,6 +24,7 @@ from __future__ import annotations
 import dataclasses
 import datetime as dt
 import enum
+import hashlib
 import importlib.metadata
 import io
 import json
@@ -50,12 +51,15 @@ __all__ = [
     "STATUSES",
     "STRING_COLUMNS",
     "TASK_COLUMNS",
+    "MANIFEST_VERSION",
     "EmptyStoreError",
     "ResultStore",
     "Unit",
     "atomic_write_bytes",
     "atomic_write_text",
     "build_manifest",
+    "file_sha256",
+    "part_checksums",
     "git_commit",
     "host_info",
     "package_versions",
@@ -63,6 +67,7 @@ __all__ = [
     "resolve_format",
     "timing_totals",
     "validate_evaluations",
+    "verify_checksums",
     "write_manifest",
 ]
 
@@ -938,6 +943,55 @@ def json_text(data: Mapping[str, Any], *, compact: bool = False) -> str:
     if compact:
         return json.dumps(json_ready(data), separators=(",", ":"), sort_keys=True, allow_nan=False)
     return json.dumps(json_ready(data), indent=2, sort_keys=True, allow_nan=False) + "\n"
+
+
+def file_sha256(path: str | os.PathLike[str]) -> str:
+    """Hex SHA-256 of a file's bytes, read in 1 MiB blocks."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def part_checksums(store: ResultStore) -> dict[str, str]:
+    """``{path relative to the run folder: sha256}`` of every completed part file."""
+    out: dict[str, str] = {}
+    for unit in sorted(store.completed_units(), key=lambda u: str(u.relative_path)):
+        path = store.part_path(unit)
+        out[path.relative_to(store.run_folder).as_posix()] = file_sha256(path)
+    return out
+
+
+def verify_checksums(run_folder: str | os.PathLike[str], recorded: Mapping[str, Any]) -> None:
+    """Refuse a run folder whose recorded files are missing or changed.
+
+    Args:
+        run_folder: The folder.
+        recorded: ``{relative path: sha256}`` as stored in the manifest.
+
+    Raises:
+        ValueError: A recorded file is missing, truncated or edited (its sha256 differs), or
+            the record itself is malformed. Nothing is written or removed.
+    """
+    folder = Path(run_folder)
+    if not isinstance(recorded, Mapping):
+        raise ValueError(f"{folder / 'manifest.json'}: the checksums are not a mapping")
+    for relative, expected in sorted(recorded.items()):
+        path = (folder / relative).resolve()
+        if not isinstance(expected, str) or folder.resolve() not in path.parents:
+            raise ValueError(f"{folder / 'manifest.json'}: bad checksum entry {relative!r}")
+        if not path.is_file():
+            raise ValueError(
+                f"{path} is listed in the manifest but missing; the run folder is incomplete"
+            )
+        actual = file_sha256(path)
+        if actual != expected:
+            raise ValueError(
+                f"{path} has changed since it was written (sha256 {actual[:12]}..., the "
+                f"manifest records {expected[:12]}...): the file was edited, truncated or "
+                "corrupted; restore it or start a new run folder"
+            )
 
 
 def write_manifest(run_folder: str | os.PathLike[str], manifest: Mapping[str, Any]) -> Path:

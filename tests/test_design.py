@@ -26,7 +26,7 @@ from benchmarks.evaluation import (
     make_executor,
     map_robust,
 )
-from benchmarks.storage import ResultStore
+from benchmarks.storage import ResultStore, file_sha256
 
 CONFIG = DesignConfig(optimizer="cmaes", seed=0, iterations=2, batch_size=4, executor="serial")
 TIMING = ["eval_time", "opt_time"]
@@ -202,8 +202,61 @@ def test_resume_refuses_a_log_the_optimizer_does_not_replay(reference, tmp_path:
     frame = pd.read_csv(part, keep_default_na=False, na_values=[""])
     frame.loc[0, "c1"] = np.nextafter(frame.loc[0, "c1"], np.inf)  # one bit off
     part.write_text(frame.to_csv(index=False, float_format=lambda v: repr(float(v))))
+    # A tamperer who also fixes the checksum in the manifest is caught by the replay.
+    manifest = json.loads((out / "manifest.json").read_text())
+    relative = part.relative_to(out).as_posix()
+    manifest["extra"][design_module.PART_CHECKSUMS][relative] = file_sha256(part)
+    (out / "manifest.json").write_text(json.dumps(manifest))
     with pytest.raises(ResumeError, match="replaying iteration 0"):
         run_design(CONFIG, out, resume=True, progress=False)
+
+
+def _folder_bytes(folder: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(folder)): p.read_bytes() for p in folder.rglob("*") if p.is_file()}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    ("tamper", "match"),
+    [
+        ("edit F", "has changed since it was written"),
+        ("truncate", "has changed since it was written"),
+        ("delete", "missing"),
+        ("extra parts", "does not record"),
+        ("no checksums", "records no part checksums"),
+        ("old version", "incompatible version"),
+    ],
+)
+def test_resume_refuses_a_tampered_folder_and_changes_nothing(
+    reference, tmp_path: Path, tamper: str, match: str
+) -> None:
+    ref, _ = reference
+    out = tmp_path / "tampered"
+    shutil.copytree(ref, out)
+    store = ResultStore(out)
+    part = store.part_path(design_module._unit(CONFIG, 0))
+    manifest = json.loads((out / "manifest.json").read_text())
+    if tamper == "edit F":
+        frame = pd.read_csv(part, keep_default_na=False, na_values=[""])
+        frame.loc[0, "free_energy"] = -1e9  # a better score than any design reached
+        part.write_text(frame.to_csv(index=False, float_format=lambda v: repr(float(v))))
+    elif tamper == "truncate":
+        part.write_bytes(part.read_bytes()[:-10])
+    elif tamper == "delete":
+        part.unlink()
+    elif tamper == "extra parts":
+        for k in (7, 8):
+            other = store.part_path(design_module._unit(CONFIG, k))
+            other.write_bytes(part.read_bytes())
+    elif tamper == "no checksums":
+        del manifest["extra"][design_module.PART_CHECKSUMS]
+    else:
+        manifest["format_version"] = 0
+    (out / "manifest.json").write_text(json.dumps(manifest))
+    before = _folder_bytes(out)
+    with pytest.raises(ResumeError, match=match):
+        run_design(CONFIG, out, resume=True, progress=False)
+    assert _folder_bytes(out) == before
 
 
 def test_resume_refuses_other_settings_and_foreign_folders(tmp_path: Path) -> None:
