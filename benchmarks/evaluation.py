@@ -45,6 +45,8 @@ from typing import Any, Literal
 
 import numpy as np
 
+from benchmarks._parent_death import die_with_parent
+
 __all__ = [
     "EXECUTORS",
     "Designs",
@@ -426,7 +428,7 @@ class _RestartingProcessPool(Executor):
 
     def _new_pool(self) -> ProcessPoolExecutor:
         return ProcessPoolExecutor(
-            max_workers=self._workers, mp_context=self._context, initializer=_ignore_sigint
+            max_workers=self._workers, mp_context=self._context, initializer=_init_worker
         )
 
     @property
@@ -458,11 +460,21 @@ def _ignore_sigint() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
+def _init_worker() -> None:
+    _ignore_sigint()
+    die_with_parent()
+
+
 def _process_context() -> Any:
     # forkserver forks workers from a clean server process that never made a PyBullet client
     # (and is faster to start than spawn); plain fork would copy the parent's client.
     methods = multiprocessing.get_all_start_methods()
-    return multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
+    context = multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
+    if hasattr(context, "set_forkserver_preload"):
+        # The forkserver imports this module first, which makes it die with the main process:
+        # a SIGKILLed run would otherwise leave the server and its workers running.
+        context.set_forkserver_preload(["__main__", "benchmarks._forkserver_preload"])
+    return context
 
 
 def _check_workers(workers: int | None) -> int:

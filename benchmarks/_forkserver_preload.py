@@ -1,0 +1,10 @@
+"""Arms the process pool's forkserver to die with the main process.
+
+Imported by the forkserver only, never by the main process (see :mod:`benchmarks._parent_death`).
+"""
+
+from __future__ import annotations
+
+from benchmarks._parent_death import die_with_parent
+
+die_with_parent()

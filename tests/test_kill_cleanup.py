@@ -1,0 +1,82 @@
+"""SIGKILL of a pooled design run leaves no process and no shared-memory entry behind (#10)."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import psutil
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+GRACE = 5.0  # s the helpers may take to notice the death of the main process
+
+
+def _cmdline(p: psutil.Process) -> str:
+    try:
+        return " ".join(p.cmdline())
+    except psutil.Error:
+        return ""
+
+
+def _alive(p: psutil.Process) -> bool:
+    try:
+        return p.is_running() and p.status() != psutil.STATUS_ZOMBIE
+    except psutil.Error:
+        return False
+
+
+def _shm() -> set[str]:
+    return set(os.listdir("/dev/shm")) if os.path.isdir("/dev/shm") else set()
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="PR_SET_PDEATHSIG is Linux")
+@pytest.mark.parametrize("kill_point", ["pool started", "first part written"])
+def test_sigkill_of_a_pooled_run_leaves_nothing(tmp_path: Path, kill_point: str) -> None:
+    out = tmp_path / "run"
+    shm_before = _shm()
+    code = "import sys; from benchmarks.cli import main; sys.exit(main(sys.argv[1:]))"
+    args = ["design", "--iterations", "50", "--batch-size", "2", "--workers", "2"]
+    process = subprocess.Popen(
+        [sys.executable, "-c", code, *args, "--executor", "process", "--out", str(out)],
+        cwd=ROOT,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    main = psutil.Process(process.pid)
+    deadline = time.monotonic() + 300
+    helpers: set[psutil.Process] = set()
+    while time.monotonic() < deadline:
+        # Polling the process tree; the run itself takes seconds.
+        helpers = set(main.children(recursive=True))
+        parts = list((out / "parts").rglob("*.*")) if (out / "parts").exists() else []
+        if kill_point == "pool started" and len(helpers) >= 4:  # server, tracker, 2 workers
+            break
+        if kill_point == "first part written" and parts:
+            break
+        assert process.poll() is None, "the run ended before the kill point"
+        time.sleep(0.05)
+    else:
+        pytest.fail(f"{kill_point} not reached")
+    helpers = set(main.children(recursive=True))
+    assert len(helpers) >= 3, [_cmdline(p) for p in helpers]
+    process.send_signal(signal.SIGKILL)
+    process.wait(timeout=30)
+    end = time.monotonic() + GRACE
+    alive = helpers
+    while alive and time.monotonic() < end:
+        alive = {p for p in alive if _alive(p)}
+        time.sleep(0.05)
+    survivors = [_cmdline(p)[:80] for p in alive]
+    for p in alive:  # do not leave them to the next test
+        with contextlib.suppress(psutil.Error):
+            p.kill()
+    assert not survivors, f"{len(survivors)} of {len(helpers)} helpers outlived the kill"
+    leaked = {n for n in _shm() - shm_before if n.startswith(("sem.", "psm_", "loky"))}
+    assert not leaked, f"left in /dev/shm: {sorted(leaked)}"
