@@ -4,7 +4,7 @@ Evaluates N designs (default 1000) in one env and prints the resident memory aft
 and at the end, the growth, and any file left in the temporary directory by the run.
 
 Run: ``python benchmarks/perf/evaluation_memory.py [--evaluations 1000]``.
-Target: growth below 50 MB, no files left.
+Target: growth below 50 MB, no files left; the exit code is 1 when either is missed.
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ def rss_mb() -> float:
     raise RuntimeError("VmRSS not found")
 
 
-def main() -> None:
+def main() -> int:
     """Measure and print."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--evaluations", type=int, default=1000)
@@ -62,7 +62,8 @@ def main() -> None:
     print(f"files left in the run's temporary folder: {len(left)} {left[:5]}")
     if not left:
         os.rmdir(tmp)
+    return 0 if end - start < 50.0 and not left else 1
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(main())
