@@ -7,17 +7,82 @@ else in the library asks it.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import os
 import re
+import sys
 import tempfile
 import uuid
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
-import pybullet
-import pybullet_data
-from pybullet_utils.bullet_client import BulletClient
+
+# PyBullet's C code prints a banner ("pybullet build time", "argv[0]=") and renderer warnings
+# ("b3Warning[...]") straight to the file descriptors, where Python's redirection cannot reach.
+# These lines are recognised and dropped; anything else the C code prints is passed on unchanged.
+_NOISE = re.compile(r"^(pybullet build time:|argv\[\d+\]=|b3Warning\[|b3Printf:)")
+
+
+@contextlib.contextmanager
+def _quiet_pybullet() -> Iterator[None]:
+    """Drop PyBullet's banner and warning lines printed to fd 1 and 2 inside the block.
+
+    Every other line is written back to the descriptor it was printed to, so real errors stay
+    visible; Python exceptions are not touched (they propagate as usual).
+    """
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(Exception):
+            stream.flush()
+    saved: list[tuple[int, int, object]] = []
+    try:
+        for fd in (1, 2):
+            try:
+                copy = os.dup(fd)
+            except OSError:  # no such descriptor (e.g. a daemon without stdio)
+                continue
+            sink = tempfile.TemporaryFile(mode="w+b")
+            os.dup2(sink.fileno(), fd)
+            saved.append((fd, copy, sink))
+    except OSError:
+        pass
+    try:
+        yield
+    finally:
+        for fd, copy, sink in saved:
+            os.dup2(copy, fd)
+            os.close(copy)
+            sink.seek(0)  # type: ignore[attr-defined]
+            text = sink.read().decode("utf-8", "replace")  # type: ignore[attr-defined]
+            sink.close()  # type: ignore[attr-defined]
+            keep = _filter_noise(text)
+            if keep:
+                os.write(fd, keep.encode("utf-8"))
+
+
+def _filter_noise(text: str) -> str:
+    """The lines of ``text`` that are not PyBullet noise.
+
+    A ``b3Warning[file,line]:`` header is followed by its message on the next line; both go.
+    """
+    out: list[str] = []
+    skip_next = False
+    for line in text.splitlines(keepends=True):
+        if skip_next:
+            skip_next = False
+            continue
+        if _NOISE.match(line):
+            skip_next = line.startswith("b3Warning[") and line.rstrip().endswith(":")
+            continue
+        out.append(line)
+    return "".join(out)
+
+
+with _quiet_pybullet():
+    import pybullet
+import pybullet_data  # noqa: E402
+from pybullet_utils.bullet_client import BulletClient  # noqa: E402
 
 __all__ = ["BulletWorld", "RobotHandles", "panda_urdf_with_tool"]
 
@@ -102,7 +167,8 @@ class BulletWorld:
 
     def _connect(self) -> None:
         mode = pybullet.GUI if self.render_mode == "human" else pybullet.DIRECT
-        self._client = BulletClient(connection_mode=mode)
+        with _quiet_pybullet():
+            self._client = BulletClient(connection_mode=mode)
         cid = self._client._client
         self.client_id = cid
         # Bound once: the control loop calls these thousands of times per episode, and
@@ -401,9 +467,10 @@ class BulletWorld:
         c = self.client
         view = c.computeViewMatrixFromYawPitchRoll(target, distance, yaw, pitch, 0.0, 2)
         proj = c.computeProjectionMatrixFOV(50.0, width / height, 0.05, 20.0)
-        _, _, rgba, _, _ = c.getCameraImage(
-            width, height, view, proj, renderer=pybullet.ER_TINY_RENDERER
-        )
+        with _quiet_pybullet():
+            _, _, rgba, _, _ = c.getCameraImage(
+                width, height, view, proj, renderer=pybullet.ER_TINY_RENDERER
+            )
         return np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)[:, :, :3].copy()
 
     def close(self) -> None:
