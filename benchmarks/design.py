@@ -1014,7 +1014,15 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         ),
     )
     defaults = DesignConfig.__dataclass_fields__
-    parser.add_argument("--optimizer", default="cmaes", help="optimizer name (default: cmaes)")
+    from optimizers import registry
+
+    parser.add_argument(
+        "--optimizer",
+        default="cmaes",
+        metavar="NAME",
+        help=f"optimizer: {', '.join(registry.available())}, an installed plugin's name, or "
+        "'module:Class' (default: cmaes)",
+    )
     parser.add_argument("--seed", type=int, default=0, help="seed of the optimizer (default: 0)")
     parser.add_argument(
         "--iterations",

@@ -50,7 +50,8 @@ def add_parser(subparsers: Any) -> None:
     p = subparsers.add_parser(
         "evaluate",
         help="evaluate given coefficients: terms, trajectories, mesh and plots",
-        description=__doc__.splitlines()[0] if __doc__ else None,
+        description="Score given coefficients and write everything a user would look at: "
+        "terms (JSON), trajectories (CSV), mesh (STL/OBJ/URDF) and plots.",
     )
     p.add_argument(
         "--coeffs",
@@ -60,12 +61,20 @@ def add_parser(subparsers: Any) -> None:
         metavar="C",
         help="coefficients c1 ... cn, highest power first (default degree 3)",
     )
-    p.add_argument("--out", type=Path, required=True, help="output folder (created)")
+    p.add_argument(
+        "--out", type=Path, required=True, metavar="DIR", help="output folder (created)"
+    )
     add_task_arguments(p)
     p.add_argument(
         "--robustness",
         action="store_true",
         help="also test the design under box masses 0.3, 0.5, 0.7, 0.9 kg",
+    )
+    p.add_argument(
+        "--outside-bounds",
+        action="store_true",
+        help="accept coefficients outside the default bounds (c1, c2 in [-1.5, 1.5], "
+        "c3 in [-0.5, 0.5]); without it they are refused, as env.step refuses them",
     )
     p.set_defaults(run=_run)
 
@@ -80,6 +89,7 @@ def _run(args: argparse.Namespace) -> int:
         estimator=args.estimator,
         objective=args.objective,
         robustness=args.robustness,
+        outside_bounds=args.outside_bounds,
     )
     status = "valid" if info["valid"] else f"INVALID ({info['invalid_reason']})"
     print(
@@ -124,18 +134,43 @@ def evaluate(
     estimator: str = "contact",
     objective: str = "free-energy",
     robustness: bool = False,
+    outside_bounds: bool = False,
 ) -> dict[str, Any]:
     """Evaluate one design and write the files listed in the module docstring.
 
+    One rule for the command line and the API (``env.step``): a design outside the default
+    bounds (``default_bounds``) is refused with a ValueError, unless asked for explicitly
+    (here ``outside_bounds=True``, on the command line ``--outside-bounds``, for the env
+    ``bounds=``).
+
+    Args:
+        coeffs: the design (c1, ..., cn), highest power first.
+        out: output folder (created).
+        goal: goal X^g (x, y, z) in m.
+        goal_precision: p^X.
+        box_mass: box mass in kg.
+        estimator: estimator of dX/dU.
+        objective: what is scored (``free-energy`` or ``expected-goal-error``).
+        robustness: also test the design under other box masses.
+        outside_bounds: accept a design outside the default bounds (the bounds are widened to
+            include it).
+
     Returns:
         The env's step ``info``.
+
+    Raises:
+        ValueError: the design is malformed, or outside the bounds without ``outside_bounds``.
     """
     out = Path(out)
     spec = ToolSpec(degree=int(np.size(coeffs)) if np.ndim(coeffs) == 1 else 3)
     c = validate_coefficients(coeffs, spec.degree)
-    # The CLI evaluates what it is given: the env's bounds (which guard agents and optimizers)
-    # are widened to include the design.
     bounds = default_bounds(spec.degree)
+    outside = (c < bounds[:, 0]) | (c > bounds[:, 1])
+    if np.any(outside) and not outside_bounds:
+        raise ValueError(
+            f"design {c.tolist()} is outside the default bounds {bounds.tolist()} (as env.step "
+            "refuses it); pass --outside-bounds (API: outside_bounds=True) to evaluate it anyway"
+        )
     bounds = np.stack([np.minimum(bounds[:, 0], c), np.maximum(bounds[:, 1], c)], axis=1)
     env = ToolDesignEnv(
         goal=goal,
