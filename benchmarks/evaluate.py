@@ -8,6 +8,7 @@ Writes into ``--out``:
 * ``tool.stl``, ``tool.obj``, ``tool.urdf``: the tool, in metres;
 * ``tool_shape.png``, ``box_path.png``, ``free_energy.png``: the tool, the top view of the box path
   and the goal error / confidence / free energy over time (the paper's Figure 4);
+* with ``--video``: ``rollout.gif``, the rollout rendered headless (goal and box path drawn);
 * with ``--robustness``: ``robustness.json`` and ``robustness.png`` (box paths under the altered
   masses).
 """
@@ -30,6 +31,7 @@ from benchmarks.plots import (
     save_png,
 )
 from benchmarks.storage import atomic_write_text, json_ready, json_text, package_versions
+from benchmarks.video import rollout_gif
 from tooldesign_env import (
     ToolDesignEnv,
     ToolSpec,
@@ -61,9 +63,7 @@ def add_parser(subparsers: Any) -> None:
         metavar="C",
         help="coefficients c1 ... cn, highest power first (default degree 3)",
     )
-    p.add_argument(
-        "--out", type=Path, required=True, metavar="DIR", help="output folder (created)"
-    )
+    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder (created)")
     add_task_arguments(p)
     p.add_argument(
         "--robustness",
@@ -75,6 +75,12 @@ def add_parser(subparsers: Any) -> None:
         action="store_true",
         help="accept coefficients outside the default bounds (c1, c2 in [-1.5, 1.5], "
         "c3 in [-0.5, 0.5]); without it they are refused, as env.step refuses them",
+    )
+    p.add_argument(
+        "--video",
+        action="store_true",
+        help="also write rollout.gif: the rollout rendered headless, with the goal and the box "
+        "path (about 20 s more)",
     )
     p.set_defaults(run=_run)
 
@@ -90,6 +96,7 @@ def _run(args: argparse.Namespace) -> int:
         objective=args.objective,
         robustness=args.robustness,
         outside_bounds=args.outside_bounds,
+        video=args.video,
     )
     status = "valid" if info["valid"] else f"INVALID ({info['invalid_reason']})"
     print(
@@ -135,6 +142,7 @@ def evaluate(
     objective: str = "free-energy",
     robustness: bool = False,
     outside_bounds: bool = False,
+    video: bool = False,
 ) -> dict[str, Any]:
     """Evaluate one design and write the files listed in the module docstring.
 
@@ -154,6 +162,8 @@ def evaluate(
         robustness: also test the design under other box masses.
         outside_bounds: accept a design outside the default bounds (the bounds are widened to
             include it).
+        video: also write ``rollout.gif``, the rollout rendered headless (valid designs only;
+            about 20 s more).
 
     Returns:
         The env's step ``info``.
@@ -230,6 +240,18 @@ def evaluate(
             )
             ax.set_title(f"F = {info['free_energy']:.4g}")
             save_png(fig, out / "free_energy.png")
+            if video:
+                rollout_gif(
+                    info["coefficients"],
+                    out / "rollout.gif",
+                    goal=goal,
+                    goal_precision=goal_precision,
+                    box_mass=box_mass,
+                    estimator=estimator,
+                    objective_kind=objective,
+                    bounds=bounds,
+                    tool=spec,
+                )
             if robustness:
                 result = env.evaluate_robustness(info["coefficients"], DEFAULT_MASSES)
                 card["robustness"] = {

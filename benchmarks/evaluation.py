@@ -460,7 +460,7 @@ def _process_context() -> Any:
 
 
 def check_main_guard() -> None:
-    """Refuse to start worker processes from a script without an ``if __name__ == "__main__"`` guard.
+    """Refuse to start worker processes from a script without a ``__main__`` guard.
 
     Worker processes (``forkserver`` or ``spawn``) import the main script again. Without the
     guard, each worker re-runs the script and would start a pool of its own: the run fails
@@ -487,7 +487,7 @@ def check_main_guard() -> None:
         raise RuntimeError(
             f"{path} starts worker processes but has no 'if __name__ == \"__main__\":' guard; "
             "each worker would re-run the script. Put the call under that guard, e.g.\n\n"
-            "    if __name__ == \"__main__\":\n        run_design(...)\n\n"
+            '    if __name__ == "__main__":\n        run_design(...)\n\n'
             "or evaluate in this process with executor='serial'."
         )
 

@@ -15,7 +15,7 @@ from benchmarks.cli import main
 @pytest.mark.slow
 def test_evaluate_writes_terms_trajectory_mesh_and_plots(tmp_path, capsys):
     out = tmp_path / "hook"
-    assert main(["evaluate", "--coeffs", "0", "1.5", "0", "--out", str(out)]) == 0
+    assert main(["evaluate", "--coeffs", "0", "1.5", "0", "--out", str(out), "--video"]) == 0
     assert "free energy F" in capsys.readouterr().out
     for name in (
         "terms.json",
@@ -26,6 +26,7 @@ def test_evaluate_writes_terms_trajectory_mesh_and_plots(tmp_path, capsys):
         "tool_shape.png",
         "box_path.png",
         "free_energy.png",
+        "rollout.gif",
     ):
         assert (out / name).stat().st_size > 0, name
     terms = json.loads((out / "terms.json").read_text())

@@ -1,4 +1,4 @@
-"""A script that starts worker processes without a ``__main__`` guard fails at once, and says why."""
+"""A script starting worker processes without a ``__main__`` guard fails at once, saying why."""
 
 from __future__ import annotations
 
