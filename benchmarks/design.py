@@ -89,6 +89,9 @@ FILES: dict[str, str] = {
 }
 """Files of a finished run folder, besides ``manifest.json`` and ``parts/``."""
 
+VIDEO_FILE = "rollout.gif"
+"""The best design's rollout (``run_design(video=True)``, ``tooldesign design`` by default)."""
+
 _DEFAULT_GOAL = (0.0, 1.5, 0.1)
 # Fields that do not change the results, so a resumed run may set them differently.
 _RUNTIME_FIELDS = frozenset({"iterations", "workers", "executor", "scheduler"})
@@ -602,6 +605,7 @@ def run_design(
     *,
     resume: bool = False,
     progress: bool = True,
+    video: bool = False,
 ) -> DesignResult:
     """Design a tool: K iterations of ask a batch, evaluate it, tell the scores (Algorithm 1).
 
@@ -613,6 +617,8 @@ def run_design(
             ``scheduler``) may differ from the run's settings. A missing or empty folder starts
             a new run.
         progress: Show a tqdm progress bar (iteration, evaluations, best F) on stderr.
+        video: Also write ``rollout.gif``, the best design's rollout rendered headless (about
+            20 s more; ``tooldesign design`` does it unless ``--no-video``).
 
     Returns:
         The best design and what was written.
@@ -676,7 +682,7 @@ def run_design(
         finally:
             bar.close()
         evaluations = store.read()
-        result = _finish(config, out, store, evaluations, executor)
+        result = _finish(config, out, store, evaluations, executor, video=bool(video))
     session["wall_time"] = time.perf_counter() - session_start
     end_time = _now()
     manifest = _manifest(config, start_time, sessions, evaluations, end_time)
@@ -746,6 +752,8 @@ def _finish(
     store: ResultStore,
     evaluations: pd.DataFrame,
     executor: Any,
+    *,
+    video: bool = False,
 ) -> DesignResult:
     from tooldesign_env import export_mesh, make_tool, tool_urdf
 
@@ -766,6 +774,8 @@ def _finish(
     robustness = _robustness(config, best, coeffs, executor)
     atomic_write_text(out / FILES["robustness"], json_text(_without_paths(robustness)))
     _figures(config, out, evaluations, bests, designs, paths, coeffs, best, robustness)
+    if video and best["status"] == "ok":
+        _video(config, coeffs, out / VIDEO_FILE)
     return DesignResult(
         out_dir=out,
         coefficients=coeffs,
@@ -781,6 +791,27 @@ def _finish(
         robustness=_without_paths(robustness),
         card={},
     )
+
+
+def _video(config: DesignConfig, coeffs: np.ndarray, path: Path) -> None:
+    from benchmarks.video import rollout_gif
+
+    task = config.task()
+    try:
+        rollout_gif(
+            coeffs,
+            path,
+            frames=24,
+            goal=task.goal,
+            goal_precision=task.goal_precision,
+            box_mass=task.box_mass,
+            estimator=task.estimator,
+            objective_kind=task.objective,
+            **dict(task.env_kwargs),
+        )
+    except Exception as exc:  # noqa: BLE001
+        # The run's results are complete and stored; a picture that fails must not lose them.
+        warnings.warn(f"rollout.gif not written: {type(exc).__name__}: {exc}", stacklevel=2)
 
 
 def _robustness(
@@ -1069,6 +1100,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     )
     parser.add_argument("--resume", action="store_true", help="continue the run in --out")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument(
+        "--no-video", action="store_true", help="do not write rollout.gif (saves about 20 s)"
+    )
     parser.set_defaults(run=_run)
     return parser
 
@@ -1097,7 +1131,13 @@ def config_from_args(args: argparse.Namespace) -> DesignConfig:
 
 def _run(args: argparse.Namespace) -> int:
     config = config_from_args(args)
-    result = run_design(config, args.out, resume=args.resume, progress=not args.no_progress)
+    result = run_design(
+        config,
+        args.out,
+        resume=args.resume,
+        progress=not args.no_progress,
+        video=not args.no_video,
+    )
     coeffs = ", ".join(repr(float(c)) for c in result.coefficients)
     print(
         f"best design: C = ({coeffs}), F = {result.free_energy!r} "

@@ -117,3 +117,24 @@ def test_rollout_gif_refuses_bad_input_before_simulating(tmp_path):
     with pytest.raises(ValueError, match="frames"):
         rollout_gif([0.0, 0.0, 0.0], tmp_path / "x.gif", frames=1)
     assert not (tmp_path / "x.gif").exists()
+
+
+def test_a_design_run_passes_its_task_to_the_video_and_survives_a_failing_one(
+    tmp_path, monkeypatch
+):
+    import benchmarks.video
+    from benchmarks.design import DesignConfig, _video
+
+    seen = {}
+
+    def fake(coeffs, path, **kwargs):
+        seen.update(kwargs)
+        ToolDesignEnv(**{k: v for k, v in kwargs.items() if k != "frames"}).close()
+        raise RuntimeError("no renderer")
+
+    monkeypatch.setattr(benchmarks.video, "rollout_gif", fake)
+    config = DesignConfig(goal=(0.2, 1.2, 0.1), goal_precision=40.0, box_mass=0.5)
+    with pytest.warns(UserWarning, match="rollout.gif not written: RuntimeError: no renderer"):
+        _video(config, np.zeros(3), tmp_path / "rollout.gif")
+    assert seen["goal"] == (0.2, 1.2, 0.1) and seen["goal_precision"] == 40.0
+    assert seen["box_mass"] == 0.5
