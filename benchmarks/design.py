@@ -913,18 +913,50 @@ def _finite_or_none(value: float) -> float | None:
 # --- figures -----------------------------------------------------------------------------------
 
 
-def _iteration_labels(iterations: Sequence[int]) -> list[str]:
-    # A legend of more than a dozen entries hides the plot: name the first and the last only.
-    names = [f"iteration {k}" for k in iterations]
-    if len(names) > 12:
-        names = [n if i in (0, len(names) - 1) else "_nolegend_" for i, n in enumerate(names)]
-    return names
+def _iteration_colorbar(ax: Any, iterations: Sequence[int]) -> None:
+    from matplotlib import colormaps
+    from matplotlib.cm import ScalarMappable
+    from matplotlib.colors import Normalize
+
+    if not len(iterations):
+        return
+    low, high = float(min(iterations)), float(max(iterations))
+    mappable = ScalarMappable(
+        Normalize(low, high if high > low else low + 1.0), colormaps["viridis"]
+    )
+    bar = ax.figure.colorbar(mappable, ax=ax, fraction=0.046, pad=0.04)
+    bar.set_label("iteration")
+    from matplotlib.ticker import MaxNLocator
+
+    bar.locator = MaxNLocator(integer=True)
+    bar.update_ticks()
 
 
-def _panel_curves(ax: Any, designs: list[np.ndarray], labels: list[str], spec: Any) -> None:
+def _best_index(bests: pd.DataFrame) -> int | None:
+    """Position (in ``bests``) of the run's best design: the iteration best with the lowest F."""
+    if not len(bests):
+        return None
+    return int(np.argmin(bests["free_energy"].to_numpy(dtype=float)))
+
+
+def _panel_curves(
+    ax: Any, designs: list[np.ndarray], bests: pd.DataFrame, labels: list[str] | None, spec: Any
+) -> None:
     plots.plot_tool_shapes(
         ax, designs, labels, colors=plots.sequential_colors(len(designs)), spec=spec
     )
+    k = _best_index(bests)
+    if k is not None:
+        plots.plot_tool_shapes(
+            ax,
+            [designs[k]],
+            [f"best tool (iteration {int(bests['iteration'].iloc[k])})"],
+            colors=["red"],
+            linewidth=3.5,
+            spec=spec,
+        )
+        ax.legend(frameon=False, fontsize="small")
+    _iteration_colorbar(ax, bests["iteration"].tolist())
     ax.set_title("a) best tool of each iteration")
 
 
@@ -937,13 +969,17 @@ def _panel_free_energy(ax: Any, evaluations: pd.DataFrame, bests: pd.DataFrame) 
     so_far = evaluations.groupby("iteration", sort=True)["best_so_far"].last()
     ax.step(so_far.index, so_far.to_numpy(), where="post", color="black", label="best so far")
     if len(bests) and len(ok):
-        # A bad candidate can score 100 times the good ones; keep the iteration bests readable.
+        # Every evaluation stays visible. A bad candidate can score 100 times the good ones;
+        # then a symmetric-log axis keeps the iteration bests readable without clipping it.
         low = float(ok["free_energy"].min())
-        high = float(np.nanmax([bests["free_energy"].max(), ok["free_energy"].median()]))
-        margin = 0.1 * max(high - low, abs(high), 1.0)
-        ax.set_ylim(low - margin, high + margin)
+        top = float(ok["free_energy"].max())
+        spread = float(np.nanmax([bests["free_energy"].max(), low])) - low
+        if top - low > 10.0 * max(spread, 1.0):
+            ax.set_yscale("symlog", linthresh=max(abs(low), spread, 1.0))
+        margin = 0.05 * max(top - low, abs(top), 1.0)
+        ax.set_ylim(low - margin, top + margin)
     ax.set_xlabel("iteration")
-    ax.set_ylabel("free energy F")
+    ax.set_ylabel("free energy F (dimensionless)")
     from matplotlib.ticker import MaxNLocator
 
     ax.xaxis.set_major_locator(MaxNLocator(integer=True))
@@ -953,9 +989,19 @@ def _panel_free_energy(ax: Any, evaluations: pd.DataFrame, bests: pd.DataFrame) 
 
 
 def _panel_paths(
-    ax: Any, paths: list[np.ndarray], labels: list[str], goal: Sequence[float]
+    ax: Any,
+    paths: list[np.ndarray],
+    bests: pd.DataFrame,
+    labels: list[str] | None,
+    goal: Sequence[float],
 ) -> None:
     plots.plot_box_paths(ax, paths, goal, labels, colors=plots.sequential_colors(len(paths)))
+    k = _best_index(bests)
+    if k is not None and len(paths[k]):
+        path = np.asarray(paths[k])
+        ax.plot(path[:, 0], path[:, 1], color="red", linewidth=3.0, label="best tool")
+        ax.legend(frameon=False, fontsize="small")
+    _iteration_colorbar(ax, bests["iteration"].tolist())
     ax.set_title("c) box paths of the best tools (top view)")
 
 
@@ -988,11 +1034,13 @@ def _figures(
     robustness: Mapping[str, Any],
 ) -> None:
     spec = config.tool_spec()
-    labels = _iteration_labels(bests["iteration"].tolist())
+    # The iterations are told apart by a colour bar (_iteration_colorbar), not a legend: a
+    # legend of every iteration hides the plot, and one of the first and last says too little.
+    labels = None
     panels = {
-        "fig3a": lambda ax: _panel_curves(ax, designs, labels, spec),
+        "fig3a": lambda ax: _panel_curves(ax, designs, bests, labels, spec),
         "fig3b": lambda ax: _panel_free_energy(ax, evaluations, bests),
-        "fig3c": lambda ax: _panel_paths(ax, paths, labels, config.goal),
+        "fig3c": lambda ax: _panel_paths(ax, paths, bests, labels, config.goal),
         "fig3d": lambda ax: _panel_tool(ax, coeffs, best, spec),
     }
     for key, draw in panels.items():
@@ -1015,7 +1063,11 @@ def _figures(
         labels += [f"m = {m:g} kg" for m in masses]
         trajectories = [robustness["nominal_box_trajectory"], *robustness["box_trajectories"]]
         plots.plot_box_paths(ax, trajectories, config.goal, labels, colors=colors)
-        ax.set_title(f"robustness {robustness['robustness']:.4g} m under box-mass changes")
+        ax.set_title(
+            f"robustness {robustness['robustness']:.4g} under box-mass changes\n"
+            "(- sum over masses and control steps of the path deviation in m)",
+            fontsize="medium",
+        )
     plots.save_png(figure, out / FILES["robustness_png"])
 
 

@@ -232,11 +232,11 @@ def evaluate(
                 ax,
                 info["times"],
                 {
-                    "goal error E_t": info["goal_error_t"],
-                    "- confidence -c_t": -info["confidence_t"],
-                    "free energy F_t": info["free_energy_t"],
+                    "goal error E_t = 1/2 p^X |X_t - X^g|^2": info["goal_error_t"],
+                    "minus confidence -c_t = -1/2 log|Pi_U,t|": -info["confidence_t"],
+                    "free energy F_t = E_t - c_t": info["free_energy_t"],
                 },
-                ylabel="per control step",
+                ylabel="term per control step (dimensionless; F = sum of F_t)",
             )
             ax.set_title(f"F = {info['free_energy']:.4g}")
             save_png(fig, out / "free_energy.png")
