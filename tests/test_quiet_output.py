@@ -33,6 +33,10 @@ def test_import_connect_and_render_print_nothing():
         w = BulletWorld()
         w.render(width=32, height=24)
         w.close()
+        w = BulletWorld(render_mode="rgb_array")  # a floor with a visual warns in PyBullet
+        w.add_floor(friction=0.5)
+        w.render(width=32, height=24, goal=(0.0, 1.0, 0.1))
+        w.close()
         print("python output survives")
         print("so does stderr", file=sys.stderr)
         """

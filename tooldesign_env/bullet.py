@@ -261,10 +261,11 @@ class BulletWorld:
         c = self.client
         shape = c.createCollisionShape(pybullet.GEOM_PLANE)
         visual = -1
-        if self.render_mode is not None:
-            with _quiet_pybullet():  # "b3Warning: No default visual for URDF_GEOM_PLANE"
+        # With a visual, PyBullet prints "b3Warning: No default visual for URDF_GEOM_PLANE".
+        with _quiet_pybullet():
+            if self.render_mode is not None:
                 visual = c.createVisualShape(pybullet.GEOM_PLANE, rgbaColor=[0.85, 0.85, 0.85, 1])
-        body = c.createMultiBody(0.0, shape, visual, [0, 0, 0])
+            body = c.createMultiBody(0.0, shape, visual, [0, 0, 0])
         c.changeDynamics(body, -1, lateralFriction=friction)
         return body
 
