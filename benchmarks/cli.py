@@ -105,3 +105,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
+    except RuntimeError as exc:
+        from optimizers import PluginError
+
+        if not isinstance(exc, PluginError):
+            raise
+        # A third-party optimizer failed: its message names the plugin and the hook.
+        parser.exit(1, f"tooldesign {args.command}: error: {exc}\n")
