@@ -38,6 +38,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "benchmarks.suite_reports",
         "rebuild the figures and tables of a run folder from its stored results",
     ),
+    "html": (
+        "benchmarks.html_report",
+        "write a self-contained HTML report (figures, tables, card, video) of a run folder",
+    ),
 }
 
 

@@ -776,6 +776,9 @@ def _finish(
     _figures(config, out, evaluations, bests, designs, paths, coeffs, best, robustness)
     if video and best["status"] == "ok":
         _video(config, coeffs, out / VIDEO_FILE)
+    from benchmarks.html_report import write_html_report
+
+    write_html_report(out)
     return DesignResult(
         out_dir=out,
         coefficients=coeffs,

@@ -8,6 +8,7 @@ Writes into ``--out``:
 * ``tool.stl``, ``tool.obj``, ``tool.urdf``: the tool, in metres;
 * ``tool_shape.png``, ``box_path.png``, ``free_energy.png``: the tool, the top view of the box path
   and the goal error / confidence / free energy over time (the paper's Figure 4);
+* ``report.html``: all of the above in one self-contained page (``benchmarks.html_report``);
 * with ``--video``: ``rollout.gif``, the rollout rendered headless (goal and box path drawn);
 * with ``--robustness``: ``robustness.json`` and ``robustness.png`` (box paths under the altered
   masses).
@@ -23,6 +24,7 @@ import numpy as np
 import pandas as pd
 
 from benchmarks.evaluation import add_task_arguments
+from benchmarks.html_report import write_html_report
 from benchmarks.plots import (
     new_figure,
     plot_box_paths,
@@ -269,6 +271,7 @@ def evaluate(
                 ax.set_title("box paths under altered box masses")
                 save_png(fig, out / "robustness.png")
         atomic_write_text(out / "terms.json", json_text(card))
+        write_html_report(out)
         return info
     finally:
         env.close()
