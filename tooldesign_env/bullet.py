@@ -16,6 +16,7 @@ import tempfile
 import uuid
 from collections.abc import Iterator
 from dataclasses import dataclass
+from typing import IO
 
 import numpy as np
 
@@ -35,7 +36,7 @@ def _quiet_pybullet() -> Iterator[None]:
     for stream in (sys.stdout, sys.stderr):
         with contextlib.suppress(Exception):
             stream.flush()
-    saved: list[tuple[int, int, object]] = []
+    saved: list[tuple[int, int, IO[bytes]]] = []
     try:
         for fd in (1, 2):
             try:
@@ -50,12 +51,12 @@ def _quiet_pybullet() -> Iterator[None]:
     try:
         yield
     finally:
-        for fd, copy, sink in saved:
+        for fd, copy, captured in saved:
             os.dup2(copy, fd)
             os.close(copy)
-            sink.seek(0)  # type: ignore[attr-defined]
-            text = sink.read().decode("utf-8", "replace")  # type: ignore[attr-defined]
-            sink.close()  # type: ignore[attr-defined]
+            captured.seek(0)
+            text = captured.read().decode("utf-8", "replace")
+            captured.close()
             keep = _filter_noise(text)
             if keep:
                 os.write(fd, keep.encode("utf-8"))
