@@ -1,43 +1,105 @@
 """The ``tooldesign`` command line: evaluate a design, design a tool, run benchmark suites.
 
 Each subcommand lives in its own module and adds its own arguments through ``add_parser``; this
-file only dispatches.
+file only dispatches. Those modules import PyBullet, SciPy, pandas and Matplotlib, which take
+seconds, so only the module of the command being run is imported: ``tooldesign --help`` and
+``tooldesign --version`` import none of them.
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib
 import pickle
 import sys
 from collections.abc import Sequence
 
-__all__ = ["main"]
+__all__ = ["COMMANDS", "build_parser", "main"]
+
+#: Every subcommand: its module (which defines ``add_parser``) and its one-line help. The help is
+#: repeated here so that the top-level ``--help`` need not import the module.
+COMMANDS: dict[str, tuple[str, str]] = {
+    "evaluate": (
+        "benchmarks.evaluate",
+        "evaluate given coefficients: terms, trajectories, mesh and plots",
+    ),
+    "design": (
+        "benchmarks.design",
+        "design a tool: ask/evaluate/tell for K iterations (Algorithm 1)",
+    ),
+    "bench": (
+        "benchmarks.runner",
+        "run a benchmark suite (optimizers, precision-sweep, robustness, ...)",
+    ),
+    "retest": (
+        "benchmarks.retest",
+        "measure the noise floor (and robustness over ranges) of a suite's final designs",
+    ),
+    "report": (
+        "benchmarks.suite_reports",
+        "rebuild the figures and tables of a run folder from its stored results",
+    ),
+    "html": (
+        "benchmarks.html_report",
+        "write a self-contained HTML report (figures, tables, card, video) of a run folder",
+    ),
+}
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The argument parser with every subcommand."""
-    from benchmarks import evaluate  # noqa: I001  (one import per subcommand)
-    from benchmarks import design
-    from benchmarks import runner
-    from benchmarks import retest
-    from benchmarks import suite_reports
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
 
+    try:
+        return version("tooldesign")
+    except PackageNotFoundError:  # run from a source tree that was never pip-installed
+        return "unknown (not installed)"
+
+
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The argument parser.
+
+    Args:
+        command: build the full arguments of this subcommand only (the others get a stub that
+            carries their help line); None builds every subcommand in full.
+
+    Raises:
+        ValueError: ``command`` is not a subcommand.
+    """
+    if command is not None and command not in COMMANDS:
+        raise ValueError(f"unknown command {command!r}; choose from {', '.join(COMMANDS)}")
+    return _parser(set(COMMANDS) if command is None else {command})
+
+
+def _parser(full: set[str]) -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="tooldesign",
         description="Design robot hand tools with control confidence (ToolDesign-v0).",
     )
+    parser.add_argument("--version", action="version", version=f"tooldesign {_version()}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    evaluate.add_parser(sub)
-    design.add_parser(sub)
-    runner.add_parser(sub)
-    retest.add_parser(sub)
-    suite_reports.add_parser(sub)
+    for name, (module, help_line) in COMMANDS.items():
+        if name in full:
+            importlib.import_module(module).add_parser(sub)
+        else:
+            sub.add_parser(name, help=help_line)
     return parser
+
+
+def _command_in(argv: Sequence[str]) -> str | None:
+    """The subcommand named in ``argv``: its first word that does not start with '-'."""
+    for word in argv:
+        if not word.startswith("-"):
+            return word if word in COMMANDS else None
+    return None
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit code."""
-    parser = build_parser()
+    argv = list(sys.argv[1:] if argv is None else argv)
+    command = _command_in(argv)
+    # With no known command, the stubs are enough: argparse prints the help, the version or the
+    # "invalid choice" error without importing any subcommand module.
+    parser = _parser(set() if command is None else {command})
     args = parser.parse_args(argv)
     try:
         return int(args.run(args) or 0)
@@ -56,3 +118,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
+    except RuntimeError as exc:
+        from optimizers import PluginError
+
+        if not isinstance(exc, PluginError):
+            raise
+        # A third-party optimizer failed: its message names the plugin and the hook.
+        parser.exit(1, f"tooldesign {args.command}: error: {exc}\n")

@@ -92,6 +92,9 @@ FILES: dict[str, str] = {
 }
 """Files of a finished run folder, besides ``manifest.json`` and ``parts/``."""
 
+VIDEO_FILE = "rollout.gif"
+"""The best design's rollout (``run_design(video=True)``, ``tooldesign design`` by default)."""
+
 _DEFAULT_GOAL = (0.0, 1.5, 0.1)
 # Fields that do not change the results, so a resumed run may set them differently.
 _RUNTIME_FIELDS = frozenset({"iterations", "workers", "executor", "scheduler"})
@@ -655,6 +658,7 @@ def run_design(
     *,
     resume: bool = False,
     progress: bool = True,
+    video: bool = False,
 ) -> DesignResult:
     """Design a tool: K iterations of ask a batch, evaluate it, tell the scores (Algorithm 1).
 
@@ -666,6 +670,8 @@ def run_design(
             ``scheduler``) may differ from the run's settings. A missing or empty folder starts
             a new run.
         progress: Show a tqdm progress bar (iteration, evaluations, best F) on stderr.
+        video: Also write ``rollout.gif``, the best design's rollout rendered headless (about
+            20 s more; ``tooldesign design`` does it unless ``--no-video``).
 
     Returns:
         The best design and what was written.
@@ -729,7 +735,7 @@ def run_design(
         finally:
             bar.close()
         evaluations = store.read()
-        result = _finish(config, out, store, evaluations, executor)
+        result = _finish(config, out, store, evaluations, executor, video=bool(video))
     session["wall_time"] = time.perf_counter() - session_start
     end_time = _now()
     manifest = _manifest(config, start_time, sessions, evaluations, end_time, store)
@@ -799,6 +805,8 @@ def _finish(
     store: ResultStore,
     evaluations: pd.DataFrame,
     executor: Any,
+    *,
+    video: bool = False,
 ) -> DesignResult:
     from tooldesign_env import export_mesh, make_tool, tool_urdf
 
@@ -819,6 +827,11 @@ def _finish(
     robustness = _robustness(config, best, coeffs, executor)
     atomic_write_text(out / FILES["robustness"], json_text(_without_paths(robustness)))
     _figures(config, out, evaluations, bests, designs, paths, coeffs, best, robustness)
+    if video and best["status"] == "ok":
+        _video(config, coeffs, out / VIDEO_FILE)
+    from benchmarks.html_report import write_html_report
+
+    write_html_report(out)
     return DesignResult(
         out_dir=out,
         coefficients=coeffs,
@@ -834,6 +847,27 @@ def _finish(
         robustness=_without_paths(robustness),
         card={},
     )
+
+
+def _video(config: DesignConfig, coeffs: np.ndarray, path: Path) -> None:
+    from benchmarks.video import rollout_gif
+
+    task = config.task()
+    try:
+        rollout_gif(
+            coeffs,
+            path,
+            frames=24,
+            goal=task.goal,
+            goal_precision=task.goal_precision,
+            box_mass=task.box_mass,
+            estimator=task.estimator,
+            objective_kind=task.objective,
+            **dict(task.env_kwargs),
+        )
+    except Exception as exc:  # noqa: BLE001
+        # The run's results are complete and stored; a picture that fails must not lose them.
+        warnings.warn(f"rollout.gif not written: {type(exc).__name__}: {exc}", stacklevel=2)
 
 
 def _robustness(
@@ -935,18 +969,50 @@ def _finite_or_none(value: float) -> float | None:
 # --- figures -----------------------------------------------------------------------------------
 
 
-def _iteration_labels(iterations: Sequence[int]) -> list[str]:
-    # A legend of more than a dozen entries hides the plot: name the first and the last only.
-    names = [f"iteration {k}" for k in iterations]
-    if len(names) > 12:
-        names = [n if i in (0, len(names) - 1) else "_nolegend_" for i, n in enumerate(names)]
-    return names
+def _iteration_colorbar(ax: Any, iterations: Sequence[int]) -> None:
+    from matplotlib import colormaps
+    from matplotlib.cm import ScalarMappable
+    from matplotlib.colors import Normalize
+
+    if not len(iterations):
+        return
+    low, high = float(min(iterations)), float(max(iterations))
+    mappable = ScalarMappable(
+        Normalize(low, high if high > low else low + 1.0), colormaps["viridis"]
+    )
+    bar = ax.figure.colorbar(mappable, ax=ax, fraction=0.046, pad=0.04)
+    bar.set_label("iteration")
+    from matplotlib.ticker import MaxNLocator
+
+    bar.locator = MaxNLocator(integer=True)
+    bar.update_ticks()
 
 
-def _panel_curves(ax: Any, designs: list[np.ndarray], labels: list[str], spec: Any) -> None:
+def _best_index(bests: pd.DataFrame) -> int | None:
+    """Position (in ``bests``) of the run's best design: the iteration best with the lowest F."""
+    if not len(bests):
+        return None
+    return int(np.argmin(bests["free_energy"].to_numpy(dtype=float)))
+
+
+def _panel_curves(
+    ax: Any, designs: list[np.ndarray], bests: pd.DataFrame, labels: list[str] | None, spec: Any
+) -> None:
     plots.plot_tool_shapes(
         ax, designs, labels, colors=plots.sequential_colors(len(designs)), spec=spec
     )
+    k = _best_index(bests)
+    if k is not None:
+        plots.plot_tool_shapes(
+            ax,
+            [designs[k]],
+            [f"best tool (iteration {int(bests['iteration'].iloc[k])})"],
+            colors=["red"],
+            linewidth=3.5,
+            spec=spec,
+        )
+        ax.legend(frameon=False, fontsize="small")
+    _iteration_colorbar(ax, bests["iteration"].tolist())
     ax.set_title("a) best tool of each iteration")
 
 
@@ -959,13 +1025,17 @@ def _panel_free_energy(ax: Any, evaluations: pd.DataFrame, bests: pd.DataFrame) 
     so_far = evaluations.groupby("iteration", sort=True)["best_so_far"].last()
     ax.step(so_far.index, so_far.to_numpy(), where="post", color="black", label="best so far")
     if len(bests) and len(ok):
-        # A bad candidate can score 100 times the good ones; keep the iteration bests readable.
+        # Every evaluation stays visible. A bad candidate can score 100 times the good ones;
+        # then a symmetric-log axis keeps the iteration bests readable without clipping it.
         low = float(ok["free_energy"].min())
-        high = float(np.nanmax([bests["free_energy"].max(), ok["free_energy"].median()]))
-        margin = 0.1 * max(high - low, abs(high), 1.0)
-        ax.set_ylim(low - margin, high + margin)
+        top = float(ok["free_energy"].max())
+        spread = float(np.nanmax([bests["free_energy"].max(), low])) - low
+        if top - low > 10.0 * max(spread, 1.0):
+            ax.set_yscale("symlog", linthresh=max(abs(low), spread, 1.0))
+        margin = 0.05 * max(top - low, abs(top), 1.0)
+        ax.set_ylim(low - margin, top + margin)
     ax.set_xlabel("iteration")
-    ax.set_ylabel("free energy F")
+    ax.set_ylabel("free energy F (dimensionless)")
     from matplotlib.ticker import MaxNLocator
 
     ax.xaxis.set_major_locator(MaxNLocator(integer=True))
@@ -975,9 +1045,19 @@ def _panel_free_energy(ax: Any, evaluations: pd.DataFrame, bests: pd.DataFrame) 
 
 
 def _panel_paths(
-    ax: Any, paths: list[np.ndarray], labels: list[str], goal: Sequence[float]
+    ax: Any,
+    paths: list[np.ndarray],
+    bests: pd.DataFrame,
+    labels: list[str] | None,
+    goal: Sequence[float],
 ) -> None:
     plots.plot_box_paths(ax, paths, goal, labels, colors=plots.sequential_colors(len(paths)))
+    k = _best_index(bests)
+    if k is not None and len(paths[k]):
+        path = np.asarray(paths[k])
+        ax.plot(path[:, 0], path[:, 1], color="red", linewidth=3.0, label="best tool")
+        ax.legend(frameon=False, fontsize="small")
+    _iteration_colorbar(ax, bests["iteration"].tolist())
     ax.set_title("c) box paths of the best tools (top view)")
 
 
@@ -1010,11 +1090,13 @@ def _figures(
     robustness: Mapping[str, Any],
 ) -> None:
     spec = config.tool_spec()
-    labels = _iteration_labels(bests["iteration"].tolist())
+    # The iterations are told apart by a colour bar (_iteration_colorbar), not a legend: a
+    # legend of every iteration hides the plot, and one of the first and last says too little.
+    labels = None
     panels = {
-        "fig3a": lambda ax: _panel_curves(ax, designs, labels, spec),
+        "fig3a": lambda ax: _panel_curves(ax, designs, bests, labels, spec),
         "fig3b": lambda ax: _panel_free_energy(ax, evaluations, bests),
-        "fig3c": lambda ax: _panel_paths(ax, paths, labels, config.goal),
+        "fig3c": lambda ax: _panel_paths(ax, paths, bests, labels, config.goal),
         "fig3d": lambda ax: _panel_tool(ax, coeffs, best, spec),
     }
     for key, draw in panels.items():
@@ -1037,7 +1119,11 @@ def _figures(
         labels += [f"m = {m:g} kg" for m in masses]
         trajectories = [robustness["nominal_box_trajectory"], *robustness["box_trajectories"]]
         plots.plot_box_paths(ax, trajectories, config.goal, labels, colors=colors)
-        ax.set_title(f"robustness {robustness['robustness']:.4g} m under box-mass changes")
+        ax.set_title(
+            f"robustness {robustness['robustness']:.4g} under box-mass changes\n"
+            "(- sum over masses and control steps of the path deviation in m)",
+            fontsize="medium",
+        )
     plots.save_png(figure, out / FILES["robustness_png"])
 
 
@@ -1067,7 +1153,15 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         ),
     )
     defaults = DesignConfig.__dataclass_fields__
-    parser.add_argument("--optimizer", default="cmaes", help="optimizer name (default: cmaes)")
+    from optimizers import registry
+
+    parser.add_argument(
+        "--optimizer",
+        default="cmaes",
+        metavar="NAME",
+        help=f"optimizer: {', '.join(registry.available())}, an installed plugin's name, or "
+        "'module:Class' (default: cmaes)",
+    )
     parser.add_argument("--seed", type=int, default=0, help="seed of the optimizer (default: 0)")
     parser.add_argument(
         "--iterations",
@@ -1114,6 +1208,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     )
     parser.add_argument("--resume", action="store_true", help="continue the run in --out")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument(
+        "--no-video", action="store_true", help="do not write rollout.gif (saves about 20 s)"
+    )
     parser.set_defaults(run=_run)
     return parser
 
@@ -1142,7 +1239,13 @@ def config_from_args(args: argparse.Namespace) -> DesignConfig:
 
 def _run(args: argparse.Namespace) -> int:
     config = config_from_args(args)
-    result = run_design(config, args.out, resume=args.resume, progress=not args.no_progress)
+    result = run_design(
+        config,
+        args.out,
+        resume=args.resume,
+        progress=not args.no_progress,
+        video=not args.no_video,
+    )
     coeffs = ", ".join(repr(float(c)) for c in result.coefficients)
     print(
         f"best design: C = ({coeffs}), F = {result.free_energy!r} "

@@ -8,6 +8,8 @@ Writes into ``--out``:
 * ``tool.stl``, ``tool.obj``, ``tool.urdf``: the tool, in metres;
 * ``tool_shape.png``, ``box_path.png``, ``free_energy.png``: the tool, the top view of the box path
   and the goal error / confidence / free energy over time (the paper's Figure 4);
+* ``report.html``: all of the above in one self-contained page (``benchmarks.html_report``);
+* with ``--video``: ``rollout.gif``, the rollout rendered headless (goal and box path drawn);
 * with ``--robustness``: ``robustness.json`` and ``robustness.png`` (box paths under the altered
   masses).
 """
@@ -22,6 +24,7 @@ import numpy as np
 import pandas as pd
 
 from benchmarks.evaluation import add_task_arguments
+from benchmarks.html_report import write_html_report
 from benchmarks.plots import (
     new_figure,
     plot_box_paths,
@@ -30,6 +33,7 @@ from benchmarks.plots import (
     save_png,
 )
 from benchmarks.storage import atomic_write_text, json_ready, json_text, package_versions
+from benchmarks.video import rollout_gif
 from tooldesign_env import (
     ToolDesignEnv,
     ToolSpec,
@@ -50,7 +54,8 @@ def add_parser(subparsers: Any) -> None:
     p = subparsers.add_parser(
         "evaluate",
         help="evaluate given coefficients: terms, trajectories, mesh and plots",
-        description=__doc__.splitlines()[0] if __doc__ else None,
+        description="Score given coefficients and write everything a user would look at: "
+        "terms (JSON), trajectories (CSV), mesh (STL/OBJ/URDF) and plots.",
     )
     p.add_argument(
         "--coeffs",
@@ -60,12 +65,24 @@ def add_parser(subparsers: Any) -> None:
         metavar="C",
         help="coefficients c1 ... cn, highest power first (default degree 3)",
     )
-    p.add_argument("--out", type=Path, required=True, help="output folder (created)")
+    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder (created)")
     add_task_arguments(p)
     p.add_argument(
         "--robustness",
         action="store_true",
         help="also test the design under box masses 0.3, 0.5, 0.7, 0.9 kg",
+    )
+    p.add_argument(
+        "--outside-bounds",
+        action="store_true",
+        help="accept coefficients outside the default bounds (c1, c2 in [-1.5, 1.5], "
+        "c3 in [-0.5, 0.5]); without it they are refused, as env.step refuses them",
+    )
+    p.add_argument(
+        "--video",
+        action="store_true",
+        help="also write rollout.gif: the rollout rendered headless, with the goal and the box "
+        "path (about 20 s more)",
     )
     p.set_defaults(run=_run)
 
@@ -80,6 +97,8 @@ def _run(args: argparse.Namespace) -> int:
         estimator=args.estimator,
         objective=args.objective,
         robustness=args.robustness,
+        outside_bounds=args.outside_bounds,
+        video=args.video,
     )
     status = "valid" if info["valid"] else f"INVALID ({info['invalid_reason']})"
     print(
@@ -124,18 +143,46 @@ def evaluate(
     estimator: str = "contact",
     objective: str = "free-energy",
     robustness: bool = False,
+    outside_bounds: bool = False,
+    video: bool = False,
 ) -> dict[str, Any]:
     """Evaluate one design and write the files listed in the module docstring.
 
+    One rule for the command line and the API (``env.step``): a design outside the default
+    bounds (``default_bounds``) is refused with a ValueError, unless asked for explicitly
+    (here ``outside_bounds=True``, on the command line ``--outside-bounds``, for the env
+    ``bounds=``).
+
+    Args:
+        coeffs: the design (c1, ..., cn), highest power first.
+        out: output folder (created).
+        goal: goal X^g (x, y, z) in m.
+        goal_precision: p^X.
+        box_mass: box mass in kg.
+        estimator: estimator of dX/dU.
+        objective: what is scored (``free-energy`` or ``expected-goal-error``).
+        robustness: also test the design under other box masses.
+        outside_bounds: accept a design outside the default bounds (the bounds are widened to
+            include it).
+        video: also write ``rollout.gif``, the rollout rendered headless (valid designs only;
+            about 20 s more).
+
     Returns:
         The env's step ``info``.
+
+    Raises:
+        ValueError: the design is malformed, or outside the bounds without ``outside_bounds``.
     """
     out = Path(out)
     spec = ToolSpec(degree=int(np.size(coeffs)) if np.ndim(coeffs) == 1 else 3)
     c = validate_coefficients(coeffs, spec.degree)
-    # The CLI evaluates what it is given: the env's bounds (which guard agents and optimizers)
-    # are widened to include the design.
     bounds = default_bounds(spec.degree)
+    outside = (c < bounds[:, 0]) | (c > bounds[:, 1])
+    if np.any(outside) and not outside_bounds:
+        raise ValueError(
+            f"design {c.tolist()} is outside the default bounds {bounds.tolist()} (as env.step "
+            "refuses it); pass --outside-bounds (API: outside_bounds=True) to evaluate it anyway"
+        )
     bounds = np.stack([np.minimum(bounds[:, 0], c), np.maximum(bounds[:, 1], c)], axis=1)
     env = ToolDesignEnv(
         goal=goal,
@@ -187,14 +234,26 @@ def evaluate(
                 ax,
                 info["times"],
                 {
-                    "goal error E_t": info["goal_error_t"],
-                    "- confidence -c_t": -info["confidence_t"],
-                    "free energy F_t": info["free_energy_t"],
+                    "goal error E_t = 1/2 p^X |X_t - X^g|^2": info["goal_error_t"],
+                    "minus confidence -c_t = -1/2 log|Pi_U,t|": -info["confidence_t"],
+                    "free energy F_t = E_t - c_t": info["free_energy_t"],
                 },
-                ylabel="per control step",
+                ylabel="term per control step (dimensionless; F = sum of F_t)",
             )
             ax.set_title(f"F = {info['free_energy']:.4g}")
             save_png(fig, out / "free_energy.png")
+            if video:
+                rollout_gif(
+                    info["coefficients"],
+                    out / "rollout.gif",
+                    goal=goal,
+                    goal_precision=goal_precision,
+                    box_mass=box_mass,
+                    estimator=estimator,
+                    objective_kind=objective,
+                    bounds=bounds,
+                    tool=spec,
+                )
             if robustness:
                 result = env.evaluate_robustness(info["coefficients"], DEFAULT_MASSES)
                 card["robustness"] = {
@@ -212,6 +271,7 @@ def evaluate(
                 ax.set_title("box paths under altered box masses")
                 save_png(fig, out / "robustness.png")
         atomic_write_text(out / "terms.json", json_text(card))
+        write_html_report(out)
         return info
     finally:
         env.close()

@@ -29,11 +29,13 @@ Example:
 from __future__ import annotations
 
 import argparse
+import ast
 import contextlib
 import math
 import multiprocessing
 import os
 import signal
+import sys
 import threading
 import time
 import traceback
@@ -48,6 +50,7 @@ import numpy as np
 from benchmarks._parent_death import die_with_parent
 
 __all__ = [
+    "check_main_guard",
     "EXECUTORS",
     "Designs",
     "METRIC_FIELDS",
@@ -477,6 +480,50 @@ def _process_context() -> Any:
     return context
 
 
+def check_main_guard() -> None:
+    """Refuse to start worker processes from a script without a ``__main__`` guard.
+
+    Worker processes (``forkserver`` or ``spawn``) import the main script again. Without the
+    guard, each worker re-runs the script and would start a pool of its own: the run fails
+    after minutes with a RuntimeError from deep inside multiprocessing. This check fails at once.
+    It looks only at a main module that is a Python file (not ``python -c``, a notebook or an
+    interactive session).
+
+    Raises:
+        RuntimeError: the main script has module-level code but no ``__main__`` guard; the
+            message says what to do.
+    """
+    main = sys.modules.get("__main__")
+    path = getattr(main, "__file__", None)
+    if main is None or path is None or getattr(main, "__spec__", None) is not None:
+        return  # -c, interactive, notebook, or python -m (a module, imported under its name)
+    if not str(path).endswith(".py") or not os.path.isfile(path):
+        return
+    try:
+        with open(path, encoding="utf-8") as f:
+            tree = ast.parse(f.read(), filename=str(path))
+    except (OSError, SyntaxError, UnicodeDecodeError, ValueError):
+        return
+    if not any(_is_main_guard(node) for node in tree.body):
+        raise RuntimeError(
+            f"{path} starts worker processes but has no 'if __name__ == \"__main__\":' guard; "
+            "each worker would re-run the script. Put the call under that guard, e.g.\n\n"
+            '    if __name__ == "__main__":\n        run_design(...)\n\n'
+            "or evaluate in this process with executor='serial'."
+        )
+
+
+def _is_main_guard(node: ast.stmt) -> bool:
+    if not isinstance(node, ast.If) or not isinstance(node.test, ast.Compare):
+        return False
+    if not all(isinstance(op, ast.Eq) for op in node.test.ops):
+        return False
+    names = [node.test.left, *node.test.comparators]
+    has_name = any(isinstance(n, ast.Name) and n.id == "__name__" for n in names)
+    has_main = any(isinstance(n, ast.Constant) and n.value == "__main__" for n in names)
+    return has_name and has_main
+
+
 def _check_workers(workers: int | None) -> int:
     if workers is None:
         return os.cpu_count() or 1
@@ -524,12 +571,15 @@ def make_executor(
         finally:
             serial.shutdown()
     elif kind == "process":
+        check_main_guard()
         pool = _RestartingProcessPool(count, _process_context())
         try:
             yield pool
         finally:
             pool.shutdown(wait=True, cancel_futures=True)
     else:
+        if scheduler is None:  # a LocalCluster starts worker processes here
+            check_main_guard()
         with _dask_executor(count, scheduler) as executor:
             yield executor
 

@@ -18,15 +18,25 @@ group ``tooldesign.optimizers``; see ``docs/optimizer-plugins.md``.
 from __future__ import annotations
 
 from ._imports import DependencyNotInstalled
-from .base import Batch, FailurePolicy, Optimizer, OptimizerStateError, Recommendation
+from ._rng import GlobalRandomState
+from .base import (
+    Batch,
+    FailurePolicy,
+    Optimizer,
+    OptimizerStateError,
+    PluginError,
+    Recommendation,
+)
 from .registry import available, make, register
 
 __all__ = [
     "Batch",
     "DependencyNotInstalled",
     "FailurePolicy",
+    "GlobalRandomState",
     "Optimizer",
     "OptimizerStateError",
+    "PluginError",
     "Recommendation",
     "available",
     "make",

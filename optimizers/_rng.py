@@ -23,11 +23,25 @@ __all__ = ["GlobalRandomState"]
 class GlobalRandomState:
     """A legacy ``np.random`` state of one optimizer, active only inside :meth:`active`.
 
+    Public as ``optimizers.GlobalRandomState`` for plugin backends that call ``np.random``::
+
+        self._global = GlobalRandomState(int(self._rng.integers(2**32)))
+        with self._global.active():
+            x = backend.ask()
+
     Args:
         seed: Seed of the private Mersenne Twister stream, in [0, 2**32).
+
+    Raises:
+        TypeError: ``seed`` is not an int.
+        ValueError: ``seed`` is outside [0, 2**32).
     """
 
     def __init__(self, seed: int) -> None:
+        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
+            raise TypeError(f"seed must be an int in [0, 2**32), got {type(seed).__name__}")
+        if not 0 <= seed < 2**32:
+            raise ValueError(f"seed must be in [0, 2**32), got {seed}")
         self._state: tuple[Any, ...] = np.random.RandomState(seed).get_state(legacy=True)  # type: ignore[assignment]
 
     @contextmanager

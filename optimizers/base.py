@@ -54,6 +54,7 @@ __all__ = [
     "FailurePolicy",
     "Optimizer",
     "OptimizerStateError",
+    "PluginError",
     "Recommendation",
 ]
 
@@ -64,6 +65,15 @@ STATE_VERSION = 1
 _UNIT_TOLERANCE = 1e-9
 
 _O = TypeVar("_O", bound="Optimizer")
+
+
+class PluginError(RuntimeError):
+    """An optimizer's backend hook raised an unexpected exception.
+
+    The message names the optimizer class (with its module) and the hook (``_ask`` or
+    ``_tell``); the original exception is the ``__cause__``. TypeError and ValueError pass
+    through unchanged, as do KeyboardInterrupt and other non-``Exception`` signals.
+    """
 
 
 class OptimizerStateError(RuntimeError):
@@ -309,6 +319,37 @@ class Optimizer(abc.ABC):
             return np.empty((0, self.n_dims))
         return np.array(list(self._pending.values()))
 
+    def pending_points(self, *, unit: bool = False) -> np.ndarray:
+        """The points asked and not told yet, in ask order (the order of :attr:`pending_ids`).
+
+        Args:
+            unit: give them in the unit box [0, 1]^d the hooks work in, instead of in the
+                physical bounds.
+
+        Returns:
+            A new (p, d) array; (0, d) when nothing is pending.
+
+        Raises:
+            TypeError: ``unit`` is not a bool.
+        """
+        if not isinstance(unit, (bool, np.bool_)):
+            raise TypeError(f"unit must be a bool, got {type(unit).__name__}")
+        u = self._pending_unit()
+        return u.copy() if unit else self._to_physical(u)
+
+    def _call_hook(self, method: str, *args: Any) -> Any:
+        """Call the plugin hook ``method``; name the plugin and hook if it fails unexpectedly."""
+        try:
+            return getattr(self, method)(*args)
+        except (TypeError, ValueError, OptimizerStateError):
+            raise
+        except Exception as error:
+            cls = type(self)
+            raise PluginError(
+                f"optimizer plugin {cls.__module__}.{cls.__qualname__}.{method} raised "
+                f"{type(error).__name__}: {error}"
+            ) from error
+
     def _failure_penalty(self) -> float:
         """The current penalty for a failed evaluation (see :class:`FailurePolicy`)."""
         known = self._best_id is not None
@@ -387,7 +428,7 @@ class Optimizer(abc.ABC):
             )
         n = self._batch_size
         ids = tuple(range(self._next_id, self._next_id + n))
-        u = self._check_unit(self._ask(ids), n)
+        u = self._check_unit(self._call_hook("_ask", ids), n)
         x = self._to_physical(u)
         x.setflags(write=False)
         self._next_id += n
@@ -658,4 +699,4 @@ class Optimizer(abc.ABC):
         told = np.where(failed, self._failure_penalty(), values)
         if not np.all(np.isfinite(told)):  # the promise of this class; -O must not drop it
             raise RuntimeError(f"non-finite values would reach the backend: {told}")
-        self._tell(ids, u, told, failed.copy())
+        self._call_hook("_tell", ids, u, told, failed.copy())

@@ -15,7 +15,7 @@ from benchmarks.cli import main
 @pytest.mark.slow
 def test_evaluate_writes_terms_trajectory_mesh_and_plots(tmp_path, capsys):
     out = tmp_path / "hook"
-    assert main(["evaluate", "--coeffs", "0", "1.5", "0", "--out", str(out)]) == 0
+    assert main(["evaluate", "--coeffs", "0", "1.5", "0", "--out", str(out), "--video"]) == 0
     assert "free energy F" in capsys.readouterr().out
     for name in (
         "terms.json",
@@ -26,6 +26,7 @@ def test_evaluate_writes_terms_trajectory_mesh_and_plots(tmp_path, capsys):
         "tool_shape.png",
         "box_path.png",
         "free_energy.png",
+        "rollout.gif",
     ):
         assert (out / name).stat().st_size > 0, name
     terms = json.loads((out / "terms.json").read_text())
@@ -42,7 +43,8 @@ def test_evaluate_writes_terms_trajectory_mesh_and_plots(tmp_path, capsys):
 
 def test_evaluate_an_invalid_design_still_writes_its_card(tmp_path):
     out = tmp_path / "overlap"
-    assert main(["evaluate", "--coeffs", "0", "4.35", "0", "--out", str(out)]) == 0
+    argv = ["evaluate", "--coeffs", "0", "4.35", "0", "--out", str(out), "--outside-bounds"]
+    assert main(argv) == 0
     terms = json.loads((out / "terms.json").read_text())
     assert terms["valid"] is False and "overlaps" in terms["invalid_reason"]
     assert not (out / "trajectory.csv").exists()
@@ -58,6 +60,8 @@ def test_evaluate_an_invalid_design_still_writes_its_card(tmp_path):
         ["evaluate", "--coeffs", "0", "0", "0", "--out", "x", "--box-mass", "-1"],
         ["evaluate", "--coeffs", "0", "0", "0", "--out", "x", "--goal", "9", "0", "0"],
         ["evaluate", "--coeffs", "0", "0", "0", "--out", "x", "--estimator", "magic"],
+        ["evaluate", "--coeffs", "0", "0", "3", "--out", "x"],
+        ["evaluate", "--coeffs", "-1.6", "0", "0", "--out", "x"],
         ["frobnicate"],
     ],
 )
@@ -81,3 +85,11 @@ def test_a_missing_optional_backend_is_one_line(monkeypatch, capsys):
         main(["evaluate", "--coeffs", "0", "0", "0", "--out", "x"])
     assert excinfo.value.code == 2
     assert "pip install 'tooldesign[bo]'" in capsys.readouterr().err
+
+
+def test_the_api_refuses_a_design_outside_the_bounds_as_env_step_does(tmp_path):
+    from benchmarks.evaluate import evaluate
+
+    with pytest.raises(ValueError, match="outside the default bounds.*--outside-bounds"):
+        evaluate([0.0, 0.0, 3.0], tmp_path / "x")
+    assert not (tmp_path / "x").exists()

@@ -7,17 +7,83 @@ else in the library asks it.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import os
 import re
+import sys
 import tempfile
 import uuid
+from collections.abc import Iterator
 from dataclasses import dataclass
+from typing import IO
 
 import numpy as np
-import pybullet
-import pybullet_data
-from pybullet_utils.bullet_client import BulletClient
+
+# PyBullet's C code prints a banner ("pybullet build time", "argv[0]=") and renderer warnings
+# ("b3Warning[...]") straight to the file descriptors, where Python's redirection cannot reach.
+# These lines are recognised and dropped; anything else the C code prints is passed on unchanged.
+_NOISE = re.compile(r"^(pybullet build time:|argv\[\d+\]=|b3Warning\[|b3Printf:)")
+
+
+@contextlib.contextmanager
+def _quiet_pybullet() -> Iterator[None]:
+    """Drop PyBullet's banner and warning lines printed to fd 1 and 2 inside the block.
+
+    Every other line is written back to the descriptor it was printed to, so real errors stay
+    visible; Python exceptions are not touched (they propagate as usual).
+    """
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(Exception):
+            stream.flush()
+    saved: list[tuple[int, int, IO[bytes]]] = []
+    try:
+        for fd in (1, 2):
+            try:
+                copy = os.dup(fd)
+            except OSError:  # no such descriptor (e.g. a daemon without stdio)
+                continue
+            sink = tempfile.TemporaryFile(mode="w+b")
+            os.dup2(sink.fileno(), fd)
+            saved.append((fd, copy, sink))
+    except OSError:
+        pass
+    try:
+        yield
+    finally:
+        for fd, copy, captured in saved:
+            os.dup2(copy, fd)
+            os.close(copy)
+            captured.seek(0)
+            text = captured.read().decode("utf-8", "replace")
+            captured.close()
+            keep = _filter_noise(text)
+            if keep:
+                os.write(fd, keep.encode("utf-8"))
+
+
+def _filter_noise(text: str) -> str:
+    """The lines of ``text`` that are not PyBullet noise.
+
+    A ``b3Warning[file,line]:`` header is followed by its message on the next line; both go.
+    """
+    out: list[str] = []
+    skip_next = False
+    for line in text.splitlines(keepends=True):
+        if skip_next:
+            skip_next = False
+            continue
+        if _NOISE.match(line):
+            skip_next = line.startswith("b3Warning[") and line.rstrip().endswith(":")
+            continue
+        out.append(line)
+    return "".join(out)
+
+
+with _quiet_pybullet():
+    import pybullet
+import pybullet_data  # noqa: E402
+from pybullet_utils.bullet_client import BulletClient  # noqa: E402
 
 __all__ = ["BulletWorld", "RobotHandles", "panda_urdf_with_tool"]
 
@@ -57,6 +123,38 @@ def panda_urdf_with_tool(tool_link_xml: str | None, *, visuals: bool) -> str:
         )
         text = text.replace("</robot>", f"{tool_link_xml}\n{joint}\n</robot>")
     return text
+
+
+def _project(points: np.ndarray, view: tuple, proj: tuple, width: int, height: int) -> np.ndarray:
+    """Pixel coordinates (T, 2) (column, row) of world points (T, 3) for a PyBullet camera.
+
+    Points behind the camera get NaN.
+    """
+    v = np.asarray(view, dtype=float).reshape(4, 4).T  # PyBullet matrices are column-major
+    p = np.asarray(proj, dtype=float).reshape(4, 4).T
+    homogeneous = np.c_[points, np.ones(len(points))]
+    clip = homogeneous @ (p @ v).T
+    w = clip[:, 3:4]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ndc = np.where(w > 0, clip[:, :2] / w, np.nan)
+    return np.c_[(ndc[:, 0] + 1.0) / 2.0 * width, (1.0 - ndc[:, 1]) / 2.0 * height]
+
+
+def _draw_polyline(frame: np.ndarray, pixels: np.ndarray, rgb: tuple[int, int, int]) -> None:
+    """Draw a 3-pixel-wide line through ``pixels`` (T, 2) onto ``frame`` in place."""
+    height, width = frame.shape[:2]
+    for a, b in zip(pixels[:-1], pixels[1:], strict=True):
+        if not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
+            continue
+        n = int(max(abs(b[0] - a[0]), abs(b[1] - a[1]), 1.0)) + 1
+        cols = np.linspace(a[0], b[0], n)
+        rows = np.linspace(a[1], b[1], n)
+        for dc in (-1, 0, 1):
+            for dr in (-1, 0, 1):
+                cc = np.round(cols + dc).astype(int)
+                rr = np.round(rows + dr).astype(int)
+                ok = (cc >= 0) & (cc < width) & (rr >= 0) & (rr < height)
+                frame[rr[ok], cc[ok]] = rgb
 
 
 @dataclass(frozen=True)
@@ -102,7 +200,8 @@ class BulletWorld:
 
     def _connect(self) -> None:
         mode = pybullet.GUI if self.render_mode == "human" else pybullet.DIRECT
-        self._client = BulletClient(connection_mode=mode)
+        with _quiet_pybullet():
+            self._client = BulletClient(connection_mode=mode)
         cid = self._client._client
         self.client_id = cid
         # Bound once: the control loop calls these thousands of times per episode, and
@@ -163,9 +262,11 @@ class BulletWorld:
         c = self.client
         shape = c.createCollisionShape(pybullet.GEOM_PLANE)
         visual = -1
-        if self.render_mode is not None:
-            visual = c.createVisualShape(pybullet.GEOM_PLANE, rgbaColor=[0.85, 0.85, 0.85, 1])
-        body = c.createMultiBody(0.0, shape, visual, [0, 0, 0])
+        # With a visual, PyBullet prints "b3Warning: No default visual for URDF_GEOM_PLANE".
+        with _quiet_pybullet():
+            if self.render_mode is not None:
+                visual = c.createVisualShape(pybullet.GEOM_PLANE, rgbaColor=[0.85, 0.85, 0.85, 1])
+            body = c.createMultiBody(0.0, shape, visual, [0, 0, 0])
         c.changeDynamics(body, -1, lateralFriction=friction)
         return body
 
@@ -248,6 +349,12 @@ class BulletWorld:
     def remove(self, body: int) -> None:
         """Remove a body from the world."""
         self.client.removeBody(body)
+
+    def place_body(self, body: int, position: tuple[float, float, float]) -> None:
+        """Teleport a body's base to ``position`` (x, y, z) in m, keeping its orientation."""
+        c = self.client
+        _, orientation = c.getBasePositionAndOrientation(body)
+        c.resetBasePositionAndOrientation(body, [float(v) for v in position], orientation)
 
     # ----------------------------------------------------------- robot state
     def set_joint_positions(self, robot: RobotHandles, q: np.ndarray) -> None:
@@ -396,15 +503,59 @@ class BulletWorld:
         distance: float = 2.4,
         yaw: float = 200.0,
         pitch: float = -50.0,
+        goal: tuple[float, float, float] | None = None,
+        path: np.ndarray | None = None,
     ) -> np.ndarray:
-        """An RGB frame (height, width, 3) uint8 from a fixed camera, rendered offscreen."""
+        """An RGB frame (height, width, 3) uint8 from a fixed camera, rendered offscreen.
+
+        Headless (PyBullet's software renderer): no display is needed.
+
+        Args:
+            width: image width in pixels.
+            height: image height in pixels.
+            target: point the camera looks at, (x, y, z) in m.
+            distance: camera distance from ``target``, m.
+            yaw: camera yaw, degrees.
+            pitch: camera pitch, degrees.
+            goal: draw a green sphere at this (x, y, z) in m (removed again after the frame).
+            path: (T, 3) points in m (the box path), drawn as a blue line over the image.
+
+        Raises:
+            ValueError: a size is not a positive int, or ``goal``/``path`` has the wrong shape
+                or non-finite values.
+        """
+        for name, value in (("width", width), ("height", height)):
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+                raise ValueError(f"{name} must be an int >= 1 pixel, got {value!r}")
+        if goal is not None:
+            g = np.asarray(goal, dtype=float)
+            if g.shape != (3,) or not np.all(np.isfinite(g)):
+                raise ValueError(f"goal must be 3 finite numbers (x, y, z) in m, got {goal!r}")
+        if path is not None:
+            path = np.asarray(path, dtype=float)
+            if path.ndim != 2 or path.shape[1] != 3 or not np.all(np.isfinite(path)):
+                raise ValueError(f"path must be a finite (T, 3) array in m, got {path.shape}")
         c = self.client
         view = c.computeViewMatrixFromYawPitchRoll(target, distance, yaw, pitch, 0.0, 2)
         proj = c.computeProjectionMatrixFOV(50.0, width / height, 0.05, 20.0)
-        _, _, rgba, _, _ = c.getCameraImage(
-            width, height, view, proj, renderer=pybullet.ER_TINY_RENDERER
-        )
-        return np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)[:, :, :3].copy()
+        marker = -1
+        if goal is not None:
+            visual = c.createVisualShape(
+                pybullet.GEOM_SPHERE, radius=0.05, rgbaColor=[0.1, 0.75, 0.2, 1.0]
+            )
+            marker = c.createMultiBody(0.0, -1, visual, [float(v) for v in goal])
+        try:
+            with _quiet_pybullet():
+                _, _, rgba, _, _ = c.getCameraImage(
+                    width, height, view, proj, renderer=pybullet.ER_TINY_RENDERER
+                )
+        finally:
+            if marker >= 0:
+                c.removeBody(marker)
+        frame = np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)[:, :, :3].copy()
+        if path is not None and len(path) > 0:
+            _draw_polyline(frame, _project(path, view, proj, width, height), (30, 80, 220))
+        return frame
 
     def close(self) -> None:
         """Disconnect; safe to call more than once."""

@@ -132,6 +132,12 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
     ``ObjectiveSpec.kind``). ``reset(options={"goal": (x, y, z),
     "box_mass": m})`` changes the task of one episode.
 
+    ``render_mode="rgb_array"`` renders headless (PyBullet's software renderer, no display):
+    ``render()`` returns a (360, 480, 3) uint8 frame of the scene with the goal as a green sphere,
+    after a step also the arm, the tool and the box path as a blue line; ``render_rollout()``
+    returns frames of the last rollout (for a GIF: ``benchmarks.video.write_gif``).
+    ``render_mode="human"`` opens PyBullet's window and needs a display.
+
     ## Version History
 
     * v0: the initial version.
@@ -214,6 +220,10 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
         self._estimator = make_estimator(objective)
         self._goal = np.asarray(self.task.goal, dtype=float)
         self._box_mass = scene.box_mass
+        # What render() shows: the box path of the last step, and whether the world holds the
+        # scene of that step (a tool that cannot be built is never put into the world).
+        self._last_info: dict[str, Any] | None = None
+        self._world_shows_last_step = False
 
     # ------------------------------------------------------------ gym API
     def reset(
@@ -248,6 +258,8 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
                 f"options['box_mass'] must be finite, > 0 and <= {BOX_MASS_MAX:g} kg, got {mass!r}"
             )
         self._box_mass = float(mass)
+        self._last_info = None
+        self._world_shows_last_step = False
         return self._observation(), {"goal": self._goal.copy(), "box_mass": self._box_mass}
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
@@ -255,15 +267,85 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
         coeffs = self.check_action(action)
         geometry = make_tool(coeffs, self.tool_spec)
         info = self.evaluate_geometry(geometry)
+        self._last_info = info
+        self._world_shows_last_step = geometry.buildable and self.objective.kind == "free-energy"
         if self.render_mode == "human":
             self.render()
         return self._observation(), -info["free_energy"], True, False, info
 
     def render(self) -> np.ndarray | None:
-        """The scene after the last step: an RGB array, or None in ``"human"`` mode."""
-        if self.render_mode == "rgb_array":
-            return self.simulator.render()
-        return None
+        """The scene, headless: an RGB array (360, 480, 3) uint8, or None in ``"human"`` mode.
+
+        After ``reset``: the floor, the box at its start and the goal (a green sphere). After a
+        step: the arm and the tool where the rollout ended, the box, the goal, and the box path
+        (a blue line). Rendering needs ``render_mode="rgb_array"`` (or ``"human"``) at
+        construction; it uses PyBullet's software renderer, so no display is needed.
+        """
+        if self.render_mode != "rgb_array":
+            return None
+        if not self._world_shows_last_step:
+            self._show_start_scene()
+        path = None if self._last_info is None else self._last_info["box_trajectory"]
+        return self.simulator.world.render(goal=tuple(self._goal), path=path)
+
+    def render_rollout(self, *, frames: int = 40) -> list[np.ndarray]:
+        """Frames of the last step's rollout, replayed from its recorded joint and box positions.
+
+        The replay is kinematic: the arm and the box are placed where they were at evenly
+        spaced control steps (the box keeps its final orientation), with the goal and the box
+        path so far drawn. Needs ``render_mode="rgb_array"``.
+
+        Args:
+            frames: number of frames, >= 2.
+
+        Returns:
+            ``frames`` RGB arrays (360, 480, 3) uint8; a single frame of the start scene when the
+            last design was invalid (nothing was simulated).
+
+        Raises:
+            RuntimeError: the env does not render to arrays, or no step was taken since reset.
+            ValueError: ``frames`` is not an int >= 2.
+        """
+        if isinstance(frames, bool) or not isinstance(frames, (int, np.integer)) or frames < 2:
+            raise ValueError(f"frames must be an int >= 2, got {frames!r}")
+        if self.render_mode != "rgb_array":
+            raise RuntimeError("render_rollout needs the env made with render_mode='rgb_array'")
+        if self._last_info is None:
+            raise RuntimeError("render_rollout shows the last step: call step() first")
+        info = self._last_info
+        q, x = info["joint_positions"], info["box_trajectory"]
+        # ToolSimulator keeps the handles of the bodies it built; it offers no accessor yet.
+        robot = getattr(self.simulator, "_robot", None)
+        box = getattr(self.simulator, "_box", None)
+        if len(x) == 0 or not self._world_shows_last_step or robot is None or box is None:
+            frame = self.render()
+            assert frame is not None
+            return [frame]
+        world = self.simulator.world
+        out = []
+        for k in np.unique(np.linspace(0, len(x) - 1, int(frames)).round().astype(int)):
+            world.set_joint_positions(robot, q[k])
+            world.place_body(box, tuple(x[k]))
+            out.append(world.render(goal=tuple(self._goal), path=x[: k + 1]))
+        return out
+
+    def _show_start_scene(self) -> None:
+        """Put the floor and the box at its start into the world (no arm: no tool was chosen).
+
+        The same bodies as ``ToolSimulator.build`` makes, without the robot.
+        """
+        scene = self.simulator.scene
+        world = self.simulator.world
+        world.reset()
+        world.add_floor(friction=scene.floor_friction)
+        world.add_box(
+            size=scene.box_size,
+            mass=self._box_mass,
+            friction=scene.box_friction,
+            position=(*scene.box_position, scene.box_size[2] / 2.0),
+            yaw=scene.box_yaw,
+        )
+        self._world_shows_last_step = True
 
     def close(self) -> None:
         """Release the physics client."""

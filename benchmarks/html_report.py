@@ -1,0 +1,179 @@
+"""A self-contained HTML report of a run folder: one file, opened without network or server.
+
+``tooldesign html DIR`` (and every design run and ``tooldesign evaluate``, at the end) writes
+``DIR/report.html``: the design card and the other JSON files of the folder as tables, the small
+CSV tables, the Markdown reports as text, and every figure and video (PNG, GIF, SVG) embedded as
+a base64 data URI. It has no script and loads nothing: it can be mailed or attached to an issue.
+It works for a design run folder, an ``evaluate`` folder and a suite's run folder alike (the
+suite's figures and tables are found in its subfolders; the stored results under ``parts/`` are
+left out).
+"""
+
+from __future__ import annotations
+
+import argparse
+import base64
+import html
+import json
+import os
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+__all__ = ["REPORT_FILE", "add_parser", "write_html_report"]
+
+REPORT_FILE = "report.html"
+_IMAGES = {".png": "image/png", ".gif": "image/gif", ".svg": "image/svg+xml"}
+_SKIP_DIRS = {"parts", "__pycache__", ".git"}
+_MAX_CSV_ROWS = 60
+_MAX_FILES = 400  # a suite folder has tens of figures; more means a wrong folder was given
+_STYLE = """
+body { font-family: system-ui, sans-serif; margin: 2em auto; max-width: 72em; color: #222; }
+h1 { font-size: 1.6em; } h2 { font-size: 1.2em; margin-top: 2em; border-bottom: 1px solid #ccc; }
+figure { display: inline-block; margin: 0.5em; vertical-align: top; max-width: 100%; }
+figure img { max-width: 100%; border: 1px solid #ddd; }
+figcaption { font-size: 0.85em; color: #555; }
+table { border-collapse: collapse; font-size: 0.85em; margin: 0.5em 0; }
+td, th { border: 1px solid #ccc; padding: 0.2em 0.5em; text-align: right; }
+th { background: #f4f4f4; } td.key { text-align: left; font-weight: 600; }
+pre { background: #f7f7f7; padding: 0.8em; overflow-x: auto; font-size: 0.85em; }
+"""
+
+
+def _files(folder: Path) -> Iterator[Path]:
+    """The folder's files, sorted, depth first, without stored results and earlier reports."""
+    for root, dirs, names in os.walk(folder):
+        dirs[:] = sorted(d for d in dirs if d not in _SKIP_DIRS and not d.startswith("."))
+        for name in sorted(names):
+            if name != REPORT_FILE and not name.startswith("."):
+                yield Path(root) / name
+
+
+def _image(path: Path, folder: Path) -> str:
+    mime = _IMAGES[path.suffix.lower()]
+    data = base64.b64encode(path.read_bytes()).decode("ascii")
+    name = html.escape(str(path.relative_to(folder)))
+    return (
+        f'<figure><img src="data:{mime};base64,{data}" alt="{name}">'
+        f"<figcaption>{name}</figcaption></figure>"
+    )
+
+
+def _value(value: Any) -> str:
+    if isinstance(value, float):
+        return html.escape(f"{value:.6g}")
+    if isinstance(value, (dict, list)):
+        text = json.dumps(value)
+        return html.escape(text if len(text) <= 200 else text[:200] + " ...")
+    return html.escape(str(value))
+
+
+def _json_table(path: Path, folder: Path) -> str:
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as error:
+        return f"<p>{html.escape(path.name)}: not readable ({html.escape(str(error))})</p>"
+    if not isinstance(data, dict):
+        return f"<pre>{html.escape(json.dumps(data, indent=2)[:5000])}</pre>"
+    rows = "".join(
+        f'<tr><td class="key">{html.escape(str(k))}</td><td>{_value(v)}</td></tr>'
+        for k, v in data.items()
+    )
+    name = html.escape(str(path.relative_to(folder)))
+    return f"<h3>{name}</h3><table>{rows}</table>"
+
+
+def _csv_table(path: Path, folder: Path) -> str:
+    import pandas as pd
+
+    name = html.escape(str(path.relative_to(folder)))
+    try:
+        frame = pd.read_csv(path, nrows=_MAX_CSV_ROWS + 1)
+    except (OSError, ValueError) as error:
+        return f"<p>{name}: not readable ({html.escape(str(error))})</p>"
+    more = len(frame) > _MAX_CSV_ROWS
+    table = frame.head(_MAX_CSV_ROWS).to_html(index=False, escape=True, float_format="%.6g")
+    note = f"<p>first {_MAX_CSV_ROWS} rows; the file has more</p>" if more else ""
+    return f"<h3>{name}</h3>{table}{note}"
+
+
+def write_html_report(
+    folder: str | os.PathLike[str], *, out: str | os.PathLike[str] | None = None
+) -> Path:
+    """Write the self-contained report of ``folder``.
+
+    Args:
+        folder: a run folder (design, evaluate or suite).
+        out: the HTML file to write; default ``folder/report.html``.
+
+    Returns:
+        The path written.
+
+    Raises:
+        FileNotFoundError: ``folder`` is not a folder.
+        ValueError: the folder holds no figure, table or card to report, or too many files.
+    """
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise FileNotFoundError(f"{folder} is not a folder")
+    files = list(_files(folder))
+    if len(files) > _MAX_FILES:
+        raise ValueError(f"{folder} has more than {_MAX_FILES} files: give a run folder")
+    images = [p for p in files if p.suffix.lower() in _IMAGES]
+    cards = [p for p in files if p.suffix == ".json"]
+    tables = [p for p in files if p.suffix == ".csv"]
+    texts = [p for p in files if p.suffix in (".md", ".txt")]
+    if not (images or cards or tables or texts):
+        raise ValueError(f"{folder} has no figure, table or card to report")
+    title = html.escape(f"tooldesign report: {folder.resolve().name}")
+    parts = [
+        "<!DOCTYPE html>",
+        '<html lang="en"><head><meta charset="utf-8">',
+        f"<title>{title}</title><style>{_STYLE}</style></head><body>",
+        f"<h1>{title}</h1>",
+        f"<p>{len(images)} figures, {len(cards)} cards, {len(tables)} tables; made from the "
+        "files of the folder, with everything embedded.</p>",
+    ]
+    if cards:
+        parts.append("<h2>Cards</h2>")
+        parts.extend(_json_table(p, folder) for p in cards)
+    if images:
+        parts.append("<h2>Figures and video</h2>")
+        parts.extend(_image(p, folder) for p in images)
+    if tables:
+        parts.append("<h2>Tables</h2>")
+        parts.extend(_csv_table(p, folder) for p in tables)
+    for path in texts:
+        name = html.escape(str(path.relative_to(folder)))
+        text = path.read_text(encoding="utf-8", errors="replace")
+        parts.append(f"<h2>{name}</h2><pre>{html.escape(text)}</pre>")
+    parts.append("</body></html>\n")
+    target = Path(out) if out is not None else folder / REPORT_FILE
+    tmp = target.with_name(target.name + ".tmp")
+    tmp.write_text("\n".join(parts), encoding="utf-8")
+    os.replace(tmp, target)
+    return target
+
+
+def add_parser(subparsers: Any) -> argparse.ArgumentParser:
+    """Register ``tooldesign html``."""
+    parser = subparsers.add_parser(
+        "html",
+        help="write a self-contained HTML report (figures, tables, card, video) of a run folder",
+        description="Write DIR/report.html: every figure, video, card and small table of the "
+        "folder, embedded in one file that opens without network.",
+    )
+    parser.add_argument(
+        "folder", type=Path, metavar="DIR", help="a design, evaluate or suite run folder"
+    )
+    parser.add_argument(
+        "--out", type=Path, default=None, help="the HTML file (default DIR/report.html)"
+    )
+    parser.set_defaults(run=_run)
+    return parser
+
+
+def _run(args: argparse.Namespace) -> int:
+    path = write_html_report(args.folder, out=args.out)
+    print(f"report: {path}")
+    return 0

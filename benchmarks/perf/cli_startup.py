@@ -1,0 +1,51 @@
+"""How long ``tooldesign --help`` and ``tooldesign --version`` take, from a cold interpreter.
+
+Each command is run ``--repeat`` times in a fresh ``python`` process (as the console script runs
+it); printed: the median and the worst wall-clock time, and whether a heavy module was imported.
+
+Run: ``python benchmarks/perf/cli_startup.py [--repeat 5]``. Target (issue 11): under 1 s.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import subprocess
+import sys
+import time
+
+HEAVY = ("pybullet", "matplotlib", "pandas", "scipy", "torch")
+
+CODE = (
+    "import sys; from benchmarks.cli import main\n"
+    "try:\n    main(sys.argv[1:])\nexcept SystemExit:\n    pass\n"
+    "print('HEAVY', sorted(m for m in {heavy!r} if m in sys.modules), file=sys.stderr)\n"
+)
+
+
+def main() -> None:
+    """Time the light commands and print one line each."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=5)
+    args = parser.parse_args()
+    for argv in (["--help"], ["--version"], ["design", "--help"]):
+        times = []
+        heavy = ""
+        for _ in range(args.repeat):
+            t0 = time.perf_counter()
+            out = subprocess.run(
+                [sys.executable, "-c", CODE.format(heavy=HEAVY), *argv],
+                capture_output=True,
+                text=True,
+                check=True,
+            )
+            times.append(time.perf_counter() - t0)
+            heavy = out.stderr.strip().splitlines()[-1]
+        print(
+            f"tooldesign {' '.join(argv):<16} median {statistics.median(times):.2f} s, "
+            f"worst {max(times):.2f} s; {heavy}"
+        )
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,213 @@
+"""The README's pictures and numbers, from one command.
+
+``python -m benchmarks.readme`` runs the README's design command (CMA-ES, seed 0, 15 iterations of
+8 tools, p^X = 20), evaluates the straight tool C = (0, 0, 0) on the same task, and writes into
+``docs/images/``:
+
+* ``designed_tool.png`` (Figure 3d), ``box_paths.png`` (Figure 3c), ``rollout.gif``;
+* ``readme.json``: the numbers quoted in the README and on the docs' first page.
+
+It then rewrites the block between ``<!-- readme-numbers:start -->`` and
+``<!-- readme-numbers:end -->`` in ``README.md`` and ``docs/index.md`` from ``readme.json``.
+``tests/test_readme_numbers.py`` checks that both blocks are what ``readme.json`` renders to, so
+a number in the README cannot drift from what the command measured. The run takes minutes
+(about 6 on 2 cores); its run folder is kept under ``--work``.
+
+Run: ``python -m benchmarks.readme [--iterations 15] [--workers N] [--work DIR]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import sys
+import tempfile
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+__all__ = ["BLOCK_END", "BLOCK_START", "render_block", "replace_block", "main"]
+
+BLOCK_START = "<!-- readme-numbers:start -->"
+BLOCK_END = "<!-- readme-numbers:end -->"
+NUMBERS_FILE = "readme.json"
+IMAGES = {
+    "fig3d_final_tool.png": "designed_tool.png",
+    "fig3c_box_paths.png": "box_paths.png",
+    "rollout.gif": "rollout.gif",
+}
+_TERMS = ("free_energy", "goal_error", "confidence", "final_distance")
+
+
+def render_block(numbers: Mapping[str, Any], images: str) -> str:
+    """The README block (between the markers, exclusive) for the numbers of ``readme.json``.
+
+    Args:
+        numbers: the content of ``readme.json``.
+        images: the folder of the images relative to the page (``docs/images`` for the README,
+            ``images`` for ``docs/index.md``).
+
+    Returns:
+        Markdown text, ending with a newline.
+
+    Raises:
+        KeyError: a number is missing from ``numbers``.
+    """
+    d, s = numbers["designed"], numbers["straight"]
+    coeffs = ", ".join(f"{c:.3g}" for c in d["coefficients"])
+    closer = d["final_distance"] < s["final_distance"]
+    comparison = (
+        f"closer to the goal than the straight tool C = (0, 0, 0) ({s['final_distance']:.2f} m)"
+        if closer
+        else f"while the straight tool C = (0, 0, 0) gets within {s['final_distance']:.2f} m"
+    )
+    return (
+        f"The tool that command designs (seed {numbers['seed']}, p^X = "
+        f"{numbers['goal_precision']:g}, C = ({coeffs}), F = {d['free_energy']:.0f}), and the box "
+        "paths of the best tool of each iteration (start: black circle, ends: crosses, goal: red "
+        "star; the best tool in red):\n"
+        "\n"
+        f"![A designed tool]({images}/designed_tool.png)\n"
+        f"![Box paths of the best tools per iteration]({images}/box_paths.png)\n"
+        f"![The designed tool in use]({images}/rollout.gif)\n"
+        "\n"
+        f"**What to expect.** The designed tool leaves the box {d['final_distance']:.2f} m from "
+        f"the goal, {comparison}; F is {d['free_energy']:.0f} for the designed tool and "
+        f"{s['free_energy']:.0f} for the straight one. The designer minimizes F, not the "
+        "distance: F trades the goal "
+        f"error (designed {d['goal_error']:.0f}, straight {s['goal_error']:.0f}) for control "
+        f"confidence (designed {d['confidence']:.0f}, straight {s['confidence']:.0f}), and "
+        "p^X sets the exchange rate. These numbers come from `python -m benchmarks.readme`, "
+        "which also draws the pictures.\n"
+    )
+
+
+def replace_block(text: str, block: str) -> str:
+    """``text`` with the part between the markers replaced by ``block``.
+
+    Raises:
+        ValueError: the markers are missing, repeated or out of order.
+    """
+    if text.count(BLOCK_START) != 1 or text.count(BLOCK_END) != 1:
+        raise ValueError(f"expected exactly one {BLOCK_START} and one {BLOCK_END}")
+    head, rest = text.split(BLOCK_START)
+    if BLOCK_END not in rest:
+        raise ValueError(f"{BLOCK_END} comes before {BLOCK_START}")
+    _, tail = rest.split(BLOCK_END)
+    return f"{head}{BLOCK_START}\n{block}{BLOCK_END}{tail}"
+
+
+def current_block(text: str) -> str:
+    """The part between the markers (exclusive, without the newline after the start marker)."""
+    if text.count(BLOCK_START) != 1 or text.count(BLOCK_END) != 1:
+        raise ValueError(f"expected exactly one {BLOCK_START} and one {BLOCK_END}")
+    return text.split(BLOCK_START)[1].split(BLOCK_END)[0].removeprefix("\n")
+
+
+def _terms(info: Mapping[str, Any]) -> dict[str, Any]:
+    return {k: float(info[k]) for k in _TERMS}
+
+
+def measure(
+    *, iterations: int, batch_size: int, seed: int, workers: int | None, work: Path
+) -> tuple[dict[str, Any], Path]:
+    """Run the README's design and evaluate the straight tool; returns (numbers, run folder)."""
+    from benchmarks.design import DesignConfig, run_design
+    from tooldesign_env import ToolDesignEnv
+
+    config = DesignConfig(
+        optimizer="cmaes",
+        seed=seed,
+        iterations=iterations,
+        batch_size=batch_size,
+        workers=workers,
+    )
+    run = work / "design"
+    result = run_design(config, run, resume=True, video=True)
+    env = ToolDesignEnv(goal=config.goal, goal_precision=config.goal_precision)
+    try:
+        env.reset(seed=0)
+        straight = env.step([0.0, 0.0, 0.0])[4]
+    finally:
+        env.close()
+    designed = {
+        "coefficients": [float(c) for c in result.coefficients],
+        "free_energy": result.free_energy,
+        "goal_error": result.goal_error,
+        "confidence": result.confidence,
+        "final_distance": result.final_distance,
+    }
+    numbers = {
+        "command": (
+            f"tooldesign design --optimizer cmaes --seed {seed} --iterations {iterations} "
+            f"--batch-size {batch_size}"
+        ),
+        "seed": seed,
+        "iterations": iterations,
+        "batch_size": batch_size,
+        "goal_precision": config.goal_precision,
+        "goal": list(config.goal),
+        "estimator": config.estimator,
+        "designed": designed,
+        "straight": {"coefficients": [0.0, 0.0, 0.0], **_terms(straight)},
+    }
+    return numbers, run
+
+
+def _positive(text: str) -> int:
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be an int >= 1, got {text}")
+    return value
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Regenerate the README's images and numbers; returns the exit code."""
+    parser = argparse.ArgumentParser(
+        prog="python -m benchmarks.readme", description=__doc__.splitlines()[0]
+    )
+    parser.add_argument("--iterations", type=_positive, default=15)
+    parser.add_argument("--batch-size", type=_positive, default=8)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--workers", type=_positive, default=None)
+    parser.add_argument(
+        "--root", type=Path, default=Path.cwd(), help="the repository (default: here)"
+    )
+    parser.add_argument(
+        "--work", type=Path, default=None, help="keep the run folder here (default: a temp dir)"
+    )
+    args = parser.parse_args(argv)
+    root = args.root.resolve()
+    pages = {root / "README.md": "docs/images", root / "docs" / "index.md": "images"}
+    for page in pages:
+        if not page.is_file():
+            parser.error(f"{page} not found; give the repository with --root")
+        try:
+            current_block(page.read_text(encoding="utf-8"))
+        except ValueError as exc:
+            parser.error(f"{page}: {exc}")
+    work = args.work or Path(tempfile.mkdtemp(prefix="tooldesign-readme-"))
+    numbers, run = measure(
+        iterations=args.iterations,
+        batch_size=args.batch_size,
+        seed=args.seed,
+        workers=args.workers,
+        work=work,
+    )
+    images = root / "docs" / "images"
+    images.mkdir(parents=True, exist_ok=True)
+    for source, target in IMAGES.items():
+        if (run / source).exists():
+            shutil.copyfile(run / source, images / target)
+    (images / NUMBERS_FILE).write_text(json.dumps(numbers, indent=2) + "\n", encoding="utf-8")
+    for page, prefix in pages.items():
+        text = page.read_text(encoding="utf-8")
+        page.write_text(replace_block(text, render_block(numbers, prefix)), encoding="utf-8")
+    print(f"wrote {images / NUMBERS_FILE}, the images and the blocks of {len(pages)} pages")
+    print(f"run folder: {run}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,59 @@
+"""The dispatcher: light top-level help and version, help texts that say what is accepted."""
+
+from __future__ import annotations
+
+import argparse
+import re
+import subprocess
+import sys
+
+import pytest
+
+from benchmarks.cli import COMMANDS, build_parser, main
+from optimizers import registry
+
+
+def _subparsers(parser: argparse.ArgumentParser) -> argparse._SubParsersAction:
+    return next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+
+
+def test_top_level_help_and_version_import_no_heavy_module():
+    code = (
+        "import sys\nfrom benchmarks.cli import main\n"
+        "for argv in (['--help'], ['--version']):\n"
+        "    try:\n        main(argv)\n    except SystemExit as e:\n        assert e.code == 0\n"
+        "print(sorted(m for m in ('pybullet', 'matplotlib', 'pandas', 'scipy', 'torch')"
+        " if m in sys.modules))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.rstrip().endswith("[]"), out.stdout
+    assert "tooldesign 0." in out.stdout
+    for name in COMMANDS:
+        assert name in out.stdout
+
+
+def test_the_stub_help_lines_match_the_subcommands_own():
+    full = _subparsers(build_parser())
+    lines = {a.dest: a.help for a in full._choices_actions}
+    assert lines == {name: help_line for name, (_, help_line) in COMMANDS.items()}
+
+
+def test_build_parser_refuses_an_unknown_command():
+    with pytest.raises(ValueError, match="unknown command 'frob'"):
+        build_parser("frob")
+
+
+def test_design_help_lists_every_available_optimizer(capsys):
+    with pytest.raises(SystemExit):
+        main(["design", "--help"])
+    # argparse wraps at hyphens ("optuna-" / "cmaes"): undo the wrapping before looking.
+    text = re.sub(r"-\s+", "-", " ".join(capsys.readouterr().out.split()))
+    for name in registry.available():
+        assert name in text
+
+
+def test_evaluate_help_has_no_raw_markup(capsys):
+    with pytest.raises(SystemExit):
+        main(["evaluate", "--help"])
+    text = capsys.readouterr().out
+    assert "``" not in text and "--outside-bounds" in text

@@ -1,0 +1,121 @@
+"""The self-contained HTML report: everything embedded, and nothing broken in a real browser."""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from benchmarks.cli import main
+from benchmarks.html_report import REPORT_FILE, write_html_report
+
+BROWSERS = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable")
+
+# Injected into a copy of the report: record script errors from the start, and after load list
+# the images that did not decode, into a div that --dump-dom prints.
+PROBE_HEAD = (
+    "<script>window.__errors=[];window.addEventListener('error',function(e){"
+    "window.__errors.push(String(e.message||(e.target&&e.target.alt)||'error'))},true);</script>"
+)
+PROBE_TAIL = (
+    "<script>window.addEventListener('load',function(){var bad=[];"
+    "for(var i=0;i<document.images.length;i++){var im=document.images[i];"
+    "if(!im.complete||im.naturalWidth===0)bad.push(im.alt);}"
+    "var d=document.createElement('div');d.id='__probe';d.textContent=JSON.stringify("
+    "{images:document.images.length,broken:bad,errors:window.__errors});"
+    "document.body.appendChild(d);});</script>"
+)
+
+
+def _run_folder(folder):
+    """A folder shaped like a design run, with a suite-style report subfolder."""
+    folder.mkdir()
+    rgb = (np.arange(40 * 30 * 3) % 255).astype(np.uint8).reshape(30, 40, 3)
+    Image.fromarray(rgb).save(folder / "figure3.png")
+    frames = [Image.fromarray(np.roll(rgb, k, axis=1)) for k in range(3)]
+    frames[0].save(folder / "rollout.gif", save_all=True, append_images=frames[1:])
+    (folder / "design.json").write_text(json.dumps({"free_energy": 4861.25, "valid": True}))
+    (folder / "evaluations.csv").write_text("iteration,free_energy\n0,5000.5\n1,4861.25\n")
+    (folder / "report").mkdir()
+    Image.fromarray(rgb[::-1]).save(folder / "report" / "final_f.png")
+    (folder / "report" / "summary.md").write_text("| optimizer | F |\n|---|---|\n| <b>x | 1 |\n")
+    (folder / "parts").mkdir()
+    (folder / "parts" / "iteration=000000.csv").write_text("secret,stored\n1,2\n")
+    return folder
+
+
+def test_report_embeds_every_figure_card_and_table(tmp_path):
+    folder = _run_folder(tmp_path / "run")
+    path = write_html_report(folder)
+    assert path == folder / REPORT_FILE
+    text = path.read_text()
+    assert text.count("data:image/png;base64,") == 2 and text.count("data:image/gif;base64,") == 1
+    assert "4861.25" in text and "5000.5" in text and "report/summary.md" in text
+    assert "&lt;b&gt;x" in text  # file contents are escaped, not interpreted
+    assert "secret" not in text  # stored results under parts/ are left out
+    assert "<script" not in text and not re.search(r"""(src|href)=["']?(https?:|//|file:)""", text)
+    write_html_report(folder)  # again: the earlier report is not embedded in the new one
+    assert path.read_text() == text
+
+
+def test_report_bad_input(tmp_path):
+    with pytest.raises(FileNotFoundError):
+        write_html_report(tmp_path / "absent")
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(ValueError, match="no figure"):
+        write_html_report(tmp_path / "empty")
+
+
+def test_cli_prints_where_the_report_is(tmp_path, capsys):
+    folder = _run_folder(tmp_path / "run")
+    assert main(["html", str(folder)]) == 0
+    assert f"report: {folder / REPORT_FILE}" in capsys.readouterr().out
+    with pytest.raises(SystemExit) as excinfo:
+        main(["html", str(tmp_path / "absent")])
+    assert excinfo.value.code == 2
+
+
+def _browser_probe(report, tmp_path):
+    browser = next((shutil.which(b) for b in BROWSERS if shutil.which(b)), None)
+    if browser is None:
+        pytest.skip("no headless Chromium installed (apt-get install chromium)")
+    page = tmp_path / "probe.html"
+    html = report.read_text()
+    page.write_text(
+        html.replace("<head>", "<head>" + PROBE_HEAD, 1).replace("</body>", PROBE_TAIL + "</body>")
+    )
+    out = subprocess.run(
+        [
+            browser,
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--virtual-time-budget=10000",
+            "--dump-dom",
+            page.as_uri(),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    found = re.findall(r'<div id="__probe">(.*?)</div>', out.stdout)
+    assert found, f"the browser printed no probe result: {out.stderr[-500:]}"
+    return json.loads(found[0].replace("&quot;", '"'))
+
+
+def test_report_opens_in_headless_chromium_with_nothing_broken(tmp_path):
+    report = write_html_report(_run_folder(tmp_path / "run"))
+    probe = _browser_probe(report, tmp_path)
+    assert probe == {"images": 3, "broken": [], "errors": []}
+
+
+def test_the_browser_check_sees_a_broken_image(tmp_path):
+    folder = _run_folder(tmp_path / "run")
+    (folder / "figure3.png").write_bytes(b"\x89PNG\r\n\x1a\nnot really")
+    probe = _browser_probe(write_html_report(folder), tmp_path)
+    assert probe["broken"] == ["figure3.png"]

@@ -1,0 +1,102 @@
+"""The README's numbers are what ``python -m benchmarks.readme`` measured (no design rerun here)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from benchmarks.readme import (
+    BLOCK_END,
+    BLOCK_START,
+    NUMBERS_FILE,
+    current_block,
+    main,
+    render_block,
+    replace_block,
+)
+
+ROOT = Path(__file__).resolve().parents[1]
+NUMBERS = ROOT / "docs" / "images" / NUMBERS_FILE
+PAGES = {ROOT / "README.md": "docs/images", ROOT / "docs" / "index.md": "images"}
+
+EXAMPLE = {
+    "seed": 0,
+    "goal_precision": 20.0,
+    "designed": {
+        "coefficients": [0.1, -0.2, 0.3],
+        "free_energy": 4861.2,
+        "goal_error": 5000.4,
+        "confidence": 139.2,
+        "final_distance": 0.491,
+    },
+    "straight": {
+        "coefficients": [0.0, 0.0, 0.0],
+        "free_energy": 6250.0,
+        "goal_error": 6300.0,
+        "confidence": 50.0,
+        "final_distance": 0.06,
+    },
+}
+
+
+@pytest.mark.parametrize("page", list(PAGES), ids=lambda p: p.name)
+def test_the_pages_quote_the_measured_numbers(page):
+    if not NUMBERS.exists():
+        pytest.skip(f"{NUMBERS} not written yet: run `python -m benchmarks.readme`")
+    numbers = json.loads(NUMBERS.read_text())
+    assert current_block(page.read_text()) == render_block(numbers, PAGES[page])
+
+
+def test_every_image_of_the_block_exists():
+    for page, prefix in PAGES.items():
+        block = current_block(page.read_text())
+        for line in block.splitlines():
+            if line.startswith("!["):
+                target = line.split("](", 1)[1].rstrip(")")
+                assert (page.parent / target).exists(), (page.name, target)
+        assert prefix
+
+
+def test_block_quotes_both_tools_and_says_why():
+    text = render_block(EXAMPLE, "docs/images")
+    assert "F = 4861)" in text and "0.49 m from the goal" in text
+    assert "gets within 0.06 m" in text
+    assert "F is 4861 for the designed tool and 6250 for the straight one" in text
+    assert "trades the goal error" in text and "docs/images/rollout.gif" in text
+
+
+def test_block_says_closer_when_the_designed_tool_is_closer():
+    closer = json.loads(json.dumps(EXAMPLE))
+    closer["designed"]["final_distance"] = 0.01
+    assert "closer to the goal than the straight tool" in render_block(closer, "images")
+
+
+def test_replace_block_round_trips_and_refuses_missing_markers():
+    text = f"a\n{BLOCK_START}\nold\n{BLOCK_END}\nb\n"
+    new = replace_block(text, "new\n")
+    assert new == f"a\n{BLOCK_START}\nnew\n{BLOCK_END}\nb\n"
+    assert current_block(new) == "new\n"
+    for bad in (
+        "no markers",
+        f"{BLOCK_END}{BLOCK_START}",
+        f"{BLOCK_START}{BLOCK_START}{BLOCK_END}",
+    ):
+        with pytest.raises(ValueError):
+            replace_block(bad, "x")
+
+
+def test_render_block_needs_every_number():
+    with pytest.raises(KeyError):
+        render_block({"seed": 0, "goal_precision": 20.0, "designed": {}}, "images")
+
+
+@pytest.mark.parametrize(
+    "argv", [["--iterations", "0"], ["--batch-size", "-1"], ["--workers", "x"], ["--root", "/"]]
+)
+def test_bad_arguments_exit_2_before_any_design(argv, capsys):
+    with pytest.raises(SystemExit) as excinfo:
+        main(argv)
+    assert excinfo.value.code == 2
+    assert "error" in capsys.readouterr().err
