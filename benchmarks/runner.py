@@ -799,6 +799,9 @@ def summary_text(result: SuiteResult) -> str:
         f"load average (1, 5, 15 min) at the end: {_load_average()}",
         f"run folder: {result.out_dir}",
     ]
+    if result.report:
+        lines.append(f"report: {result.report[0].parent} ({len(result.report)} files)")
+    lines.append(f"noise floor: tooldesign retest {result.out_dir}, then tooldesign report")
     return "\n".join(lines)
 
 
