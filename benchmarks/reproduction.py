@@ -199,7 +199,9 @@ def _design_stress(retests: Sequence[Mapping[str, Any]]) -> pd.DataFrame:
                     ),
                 }
             )
-    return pd.DataFrame(rows)
+    columns = ["variant", "label", "goal_precision", "robustness", "accuracy"]
+    columns += ["control_deviation", "final_distance", "noise"]
+    return pd.DataFrame(rows, columns=columns)
 
 
 def _claim_c(folder: Path, baseline: Path | None) -> tuple[str, str, list[str]]:
@@ -220,7 +222,7 @@ def _claim_c(folder: Path, baseline: Path | None) -> tuple[str, str, list[str]]:
         "final distance (m) |",
         "|---|---|---|---|---|---|",
     ]
-    rows = table[table["label"] != ""] if len(table) else table
+    rows = table[table["label"] != ""] if len(table) else pd.DataFrame(columns=["label"])
     if baseline is not None:
         base_table, base_retests = _stress_rows(baseline)
         rows = pd.concat([rows, base_table], ignore_index=True)
@@ -320,6 +322,25 @@ def _claim_d(folder: Path) -> tuple[str, str, list[str]]:
     return cell, verdict, lines
 
 
+def _suite_rows(results: Path) -> list[str]:
+    rows = []
+    for suite in SUITES:
+        path = results / suite / "manifest.json"
+        if not path.is_file():
+            continue
+        manifest = json.loads(path.read_text(encoding="utf-8"))
+        config = manifest.get("config", {})
+        commit = str(manifest.get("git_commit") or manifest.get("commit") or "n/a")[:7]
+        retested = "yes" if (results / suite / "retest").is_dir() else "no"
+        rows.append(
+            f"| {suite} | {config.get('estimator', 'n/a')} | "
+            f"{config.get('objective', 'free-energy')} | {config.get('n_seeds', 'n/a')} | "
+            f"{config.get('batch_size', 'n/a')} x {config.get('iterations', 'n/a')} | "
+            f"{commit} | {retested} |"
+        )
+    return rows
+
+
 def reproduction_page(results: Path) -> str:
     """The Markdown of docs/reproduction.md, from the committed results under ``results``."""
     floors = {}
@@ -337,9 +358,12 @@ def reproduction_page(results: Path) -> str:
         "",
         "This page is written by `python -m benchmarks.reproduction` from the committed results "
         "under `docs/results/` alone (it rebuilds every suite's report first); nothing on it is "
-        "typed by hand. The suites use the defaults of [The model](model.md): the contact "
-        "estimator of Pi_U, p^X = 20 unless varied, box 0.1 kg, batch 8, 15 iterations, seeds "
-        "from `SeedSequence(0)`.",
+        "typed by hand. Each suite ran with the defaults of [The model](model.md) except what "
+        "its config (`manifest.json`) says; the estimator of Pi_U and the code each ran with:",
+        "",
+        "| suite | estimator | objective | seeds | batch x iterations | commit | retested |",
+        "|---|---|---|---|---|---|---|",
+        *_suite_rows(results),
         "",
         "**How a claim is judged.** A difference counts when its 95 % interval (or its "
         "Holm-corrected test) excludes zero AND it is larger than the noise floor: the median "
