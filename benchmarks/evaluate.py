@@ -184,15 +184,16 @@ def evaluate(
             "refuses it); pass --outside-bounds (API: outside_bounds=True) to evaluate it anyway"
         )
     bounds = np.stack([np.minimum(bounds[:, 0], c), np.maximum(bounds[:, 1], c)], axis=1)
-    env = ToolDesignEnv(
-        goal=goal,
-        goal_precision=goal_precision,
-        box_mass=box_mass,
-        estimator=estimator,
-        objective_kind=objective,
-        bounds=bounds,
-        tool=spec,
-    )
+    settings: dict[str, Any] = {
+        "goal": goal,
+        "goal_precision": goal_precision,
+        "box_mass": box_mass,
+        "estimator": estimator,
+        "objective_kind": objective,
+        "bounds": bounds,
+        "tool": spec,
+    }
+    env = ToolDesignEnv(**settings)
     try:
         env.reset(seed=0)
         info = env.step(c)[4]
@@ -243,17 +244,7 @@ def evaluate(
             ax.set_title(f"F = {info['free_energy']:.4g}")
             save_png(fig, out / "free_energy.png")
             if video:
-                rollout_gif(
-                    info["coefficients"],
-                    out / "rollout.gif",
-                    goal=goal,
-                    goal_precision=goal_precision,
-                    box_mass=box_mass,
-                    estimator=estimator,
-                    objective_kind=objective,
-                    bounds=bounds,
-                    tool=spec,
-                )
+                rollout_gif(info["coefficients"], out / "rollout.gif", **settings)
             if robustness:
                 result = env.evaluate_robustness(info["coefficients"], DEFAULT_MASSES)
                 card["robustness"] = {

@@ -131,8 +131,6 @@ class RetestItem:
 
 
 def _rollout(task: TaskSettings, scene: Any, coeffs: Sequence[float], **changes: Any) -> dict:
-    from tooldesign_env import SceneSpec  # noqa: F401  (scene is a SceneSpec)
-
     settings = dataclasses.replace(task, env_kwargs={**dict(task.env_kwargs), "scene": scene})
     if "box_mass" in changes:
         settings = dataclasses.replace(settings, box_mass=changes["box_mass"])

@@ -403,9 +403,9 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
         """
         masses = self.objective.expected_masses
         runs = {m: self.simulator.rollout(geometry, box_mass=m) for m in masses}
-        nominal = runs.get(self._box_mass) or self.simulator.rollout(
-            geometry, box_mass=self._box_mass
-        )
+        nominal = runs.get(self._box_mass)
+        if nominal is None:
+            nominal = self.simulator.rollout(geometry, box_mass=self._box_mass)
         precision = self.objective.goal_precision
         e_t = np.mean([goal_error(r.box_position, self._goal, precision) for r in runs.values()], 0)
         distance = np.mean([np.linalg.norm(r.box_position[-1] - self._goal) for r in runs.values()])
