@@ -1,0 +1,122 @@
+"""The committed smoke results, and the run folders they must be reproduced from bit for bit.
+
+``tests/fixtures/smoke-results.json.gz`` holds every number that the four paper suites at size
+``smoke`` and one small ``tooldesign design`` run store: evaluations, final designs, robustness
+tests and report tables. Wall times, dates, versions and paths are left out; every float is kept
+as its ``repr``, so two runs match only if they agree to the last bit.
+
+``tests/test_smoke_reproduction.py`` reruns them and compares. Regenerate the fixture (after a
+change that is *meant* to move numbers, and say so in the commit) with::
+
+    python tests/smoke_results.py --write
+"""
+
+from __future__ import annotations
+
+import argparse
+import gzip
+import json
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+FIXTURE = Path(__file__).parent / "fixtures" / "smoke-results.json.gz"
+SUITES = ("optimizers", "precision-sweep", "robustness", "mass-perturbation")
+DESIGN_ARGS = ("--iterations", "2", "--batch-size", "4", "--seed", "3", "--no-video")
+_DROPPED_KEYS = ("config", "packages", "git_commit", "files", "run_folder", "command")
+
+
+def _dropped(key: str) -> bool:
+    return "time" in key or key in _DROPPED_KEYS
+
+
+def _exact(value: Any) -> Any:
+    """Floats as their repr (bit-exact in JSON), containers recursively, volatile keys dropped."""
+    if isinstance(value, float):
+        return repr(value)
+    if isinstance(value, dict):
+        return {k: _exact(v) for k, v in sorted(value.items()) if not _dropped(str(k))}
+    if isinstance(value, list):
+        return [_exact(v) for v in value]
+    return value
+
+
+def _table(path: Path) -> list[dict[str, Any]]:
+    frame = pd.read_csv(path, keep_default_na=False, dtype=str)
+    frame = frame[[c for c in frame.columns if not _dropped(c)]]
+    return [dict(row) for row in frame.sort_values(list(frame.columns)).to_dict("records")]
+
+
+def canonical(folder: Path) -> dict[str, Any]:
+    """Every stored number of a run folder, keyed by the file's path inside it."""
+    out: dict[str, Any] = {}
+    parts = sorted(folder.glob("parts/**/*.csv"))
+    if parts:
+        rows = [row for part in parts for row in _table(part)]
+        out["parts"] = sorted(rows, key=lambda r: json.dumps(r, sort_keys=True))
+    for path in sorted(folder.glob("report/*.csv")) + sorted(folder.glob("evaluations.csv")):
+        out[path.relative_to(folder).as_posix()] = _table(path)
+    for path in sorted(folder.glob("designs/**/*.json")) + sorted(folder.glob("*.json")):
+        if path.name == "manifest.json":
+            continue
+        out[path.relative_to(folder).as_posix()] = _exact(json.loads(path.read_text()))
+    return out
+
+
+def run_all(root: Path, workers: int = 1) -> dict[str, Any]:
+    """Run the four smoke suites and the design run under ``root``; their canonical numbers."""
+    results: dict[str, Any] = {}
+    common = ["--workers", str(workers), "--no-progress"]
+    for suite in SUITES:
+        out = root / suite
+        cmd = [sys.executable, "-m", "benchmarks", suite, "--size", "smoke", "--out", str(out)]
+        subprocess.run(cmd + common, check=True, capture_output=True, text=True)
+        results[suite] = canonical(out)
+    out = root / "design"
+    cmd = [sys.executable, "-c", "from benchmarks.cli import main; import sys; sys.exit(main())"]
+    subprocess.run(
+        [*cmd, "design", *DESIGN_ARGS, "--out", str(out), *common],
+        check=True,
+        capture_output=True,
+        text=True,
+    )
+    results["design"] = canonical(out)
+    return results
+
+
+def read_fixture() -> dict[str, Any]:
+    """The committed smoke results."""
+    with gzip.open(FIXTURE, "rt", encoding="utf-8") as f:
+        return json.load(f)
+
+
+def main() -> None:
+    """Write the fixture (``--write``) from fresh runs in a temporary folder."""
+    import tempfile
+
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--write", action="store_true", help="overwrite the committed fixture")
+    parser.add_argument("--from", dest="source", type=Path, help="use existing run folders")
+    args = parser.parse_args()
+    if args.source is not None:
+        results = {name: canonical(args.source / name) for name in (*SUITES, "design")}
+    else:
+        with tempfile.TemporaryDirectory() as tmp:
+            results = run_all(Path(tmp))
+    text = json.dumps(results, sort_keys=True, indent=0)
+    if args.write:
+        FIXTURE.parent.mkdir(parents=True, exist_ok=True)
+        with gzip.GzipFile(FIXTURE, "wb", mtime=0) as f:
+            f.write(text.encode())
+        print(f"wrote {FIXTURE} ({FIXTURE.stat().st_size} bytes)")
+    else:
+        same = results == read_fixture()
+        print("identical to the committed smoke results" if same else "DIFFERENT")
+        sys.exit(0 if same else 1)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,35 @@
+"""The committed smoke results are reproduced bit for bit (see ``tests/smoke_results.py``).
+
+This is the guard of every refactoring that claims to leave behaviour unchanged: the four paper
+suites at size ``smoke`` and a small ``tooldesign design`` run must store exactly the numbers
+committed in ``tests/fixtures/smoke-results.json.gz``, to the last bit of every float.
+"""
+
+from __future__ import annotations
+
+import pytest
+from smoke_results import SUITES, read_fixture, run_all
+
+
+@pytest.fixture(scope="module")
+def fresh(tmp_path_factory):
+    return run_all(tmp_path_factory.mktemp("smoke"), workers=2)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", [*SUITES, "design"])
+def test_smoke_results_are_reproduced_bit_for_bit(fresh, name):
+    expected = read_fixture()[name]
+    got = fresh[name]
+    assert sorted(got) == sorted(expected), "the run folder stores other files"
+    for key in expected:
+        assert got[key] == expected[key], f"{name}: {key} differs from the committed results"
+
+
+def test_the_fixture_holds_every_suite_and_real_numbers():
+    fixture = read_fixture()
+    assert set(fixture) == {*SUITES, "design"}
+    for name, stored in fixture.items():
+        assert stored["parts"], name
+        scores = [float(row["free_energy"]) for row in stored["parts"] if row["status"] == "ok"]
+        assert len(scores) >= 8 and len(set(scores)) == len(scores), name
