@@ -1,4 +1,4 @@
-"""Tests of benchmarks.report on synthetic run folders."""
+"""Tests of benchmarks.reports.comparison on synthetic run folders."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from benchmarks.report import (
+from benchmarks.reports.comparison import (
     DPI,
     FIGSIZE,
     convergence_table,

@@ -1,4 +1,4 @@
-"""Tests of benchmarks.stats against hand-computed values."""
+"""Tests of benchmarks.reports.stats against hand-computed values."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.stats import mannwhitneyu
 
-from benchmarks.stats import (
+from benchmarks.reports.stats import (
     PAIRWISE_COLUMNS,
     BootstrapCI,
     area_under_curve,

@@ -17,7 +17,6 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from benchmarks import storage
 from benchmarks.storage import (
     EmptyStoreError,
     ResultStore,
@@ -32,6 +31,7 @@ from benchmarks.storage import (
     validate_evaluations,
     write_manifest,
 )
+from benchmarks.storage import table as storage_table
 
 OPTIMIZERS = ("cmaes", "random")
 SEEDS = (0, 1)
@@ -207,7 +207,7 @@ def test_resume_after_kill_skips_done_units_and_equals_uninterrupted_run(tmp_pat
     killed = interrupted.part_path(plan[5])
     leftover = killed.with_name(f".{killed.name}.4242.deadbeef.tmp")
     leftover.parent.mkdir(parents=True, exist_ok=True)
-    leftover.write_bytes(storage._csv_bytes(batch_of(plan[5]))[:50])
+    leftover.write_bytes(batch_of(plan[5]).to_csv(index=False).encode()[:50])
     # Another worker had finished a later unit of a different run.
     interrupted.write_batch(batch_of(plan[9]))
 
@@ -338,7 +338,7 @@ def test_any_double_survives_a_part_file(values: list[float]) -> None:
 def test_format_rule_prefers_parquet_only_when_pyarrow_imports(
     monkeypatch: pytest.MonkeyPatch, tmp_path: Path
 ) -> None:
-    monkeypatch.setattr(storage, "_pyarrow_available", lambda: False)
+    monkeypatch.setattr(storage_table, "_pyarrow_available", lambda: False)
     assert resolve_format("auto") == "csv"
     assert resolve_format("csv") == "csv"
     with pytest.raises(ImportError, match=r"tooldesign\[parquet\]"):
@@ -347,7 +347,7 @@ def test_format_rule_prefers_parquet_only_when_pyarrow_imports(
     store.write_batch(make_batch("cmaes", 0, 0))
     assert store.consolidate().name == "evaluations.csv"
 
-    monkeypatch.setattr(storage, "_pyarrow_available", lambda: True)
+    monkeypatch.setattr(storage_table, "_pyarrow_available", lambda: True)
     assert resolve_format("auto") == "parquet"
     with pytest.raises(ValueError, match="format must be"):
         resolve_format("feather")

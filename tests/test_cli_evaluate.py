@@ -75,12 +75,12 @@ def test_bad_arguments_exit_2_with_a_message(argv, tmp_path, monkeypatch, capsys
 
 
 def test_a_missing_optional_backend_is_one_line(monkeypatch, capsys):
-    import benchmarks.evaluate as evaluate_module
+    import benchmarks.cli.evaluate as evaluate_module
 
     def missing(*args, **kwargs):
         raise ImportError("this needs scikit-optimize: pip install 'tooldesign[bo]'")
 
-    monkeypatch.setattr(evaluate_module, "evaluate", missing)
+    monkeypatch.setattr(evaluate_module, "evaluate_coefficients", missing)
     with pytest.raises(SystemExit) as excinfo:
         main(["evaluate", "--coeffs", "0", "0", "0", "--out", "x"])
     assert excinfo.value.code == 2
@@ -88,7 +88,7 @@ def test_a_missing_optional_backend_is_one_line(monkeypatch, capsys):
 
 
 def test_the_api_refuses_a_design_outside_the_bounds_as_env_step_does(tmp_path):
-    from benchmarks.evaluate import evaluate
+    from benchmarks.design.evaluate import evaluate_coefficients as evaluate
 
     with pytest.raises(ValueError, match="outside the default bounds.*--outside-bounds"):
         evaluate([0.0, 0.0, 3.0], tmp_path / "x")

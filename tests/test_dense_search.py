@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from benchmarks.dense_search import grid
+from benchmarks.suites.dense_search import grid
 from tooldesign_env import default_bounds
 
 

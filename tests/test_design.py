@@ -1,4 +1,4 @@
-"""Tests of benchmarks.design (Algorithm 1, the run folder, resume) and benchmarks.evaluation."""
+"""Tests of benchmarks.design (Algorithm 1, the run folder, resume) and benchmarks.execution."""
 
 from __future__ import annotations
 
@@ -14,10 +14,11 @@ import pandas as pd
 import pytest
 from cli_kill import run_until
 
-from benchmarks import design as design_module
 from benchmarks.cli import main
-from benchmarks.design import FILES, DesignConfig, ResumeError, run_design
-from benchmarks.evaluation import (
+from benchmarks.design import DESIGN_SUITE, DesignConfig, run_design
+from benchmarks.design import loop as design_loop
+from benchmarks.design import stepper as design_stepper
+from benchmarks.execution import (
     EvaluationRequest,
     SerialExecutor,
     TaskSettings,
@@ -26,7 +27,17 @@ from benchmarks.evaluation import (
     make_executor,
     map_robust,
 )
-from benchmarks.storage import ResultStore, file_sha256
+from benchmarks.reports import write_design_report
+from benchmarks.storage import (
+    DESIGN_RUN_FILES as FILES,
+)
+from benchmarks.storage import (
+    PART_CHECKSUMS,
+    ResultStore,
+    ResumeError,
+    Unit,
+    file_sha256,
+)
 
 CONFIG = DesignConfig(optimizer="cmaes", seed=0, iterations=2, batch_size=4, executor="serial")
 TIMING = ["eval_time", "opt_time"]
@@ -56,6 +67,12 @@ def cli_args(out: Path, *extra: str) -> list[str]:
     ]
 
 
+def _unit(iteration: int) -> Unit:
+    return Unit(
+        suite=DESIGN_SUITE, optimizer=CONFIG.optimizer, seed=CONFIG.seed, iteration=iteration
+    )
+
+
 def without_timings(frame: pd.DataFrame) -> pd.DataFrame:
     return frame.drop(columns=TIMING).reset_index(drop=True)
 
@@ -67,7 +84,9 @@ def card(folder: Path) -> dict:
 @pytest.fixture(scope="module")
 def reference(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, object]:
     out = tmp_path_factory.mktemp("design") / "reference"
-    return out, run_design(CONFIG, out, progress=False)
+    result = run_design(CONFIG, out, progress=False)
+    write_design_report(out)  # what `tooldesign design` does after the run
+    return out, result
 
 
 # --- the run folder ----------------------------------------------------------------------------
@@ -76,7 +95,9 @@ def reference(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, object]:
 @pytest.mark.slow
 def test_short_run_writes_every_file(reference) -> None:
     out, result = reference
-    for name in FILES.values():
+    for key, name in FILES.items():
+        if key == "video":  # only with video=True (tooldesign design without --no-video)
+            continue
         path = out / name
         assert path.is_file() and path.stat().st_size > 0, name
     assert (out / "manifest.json").is_file()
@@ -152,7 +173,7 @@ def _compare_runs(a: Path, b: Path) -> None:
 def test_resume_after_sigkill_equals_uninterrupted_run(reference, tmp_path: Path) -> None:
     ref, _ = reference
     out = tmp_path / "killed"
-    unit = design_module._unit(CONFIG, 0)
+    unit = _unit(0)
     parts = ResultStore(out)
     # Killed in the middle of the ask/tell loop, after iteration 0 was logged ...
     run_until(cli_args(out), parts.part_path(unit))
@@ -173,7 +194,7 @@ def test_resume_after_keyboard_interrupt_equals_uninterrupted_run(
 ) -> None:
     ref, _ = reference
     out = tmp_path / "interrupted"
-    real = design_module.evaluate_batch
+    real = design_loop.evaluate_batch
     calls = []
 
     def interrupt_second_batch(*args, **kwargs):
@@ -182,11 +203,11 @@ def test_resume_after_keyboard_interrupt_equals_uninterrupted_run(
             raise KeyboardInterrupt
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(design_module, "evaluate_batch", interrupt_second_batch)
+    monkeypatch.setattr(design_loop, "evaluate_batch", interrupt_second_batch)
     with pytest.raises(KeyboardInterrupt):
         run_design(CONFIG, out, progress=False)
     assert len(ResultStore(out).completed_units()) == 1
-    monkeypatch.setattr(design_module, "evaluate_batch", real)
+    monkeypatch.setattr(design_loop, "evaluate_batch", real)
     with pytest.raises(ValueError, match="--resume"):
         run_design(CONFIG, out, progress=False)
     run_design(CONFIG, out, resume=True, progress=False)
@@ -198,14 +219,14 @@ def test_resume_refuses_a_log_the_optimizer_does_not_replay(reference, tmp_path:
     ref, _ = reference
     out = tmp_path / "tampered"
     shutil.copytree(ref, out)
-    part = ResultStore(out).part_path(design_module._unit(CONFIG, 0))
+    part = ResultStore(out).part_path(_unit(0))
     frame = pd.read_csv(part, keep_default_na=False, na_values=[""])
     frame.loc[0, "c1"] = np.nextafter(frame.loc[0, "c1"], np.inf)  # one bit off
     part.write_text(frame.to_csv(index=False, float_format=lambda v: repr(float(v))))
     # A tamperer who also fixes the checksum in the manifest is caught by the replay.
     manifest = json.loads((out / "manifest.json").read_text())
     relative = part.relative_to(out).as_posix()
-    manifest["extra"][design_module.PART_CHECKSUMS][relative] = file_sha256(part)
+    manifest["extra"][PART_CHECKSUMS][relative] = file_sha256(part)
     (out / "manifest.json").write_text(json.dumps(manifest))
     with pytest.raises(ResumeError, match="replaying iteration 0"):
         run_design(CONFIG, out, resume=True, progress=False)
@@ -234,7 +255,7 @@ def test_resume_refuses_a_tampered_folder_and_changes_nothing(
     out = tmp_path / "tampered"
     shutil.copytree(ref, out)
     store = ResultStore(out)
-    part = store.part_path(design_module._unit(CONFIG, 0))
+    part = store.part_path(_unit(0))
     manifest = json.loads((out / "manifest.json").read_text())
     if tamper == "edit F":
         frame = pd.read_csv(part, keep_default_na=False, na_values=[""])
@@ -246,10 +267,10 @@ def test_resume_refuses_a_tampered_folder_and_changes_nothing(
         part.unlink()
     elif tamper == "extra parts":
         for k in (7, 8):
-            other = store.part_path(design_module._unit(CONFIG, k))
+            other = store.part_path(_unit(k))
             other.write_bytes(part.read_bytes())
     elif tamper == "no checksums":
-        del manifest["extra"][design_module.PART_CHECKSUMS]
+        del manifest["extra"][PART_CHECKSUMS]
     else:
         manifest["format_version"] = 0
     (out / "manifest.json").write_text(json.dumps(manifest))
@@ -294,8 +315,8 @@ def test_a_crashed_worker_process_fails_only_its_own_item() -> None:
 def test_failed_designs_are_logged_and_told_as_failures(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    real_batch = design_module.evaluate_batch
-    real_make = design_module._make_optimizer
+    real_batch = design_loop.evaluate_batch
+    real_make = design_stepper._make_optimizer
     told = []
 
     def fail_first_candidate(executor, designs, task, **kwargs):
@@ -316,8 +337,8 @@ def test_failed_designs_are_logged_and_told_as_failures(
             told.append(np.array(values, dtype=float))
             return self._optimizer.tell(ids, values)
 
-    monkeypatch.setattr(design_module, "evaluate_batch", fail_first_candidate)
-    monkeypatch.setattr(design_module, "_make_optimizer", lambda c: Spy(real_make(c)))
+    monkeypatch.setattr(design_loop, "evaluate_batch", fail_first_candidate)
+    monkeypatch.setattr(design_stepper, "_make_optimizer", lambda c: Spy(real_make(c)))
     config = dataclasses.replace(CONFIG, iterations=1, batch_size=3)
     with pytest.warns(RuntimeWarning, match="candidate 0 failed"):
         result = run_design(config, tmp_path / "run", progress=False)
@@ -465,9 +486,8 @@ def _optimizer_names() -> list[str]:
 def test_every_optimizer_resumes_to_the_uninterrupted_run(
     name: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    monkeypatch.setattr(design_module, "evaluate_batch", _analytic_rows)
-    monkeypatch.setattr(design_module, "map_robust", _fake_robustness)
-    monkeypatch.setattr(design_module, "_figures", lambda *args: None)
+    monkeypatch.setattr(design_loop, "evaluate_batch", _analytic_rows)
+    monkeypatch.setattr(design_loop, "map_robust", _fake_robustness)
     config = dataclasses.replace(CONFIG, optimizer=name, iterations=4, seed=3)
     whole = run_design(config, tmp_path / "whole", progress=False)
 
@@ -479,10 +499,10 @@ def test_every_optimizer_resumes_to_the_uninterrupted_run(
             raise KeyboardInterrupt
         return _analytic_rows(*args, **kwargs)
 
-    monkeypatch.setattr(design_module, "evaluate_batch", interrupt_third_batch)
+    monkeypatch.setattr(design_loop, "evaluate_batch", interrupt_third_batch)
     with pytest.raises(KeyboardInterrupt):
         run_design(config, tmp_path / "resumed", progress=False)
-    monkeypatch.setattr(design_module, "evaluate_batch", _analytic_rows)
+    monkeypatch.setattr(design_loop, "evaluate_batch", _analytic_rows)
     resumed = run_design(config, tmp_path / "resumed", resume=True, progress=False)
     pd.testing.assert_frame_equal(
         without_timings(whole.evaluations), without_timings(resumed.evaluations)

@@ -10,8 +10,8 @@ import numpy as np
 import pandas as pd
 from matplotlib.colors import to_rgba
 
-from benchmarks import plots
-from benchmarks.design import _panel_curves, _panel_free_energy, _panel_paths
+from benchmarks.reports import plots
+from benchmarks.reports.design_figures import _panel_curves, _panel_free_energy, _panel_paths
 from tooldesign_env import ToolSpec
 
 RED = to_rgba("red")

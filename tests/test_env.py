@@ -16,6 +16,7 @@ from scipy.stats import spearmanr
 
 import tooldesign_env
 from tooldesign_env import ObjectiveSpec, SceneSpec, ToolDesignEnv
+from tooldesign_env.env import SERIES_KEYS
 
 STRAIGHT = (0.0, 0.0, 0.0)
 HOOK = (0.0, 1.5, 0.0)
@@ -24,7 +25,7 @@ START = np.array([*SceneSpec().box_position, 0.1])
 
 @pytest.fixture(scope="module")
 def env():
-    e = gym.make("ToolDesign-v0")
+    e = gym.make("ToolDesign-v0", info_series=True)
     e.reset(seed=0)
     yield e
     e.close()
@@ -79,6 +80,17 @@ def test_step_contract_and_info_keys(env):
     assert_finite_info(info)
 
 
+def test_info_holds_scalars_unless_series_are_asked_for():
+    e = gym.make("ToolDesign-v0")
+    e.reset(seed=0)
+    info = e.step(np.array(STRAIGHT))[4]
+    e.close()
+    assert not set(SERIES_KEYS) & set(info)
+    for key, value in info.items():
+        assert np.ndim(value) == 0 or key in ("coefficients", "goal"), key
+    assert info["free_energy"] == pytest.approx(info["goal_error"] - info["confidence"])
+
+
 def assert_finite_info(info):
     for key, value in info.items():
         if isinstance(value, (float, np.floating)):
@@ -119,7 +131,7 @@ def test_random_designs_give_spread_outcomes(env):
 @pytest.mark.slow
 def test_confidence_is_higher_in_contact():
     for estimator in ("contact", "trajectory", "resimulation"):
-        e = ToolDesignEnv(estimator=estimator)
+        e = ToolDesignEnv(estimator=estimator, info_series=True)
         e.reset(seed=0)
         for design in (STRAIGHT, HOOK):
             *_, info = e.step(design)
@@ -138,7 +150,7 @@ def test_estimators_agree_in_rank():
     designs += [tuple(rng.uniform([-1.5, -1.5, -0.5], [1.5, 1.5, 0.5])) for _ in range(8)]
     scores = {}
     for estimator in ("contact", "trajectory", "resimulation"):
-        e = ToolDesignEnv(estimator=estimator)
+        e = ToolDesignEnv(estimator=estimator, info_series=True)
         e.reset(seed=0)
         scores[estimator] = [e.step(d)[4]["confidence"] for d in designs]
         e.close()
@@ -158,7 +170,8 @@ def test_same_action_same_result_in_process_and_across_processes(env):
     np.testing.assert_array_equal(a["torques"], b["torques"])
     assert a["free_energy"] == b["free_energy"]
     code = (
-        "import json, gymnasium as gym, tooldesign_env; e = gym.make('ToolDesign-v0'); "
+        "import json, gymnasium as gym, tooldesign_env; "
+        "e = gym.make('ToolDesign-v0', info_series=True); "
         "e.reset(seed=3); info = e.step((0.3, -0.7, 0.2))[4]; "
         "print(json.dumps({'F': info['free_energy'], "
         "'X': info['box_trajectory'].tolist(), 'U': info['torques'].tolist()}))"
@@ -174,8 +187,8 @@ def test_same_action_same_result_in_process_and_across_processes(env):
 
 @pytest.mark.slow
 def test_fast_forward_matches_full_simulation():
-    full = ToolDesignEnv(scene=SceneSpec(fast_forward_rest=False))
-    fast = ToolDesignEnv()
+    full = ToolDesignEnv(scene=SceneSpec(fast_forward_rest=False), info_series=True)
+    fast = ToolDesignEnv(info_series=True)
     for design in (STRAIGHT, HOOK):
         full.reset(seed=0)
         fast.reset(seed=0)
@@ -188,24 +201,24 @@ def test_fast_forward_matches_full_simulation():
 
 # ----------------------------------------------------------------- bad input
 @pytest.mark.parametrize(
-    ("action", "error"),
+    ("action", "error", "says"),
     [
-        ([np.nan, 0.0, 0.0], ValueError),
-        ([np.inf, 0.0, 0.0], ValueError),
-        ([0.0, 0.0], ValueError),
-        ([[0.0, 0.0, 0.0]], ValueError),
-        (["a", "b", "c"], TypeError),
-        ("0 0 0", TypeError),
-        (None, TypeError),
-        ([1e300, 0.0, 0.0], ValueError),
-        ([0.0, 0.0, 0.6], ValueError),
+        ([np.nan, 0.0, 0.0], ValueError, r"NaN or infinite values at index \[0\] \(\[nan"),
+        ([np.inf, 0.0, 0.0], ValueError, r"NaN or infinite values at index \[0\] \(\[inf"),
+        ([0.0, 0.0], ValueError, r"shape \(2,\), expected \(3,\)"),
+        ([[0.0, 0.0, 0.0]], ValueError, r"shape \(1, 3\), expected \(3,\)"),
+        (["a", "b", "c"], TypeError, r"not real numbers"),
+        ("0 0 0", TypeError, r"got str"),
+        (None, TypeError, r"got NoneType"),
+        ([1e300, 0.0, 0.0], ValueError, r"\[1e\+300, 0.0, 0.0\] is outside the action space"),
     ],
 )
-def test_bad_actions_raise_clear_errors(env, action, error):
+def test_bad_actions_raise_clear_errors(env, action, error, says):
     env.reset(seed=0)
-    with pytest.raises(error) as excinfo:
+    # The message names the value and what is allowed.
+    with pytest.raises(error, match=says) as excinfo:
         env.step(action)
-    assert len(str(excinfo.value)) > 20
+    assert "allowed" in str(excinfo.value) or "[low, high]" in str(excinfo.value)
 
 
 def test_out_of_bounds_message_says_what_is_allowed(env):
@@ -215,7 +228,7 @@ def test_out_of_bounds_message_says_what_is_allowed(env):
 
 
 def test_a_tool_overlapping_the_box_is_invalid_not_a_crash():
-    e = ToolDesignEnv(bounds=[(-10, 10)] * 3)
+    e = ToolDesignEnv(bounds=[(-10, 10)] * 3, info_series=True)
     e.reset(seed=0)
     # y = 4.35 u^2 passes through the box centre (u = 0.394 m, y = 0.675 m) at the start.
     _, reward, terminated, _, info = e.step((0.0, 4.35, 0.0))

@@ -12,7 +12,7 @@ import pytest
 from PIL import Image
 
 from benchmarks.cli import main
-from benchmarks.html_report import REPORT_FILE, write_html_report
+from benchmarks.reports.html import REPORT_FILE, write_html_report
 
 BROWSERS = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable")
 

@@ -8,16 +8,16 @@ import textwrap
 
 import pytest
 
-from benchmarks.evaluation import check_main_guard
+from benchmarks.execution import check_main_guard
 
 UNGUARDED = """
-from benchmarks.evaluation import make_executor
+from benchmarks.execution import make_executor
 with make_executor("process", workers=1) as pool:
     print(pool.submit(abs, -1).result())
 """
 
 GUARDED = """
-from benchmarks.evaluation import check_main_guard
+from benchmarks.execution import check_main_guard
 if __name__ == "__main__":
     check_main_guard()
     print("ok")
@@ -48,7 +48,7 @@ def test_a_guarded_script_passes_the_check(tmp_path):
 
 def test_the_check_ignores_python_c_and_pytest():
     check_main_guard()  # under pytest: __main__ is pytest's module or console script
-    code = "from benchmarks.evaluation import check_main_guard; check_main_guard(); print('ok')"
+    code = "from benchmarks.execution import check_main_guard; check_main_guard(); print('ok')"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert out.stdout == "ok\n", out.stderr
 

@@ -95,7 +95,7 @@ def test_type_and_value_errors_of_a_plugin_pass_through(error):
 
 
 def test_the_cli_reports_a_plugin_error_in_one_line(monkeypatch, capsys):
-    import benchmarks.design as design
+    import benchmarks.cli.design as design
     from benchmarks.cli import main
 
     def fail(*args, **kwargs):  # type: ignore[no-untyped-def]

@@ -1,4 +1,4 @@
-"""The README's numbers are what ``python -m benchmarks.readme`` measured (no design rerun here)."""
+"""The README's numbers are what ``tooldesign readme`` measured (no design rerun here)."""
 
 from __future__ import annotations
 
@@ -7,12 +7,11 @@ from pathlib import Path
 
 import pytest
 
-from benchmarks.readme import (
+from benchmarks.cli.readme import (
     BLOCK_END,
     BLOCK_START,
     NUMBERS_FILE,
     current_block,
-    main,
     render_block,
     replace_block,
 )
@@ -44,7 +43,7 @@ EXAMPLE = {
 @pytest.mark.parametrize("page", list(PAGES), ids=lambda p: p.name)
 def test_the_pages_quote_the_measured_numbers(page):
     if not NUMBERS.exists():
-        pytest.skip(f"{NUMBERS} not written yet: run `python -m benchmarks.readme`")
+        pytest.skip(f"{NUMBERS} not written yet: run `python -m benchmarks.cli.readme`")
     numbers = json.loads(NUMBERS.read_text())
     assert current_block(page.read_text()) == render_block(numbers, PAGES[page])
 
@@ -96,7 +95,9 @@ def test_render_block_needs_every_number():
     "argv", [["--iterations", "0"], ["--batch-size", "-1"], ["--workers", "x"], ["--root", "/"]]
 )
 def test_bad_arguments_exit_2_before_any_design(argv, capsys):
+    from benchmarks.cli import main
+
     with pytest.raises(SystemExit) as excinfo:
-        main(argv)
+        main(["readme", *argv])
     assert excinfo.value.code == 2
     assert "error" in capsys.readouterr().err

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from benchmarks.video import rollout_gif, write_gif
+from benchmarks.design.video import rollout_gif, write_gif
 from tooldesign_env.bullet import BulletWorld, _project
 from tooldesign_env.env import ToolDesignEnv
 
@@ -122,8 +122,9 @@ def test_rollout_gif_refuses_bad_input_before_simulating(tmp_path):
 def test_a_design_run_passes_its_task_to_the_video_and_survives_a_failing_one(
     tmp_path, monkeypatch
 ):
-    import benchmarks.video
-    from benchmarks.design import DesignConfig, _video
+    import benchmarks.design.video
+    from benchmarks.design import DesignConfig
+    from benchmarks.design.loop import _video
 
     seen = {}
 
@@ -132,7 +133,7 @@ def test_a_design_run_passes_its_task_to_the_video_and_survives_a_failing_one(
         ToolDesignEnv(**{k: v for k, v in kwargs.items() if k != "frames"}).close()
         raise RuntimeError("no renderer")
 
-    monkeypatch.setattr(benchmarks.video, "rollout_gif", fake)
+    monkeypatch.setattr(benchmarks.design.video, "rollout_gif", fake)
     config = DesignConfig(goal=(0.2, 1.2, 0.1), goal_precision=40.0, box_mass=0.5)
     with pytest.warns(UserWarning, match="rollout.gif not written: RuntimeError: no renderer"):
         _video(config, np.zeros(3), tmp_path / "rollout.gif")

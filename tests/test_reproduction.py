@@ -1,4 +1,4 @@
-"""docs/reproduction.md is what `python -m benchmarks.reproduction` writes from docs/results."""
+"""docs/reproduction.md is what `tooldesign reproduce` writes from docs/results."""
 
 from __future__ import annotations
 
@@ -6,7 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from benchmarks.reproduction import main, reproduction_page
+from benchmarks.cli import main
+from benchmarks.reports.reproduction import reproduction_page
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "docs" / "results"
@@ -21,6 +22,7 @@ def test_the_committed_page_is_made_from_the_committed_results() -> None:
 
 def test_a_missing_results_folder_is_one_clear_error(tmp_path: Path) -> None:
     with pytest.raises(SystemExit) as exit_info:
-        main(["--results", str(tmp_path / "nothing"), "--out", str(tmp_path / "page.md")])
+        nothing, page = str(tmp_path / "nothing"), str(tmp_path / "page.md")
+        main(["reproduce", "--results", nothing, "--out", page])
     assert exit_info.value.code == 2
     assert not (tmp_path / "page.md").exists()

@@ -10,11 +10,12 @@ import pandas as pd
 import pytest
 
 from benchmarks.cli import main
-from benchmarks.evaluation import SerialExecutor
-from benchmarks.report import pairwise_table
-from benchmarks.retest import RetestConfig, noise_floor, read_retests, retest_suite
-from benchmarks.runner import read_designs
-from benchmarks.suite_reports import make_suite_report
+from benchmarks.execution import SerialExecutor
+from benchmarks.reports.comparison import pairwise_table
+from benchmarks.reports.retest import noise_floor
+from benchmarks.reports.suite import make_suite_report
+from benchmarks.storage import read_designs, read_retests
+from benchmarks.suites.retest import RetestConfig, retest_suite
 
 TINY = (
     'base = "mass-perturbation"\n'

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from benchmarks.evaluation import TaskSettings
+from benchmarks.execution import TaskSettings
 from benchmarks.suites import builtin_suite
 from tooldesign_env import ObjectiveSpec, ToolDesignEnv, make_tool
 from tooldesign_env.objective import goal_error

@@ -1,23 +1,29 @@
-"""Tests of benchmarks.runner: resume after SIGKILL, executors agree, refusals, broken pools."""
+"""benchmarks.suites.runner: resume after SIGKILL, executors agree, refusals, broken pools."""
 
 from __future__ import annotations
 
 import dataclasses
 import json
-from concurrent.futures import Future
 from pathlib import Path
 
 import pandas as pd
 import pytest
 from cli_kill import run_until
 
-from benchmarks import runner
 from benchmarks.cli import main
-from benchmarks.design import DesignConfig, ResumeError, run_design
-from benchmarks.evaluation import make_executor
-from benchmarks.runner import DESIGNS_DIR, read_designs, run_suite
-from benchmarks.storage import ResultStore, Unit
+from benchmarks.design import DesignConfig, run_design
+from benchmarks.execution import Outcome, Scheduler, make_executor
+from benchmarks.storage import (
+    DESIGNS_DIR,
+    ResultStore,
+    ResumeError,
+    RunSession,
+    Unit,
+    design_path,
+    read_designs,
+)
 from benchmarks.suites import builtin_suite, load_suite
+from benchmarks.suites.runner import run_suite
 
 ROOT = Path(__file__).resolve().parents[1]
 TIMING = ["eval_time", "opt_time"]
@@ -95,7 +101,9 @@ def test_resume_after_sigkill_equals_uninterrupted_suite(
     # ... and again while the first run's design is tested (after its last iteration).
     last = parts.part_path(dataclasses.replace(unit, iteration=suite.iterations - 1))
     run_until(bench_args(tiny_file, out, *serial), last)
-    assert not runner.design_path(out, first).exists()
+    assert not design_path(
+        out, variant=first.variant.name, optimizer=first.optimizer.column, seed=first.task.seed
+    ).exists()
     # The same command finishes it, here on the process pool: executors agree.
     assert main(bench_args(tiny_file, out, "--executor", "process", "--workers", "2")) == 0
     _compare_suites(uninterrupted, out)
@@ -129,10 +137,7 @@ def test_rerunning_a_finished_suite_changes_no_result(
 def test_resume_refuses_other_settings_and_foreign_folders(tiny_file: Path, tmp_path: Path) -> None:
     suite = load_suite(tiny_file, size="smoke")
     out = tmp_path / "run"
-    out.mkdir()
-    (out / "manifest.json").write_text(
-        json.dumps({"config": suite.to_json(), "extra": {"kind": "suite"}, "start_time": "x"})
-    )
+    RunSession(out, kind="suite", config=suite.to_json(), resume=False).checkpoint()
     with pytest.raises(ResumeError, match="other settings.*iterations"):
         run_suite(suite.replace(iterations=3), out, progress=False)
     with pytest.raises(ValueError, match="not empty"):
@@ -164,50 +169,67 @@ def test_a_design_run_folder_is_not_resumed_as_a_suite(tmp_path: Path) -> None:
 def test_parts_of_runs_the_suite_does_not_plan_are_refused(tiny_file: Path, tmp_path: Path) -> None:
     suite = load_suite(tiny_file, size="smoke")
     out = tmp_path / "run"
-    out.mkdir()
-    (out / "manifest.json").write_text(
-        json.dumps({"config": suite.to_json(), "extra": {"kind": "suite"}, "start_time": "x"})
-    )
+    RunSession(out, kind="suite", config=suite.to_json(), resume=False).checkpoint()
     stray = Unit(suite="other", optimizer="cmaes", seed=1, iteration=0)
     path = ResultStore(out).part_path(stray)
     path.parent.mkdir(parents=True)
     path.write_text("suite\n")
+    before = path.read_bytes()
     with pytest.raises(ResumeError, match="does not plan"):
-        runner._logged_frames(ResultStore(out), suite, suite.runs())
+        run_suite(suite, out, progress=False)
+    assert path.read_bytes() == before
+
+
+class _Batches:
+    """A job of the scheduler: one batch of items, its outcomes kept."""
+
+    def __init__(self, items: list[str]) -> None:
+        self.items = items
+        self.outcomes: list[Outcome] = []
+
+    def start(self) -> list[str]:
+        return self.items
+
+    def advance(self, outcomes: list[Outcome]) -> None:
+        self.outcomes = outcomes
+        return None
 
 
 def test_a_dead_worker_is_retried_alone_and_fails_only_its_own_item() -> None:
     # eval is a picklable builtin: one item kills its worker process, the pool breaks and takes
-    # the other run's pending item with it; recovery gives each item its own outcome.
+    # the other job's pending items with it; recovery gives each item its own outcome.
+    killer = _Batches(["abs(-2)", "__import__('os')._exit(3)"])
+    other = _Batches(["abs(-5)", "1 + 1"])
     with make_executor("process", workers=1) as executor:
-        scheduler = runner._Scheduler(
-            builtin_suite("optimizers", "smoke"),
-            Path("unused"),
-            ResultStore("unused"),
-            executor,
-            bar=None,
-            max_active=2,
-            on_run_done=lambda: None,
-            work=eval,
-        )
-        spec = builtin_suite("optimizers", "smoke").runs()[0]
-        killer = runner._Run(spec=spec, frames=[])
-        other = runner._Run(spec=spec, frames=[])
-        scheduler._submit(killer, ["abs(-2)", "__import__('os')._exit(3)"])
-        scheduler._submit(other, ["abs(-5)", "1 + 1"])
-        scheduler._recover([killer, other])
-        outcomes = [scheduler._outcomes(run) for run in (killer, other)]
-        assert [o[0] for o in outcomes[0]] == [2, None]
-        assert type(outcomes[0][1][1]).__name__ == "BrokenProcessPool"
-        assert [o[:2] for o in outcomes[1]] == [(5, None), (2, None)]
+        Scheduler(executor, eval, max_active=2).run([killer, other])
+        assert [o.result for o in killer.outcomes] == [2, None]
+        assert type(killer.outcomes[1].error).__name__ == "BrokenProcessPool"
+        assert [(o.result, o.error) for o in other.outcomes] == [(5, None), (2, None)]
         assert executor.submit(eval, "3 * 3").result() == 9  # the pool works again
 
 
-def test_a_broken_future_is_recognised() -> None:
-    from concurrent.futures.process import BrokenProcessPool
+def test_the_scheduler_runs_jobs_of_several_batches_in_order() -> None:
+    class Countdown:
+        def __init__(self, n: int) -> None:
+            self.n, self.seen = n, []
 
-    broken: Future = Future()
-    broken.set_exception(BrokenProcessPool("gone"))
-    fine: Future = Future()
-    fine.set_result(1)
-    assert runner._broken(broken) and not runner._broken(fine) and not runner._broken(Future())
+        def start(self) -> list[str]:
+            return [str(self.n)]
+
+        def advance(self, outcomes: list[Outcome]) -> list[str] | None:
+            self.seen.append(outcomes[0].result)
+            self.n -= 1
+            return [str(self.n)] if self.n > 0 else None
+
+    jobs = [Countdown(3), Countdown(1), Countdown(2)]
+    with make_executor("serial") as executor:
+        Scheduler(executor, eval, max_active=2).run(jobs)
+    assert [job.seen for job in jobs] == [[3, 2, 1], [1], [2, 1]]
+
+
+@pytest.mark.parametrize("max_active", [0, -1, 1.5, True])
+def test_the_scheduler_refuses_bad_settings(max_active: object) -> None:
+    with pytest.raises(ValueError, match="max_active must be an int >= 1"):
+        Scheduler(make_executor, eval, max_active=max_active)  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match="work must be a callable"):
+        Scheduler(make_executor, 3, max_active=1)  # type: ignore[arg-type, arg-type]

@@ -15,9 +15,8 @@ import pytest
 
 import optimizers
 from benchmarks.cli import main
-from benchmarks.runner import read_designs, run_suite
+from benchmarks.reports.suite import make_suite_report, tool_shape
 from benchmarks.storage import ResultStore
-from benchmarks.suite_reports import make_suite_report, tool_shape
 from benchmarks.suites import (
     BUILTIN_SUITES,
     SIZES,
@@ -29,6 +28,7 @@ from benchmarks.suites import (
     save_suite,
     suite_from_json,
 )
+from benchmarks.suites.runner import read_designs, run_suite
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER_SUITES = ("optimizers", "precision-sweep", "robustness", "mass-perturbation")

@@ -16,6 +16,7 @@ from gymnasium import spaces
 from tooldesign_env.geometry import ToolGeometry, ToolSpec, make_tool, validate_coefficients
 from tooldesign_env.objective import ObjectiveTerms, free_energy, goal_error, make_estimator
 from tooldesign_env.robustness import DEFAULT_MASSES, RobustnessResult, evaluate_robustness
+from tooldesign_env.schema import GOAL_HIGH, GOAL_LOW
 from tooldesign_env.simulation import ToolSimulator, Trajectory
 from tooldesign_env.specs import (
     BOX_MASS_MAX,
@@ -29,15 +30,29 @@ from tooldesign_env.specs import (
 __all__ = [
     "GOAL_HIGH",
     "GOAL_LOW",
+    "SERIES_KEYS",
     "WORKSPACE_HIGH",
     "WORKSPACE_LOW",
     "ToolDesignEnv",
     "default_bounds",
 ]
 
-#: The paper's range of goals for task randomization, (x, y, z) in m.
-GOAL_LOW = (-0.5, 0.5, 0.1)
-GOAL_HIGH = (0.5, 1.5, 0.1)
+#: ``info`` keys of the per-step series and trajectories, there only with ``info_series=True``.
+SERIES_KEYS: tuple[str, ...] = (
+    "times",
+    "box_trajectory",
+    "torques",
+    "tool_position",
+    "tool_yaw",
+    "joint_positions",
+    "contact",
+    "phase",
+    "tracking_error",
+    "goal_error_t",
+    "confidence_t",
+    "free_energy_t",
+    "jacobian_norm_t",
+)
 #: Where a goal may be put at all (the observation space), (x, y, z) in m: the floor around the
 #: robot within 2.5 m, up to 1 m high.
 WORKSPACE_LOW = (-2.5, -2.5, 0.0)
@@ -105,9 +120,14 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
 
     ## Rewards
 
-    reward = -F. ``info`` holds the terms: ``free_energy`` (= -reward), ``goal_error``
-    (sum_t E_t), ``confidence`` (sum_t 1/2 log|Pi_U,t|), ``penalty``, their per-step series and
-    the trajectories. F = goal_error - confidence + penalty.
+    reward = -F. ``info`` holds scalars: ``free_energy`` (= -reward), ``goal_error``
+    (sum_t E_t), ``confidence`` (sum_t 1/2 log|Pi_U,t|), ``penalty``, ``final_distance``,
+    ``valid`` and the task; F = goal_error - confidence + penalty. With ``info_series=True`` it
+    also holds the per-step series (``goal_error_t``, ``confidence_t``, ``free_energy_t``,
+    ``jacobian_norm_t``) and the trajectories (``times``, ``box_trajectory``, ``torques``,
+    ``tool_position``, ``tool_yaw``, ``joint_positions``, ``contact``, ``phase``,
+    ``tracking_error``): :data:`SERIES_KEYS`. They are left out by default because an optimizer
+    or an agent that reads only the reward would pay for about 15 arrays per step.
 
     ## Starting State
 
@@ -126,8 +146,9 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
     ``gym.make("ToolDesign-v0", goal=(0, 1.5, 0.1), randomize_goal=False, goal_precision=20.0,
     box_mass=None, estimator="contact", objective_kind=None, bounds=None, tool=ToolSpec(),
     scene=SceneSpec(), plan=PlanSpec(), controller=ControllerSpec(), objective=ObjectiveSpec(),
-    render_mode=None)``. ``goal_precision``, ``estimator``, ``objective_kind`` and ``box_mass``
-    are shortcuts for the fields of ``objective`` and ``scene``; ``objective_kind=
+    info_series=False, render_mode=None)``. ``goal_precision``, ``estimator``,
+    ``objective_kind`` and ``box_mass`` are shortcuts for the fields of ``objective`` and
+    ``scene``; ``objective_kind=
     "expected-goal-error"`` scores the robust-design baseline instead of F (see
     ``ObjectiveSpec.kind``). ``reset(options={"goal": (x, y, z),
     "box_mass": m})`` changes the task of one episode.
@@ -160,6 +181,7 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
         plan: PlanSpec | None = None,
         controller: ControllerSpec | None = None,
         objective: ObjectiveSpec | None = None,
+        info_series: bool = False,
         render_mode: str | None = None,
     ) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
@@ -193,6 +215,9 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
             # bool("no") is True: a string or number here is a mistake, not a choice.
             raise TypeError(f"randomize_goal must be True or False, got {randomize_goal!r}")
         self.randomize_goal = bool(randomize_goal)
+        if not isinstance(info_series, (bool, np.bool_)):
+            raise TypeError(f"info_series must be True or False, got {info_series!r}")
+        self.info_series = bool(info_series)
         self.render_mode = render_mode
 
         degree = self.tool_spec.degree
@@ -222,7 +247,7 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
         self._box_mass = scene.box_mass
         # What render() shows: the box path of the last step, and whether the world holds the
         # scene of that step (a tool that cannot be built is never put into the world).
-        self._last_info: dict[str, Any] | None = None
+        self._last_series: dict[str, Any] | None = None
         self._world_shows_last_step = False
 
     # ------------------------------------------------------------ gym API
@@ -258,7 +283,7 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
                 f"options['box_mass'] must be finite, > 0 and <= {BOX_MASS_MAX:g} kg, got {mass!r}"
             )
         self._box_mass = float(mass)
-        self._last_info = None
+        self._last_series: dict[str, Any] | None = None
         self._world_shows_last_step = False
         return self._observation(), {"goal": self._goal.copy(), "box_mass": self._box_mass}
 
@@ -266,8 +291,10 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
         """Build, use and score the tool ``action``; the episode ends."""
         coeffs = self.check_action(action)
         geometry = make_tool(coeffs, self.tool_spec)
-        info = self.evaluate_geometry(geometry)
-        self._last_info = info
+        info = self.evaluate_geometry(geometry, series=True)
+        self._last_series = {key: info[key] for key in SERIES_KEYS}
+        if not self.info_series:
+            info = {k: v for k, v in info.items() if k not in SERIES_KEYS}
         self._world_shows_last_step = geometry.buildable and self.objective.kind == "free-energy"
         if self.render_mode == "human":
             self.render()
@@ -285,7 +312,7 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
             return None
         if not self._world_shows_last_step:
             self._show_start_scene()
-        path = None if self._last_info is None else self._last_info["box_trajectory"]
+        path = None if self._last_series is None else self._last_series["box_trajectory"]
         return self.simulator.world.render(goal=tuple(self._goal), path=path)
 
     def render_rollout(self, *, frames: int = 40) -> list[np.ndarray]:
@@ -310,9 +337,9 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
             raise ValueError(f"frames must be an int >= 2, got {frames!r}")
         if self.render_mode != "rgb_array":
             raise RuntimeError("render_rollout needs the env made with render_mode='rgb_array'")
-        if self._last_info is None:
+        if self._last_series is None:
             raise RuntimeError("render_rollout shows the last step: call step() first")
-        info = self._last_info
+        info = self._last_series
         q, x = info["joint_positions"], info["box_trajectory"]
         # ToolSimulator keeps the handles of the bodies it built; it offers no accessor yet.
         robot = getattr(self.simulator, "_robot", None)
@@ -365,8 +392,20 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
             )
         return coeffs
 
-    def evaluate_geometry(self, geometry: ToolGeometry) -> dict[str, Any]:
-        """Simulate and score a tool for the current task; returns the step's ``info``."""
+    def evaluate_geometry(self, geometry: ToolGeometry, *, series: bool = True) -> dict[str, Any]:
+        """Simulate and score a tool for the current task.
+
+        Args:
+            geometry: the tool.
+            series: also return the per-step series and trajectories (:data:`SERIES_KEYS`).
+
+        Returns:
+            The ``info`` of a step with this tool (with the series when ``series`` is true).
+        """
+        info = self._evaluate_geometry(geometry)
+        return info if series else {k: v for k, v in info.items() if k not in SERIES_KEYS}
+
+    def _evaluate_geometry(self, geometry: ToolGeometry) -> dict[str, Any]:
         goal = self._goal
         if not geometry.buildable:
             return self._invalid_info(geometry, f"cannot be built: {geometry.why_not_buildable}")

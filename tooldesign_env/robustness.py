@@ -20,12 +20,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from tooldesign_env.geometry import ToolGeometry
+from tooldesign_env.schema import ROBUSTNESS_MASSES
 from tooldesign_env.simulation import ToolSimulator, Trajectory
 
 __all__ = ["DEFAULT_MASSES", "RobustnessResult", "evaluate_robustness", "robustness_metrics"]
 
-#: The paper's altered box masses, kg.
-DEFAULT_MASSES = (0.3, 0.5, 0.7, 0.9)
+#: The paper's altered box masses, kg (:data:`tooldesign_env.schema.ROBUSTNESS_MASSES`).
+DEFAULT_MASSES = ROBUSTNESS_MASSES
 
 
 @dataclass(frozen=True, eq=False)

@@ -16,6 +16,13 @@ from typing import Any
 
 import numpy as np
 
+from tooldesign_env.schema import (
+    DEFAULT_BOX_MASS,
+    DEFAULT_GOAL,
+    DEFAULT_GOAL_PRECISION,
+    EXPECTED_MASSES,
+)
+
 __all__ = [
     "BOX_MASS_MAX",
     "GOAL_PRECISION_MAX",
@@ -212,7 +219,7 @@ class SceneSpec:
     time_step: float = 1.0 / 240.0
     solver_iterations: int = 50
     box_size: tuple[float, float, float] = (0.1, 0.1, 0.2)
-    box_mass: float = 0.1
+    box_mass: float = DEFAULT_BOX_MASS
     box_position: tuple[float, float] = (
         1.35 * math.cos(math.radians(30.0)),
         1.35 * math.sin(math.radians(30.0)),
@@ -258,7 +265,7 @@ class TaskSpec:
         goal: X^g, the goal position of the box centre (x, y, z), m.
     """
 
-    goal: tuple[float, float, float] = (0.0, 1.5, 0.1)
+    goal: tuple[float, float, float] = DEFAULT_GOAL
 
     def __post_init__(self) -> None:
         _check_vector(self, "goal", 3)
@@ -304,8 +311,8 @@ class ObjectiveSpec:
     """
 
     kind: str = "free-energy"
-    expected_masses: tuple[float, ...] = (0.1, 0.5, 0.9)
-    goal_precision: float = 20.0
+    expected_masses: tuple[float, ...] = EXPECTED_MASSES
+    goal_precision: float = DEFAULT_GOAL_PRECISION
     eps: float = 1e-6
     form: str = "clamped"
     estimator: str = "contact"

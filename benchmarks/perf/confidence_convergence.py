@@ -49,7 +49,7 @@ from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from benchmarks.report import DPI, figure_png_bytes
+from benchmarks.reports.comparison import DPI, figure_png_bytes
 from tooldesign_env import ObjectiveSpec, SceneSpec, ToolDesignEnv, ToolSimulator, make_tool
 from tooldesign_env.objective import free_energy
 from tooldesign_env.specs import ControllerSpec, TaskSpec
@@ -136,11 +136,12 @@ def agreement_study(
     designs: dict[str, np.ndarray], goal: np.ndarray
 ) -> tuple[dict[str, float], dict[tuple[str, float], Agreement]]:
     """Study (b): the contact estimator's summed confidence per design, and the comparisons."""
-    contact_env = ToolDesignEnv(goal=tuple(goal.tolist()))
+    contact_env = ToolDesignEnv(goal=tuple(goal.tolist()), info_series=True)
     resim_envs = {
         p: ToolDesignEnv(
             goal=tuple(goal.tolist()),
             objective=ObjectiveSpec(estimator="resimulation", perturbation=p, horizon=HORIZON),
+            info_series=True,
         )
         for p in PERTURBATIONS
     }

@@ -25,7 +25,7 @@ import time
 
 import numpy as np
 
-from benchmarks.evaluation import TaskSettings, evaluate_batch, make_executor
+from benchmarks.execution import TaskSettings, evaluate_batch, make_executor
 
 
 def designs(n: int, seed: int) -> np.ndarray:

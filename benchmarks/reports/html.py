@@ -11,7 +11,6 @@ left out).
 
 from __future__ import annotations
 
-import argparse
 import base64
 import html
 import json
@@ -20,7 +19,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-__all__ = ["REPORT_FILE", "add_parser", "write_html_report"]
+__all__ = ["REPORT_FILE", "write_html_report"]
 
 REPORT_FILE = "report.html"
 _IMAGES = {".png": "image/png", ".gif": "image/gif", ".svg": "image/svg+xml"}
@@ -153,27 +152,3 @@ def write_html_report(
     tmp.write_text("\n".join(parts), encoding="utf-8")
     os.replace(tmp, target)
     return target
-
-
-def add_parser(subparsers: Any) -> argparse.ArgumentParser:
-    """Register ``tooldesign html``."""
-    parser = subparsers.add_parser(
-        "html",
-        help="write a self-contained HTML report (figures, tables, card, video) of a run folder",
-        description="Write DIR/report.html: every figure, video, card and small table of the "
-        "folder, embedded in one file that opens without network.",
-    )
-    parser.add_argument(
-        "folder", type=Path, metavar="DIR", help="a design, evaluate or suite run folder"
-    )
-    parser.add_argument(
-        "--out", type=Path, default=None, help="the HTML file (default DIR/report.html)"
-    )
-    parser.set_defaults(run=_run)
-    return parser
-
-
-def _run(args: argparse.Namespace) -> int:
-    path = write_html_report(args.folder, out=args.out)
-    print(f"report: {path}")
-    return 0

@@ -2,9 +2,10 @@
 
 A SIGKILLed main process runs no cleanup, so its forkserver and pool workers would keep running.
 ``prctl(PR_SET_PDEATHSIG, SIGKILL)`` asks the kernel to kill the caller when its parent dies.
-``benchmarks._forkserver_preload``, imported by the forkserver, arms the server with it; each
-worker's initializer arms the worker against the death of the server. On other systems it does
-nothing, and a worker is orphaned until it next talks to its pool (see docs/reliability.md).
+``benchmarks.execution._forkserver_preload``, imported by the forkserver, arms the server with
+it; each worker's initializer arms the worker against the death of the server. On other systems
+it does nothing, and a worker is orphaned until it next talks to its pool (see
+docs/reliability.md).
 """
 
 from __future__ import annotations

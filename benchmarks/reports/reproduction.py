@@ -3,7 +3,7 @@
 One command rebuilds every suite's report from its stored results (nothing is simulated) and
 then the page, whose every number is read from those files::
 
-    python -m benchmarks.reproduction [--results docs/results] [--out docs/reproduction.md]
+    tooldesign reproduce [--results docs/results] [--out docs/reproduction.md]
 
 The results are made by ``tooldesign bench SUITE --size full --out docs/results/SUITE`` and
 ``tooldesign retest docs/results/SUITE`` for the suites of :data:`SUITES`. A claim's verdict
@@ -14,10 +14,8 @@ nudged scenes that leave the motion unchanged); a rank correlation counts when p
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
-import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -26,13 +24,11 @@ import numpy as np
 import pandas as pd
 from scipy import stats as sstats
 
-from benchmarks.retest import noise_floor, read_retests
-from benchmarks.retest_reports import stress_table
-from benchmarks.runner import read_designs
-from benchmarks.storage import atomic_write_text
-from benchmarks.suite_reports import designs_table, make_suite_report
+from benchmarks.reports.retest import noise_floor, stress_table
+from benchmarks.reports.suite import designs_table
+from benchmarks.storage import read_designs, read_retests
 
-__all__ = ["SUITES", "main", "reproduction_page"]
+__all__ = ["SUITES", "reproduction_page"]
 
 SUITES = ("optimizers", "precision-sweep", "mass-perturbation", "robustness", "robust-design")
 
@@ -60,9 +56,7 @@ def _bootstrap_difference(a: np.ndarray, b: np.ndarray, seed: int) -> tuple[floa
     a, b = a[np.isfinite(a)], b[np.isfinite(b)]
     if not len(a) or not len(b):
         return math.nan, math.nan, math.nan
-    draws = [
-        rng.choice(a, len(a)).mean() - rng.choice(b, len(b)).mean() for _ in range(10_000)
-    ]
+    draws = [rng.choice(a, len(a)).mean() - rng.choice(b, len(b)).mean() for _ in range(10_000)]
     low, high = np.quantile(draws, [0.025, 0.975])
     return float(a.mean() - b.mean()), float(low), float(high)
 
@@ -194,9 +188,7 @@ def _design_stress(retests: Sequence[Mapping[str, Any]]) -> pd.DataFrame:
                     **{m: float(frame[m].mean()) for m in ("robustness", "accuracy")},
                     "control_deviation": float(frame["control_deviation"].mean()),
                     "final_distance": float(frame["final_distance"].mean()),
-                    "noise": float(
-                        np.ptp(frame.groupby("nudge")["robustness"].mean().to_numpy())
-                    ),
+                    "noise": float(np.ptp(frame.groupby("nudge")["robustness"].mean().to_numpy())),
                 }
             )
     columns = ["variant", "label", "goal_precision", "robustness", "accuracy"]
@@ -311,13 +303,17 @@ def _claim_d(folder: Path) -> tuple[str, str, list[str]]:
     rob_falls = rob[0] < 0 and rob[1] < 0.05
     rob_rises = rob[0] > 0 and rob[1] < 0.05
     err_falls = err[0] < 0 and err[1] < 0.05
-    verdict = "**" + (
-        "goal error falls" if err_falls else "goal error: no significant trend"
-    ) + "; " + (
-        "robustness falls"
-        if rob_falls
-        else ("robustness *rises*" if rob_rises else "robustness: no significant trend")
-    ) + "**"
+    verdict = (
+        "**"
+        + ("goal error falls" if err_falls else "goal error: no significant trend")
+        + "; "
+        + (
+            "robustness falls"
+            if rob_falls
+            else ("robustness *rises*" if rob_rises else "robustness: no significant trend")
+        )
+        + "**"
+    )
     cell = f"robustness rho = {_fmt(rob[0], 2)}, goal error rho = {_fmt(err[0], 2)}"
     return cell, verdict, lines
 
@@ -363,7 +359,7 @@ def reproduction_page(results: Path) -> str:
     lines = [
         "# Reproduction of the paper's results",
         "",
-        "This page is written by `python -m benchmarks.reproduction` from the committed results "
+        "This page is written by `tooldesign reproduce` from the committed results "
         "under `docs/results/` alone (it rebuilds every suite's report first); nothing on it is "
         "typed by hand. Each suite ran with the defaults of [The model](model.md) except what "
         "its config (`manifest.json`) says; the estimator of Pi_U and the code each ran with:",
@@ -416,7 +412,7 @@ def reproduction_page(results: Path) -> str:
         "```bash",
         *[f"tooldesign bench {s} --size full --out docs/results/{s}" for s in SUITES],
         *[f"tooldesign retest docs/results/{s}" for s in SUITES],
-        "python -m benchmarks.reproduction   # every report, then this page",
+        "tooldesign reproduce   # every report, then this page",
         "```",
         "",
         "Each folder holds `manifest.json` (config, versions, commit, host, times), "
@@ -431,25 +427,3 @@ def reproduction_page(results: Path) -> str:
         ]
         lines += ["```"]
     return "\n".join(lines) + "\n"
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """Rebuild the suites' reports and write the reproduction page."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--results", type=Path, default=Path("docs/results"))
-    parser.add_argument("--out", type=Path, default=Path("docs/reproduction.md"))
-    parser.add_argument("--skip-reports", action="store_true", help="use the reports as they are")
-    args = parser.parse_args(argv)
-    if not args.results.is_dir():
-        parser.exit(2, f"reproduction: error: no results folder {args.results}\n")
-    if not args.skip_reports:
-        for suite in SUITES:
-            if (args.results / suite).is_dir():
-                make_suite_report(args.results / suite)
-    atomic_write_text(args.out, reproduction_page(args.results))
-    print(f"wrote {os.fspath(args.out)}")
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

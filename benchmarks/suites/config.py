@@ -3,8 +3,8 @@
 A suite is a set of design runs (Algorithm 1) that share one task family and one budget: every
 combination of a *variant* (a goal precision p^X, optionally named), an *optimizer* (a registry
 name with its settings) and a *task* (a seed, and a goal when goals are drawn at random). The
-runner (:mod:`benchmarks.runner`) executes the runs into one run folder; the report
-(:mod:`benchmarks.suite_reports`) turns the stored results into the suite's figures and tables.
+runner (:mod:`benchmarks.suites.runner`) executes the runs into one run folder; the report
+(:mod:`benchmarks.reports.suite`) turns the stored results into the suite's figures and tables.
 
 Randomness is explicit and comes from ONE root seed: task ``i`` is child ``i`` of
 ``numpy.random.SeedSequence(root_seed).spawn(n_seeds)``. Its optimizer seed is the child's first
@@ -29,39 +29,23 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
-import os
 from collections.abc import Mapping, Sequence
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from benchmarks.design import DesignConfig
-from benchmarks.evaluation import TaskSettings
-from benchmarks.storage import atomic_write_text
-
-__all__ = [
-    "BUILTIN_SUITES",
-    "ENV_IDS",
-    "FIGURES",
-    "RUNTIME_FIELDS",
-    "SIZES",
-    "OptimizerSpec",
-    "RunSpec",
-    "SuiteConfig",
-    "Task",
-    "Variant",
-    "builtin_suite",
-    "load_suite",
-    "save_suite",
-    "suite_from_json",
-]
-
-SIZES: tuple[str, ...] = ("smoke", "full")
-"""Sizes of the built-in suites: ``smoke`` (CI, minutes for all four), ``full`` (the paper's)."""
+from benchmarks.execution import TaskSettings
+from tooldesign_env.schema import (
+    DEFAULT_GOAL,
+    DEFAULT_GOAL_PRECISION,
+    ROBUSTNESS_MASSES,
+)
 
 ENV_IDS: tuple[str, ...] = ("ToolDesign-v0",)
-"""Environment ids the evaluation workers can build (``benchmarks.evaluation`` makes this one)."""
+
+"""Environment ids the evaluation workers can build (``benchmarks.execution`` makes this one)."""
+
 
 FIGURES: dict[str, str] = {
     "tool-shapes": "tool shapes side by side with their box paths (needs keep_paths)",
@@ -70,16 +54,18 @@ FIGURES: dict[str, str] = {
     "mass-paths": "box paths under every box mass, per variant (needs test_robustness and "
     "keep_paths)",
 }
+
 """Suite-specific reports a suite may ask for, and what each shows."""
 
+
 RUNTIME_FIELDS: frozenset[str] = frozenset({"executor", "workers", "scheduler"})
+
+
+SUITE_KIND = "suite"
+
+"""``manifest.json`` ``extra.kind`` of a suite run folder."""
+
 """Fields that do not change the results: a resumed suite may set them differently."""
-
-_DEFAULT_GOAL = (0.0, 1.5, 0.1)
-_PAPER_MASSES = (0.3, 0.5, 0.7, 0.9)
-
-
-# --- small validators --------------------------------------------------------------------------
 
 
 def _int(name: str, value: Any, minimum: int) -> int:
@@ -142,9 +128,6 @@ def _from_mapping(cls: type, data: Any, where: str) -> Any:
     if unknown:
         raise ValueError(f"{where}: unknown keys {unknown}; allowed: {sorted(fields)}")
     return cls(**data)
-
-
-# --- parts of a suite --------------------------------------------------------------------------
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
@@ -242,9 +225,6 @@ class RunSpec:
         return (self.suite, self.variant.name, self.optimizer.column, self.task.seed)
 
 
-# --- the suite ---------------------------------------------------------------------------------
-
-
 @dataclasses.dataclass(frozen=True, kw_only=True)
 class SuiteConfig:
     """A benchmark suite: the task family, the optimizers, the budget, the seeds, the executor.
@@ -284,9 +264,9 @@ class SuiteConfig:
     name: str
     description: str = ""
     env_id: str = "ToolDesign-v0"
-    goal: Sequence[float] = _DEFAULT_GOAL
+    goal: Sequence[float] = DEFAULT_GOAL
     goal_box: Sequence[Sequence[float]] | None = None
-    goal_precision: float = 20.0
+    goal_precision: float = DEFAULT_GOAL_PRECISION
     box_mass: float = 0.1
     estimator: str = "contact"
     objective: str = "free-energy"
@@ -298,7 +278,7 @@ class SuiteConfig:
     root_seed: int = 0
     n_seeds: int = 10
     test_robustness: bool = False
-    robustness_masses: Sequence[float] = _PAPER_MASSES
+    robustness_masses: Sequence[float] = ROBUSTNESS_MASSES
     keep_paths: bool = False
     figures: Sequence[str] = ()
     executor: str = "process"
@@ -505,316 +485,12 @@ def suite_from_json(data: Mapping[str, Any], *, where: str = "suite") -> SuiteCo
         raise type(err)(message if message.startswith(where) else f"{where}: {message}") from None
 
 
-# --- the paper's suites ------------------------------------------------------------------------
-
-
-def _precision_variants(
-    values: Sequence[float], labels: Mapping[float, str] | None = None
-) -> tuple[Variant, ...]:
-    labels = labels or {}
-    return tuple(
-        Variant(name=f"p{v:g}", goal_precision=float(v), label=labels.get(v, "")) for v in values
-    )
-
-
-_PAPER_OPTIMIZERS = ("cmaes", "bo", "pso", "random")
-_PEERS = ("optuna-tpe", "optuna-cmaes", "nevergrad")
-_SMOKE = {"n_seeds": 2, "iterations": 2, "batch_size": 4}
-
-# The seven p^X values of the robustness scatter: 0, 20 and 50 of Table I, 50 as the top (the
-# paper's caption calls p^X = 50 the pure-performance end), and 5, 10, 30, 40 in between, with
-# 5 added where the two terms of F are of similar size (confidence per step is O(1-10), the goal
-# error per step 1/2 p^X |X - X^g|^2 with |X - X^g| of 0.1-1 m).
-ROBUSTNESS_PRECISIONS: tuple[float, ...] = (0.0, 5.0, 10.0, 20.0, 30.0, 40.0, 50.0)
-OBJECTIVE_LABELS: dict[float, str] = {
-    0.0: "pure confidence",
-    20.0: "free energy",
-    50.0: "pure performance",
-}
-
-
-def _optimizers_suite(size: str) -> SuiteConfig:
-    return SuiteConfig(
-        name="optimizers",
-        description=(
-            "CMA-ES, BO, PSO and random sampling on F with p^X = 20, same batch and iterations "
-            "(the paper's optimizer comparison)"
-        ),
-        goal_precision=20.0,
-        optimizers=tuple(OptimizerSpec(name=n) for n in _PAPER_OPTIMIZERS),
-        batch_size=8,
-        iterations=15,
-        n_seeds=10,
-    )
-
-
-def _peers_suite(size: str) -> SuiteConfig:
-    import optimizers
-
-    installed = set(optimizers.available())
-    peers = [n for n in _PEERS if n in installed]
-    if not peers:
-        raise ValueError(
-            "optimizer-peers needs Optuna or Nevergrad: install them with "
-            "`pip install 'tooldesign[optuna,nevergrad]'`"
-        )
-    base = _optimizers_suite(size)
-    return base.replace(
-        description=(
-            "the optimizers suite's peer variant: Optuna and Nevergrad (those installed) next to "
-            "CMA-ES, same task, budget and seeds"
-        ),
-        variants=(Variant(name="peers", goal_precision=20.0),),
-        optimizers=tuple(OptimizerSpec(name=n) for n in ("cmaes", *peers)),
-    )
-
-
-def _precision_sweep_suite(size: str) -> SuiteConfig:
-    return SuiteConfig(
-        name="precision-sweep",
-        description=(
-            "CMA-ES designs for p^X in {0, 10, 20, 30, 40, 50}: tool shapes and box paths "
-            "(the paper's tool-variation figure)"
-        ),
-        variants=_precision_variants((0, 10, 20, 30, 40, 50)),
-        optimizers=(OptimizerSpec(name="cmaes"),),
-        n_seeds=3,
-        keep_paths=True,
-        figures=("tool-shapes",),
-    )
-
-
-def _robustness_suite(size: str) -> SuiteConfig:
-    values = ROBUSTNESS_PRECISIONS if size == "full" else (0.0, 20.0, 50.0)
-    return SuiteConfig(
-        name="robustness",
-        description=(
-            "CMA-ES designs for random goals and seven p^X values, each tested under box masses "
-            "0.3-0.9 kg: Table I and the robustness scatter"
-        ),
-        goal_box=((-0.5, 0.5), (0.5, 1.5), (0.1, 0.1)),
-        variants=_precision_variants(values, OBJECTIVE_LABELS),
-        optimizers=(OptimizerSpec(name="cmaes"),),
-        n_seeds=10,
-        test_robustness=True,
-        figures=("robustness-table", "robustness-scatter"),
-    )
-
-
-def _robust_design_suite(size: str) -> SuiteConfig:
-    # The robustness suite's tasks, budget and optimizer, with an objective that asks for
-    # robustness directly: does control confidence buy robustness more cheaply?
-    base = _robustness_suite(size)
-    return base.replace(
-        name="robust-design",
-        description=(
-            "The robust-design baseline: CMA-ES on the goal error averaged over box masses "
-            "0.1, 0.5 and 0.9 kg (no confidence term), on the robustness suite's goals, budget "
-            "and seeds"
-        ),
-        objective="expected-goal-error",
-        variants=(Variant(name="robust", goal_precision=20.0, label="expected goal error"),),
-    )
-
-
-def _mass_perturbation_suite(size: str) -> SuiteConfig:
-    return SuiteConfig(
-        name="mass-perturbation",
-        description=(
-            "box paths under box masses 0.1-0.9 kg for a p^X = 0 and a p^X = 50 CMA-ES design "
-            "(the paper's two trajectory figures)"
-        ),
-        variants=_precision_variants((0, 50), OBJECTIVE_LABELS),
-        optimizers=(OptimizerSpec(name="cmaes"),),
-        n_seeds=3,
-        test_robustness=True,
-        keep_paths=True,
-        figures=("mass-paths",),
-    )
-
-
-_BUILDERS = {
-    "optimizers": _optimizers_suite,
-    "precision-sweep": _precision_sweep_suite,
-    "robustness": _robustness_suite,
-    "mass-perturbation": _mass_perturbation_suite,
-    "optimizer-peers": _peers_suite,
-    "robust-design": _robust_design_suite,
-}
-
-BUILTIN_SUITES: tuple[str, ...] = tuple(_BUILDERS)
-"""Names of the built-in suites; the first four are the paper's."""
-
-
-def builtin_suite(name: str, size: str = "full") -> SuiteConfig:
-    """A built-in suite at a size.
-
-    ``full`` is the paper's scale: batch 8, 15 iterations; 10 seeds for ``optimizers`` (and
-    ``optimizer-peers``) and 10 goals for ``robustness``; 3 seeds per p^X for
-    ``precision-sweep`` and ``mass-perturbation`` (the figures show each p^X's lowest-F design).
-    ``smoke`` keeps every variant (``robustness``: p^X in {0, 20, 50} only) with 2 seeds,
-    2 iterations and batch 4, so the four paper suites run in CI in a few minutes.
-
-    Args:
-        name: One of :data:`BUILTIN_SUITES`.
-        size: One of :data:`SIZES`.
-
-    Returns:
-        The suite.
+def suite_of_manifest(manifest: Mapping[str, Any]) -> SuiteConfig:
+    """The :class:`SuiteConfig` recorded in a suite run folder's manifest.
 
     Raises:
-        ValueError: If the name or the size is unknown, or (``optimizer-peers``) no peer
-            optimizer is installed.
+        ValueError: If the manifest is not one of a suite run folder.
     """
-    if name not in _BUILDERS:
-        raise ValueError(
-            f"unknown suite {name!r}; built-in suites: {', '.join(BUILTIN_SUITES)} (or give a "
-            "suite file with --config)"
-        )
-    if size not in SIZES:
-        raise ValueError(f"unknown size {size!r}; sizes: {', '.join(SIZES)}")
-    suite = _BUILDERS[name](size)
-    return suite.replace(**_SMOKE) if size == "smoke" else suite
-
-
-# --- suite files -------------------------------------------------------------------------------
-
-
-def _toml_module() -> Any:
-    try:
-        import tomllib  # Python >= 3.11
-    except ImportError:  # pragma: no cover - Python 3.10
-        try:
-            import tomli as tomllib
-        except ImportError as err:
-            raise ImportError(
-                "reading TOML suite files on Python 3.10 needs tomli: `pip install tomli` "
-                "(or write the suite as JSON)"
-            ) from err
-    return tomllib
-
-
-def _read_file(path: Path) -> dict[str, Any]:
-    if not path.is_file():
-        raise FileNotFoundError(f"suite file {path} does not exist")
-    if path.suffix not in (".toml", ".json"):
-        raise ValueError(f"suite file {path} must end in .toml or .json")
-    text = path.read_text(encoding="utf-8")
-    toml = _toml_module() if path.suffix == ".toml" else None
-    try:
-        data: Any = toml.loads(text) if toml is not None else json.loads(text)
-    except ValueError as err:  # TOMLDecodeError and JSONDecodeError are ValueErrors
-        raise ValueError(
-            f"suite file {path} is not valid {path.suffix[1:].upper()}: {err}"
-        ) from err
-    if not isinstance(data, dict):
-        raise ValueError(f"suite file {path} must hold a table (JSON object) of suite fields")
-    return data
-
-
-def load_suite(path: str | os.PathLike[str], *, size: str | None = None) -> SuiteConfig:
-    """Read a suite from a TOML or JSON file.
-
-    The file holds the fields of :class:`SuiteConfig` (``[[variants]]`` and ``[[optimizers]]``
-    as arrays of tables) and optionally:
-
-    - ``base = "NAME"``: start from the built-in suite NAME at ``size`` (``full`` if none) and
-      override only the fields the file sets;
-    - ``[sizes.smoke]``, ``[sizes.full]`` (any names): fields that override the others when
-      that size is chosen.
-
-    Args:
-        path: A ``.toml`` or ``.json`` file.
-        size: The size to apply, or ``None`` for the file's fields as they are.
-
-    Returns:
-        The validated suite.
-
-    Raises:
-        FileNotFoundError: If the file does not exist.
-        ValueError: If it cannot be parsed, names an unknown field, base or size, or a value is
-            invalid (the message names the file and the field).
-        TypeError: If a value has the wrong type.
-    """
-    source = Path(path)
-    data = _read_file(source)
-    sizes = data.pop("sizes", {})
-    if not isinstance(sizes, dict) or not all(isinstance(v, dict) for v in sizes.values()):
-        raise ValueError(f"{source}: sizes must be tables, e.g. [sizes.smoke]")
-    base = data.pop("base", None)
-    fields: dict[str, Any] = {}
-    if base is not None:
-        if not isinstance(base, str):
-            raise ValueError(f"{source}: base must be the name of a built-in suite")
-        try:
-            fields = builtin_suite(base, size or "full").to_json()
-        except ValueError as err:
-            raise ValueError(f"{source}: base: {err}") from None
-    fields.update(data)
-    if size is not None:
-        if sizes and size not in sizes:
-            raise ValueError(
-                f"{source}: unknown size {size!r}; the file defines {', '.join(sorted(sizes))}"
-            )
-        if size not in SIZES and size not in sizes:
-            raise ValueError(f"unknown size {size!r}; sizes: {', '.join(SIZES)}")
-        fields.update(sizes.get(size, {}))
-    return suite_from_json(fields, where=str(source))
-
-
-def _toml_value(value: Any) -> str:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, int):
-        return str(value)
-    if isinstance(value, float):
-        return repr(value)  # shortest exact text; TOML floats read back bit for bit
-    if isinstance(value, str):
-        return json.dumps(value)  # a JSON string is a valid TOML basic string
-    if isinstance(value, list):
-        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
-    if isinstance(value, dict):
-        items = ", ".join(f"{json.dumps(k)} = {_toml_value(v)}" for k, v in value.items())
-        return "{" + items + "}"
-    raise TypeError(f"cannot write {value!r} to TOML")
-
-
-def _toml_text(data: Mapping[str, Any]) -> str:
-    # TOML has no null: a None field is left out, which reads back as its default (None).
-    lines = []
-    tables = ("variants", "optimizers")
-    for key, value in data.items():
-        if key in tables or value is None:
-            continue
-        lines.append(f"{key} = {_toml_value(value)}")
-    for key in tables:
-        for item in data.get(key, []):
-            lines += ["", f"[[{key}]]"]
-            lines += [f"{k} = {_toml_value(v)}" for k, v in item.items() if v is not None]
-    return "\n".join(lines) + "\n"
-
-
-def save_suite(config: SuiteConfig, path: str | os.PathLike[str]) -> Path:
-    """Write a suite as a TOML or JSON file (by suffix) that :func:`load_suite` reads back.
-
-    Args:
-        config: The suite.
-        path: A ``.toml`` or ``.json`` file; written atomically.
-
-    Returns:
-        The path written.
-
-    Raises:
-        ValueError: If the suffix is neither.
-    """
-    if not isinstance(config, SuiteConfig):
-        raise TypeError(f"config must be a SuiteConfig, got {type(config).__name__}")
-    target = Path(path)
-    data = config.to_json()
-    if target.suffix == ".json":
-        text = json.dumps(data, indent=2, allow_nan=False) + "\n"
-    elif target.suffix == ".toml":
-        text = _toml_text(data)
-    else:
-        raise ValueError(f"suite file {target} must end in .toml or .json")
-    return atomic_write_text(target, text)
+    if manifest.get("extra", {}).get("kind") != SUITE_KIND or "config" not in manifest:
+        raise ValueError("manifest.json is not the manifest of a suite run folder")
+    return suite_from_json(manifest["config"], where="manifest.json config")

@@ -1,7 +1,8 @@
 """Plotting helpers shared by ``tooldesign design``, ``tooldesign evaluate`` and the suites.
 
 Every function draws on a given :class:`matplotlib.axes.Axes` and returns it, so callers compose
-panels into their own figures. Figures come from :func:`benchmarks.report.new_figure` (Agg canvas,
+panels into their own figures. Figures come from
+:func:`benchmarks.reports.comparison.new_figure` (Agg canvas,
 no pyplot, no global backend switch) and are saved with :func:`save_png`, which writes the same
 bytes for the same figure (no timestamp or software tag) and writes them atomically.
 
@@ -22,7 +23,7 @@ from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from benchmarks.report import DPI, figure_png_bytes, new_figure
+from benchmarks.reports.comparison import DPI, figure_png_bytes, new_figure
 from benchmarks.storage import atomic_write_bytes
 
 __all__ = [

@@ -1,4 +1,4 @@
-"""The ``tooldesign`` command line: evaluate a design, design a tool, run benchmark suites.
+"""The ``tooldesign`` command line: the one place where arguments are parsed.
 
 Each subcommand lives in its own module and adds its own arguments through ``add_parser``; this
 file only dispatches. Those modules import PyBullet, SciPy, pandas and Matplotlib, which take
@@ -20,28 +20,40 @@ __all__ = ["COMMANDS", "build_parser", "main"]
 #: repeated here so that the top-level ``--help`` need not import the module.
 COMMANDS: dict[str, tuple[str, str]] = {
     "evaluate": (
-        "benchmarks.evaluate",
+        "benchmarks.cli.evaluate",
         "evaluate given coefficients: terms, trajectories, mesh and plots",
     ),
     "design": (
-        "benchmarks.design",
+        "benchmarks.cli.design",
         "design a tool: ask/evaluate/tell for K iterations (Algorithm 1)",
     ),
     "bench": (
-        "benchmarks.runner",
+        "benchmarks.cli.bench",
         "run a benchmark suite (optimizers, precision-sweep, robustness, ...)",
     ),
     "retest": (
-        "benchmarks.retest",
+        "benchmarks.cli.retest",
         "measure the noise floor (and robustness over ranges) of a suite's final designs",
     ),
     "report": (
-        "benchmarks.suite_reports",
+        "benchmarks.cli.report",
         "rebuild the figures and tables of a run folder from its stored results",
     ),
     "html": (
-        "benchmarks.html_report",
+        "benchmarks.cli.html",
         "write a self-contained HTML report (figures, tables, card, video) of a run folder",
+    ),
+    "dense-search": (
+        "benchmarks.cli.dense_search",
+        "evaluate a regular grid of designs (the yardstick for the optimizers)",
+    ),
+    "reproduce": (
+        "benchmarks.cli.reproduce",
+        "rebuild the committed suites' reports and write docs/reproduction.md",
+    ),
+    "readme": (
+        "benchmarks.cli.readme",
+        "regenerate the README's pictures and numbers (a design run of minutes)",
     ),
 }
 

@@ -14,7 +14,7 @@ design of a suite run folder, after the suite, in two ways:
   differences are the change's, not the scene's): robustness -sum_t |X - X_0| (m, per altered
   condition), accuracy -sum_t |X - X^g| (m), control deviation sum_t |U - U_0| (N m) and the
   final distance |X_T - X^g| (m). Table I becomes means over repeats and conditions with
-  intervals (see ``benchmarks.suite_reports``).
+  intervals (see ``benchmarks.reports.suite``).
 
 Results go to ``run_folder/retest/<the design file's path below designs/>``, one JSON per design,
 written atomically; a rerun skips designs whose file was written with the same settings, so an
@@ -23,35 +23,36 @@ interrupted retest resumes. Command: ``tooldesign retest RUN_FOLDER``.
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import dataclasses
 import json
 import math
 import os
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from concurrent.futures import Executor
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from benchmarks.evaluation import TaskSettings, _env, make_executor, map_robust
-from benchmarks.runner import DESIGNS_DIR, read_designs, suite_of_manifest
-from benchmarks.storage import atomic_write_text, json_text, read_manifest
+from benchmarks.execution import TaskSettings, make_executor, map_robust, worker_env
+from benchmarks.storage import (
+    DESIGNS_DIR,
+    atomic_write_text,
+    json_text,
+    read_designs,
+    read_manifest,
+    retest_path,
+)
+from benchmarks.suites.config import suite_of_manifest
+from tooldesign_env.schema import METRICS
 
 __all__ = [
-    "RETEST_DIR",
     "RetestConfig",
-    "noise_floor",
-    "read_retests",
     "retest_design",
     "retest_suite",
 ]
-
-RETEST_DIR = "retest"
-"""Folder of the retest files in a run folder."""
 
 RETEST_VERSION = 1
 
@@ -134,7 +135,7 @@ def _rollout(task: TaskSettings, scene: Any, coeffs: Sequence[float], **changes:
     settings = dataclasses.replace(task, env_kwargs={**dict(task.env_kwargs), "scene": scene})
     if "box_mass" in changes:
         settings = dataclasses.replace(settings, box_mass=changes["box_mass"])
-    env = _env(settings)
+    env = worker_env(settings, series=True)
     info = env.step(np.asarray(coeffs, dtype=np.float64))[4]
     if not info["valid"]:
         raise ValueError(f"the design is invalid in a nudged scene: {info['invalid_reason']}")
@@ -156,10 +157,7 @@ def retest_design(item: RetestItem) -> dict[str, Any]:
         noise.append(
             {
                 "nudge": k,
-                **{
-                    name: float(info[name])
-                    for name in ("free_energy", "goal_error", "confidence", "final_distance")
-                },
+                **{name: float(info[name]) for name in METRICS},
             }
         )
         if k >= config.repeats or not (config.masses or config.frictions):
@@ -187,10 +185,6 @@ def retest_design(item: RetestItem) -> dict[str, Any]:
                 }
             )
     return {"noise": noise, "stress": stress, "retest_time": time.perf_counter() - start}
-
-
-def _retest_path(run_folder: Path, design_file: Path) -> Path:
-    return run_folder / RETEST_DIR / design_file.relative_to(run_folder / DESIGNS_DIR)
 
 
 def default_config(suite: Any) -> RetestConfig:
@@ -235,7 +229,7 @@ def retest_suite(
         record = json.loads(path.read_text(encoding="utf-8"))
         if record.get("status") != "ok" or not record.get("coefficients"):
             continue
-        target = _retest_path(folder, path)
+        target = retest_path(folder, path)
         if target.is_file():
             try:
                 done = json.loads(target.read_text(encoding="utf-8"))
@@ -273,118 +267,3 @@ def retest_suite(
                 }
                 written.append(atomic_write_text(target, json_text(out)))
     return written
-
-
-def read_retests(run_folder: str | os.PathLike[str]) -> list[dict[str, Any]]:
-    """Every retest file of a run folder (empty if it was not retested), in a fixed order."""
-    folder = Path(run_folder) / RETEST_DIR
-    if not folder.is_dir():
-        return []
-    out = []
-    for path in sorted(folder.rglob("seed=*.json")):
-        try:
-            out.append(json.loads(path.read_text(encoding="utf-8")))
-        except ValueError as err:
-            raise ValueError(f"{path}: not a valid retest file: {err}") from err
-    return out
-
-
-def noise_floor(retests: Sequence[Mapping[str, Any]]) -> dict[str, float]:
-    """The suite's noise floor of each term: the median over designs of its range over nudges.
-
-    Returns:
-        ``{term: median of (max - min)}`` and ``{term + "_relative": median of (max - min) /
-        |mean|}`` for F, goal error, confidence and final distance, and ``designs``; NaN
-        values when no design was retested.
-    """
-    terms = ("free_energy", "goal_error", "confidence", "final_distance")
-    ranges: dict[str, list[float]] = {t: [] for t in terms}
-    relative: dict[str, list[float]] = {t: [] for t in terms}
-    for retest in retests:
-        rows = retest.get("noise") or []
-        if len(rows) < 2:
-            continue
-        for t in terms:
-            values = np.array([r[t] for r in rows], dtype=np.float64)
-            ranges[t].append(float(np.ptp(values)))
-            mean = abs(float(values.mean()))
-            relative[t].append(float(np.ptp(values)) / mean if mean > 0 else math.nan)
-    out: dict[str, float] = {"designs": float(len(ranges["free_energy"]))}
-    for t in terms:
-        out[t] = float(np.median(ranges[t])) if ranges[t] else math.nan
-        finite = [v for v in relative[t] if math.isfinite(v)]
-        out[f"{t}_relative"] = float(np.median(finite)) if finite else math.nan
-    return out
-
-
-# --- command line ------------------------------------------------------------------------------
-
-
-def _positive_floats(text: str) -> tuple[float, ...]:
-    try:
-        return tuple(float(v) for v in text.split(",") if v.strip())
-    except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"expected comma-separated numbers, e.g. 0.2,0.5, got {text!r}"
-        ) from None
-
-
-def add_parser(subparsers: Any) -> argparse.ArgumentParser:
-    """Register ``tooldesign retest`` on the dispatcher's subparsers."""
-    parser = subparsers.add_parser(
-        "retest",
-        help="measure the noise floor (and robustness over ranges) of a suite's final designs",
-        description=(
-            "Re-evaluate every final design of a suite run folder in nudged scenes (its noise "
-            "floor) and, for suites that test robustness, over a range of box masses and "
-            "frictions; resumes an interrupted retest. Then run `tooldesign report`. See "
-            "docs/benchmarks.md."
-        ),
-    )
-    defaults = RetestConfig()
-    parser.add_argument("run_folder", type=Path, metavar="RUN_FOLDER", help="the run folder")
-    parser.add_argument(
-        "--nudges", type=int, default=defaults.nudges, help="scenes per design (default: 5)"
-    )
-    parser.add_argument(
-        "--masses",
-        type=_positive_floats,
-        default=None,
-        metavar="M1,M2,...",
-        help="box masses of the stress test in kg (default: 0.2,0.4,0.6,0.8,1.0 for suites "
-        "that test robustness, else none)",
-    )
-    parser.add_argument(
-        "--frictions",
-        type=_positive_floats,
-        default=None,
-        metavar="MU1,MU2,...",
-        help="box frictions of the stress test (default: 0.2,0.6 for suites that test "
-        "robustness, else none)",
-    )
-    parser.add_argument(
-        "--repeats", type=int, default=defaults.repeats, help="scenes of the stress test"
-    )
-    parser.add_argument("--workers", type=int, default=None, help="worker processes")
-    parser.set_defaults(run=_run)
-    return parser
-
-
-def _run(args: argparse.Namespace) -> int:
-    suite = suite_of_manifest(read_manifest(args.run_folder))
-    base = default_config(suite)
-    config = dataclasses.replace(
-        base,
-        nudges=args.nudges,
-        repeats=min(args.repeats, args.nudges),
-        masses=base.masses if args.masses is None else args.masses,
-        frictions=base.frictions if args.frictions is None else args.frictions,
-    )
-    files = retest_suite(args.run_folder, config, workers=args.workers)
-    floor = noise_floor(read_retests(args.run_folder))
-    print(
-        f"{len(files)} designs retested in {Path(args.run_folder) / RETEST_DIR}; noise floor of "
-        f"F over {int(floor['designs'])} designs: {floor['free_energy']:.4g} "
-        f"({100 * floor['free_energy_relative']:.2f} % median range over {config.nudges} nudges)"
-    )
-    return 0

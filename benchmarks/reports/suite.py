@@ -2,7 +2,8 @@
 
 :func:`make_suite_report` writes, under ``run_folder/report/``:
 
-- what :func:`benchmarks.report.make_report` writes for every run folder: a convergence figure
+- what :func:`benchmarks.reports.comparison.make_report` writes for every run folder: a
+  convergence figure
   per (suite, variant), ``summary.csv/md`` (final F and AUC per optimizer with 95% bootstrap
   intervals) and ``pairwise.csv/md`` (Mann-Whitney U, Holm, A12);
 - ``designs.csv`` / ``designs.md``: one row per run: its design, F and its terms, the shape of
@@ -26,7 +27,6 @@ tool shapes are pure geometry. The same stored results give the same CSV and Mar
 
 from __future__ import annotations
 
-import argparse
 import math
 import os
 import zlib
@@ -38,17 +38,14 @@ import numpy as np
 import pandas as pd
 from matplotlib import colormaps
 
-from benchmarks import plots
-from benchmarks.report import REPORT_DIR, make_report
-from benchmarks.retest import noise_floor, read_retests
-from benchmarks.retest_reports import make_retest_report
-from benchmarks.runner import read_designs, suite_of_manifest
-from benchmarks.stats import bootstrap_ci
-from benchmarks.storage import atomic_write_text, read_manifest
-from benchmarks.suites import SuiteConfig
+from benchmarks.reports import plots
+from benchmarks.reports.comparison import REPORT_DIR, make_report
+from benchmarks.reports.retest import make_retest_report, noise_floor
+from benchmarks.reports.stats import bootstrap_ci
+from benchmarks.storage import atomic_write_text, read_designs, read_manifest, read_retests
+from benchmarks.suites.config import SuiteConfig, suite_of_manifest
 
 __all__ = [
-    "add_parser",
     "designs_table",
     "make_suite_report",
     "robustness_by_precision",
@@ -161,7 +158,7 @@ def designs_table(designs: Sequence[Mapping[str, Any]]) -> pd.DataFrame:
     """One row per run: keys, task, design, F and its terms, tool shape, final test.
 
     Args:
-        designs: Design records from :func:`benchmarks.runner.read_designs`.
+        designs: Design records from :func:`benchmarks.suites.runner.read_designs`.
 
     Returns:
         The table, in the records' order; missing values are NaN.
@@ -760,7 +757,7 @@ def make_suite_report(
     """Rebuild every report of a run folder from its stored results alone.
 
     Args:
-        run_folder: A suite run folder (:func:`benchmarks.runner.run_suite`); a design run
+        run_folder: A suite run folder (:func:`benchmarks.suites.runner.run_suite`); a design run
             folder or a bare store gets the generic report of :func:`make_report` only.
         out_dir: Where to write; ``run_folder/report`` if ``None``.
         n_boot: Bootstrap resamples per interval.
@@ -802,32 +799,3 @@ def make_suite_report(
     for figure in config.figures:
         written += _FIGURES[figure](designs, config, target, seed)
     return written
-
-
-# --- command line ------------------------------------------------------------------------------
-
-
-def add_parser(subparsers: Any) -> argparse.ArgumentParser:
-    """Register ``tooldesign report`` on the dispatcher's subparsers."""
-    parser = subparsers.add_parser(
-        "report",
-        help="rebuild the figures and tables of a run folder from its stored results",
-        description=(
-            "Rebuild every report of a run folder (convergence, summary, pairwise tests and the "
-            "suite's own figures and tables) from its stored results alone; nothing is "
-            "simulated. See docs/benchmarks.md."
-        ),
-    )
-    parser.add_argument("run_folder", type=Path, metavar="RUN_FOLDER", help="the run folder")
-    parser.add_argument(
-        "--out", type=Path, default=None, metavar="DIR", help="where to write (RUN_FOLDER/report)"
-    )
-    parser.set_defaults(run=_run)
-    return parser
-
-
-def _run(args: argparse.Namespace) -> int:
-    files = make_suite_report(args.run_folder, out_dir=args.out)
-    folder = files[0].parent if files else args.run_folder
-    print(f"{len(files)} report files written to {folder}")
-    return 0

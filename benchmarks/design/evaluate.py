@@ -1,4 +1,4 @@
-"""``tooldesign evaluate``: score given coefficients and write everything a user would look at.
+"""Score given coefficients and write everything a user would look at (``tooldesign evaluate``).
 
 Writes into ``--out``:
 
@@ -8,32 +8,25 @@ Writes into ``--out``:
 * ``tool.stl``, ``tool.obj``, ``tool.urdf``: the tool, in metres;
 * ``tool_shape.png``, ``box_path.png``, ``free_energy.png``: the tool, the top view of the box path
   and the goal error / confidence / free energy over time (the paper's Figure 4);
-* ``report.html``: all of the above in one self-contained page (``benchmarks.html_report``);
+* ``report.html``: all of the above in one self-contained page (:mod:`benchmarks.reports.html`);
 * with ``--video``: ``rollout.gif``, the rollout rendered headless (goal and box path drawn);
-* with ``--robustness``: ``robustness.json`` and ``robustness.png`` (box paths under the altered
-  masses).
+* with ``--robustness``: ``robustness.json``, ``box_paths.json`` (the box paths under the altered
+  masses) and ``robustness.png``.
+
+The figures and ``report.html`` are drawn from the files written here by
+:func:`benchmarks.reports.write_evaluation_report` (``tooldesign evaluate`` calls both).
 """
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
-from benchmarks.evaluation import add_task_arguments
-from benchmarks.html_report import write_html_report
-from benchmarks.plots import (
-    new_figure,
-    plot_box_paths,
-    plot_time_series,
-    plot_tool_shapes,
-    save_png,
-)
+from benchmarks.design.video import rollout_gif
 from benchmarks.storage import atomic_write_text, json_ready, json_text, package_versions
-from benchmarks.video import rollout_gif
 from tooldesign_env import (
     ToolDesignEnv,
     ToolSpec,
@@ -43,72 +36,16 @@ from tooldesign_env import (
     tool_urdf,
 )
 from tooldesign_env.geometry import validate_coefficients
-from tooldesign_env.robustness import DEFAULT_MASSES
+from tooldesign_env.schema import (
+    DEFAULT_BOX_MASS,
+    DEFAULT_GOAL,
+    DEFAULT_GOAL_PRECISION,
+    PATH_DECIMALS,
+    ROBUSTNESS_MASSES,
+)
 from tooldesign_env.simulation import PHASES
 
-__all__ = ["add_parser", "evaluate", "trajectory_frame"]
-
-
-def add_parser(subparsers: Any) -> None:
-    """Register ``tooldesign evaluate``."""
-    p = subparsers.add_parser(
-        "evaluate",
-        help="evaluate given coefficients: terms, trajectories, mesh and plots",
-        description="Score given coefficients and write everything a user would look at: "
-        "terms (JSON), trajectories (CSV), mesh (STL/OBJ/URDF) and plots.",
-    )
-    p.add_argument(
-        "--coeffs",
-        type=float,
-        nargs="+",
-        required=True,
-        metavar="C",
-        help="coefficients c1 ... cn, highest power first (default degree 3)",
-    )
-    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder (created)")
-    add_task_arguments(p)
-    p.add_argument(
-        "--robustness",
-        action="store_true",
-        help="also test the design under box masses 0.3, 0.5, 0.7, 0.9 kg",
-    )
-    p.add_argument(
-        "--outside-bounds",
-        action="store_true",
-        help="accept coefficients outside the default bounds (c1, c2 in [-1.5, 1.5], "
-        "c3 in [-0.5, 0.5]); without it they are refused, as env.step refuses them",
-    )
-    p.add_argument(
-        "--video",
-        action="store_true",
-        help="also write rollout.gif: the rollout rendered headless, with the goal and the box "
-        "path (about 20 s more)",
-    )
-    p.set_defaults(run=_run)
-
-
-def _run(args: argparse.Namespace) -> int:
-    info = evaluate(
-        args.coeffs,
-        args.out,
-        goal=tuple(args.goal),
-        goal_precision=args.goal_precision,
-        box_mass=args.box_mass,
-        estimator=args.estimator,
-        objective=args.objective,
-        robustness=args.robustness,
-        outside_bounds=args.outside_bounds,
-        video=args.video,
-    )
-    status = "valid" if info["valid"] else f"INVALID ({info['invalid_reason']})"
-    print(
-        f"design {np.round(info['coefficients'], 6).tolist()}: {status}\n"
-        f"  free energy F = {info['free_energy']:.6g}  (goal error {info['goal_error']:.6g}, "
-        f"confidence {info['confidence']:.6g}, penalty {info['penalty']:.6g})\n"
-        f"  final distance to the goal: {info['final_distance']:.3f} m\n"
-        f"  written to {args.out}"
-    )
-    return 0
+__all__ = ["evaluate_coefficients", "trajectory_frame"]
 
 
 def trajectory_frame(info: dict[str, Any]) -> pd.DataFrame:
@@ -133,13 +70,17 @@ def trajectory_frame(info: dict[str, Any]) -> pd.DataFrame:
     return pd.DataFrame(columns)
 
 
-def evaluate(
+def _rounded(path: Any) -> list[list[float]]:
+    return np.round(np.asarray(path, dtype=np.float64), PATH_DECIMALS).tolist()
+
+
+def evaluate_coefficients(
     coeffs: Any,
     out: Path | str,
     *,
-    goal: tuple[float, float, float] = (0.0, 1.5, 0.1),
-    goal_precision: float = 20.0,
-    box_mass: float = 0.1,
+    goal: tuple[float, float, float] = DEFAULT_GOAL,
+    goal_precision: float = DEFAULT_GOAL_PRECISION,
+    box_mass: float = DEFAULT_BOX_MASS,
     estimator: str = "contact",
     objective: str = "free-energy",
     robustness: bool = False,
@@ -193,7 +134,7 @@ def evaluate(
         "bounds": bounds,
         "tool": spec,
     }
-    env = ToolDesignEnv(**settings)
+    env = ToolDesignEnv(**settings, info_series=True)
     try:
         env.reset(seed=0)
         info = env.step(c)[4]
@@ -217,36 +158,15 @@ def evaluate(
             },
             "versions": package_versions(),
         }
-        fig, ax = new_figure()
-        plot_tool_shapes(ax, [info["coefficients"]])
-        ax.set_title(f"tool C = {np.round(info['coefficients'], 3).tolist()}")
-        save_png(fig, out / "tool_shape.png")
         if info["valid"]:
             table = trajectory_frame(info)
             atomic_write_text(
                 out / "trajectory.csv", table.to_csv(index=False, float_format="%.17g")
             )
-            fig, ax = new_figure()
-            plot_box_paths(ax, [info["box_trajectory"]], info["goal"])
-            ax.set_title(f"box path, final distance {info['final_distance']:.3f} m")
-            save_png(fig, out / "box_path.png")
-            fig, ax = new_figure()
-            plot_time_series(
-                ax,
-                info["times"],
-                {
-                    "goal error E_t = 1/2 p^X |X_t - X^g|^2": info["goal_error_t"],
-                    "minus confidence -c_t = -1/2 log|Pi_U,t|": -info["confidence_t"],
-                    "free energy F_t = E_t - c_t": info["free_energy_t"],
-                },
-                ylabel="term per control step (dimensionless; F = sum of F_t)",
-            )
-            ax.set_title(f"F = {info['free_energy']:.4g}")
-            save_png(fig, out / "free_energy.png")
             if video:
                 rollout_gif(info["coefficients"], out / "rollout.gif", **settings)
             if robustness:
-                result = env.evaluate_robustness(info["coefficients"], DEFAULT_MASSES)
+                result = env.evaluate_robustness(info["coefficients"], ROBUSTNESS_MASSES)
                 card["robustness"] = {
                     "robustness": result.robustness,
                     "accuracy": result.accuracy,
@@ -255,14 +175,14 @@ def evaluate(
                     "masses": list(result.masses),
                 }
                 atomic_write_text(out / "robustness.json", json_text(card["robustness"]))
-                fig, ax = new_figure()
-                paths = [result.nominal.box_position] + [t.box_position for t in result.perturbed]
-                labels = [f"{result.nominal_mass} kg"] + [f"{m} kg" for m in result.masses]
-                plot_box_paths(ax, paths, info["goal"], labels)
-                ax.set_title("box paths under altered box masses")
-                save_png(fig, out / "robustness.png")
+                paths = {
+                    "nominal_mass": result.nominal_mass,
+                    "masses": list(result.masses),
+                    "nominal": _rounded(result.nominal.box_position),
+                    "perturbed": [_rounded(t.box_position) for t in result.perturbed],
+                }
+                atomic_write_text(out / "box_paths.json", json_text(paths, compact=True))
         atomic_write_text(out / "terms.json", json_text(card))
-        write_html_report(out)
         return info
     finally:
         env.close()

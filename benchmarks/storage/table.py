@@ -1,4 +1,4 @@
-"""Atomic, resumable result files of a benchmark run folder.
+"""The evaluation table of a run folder: one row per evaluation, stored in whole part files.
 
 A run folder holds the evaluation log of a suite: one row per evaluation (one simulated tool
 design), in the long format documented in ``docs/results-format.md``. It is written as the suite
@@ -22,18 +22,9 @@ suite, variant or optimizer name maps to one valid path component and back.
 from __future__ import annotations
 
 import dataclasses
-import datetime as dt
-import enum
-import hashlib
-import importlib.metadata
 import io
-import json
-import math
 import os
-import platform
 import re
-import secrets
-import subprocess
 import urllib.parse
 from collections.abc import Iterable, Mapping
 from pathlib import Path
@@ -42,148 +33,41 @@ from typing import Any, Literal
 import numpy as np
 import pandas as pd
 
-__all__ = [
-    "COEFFICIENT_PATTERN",
-    "FLOAT_COLUMNS",
-    "ID_COLUMNS",
-    "RUN_COLUMNS",
-    "SORT_COLUMNS",
-    "STATUSES",
-    "STRING_COLUMNS",
-    "TASK_COLUMNS",
-    "MANIFEST_VERSION",
-    "EmptyStoreError",
-    "ResultStore",
-    "Unit",
-    "atomic_write_bytes",
-    "atomic_write_text",
-    "build_manifest",
-    "file_sha256",
-    "part_checksums",
-    "git_commit",
-    "host_info",
-    "package_versions",
-    "read_manifest",
-    "resolve_format",
-    "timing_totals",
-    "validate_evaluations",
-    "verify_checksums",
-    "write_manifest",
-]
-
-# --- schema ------------------------------------------------------------------------------------
-
-STATUSES: tuple[str, ...] = ("ok", "invalid", "failed")
-"""Allowed values of the ``status`` column."""
-
-STRING_COLUMNS: tuple[str, ...] = ("suite", "optimizer", "status", "variant")
-ID_COLUMNS: tuple[str, ...] = ("seed", "iteration", "candidate", "eval_id")
-METRIC_COLUMNS: tuple[str, ...] = ("free_energy", "goal_error", "confidence", "final_distance")
-TIMING_COLUMNS: tuple[str, ...] = ("eval_time", "opt_time")
-TASK_COLUMNS: tuple[str, ...] = ("goal_x", "goal_y", "goal_z", "goal_precision", "box_mass")
-FLOAT_COLUMNS: tuple[str, ...] = METRIC_COLUMNS + TIMING_COLUMNS + TASK_COLUMNS
-DERIVED_COLUMN = "best_so_far"
-
-RUN_COLUMNS: tuple[str, ...] = ("suite", "variant", "optimizer", "seed")
-"""Columns naming one optimisation run; ``best_so_far`` is a running minimum within a run."""
-
-SORT_COLUMNS: tuple[str, ...] = RUN_COLUMNS + ("iteration", "candidate")
-"""Deterministic row order of :meth:`ResultStore.read`."""
-
-COEFFICIENT_PATTERN = re.compile(r"c([1-9][0-9]*)")
-"""Coefficient columns ``c1..cn``; ``n`` varies per suite."""
+from benchmarks.storage.atomic import _TEMP_SUFFIX, atomic_write_bytes
+from benchmarks.storage.manifest import MANIFEST_NAME, file_sha256, read_manifest, write_manifest
+from tooldesign_env.schema import (
+    BEST_SO_FAR,
+    COEFFICIENT_PATTERN,
+    FLOAT_COLUMNS,
+    ID_COLUMNS,
+    METRICS,
+    RUN_COLUMNS,
+    SORT_COLUMNS,
+    STATUSES,
+    STRING_COLUMNS,
+    TASK_COLUMNS,
+    TIMING_COLUMNS,
+)
 
 _REQUIRED: tuple[str, ...] = (
-    ("suite", "optimizer") + ID_COLUMNS + METRIC_COLUMNS + ("status",) + TIMING_COLUMNS
+    ("suite", "optimizer") + ID_COLUMNS + METRICS + ("status",) + TIMING_COLUMNS
 ) + TASK_COLUMNS
 
+
 Format = Literal["csv", "parquet"]
+
+
 CONSOLIDATED_STEM = "evaluations"
-MANIFEST_NAME = "manifest.json"
+
+
 PARTS_DIR = "parts"
-_TEMP_SUFFIX = ".tmp"
+
+
 _PART_NAME = re.compile(r"iteration=([0-9]+)\.csv")
 
 
 class EmptyStoreError(ValueError):
     """A run folder exists but holds no evaluations yet."""
-
-
-# --- atomic writes -----------------------------------------------------------------------------
-
-
-def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> Path:
-    """Write ``data`` to ``path`` so that readers see the old file or the new one, never half.
-
-    The bytes go to a hidden temporary file in the same folder (same file system, so the rename
-    is atomic), are flushed to disk, and the temporary file is ``os.replace``-d onto ``path``.
-    A crash leaves at most a ``.<name>.<random>.tmp`` file, which readers ignore.
-
-    Args:
-        path: Destination file; its parent folders are created.
-        data: The complete file content.
-
-    Returns:
-        The destination path.
-
-    Raises:
-        TypeError: If ``data`` is not bytes-like.
-    """
-    if not isinstance(data, (bytes, bytearray, memoryview)):
-        raise TypeError(f"data must be bytes, got {type(data).__name__}")
-    target = Path(path)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    # A random suffix (not mkstemp) so the file gets the usual umask permissions, not 0600.
-    tmp = target.with_name(f".{target.name}.{os.getpid()}.{secrets.token_hex(4)}{_TEMP_SUFFIX}")
-    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o666)
-    try:
-        with os.fdopen(fd, "wb") as handle:
-            handle.write(data)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(tmp, target)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-    _fsync_folder(target.parent)
-    return target
-
-
-def atomic_write_text(path: str | os.PathLike[str], text: str, *, encoding: str = "utf-8") -> Path:
-    """Write ``text`` atomically (see :func:`atomic_write_bytes`), without newline translation.
-
-    Args:
-        path: Destination file; its parent folders are created.
-        text: The complete file content; newlines are written as they are (no ``CRLF`` on
-            Windows), so the bytes are the same everywhere.
-        encoding: Text encoding.
-
-    Returns:
-        The destination path.
-
-    Raises:
-        TypeError: If ``text`` is not a string.
-    """
-    if not isinstance(text, str):
-        raise TypeError(f"text must be str, got {type(text).__name__}")
-    return atomic_write_bytes(path, text.encode(encoding))
-
-
-def _fsync_folder(folder: Path) -> None:
-    # Makes the rename itself durable on POSIX; folders cannot be opened this way on Windows.
-    try:
-        fd = os.open(folder, os.O_RDONLY)
-    except OSError:
-        return
-    try:
-        os.fsync(fd)
-    except OSError:
-        pass
-    finally:
-        os.close(fd)
-
-
-# --- units of work -----------------------------------------------------------------------------
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True, order=True)
@@ -261,9 +145,6 @@ def _quote(name: str) -> str:
     return urllib.parse.quote(name, safe="")
 
 
-# --- validation --------------------------------------------------------------------------------
-
-
 def _coefficient_columns(columns: Iterable[str]) -> list[str]:
     found = [c for c in columns if isinstance(c, str) and COEFFICIENT_PATTERN.fullmatch(c)]
     return sorted(found, key=lambda c: int(c[1:]))
@@ -272,8 +153,8 @@ def _coefficient_columns(columns: Iterable[str]) -> list[str]:
 def _canonical_order(columns: Iterable[str]) -> list[str]:
     columns = list(columns)
     coefficients = _coefficient_columns(columns)
-    head = ["suite", "optimizer", *ID_COLUMNS, *coefficients, *METRIC_COLUMNS, "status"]
-    head += [*TIMING_COLUMNS, DERIVED_COLUMN, *TASK_COLUMNS, "variant"]
+    head = ["suite", "optimizer", *ID_COLUMNS, *coefficients, *METRICS, "status"]
+    head += [*TIMING_COLUMNS, BEST_SO_FAR, *TASK_COLUMNS, "variant"]
     present, listed = set(columns), set(head)
     known = [c for c in head if c in present]
     extra = sorted(c for c in columns if c not in listed)
@@ -322,7 +203,7 @@ def validate_evaluations(rows: pd.DataFrame, *, source: str = "rows") -> pd.Data
             f"got {coefficients or 'none'}"
         )
 
-    out = rows.drop(columns=[DERIVED_COLUMN], errors="ignore").reset_index(drop=True)
+    out = rows.drop(columns=[BEST_SO_FAR], errors="ignore").reset_index(drop=True)
     if "variant" not in out.columns:
         out["variant"] = ""
     known = set(STRING_COLUMNS) | set(ID_COLUMNS) | set(FLOAT_COLUMNS) | set(coefficients)
@@ -402,11 +283,8 @@ def _with_best_so_far(frame: pd.DataFrame) -> pd.DataFrame:
     keys = [frame[c] for c in RUN_COLUMNS]
     # cummin leaves NaN where the row itself is NaN; the forward fill carries the running best.
     best = finite.groupby(keys, sort=False).cummin()
-    frame[DERIVED_COLUMN] = best.groupby(keys, sort=False).ffill()
+    frame[BEST_SO_FAR] = best.groupby(keys, sort=False).ffill()
     return frame[_canonical_order(frame.columns)]
-
-
-# --- file formats ------------------------------------------------------------------------------
 
 
 def _pyarrow_available() -> bool:
@@ -479,9 +357,6 @@ def _read_table(path: Path) -> pd.DataFrame:
             raise ImportError(f"{path}: {_NO_PYARROW}")
         return pd.read_parquet(path)
     return _read_csv(path)
-
-
-# --- the store ---------------------------------------------------------------------------------
 
 
 class ResultStore:
@@ -743,217 +618,6 @@ def timing_totals(evaluations: pd.DataFrame) -> dict[str, float]:
     }
 
 
-# --- manifest ----------------------------------------------------------------------------------
-
-MANIFEST_VERSION = 1
-# Distribution names (what importlib.metadata knows), not module names: skopt is scikit-optimize.
-_PACKAGES: tuple[str, ...] = (
-    "tooldesign",
-    "numpy",
-    "scipy",
-    "pandas",
-    "gymnasium",
-    "pybullet",
-    "cma",
-    "scikit-optimize",
-    "pyswarms",
-    "pyarrow",
-    "matplotlib",
-)
-
-
-def package_versions(packages: Iterable[str] = _PACKAGES) -> dict[str, str]:
-    """Versions of the installed distributions among ``packages``; absent ones are left out.
-
-    Uses ``importlib.metadata`` so that nothing is imported (importing pybullet prints a banner
-    and takes time).
-
-    Args:
-        packages: Distribution names.
-
-    Returns:
-        ``{name: version}`` in the order given.
-    """
-    versions = {}
-    for name in packages:
-        try:
-            versions[name] = importlib.metadata.version(name)
-        except importlib.metadata.PackageNotFoundError:
-            continue
-    return versions
-
-
-def git_commit(repo_dir: str | os.PathLike[str] | None = None) -> str | None:
-    """The commit checked out in ``repo_dir``, or ``None`` if git or the repository is absent.
-
-    Args:
-        repo_dir: A folder inside the repository; defaults to the folder of this module.
-
-    Returns:
-        The 40-hex-digit commit or ``None``.
-    """
-    folder = Path(repo_dir) if repo_dir is not None else Path(__file__).resolve().parent
-    try:
-        result = subprocess.run(
-            ["git", "rev-parse", "HEAD"],
-            cwd=folder,
-            capture_output=True,
-            text=True,
-            timeout=10,
-            check=True,
-        )
-    except (OSError, subprocess.SubprocessError):
-        return None
-    commit = result.stdout.strip()
-    return commit if re.fullmatch(r"[0-9a-f]{40}", commit) else None
-
-
-def host_info() -> dict[str, Any]:
-    """The machine: platform string, machine, Python version and CPU count (no host name)."""
-    return {
-        "platform": platform.platform(),
-        "machine": platform.machine(),
-        "python": platform.python_version(),
-        "cpu_count": os.cpu_count(),
-    }
-
-
-def build_manifest(
-    *,
-    config: Mapping[str, Any] | Any,
-    start_time: dt.datetime,
-    end_time: dt.datetime | None = None,
-    wall_time: float | None = None,
-    simulation_time: float | None = None,
-    optimizer_time: float | None = None,
-    repo_dir: str | os.PathLike[str] | None = None,
-    extra: Mapping[str, Any] | None = None,
-) -> dict[str, Any]:
-    """Describe a run: what was asked, with which software, where and how long it took.
-
-    Args:
-        config: The suite configuration: a mapping or a dataclass instance; it must be made of
-            JSON values, numpy scalars/arrays, paths, enums, tuples and nested dataclasses.
-        start_time: When the run started, timezone-aware.
-        end_time: When it ended, timezone-aware, or ``None`` while it runs.
-        wall_time: Total wall time in s; defaults to ``end_time - start_time`` (pass the sum of
-            sessions for a resumed run).
-        simulation_time: Sum of ``eval_time`` in s (see :func:`timing_totals`).
-        optimizer_time: Sum of ``opt_time`` in s.
-        repo_dir: Where to ask git for the commit; see :func:`git_commit`.
-        extra: More JSON-able entries, stored under ``"extra"``.
-
-    Returns:
-        A JSON-able dict.
-
-    Raises:
-        TypeError: If a time has the wrong type or the config holds a value JSON cannot store.
-        ValueError: If a datetime is naive, times are negative or the config holds NaN or inf.
-    """
-    for name, moment in (("start_time", start_time), ("end_time", end_time)):
-        if moment is None:
-            continue
-        if not isinstance(moment, dt.datetime):
-            raise TypeError(f"{name} must be a datetime, got {type(moment).__name__}")
-        if moment.tzinfo is None or moment.utcoffset() is None:
-            raise ValueError(f"{name} must be timezone-aware, e.g. datetime.now(timezone.utc)")
-    if wall_time is None and end_time is not None:
-        wall_time = (end_time - start_time).total_seconds()
-    for name, seconds in (
-        ("wall_time", wall_time),
-        ("simulation_time", simulation_time),
-        ("optimizer_time", optimizer_time),
-    ):
-        if seconds is None:
-            continue
-        if isinstance(seconds, bool) or not isinstance(seconds, (int, float, np.number)):
-            raise TypeError(f"{name} must be a number of seconds, got {type(seconds).__name__}")
-        if not (math.isfinite(seconds) and seconds >= 0):
-            raise ValueError(f"{name} must be a finite number of seconds >= 0, got {seconds}")
-    if dataclasses.is_dataclass(config) and not isinstance(config, type):
-        config = dataclasses.asdict(config)
-    if not isinstance(config, Mapping):
-        raise TypeError(f"config must be a mapping or a dataclass, got {type(config).__name__}")
-    return {
-        "format_version": MANIFEST_VERSION,
-        "config": _jsonable(config, "config"),
-        "packages": package_versions(),
-        "git_commit": git_commit(repo_dir),
-        "host": host_info(),
-        "start_time": start_time.isoformat(),
-        "end_time": None if end_time is None else end_time.isoformat(),
-        "wall_time": None if wall_time is None else float(wall_time),
-        "simulation_time": None if simulation_time is None else float(simulation_time),
-        "optimizer_time": None if optimizer_time is None else float(optimizer_time),
-        "extra": _jsonable(dict(extra or {}), "extra"),
-    }
-
-
-def _jsonable(value: Any, where: str) -> Any:
-    if dataclasses.is_dataclass(value) and not isinstance(value, type):
-        value = dataclasses.asdict(value)
-    if isinstance(value, enum.Enum):
-        value = value.value
-    if isinstance(value, np.ndarray):
-        value = value.tolist()
-    if isinstance(value, np.generic):
-        value = value.item()
-    if isinstance(value, os.PathLike):
-        return os.fspath(value)
-    if value is None or isinstance(value, (bool, int, str)):
-        return value
-    if isinstance(value, float):
-        if not math.isfinite(value):
-            raise ValueError(f"{where} is {value}; JSON has no NaN or inf")
-        return value
-    if isinstance(value, Mapping):
-        out = {}
-        for key, item in value.items():
-            if not isinstance(key, str):
-                raise TypeError(f"{where} has a key {key!r} that is not a str")
-            out[key] = _jsonable(item, f"{where}.{key}")
-        return out
-    if isinstance(value, (list, tuple)):
-        return [_jsonable(item, f"{where}[{i}]") for i, item in enumerate(value)]
-    raise TypeError(f"{where} is a {type(value).__name__}, which JSON cannot store")
-
-
-def json_ready(value: Any) -> Any:
-    """``value`` as plain JSON types: mappings, lists, numbers, strings, None.
-
-    NumPy arrays and scalars become lists and numbers; a non-finite float becomes None (JSON has
-    no NaN, and a failed metric is null in the files users keep). Manifests use a stricter
-    check that refuses NaN instead.
-    """
-    if isinstance(value, Mapping):
-        return {str(k): json_ready(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [json_ready(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return json_ready(value.tolist())
-    if isinstance(value, np.generic):
-        value = value.item()
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
-
-
-def json_text(data: Mapping[str, Any], *, compact: bool = False) -> str:
-    """``data`` as JSON text with sorted keys (see :func:`json_ready`): equal data, equal bytes."""
-    if compact:
-        return json.dumps(json_ready(data), separators=(",", ":"), sort_keys=True, allow_nan=False)
-    return json.dumps(json_ready(data), indent=2, sort_keys=True, allow_nan=False) + "\n"
-
-
-def file_sha256(path: str | os.PathLike[str]) -> str:
-    """Hex SHA-256 of a file's bytes, read in 1 MiB blocks."""
-    digest = hashlib.sha256()
-    with open(path, "rb") as handle:
-        for block in iter(lambda: handle.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
-
-
 def part_checksums(store: ResultStore) -> dict[str, str]:
     """``{path relative to the run folder: sha256}`` of every completed part file."""
     out: dict[str, str] = {}
@@ -961,72 +625,3 @@ def part_checksums(store: ResultStore) -> dict[str, str]:
         path = store.part_path(unit)
         out[path.relative_to(store.run_folder).as_posix()] = file_sha256(path)
     return out
-
-
-def verify_checksums(run_folder: str | os.PathLike[str], recorded: Mapping[str, Any]) -> None:
-    """Refuse a run folder whose recorded files are missing or changed.
-
-    Args:
-        run_folder: The folder.
-        recorded: ``{relative path: sha256}`` as stored in the manifest.
-
-    Raises:
-        ValueError: A recorded file is missing, truncated or edited (its sha256 differs), or
-            the record itself is malformed. Nothing is written or removed.
-    """
-    folder = Path(run_folder)
-    if not isinstance(recorded, Mapping):
-        raise ValueError(f"{folder / 'manifest.json'}: the checksums are not a mapping")
-    for relative, expected in sorted(recorded.items()):
-        path = (folder / relative).resolve()
-        if not isinstance(expected, str) or folder.resolve() not in path.parents:
-            raise ValueError(f"{folder / 'manifest.json'}: bad checksum entry {relative!r}")
-        if not path.is_file():
-            raise ValueError(
-                f"{path} is listed in the manifest but missing; the run folder is incomplete"
-            )
-        actual = file_sha256(path)
-        if actual != expected:
-            raise ValueError(
-                f"{path} has changed since it was written (sha256 {actual[:12]}..., the "
-                f"manifest records {expected[:12]}...): the file was edited, truncated or "
-                "corrupted; restore it or start a new run folder"
-            )
-
-
-def write_manifest(run_folder: str | os.PathLike[str], manifest: Mapping[str, Any]) -> Path:
-    """Write ``run_folder/manifest.json`` atomically, keys sorted, so equal input gives equal bytes.
-
-    Args:
-        run_folder: The run folder; created if absent.
-        manifest: Usually from :func:`build_manifest`.
-
-    Returns:
-        The manifest path.
-
-    Raises:
-        TypeError, ValueError: If the manifest holds values JSON cannot store.
-    """
-    if not isinstance(manifest, Mapping):
-        raise TypeError(f"manifest must be a mapping, got {type(manifest).__name__}")
-    text = json.dumps(_jsonable(manifest, "manifest"), indent=2, sort_keys=True, allow_nan=False)
-    return atomic_write_text(Path(run_folder) / MANIFEST_NAME, text + "\n")
-
-
-def read_manifest(run_folder: str | os.PathLike[str]) -> dict[str, Any]:
-    """Read ``run_folder/manifest.json``.
-
-    Raises:
-        FileNotFoundError: If there is no manifest.
-        ValueError: If it is not a JSON object.
-    """
-    path = Path(run_folder) / MANIFEST_NAME
-    if not path.is_file():
-        raise FileNotFoundError(f"{path} does not exist")
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as err:
-        raise ValueError(f"{path} is not valid JSON: {err}") from err
-    if not isinstance(data, dict):
-        raise ValueError(f"{path} must hold a JSON object, got {type(data).__name__}")
-    return data

@@ -1,6 +1,6 @@
 """The README's pictures and numbers, from one command.
 
-``python -m benchmarks.readme`` runs the README's design command (CMA-ES, seed 0, 15 iterations of
+``tooldesign readme`` runs the README's design command (CMA-ES, seed 0, 15 iterations of
 8 tools, p^X = 20), evaluates the straight tool C = (0, 0, 0) on the same task, and writes into
 ``docs/images/``:
 
@@ -13,7 +13,7 @@ It then rewrites the block between ``<!-- readme-numbers:start -->`` and
 a number in the README cannot drift from what the command measured. The run takes minutes
 (about 6 on 2 cores); its run folder is kept under ``--work``.
 
-Run: ``python -m benchmarks.readme [--iterations 15] [--workers N] [--work DIR]``.
+Run: ``tooldesign readme [--iterations 15] [--workers N] [--work DIR]``.
 """
 
 from __future__ import annotations
@@ -21,13 +21,14 @@ from __future__ import annotations
 import argparse
 import json
 import shutil
-import sys
 import tempfile
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-__all__ = ["BLOCK_END", "BLOCK_START", "render_block", "replace_block", "main"]
+from tooldesign_env.schema import METRICS
+
+__all__ = ["BLOCK_END", "BLOCK_START", "add_parser", "measure", "render_block", "replace_block"]
 
 BLOCK_START = "<!-- readme-numbers:start -->"
 BLOCK_END = "<!-- readme-numbers:end -->"
@@ -37,7 +38,6 @@ IMAGES = {
     "fig3c_box_paths.png": "box_paths.png",
     "rollout.gif": "rollout.gif",
 }
-_TERMS = ("free_energy", "goal_error", "confidence", "final_distance")
 
 
 def render_block(numbers: Mapping[str, Any], images: str) -> str:
@@ -78,7 +78,7 @@ def render_block(numbers: Mapping[str, Any], images: str) -> str:
         "distance: F trades the goal "
         f"error (designed {d['goal_error']:.0f}, straight {s['goal_error']:.0f}) for control "
         f"confidence (designed {d['confidence']:.0f}, straight {s['confidence']:.0f}), and "
-        "p^X sets the exchange rate. These numbers come from `python -m benchmarks.readme`, "
+        "p^X sets the exchange rate. These numbers come from `tooldesign readme`, "
         "which also draws the pictures.\n"
     )
 
@@ -106,7 +106,7 @@ def current_block(text: str) -> str:
 
 
 def _terms(info: Mapping[str, Any]) -> dict[str, Any]:
-    return {k: float(info[k]) for k in _TERMS}
+    return {k: float(info[k]) for k in METRICS}
 
 
 def measure(
@@ -125,6 +125,9 @@ def measure(
     )
     run = work / "design"
     result = run_design(config, run, resume=True, video=True)
+    from benchmarks.reports import write_design_report
+
+    write_design_report(run)
     env = ToolDesignEnv(goal=config.goal, goal_precision=config.goal_precision)
     try:
         env.reset(seed=0)
@@ -162,10 +165,12 @@ def _positive(text: str) -> int:
     return value
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Regenerate the README's images and numbers; returns the exit code."""
-    parser = argparse.ArgumentParser(
-        prog="python -m benchmarks.readme", description=__doc__.splitlines()[0]
+def add_parser(subparsers: Any) -> argparse.ArgumentParser:
+    """Register ``tooldesign readme``."""
+    parser = subparsers.add_parser(
+        "readme",
+        help="regenerate the README's pictures and numbers (a design run of minutes)",
+        description=(__doc__ or "").splitlines()[0],
     )
     parser.add_argument("--iterations", type=_positive, default=15)
     parser.add_argument("--batch-size", type=_positive, default=8)
@@ -177,16 +182,21 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--work", type=Path, default=None, help="keep the run folder here (default: a temp dir)"
     )
-    args = parser.parse_args(argv)
+    parser.set_defaults(run=_run)
+    return parser
+
+
+def _run(args: argparse.Namespace) -> int:
+    """Regenerate the README's images and numbers; returns the exit code."""
     root = args.root.resolve()
     pages = {root / "README.md": "docs/images", root / "docs" / "index.md": "images"}
     for page in pages:
         if not page.is_file():
-            parser.error(f"{page} not found; give the repository with --root")
+            raise ValueError(f"{page} not found; give the repository with --root")
         try:
             current_block(page.read_text(encoding="utf-8"))
         except ValueError as exc:
-            parser.error(f"{page}: {exc}")
+            raise ValueError(f"{page}: {exc}") from None
     work = args.work or Path(tempfile.mkdtemp(prefix="tooldesign-readme-"))
     numbers, run = measure(
         iterations=args.iterations,
@@ -207,7 +217,3 @@ def main(argv: Sequence[str] | None = None) -> int:
     print(f"wrote {images / NUMBERS_FILE}, the images and the blocks of {len(pages)} pages")
     print(f"run folder: {run}")
     return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -34,8 +34,13 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
-from .stats import best_so_far_curves, bootstrap_ci, mann_whitney_holm, run_metrics
-from .storage import ResultStore, atomic_write_bytes, atomic_write_text
+from benchmarks.reports.stats import (
+    best_so_far_curves,
+    bootstrap_ci,
+    mann_whitney_holm,
+    run_metrics,
+)
+from benchmarks.storage import ResultStore, atomic_write_bytes, atomic_write_text
 
 __all__ = [
     "DPI",
@@ -247,7 +252,7 @@ def pairwise_table(
 
     Returns:
         ``suite``, ``variant``, ``metric``, the columns of
-        :func:`benchmarks.stats.mann_whitney_holm`, ``mean_difference`` (mean of ``a`` minus
+        :func:`benchmarks.reports.stats.mann_whitney_holm`, ``mean_difference`` (mean of ``a`` minus
         mean of ``b``, units of F) and ``beyond_noise`` (|mean_difference| > noise floor; True
         when no floor is given), one row per pair.
     """

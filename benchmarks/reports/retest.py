@@ -1,6 +1,7 @@
 """Reports of a suite's retest (``tooldesign retest``): its noise floor and its stress tests.
 
-Read from the retest files alone (:func:`benchmarks.retest.read_retests`); nothing is simulated.
+Read from the retest files alone (:func:`benchmarks.storage.read_retests`); nothing is
+simulated.
 :func:`make_retest_report` writes, under ``run_folder/report/``:
 
 - ``noise-floor.json`` and ``noise.csv/md``: per design, the range (max - min) of F, of its two
@@ -25,15 +26,15 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from benchmarks import plots
-from benchmarks.retest import noise_floor
-from benchmarks.stats import bootstrap_ci
+from benchmarks.reports import plots
+from benchmarks.reports.stats import bootstrap_ci
 from benchmarks.storage import atomic_write_text, json_text
+from tooldesign_env.schema import METRICS
 
 __all__ = ["make_retest_report", "noise_table", "stress_table"]
 
 LEVEL = 0.95
-TERMS = ("free_energy", "goal_error", "confidence", "final_distance")
+TERMS = METRICS
 STRESS_METRICS = (
     ("robustness", "robustness (m)", "higher"),
     ("accuracy", "accuracy (m)", "higher"),
@@ -268,3 +269,34 @@ def make_retest_report(
         if figure is not None:
             written.append(figure)
     return written
+
+
+def noise_floor(retests: Sequence[Mapping[str, Any]]) -> dict[str, float]:
+    """The suite's noise floor of each term: the median over designs of its range over nudges.
+
+    Returns:
+        ``{term: median of (max - min)}`` and ``{term + "_relative": median of (max - min) /
+        |mean|}`` for F, goal error, confidence and final distance, and ``designs``; NaN
+        values when no design was retested.
+    """
+    terms = METRICS
+    ranges: dict[str, list[float]] = {t: [] for t in terms}
+    relative: dict[str, list[float]] = {t: [] for t in terms}
+    for retest in retests:
+        rows = retest.get("noise") or []
+        if len(rows) < 2:
+            continue
+        for t in terms:
+            values = np.array([r[t] for r in rows], dtype=np.float64)
+            ranges[t].append(float(np.ptp(values)))
+            mean = abs(float(values.mean()))
+            relative[t].append(float(np.ptp(values)) / mean if mean > 0 else math.nan)
+    out: dict[str, float] = {"designs": float(len(ranges["free_energy"]))}
+    for t in terms:
+        out[t] = float(np.median(ranges[t])) if ranges[t] else math.nan
+        finite = [v for v in relative[t] if math.isfinite(v)]
+        out[f"{t}_relative"] = float(np.median(finite)) if finite else math.nan
+    return out
+
+
+# --- command line ------------------------------------------------------------------------------

@@ -1,0 +1,52 @@
+"""Arguments shared by the commands that evaluate designs."""
+
+from __future__ import annotations
+
+import argparse
+
+from benchmarks.execution import TaskSettings
+from benchmarks.execution.evaluator import _ESTIMATORS, OBJECTIVES
+
+
+def add_task_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add the task options (goal, p^X, box mass, estimator, objective) to a parser.
+
+    Their defaults are :class:`TaskSettings`'; every command that evaluates designs takes the
+    same options with the same meaning.
+    """
+    defaults = TaskSettings()
+    parser.add_argument(
+        "--goal",
+        type=float,
+        nargs=3,
+        default=list(defaults.goal),
+        metavar=("X", "Y", "Z"),
+        help=f"goal X^g in m (default: {' '.join(f'{v:g}' for v in defaults.goal)})",
+    )
+    parser.add_argument(
+        "--goal-precision",
+        type=float,
+        default=defaults.goal_precision,
+        metavar="P",
+        help="goal precision p^X (default: %(default)s)",
+    )
+    parser.add_argument(
+        "--box-mass",
+        type=float,
+        default=defaults.box_mass,
+        metavar="M",
+        help="box mass in kg (default: %(default)s)",
+    )
+    parser.add_argument(
+        "--estimator",
+        choices=_ESTIMATORS,
+        default=defaults.estimator,
+        help="estimator of dX/dU (default: %(default)s)",
+    )
+    parser.add_argument(
+        "--objective",
+        choices=OBJECTIVES,
+        default=defaults.objective,
+        help="what is minimized: F, or the goal error averaged over box masses (the "
+        "robust-design baseline) (default: %(default)s)",
+    )

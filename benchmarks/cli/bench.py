@@ -1,0 +1,114 @@
+"""``tooldesign bench``: run a benchmark suite into one run folder, then write its report."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+from benchmarks.execution import EXECUTORS
+from benchmarks.reports.suite import make_suite_report
+from benchmarks.suites import (
+    BUILTIN_SUITES,
+    SIZES,
+    SuiteConfig,
+    builtin_suite,
+    load_suite,
+    run_suite,
+    save_suite,
+    summary_text,
+)
+
+
+def add_parser(subparsers: Any) -> argparse.ArgumentParser:
+    """Register ``tooldesign bench`` on the dispatcher's subparsers."""
+    parser = subparsers.add_parser(
+        "bench",
+        help="run a benchmark suite (optimizers, precision-sweep, robustness, ...)",
+        description=(
+            "Run a benchmark suite into one run folder, resuming what is there, and write its "
+            "report. See docs/benchmarks.md."
+        ),
+    )
+    parser.add_argument(
+        "suite",
+        nargs="?",
+        metavar="SUITE",
+        help=f"a built-in suite: {', '.join(BUILTIN_SUITES)} (or omit it and give --config)",
+    )
+    parser.add_argument(
+        "--size",
+        default=None,
+        help=f"size of the suite: {' or '.join(SIZES)} (default: full; a suite file may define "
+        "its own)",
+    )
+    parser.add_argument("--out", type=Path, required=True, metavar="DIR", help="run folder")
+    parser.add_argument(
+        "--config",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="a suite file (.toml or .json); see docs/benchmarks.md",
+    )
+    parser.add_argument(
+        "--workers", type=int, default=None, metavar="N", help="worker processes (default: CPUs)"
+    )
+    parser.add_argument(
+        "--executor", choices=EXECUTORS, default=None, help="where designs are evaluated"
+    )
+    parser.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="ADDR",
+        help="Dask scheduler address, e.g. tcp://host:8786 (implies --executor dask)",
+    )
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument(
+        "--dump-config",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="write the resolved suite to FILE (.toml or .json) and exit without running",
+    )
+    parser.set_defaults(run=_run)
+    return parser
+
+
+def config_from_args(args: argparse.Namespace) -> SuiteConfig:
+    """The suite of parsed ``tooldesign bench`` arguments."""
+    if args.size is not None and args.size not in SIZES and args.config is None:
+        raise ValueError(f"unknown size {args.size!r}; sizes: {', '.join(SIZES)}")
+    if args.config is not None:
+        config = load_suite(args.config, size=args.size)
+        if args.suite is not None and args.suite != config.name:
+            raise ValueError(
+                f"SUITE {args.suite!r} does not match the name {config.name!r} in {args.config}; "
+                "omit SUITE with --config"
+            )
+    elif args.suite is None:
+        raise ValueError(f"give a SUITE ({', '.join(BUILTIN_SUITES)}) or --config FILE")
+    else:
+        config = builtin_suite(args.suite, args.size or "full")
+    changes: dict[str, Any] = {}
+    if args.workers is not None:
+        changes["workers"] = args.workers
+    if args.scheduler is not None:
+        changes["scheduler"] = args.scheduler
+        changes["executor"] = args.executor or "dask"
+    if args.executor is not None:
+        changes["executor"] = args.executor
+    return config.replace(**changes) if changes else config
+
+
+def _run(args: argparse.Namespace) -> int:
+    config = config_from_args(args)
+    if args.dump_config is not None:
+        print(f"suite written to {save_suite(config, args.dump_config)}")
+        return 0
+    size = args.size or ("full" if args.config is None else None)
+    result = run_suite(config, args.out, progress=not args.no_progress, size=size)
+    report = make_suite_report(result.out_dir)
+    print(summary_text(result))
+    if report:
+        print(f"report: {report[0].parent} ({len(report)} files)")
+    return 0

@@ -1,0 +1,61 @@
+"""``tooldesign dense-search``: a grid over the design space, the yardstick for the optimizers."""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+from typing import Any
+
+from benchmarks.cli._common import add_task_arguments
+from benchmarks.execution import EXECUTORS, TaskSettings
+from benchmarks.suites.dense_search import best_designs, dense_search
+
+
+def add_parser(subparsers: Any) -> argparse.ArgumentParser:
+    """Register ``tooldesign dense-search``."""
+    parser = subparsers.add_parser(
+        "dense-search",
+        help="evaluate a regular grid of designs (the yardstick for the optimizers)",
+        description="Evaluate every design of a regular grid over the default coefficient "
+        "bounds on one task and write dense_search.csv. See docs/dense-search.md.",
+    )
+    parser.add_argument("--points", type=int, default=11, help="grid points per coefficient")
+    parser.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder")
+    add_task_arguments(parser)
+    parser.add_argument("--workers", type=int, default=None, metavar="N")
+    parser.add_argument("--executor", choices=EXECUTORS, default="process")
+    parser.add_argument("--batch", type=int, default=64, help="designs per submitted batch")
+    parser.set_defaults(run=_run)
+    return parser
+
+
+def _run(args: argparse.Namespace) -> int:
+    task = TaskSettings(
+        goal=tuple(args.goal),
+        goal_precision=args.goal_precision,
+        box_mass=args.box_mass,
+        estimator=args.estimator,
+        objective=args.objective,
+    )
+    start = time.perf_counter()
+
+    def progress(done: int, total: int) -> None:
+        print(f"  {done}/{total} designs, {time.perf_counter() - start:.0f} s", flush=True)
+
+    table = dense_search(
+        args.out,
+        points=args.points,
+        task=task,
+        executor=args.executor,
+        workers=args.workers,
+        batch=args.batch,
+        progress=progress,
+    )
+    ok = int((table["status"] == "ok").sum())
+    print(
+        f"{len(table)} designs in {time.perf_counter() - start:.0f} s; {ok} valid; best 5 by F "
+        f"(goal_precision {args.goal_precision}):"
+    )
+    print(best_designs(table).to_string(index=False))
+    return 0

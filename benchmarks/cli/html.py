@@ -1,0 +1,33 @@
+"""``tooldesign html``: one self-contained ``report.html`` of a run folder."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+from benchmarks.reports.html import write_html_report
+
+
+def add_parser(subparsers: Any) -> argparse.ArgumentParser:
+    """Register ``tooldesign html``."""
+    parser = subparsers.add_parser(
+        "html",
+        help="write a self-contained HTML report (figures, tables, card, video) of a run folder",
+        description="Write DIR/report.html: every figure, video, card and small table of the "
+        "folder, embedded in one file that opens without network.",
+    )
+    parser.add_argument(
+        "folder", type=Path, metavar="DIR", help="a design, evaluate or suite run folder"
+    )
+    parser.add_argument(
+        "--out", type=Path, default=None, help="the HTML file (default DIR/report.html)"
+    )
+    parser.set_defaults(run=_run)
+    return parser
+
+
+def _run(args: argparse.Namespace) -> int:
+    path = write_html_report(args.folder, out=args.out)
+    print(f"report: {path}")
+    return 0

@@ -1,0 +1,35 @@
+"""``tooldesign report``: rebuild the figures and tables of a run folder from its stored results."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+from benchmarks.reports.suite import make_suite_report
+
+
+def add_parser(subparsers: Any) -> argparse.ArgumentParser:
+    """Register ``tooldesign report`` on the dispatcher's subparsers."""
+    parser = subparsers.add_parser(
+        "report",
+        help="rebuild the figures and tables of a run folder from its stored results",
+        description=(
+            "Rebuild every report of a run folder (convergence, summary, pairwise tests and the "
+            "suite's own figures and tables) from its stored results alone; nothing is "
+            "simulated. See docs/benchmarks.md."
+        ),
+    )
+    parser.add_argument("run_folder", type=Path, metavar="RUN_FOLDER", help="the run folder")
+    parser.add_argument(
+        "--out", type=Path, default=None, metavar="DIR", help="where to write (RUN_FOLDER/report)"
+    )
+    parser.set_defaults(run=_run)
+    return parser
+
+
+def _run(args: argparse.Namespace) -> int:
+    files = make_suite_report(args.run_folder, out_dir=args.out)
+    folder = files[0].parent if files else args.run_folder
+    print(f"{len(files)} report files written to {folder}")
+    return 0

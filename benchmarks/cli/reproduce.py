@@ -1,0 +1,39 @@
+"""``tooldesign reproduce``: every suite's report, then ``docs/reproduction.md``."""
+
+from __future__ import annotations
+
+import argparse
+import os
+from pathlib import Path
+from typing import Any
+
+from benchmarks.reports.reproduction import SUITES, reproduction_page
+from benchmarks.reports.suite import make_suite_report
+from benchmarks.storage import atomic_write_text
+
+
+def add_parser(subparsers: Any) -> argparse.ArgumentParser:
+    """Register ``tooldesign reproduce``."""
+    parser = subparsers.add_parser(
+        "reproduce",
+        help="rebuild the committed suites' reports and write docs/reproduction.md",
+        description="Rebuild the report of every suite under --results and write the "
+        "reproduction page, which states each claim of the paper with its noise floor.",
+    )
+    parser.add_argument("--results", type=Path, default=Path("docs/results"))
+    parser.add_argument("--out", type=Path, default=Path("docs/reproduction.md"))
+    parser.add_argument("--skip-reports", action="store_true", help="use the reports as they are")
+    parser.set_defaults(run=_run)
+    return parser
+
+
+def _run(args: argparse.Namespace) -> int:
+    if not args.results.is_dir():
+        raise ValueError(f"no results folder {args.results}")
+    if not args.skip_reports:
+        for suite in SUITES:
+            if (args.results / suite).is_dir():
+                make_suite_report(args.results / suite)
+    atomic_write_text(args.out, reproduction_page(args.results))
+    print(f"wrote {os.fspath(args.out)}")
+    return 0

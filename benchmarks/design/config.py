@@ -1,0 +1,200 @@
+"""What a design run is: the designer (optimizer, seed, budget), the executor and the task.
+
+:class:`DesignConfig` is frozen and validated on construction; its :meth:`DesignConfig.to_json`
+form is what a run folder's manifest records and what a resumed run is compared with.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from benchmarks.execution import (
+    EXECUTORS,
+    RobustnessRequest,
+    TaskSettings,
+)
+from tooldesign_env.schema import (
+    DEFAULT_BOX_MASS,
+    DEFAULT_GOAL,
+    DEFAULT_GOAL_PRECISION,
+    ROBUSTNESS_MASSES,
+)
+
+DESIGN_SUITE = "design"
+
+"""Suite name of a design run in its evaluation log."""
+
+
+# Fields that do not change the results, so a resumed run may set them differently.
+_RUNTIME_FIELDS = frozenset({"iterations", "workers", "executor", "scheduler"})
+
+
+def _int(name: str, value: Any, minimum: int, maximum: int = 2**63 - 1) -> int:
+    # The maximum is int64's: seeds and counts are stored in Parquet and SQLite columns.
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise TypeError(f"{name} must be an int, got {type(value).__name__}")
+    if value < minimum:
+        raise ValueError(f"{name} must be >= {minimum}, got {value}")
+    if value > maximum:
+        raise ValueError(f"{name} must be <= {maximum} (int64), got {value}")
+    return int(value)
+
+
+def _settings(value: Any) -> tuple[tuple[str, Any], ...]:
+    if isinstance(value, Mapping):
+        value = tuple(value.items())
+    try:
+        pairs = tuple(sorted((k, v) for k, v in value))
+    except (TypeError, ValueError):
+        raise TypeError(
+            f"optimizer_settings must be a mapping of names to values, got {value!r}"
+        ) from None
+    for key, item in pairs:
+        if not isinstance(key, str) or not key.isidentifier():
+            raise ValueError(f"optimizer_settings keys must be identifiers, got {key!r}")
+        try:
+            json.dumps(item, allow_nan=False)
+        except (TypeError, ValueError):
+            raise TypeError(
+                f"optimizer_settings[{key!r}] must be a JSON value (number, string, bool, list, "
+                f"null) so the run folder can record it, got {item!r}"
+            ) from None
+    return pairs
+
+
+def _bounds(value: Any) -> tuple[tuple[float, float], ...]:
+    if value is None:
+        from tooldesign_env import default_bounds
+
+        value = default_bounds(3)
+    from optimizers._validation import check_bounds
+    from tooldesign_env.env import COEFFICIENT_MAX
+
+    # The optimizers' check refuses bools, strings, ragged rows and overflowing ints by name.
+    low, high = check_bounds(value)
+    array = np.stack([low, high], axis=1)
+    if np.any(np.abs(array) > COEFFICIENT_MAX):
+        raise ValueError(
+            f"bounds must lie within +-{COEFFICIENT_MAX:g} (coefficients of a 1.1 m tool), "
+            f"got {array.tolist()}"
+        )
+    return tuple((float(lo), float(hi)) for lo, hi in array.tolist())
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class DesignConfig:
+    """What a design run does: the designer, its budget, where it runs, and the task.
+
+    Attributes:
+        optimizer: Name in the :mod:`optimizers` registry (``cmaes``, ``bo``, ``pso``,
+            ``random``) or a ``"module:Class"`` string.
+        optimizer_settings: Keyword arguments of the optimizer (a mapping; stored as sorted
+            pairs), JSON values only.
+        seed: Seed of the optimizer, >= 0; the simulation has no randomness.
+        iterations: K, iterations of ask/evaluate/tell, >= 1.
+        batch_size: Designs asked per iteration (the population size), >= 1.
+        workers: Worker processes; ``None`` is ``os.cpu_count()``.
+        executor: ``"serial"``, ``"process"`` or ``"dask"``.
+        scheduler: Address of a Dask scheduler (with ``executor="dask"``); a LocalCluster if
+            ``None``.
+        goal: X^g, (x, y, z) in m.
+        goal_precision: p^X in 1/m^2, >= 0 (the paper's Figure 3 uses 40, its comparisons 20).
+        box_mass: Box mass in kg (the paper's 0.1).
+        estimator: ``"contact"``, ``"trajectory"`` or ``"resimulation"`` estimate of dX/dU.
+        objective: ``"free-energy"`` (F) or ``"expected-goal-error"`` (the robust-design
+            baseline, see ``ObjectiveSpec.kind``).
+        bounds: (n, 2) coefficient bounds [low, high]; ``None`` is ``default_bounds(3)``
+            (c1, c2 in [-1.5, 1.5], c3 in [-0.5, 0.5]). n is the polynomial degree.
+        robustness_masses: Altered box masses m_i in kg of the final tool's robustness test.
+    """
+
+    optimizer: str = "cmaes"
+    optimizer_settings: tuple[tuple[str, Any], ...] | Mapping[str, Any] = ()
+    seed: int = 0
+    iterations: int = 15
+    batch_size: int = 8
+    workers: int | None = None
+    executor: str = "process"
+    scheduler: str | None = None
+    goal: Sequence[float] = DEFAULT_GOAL
+    goal_precision: float = DEFAULT_GOAL_PRECISION
+    box_mass: float = DEFAULT_BOX_MASS
+    estimator: str = "contact"
+    objective: str = "free-energy"
+    bounds: Sequence[Sequence[float]] | np.ndarray | None = None
+    robustness_masses: Sequence[float] = ROBUSTNESS_MASSES
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.optimizer, str) or not self.optimizer.strip():
+            raise ValueError(f"optimizer must be a non-empty name, got {self.optimizer!r}")
+        object.__setattr__(self, "optimizer_settings", _settings(self.optimizer_settings))
+        object.__setattr__(self, "seed", _int("seed", self.seed, 0))
+        object.__setattr__(self, "iterations", _int("iterations", self.iterations, 1))
+        object.__setattr__(self, "batch_size", _int("batch_size", self.batch_size, 1))
+        if self.workers is not None:
+            object.__setattr__(self, "workers", _int("workers", self.workers, 1))
+        if self.executor not in EXECUTORS:
+            raise ValueError(f"executor must be one of {EXECUTORS}, got {self.executor!r}")
+        if self.scheduler is not None:
+            if not isinstance(self.scheduler, str) or not self.scheduler:
+                raise ValueError(f"scheduler must be an address, got {self.scheduler!r}")
+            if self.executor != "dask":
+                raise ValueError(
+                    f"scheduler is a Dask scheduler address; it needs executor='dask', "
+                    f"got executor={self.executor!r}"
+                )
+        # TaskSettings checks goal, precision, mass and estimator and says what is wrong.
+        task = TaskSettings(
+            goal=self.goal,
+            goal_precision=self.goal_precision,
+            box_mass=self.box_mass,
+            estimator=self.estimator,
+            objective=self.objective,
+        )
+        object.__setattr__(self, "goal", task.goal)
+        object.__setattr__(self, "goal_precision", task.goal_precision)
+        object.__setattr__(self, "box_mass", task.box_mass)
+        object.__setattr__(self, "bounds", _bounds(self.bounds))
+        masses = RobustnessRequest(coeffs=(0.0,), masses=self.robustness_masses).masses
+        object.__setattr__(self, "robustness_masses", masses)
+
+    @property
+    def degree(self) -> int:
+        """Polynomial degree n: the number of coefficients."""
+        return len(self.bounds or ())
+
+    def tool_spec(self) -> Any:
+        """The ``tooldesign_env.ToolSpec`` of the run: the paper's tool with ``degree`` n."""
+        from tooldesign_env import ToolSpec
+
+        spec = ToolSpec()
+        return spec if spec.degree == self.degree else dataclasses.replace(spec, degree=self.degree)
+
+    def task(self) -> TaskSettings:
+        """The task and env settings every design of the run is scored with."""
+        from tooldesign_env import ToolSpec, default_bounds
+
+        extra: dict[str, Any] = {}
+        if self.degree != ToolSpec().degree:
+            extra["tool"] = self.tool_spec()
+        if self.bounds != _bounds(default_bounds(self.degree)):
+            extra["bounds"] = self.bounds
+        return TaskSettings(
+            goal=self.goal,
+            goal_precision=self.goal_precision,
+            box_mass=self.box_mass,
+            estimator=self.estimator,
+            objective=self.objective,
+            env_kwargs=extra,
+        )
+
+    def to_json(self) -> dict[str, Any]:
+        """The configuration as JSON values (settings as an object, tuples as lists)."""
+        data = dataclasses.asdict(self)
+        data["optimizer_settings"] = dict(self.optimizer_settings)
+        return json.loads(json.dumps(data, allow_nan=False))

@@ -1,0 +1,402 @@
+"""Algorithm 1 of the paper, resumable: ask a batch of tools, evaluate them, tell, repeat.
+
+``tooldesign design`` (and :func:`run_design`) runs the designer (an ask/tell optimizer from
+:mod:`optimizers`, CMA-ES by default), the user and the evaluator (``ToolDesign-v0`` through an
+executor of :mod:`benchmarks.execution`) for K iterations, and writes a run folder: the
+evaluation log, the best design's card and meshes, the robustness test of the final tool and the
+box paths the figures draw. The panels of the paper's Figure 3 and ``report.html`` are drawn
+from those files by :func:`benchmarks.reports.write_design_report` (``tooldesign design`` calls
+both). ``docs/design-runs.md`` documents the folder.
+
+Resume: every finished iteration is one atomic part file of the evaluation log (see
+:mod:`benchmarks.storage`), written after the optimizer was told its scores. A resumed run makes
+the optimizer again from the seed and replays the logged iterations: each replayed ask must equal
+the logged coefficients and ids bit for bit (else :class:`~benchmarks.storage.ResumeError`),
+and is told the logged scores. The run then goes on as if it had never stopped, so an
+interrupted and resumed run gives the same evaluation log and the same design as an
+uninterrupted one.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import sys
+import warnings
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from benchmarks.design.config import _RUNTIME_FIELDS, DESIGN_SUITE, DesignConfig
+from benchmarks.design.stepper import DesignStepper, _best_row, _unit
+from benchmarks.execution import (
+    RobustnessRequest,
+    evaluate_batch,
+    evaluate_robustness_of_design,
+    make_executor,
+    map_robust,
+)
+from benchmarks.storage import (
+    DESIGN_RUN_FILES,
+    ResultStore,
+    ResumeError,
+    RunSession,
+    atomic_write_text,
+    json_text,
+)
+from tooldesign_env.schema import PATH_DECIMALS, coefficient_columns
+
+__all__ = ["CARD_VERSION", "DesignResult", "run_design"]
+
+CARD_VERSION = 1
+
+"""``format_version`` of ``design.json``."""
+
+
+"""The best design's rollout (``run_design(video=True)``, ``tooldesign design`` by default)."""
+
+
+#: Key in the manifest's ``extra``: ``{part path relative to the run folder: sha256}``.
+@dataclasses.dataclass(frozen=True, eq=False)
+class DesignResult:
+    """The outcome of :func:`run_design`.
+
+    Attributes:
+        out_dir: The run folder.
+        coefficients: (n,) the best design ``(c1, ..., cn)``.
+        free_energy: F of the best design.
+        goal_error: Goal-error term of F.
+        confidence: Control-confidence term of F.
+        final_distance: |X_T - X^g| in m.
+        status: ``"ok"`` (or ``"invalid"`` if no design of the run was valid).
+        iteration: 0-based iteration the best design was asked in.
+        candidate: Its index in the batch.
+        eval_id: The id the optimizer gave it.
+        evaluations: The evaluation log (one row per evaluation, ``ResultStore.read`` format).
+        robustness: ``robustness.json`` as a dict.
+        card: ``design.json`` as a dict.
+    """
+
+    out_dir: Path
+    coefficients: np.ndarray
+    free_energy: float
+    goal_error: float
+    confidence: float
+    final_distance: float
+    status: str
+    iteration: int
+    candidate: int
+    eval_id: int
+    evaluations: pd.DataFrame
+    robustness: dict[str, Any]
+    card: dict[str, Any]
+
+
+def _logged_iterations(store: ResultStore, config: DesignConfig) -> list[pd.DataFrame]:
+    units = store.completed_units()
+    mine = sorted(u.iteration for u in units if u == _unit(config, u.iteration))
+    if len(mine) != len(units):
+        raise ResumeError(f"cannot resume: {store.parts_dir} holds parts of other runs")
+    if mine != list(range(len(mine))):
+        raise ResumeError(f"cannot resume: iterations {mine} in {store.parts_dir} have gaps")
+    if len(mine) > config.iterations:
+        raise ResumeError(
+            f"cannot resume: the run folder holds {len(mine)} iterations, more than "
+            f"--iterations {config.iterations}"
+        )
+    if not mine:
+        return []
+    log = store.read()
+    return [part for _, part in log.groupby("iteration", sort=True)]
+
+
+def run_design(
+    config: DesignConfig,
+    out_dir: str | os.PathLike[str],
+    *,
+    resume: bool = False,
+    progress: bool = True,
+    video: bool = False,
+) -> DesignResult:
+    """Design a tool: K iterations of ask a batch, evaluate it, tell the scores (Algorithm 1).
+
+    Args:
+        config: The designer, budget, executor and task.
+        out_dir: The run folder (see ``docs/design-runs.md``); created if absent.
+        resume: Continue the interrupted (or finished) run in ``out_dir``. Only the runtime
+            fields (``iterations`` (not fewer than are logged), ``workers``, ``executor``,
+            ``scheduler``) may differ from the run's settings. A missing or empty folder starts
+            a new run.
+        progress: Show a tqdm progress bar (iteration, evaluations, best F) on stderr.
+        video: Also write ``rollout.gif``, the best design's rollout rendered headless (about
+            20 s more; ``tooldesign design`` does it unless ``--no-video``).
+
+    Returns:
+        The best design and what was written.
+
+    Raises:
+        TypeError: If ``config`` is not a :class:`DesignConfig` or ``out_dir`` not a path.
+        ValueError: If ``out_dir`` is not empty and ``resume`` is false, the optimizer is
+            unknown, or (:class:`ResumeError`) the folder cannot be resumed with ``config``.
+        RuntimeError: If no design of the run could be evaluated at all.
+    """
+    if not isinstance(config, DesignConfig):
+        raise TypeError(f"config must be a DesignConfig, got {type(config).__name__}")
+    session = RunSession(
+        out_dir,
+        kind=DESIGN_SUITE,
+        config=config.to_json(),
+        resume=bool(resume),
+        runtime_fields=_RUNTIME_FIELDS,
+    )
+    out, store = session.out, session.store
+    stepper = DesignStepper(config)
+    logged = _logged_iterations(store, config)
+    session.checkpoint()
+    stepper.replay(logged)
+    best = min((_best_ok(p) for p in logged), default=math.inf)
+    evaluations_done = sum(len(p) for p in logged)
+    task = config.task()
+
+    from tqdm.auto import tqdm
+
+    with make_executor(config.executor, config.workers, config.scheduler) as executor:
+        bar = tqdm(
+            total=config.iterations,
+            initial=len(logged),
+            desc=f"design {config.optimizer}",
+            unit="it",
+            disable=not progress,
+            file=sys.stderr,
+            dynamic_ncols=True,
+        )
+        try:
+            bar.set_postfix(evals=evaluations_done, best_F=_fmt(best))
+            for iteration in range(len(logged), config.iterations):
+                x = stepper.ask()
+                rows = evaluate_batch(executor, x, task)
+                frame = stepper.tell(rows)
+                session.write_batch(frame)
+                _warn_failures(iteration, rows)
+                best = min(best, _best_ok(frame))
+                evaluations_done += len(frame)
+                bar.set_postfix(evals=evaluations_done, best_F=_fmt(best), refresh=False)
+                bar.update(1)
+        finally:
+            bar.close()
+        evaluations = store.read()
+        result = _finish(config, out, store, evaluations, executor)
+    manifest = session.finish(evaluations)
+    card = _card(config, result, evaluations, manifest)
+    atomic_write_text(out / DESIGN_RUN_FILES["card"], json_text(card))
+    if video and result.status == "ok":
+        _video(config, result.coefficients, out / DESIGN_RUN_FILES["video"])
+    return dataclasses.replace(result, card=card)
+
+
+def _best_ok(frame: pd.DataFrame) -> float:
+    """Lowest finite F of the valid rows, inf if there is none."""
+    energy = frame.loc[frame["status"] == "ok", "free_energy"].to_numpy(dtype=np.float64)
+    energy = energy[np.isfinite(energy)]
+    return float(energy.min()) if energy.size else math.inf
+
+
+def _fmt(value: float) -> str:
+    return f"{value:.6g}" if math.isfinite(value) else "-"
+
+
+def _warn_failures(iteration: int, rows: Sequence[Mapping[str, Any]]) -> None:
+    for candidate, row in enumerate(rows):
+        if row["status"] == "failed":
+            warnings.warn(
+                f"iteration {iteration}, candidate {candidate} failed: {row['message']}",
+                RuntimeWarning,
+                stacklevel=3,
+            )
+
+
+def _iteration_bests(evaluations: pd.DataFrame) -> pd.DataFrame:
+    """Per iteration, its lowest-F valid evaluation (iterations without one are left out)."""
+    ok = evaluations[(evaluations["status"] == "ok") & np.isfinite(evaluations["free_energy"])]
+    index = ok.groupby("iteration", sort=True)["free_energy"].idxmin()
+    return ok.loc[index.to_numpy()].reset_index(drop=True)
+
+
+def _coeffs(row: pd.Series, degree: int) -> np.ndarray:
+    return row[coefficient_columns(degree)].to_numpy(dtype=np.float64)
+
+
+def _finish(
+    config: DesignConfig,
+    out: Path,
+    store: ResultStore,
+    evaluations: pd.DataFrame,
+    executor: Any,
+) -> DesignResult:
+    from tooldesign_env import export_mesh, make_tool, tool_urdf
+
+    degree = config.degree
+    best = _best_row(evaluations)
+    coeffs = _coeffs(best, degree)
+    geometry = make_tool(coeffs, config.tool_spec())
+    export_mesh(geometry, out / DESIGN_RUN_FILES["stl"])
+    export_mesh(geometry, out / DESIGN_RUN_FILES["obj"])
+    atomic_write_text(out / DESIGN_RUN_FILES["urdf"], tool_urdf(geometry))
+    store.consolidate(format="csv")  # a design run is small and read by people: CSV
+
+    # The trajectories are not logged; the rollouts are deterministic, so simulate them again
+    # and store them for the figures (which are made from stored files only).
+    bests = _iteration_bests(evaluations)
+    designs = [_coeffs(row, degree) for _, row in bests.iterrows()]
+    rows = evaluate_batch(executor, designs, config.task(), keep_trajectory=True)
+    robustness = _robustness(config, best, coeffs, executor)
+    atomic_write_text(out / DESIGN_RUN_FILES["robustness"], json_text(_without_paths(robustness)))
+    paths = {
+        "iterations": [int(i) for i in bests["iteration"]],
+        "iteration_bests": [_rounded(r.get("box_trajectory", np.zeros((0, 3)))) for r in rows],
+        "nominal_mass": config.box_mass,
+        "masses": list(config.robustness_masses),
+        "nominal": _rounded(robustness.get("nominal_box_trajectory", np.zeros((0, 3)))),
+        "perturbed": [_rounded(x) for x in robustness.get("box_trajectories", [])],
+    }
+    atomic_write_text(out / DESIGN_RUN_FILES["box_paths"], json_text(paths, compact=True))
+    return DesignResult(
+        out_dir=out,
+        coefficients=coeffs,
+        free_energy=float(best["free_energy"]),
+        goal_error=float(best["goal_error"]),
+        confidence=float(best["confidence"]),
+        final_distance=float(best["final_distance"]),
+        status=str(best["status"]),
+        iteration=int(best["iteration"]),
+        candidate=int(best["candidate"]),
+        eval_id=int(best["eval_id"]),
+        evaluations=evaluations,
+        robustness=_without_paths(robustness),
+        card={},
+    )
+
+
+def _video(config: DesignConfig, coeffs: np.ndarray, path: Path) -> None:
+    from benchmarks.design.video import rollout_gif
+
+    task = config.task()
+    try:
+        rollout_gif(
+            coeffs,
+            path,
+            frames=24,
+            goal=task.goal,
+            goal_precision=task.goal_precision,
+            box_mass=task.box_mass,
+            estimator=task.estimator,
+            objective_kind=task.objective,
+            **dict(task.env_kwargs),
+        )
+    except Exception as exc:  # noqa: BLE001
+        # The run's results are complete and stored; a picture that fails must not lose them.
+        warnings.warn(f"rollout.gif not written: {type(exc).__name__}: {exc}", stacklevel=2)
+
+
+def _robustness(
+    config: DesignConfig, best: pd.Series, coeffs: np.ndarray, executor: Any
+) -> dict[str, Any]:
+    base: dict[str, Any] = {
+        "coefficients": coeffs.tolist(),
+        "nominal_mass": config.box_mass,
+        "masses": list(config.robustness_masses),
+        "goal": list(config.goal),
+    }
+    if best["status"] != "ok":
+        return {
+            **base,
+            "robustness": None,
+            "accuracy": None,
+            "control_deviation": None,
+            "error": "the best design is not valid, so it was not tested",
+        }
+    request = RobustnessRequest(
+        coeffs=tuple(coeffs), task=config.task(), masses=config.robustness_masses
+    )
+    [(result, exc, _)] = map_robust(executor, evaluate_robustness_of_design, [request])
+    if exc is not None:
+        return {
+            **base,
+            "robustness": None,
+            "accuracy": None,
+            "control_deviation": None,
+            "error": f"{type(exc).__name__}: {exc}",
+        }
+    return {**base, **result, "error": ""}
+
+
+def _rounded(path: Any) -> list[list[float]]:
+    return np.round(np.asarray(path, dtype=np.float64), PATH_DECIMALS).tolist()
+
+
+def _without_paths(robustness: Mapping[str, Any]) -> dict[str, Any]:
+    return {
+        k: v
+        for k, v in robustness.items()
+        if k not in ("nominal_box_trajectory", "box_trajectories")
+    }
+
+
+def _card(
+    config: DesignConfig,
+    result: DesignResult,
+    evaluations: pd.DataFrame,
+    manifest: Mapping[str, Any],
+) -> dict[str, Any]:
+    from tooldesign_env import make_tool
+
+    geometry = make_tool(result.coefficients, config.tool_spec())
+    counts = evaluations["status"].value_counts()
+    return {
+        "format_version": CARD_VERSION,
+        "coefficients": result.coefficients.tolist(),
+        "polynomial": "y = c1 x^n + ... + cn x (highest power first, constant term 0)",
+        "free_energy": result.free_energy,
+        "goal_error": result.goal_error,
+        "confidence": result.confidence,
+        "final_distance": result.final_distance,
+        "status": result.status,
+        "iteration": result.iteration,
+        "candidate": result.candidate,
+        "eval_id": result.eval_id,
+        "tool": {
+            "mass": float(geometry.mass),
+            "arc_length": float(geometry.spec.arc_length),
+            "handle_length": float(geometry.spec.handle_length),
+            "section": float(geometry.spec.section),
+            "min_radius_of_curvature": _finite_or_none(geometry.min_radius_of_curvature),
+            "buildable": bool(geometry.buildable),
+        },
+        "robustness": {
+            k: result.robustness.get(k)
+            for k in ("robustness", "accuracy", "control_deviation", "masses")
+        },
+        "seed": config.seed,
+        "config": config.to_json(),
+        "evaluations": {
+            "total": int(len(evaluations)),
+            "iterations": int(evaluations["iteration"].nunique()),
+            **{s: int(counts.get(s, 0)) for s in ("ok", "invalid", "failed")},
+        },
+        "packages": manifest["packages"],
+        "git_commit": manifest["git_commit"],
+        "start_time": manifest["start_time"],
+        "end_time": manifest["end_time"],
+        "wall_time": manifest["wall_time"],
+        "simulation_time": manifest["simulation_time"],
+        "optimizer_time": manifest["optimizer_time"],
+        "files": dict(DESIGN_RUN_FILES),
+    }
+
+
+def _finite_or_none(value: float) -> float | None:
+    return float(value) if math.isfinite(value) else None

@@ -1,0 +1,320 @@
+"""Executors: where a batch of work items runs, serially, on a local process pool or on Dask.
+
+The designer of Algorithm 1 asks for a batch of tools; each tool is simulated and scored
+independently, so a batch is spread over workers through a :class:`concurrent.futures.Executor`:
+
+- ``"serial"``: :class:`SerialExecutor`, in the calling process (debugging, tiny runs, tests);
+- ``"process"`` (default): a local :class:`~concurrent.futures.ProcessPoolExecutor` whose workers
+  are started with ``forkserver`` (or ``spawn`` where there is none), never ``fork``: a forked
+  PyBullet client shares its parent's physics server and breaks;
+- ``"dask"``: a ``dask.distributed`` cluster, a :class:`~distributed.LocalCluster` or the
+  scheduler at ``--scheduler ADDRESS`` (``pip install 'tooldesign[dask]'``).
+
+This module knows nothing of tools: the work function is a parameter
+(:func:`map_robust`), and :mod:`benchmarks.execution.evaluator` supplies the one that simulates a
+design. A worker process that dies (``BrokenProcessPool``) takes its pool down; the pool is
+restarted, and :func:`map_robust` retries each of the lost items alone, so a design that kills its
+worker again is reported as an error of that item only.
+"""
+
+from __future__ import annotations
+
+import ast
+import contextlib
+import multiprocessing
+import os
+import signal
+import sys
+import time
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import Executor, Future, ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
+from typing import Any, Literal, NamedTuple
+
+import numpy as np
+
+from benchmarks.execution._parent_death import die_with_parent
+
+ExecutorKind = Literal["serial", "process", "dask"]
+
+
+class Outcome(NamedTuple):
+    """What became of one work item.
+
+    Attributes:
+        result: What the work function returned (``None`` if it raised).
+        error: The exception it raised, or that killed its worker; ``None`` on success.
+        seconds: Wall time from the batch's submission until this outcome was known.
+    """
+
+    result: Any
+    error: BaseException | None
+    seconds: float
+
+
+EXECUTORS: tuple[str, ...] = ("serial", "process", "dask")
+
+"""Executor kinds accepted by :func:`make_executor`."""
+
+
+_DASK_EXTRA = "pip install 'tooldesign[dask]'"
+
+
+class SerialExecutor(Executor):
+    """An executor that runs each call at once in the calling thread.
+
+    Exceptions are stored in the returned future, as a pool would, so callers handle every
+    executor the same way.
+    """
+
+    def __init__(self) -> None:
+        self._shutdown = False
+
+    def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future[Any]:
+        """Run ``fn(*args, **kwargs)`` now and return its finished future."""
+        if self._shutdown:
+            raise RuntimeError("cannot schedule new futures after shutdown")
+        future: Future[Any] = Future()
+        try:
+            future.set_result(fn(*args, **kwargs))
+        except Exception as exc:  # KeyboardInterrupt is not stored: it stops the run
+            future.set_exception(exc)
+        return future
+
+    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
+        """Refuse further calls."""
+        self._shutdown = True
+
+
+class _RestartingProcessPool(Executor):
+    """A process pool that replaces itself after a worker died, so the run can go on."""
+
+    def __init__(self, workers: int, context: Any) -> None:
+        self._workers = workers
+        self._context = context
+        self._pool = self._new_pool()
+
+    def _new_pool(self) -> ProcessPoolExecutor:
+        return ProcessPoolExecutor(
+            max_workers=self._workers, mp_context=self._context, initializer=_init_worker
+        )
+
+    @property
+    def max_workers(self) -> int:
+        """Number of worker processes."""
+        return self._workers
+
+    def restart(self) -> None:
+        """Drop the current pool (broken or not) and start a fresh one."""
+        self._pool.shutdown(wait=False, cancel_futures=True)
+        self._pool = self._new_pool()
+
+    def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future[Any]:
+        """Submit to the pool, restarting it first if a worker died since the last call."""
+        try:
+            return self._pool.submit(fn, *args, **kwargs)
+        except BrokenProcessPool:
+            self.restart()
+            return self._pool.submit(fn, *args, **kwargs)
+
+    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
+        """Shut the pool down."""
+        self._pool.shutdown(wait=wait, cancel_futures=cancel_futures)
+
+
+def _ignore_sigint() -> None:
+    # Ctrl-C reaches the whole process group. Workers ignore it and finish their evaluation;
+    # the main process stops the run and shuts the pool down, so no half-told batch is logged.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _init_worker() -> None:
+    _ignore_sigint()
+    die_with_parent()
+
+
+def _process_context() -> Any:
+    # forkserver forks workers from a clean server process that never made a PyBullet client
+    # (and is faster to start than spawn); plain fork would copy the parent's client.
+    methods = multiprocessing.get_all_start_methods()
+    context = multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
+    if hasattr(context, "set_forkserver_preload"):
+        # The forkserver imports this module first, which makes it die with the main process:
+        # a SIGKILLed run would otherwise leave the server and its workers running.
+        context.set_forkserver_preload(["__main__", "benchmarks.execution._forkserver_preload"])
+    return context
+
+
+def check_main_guard() -> None:
+    """Refuse to start worker processes from a script without a ``__main__`` guard.
+
+    Worker processes (``forkserver`` or ``spawn``) import the main script again. Without the
+    guard, each worker re-runs the script and would start a pool of its own: the run fails
+    after minutes with a RuntimeError from deep inside multiprocessing. This check fails at once.
+    It looks only at a main module that is a Python file (not ``python -c``, a notebook or an
+    interactive session).
+
+    Raises:
+        RuntimeError: the main script has module-level code but no ``__main__`` guard; the
+            message says what to do.
+    """
+    main = sys.modules.get("__main__")
+    path = getattr(main, "__file__", None)
+    if main is None or path is None or getattr(main, "__spec__", None) is not None:
+        return  # -c, interactive, notebook, or python -m (a module, imported under its name)
+    if not str(path).endswith(".py") or not os.path.isfile(path):
+        return
+    try:
+        with open(path, encoding="utf-8") as f:
+            tree = ast.parse(f.read(), filename=str(path))
+    except (OSError, SyntaxError, UnicodeDecodeError, ValueError):
+        return
+    if not any(_is_main_guard(node) for node in tree.body):
+        raise RuntimeError(
+            f"{path} starts worker processes but has no 'if __name__ == \"__main__\":' guard; "
+            "each worker would re-run the script. Put the call under that guard, e.g.\n\n"
+            '    if __name__ == "__main__":\n        run_design(...)\n\n'
+            "or evaluate in this process with executor='serial'."
+        )
+
+
+def _is_main_guard(node: ast.stmt) -> bool:
+    if not isinstance(node, ast.If) or not isinstance(node.test, ast.Compare):
+        return False
+    if not all(isinstance(op, ast.Eq) for op in node.test.ops):
+        return False
+    names = [node.test.left, *node.test.comparators]
+    has_name = any(isinstance(n, ast.Name) and n.id == "__name__" for n in names)
+    has_main = any(isinstance(n, ast.Constant) and n.value == "__main__" for n in names)
+    return has_name and has_main
+
+
+def _check_workers(workers: int | None) -> int:
+    if workers is None:
+        return os.cpu_count() or 1
+    if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)):
+        raise TypeError(f"workers must be an int >= 1 or None, got {type(workers).__name__}")
+    if workers < 1:
+        raise ValueError(f"workers must be >= 1, got {workers}")
+    return int(workers)
+
+
+@contextlib.contextmanager
+def make_executor(
+    kind: str = "process", workers: int | None = None, scheduler: str | None = None
+) -> Iterator[Executor]:
+    """An executor for :func:`evaluate_batch`, shut down (and its cluster closed) on exit.
+
+    Args:
+        kind: ``"serial"``, ``"process"`` or ``"dask"``.
+        workers: Worker processes (process pool, Dask ``LocalCluster``); default
+            ``os.cpu_count()``. Ignored by ``"serial"`` and with a ``scheduler``.
+        scheduler: Address of a running Dask scheduler (``"tcp://host:8786"``); only with
+            ``kind="dask"``. Without it a ``LocalCluster`` of ``workers`` single-threaded worker
+            processes is started.
+
+    Yields:
+        A :class:`concurrent.futures.Executor`.
+
+    Raises:
+        ValueError: If ``kind`` is unknown, ``workers`` < 1, or ``scheduler`` is given for a
+            kind other than ``"dask"``.
+        ImportError: If ``kind="dask"`` and dask.distributed is not installed; the message names
+            the extra ``pip install 'tooldesign[dask]'``.
+    """
+    if kind not in EXECUTORS:
+        raise ValueError(f"executor kind must be one of {EXECUTORS}, got {kind!r}")
+    count = _check_workers(workers)
+    if scheduler is not None and kind != "dask":
+        raise ValueError(
+            f"scheduler is an address of a Dask scheduler; it needs kind='dask', got {kind!r}"
+        )
+    if kind == "serial":
+        serial = SerialExecutor()
+        try:
+            yield serial
+        finally:
+            serial.shutdown()
+    elif kind == "process":
+        check_main_guard()
+        pool = _RestartingProcessPool(count, _process_context())
+        try:
+            yield pool
+        finally:
+            pool.shutdown(wait=True, cancel_futures=True)
+    else:
+        if scheduler is None:  # a LocalCluster starts worker processes here
+            check_main_guard()
+        with _dask_executor(count, scheduler) as executor:
+            yield executor
+
+
+@contextlib.contextmanager
+def _dask_executor(workers: int, scheduler: str | None) -> Iterator[Executor]:
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError as err:
+        raise ImportError(
+            f"the dask executor needs dask.distributed, which is not installed; "
+            f"install it with `{_DASK_EXTRA}` or use --executor process"
+        ) from err
+    if scheduler is not None:
+        if not isinstance(scheduler, str) or not scheduler:
+            raise ValueError(
+                f"scheduler must be an address like tcp://host:8786, got {scheduler!r}"
+            )
+        cluster = None
+        client = Client(scheduler)
+    else:
+        # One thread per worker: the env cache is per thread, and PyBullet is CPU bound.
+        cluster = LocalCluster(
+            n_workers=workers,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=None,
+            silence_logs=40,  # logging.ERROR: no worker start-up chatter in the progress bar
+        )
+        client = Client(cluster)
+    try:
+        # pure=False: two equal designs are two evaluations (each timed), not one cached task.
+        yield client.get_executor(pure=False)
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def map_robust(executor: Executor, fn: Callable[[Any], Any], items: Sequence[Any]) -> list[Outcome]:
+    """Call ``fn`` on every item through ``executor``; collect results and exceptions in order.
+
+    Items whose worker process died (``BrokenProcessPool`` takes every pending call of the pool
+    with it) are retried one at a time in a fresh pool, so one crashing design does not fail its
+    neighbours and the outcome does not depend on how the batch was spread over workers.
+
+    Args:
+        executor: From :func:`make_executor` (or any executor).
+        fn: A picklable function of one argument.
+        items: The arguments.
+
+    Returns:
+        ``(result, None, seconds)`` or ``(None, exception, seconds)`` per item, in the order of
+        ``items``; ``seconds`` is the wall time from submitting the item to its outcome.
+    """
+    start = time.perf_counter()
+    futures = [executor.submit(fn, item) for item in items]
+    outcomes = [_outcome(f, start) for f in futures]
+    broken = [i for i, (_, exc, _) in enumerate(outcomes) if isinstance(exc, BrokenProcessPool)]
+    if broken and isinstance(executor, _RestartingProcessPool):
+        for index in broken:
+            executor.restart()
+            start = time.perf_counter()
+            outcomes[index] = _outcome(executor.submit(fn, items[index]), start)
+        executor.restart()  # leave a working pool for the next batch
+    return outcomes
+
+
+def _outcome(future: Future[Any], start: float) -> Outcome:
+    try:
+        return Outcome(future.result(), None, time.perf_counter() - start)
+    except Exception as exc:  # every failure is the outcome of its item
+        return Outcome(None, exc, time.perf_counter() - start)

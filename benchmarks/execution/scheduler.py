@@ -1,0 +1,158 @@
+"""A scheduler that keeps many jobs in flight on one executor, from the calling thread.
+
+A suite is many design runs (optimizer x seed x variant), each a sequence of batches: ask,
+evaluate the batch, tell, repeat, then test the final design. Run one after another, each
+batch's slowest design would leave the other workers idle; :class:`Scheduler` instead keeps up
+to ``max_active`` jobs submitted at once, and moves each job on as soon as its batch is back.
+
+The scheduler knows nothing of tools, optimizers or files. A job is anything with two methods
+(:class:`Job`): ``start()`` returns its first batch of work items, ``advance(outcomes)`` takes
+the outcomes of the last batch and returns the next batch, or ``None`` when the job is done.
+The work function that runs an item in a worker is a parameter (for a suite:
+:func:`benchmarks.execution.evaluator.evaluate_item`).
+
+A worker that dies takes every pending call of its pool with it. The scheduler then waits for
+every in-flight call, restarts the pool, and retries the lost items through
+:func:`~benchmarks.execution.executors.map_robust`, which runs each alone: an item that kills its
+worker again gets its exception as its outcome, and the others are unaffected, so the outcome of
+an item does not depend on which items shared the pool with it.
+
+Example:
+    >>> with make_executor("process", workers=2) as executor:  # doctest: +SKIP
+    ...     Scheduler(executor, evaluate_item, max_active=3).run(jobs)
+"""
+
+from __future__ import annotations
+
+import collections
+import time
+from collections.abc import Callable, Iterable, Sequence
+from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
+from concurrent.futures.process import BrokenProcessPool
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+from benchmarks.execution.executors import Outcome, map_robust
+
+__all__ = ["Job", "Scheduler"]
+
+
+class Job(Protocol):
+    """One sequence of batches: the scheduler calls ``start`` once, then ``advance`` per batch."""
+
+    def start(self) -> Sequence[Any] | None:
+        """The first batch of work items, or ``None`` if there is nothing to do."""
+        ...
+
+    def advance(self, outcomes: list[Outcome]) -> Sequence[Any] | None:
+        """Take the outcomes of the last batch (in item order); the next batch or ``None``."""
+        ...
+
+
+@dataclass(eq=False)
+class _Slot:
+    job: Job
+    items: list[Any] = field(default_factory=list)
+    futures: list[Future[Any]] = field(default_factory=list)
+    submitted: float = 0.0
+
+
+def _done_future(result: Any = None, exc: BaseException | None = None) -> Future[Any]:
+    future: Future[Any] = Future()
+    if exc is not None:
+        future.set_exception(exc)
+    else:
+        future.set_result(result)
+    return future
+
+
+def _broken(future: Future[Any]) -> bool:
+    return (
+        future.done()
+        and not future.cancelled()
+        and isinstance(future.exception(), BrokenProcessPool)
+    )
+
+
+class Scheduler:
+    """Runs jobs on one executor, at most ``max_active`` at a time (see the module docstring).
+
+    Args:
+        executor: Where work items run (:func:`~benchmarks.execution.executors.make_executor`).
+        work: The picklable work function, ``work(item) -> result``.
+        max_active: Jobs in flight at once, >= 1. Enough to keep every worker busy while one
+            job waits for its slowest item: about ``2 * workers / batch_size + 1``.
+
+    Raises:
+        TypeError: If ``work`` is not callable.
+        ValueError: If ``max_active`` is not an int >= 1.
+    """
+
+    def __init__(self, executor: Executor, work: Callable[[Any], Any], max_active: int) -> None:
+        if not callable(work):
+            raise TypeError(f"work must be a callable, got {work!r}")
+        if isinstance(max_active, bool) or not isinstance(max_active, int) or max_active < 1:
+            raise ValueError(f"max_active must be an int >= 1, got {max_active!r}")
+        self.executor = executor
+        self.work = work
+        self.max_active = max_active
+
+    def run(self, jobs: Iterable[Job]) -> None:
+        """Run every job to its end; returns when the last one is done."""
+        queue = collections.deque(jobs)
+        active: list[_Slot] = []
+        while queue or active:
+            while queue and len(active) < self.max_active:
+                slot = _Slot(job=queue.popleft())
+                if self._submit(slot, slot.job.start()):
+                    active.append(slot)
+            if not active:
+                continue
+            wait([f for slot in active for f in slot.futures], return_when=FIRST_COMPLETED)
+            # Which jobs are done is decided first, then whether a pool broke: a future that
+            # breaks between the two checks belongs to a job not yet taken as done, so no job
+            # is ever handed an outcome that recovery should have replaced.
+            finished = [s for s in active if all(f.done() for f in s.futures)]
+            if any(_broken(f) for slot in active for f in slot.futures):
+                self._recover(active)
+                finished = [s for s in active if all(f.done() for f in s.futures)]
+            for slot in finished:
+                if not self._submit(slot, slot.job.advance(self._outcomes(slot))):
+                    active.remove(slot)
+
+    def _submit(self, slot: _Slot, items: Sequence[Any] | None) -> bool:
+        """Submit a job's next batch; whether it is still in flight."""
+        if items is None:
+            return False
+        slot.items = list(items)
+        slot.submitted = time.perf_counter()
+        slot.futures = [self.executor.submit(self.work, item) for item in slot.items]
+        if not slot.futures:
+            # An empty batch: hand the job an empty outcome list at once.
+            return self._submit(slot, slot.job.advance([]))
+        return True
+
+    @staticmethod
+    def _outcomes(slot: _Slot) -> list[Outcome]:
+        outcomes: list[Outcome] = []
+        for future in slot.futures:
+            try:
+                result = future.result()
+            except Exception as exc:  # every failure is the outcome of its item
+                outcomes.append(Outcome(None, exc, time.perf_counter() - slot.submitted))
+            else:
+                outcomes.append(Outcome(result, None, time.perf_counter() - slot.submitted))
+        return outcomes
+
+    def _recover(self, active: list[_Slot]) -> None:
+        """Evaluate again, in a fresh pool, every item whose worker pool broke."""
+        wait([f for slot in active for f in slot.futures])
+        broken = [(s, i) for s in active for i, f in enumerate(s.futures) if _broken(f)]
+        restart = getattr(self.executor, "restart", None)
+        if not broken or restart is None:
+            return
+        restart()
+        items = [slot.items[i] for slot, i in broken]
+        retried = map_robust(self.executor, self.work, items)
+        for (slot, i), (result, exc, _) in zip(broken, retried, strict=True):
+            slot.futures[i] = _done_future(result, exc)

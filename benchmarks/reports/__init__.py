@@ -1,0 +1,28 @@
+"""Reports: tables, figures and pages made from stored results alone (nothing is simulated).
+
+- :mod:`~benchmarks.reports.stats`: bootstrap intervals, tests and effect sizes (no files).
+- :mod:`~benchmarks.reports.plots`: the shared figure helpers (tool shapes, box paths, PNG bytes).
+- :mod:`~benchmarks.reports.comparison`: the optimizer comparison of any run folder
+  (convergence, summary, pairwise tests with the noise floor).
+- :mod:`~benchmarks.reports.suite`: a suite's own figures and tables (Table I, tool shapes, ...).
+- :mod:`~benchmarks.reports.retest`: the noise floor and the stress test of retested designs.
+- :mod:`~benchmarks.reports.design_figures`: a design run's Figure 3 panels and robustness plot.
+- :mod:`~benchmarks.reports.evaluation_figures`: one evaluated design's figures.
+- :mod:`~benchmarks.reports.html`: one self-contained ``report.html`` of any run folder.
+- :mod:`~benchmarks.reports.reproduction`: ``docs/reproduction.md``, each claim with its noise.
+"""
+
+from __future__ import annotations
+
+from benchmarks.reports.design_figures import write_design_report
+from benchmarks.reports.evaluation_figures import write_evaluation_figures, write_evaluation_report
+from benchmarks.reports.html import write_html_report
+from benchmarks.reports.suite import make_suite_report
+
+__all__ = [
+    "make_suite_report",
+    "write_design_report",
+    "write_evaluation_figures",
+    "write_evaluation_report",
+    "write_html_report",
+]

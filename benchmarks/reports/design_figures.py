@@ -1,0 +1,217 @@
+"""The report of a design run (``tooldesign design``), drawn from its stored files alone.
+
+:func:`write_design_report` reads the run folder (``manifest.json`` for the task and the degree,
+``evaluations.csv``, ``design.json``, ``robustness.json`` and ``box_paths.json``) and writes the
+panels of the paper's Figure 3 (``fig3a``-``fig3d`` and ``figure3.png``), ``robustness.png`` and
+``report.html``. Nothing is simulated, so a run folder copied from elsewhere can be redrawn.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from benchmarks.reports import plots
+from benchmarks.reports.html import write_html_report
+from benchmarks.storage import DESIGN_RUN_FILES, ResultStore, read_manifest
+from tooldesign_env.schema import coefficient_columns
+
+__all__ = ["write_design_report"]
+
+
+def _iteration_colorbar(ax: Any, iterations: Sequence[int]) -> None:
+    from matplotlib import colormaps
+    from matplotlib.cm import ScalarMappable
+    from matplotlib.colors import Normalize
+
+    if not len(iterations):
+        return
+    low, high = float(min(iterations)), float(max(iterations))
+    mappable = ScalarMappable(
+        Normalize(low, high if high > low else low + 1.0), colormaps["viridis"]
+    )
+    bar = ax.figure.colorbar(mappable, ax=ax, fraction=0.046, pad=0.04)
+    bar.set_label("iteration")
+    from matplotlib.ticker import MaxNLocator
+
+    bar.locator = MaxNLocator(integer=True)
+    bar.update_ticks()
+
+
+def _best_index(bests: pd.DataFrame) -> int | None:
+    """Position (in ``bests``) of the run's best design: the iteration best with the lowest F."""
+    if not len(bests):
+        return None
+    return int(np.argmin(bests["free_energy"].to_numpy(dtype=float)))
+
+
+def _panel_curves(
+    ax: Any, designs: list[np.ndarray], bests: pd.DataFrame, labels: list[str] | None, spec: Any
+) -> None:
+    plots.plot_tool_shapes(
+        ax, designs, labels, colors=plots.sequential_colors(len(designs)), spec=spec
+    )
+    k = _best_index(bests)
+    if k is not None:
+        plots.plot_tool_shapes(
+            ax,
+            [designs[k]],
+            [f"best tool (iteration {int(bests['iteration'].iloc[k])})"],
+            colors=["red"],
+            linewidth=3.5,
+            spec=spec,
+        )
+        ax.legend(frameon=False, fontsize="small")
+    _iteration_colorbar(ax, bests["iteration"].tolist())
+    ax.set_title("a) best tool of each iteration")
+
+
+def _panel_free_energy(ax: Any, evaluations: pd.DataFrame, bests: pd.DataFrame) -> None:
+    ok = evaluations[evaluations["status"] == "ok"]
+    ax.plot(ok["iteration"], ok["free_energy"], "o", color="0.7", markersize=3, label="evaluations")
+    ax.plot(
+        bests["iteration"], bests["free_energy"], "o-", color="tab:blue", label="iteration best"
+    )
+    so_far = evaluations.groupby("iteration", sort=True)["best_so_far"].last()
+    ax.step(so_far.index, so_far.to_numpy(), where="post", color="black", label="best so far")
+    if len(bests) and len(ok):
+        # Every evaluation stays visible. A bad candidate can score 100 times the good ones;
+        # then a symmetric-log axis keeps the iteration bests readable without clipping it.
+        low = float(ok["free_energy"].min())
+        top = float(ok["free_energy"].max())
+        spread = float(np.nanmax([bests["free_energy"].max(), low])) - low
+        if top - low > 10.0 * max(spread, 1.0):
+            ax.set_yscale("symlog", linthresh=max(abs(low), spread, 1.0))
+        margin = 0.05 * max(top - low, abs(top), 1.0)
+        ax.set_ylim(low - margin, top + margin)
+    ax.set_xlabel("iteration")
+    ax.set_ylabel("free energy F (dimensionless)")
+    from matplotlib.ticker import MaxNLocator
+
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+    ax.grid(True, alpha=0.3)
+    ax.legend(frameon=False, fontsize="small")
+    ax.set_title("b) free energy per iteration")
+
+
+def _panel_paths(
+    ax: Any,
+    paths: list[np.ndarray],
+    bests: pd.DataFrame,
+    labels: list[str] | None,
+    goal: Sequence[float],
+) -> None:
+    plots.plot_box_paths(ax, paths, goal, labels, colors=plots.sequential_colors(len(paths)))
+    k = _best_index(bests)
+    if k is not None and len(paths[k]):
+        path = np.asarray(paths[k])
+        ax.plot(path[:, 0], path[:, 1], color="red", linewidth=3.0, label="best tool")
+        ax.legend(frameon=False, fontsize="small")
+    _iteration_colorbar(ax, bests["iteration"].tolist())
+    ax.set_title("c) box paths of the best tools (top view)")
+
+
+def _panel_tool(ax: Any, coeffs: np.ndarray, free_energy: float, spec: Any) -> None:
+    from matplotlib.patches import Polygon
+
+    from tooldesign_env import make_tool
+
+    geometry = make_tool(coeffs, spec)
+    corners = np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]])
+    for box in geometry.boxes:
+        c, s = math.cos(box.yaw), math.sin(box.yaw)
+        local = corners * np.asarray(box.half_extents)[:2]
+        world = local @ np.array([[c, s], [-s, c]]) + np.asarray(box.center)[:2]
+        ax.add_patch(Polygon(world, closed=True, facecolor="tab:orange", edgecolor="0.3", lw=0.5))
+    plots.plot_tool_shapes(ax, [coeffs], colors=["black"], linewidth=0.8, spec=spec)
+    text = ", ".join(f"{v:.3g}" for v in coeffs)
+    ax.set_title(f"d) final tool: C = ({text}), F = {float(free_energy):.4g}")
+
+
+def write_design_report(run_folder: str | os.PathLike[str]) -> list[Path]:
+    """Draw the figures and ``report.html`` of a design run folder from its stored files.
+
+    Args:
+        run_folder: A finished ``tooldesign design`` run folder.
+
+    Returns:
+        The files written.
+
+    Raises:
+        FileNotFoundError: If a file the figures need is missing (the run is not finished).
+    """
+    from tooldesign_env import ToolSpec
+
+    out = Path(run_folder)
+    for key in ("card", "robustness", "box_paths"):
+        if not (out / DESIGN_RUN_FILES[key]).is_file():
+            raise FileNotFoundError(
+                f"{out / DESIGN_RUN_FILES[key]} is missing: {out} is not a finished design run"
+            )
+    config = read_manifest(out)["config"]
+    goal = tuple(float(v) for v in config["goal"])
+    degree = len(config["bounds"])
+    spec = ToolSpec()
+    spec = spec if spec.degree == degree else dataclasses.replace(spec, degree=degree)
+    evaluations = ResultStore(out).read()
+    card = json.loads((out / DESIGN_RUN_FILES["card"]).read_text(encoding="utf-8"))
+    robustness = json.loads((out / DESIGN_RUN_FILES["robustness"]).read_text(encoding="utf-8"))
+    stored = json.loads((out / DESIGN_RUN_FILES["box_paths"]).read_text(encoding="utf-8"))
+    bests = _iteration_bests(evaluations)
+    columns = coefficient_columns(degree)
+    designs = [row[columns].to_numpy(dtype=np.float64) for _, row in bests.iterrows()]
+    paths = [np.asarray(x, dtype=np.float64).reshape(-1, 3) for x in stored["iteration_bests"]]
+    coeffs = np.asarray(card["coefficients"], dtype=np.float64)
+    written: list[Path] = []
+    # The iterations are told apart by a colour bar (_iteration_colorbar), not a legend: a
+    # legend of every iteration hides the plot, and one of the first and last says too little.
+    labels = None
+    panels = {
+        "fig3a": lambda ax: _panel_curves(ax, designs, bests, labels, spec),
+        "fig3b": lambda ax: _panel_free_energy(ax, evaluations, bests),
+        "fig3c": lambda ax: _panel_paths(ax, paths, bests, labels, goal),
+        "fig3d": lambda ax: _panel_tool(ax, coeffs, card["free_energy"], spec),
+    }
+    for key, draw in panels.items():
+        figure, ax = plots.new_figure()
+        draw(ax)
+        written.append(plots.save_png(figure, out / DESIGN_RUN_FILES[key]))
+    figure, axes = plots.new_figure_grid(2, 2, figsize=(12.0, 9.0))
+    for ax, draw in zip(axes.flat, panels.values(), strict=True):
+        draw(ax)
+    written.append(plots.save_png(figure, out / DESIGN_RUN_FILES["fig3"]))
+
+    figure, ax = plots.new_figure()
+    if robustness.get("error"):
+        ax.text(0.5, 0.5, f"not tested: {robustness['error']}", ha="center", va="center", wrap=True)
+        ax.set_axis_off()
+    else:
+        masses = stored["masses"]
+        colors = ["black", *plots.sequential_colors(len(masses), "plasma")]
+        names = [f"m = {stored['nominal_mass']:g} kg (nominal)"]
+        names += [f"m = {m:g} kg" for m in masses]
+        trajectories = [np.asarray(x) for x in [stored["nominal"], *stored["perturbed"]]]
+        plots.plot_box_paths(ax, trajectories, goal, names, colors=colors)
+        ax.set_title(
+            f"robustness {robustness['robustness']:.4g} under box-mass changes\n"
+            "(- sum over masses and control steps of the path deviation in m)",
+            fontsize="medium",
+        )
+    written.append(plots.save_png(figure, out / DESIGN_RUN_FILES["robustness_png"]))
+    written.append(write_html_report(out))
+    return written
+
+
+def _iteration_bests(evaluations: pd.DataFrame) -> pd.DataFrame:
+    """Per iteration, its lowest-F valid evaluation (iterations without one are left out)."""
+    ok = evaluations[(evaluations["status"] == "ok") & np.isfinite(evaluations["free_energy"])]
+    index = ok.groupby("iteration", sort=True)["free_energy"].idxmin()
+    return ok.loc[index.to_numpy()].reset_index(drop=True)

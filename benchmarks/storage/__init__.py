@@ -1,0 +1,99 @@
+"""The run-folder layer: every file a run keeps, written atomically and resumable.
+
+A run folder (of ``tooldesign design``, ``tooldesign bench`` or ``tooldesign retest``) holds::
+
+    manifest.json                  config, package versions, git commit, host, times, checksums
+    parts/suite=<s>/variant=<v>/optimizer=<o>/seed=<n>/iteration=<nnnnnn>.csv
+    evaluations.parquet | .csv     the parts consolidated at the end
+    designs/...                    a suite's final designs (see :mod:`benchmarks.storage.designs`)
+
+Modules, lowest first: :mod:`~benchmarks.storage.atomic` (atomic writes),
+:mod:`~benchmarks.storage.manifest` (``manifest.json``, JSON, checksums),
+:mod:`~benchmarks.storage.table` (the evaluation table and its part files),
+:mod:`~benchmarks.storage.designs` (a suite's design files) and
+:mod:`~benchmarks.storage.session` (start or resume a run folder; used by the designer and
+the suite runner alike). The columns are named in :mod:`tooldesign_env.schema`; the files are
+documented in ``docs/results-format.md``.
+"""
+
+from __future__ import annotations
+
+from benchmarks.storage.atomic import atomic_write_bytes, atomic_write_text
+from benchmarks.storage.designs import (
+    DESIGN_RUN_FILES,
+    DESIGN_VERSION,
+    DESIGNS_DIR,
+    RETEST_DIR,
+    design_path,
+    paths_path,
+    read_designs,
+    read_retests,
+    retest_path,
+)
+from benchmarks.storage.manifest import (
+    MANIFEST_NAME,
+    MANIFEST_VERSION,
+    build_manifest,
+    file_sha256,
+    git_commit,
+    host_info,
+    json_ready,
+    json_text,
+    package_versions,
+    read_manifest,
+    verify_checksums,
+    write_manifest,
+)
+from benchmarks.storage.session import PART_CHECKSUMS, ResumeError, RunSession, check_out_dir
+from benchmarks.storage.table import (
+    CONSOLIDATED_STEM,
+    PARTS_DIR,
+    EmptyStoreError,
+    Format,
+    ResultStore,
+    Unit,
+    part_checksums,
+    resolve_format,
+    timing_totals,
+    validate_evaluations,
+)
+
+__all__ = [
+    "RETEST_DIR",
+    "read_retests",
+    "retest_path",
+    "DESIGN_RUN_FILES",
+    "CONSOLIDATED_STEM",
+    "DESIGNS_DIR",
+    "DESIGN_VERSION",
+    "MANIFEST_NAME",
+    "MANIFEST_VERSION",
+    "PARTS_DIR",
+    "PART_CHECKSUMS",
+    "EmptyStoreError",
+    "Format",
+    "ResultStore",
+    "ResumeError",
+    "RunSession",
+    "Unit",
+    "atomic_write_bytes",
+    "atomic_write_text",
+    "build_manifest",
+    "check_out_dir",
+    "design_path",
+    "file_sha256",
+    "git_commit",
+    "host_info",
+    "json_ready",
+    "json_text",
+    "package_versions",
+    "part_checksums",
+    "paths_path",
+    "read_designs",
+    "read_manifest",
+    "resolve_format",
+    "timing_totals",
+    "validate_evaluations",
+    "verify_checksums",
+    "write_manifest",
+]

@@ -1,0 +1,85 @@
+"""Atomic writes: a file is either its old content or its whole new content, never a part.
+
+Every file a user keeps (tables, manifests, design cards, figures) is written to a temporary name
+in the same folder, flushed to disk and ``os.replace``-d into place, so a kill at any moment
+leaves whole files only.
+"""
+
+from __future__ import annotations
+
+import os
+import secrets
+from pathlib import Path
+
+_TEMP_SUFFIX = ".tmp"
+
+
+def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> Path:
+    """Write ``data`` to ``path`` so that readers see the old file or the new one, never half.
+
+    The bytes go to a hidden temporary file in the same folder (same file system, so the rename
+    is atomic), are flushed to disk, and the temporary file is ``os.replace``-d onto ``path``.
+    A crash leaves at most a ``.<name>.<random>.tmp`` file, which readers ignore.
+
+    Args:
+        path: Destination file; its parent folders are created.
+        data: The complete file content.
+
+    Returns:
+        The destination path.
+
+    Raises:
+        TypeError: If ``data`` is not bytes-like.
+    """
+    if not isinstance(data, (bytes, bytearray, memoryview)):
+        raise TypeError(f"data must be bytes, got {type(data).__name__}")
+    target = Path(path)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    # A random suffix (not mkstemp) so the file gets the usual umask permissions, not 0600.
+    tmp = target.with_name(f".{target.name}.{os.getpid()}.{secrets.token_hex(4)}{_TEMP_SUFFIX}")
+    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o666)
+    try:
+        with os.fdopen(fd, "wb") as handle:
+            handle.write(data)
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.replace(tmp, target)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    _fsync_folder(target.parent)
+    return target
+
+
+def atomic_write_text(path: str | os.PathLike[str], text: str, *, encoding: str = "utf-8") -> Path:
+    """Write ``text`` atomically (see :func:`atomic_write_bytes`), without newline translation.
+
+    Args:
+        path: Destination file; its parent folders are created.
+        text: The complete file content; newlines are written as they are (no ``CRLF`` on
+            Windows), so the bytes are the same everywhere.
+        encoding: Text encoding.
+
+    Returns:
+        The destination path.
+
+    Raises:
+        TypeError: If ``text`` is not a string.
+    """
+    if not isinstance(text, str):
+        raise TypeError(f"text must be str, got {type(text).__name__}")
+    return atomic_write_bytes(path, text.encode(encoding))
+
+
+def _fsync_folder(folder: Path) -> None:
+    # Makes the rename itself durable on POSIX; folders cannot be opened this way on Windows.
+    try:
+        fd = os.open(folder, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)

@@ -1,0 +1,304 @@
+"""``manifest.json``: what made a run folder (config, versions, commit, host, times); checksums."""
+
+from __future__ import annotations
+
+import dataclasses
+import datetime as dt
+import enum
+import hashlib
+import importlib.metadata
+import json
+import math
+import os
+import platform
+import re
+import subprocess
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from benchmarks.storage.atomic import atomic_write_text
+
+MANIFEST_NAME = "manifest.json"
+
+
+MANIFEST_VERSION = 1
+
+
+# Distribution names (what importlib.metadata knows), not module names: skopt is scikit-optimize.
+_PACKAGES: tuple[str, ...] = (
+    "tooldesign",
+    "numpy",
+    "scipy",
+    "pandas",
+    "gymnasium",
+    "pybullet",
+    "cma",
+    "scikit-optimize",
+    "pyswarms",
+    "pyarrow",
+    "matplotlib",
+)
+
+
+def package_versions(packages: Iterable[str] = _PACKAGES) -> dict[str, str]:
+    """Versions of the installed distributions among ``packages``; absent ones are left out.
+
+    Uses ``importlib.metadata`` so that nothing is imported (importing pybullet prints a banner
+    and takes time).
+
+    Args:
+        packages: Distribution names.
+
+    Returns:
+        ``{name: version}`` in the order given.
+    """
+    versions = {}
+    for name in packages:
+        try:
+            versions[name] = importlib.metadata.version(name)
+        except importlib.metadata.PackageNotFoundError:
+            continue
+    return versions
+
+
+def git_commit(repo_dir: str | os.PathLike[str] | None = None) -> str | None:
+    """The commit checked out in ``repo_dir``, or ``None`` if git or the repository is absent.
+
+    Args:
+        repo_dir: A folder inside the repository; defaults to the folder of this module.
+
+    Returns:
+        The 40-hex-digit commit or ``None``.
+    """
+    folder = Path(repo_dir) if repo_dir is not None else Path(__file__).resolve().parent
+    try:
+        result = subprocess.run(
+            ["git", "rev-parse", "HEAD"],
+            cwd=folder,
+            capture_output=True,
+            text=True,
+            timeout=10,
+            check=True,
+        )
+    except (OSError, subprocess.SubprocessError):
+        return None
+    commit = result.stdout.strip()
+    return commit if re.fullmatch(r"[0-9a-f]{40}", commit) else None
+
+
+def host_info() -> dict[str, Any]:
+    """The machine: platform string, machine, Python version and CPU count (no host name)."""
+    return {
+        "platform": platform.platform(),
+        "machine": platform.machine(),
+        "python": platform.python_version(),
+        "cpu_count": os.cpu_count(),
+    }
+
+
+def build_manifest(
+    *,
+    config: Mapping[str, Any] | Any,
+    start_time: dt.datetime,
+    end_time: dt.datetime | None = None,
+    wall_time: float | None = None,
+    simulation_time: float | None = None,
+    optimizer_time: float | None = None,
+    repo_dir: str | os.PathLike[str] | None = None,
+    extra: Mapping[str, Any] | None = None,
+) -> dict[str, Any]:
+    """Describe a run: what was asked, with which software, where and how long it took.
+
+    Args:
+        config: The suite configuration: a mapping or a dataclass instance; it must be made of
+            JSON values, numpy scalars/arrays, paths, enums, tuples and nested dataclasses.
+        start_time: When the run started, timezone-aware.
+        end_time: When it ended, timezone-aware, or ``None`` while it runs.
+        wall_time: Total wall time in s; defaults to ``end_time - start_time`` (pass the sum of
+            sessions for a resumed run).
+        simulation_time: Sum of ``eval_time`` in s (see :func:`timing_totals`).
+        optimizer_time: Sum of ``opt_time`` in s.
+        repo_dir: Where to ask git for the commit; see :func:`git_commit`.
+        extra: More JSON-able entries, stored under ``"extra"``.
+
+    Returns:
+        A JSON-able dict.
+
+    Raises:
+        TypeError: If a time has the wrong type or the config holds a value JSON cannot store.
+        ValueError: If a datetime is naive, times are negative or the config holds NaN or inf.
+    """
+    for name, moment in (("start_time", start_time), ("end_time", end_time)):
+        if moment is None:
+            continue
+        if not isinstance(moment, dt.datetime):
+            raise TypeError(f"{name} must be a datetime, got {type(moment).__name__}")
+        if moment.tzinfo is None or moment.utcoffset() is None:
+            raise ValueError(f"{name} must be timezone-aware, e.g. datetime.now(timezone.utc)")
+    if wall_time is None and end_time is not None:
+        wall_time = (end_time - start_time).total_seconds()
+    for name, seconds in (
+        ("wall_time", wall_time),
+        ("simulation_time", simulation_time),
+        ("optimizer_time", optimizer_time),
+    ):
+        if seconds is None:
+            continue
+        if isinstance(seconds, bool) or not isinstance(seconds, (int, float, np.number)):
+            raise TypeError(f"{name} must be a number of seconds, got {type(seconds).__name__}")
+        if not (math.isfinite(seconds) and seconds >= 0):
+            raise ValueError(f"{name} must be a finite number of seconds >= 0, got {seconds}")
+    if dataclasses.is_dataclass(config) and not isinstance(config, type):
+        config = dataclasses.asdict(config)
+    if not isinstance(config, Mapping):
+        raise TypeError(f"config must be a mapping or a dataclass, got {type(config).__name__}")
+    return {
+        "format_version": MANIFEST_VERSION,
+        "config": _jsonable(config, "config"),
+        "packages": package_versions(),
+        "git_commit": git_commit(repo_dir),
+        "host": host_info(),
+        "start_time": start_time.isoformat(),
+        "end_time": None if end_time is None else end_time.isoformat(),
+        "wall_time": None if wall_time is None else float(wall_time),
+        "simulation_time": None if simulation_time is None else float(simulation_time),
+        "optimizer_time": None if optimizer_time is None else float(optimizer_time),
+        "extra": _jsonable(dict(extra or {}), "extra"),
+    }
+
+
+def _jsonable(value: Any, where: str) -> Any:
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        value = dataclasses.asdict(value)
+    if isinstance(value, enum.Enum):
+        value = value.value
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, os.PathLike):
+        return os.fspath(value)
+    if value is None or isinstance(value, (bool, int, str)):
+        return value
+    if isinstance(value, float):
+        if not math.isfinite(value):
+            raise ValueError(f"{where} is {value}; JSON has no NaN or inf")
+        return value
+    if isinstance(value, Mapping):
+        out = {}
+        for key, item in value.items():
+            if not isinstance(key, str):
+                raise TypeError(f"{where} has a key {key!r} that is not a str")
+            out[key] = _jsonable(item, f"{where}.{key}")
+        return out
+    if isinstance(value, (list, tuple)):
+        return [_jsonable(item, f"{where}[{i}]") for i, item in enumerate(value)]
+    raise TypeError(f"{where} is a {type(value).__name__}, which JSON cannot store")
+
+
+def json_ready(value: Any) -> Any:
+    """``value`` as plain JSON types: mappings, lists, numbers, strings, None.
+
+    NumPy arrays and scalars become lists and numbers; a non-finite float becomes None (JSON has
+    no NaN, and a failed metric is null in the files users keep). Manifests use a stricter
+    check that refuses NaN instead.
+    """
+    if isinstance(value, Mapping):
+        return {str(k): json_ready(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [json_ready(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return json_ready(value.tolist())
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def json_text(data: Mapping[str, Any], *, compact: bool = False) -> str:
+    """``data`` as JSON text with sorted keys (see :func:`json_ready`): equal data, equal bytes."""
+    if compact:
+        return json.dumps(json_ready(data), separators=(",", ":"), sort_keys=True, allow_nan=False)
+    return json.dumps(json_ready(data), indent=2, sort_keys=True, allow_nan=False) + "\n"
+
+
+def file_sha256(path: str | os.PathLike[str]) -> str:
+    """Hex SHA-256 of a file's bytes, read in 1 MiB blocks."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def verify_checksums(run_folder: str | os.PathLike[str], recorded: Mapping[str, Any]) -> None:
+    """Refuse a run folder whose recorded files are missing or changed.
+
+    Args:
+        run_folder: The folder.
+        recorded: ``{relative path: sha256}`` as stored in the manifest.
+
+    Raises:
+        ValueError: A recorded file is missing, truncated or edited (its sha256 differs), or
+            the record itself is malformed. Nothing is written or removed.
+    """
+    folder = Path(run_folder)
+    if not isinstance(recorded, Mapping):
+        raise ValueError(f"{folder / 'manifest.json'}: the checksums are not a mapping")
+    for relative, expected in sorted(recorded.items()):
+        path = (folder / relative).resolve()
+        if not isinstance(expected, str) or folder.resolve() not in path.parents:
+            raise ValueError(f"{folder / 'manifest.json'}: bad checksum entry {relative!r}")
+        if not path.is_file():
+            raise ValueError(
+                f"{path} is listed in the manifest but missing; the run folder is incomplete"
+            )
+        actual = file_sha256(path)
+        if actual != expected:
+            raise ValueError(
+                f"{path} has changed since it was written (sha256 {actual[:12]}..., the "
+                f"manifest records {expected[:12]}...): the file was edited, truncated or "
+                "corrupted; restore it or start a new run folder"
+            )
+
+
+def write_manifest(run_folder: str | os.PathLike[str], manifest: Mapping[str, Any]) -> Path:
+    """Write ``run_folder/manifest.json`` atomically, keys sorted, so equal input gives equal bytes.
+
+    Args:
+        run_folder: The run folder; created if absent.
+        manifest: Usually from :func:`build_manifest`.
+
+    Returns:
+        The manifest path.
+
+    Raises:
+        TypeError, ValueError: If the manifest holds values JSON cannot store.
+    """
+    if not isinstance(manifest, Mapping):
+        raise TypeError(f"manifest must be a mapping, got {type(manifest).__name__}")
+    text = json.dumps(_jsonable(manifest, "manifest"), indent=2, sort_keys=True, allow_nan=False)
+    return atomic_write_text(Path(run_folder) / MANIFEST_NAME, text + "\n")
+
+
+def read_manifest(run_folder: str | os.PathLike[str]) -> dict[str, Any]:
+    """Read ``run_folder/manifest.json``.
+
+    Raises:
+        FileNotFoundError: If there is no manifest.
+        ValueError: If it is not a JSON object.
+    """
+    path = Path(run_folder) / MANIFEST_NAME
+    if not path.is_file():
+        raise FileNotFoundError(f"{path} does not exist")
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as err:
+        raise ValueError(f"{path} is not valid JSON: {err}") from err
+    if not isinstance(data, dict):
+        raise ValueError(f"{path} must hold a JSON object, got {type(data).__name__}")
+    return data

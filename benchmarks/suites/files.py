@@ -1,0 +1,157 @@
+"""Suite files: a suite as TOML or JSON, read by :func:`load_suite`, written by :func:`save_suite`.
+
+A file may name a built-in suite as its ``base`` and change some of its fields, and may define its
+own sizes (``[sizes.smoke]``, ``[sizes.full]``). ``docs/benchmarks.md`` documents the format.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from benchmarks.storage import atomic_write_text
+from benchmarks.suites.builtin import SIZES, builtin_suite
+from benchmarks.suites.config import SuiteConfig, suite_from_json
+
+
+def _toml_module() -> Any:
+    try:
+        import tomllib  # Python >= 3.11
+    except ImportError:  # pragma: no cover - Python 3.10
+        try:
+            import tomli as tomllib
+        except ImportError as err:
+            raise ImportError(
+                "reading TOML suite files on Python 3.10 needs tomli: `pip install tomli` "
+                "(or write the suite as JSON)"
+            ) from err
+    return tomllib
+
+
+def _read_file(path: Path) -> dict[str, Any]:
+    if not path.is_file():
+        raise FileNotFoundError(f"suite file {path} does not exist")
+    if path.suffix not in (".toml", ".json"):
+        raise ValueError(f"suite file {path} must end in .toml or .json")
+    text = path.read_text(encoding="utf-8")
+    toml = _toml_module() if path.suffix == ".toml" else None
+    try:
+        data: Any = toml.loads(text) if toml is not None else json.loads(text)
+    except ValueError as err:  # TOMLDecodeError and JSONDecodeError are ValueErrors
+        raise ValueError(
+            f"suite file {path} is not valid {path.suffix[1:].upper()}: {err}"
+        ) from err
+    if not isinstance(data, dict):
+        raise ValueError(f"suite file {path} must hold a table (JSON object) of suite fields")
+    return data
+
+
+def load_suite(path: str | os.PathLike[str], *, size: str | None = None) -> SuiteConfig:
+    """Read a suite from a TOML or JSON file.
+
+    The file holds the fields of :class:`SuiteConfig` (``[[variants]]`` and ``[[optimizers]]``
+    as arrays of tables) and optionally:
+
+    - ``base = "NAME"``: start from the built-in suite NAME at ``size`` (``full`` if none) and
+      override only the fields the file sets;
+    - ``[sizes.smoke]``, ``[sizes.full]`` (any names): fields that override the others when
+      that size is chosen.
+
+    Args:
+        path: A ``.toml`` or ``.json`` file.
+        size: The size to apply, or ``None`` for the file's fields as they are.
+
+    Returns:
+        The validated suite.
+
+    Raises:
+        FileNotFoundError: If the file does not exist.
+        ValueError: If it cannot be parsed, names an unknown field, base or size, or a value is
+            invalid (the message names the file and the field).
+        TypeError: If a value has the wrong type.
+    """
+    source = Path(path)
+    data = _read_file(source)
+    sizes = data.pop("sizes", {})
+    if not isinstance(sizes, dict) or not all(isinstance(v, dict) for v in sizes.values()):
+        raise ValueError(f"{source}: sizes must be tables, e.g. [sizes.smoke]")
+    base = data.pop("base", None)
+    fields: dict[str, Any] = {}
+    if base is not None:
+        if not isinstance(base, str):
+            raise ValueError(f"{source}: base must be the name of a built-in suite")
+        try:
+            fields = builtin_suite(base, size or "full").to_json()
+        except ValueError as err:
+            raise ValueError(f"{source}: base: {err}") from None
+    fields.update(data)
+    if size is not None:
+        if sizes and size not in sizes:
+            raise ValueError(
+                f"{source}: unknown size {size!r}; the file defines {', '.join(sorted(sizes))}"
+            )
+        if size not in SIZES and size not in sizes:
+            raise ValueError(f"unknown size {size!r}; sizes: {', '.join(SIZES)}")
+        fields.update(sizes.get(size, {}))
+    return suite_from_json(fields, where=str(source))
+
+
+def _toml_value(value: Any) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        return repr(value)  # shortest exact text; TOML floats read back bit for bit
+    if isinstance(value, str):
+        return json.dumps(value)  # a JSON string is a valid TOML basic string
+    if isinstance(value, list):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    if isinstance(value, dict):
+        items = ", ".join(f"{json.dumps(k)} = {_toml_value(v)}" for k, v in value.items())
+        return "{" + items + "}"
+    raise TypeError(f"cannot write {value!r} to TOML")
+
+
+def _toml_text(data: Mapping[str, Any]) -> str:
+    # TOML has no null: a None field is left out, which reads back as its default (None).
+    lines = []
+    tables = ("variants", "optimizers")
+    for key, value in data.items():
+        if key in tables or value is None:
+            continue
+        lines.append(f"{key} = {_toml_value(value)}")
+    for key in tables:
+        for item in data.get(key, []):
+            lines += ["", f"[[{key}]]"]
+            lines += [f"{k} = {_toml_value(v)}" for k, v in item.items() if v is not None]
+    return "\n".join(lines) + "\n"
+
+
+def save_suite(config: SuiteConfig, path: str | os.PathLike[str]) -> Path:
+    """Write a suite as a TOML or JSON file (by suffix) that :func:`load_suite` reads back.
+
+    Args:
+        config: The suite.
+        path: A ``.toml`` or ``.json`` file; written atomically.
+
+    Returns:
+        The path written.
+
+    Raises:
+        ValueError: If the suffix is neither.
+    """
+    if not isinstance(config, SuiteConfig):
+        raise TypeError(f"config must be a SuiteConfig, got {type(config).__name__}")
+    target = Path(path)
+    data = config.to_json()
+    if target.suffix == ".json":
+        text = json.dumps(data, indent=2, allow_nan=False) + "\n"
+    elif target.suffix == ".toml":
+        text = _toml_text(data)
+    else:
+        raise ValueError(f"suite file {target} must end in .toml or .json")
+    return atomic_write_text(target, text)
