@@ -35,7 +35,7 @@ import tempfile
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any, ClassVar, TypeVar
+from typing import Any, ClassVar, TypeVar, cast
 
 import numpy as np
 
@@ -284,7 +284,7 @@ class Optimizer(abc.ABC):
         Returns:
             (..., d) points in [low, high]; the clip removes rounding past a bound.
         """
-        return np.clip(self._low + u * self._span, self._low, self._high)
+        return cast("np.ndarray", np.clip(self._low + u * self._span, self._low, self._high))
 
     def _to_unit(self, x: Any, name: str = "x0") -> np.ndarray:
         """A physical point, checked to be inside the bounds, in the unit box.
@@ -311,7 +311,7 @@ class Optimizer(abc.ABC):
                 f"{name} must be inside the bounds low={self._low.tolist()} "
                 f"high={self._high.tolist()}, got {point.tolist()}"
             )
-        return np.clip((point - self._low) / self._span, 0.0, 1.0)
+        return cast("np.ndarray", np.clip((point - self._low) / self._span, 0.0, 1.0))
 
     def _pending_unit(self) -> np.ndarray:
         """(p, d) points asked and not told yet, in the unit box (ask order)."""

@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -264,10 +264,14 @@ class BayesianOptimization(Optimizer):
         from skopt.acquisition import gaussian_ei, gaussian_lcb, gaussian_pi
 
         if self._acq_func == "EI":
-            return -gaussian_ei(X, model, y_opt=y_opt, xi=self._acq_kwargs["xi"])
+            return cast(
+                "np.ndarray", -gaussian_ei(X, model, y_opt=y_opt, xi=self._acq_kwargs["xi"])
+            )
         if self._acq_func == "PI":
-            return -gaussian_pi(X, model, y_opt=y_opt, xi=self._acq_kwargs["xi"])
-        return gaussian_lcb(X, model, kappa=self._acq_kwargs["kappa"])
+            return cast(
+                "np.ndarray", -gaussian_pi(X, model, y_opt=y_opt, xi=self._acq_kwargs["xi"])
+            )
+        return cast("np.ndarray", gaussian_lcb(X, model, kappa=self._acq_kwargs["kappa"]))
 
     def _maximize_acquisition(self, model: Any, y_opt: float) -> np.ndarray:
         """The acquisition's best point in the unit box."""
@@ -300,4 +304,4 @@ class BayesianOptimization(Optimizer):
             )
             if np.all(np.isfinite(x)) and value <= best_value:
                 best = x
-        return np.clip(best, 0.0, 1.0)
+        return cast("np.ndarray", np.clip(best, 0.0, 1.0))

@@ -26,7 +26,7 @@ import math
 import os
 import tempfile
 from collections.abc import Callable, Iterable
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -66,7 +66,7 @@ def shifted_sphere(x: np.ndarray) -> np.ndarray:
     Returns:
         (n,) values.
     """
-    return np.sum((np.asarray(x) - _SHIFT) ** 2, axis=1)
+    return cast("np.ndarray", np.sum((np.asarray(x) - _SHIFT) ** 2, axis=1))
 
 
 def _make(factory: Factory, *, bounds: Any = BOUNDS, batch_size: int = 4, seed: Any = 0) -> Any:
@@ -192,7 +192,7 @@ def check_failures_never_reach_backend(factory: Factory) -> None:
         seen.append(np.array(values, dtype=np.float64))
         hook(ids, x, values, failed)
 
-    optimizer._tell = spy  # type: ignore[method-assign]
+    optimizer._tell = spy
     batch = optimizer.ask()
     optimizer.tell(batch.ids, [math.nan, math.inf, None, -math.inf])
     assert optimizer.n_failed == 4 and optimizer.n_told == 4, "failures must be counted"
@@ -214,7 +214,7 @@ def check_failures_never_reach_backend(factory: Factory) -> None:
         assert np.all(np.isfinite(told)), f"non-finite values reached the plugin: {told}"
     best = optimizer.recommend()
     assert math.isfinite(best.value), "the recommendation must be a finite value"
-    del optimizer._tell  # type: ignore[attr-defined]
+    del optimizer._tell
 
 
 def check_save_load_continues_identically(factory: Factory) -> None:

@@ -283,7 +283,7 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
                 f"options['box_mass'] must be finite, > 0 and <= {BOX_MASS_MAX:g} kg, got {mass!r}"
             )
         self._box_mass = float(mass)
-        self._last_series: dict[str, Any] | None = None
+        self._last_series = None
         self._world_shows_last_step = False
         return self._observation(), {"goal": self._goal.copy(), "box_mass": self._box_mass}
 
@@ -382,6 +382,7 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
     def check_action(self, action: Any) -> np.ndarray:
         """The action as (degree,) float64, or a clear error saying what is wrong."""
         coeffs = validate_coefficients(action, self.tool_spec.degree)
+        assert isinstance(self.action_space, spaces.Box)
         low, high = self.action_space.low, self.action_space.high
         outside = (coeffs < low) | (coeffs > high)
         if np.any(outside):
@@ -470,7 +471,11 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
         """
         geometry = make_tool(self.check_action(action), self.tool_spec)
         return evaluate_robustness(
-            self.simulator, geometry, self._goal, masses=masses, nominal_mass=self._box_mass
+            self.simulator,
+            geometry,
+            tuple(float(v) for v in self._goal),
+            masses=masses,
+            nominal_mass=self._box_mass,
         )
 
     def _check_goal(self, goal: Any, label: str) -> np.ndarray:

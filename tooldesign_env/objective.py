@@ -17,7 +17,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Protocol, cast
 
 import numpy as np
 
@@ -147,7 +147,7 @@ def _window_sums(values: np.ndarray, window: int) -> np.ndarray:
     csum = np.concatenate([np.zeros((1, *values.shape[1:])), np.cumsum(values, axis=0)])
     lo = np.clip(np.arange(n) - window // 2, 0, n)
     hi = np.clip(np.arange(n) - window // 2 + window, 0, n)
-    return csum[hi] - csum[lo]
+    return cast("np.ndarray", csum[hi] - csum[lo])
 
 
 @dataclass(frozen=True)
@@ -214,7 +214,9 @@ class TrajectoryEstimator:
         """Centred windowed cross moments sum (y - mean y)(du - mean du)^T, (T, m, 7)."""
         cross = _window_sums(y[:, :, None] * du[:, None, :], self.window)
         mean_y = _window_sums(y, self.window) / count[:, None]
-        return cross - count[:, None, None] * mean_y[:, :, None] * mean_du[:, None, :]
+        return cast(
+            "np.ndarray", cross - count[:, None, None] * mean_y[:, :, None] * mean_du[:, None, :]
+        )
 
 
 @dataclass(frozen=True)
@@ -276,7 +278,7 @@ def make_estimator(spec: ObjectiveSpec) -> SensitivityEstimator:
 def goal_error(box_position: np.ndarray, goal: np.ndarray, goal_precision: float) -> np.ndarray:
     """E_t = 1/2 p^X |X_t - X^g|^2 per step: (T,) from (T, 3) positions and a (3,) goal."""
     err = box_position - np.asarray(goal, dtype=float)
-    return 0.5 * goal_precision * np.sum(err * err, axis=1)
+    return cast("np.ndarray", 0.5 * goal_precision * np.sum(err * err, axis=1))
 
 
 def control_confidence(

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 from benchmarks.execution import EXECUTORS
 from benchmarks.reports.suite import make_suite_report
@@ -71,7 +71,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         help="write the resolved suite to FILE (.toml or .json) and exit without running",
     )
     parser.set_defaults(run=_run)
-    return parser
+    return cast("argparse.ArgumentParser", parser)
 
 
 def config_from_args(args: argparse.Namespace) -> SuiteConfig:

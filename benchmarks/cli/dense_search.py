@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import time
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 from benchmarks.cli._common import add_task_arguments
 from benchmarks.execution import EXECUTORS, TaskSettings
@@ -27,7 +27,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     parser.add_argument("--executor", choices=EXECUTORS, default="process")
     parser.add_argument("--batch", type=int, default=64, help="designs per submitted batch")
     parser.set_defaults(run=_run)
-    return parser
+    return cast("argparse.ArgumentParser", parser)
 
 
 def _run(args: argparse.Namespace) -> int:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 from benchmarks.cli._common import add_task_arguments
 from benchmarks.design import DesignConfig, run_design
@@ -95,7 +95,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         "--no-video", action="store_true", help="do not write rollout.gif (saves about 20 s)"
     )
     parser.set_defaults(run=_run)
-    return parser
+    return cast("argparse.ArgumentParser", parser)
 
 
 def config_from_args(args: argparse.Namespace) -> DesignConfig:

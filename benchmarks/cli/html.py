@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 from benchmarks.reports.html import write_html_report
 
@@ -24,7 +24,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         "--out", type=Path, default=None, help="the HTML file (default DIR/report.html)"
     )
     parser.set_defaults(run=_run)
-    return parser
+    return cast("argparse.ArgumentParser", parser)
 
 
 def _run(args: argparse.Namespace) -> int:

@@ -24,7 +24,7 @@ import shutil
 import tempfile
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 from tooldesign_env.schema import METRICS
 
@@ -183,7 +183,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         "--work", type=Path, default=None, help="keep the run folder here (default: a temp dir)"
     )
     parser.set_defaults(run=_run)
-    return parser
+    return cast("argparse.ArgumentParser", parser)
 
 
 def _run(args: argparse.Namespace) -> int:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import os
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 from benchmarks.reports.reproduction import SUITES, reproduction_page
 from benchmarks.reports.suite import make_suite_report
@@ -24,7 +24,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     parser.add_argument("--out", type=Path, default=Path("docs/reproduction.md"))
     parser.add_argument("--skip-reports", action="store_true", help="use the reports as they are")
     parser.set_defaults(run=_run)
-    return parser
+    return cast("argparse.ArgumentParser", parser)
 
 
 def _run(args: argparse.Namespace) -> int:

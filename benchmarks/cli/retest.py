@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 from benchmarks.reports.retest import noise_floor
 from benchmarks.storage import RETEST_DIR, read_manifest, read_retests
@@ -60,7 +60,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     )
     parser.add_argument("--workers", type=int, default=None, help="worker processes")
     parser.set_defaults(run=_run)
-    return parser
+    return cast("argparse.ArgumentParser", parser)
 
 
 def _run(args: argparse.Namespace) -> int:

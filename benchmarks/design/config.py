@@ -9,7 +9,7 @@ from __future__ import annotations
 import dataclasses
 import json
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -197,4 +197,4 @@ class DesignConfig:
         """The configuration as JSON values (settings as an object, tuples as lists)."""
         data = dataclasses.asdict(self)
         data["optimizer_settings"] = dict(self.optimizer_settings)
-        return json.loads(json.dumps(data, allow_nan=False))
+        return cast("dict[str, Any]", json.loads(json.dumps(data, allow_nan=False)))

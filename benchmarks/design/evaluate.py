@@ -20,7 +20,7 @@ The figures and ``report.html`` are drawn from the files written here by
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import pandas as pd
@@ -71,7 +71,9 @@ def trajectory_frame(info: dict[str, Any]) -> pd.DataFrame:
 
 
 def _rounded(path: Any) -> list[list[float]]:
-    return np.round(np.asarray(path, dtype=np.float64), PATH_DECIMALS).tolist()
+    return cast(
+        "list[list[float]]", np.round(np.asarray(path, dtype=np.float64), PATH_DECIMALS).tolist()
+    )
 
 
 def evaluate_coefficients(

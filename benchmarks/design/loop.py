@@ -26,7 +26,7 @@ import sys
 import warnings
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import pandas as pd
@@ -227,7 +227,7 @@ def _iteration_bests(evaluations: pd.DataFrame) -> pd.DataFrame:
 
 
 def _coeffs(row: pd.Series, degree: int) -> np.ndarray:
-    return row[coefficient_columns(degree)].to_numpy(dtype=np.float64)
+    return cast("np.ndarray", row[coefficient_columns(degree)].to_numpy(dtype=np.float64))
 
 
 def _finish(
@@ -335,7 +335,9 @@ def _robustness(
 
 
 def _rounded(path: Any) -> list[list[float]]:
-    return np.round(np.asarray(path, dtype=np.float64), PATH_DECIMALS).tolist()
+    return cast(
+        "list[list[float]]", np.round(np.asarray(path, dtype=np.float64), PATH_DECIMALS).tolist()
+    )
 
 
 def _without_paths(robustness: Mapping[str, Any]) -> dict[str, Any]:

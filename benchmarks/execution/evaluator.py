@@ -26,7 +26,7 @@ from collections.abc import Mapping, Sequence
 from concurrent.futures import Executor
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -231,7 +231,7 @@ def worker_env(task: TaskSettings, *, series: bool = False) -> Any:
         )
         cache[key] = env
     env.reset(options={"goal": task.goal, "box_mass": task.box_mass})
-    env.unwrapped.info_series = bool(series)
+    env.unwrapped.info_series = bool(series)  # type: ignore[union-attr]
     return env
 
 
@@ -365,7 +365,7 @@ def outcome_row(result: Any, exc: BaseException | None, seconds: float) -> dict[
         ``seconds`` as ``eval_time``.
     """
     if exc is None:
-        return result
+        return cast("dict[str, Any]", result)
     what = "worker process died" if isinstance(exc, BrokenProcessPool) else "worker error"
     return _failed_row(f"{what}: {_describe(exc)}", seconds)
 

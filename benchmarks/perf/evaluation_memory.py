@@ -14,6 +14,7 @@ import os
 import tempfile
 import time
 
+import gymnasium as gym
 import numpy as np
 
 from tooldesign_env import ToolDesignEnv
@@ -43,7 +44,9 @@ def main() -> int:
     env = ToolDesignEnv()
     env.reset(seed=0)
     rng = np.random.default_rng(0)
-    lo, hi = env.action_space.low, env.action_space.high
+    box = env.action_space
+    assert isinstance(box, gym.spaces.Box)
+    lo, hi = box.low, box.high
     for _ in range(args.warmup):
         env.step(rng.uniform(lo, hi))
     start = rss_mb()

@@ -24,6 +24,7 @@ import statistics
 import time
 import warnings
 from collections.abc import Callable
+from typing import cast
 
 import numpy as np
 
@@ -37,12 +38,15 @@ BATCH = 8
 
 def sphere(x: np.ndarray) -> np.ndarray:
     """Shifted sphere, minimum 0 at SHIFT; (n, 3) -> (n,)."""
-    return np.sum((x - SHIFT) ** 2, axis=1)
+    return cast("np.ndarray", np.sum((x - SHIFT) ** 2, axis=1))
 
 
 def rosenbrock(x: np.ndarray) -> np.ndarray:
     """Rosenbrock in 3-D; on BOUNDS its minimum is on the face x3 = 0.5; (n, 3) -> (n,)."""
-    return np.sum(100.0 * (x[:, 1:] - x[:, :-1] ** 2) ** 2 + (1.0 - x[:, :-1]) ** 2, axis=1)
+    return cast(
+        "np.ndarray",
+        np.sum(100.0 * (x[:, 1:] - x[:, :-1] ** 2) ** 2 + (1.0 - x[:, :-1]) ** 2, axis=1),
+    )
 
 
 def observations(n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:

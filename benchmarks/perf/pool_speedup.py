@@ -22,6 +22,7 @@ import argparse
 import os
 import statistics
 import time
+from typing import Any
 
 import numpy as np
 
@@ -34,7 +35,9 @@ def designs(n: int, seed: int) -> np.ndarray:
     return rng.uniform([-1.5, -1.5, -0.5], [1.5, 1.5, 0.5], size=(n, 3))
 
 
-def timed(executor: object, batch: np.ndarray, task: TaskSettings) -> tuple[float, list[dict]]:
+def timed(
+    executor: object, batch: np.ndarray, task: TaskSettings
+) -> tuple[float, list[dict[str, Any]]]:
     """Wall time in s of evaluating ``batch``, and the rows."""
     start = time.perf_counter()
     rows = evaluate_batch(executor, batch, task)  # type: ignore[arg-type]
@@ -64,7 +67,7 @@ def available_parallelism(pool: object, workers: int, n: int = 3_000_000) -> flo
     return serial / (time.perf_counter() - start)
 
 
-def strip(rows: list[dict]) -> list[dict]:
+def strip(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     """Rows without their timings."""
     return [{k: v for k, v in r.items() if k != "eval_time"} for r in rows]
 

@@ -25,7 +25,7 @@ import re
 import zlib
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import pandas as pd
@@ -381,7 +381,9 @@ def plot_convergence(
 
 def _csv_text(frame: pd.DataFrame) -> str:
     # repr() floats round-trip exactly and do not depend on the locale.
-    return frame.to_csv(index=False, lineterminator="\n", float_format=lambda v: repr(float(v)))
+    return cast(
+        "str", frame.to_csv(index=False, lineterminator="\n", float_format=lambda v: repr(float(v)))
+    )
 
 
 def _fmt(value: float, digits: int = 4) -> str:

@@ -12,7 +12,7 @@ import dataclasses
 import json
 import math
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -174,7 +174,7 @@ def write_design_report(run_folder: str | os.PathLike[str]) -> list[Path]:
     # The iterations are told apart by a colour bar (_iteration_colorbar), not a legend: a
     # legend of every iteration hides the plot, and one of the first and last says too little.
     labels = None
-    panels = {
+    panels: dict[str, Callable[[Any], None]] = {
         "fig3a": lambda ax: _panel_curves(ax, designs, bests, labels, spec),
         "fig3b": lambda ax: _panel_free_energy(ax, evaluations, bests),
         "fig3c": lambda ax: _panel_paths(ax, paths, bests, labels, goal),

@@ -41,7 +41,7 @@ def write_evaluation_figures(folder: str | os.PathLike[str]) -> list[Path]:
     out = Path(folder)
     terms = json.loads((out / "terms.json").read_text(encoding="utf-8"))
     coeffs = np.asarray(terms["coefficients"], dtype=np.float64)
-    goal = np.asarray(terms["goal"], dtype=np.float64)
+    goal = tuple(float(v) for v in terms["goal"])
     written = []
     fig, ax = new_figure()
     plot_tool_shapes(ax, [coeffs])

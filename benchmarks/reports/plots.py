@@ -208,7 +208,7 @@ def plot_time_series(
         if y.shape != t.shape:
             raise ValueError(f"series {name!r} has shape {y.shape}, times have {t.shape}")
         color = None if colors is None else colors.get(name)
-        ax.plot(t, y, label=name, color=color, linewidth=1.5)  # type: ignore[arg-type]
+        ax.plot(t, y, label=name, color=color, linewidth=1.5)
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     ax.grid(True, alpha=0.3)

@@ -32,7 +32,7 @@ import os
 import zlib
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import pandas as pd
@@ -67,7 +67,9 @@ def _rng(seed: int, *labels: Any) -> np.random.Generator:
 
 
 def _csv_text(frame: pd.DataFrame) -> str:
-    return frame.to_csv(index=False, lineterminator="\n", float_format=lambda v: repr(float(v)))
+    return cast(
+        "str", frame.to_csv(index=False, lineterminator="\n", float_format=lambda v: repr(float(v)))
+    )
 
 
 def _fmt(value: Any, digits: int = 4) -> str:

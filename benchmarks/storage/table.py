@@ -28,7 +28,7 @@ import re
 import urllib.parse
 from collections.abc import Iterable, Mapping
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, cast
 
 import numpy as np
 import pandas as pd
@@ -330,7 +330,7 @@ def _csv_bytes(frame: pd.DataFrame) -> bytes:
     # repr() is the shortest string that parses back to the same double, so CSV floats
     # round-trip bit for bit; NaN is written as an empty field.
     text = frame.to_csv(index=False, lineterminator="\n", float_format=lambda v: repr(float(v)))
-    return text.encode("utf-8")
+    return cast("bytes", text.encode("utf-8"))
 
 
 # pandas < 3 parses floats with a fast but not always exact routine unless asked to round-trip;

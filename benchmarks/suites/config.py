@@ -30,7 +30,7 @@ import dataclasses
 import json
 import math
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -313,13 +313,13 @@ class SuiteConfig:
             _from_mapping(OptimizerSpec, o, f"optimizers[{i}]")
             for i, o in enumerate(_sequence("optimizers", self.optimizers))
         )
-        for what, items, key in (
-            ("variants", variants, lambda v: v.name),
-            ("optimizers", optimizers, lambda o: o.column),
-        ):
+        listed: tuple[tuple[str, tuple[Any, ...], list[str]], ...] = (
+            ("variants", variants, [v.name for v in variants]),
+            ("optimizers", optimizers, [o.column for o in optimizers]),
+        )
+        for what, items, names in listed:
             if not items:
                 raise ValueError(f"{what} must hold at least one entry")
-            names = [key(item) for item in items]
             if len(set(names)) != len(names):
                 raise ValueError(f"{what} must have unique names (labels), got {names}")
         object.__setattr__(self, "variants", variants)
@@ -449,7 +449,7 @@ class SuiteConfig:
         data["optimizers"] = [
             {**dataclasses.asdict(o), "settings": dict(o.settings)} for o in self.optimizers
         ]
-        return json.loads(json.dumps(data, allow_nan=False))
+        return cast("dict[str, Any]", json.loads(json.dumps(data, allow_nan=False)))
 
     def replace(self, **changes: Any) -> SuiteConfig:
         """A copy with some fields changed (validated again)."""

@@ -32,7 +32,7 @@ import time
 from collections.abc import Sequence
 from concurrent.futures import Executor
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -131,7 +131,9 @@ class RetestItem:
     config: RetestConfig
 
 
-def _rollout(task: TaskSettings, scene: Any, coeffs: Sequence[float], **changes: Any) -> dict:
+def _rollout(
+    task: TaskSettings, scene: Any, coeffs: Sequence[float], **changes: Any
+) -> dict[str, Any]:
     settings = dataclasses.replace(task, env_kwargs={**dict(task.env_kwargs), "scene": scene})
     if "box_mass" in changes:
         settings = dataclasses.replace(settings, box_mass=changes["box_mass"])
@@ -139,7 +141,7 @@ def _rollout(task: TaskSettings, scene: Any, coeffs: Sequence[float], **changes:
     info = env.step(np.asarray(coeffs, dtype=np.float64))[4]
     if not info["valid"]:
         raise ValueError(f"the design is invalid in a nudged scene: {info['invalid_reason']}")
-    return info
+    return cast("dict[Any, Any]", info)
 
 
 def retest_design(item: RetestItem) -> dict[str, Any]:

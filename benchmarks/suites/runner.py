@@ -112,7 +112,7 @@ def _logged_frames(
     log = store.read()
     frames: dict[tuple[str, str, str, int], list[pd.DataFrame]] = {}
     for key, run in log.groupby(["suite", "variant", "optimizer", "seed"], sort=False):
-        frames[tuple(key)] = [part for _, part in run.groupby("iteration", sort=True)]  # type: ignore[index]
+        frames[tuple(key)] = [part for _, part in run.groupby("iteration", sort=True)]
     return frames
 
 
