@@ -134,7 +134,7 @@ def _breakpoints(dcoeffs: FloatArray, u_max: float) -> FloatArray:
     near 0; real parts of the roots of p' and p'' mark those places. Splitting there lets every
     panel see a smooth integrand. Spurious points are harmless: they only add panels.
     """
-    second = np.polyder(dcoeffs) if dcoeffs.size > 1 else np.zeros(1)
+    second = np.asarray(np.polyder(dcoeffs), np.float64) if dcoeffs.size > 1 else np.zeros(1)
     candidates = _root_candidates(dcoeffs, u_max) + _root_candidates(second, u_max)
     inside = [c for c in candidates if 0.0 < c < u_max and math.isfinite(c)]
     return np.unique(np.asarray(inside, dtype=np.float64))
@@ -365,8 +365,8 @@ def _min_radius_of_curvature(coeffs: FloatArray, u_end: float) -> float:
     powers = np.arange(coeffs.size, 0, -1, dtype=np.float64)
     d1 = _derivative(coeffs * scale**powers)
     # np.polyder of a constant is empty; a zero polynomial keeps the products below defined.
-    d2 = np.polyder(d1) if d1.size > 1 else np.zeros(1)
-    d3 = np.polyder(d2) if d2.size > 1 else np.zeros(1)
+    d2 = np.asarray(np.polyder(d1), np.float64) if d1.size > 1 else np.zeros(1)
+    d3 = np.asarray(np.polyder(d2), np.float64) if d2.size > 1 else np.zeros(1)
     # np.convolve multiplies polynomials; np.polymul does the same at 30 times the cost.
     first = np.convolve(d3, np.convolve(d1, d1))
     first[-1] += d3[-1] * scale * scale  # P''' U^2

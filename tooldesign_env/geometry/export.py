@@ -98,7 +98,7 @@ def _stl_bytes(vertices: FloatArray, faces: NDArray[np.int64], scale: float) -> 
     packed["vertices"] = triangles
     # The 80-byte header must not start with "solid" (readers would take the file for ASCII STL).
     header = f"tooldesign tool, units: {_unit_note(scale)}".encode("ascii")[:80].ljust(80, b" ")
-    return header + np.uint32(len(faces)).astype("<u4").tobytes() + packed.tobytes()
+    return header + len(faces).to_bytes(4, "little") + packed.tobytes()
 
 
 def _obj_bytes(vertices: FloatArray, faces: NDArray[np.int64], scale: float) -> bytes:

@@ -98,7 +98,7 @@ def _sweep(polyline: FloatArray, section: float) -> _Sweep:
     offset = (half * scales)[:, None] * normals
     right, left = polyline - offset, polyline + offset
     count = polyline.shape[0]
-    vertices = np.empty((count, 4, 3))
+    vertices: FloatArray = np.empty((count, 4, 3))
     # Corner order around the section: (right, bottom), (left, bottom), (left, top), (right, top);
     # counter-clockwise seen from ahead, i.e. the section's normal is the direction of travel.
     vertices[:, 0, :2], vertices[:, 0, 2] = right, -half
