@@ -20,7 +20,6 @@ from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 from scipy import integrate
 
-from tooldesign_env import geometry
 from tooldesign_env.geometry import (
     MITRE_LIMIT,
     ToolGeometry,
@@ -35,6 +34,8 @@ from tooldesign_env.geometry import (
     tool_urdf,
     validate_coefficients,
 )
+from tooldesign_env.geometry.intersection import _buildability
+from tooldesign_env.geometry.sweep import _sweep
 
 REPO = Path(__file__).resolve().parents[1]
 SPEC = ToolSpec()
@@ -621,8 +622,8 @@ def test_buildability_follows_the_radius_rule_at_its_threshold():
 
 def _polyline_reason(points, section=0.03) -> str:
     polyline = np.asarray(points, dtype=float)
-    sweep = geometry._sweep(polyline, section)
-    return geometry._buildability(sweep, math.inf, section)
+    sweep = _sweep(polyline, section)
+    return _buildability(sweep, math.inf, section)
 
 
 def _hairpin(y_back: float) -> list[tuple[float, float]]:
