@@ -165,6 +165,11 @@ def _compare_runs(a: Path, b: Path) -> None:
     assert json.loads((a / FILES["robustness"]).read_text()) == json.loads(
         (b / FILES["robustness"]).read_text()
     )
+    assert json.loads((a / FILES["box_paths"]).read_text()) == json.loads(
+        (b / FILES["box_paths"]).read_text()
+    )
+    if not (b / FILES["fig3"]).exists():
+        write_design_report(b)  # the API run writes data; the figures are drawn from them
     for key in ("stl", "obj", "urdf", "fig3a", "fig3c", "fig3d", "robustness_png"):
         assert (a / FILES[key]).read_bytes() == (b / FILES[key]).read_bytes(), key
 

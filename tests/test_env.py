@@ -362,7 +362,7 @@ def test_package_exports():
 def test_a_fresh_physics_server_gives_the_same_result(monkeypatch):
     from tooldesign_env import simulation
 
-    e = ToolDesignEnv()
+    e = ToolDesignEnv(info_series=True)
     e.reset(seed=0)
     before = e.step((0.3, -0.7, 0.2))[4]
     monkeypatch.setattr(simulation, "RECONNECT_EVERY", 1)  # every build reconnects
