@@ -8,10 +8,10 @@ import math
 import os
 import subprocess
 import sys
-import time
 import xml.etree.ElementTree as ET
 from fractions import Fraction
 from pathlib import Path
+from unittest import mock
 
 import numpy as np
 import pytest
@@ -34,6 +34,7 @@ from tooldesign_env.geometry import (
     tool_urdf,
     validate_coefficients,
 )
+from tooldesign_env.geometry.arclength import _ArcTable
 from tooldesign_env.geometry.intersection import _buildability
 from tooldesign_env.geometry.sweep import _sweep
 
@@ -331,11 +332,16 @@ def test_curve_extent_has_the_required_arc_length(coeffs, arc_length):
 @example(coeffs=(1e10, -1e10, 1e5))
 @example(coeffs=(1e6, -1e6, 5e4))
 @example(coeffs=(1e-300, -1e-300, 1e-300))
-def test_any_finite_design_gives_a_finite_tool_quickly(coeffs):
+def test_any_finite_design_gives_a_finite_tool_with_bounded_work(coeffs):
     """Absurd magnitudes must neither hang (panels splitting forever) nor overflow."""
-    start = time.perf_counter()
-    tool = make_tool(coeffs)  # raises if the arc-length check fails
-    assert time.perf_counter() - start < 2.0
+    # The work is counted, not timed (timings on shared machines are noise): each step of the
+    # arc-length inversion evaluates s(u) once, and it must settle by its tolerance well before
+    # its budget of 2000 steps runs out (about 600 at worst for such designs).
+    with mock.patch.object(
+        _ArcTable, "__call__", autospec=True, side_effect=_ArcTable.__call__
+    ) as arc_length:
+        tool = make_tool(coeffs)  # raises if the arc-length check fails
+    assert 0 < arc_length.call_count < 2000
     for array in (tool.centerline, tool.center_of_mass, tool.inertia, tool.bounds):
         assert np.all(np.isfinite(array))
     assert tool.min_radius_of_curvature >= 0  # 0 only below 1e-308 m
