@@ -16,7 +16,7 @@ import pytest
 import optimizers
 from benchmarks.cli import main
 from benchmarks.reports.suite import make_suite_report, tool_shape
-from benchmarks.storage import ResultStore
+from benchmarks.storage import ResultStore, read_designs
 from benchmarks.suites import (
     BUILTIN_SUITES,
     SIZES,
@@ -28,7 +28,7 @@ from benchmarks.suites import (
     save_suite,
     suite_from_json,
 )
-from benchmarks.suites.runner import read_designs, run_suite
+from benchmarks.suites.runner import run_suite
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER_SUITES = ("optimizers", "precision-sweep", "robustness", "mass-perturbation")
@@ -283,6 +283,7 @@ def smoke_runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     for name in PAPER_SUITES:
         folders[name] = base / name
         run_suite(builtin_suite(name, "smoke"), folders[name], progress=False, size="smoke")
+        make_suite_report(folders[name])  # what `tooldesign bench` does after the run
     return folders
 
 
