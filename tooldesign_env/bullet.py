@@ -14,9 +14,9 @@ import re
 import sys
 import tempfile
 import uuid
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
-from typing import IO
+from typing import IO, Any, NamedTuple
 
 import numpy as np
 
@@ -85,7 +85,7 @@ with _quiet_pybullet():
 import pybullet_data  # noqa: E402
 from pybullet_utils.bullet_client import BulletClient  # noqa: E402
 
-__all__ = ["BulletWorld", "RobotHandles", "panda_urdf_with_tool"]
+__all__ = ["BulletWorld", "ControlCalls", "RobotHandles", "panda_urdf_with_tool"]
 
 PANDA_DIR = os.path.join(pybullet_data.getDataPath(), "franka_panda")
 ARM_JOINTS = tuple(f"panda_joint{i}" for i in range(1, 8))
@@ -172,6 +172,33 @@ class RobotHandles:
     joints: tuple[int, ...]
     ee_link: int
     tool_link: int
+
+
+class ControlCalls(NamedTuple):
+    """PyBullet calls of the control loop with their fixed arguments bound.
+
+    Attributes:
+        joint_states: ``() -> ((position, velocity, reaction, torque), ...)`` of the 7 joints.
+        inverse_dynamics: ``(q, qd, qdd) -> torques``, each 7 floats.
+        motor: ``(forces=torques)``: command joint torques for the next physics step.
+        step: ``()``: one physics step.
+        link_state: ``() -> getLinkState`` tuple of the end-effector link, forward kinematics
+            recomputed.
+        link_states: ``() -> (end-effector state, other link's state)``, as ``link_state``.
+        box_pose: ``() -> (position, quaternion)`` of the box.
+        box_velocity: ``() -> (linear, angular)`` velocity of the box.
+        contacts: ``() -> getContactPoints`` tuples between the box and the other link.
+    """
+
+    joint_states: Callable[[], Any]
+    inverse_dynamics: Callable[..., Any]
+    motor: Callable[..., Any]
+    step: Callable[[], Any]
+    link_state: Callable[[], Any]
+    link_states: Callable[[], Any]
+    box_pose: Callable[[], Any]
+    box_velocity: Callable[[], Any]
+    contacts: Callable[[], Any]
 
 
 class BulletWorld:
@@ -367,6 +394,45 @@ class BulletWorld:
         states = self._joint_states(robot.body, robot.joints)
         return [s[0] for s in states], [s[1] for s in states]
 
+    def control_calls(self, robot: RobotHandles, box: int, link: int) -> ControlCalls:
+        """The reads and writes of one control step, bound to ``robot``, ``box`` and ``link``.
+
+        Each is a PyBullet function with every argument but the changing ones bound, so the
+        control loop pays one C call and no Python-level lookups per use (see
+        :class:`ControlCalls`).
+        """
+        cid, body, joints = self.client_id, robot.body, list(robot.joints)
+        partial = functools.partial
+        return ControlCalls(
+            joint_states=partial(pybullet.getJointStates, body, joints, physicsClientId=cid),
+            inverse_dynamics=partial(pybullet.calculateInverseDynamics, body, physicsClientId=cid),
+            motor=partial(
+                pybullet.setJointMotorControlArray,
+                body,
+                joints,
+                pybullet.TORQUE_CONTROL,
+                physicsClientId=cid,
+            ),
+            step=partial(pybullet.stepSimulation, physicsClientId=cid),
+            link_state=partial(
+                pybullet.getLinkState,
+                body,
+                robot.ee_link,
+                computeForwardKinematics=1,
+                physicsClientId=cid,
+            ),
+            link_states=partial(
+                pybullet.getLinkStates,
+                body,
+                [robot.ee_link, link],
+                computeForwardKinematics=1,
+                physicsClientId=cid,
+            ),
+            box_pose=partial(pybullet.getBasePositionAndOrientation, box, physicsClientId=cid),
+            box_velocity=partial(pybullet.getBaseVelocity, box, physicsClientId=cid),
+            contacts=partial(pybullet.getContactPoints, box, body, -1, link, physicsClientId=cid),
+        )
+
     def inverse_dynamics(
         self, robot: RobotHandles, q: list[float], qd: list[float], qdd: list[float]
     ) -> tuple[float, ...]:
@@ -466,6 +532,28 @@ class BulletWorld:
         zeros = [0.0] * len(q)
         linear, angular = self._jacobian(robot.body, link, (0.0, 0.0, 0.0), q, zeros, zeros)
         return np.asarray(linear, dtype=float), np.asarray(angular, dtype=float)
+
+    def jacobian_calls(
+        self, robot: RobotHandles, link: int
+    ) -> tuple[Callable[[list[float]], Any], Callable[[list[float]], Any]]:
+        """``jacobian(q)`` and ``mass_matrix(q)`` as PyBullet returns them (nested tuples).
+
+        The batched forms of :meth:`link_com_jacobian` (``(linear, angular)``, each 3 rows of
+        7) and :meth:`mass_matrix` (7 rows of 7), for many configurations in a row.
+        """
+        cid, body = self.client_id, robot.body
+        zeros = [0.0] * len(robot.joints)
+        origin = (0.0, 0.0, 0.0)
+
+        def jacobian(q: list[float]) -> Any:
+            return pybullet.calculateJacobian(
+                body, link, origin, q, zeros, zeros, physicsClientId=cid
+            )
+
+        def mass_matrix(q: list[float]) -> Any:
+            return pybullet.calculateMassMatrix(body, q, physicsClientId=cid)
+
+        return jacobian, mass_matrix
 
     def mass_matrix(self, robot: RobotHandles, q: list[float]) -> np.ndarray:
         """Joint-space inertia matrix M(q) (7, 7) of the arm with its tool, kg m^2."""

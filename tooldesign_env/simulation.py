@@ -8,7 +8,11 @@ needed to plot and diagnose (grasp-point pose, joint positions, tool-box contact
 
 from __future__ import annotations
 
+import contextlib
+import gc
+import itertools
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -316,6 +320,10 @@ class ToolSimulator:
         """
         if self._robot is None:
             raise RuntimeError("call build(geometry) before run()")
+        with _gc_paused():
+            return self._run(snapshot_every, record_mobility)
+
+    def _run(self, snapshot_every: int | None, record_mobility: bool) -> Trajectory:
         world, robot, box = self.world, self._robot, self._box
         assert robot is not None and box is not None
         ref = self.reference
@@ -329,9 +337,9 @@ class ToolSimulator:
         torque_rows: list[list[float]] = []
         q_rows: list[list[float]] = []
         tool_rows: list[tuple[float, ...]] = []
-        yaw_rows: list[float] = []
         contact_rows: list[bool] = []
-        # Steps in contact: (k, q, tool centre of mass, box centre, manifold), when recording.
+        # Steps in contact: (k, q, tool centre of mass, box centre, PyBullet's contact points),
+        # when recording.
         contact_log: list[tuple[int, list[float], tuple, tuple, list[tuple]]] = []
         phase = self._phase_index(ref.times)
         hold = PHASES.index("hold")
@@ -343,56 +351,76 @@ class ToolSimulator:
         # The hot loop works on plain floats: NumPy's per-call overhead on 7-vectors cost more
         # than the arithmetic. The operations and their order are those of
         # qdd_ref + kp (q_ref - q) + kd (qd_ref - qd) and clip, so results are bit-identical.
-        ref_q, ref_qd, ref_qdd = ref.q.tolist(), ref.qd.tolist(), ref.qdd.tolist()
-        bounds = [(-lim, lim) for lim in ctrl.torque_limits]
-        q, qd = world.joint_state(robot)
+        # Every PyBullet call is pre-bound (ControlCalls), and what can wait for the end of the
+        # rollout (the tool's yaw, the arrays) does.
+        calls = world.control_calls(robot, box, robot.tool_link)
+        joint_states, inverse_dynamics = calls.joint_states, calls.inverse_dynamics
+        motor, physics_step = calls.motor, calls.step
+        link_state, link_states = calls.link_state, calls.link_states
+        box_pose, contacts, box_velocity = calls.box_pose, calls.contacts, calls.box_velocity
+        targets = list(zip(ref.qdd.tolist(), ref.q.tolist(), ref.qd.tolist(), strict=True))
+        limits = list(ctrl.torque_limits)
+        orientations: list[tuple[float, ...]] = []
+        hold_from = int(np.argmax(phase == hold)) if np.any(phase == hold) else n
+        fast_forward = scene.fast_forward_rest
+        rest_speed = scene.rest_speed
+        snapshots = self._snapshots
+        states = joint_states()
+        q = [s[0] for s in states]
+        qd = [s[1] for s in states]
         for k in range(n):
-            if self._snapshots is not None and k % self._snapshots.every == 0:
-                self._snapshots.ids[k] = world.save_state()
+            if snapshots is not None and k % snapshots.every == 0:
+                snapshots.ids[k] = world.save_state()
+            qdd_ref, q_ref, qd_ref = targets[k]
             qdd = [
                 a + kp * (b - x) + kd * (c - v)
-                for a, b, c, x, v in zip(ref_qdd[k], ref_q[k], ref_qd[k], q, qd, strict=True)
+                for a, b, c, x, v in zip(qdd_ref, q_ref, qd_ref, q, qd, strict=True)
             ]
             command = [
-                min(max(t, lo), hi)
-                for t, (lo, hi) in zip(
-                    world.inverse_dynamics(robot, q, qd, qdd), bounds, strict=True
-                )
+                -lim if t < -lim else (lim if t > lim else t)
+                for t, lim in zip(inverse_dynamics(q, qd, qdd), limits, strict=True)
             ]
             torque_rows.append(command)
-            world.step_with_torques(robot, command, period)
-            q, qd = world.joint_state(robot)
-            position, orientation = world.link_pose(robot, robot.ee_link)
-            box_rows.append(world.body_position(box))
+            for _ in range(period):
+                motor(forces=command)
+                physics_step()
+            states = joint_states()
+            q = [s[0] for s in states]
+            qd = [s[1] for s in states]
+            box_now = box_pose()[0]
+            box_rows.append(box_now)
             q_rows.append(q)
-            tool_rows.append(position)
-            yaw_rows.append(_tool_yaw(orientation))
-            if record_mobility:
-                manifold = world.contact_points(box, robot.body, robot.tool_link)
-                if manifold:
-                    com = world.link_com_pose(robot, robot.tool_link)[0]
-                    contact_log.append((k, q, com, box_rows[-1], manifold))
-                contact_rows.append(bool(manifold))
+            manifold = contacts()
+            if manifold and record_mobility:
+                ee, tool = link_states()
+                contact_log.append((k, q, tool[0], box_now, manifold))
             else:
-                contact_rows.append(world.in_contact(box, robot.body, robot.tool_link))
-            if scene.fast_forward_rest and phase[k] == hold:
-                box_speed = np.linalg.norm(world.box_velocity(box))
-                still = box_speed < scene.rest_speed and max(map(abs, qd)) < scene.rest_speed
+                ee = link_state()
+            tool_rows.append(ee[4])
+            orientations.append(ee[5])
+            contact_rows.append(bool(manifold))
+            if fast_forward and k >= hold_from and phase[k] == hold:
+                box_speed = np.linalg.norm(box_velocity()[0])
+                still = box_speed < rest_speed and max(map(abs, qd)) < rest_speed
                 at_rest = at_rest + 1 if still else 0
                 if at_rest >= rest_needed and k + 1 < n:
                     fast_forward_from = k + 1
-                    if self._snapshots is not None:
+                    if snapshots is not None:
                         # One snapshot of the rest state serves every fast-forwarded step.
-                        self._snapshots.ids[fast_forward_from] = world.save_state()
-                        self._snapshots.rest_from = fast_forward_from
+                        snapshots.ids[fast_forward_from] = world.save_state()
+                        snapshots.rest_from = fast_forward_from
                     break
+        yaw_rows = [_tool_yaw(o) for o in orientations]
         # The scene is static and the reference constant after a fast-forward: every remaining
         # step repeats the last one (the controller's torque at rest is the gravity torque it
         # just applied).
         repeat = n - fast_forward_from
 
         def table(rows: list, dtype: type = float) -> np.ndarray:
-            return np.array(rows + rows[-1:] * repeat, dtype=dtype)
+            simulated = np.array(rows, dtype=dtype)
+            if not repeat:
+                return simulated
+            return np.concatenate([simulated, np.repeat(simulated[-1:], repeat, axis=0)])
 
         tool_position = table(tool_rows)
         torques = table(torque_rows)
@@ -433,23 +461,31 @@ class ToolSimulator:
         if not contact_log:
             return out
         steps = len(contact_log)
-        linear = np.empty((steps, 3, 7))
-        angular = np.empty((steps, 3, 7))
-        mass = np.empty((steps, 7, 7))
-        for i, (_, q, _, _, _) in enumerate(contact_log):
-            linear[i], angular[i] = world.link_com_jacobian(robot, robot.tool_link, q)
-            mass[i] = world.mass_matrix(robot, q)
-        counts = np.array([len(entry[4]) for entry in contact_log])
+        # PyBullet's nested tuples are flattened and converted to arrays once: converting each
+        # step's small matrices separately cost more than the calls themselves.
+        jacobian, mass_matrix = world.jacobian_calls(robot, robot.tool_link)
+        flat = itertools.chain.from_iterable
+        jacobians = np.fromiter(
+            flat(flat(flat(jacobian(entry[1]) for entry in contact_log))),
+            dtype=float,
+            count=steps * 2 * 3 * 7,
+        ).reshape(steps, 2, 3, 7)
+        mass = np.fromiter(
+            flat(flat(mass_matrix(entry[1]) for entry in contact_log)),
+            dtype=float,
+            count=steps * 7 * 7,
+        ).reshape(steps, 7, 7)
+        counts = np.fromiter((len(entry[4]) for entry in contact_log), dtype=int, count=steps)
         owner = np.repeat(np.arange(steps), counts)  # the step of each contact point
         manifold = [point for entry in contact_log for point in entry[4]]
         per_point = contact_mobility(
-            np.array([m[0] for m in manifold]),
-            np.array([m[1] for m in manifold]),
-            np.array([entry[2] for entry in contact_log])[owner],
-            linear[owner],
-            angular[owner],
+            np.array([m[6] for m in manifold], dtype=float),
+            np.array([m[7] for m in manifold], dtype=float),
+            np.array([entry[2] for entry in contact_log], dtype=float)[owner],
+            jacobians[owner, 0],
+            jacobians[owner, 1],
             np.linalg.inv(mass)[owner],
-            np.array([entry[3] for entry in contact_log])[owner],
+            np.array([entry[3] for entry in contact_log], dtype=float)[owner],
             self._box_mass,
             self.scene.box_size,
         )
@@ -481,11 +517,17 @@ class ToolSimulator:
         world, robot, box = self.world, self._robot, self._box
         assert robot is not None and box is not None
         period = self.controller.control_period
-        out = np.empty((torques.shape[0], 3))
-        for k, tau in enumerate(torques.tolist()):
-            world.step_with_torques(robot, tau, period)
-            out[k] = world.body_position(box)
-        return out
+        # The same bound calls as the control loop of run(), so that the two differ only by
+        # the controller and the recording.
+        calls = world.control_calls(robot, box, robot.tool_link)
+        motor, physics_step, box_pose = calls.motor, calls.step, calls.box_pose
+        rows = []
+        for command in torques.tolist():
+            for _ in range(period):
+                motor(forces=command)
+                physics_step()
+            rows.append(box_pose()[0])
+        return np.array(rows, dtype=float).reshape(-1, 3)
 
     def _phase_index(self, times: np.ndarray) -> np.ndarray:
         index = np.zeros(times.shape[0], dtype=np.int8)
@@ -552,6 +594,24 @@ class ToolSimulator:
     def close(self) -> None:
         """Release the physics client; safe to call more than once."""
         self.world.close()
+
+
+@contextlib.contextmanager
+def _gc_paused() -> Iterator[None]:
+    """Pause Python's cyclic garbage collector inside the block (restored after it).
+
+    A rollout allocates a few tuples and lists per control step and no reference cycles, yet
+    those allocations trigger collections that walk every object the process holds (tens of
+    thousands after importing SciPy): about 3-5 % of a rollout. Reference counting still frees
+    everything at once; only the search for cycles waits until the block ends.
+    """
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if enabled:
+            gc.enable()
 
 
 def _tool_yaw(ee_orientation: tuple) -> float:
