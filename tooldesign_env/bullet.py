@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import hashlib
+import importlib.metadata
 import os
 import re
 import sys
@@ -85,7 +87,14 @@ with _quiet_pybullet():
 import pybullet_data  # noqa: E402
 from pybullet_utils.bullet_client import BulletClient  # noqa: E402
 
-__all__ = ["BulletWorld", "ControlCalls", "RobotHandles", "panda_urdf_with_tool"]
+__all__ = [
+    "BulletWorld",
+    "ControlCalls",
+    "RobotHandles",
+    "engine_version",
+    "panda_urdf_with_tool",
+    "robot_model_digest",
+]
 
 PANDA_DIR = os.path.join(pybullet_data.getDataPath(), "franka_panda")
 ARM_JOINTS = tuple(f"panda_joint{i}" for i in range(1, 8))
@@ -123,6 +132,25 @@ def panda_urdf_with_tool(tool_link_xml: str | None, *, visuals: bool) -> str:
         )
         text = text.replace("</robot>", f"{tool_link_xml}\n{joint}\n</robot>")
     return text
+
+
+def robot_model_digest() -> str:
+    """SHA-256 of the arm's URDF as loaded for inverse kinematics (no tool, no visuals).
+
+    The folder of ``pybullet_data`` is left out, so the same files give the same digest in
+    any environment; any change of the kinematics (joint origins, axes, limits) changes it.
+    """
+    text = panda_urdf_with_tool(None, visuals=False).replace(PANDA_DIR, "<panda>")
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def engine_version() -> str:
+    """PyBullet's package version and API version, e.g. ``"3.2.7 api 202010061"``."""
+    try:
+        version = importlib.metadata.version("pybullet")
+    except importlib.metadata.PackageNotFoundError:
+        version = "unknown"
+    return f"{version} api {pybullet.getAPIVersion()}"
 
 
 def _project(points: np.ndarray, view: tuple, proj: tuple, width: int, height: int) -> np.ndarray:

@@ -17,10 +17,27 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from tooldesign_env.bullet import BulletWorld, RobotHandles, panda_urdf_with_tool
+from tooldesign_env.bullet import (
+    BulletWorld,
+    RobotHandles,
+    engine_version,
+    panda_urdf_with_tool,
+    robot_model_digest,
+)
 from tooldesign_env.geometry import ToolGeometry, tool_link_xml
-from tooldesign_env.plan import REST_POSE, JointReference, joint_reference, phases
-from tooldesign_env.specs import ControllerSpec, PlanSpec, SceneSpec
+from tooldesign_env.plan import (
+    KNOT_DT,
+    REST_POSE,
+    JointReference,
+    cache_key,
+    knot_times,
+    load_knots,
+    phases,
+    reference_from_knots,
+    solve_knots,
+    store_knots,
+)
+from tooldesign_env.specs import ControllerSpec, PlanSpec, SceneSpec, spec_to_dict
 
 __all__ = [
     "PHASES",
@@ -35,9 +52,34 @@ PHASES = ("lower", "settle", "sweep", "pull", "hold")
 #: Builds between two fresh physics servers (see BulletWorld.reconnect).
 RECONNECT_EVERY = 100
 
-# The plan's joint references depend only on the plan and the control period, not on the tool:
-# solved once per process (about a second of inverse kinematics).
+# The plan's joint references depend only on the plan and the control period, not on the tool.
+# The inverse kinematics behind them (about 2 s) is solved once per plan and kept in memory and
+# on disk (plan.cache_dir); the spline to the control steps is redone per control period.
 _REFERENCES: dict[tuple[PlanSpec, float], JointReference] = {}
+_KNOTS: dict[str, np.ndarray] = {}
+
+#: Settings of PyBullet's inverse-kinematics solver for the plan's knots.
+IK_ITERATIONS = 200
+IK_THRESHOLD = 1e-6
+
+
+def plan_cache_key(plan: PlanSpec) -> str:
+    """The cache key of a plan's IK knot solutions: a digest of everything they depend on.
+
+    The plan's every field, the knot spacing, the rest pose and solver settings, the arm's
+    URDF (as loaded for IK), PyBullet's version and NumPy's (which computes the Cartesian path).
+    """
+    return cache_key(
+        {
+            "plan": spec_to_dict(plan),
+            "knot_dt": KNOT_DT,
+            "rest_pose": list(REST_POSE),
+            "solver": {"iterations": IK_ITERATIONS, "threshold": IK_THRESHOLD, "passes": 2},
+            "robot": robot_model_digest(),
+            "pybullet": engine_version(),
+            "numpy": np.__version__,
+        }
+    )
 
 
 @dataclass(frozen=True, eq=False)
@@ -228,21 +270,41 @@ class ToolSimulator:
     def _solve_reference(self) -> JointReference:
         key = (self.plan, self.control_dt)
         if key not in _REFERENCES:
-            _REFERENCES[key] = self._inverse_kinematics()
+            _REFERENCES[key] = reference_from_knots(self.plan, self.control_dt, self._knots())
         return _REFERENCES[key]
 
-    def _inverse_kinematics(self) -> JointReference:
+    def _knots(self) -> np.ndarray:
+        """The plan's IK knot solutions: from memory, else from the disk cache, else solved."""
+        key = plan_cache_key(self.plan)
+        if key in _KNOTS:
+            return _KNOTS[key]
+        shape = (knot_times(self.plan).size, 7)
+        knots = load_knots(key, shape)
+        if knots is None:
+            knots = self._inverse_kinematics()
+            store_knots(key, knots)
+        _KNOTS[key] = knots
+        return knots
+
+    def _inverse_kinematics(self) -> np.ndarray:
         world = self.world
         world.reset()
         arm = world.load_robot(panda_urdf_with_tool(None, visuals=False))
 
         def solve(position: np.ndarray, quaternion: tuple, seed: np.ndarray) -> np.ndarray:
             world.set_joint_positions(arm, seed)
-            return world.inverse_kinematics(arm, tuple(position), quaternion, rest_pose=REST_POSE)
+            return world.inverse_kinematics(
+                arm,
+                tuple(position),
+                quaternion,
+                rest_pose=REST_POSE,
+                iterations=IK_ITERATIONS,
+                threshold=IK_THRESHOLD,
+            )
 
-        reference = joint_reference(self.plan, self.control_dt, solve)
+        knots = solve_knots(self.plan, solve)
         world.reset()
-        return reference
+        return knots
 
     def build(self, geometry: ToolGeometry, *, box_mass: float | None = None) -> bool:
         """Empty the world and set up floor, box, and the arm holding ``geometry`` at q(0).
