@@ -253,6 +253,8 @@ class ToolSimulator:
         self._last_torques: np.ndarray | None = None
         self._box_mass = self.scene.box_mass
         self._builds = 0
+        self._targets_for: JointReference | None = None
+        self._target_rows: list[tuple[list[float], list[float], list[float]]] = []
 
     # ---------------------------------------------------------------- setup
     @property
@@ -272,6 +274,16 @@ class ToolSimulator:
         if key not in _REFERENCES:
             _REFERENCES[key] = reference_from_knots(self.plan, self.control_dt, self._knots())
         return _REFERENCES[key]
+
+    def _targets(self) -> list[tuple[list[float], list[float], list[float]]]:
+        """(qdd_ref, q_ref, qd_ref) per control step as plain floats, made once per reference."""
+        ref = self.reference
+        if self._targets_for is not ref:
+            self._target_rows = list(
+                zip(ref.qdd.tolist(), ref.q.tolist(), ref.qd.tolist(), strict=True)
+            )
+            self._targets_for = ref
+        return self._target_rows
 
     def _knots(self) -> np.ndarray:
         """The plan's IK knot solutions: from memory, else from the disk cache, else solved."""
@@ -397,12 +409,12 @@ class ToolSimulator:
         # Per-step records, appended as plain tuples and turned into arrays once at the end.
         box_rows: list[tuple[float, ...]] = []
         torque_rows: list[list[float]] = []
-        q_rows: list[list[float]] = []
+        q_rows: list[tuple[float, ...]] = []
         tool_rows: list[tuple[float, ...]] = []
         contact_rows: list[bool] = []
         # Steps in contact: (k, q, tool centre of mass, box centre, PyBullet's contact points),
         # when recording.
-        contact_log: list[tuple[int, list[float], tuple, tuple, list[tuple]]] = []
+        contact_log: list[tuple[int, tuple[float, ...], tuple, tuple, tuple]] = []
         phase = self._phase_index(ref.times)
         hold = PHASES.index("hold")
         rest_needed = max(int(math.ceil(scene.rest_time / self.control_dt)), 1)
@@ -420,16 +432,14 @@ class ToolSimulator:
         motor, physics_step = calls.motor, calls.step
         link_state, link_states = calls.link_state, calls.link_states
         box_pose, contacts, box_velocity = calls.box_pose, calls.contacts, calls.box_velocity
-        targets = list(zip(ref.qdd.tolist(), ref.q.tolist(), ref.qd.tolist(), strict=True))
+        targets = self._targets()
         limits = list(ctrl.torque_limits)
         orientations: list[tuple[float, ...]] = []
         hold_from = int(np.argmax(phase == hold)) if np.any(phase == hold) else n
         fast_forward = scene.fast_forward_rest
         rest_speed = scene.rest_speed
         snapshots = self._snapshots
-        states = joint_states()
-        q = [s[0] for s in states]
-        qd = [s[1] for s in states]
+        q, qd, _, _ = zip(*joint_states(), strict=True)
         for k in range(n):
             if snapshots is not None and k % snapshots.every == 0:
                 snapshots.ids[k] = world.save_state()
@@ -446,9 +456,7 @@ class ToolSimulator:
             for _ in range(period):
                 motor(forces=command)
                 physics_step()
-            states = joint_states()
-            q = [s[0] for s in states]
-            qd = [s[1] for s in states]
+            q, qd, _, _ = zip(*joint_states(), strict=True)
             box_now = box_pose()[0]
             box_rows.append(box_now)
             q_rows.append(q)
@@ -478,14 +486,20 @@ class ToolSimulator:
         # just applied).
         repeat = n - fast_forward_from
 
-        def table(rows: list, dtype: type = float) -> np.ndarray:
-            simulated = np.array(rows, dtype=dtype)
+        def table(rows: list, width: int = 0, dtype: type = float) -> np.ndarray:
+            if width:
+                # Flattened: much faster than np.array's shape discovery on nested rows.
+                simulated = np.fromiter(
+                    itertools.chain.from_iterable(rows), dtype=dtype, count=len(rows) * width
+                ).reshape(len(rows), width)
+            else:
+                simulated = np.array(rows, dtype=dtype)
             if not repeat:
                 return simulated
             return np.concatenate([simulated, np.repeat(simulated[-1:], repeat, axis=0)])
 
-        tool_position = table(tool_rows)
-        torques = table(torque_rows)
+        tool_position = table(tool_rows, 3)
+        torques = table(torque_rows, 7)
         self._last_torques = torques
         mobility = None
         if record_mobility:
@@ -498,12 +512,12 @@ class ToolSimulator:
                 mobility[fast_forward_from:] = rest.mean(axis=0)
         return Trajectory(
             times=ref.times.copy(),
-            box_position=table(box_rows),
+            box_position=table(box_rows, 3),
             torques=torques,
-            joint_positions=table(q_rows),
+            joint_positions=table(q_rows, 7),
             tool_position=tool_position,
             tool_yaw=table(yaw_rows),
-            contact=table(contact_rows, bool),
+            contact=table(contact_rows, dtype=bool),
             phase=phase,
             tracking_error=np.linalg.norm(tool_position - ref.ee_position, axis=1),
             fast_forward_from=fast_forward_from,
