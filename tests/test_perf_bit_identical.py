@@ -80,6 +80,60 @@ def test_fixed_designs_give_bit_identical_results():
             assert actual[key][name] == value, f"{key}: {name} changed"
 
 
+@pytest.mark.slow
+def test_keeping_the_arm_off_the_floor_changes_nothing_in_the_default_scene():
+    # The arm and the tool stay >= 5 cm above the floor with the default plan, so dropping
+    # their collision tests against it must leave every bit of the outcome as it was.
+    from dataclasses import replace
+
+    from tooldesign_env import SceneSpec
+
+    expected = json.loads(FIXTURE.read_text(encoding="utf-8"))
+    env = ToolDesignEnv(scene=replace(SceneSpec(), arm_floor_contacts=False))
+    env.reset(seed=0)
+    try:
+        for design in DESIGNS[:3]:
+            info = env.step(np.asarray(design))[4]
+            row = expected[f"contact {design}"]
+            assert float(info["free_energy"]).hex() == row["free_energy"]
+            assert _digest(np.asarray(info["box_trajectory"])) == row["box_trajectory"]
+    finally:
+        env.close()
+
+
+def test_the_arm_passes_through_the_floor_only_when_asked():
+    import pybullet
+
+    from tooldesign_env import SceneSpec, ToolSimulator, make_tool
+
+    counts = {}
+    for flag in (True, False):
+        sim = ToolSimulator(scene=SceneSpec(arm_floor_contacts=flag))
+        try:
+            sim.build(make_tool(np.zeros(3)))
+            robot, cid = sim._robot, sim.world.client_id
+            q = np.array(sim.reference.q0)
+            q[1] += 0.6  # lean forward: the tool goes into the floor
+            q[3] += 0.3
+            sim.world.set_joint_positions(robot, q)
+            sim.world.step(1)
+            floor = 0  # the first body of every build
+            arm = len(pybullet.getContactPoints(floor, robot.body, physicsClientId=cid))
+            box = len(pybullet.getContactPoints(floor, sim._box, physicsClientId=cid))
+            counts[flag] = (arm, box)
+        finally:
+            sim.close()
+    assert counts[True][0] > 0 and counts[False][0] == 0
+    assert counts[True][1] > 0 and counts[False][1] > 0  # the box rests on the floor either way
+
+
+def test_arm_floor_contacts_must_be_a_bool():
+    from tooldesign_env import SceneSpec
+
+    with pytest.raises(TypeError, match="arm_floor_contacts"):
+        SceneSpec(arm_floor_contacts="no")
+
+
 if __name__ == "__main__":
     if sys.argv[1:] != ["--record"]:
         raise SystemExit("usage: python tests/test_perf_bit_identical.py --record")

@@ -102,6 +102,15 @@ EE_LINK = "panda_grasptarget"
 TOOL_LINK = "tool"
 
 
+# Collision groups. PyBullet makes a pair collide when either body's group meets the other's
+# mask, so keeping the arm off the floor needs both masks: the floor's (set when it is made,
+# before anything else exists: re-adding a body that already touches another resets their
+# contact and moves results) and the arm's links' (set as the robot is loaded).
+_STATIC_GROUP = 2  # btBroadphaseProxy::StaticFilter, PyBullet's group of fixed bodies
+_ARM_GROUP = 4  # the arm's links and its tool, when they are kept off the floor
+_ALL = -1
+
+
 def panda_urdf_with_tool(tool_link_xml: str | None, *, visuals: bool) -> str:
     """The Panda URDF from ``pybullet_data`` with a tool rigidly attached to the grasp target.
 
@@ -312,8 +321,12 @@ class BulletWorld:
         if self.render_mode == "human":
             c.configureDebugVisualizer(pybullet.COV_ENABLE_GUI, 0)
 
-    def add_floor(self, *, friction: float) -> int:
-        """A static plane at z = 0; returns its body id."""
+    def add_floor(self, *, friction: float, arm_contacts: bool = True) -> int:
+        """A static plane at z = 0; returns its body id.
+
+        With ``arm_contacts=False`` a robot loaded with ``floor_contacts=False`` passes
+        through the floor; everything else still rests on it.
+        """
         c = self.client
         shape = c.createCollisionShape(pybullet.GEOM_PLANE)
         visual = -1
@@ -323,6 +336,9 @@ class BulletWorld:
                 visual = c.createVisualShape(pybullet.GEOM_PLANE, rgbaColor=[0.85, 0.85, 0.85, 1])
             body = c.createMultiBody(0.0, shape, visual, [0, 0, 0])
         c.changeDynamics(body, -1, lateralFriction=friction)
+        if not arm_contacts:
+            mask = _ALL ^ _STATIC_GROUP ^ _ARM_GROUP
+            c.setCollisionFilterGroupMask(body, -1, _STATIC_GROUP, mask)
         return body
 
     def add_box(
@@ -364,6 +380,7 @@ class BulletWorld:
         tool_mass: float | None = None,
         tool_inertia_diagonal: tuple[float, float, float] | None = None,
         tool_friction: float = 0.5,
+        floor_contacts: bool = True,
     ) -> RobotHandles:
         """Load a robot from URDF text with a fixed base at the origin.
 
@@ -371,6 +388,8 @@ class BulletWorld:
         fresh file name, deleted right after loading. PyBullet takes inertia from the collision
         shapes' bounding box unless told otherwise, so the tool's mass and principal moments are
         set here explicitly (its inertial frame, with the principal axes, comes from the URDF).
+        With ``floor_contacts=False`` its links pass through a floor made with
+        ``arm_contacts=False``.
         """
         c = self.client
         fd, path = tempfile.mkstemp(prefix=f"tooldesign-{uuid.uuid4().hex}-", suffix=".urdf")
@@ -395,6 +414,9 @@ class BulletWorld:
                 localInertiaDiagonal=list(tool_inertia_diagonal or (0.0, 0.0, 0.0)),
                 lateralFriction=tool_friction,
             )
+        if not floor_contacts:
+            for j in range(c.getNumJoints(body)):
+                c.setCollisionFilterGroupMask(body, j, _ARM_GROUP, _ALL ^ _STATIC_GROUP)
         # The default velocity motors fight torque control unless switched off.
         c.setJointMotorControlArray(
             body, list(joints), pybullet.VELOCITY_CONTROL, forces=[0.0] * len(joints)

@@ -338,7 +338,7 @@ class ToolSimulator:
         if self._builds % RECONNECT_EVERY == 0:
             world.reconnect()  # else PyBullet's cache of loaded URDFs grows with every build
         world.reset()
-        world.add_floor(friction=scene.floor_friction)
+        world.add_floor(friction=scene.floor_friction, arm_contacts=scene.arm_floor_contacts)
         self._box_mass = scene.box_mass if box_mass is None else float(box_mass)
         self._box = world.add_box(
             size=scene.box_size,
@@ -354,6 +354,7 @@ class ToolSimulator:
             tool_mass=geometry.mass,
             tool_inertia_diagonal=(float(diag[0]), float(diag[1]), float(diag[2])),
             tool_friction=scene.tool_friction,
+            floor_contacts=scene.arm_floor_contacts,
         )
         lowered = phases(self.plan)[0].duration
         k = min(max(int(round(lowered / self.control_dt)) - 1, 0), len(reference.times) - 1)
