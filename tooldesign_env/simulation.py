@@ -599,11 +599,12 @@ class ToolSimulator:
         calls = world.control_calls(robot, box, robot.tool_link)
         motor, physics_step, box_pose = calls.motor, calls.step, calls.box_pose
         rows = []
-        for command in torques.tolist():
-            for _ in range(period):
-                motor(forces=command)
-                physics_step()
-            rows.append(box_pose()[0])
+        with _gc_paused():  # as in run(), so that the two differ only by what run() adds
+            for command in torques.tolist():
+                for _ in range(period):
+                    motor(forces=command)
+                    physics_step()
+                rows.append(box_pose()[0])
         return np.array(rows, dtype=float).reshape(-1, 3)
 
     def _phase_index(self, times: np.ndarray) -> np.ndarray:
