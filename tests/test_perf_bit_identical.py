@@ -55,7 +55,7 @@ def outcomes() -> dict[str, dict[str, object]]:
     """What the fixture records, computed with the code as it is now."""
     out: dict[str, dict[str, object]] = {}
     for estimator in ESTIMATORS:
-        env = ToolDesignEnv(estimator=estimator)
+        env = ToolDesignEnv(estimator=estimator, info_series=True)
         env.reset(seed=0)
         try:
             for design in DESIGNS:
@@ -89,7 +89,7 @@ def test_keeping_the_arm_off_the_floor_changes_nothing_in_the_default_scene():
     from tooldesign_env import SceneSpec
 
     expected = json.loads(FIXTURE.read_text(encoding="utf-8"))
-    env = ToolDesignEnv(scene=replace(SceneSpec(), arm_floor_contacts=False))
+    env = ToolDesignEnv(scene=replace(SceneSpec(), arm_floor_contacts=False), info_series=True)
     env.reset(seed=0)
     try:
         for design in DESIGNS[:3]:

@@ -16,7 +16,7 @@ import re
 import sys
 import tempfile
 import uuid
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import IO, Any, NamedTuple
 
@@ -585,7 +585,7 @@ class BulletWorld:
 
     def jacobian_calls(
         self, robot: RobotHandles, link: int
-    ) -> tuple[Callable[[list[float]], Any], Callable[[list[float]], Any]]:
+    ) -> tuple[Callable[[Sequence[float]], Any], Callable[[Sequence[float]], Any]]:
         """``jacobian(q)`` and ``mass_matrix(q)`` as PyBullet returns them (nested tuples).
 
         The batched forms of :meth:`link_com_jacobian` (``(linear, angular)``, each 3 rows of
@@ -595,12 +595,12 @@ class BulletWorld:
         zeros = [0.0] * len(robot.joints)
         origin = (0.0, 0.0, 0.0)
 
-        def jacobian(q: list[float]) -> Any:
+        def jacobian(q: Sequence[float]) -> Any:
             return pybullet.calculateJacobian(
                 body, link, origin, q, zeros, zeros, physicsClientId=cid
             )
 
-        def mass_matrix(q: list[float]) -> Any:
+        def mass_matrix(q: Sequence[float]) -> Any:
             return pybullet.calculateMassMatrix(body, q, physicsClientId=cid)
 
         return jacobian, mass_matrix

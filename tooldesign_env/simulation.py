@@ -14,6 +14,7 @@ import itertools
 import math
 from collections.abc import Iterator
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -204,6 +205,11 @@ def _principal_link_xml(geometry: ToolGeometry) -> tuple[str, np.ndarray]:
         f'izz="{diag[2]!r}"/></inertial>'
     )
     return xml[:start] + inertial + xml[end:], diag
+
+
+#: One control step in contact, as logged during a rollout: (step index, joint positions (7,)
+#: rad, the tool's centre of mass (3,) m, the box's centre (3,) m, PyBullet's contact points).
+_ContactStep = tuple[int, tuple[float, ...], tuple[float, ...], tuple[float, ...], tuple[Any, ...]]
 
 
 @dataclass
@@ -415,7 +421,7 @@ class ToolSimulator:
         contact_rows: list[bool] = []
         # Steps in contact: (k, q, tool centre of mass, box centre, PyBullet's contact points),
         # when recording.
-        contact_log: list[tuple[int, tuple[float, ...], tuple, tuple, tuple]] = []
+        contact_log: list[_ContactStep] = []
         phase = self._phase_index(ref.times)
         hold = PHASES.index("hold")
         rest_needed = max(int(math.ceil(scene.rest_time / self.control_dt)), 1)
@@ -487,7 +493,8 @@ class ToolSimulator:
         # just applied).
         repeat = n - fast_forward_from
 
-        def table(rows: list, width: int = 0, dtype: type = float) -> np.ndarray:
+        def table(rows: list[Any], width: int = 0, dtype: type = float) -> np.ndarray:
+            simulated: np.ndarray
             if width:
                 # Flattened: much faster than np.array's shape discovery on nested rows.
                 simulated = np.fromiter(
@@ -525,7 +532,7 @@ class ToolSimulator:
             contact_mobility=mobility,
         )
 
-    def _mobility(self, contact_log: list, n: int) -> np.ndarray:
+    def _mobility(self, contact_log: list[_ContactStep], n: int) -> np.ndarray:
         """(n, 3, 7) mean :func:`contact_mobility` over the manifold of each logged step.
 
         The mean, not the sum, so that a manifold that gains or loses a duplicate point does
@@ -544,12 +551,12 @@ class ToolSimulator:
         flat = itertools.chain.from_iterable
         jacobians = np.fromiter(
             flat(flat(flat(jacobian(entry[1]) for entry in contact_log))),
-            dtype=float,
+            dtype=np.float64,
             count=steps * 2 * 3 * 7,
         ).reshape(steps, 2, 3, 7)
         mass = np.fromiter(
             flat(flat(mass_matrix(entry[1]) for entry in contact_log)),
-            dtype=float,
+            dtype=np.float64,
             count=steps * 7 * 7,
         ).reshape(steps, 7, 7)
         counts = np.fromiter((len(entry[4]) for entry in contact_log), dtype=int, count=steps)

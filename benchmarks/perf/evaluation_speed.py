@@ -97,7 +97,10 @@ def main() -> None:
             if not info["valid"]:
                 continue
             geometry = make_tool(c)
-            simulated = info["torques"][: info["fast_forward_from"]]
+            # The per-step series are left out of info by default (info_series=False); the env
+            # keeps the last step's (older versions put them in info).
+            series = getattr(env, "_last_series", None) or info
+            simulated = series["torques"][: info["fast_forward_from"]]
             t0, c0 = time.perf_counter(), time.process_time()
             sim.replay_open_loop(geometry, simulated)
             floor, floor_cpu = time.perf_counter() - t0, time.process_time() - c0

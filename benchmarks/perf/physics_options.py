@@ -81,7 +81,7 @@ def parse_option(text: str) -> dict[str, dict[str, Any]]:
 def make_env(changes: dict[str, dict[str, Any]]) -> ToolDesignEnv:
     """An env with the default specs changed by ``changes``."""
     kwargs = {spec: SPECS[spec](**values) for spec, values in changes.items()}
-    env = ToolDesignEnv(**kwargs)
+    env = ToolDesignEnv(**kwargs, info_series=True)
     env.reset(seed=0)
     env.step(np.zeros(3))  # warm
     return env
