@@ -9,14 +9,16 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import hashlib
+import importlib.metadata
 import os
 import re
 import sys
 import tempfile
 import uuid
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
-from typing import IO
+from typing import IO, Any, NamedTuple
 
 import numpy as np
 
@@ -85,12 +87,28 @@ with _quiet_pybullet():
 import pybullet_data  # noqa: E402
 from pybullet_utils.bullet_client import BulletClient  # noqa: E402
 
-__all__ = ["BulletWorld", "RobotHandles", "panda_urdf_with_tool"]
+__all__ = [
+    "BulletWorld",
+    "ControlCalls",
+    "RobotHandles",
+    "engine_version",
+    "panda_urdf_with_tool",
+    "robot_model_digest",
+]
 
 PANDA_DIR = os.path.join(pybullet_data.getDataPath(), "franka_panda")
 ARM_JOINTS = tuple(f"panda_joint{i}" for i in range(1, 8))
 EE_LINK = "panda_grasptarget"
 TOOL_LINK = "tool"
+
+
+# Collision groups. PyBullet makes a pair collide when either body's group meets the other's
+# mask, so keeping the arm off the floor needs both masks: the floor's (set when it is made,
+# before anything else exists: re-adding a body that already touches another resets their
+# contact and moves results) and the arm's links' (set as the robot is loaded).
+_STATIC_GROUP = 2  # btBroadphaseProxy::StaticFilter, PyBullet's group of fixed bodies
+_ARM_GROUP = 4  # the arm's links and its tool, when they are kept off the floor
+_ALL = -1
 
 
 def panda_urdf_with_tool(tool_link_xml: str | None, *, visuals: bool) -> str:
@@ -123,6 +141,25 @@ def panda_urdf_with_tool(tool_link_xml: str | None, *, visuals: bool) -> str:
         )
         text = text.replace("</robot>", f"{tool_link_xml}\n{joint}\n</robot>")
     return text
+
+
+def robot_model_digest() -> str:
+    """SHA-256 of the arm's URDF as loaded for inverse kinematics (no tool, no visuals).
+
+    The folder of ``pybullet_data`` is left out, so the same files give the same digest in
+    any environment; any change of the kinematics (joint origins, axes, limits) changes it.
+    """
+    text = panda_urdf_with_tool(None, visuals=False).replace(PANDA_DIR, "<panda>")
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def engine_version() -> str:
+    """PyBullet's package version and API version, e.g. ``"3.2.7 api 202010061"``."""
+    try:
+        version = importlib.metadata.version("pybullet")
+    except importlib.metadata.PackageNotFoundError:
+        version = "unknown"
+    return f"{version} api {pybullet.getAPIVersion()}"
 
 
 def _project(points: np.ndarray, view: tuple, proj: tuple, width: int, height: int) -> np.ndarray:
@@ -172,6 +209,33 @@ class RobotHandles:
     joints: tuple[int, ...]
     ee_link: int
     tool_link: int
+
+
+class ControlCalls(NamedTuple):
+    """PyBullet calls of the control loop with their fixed arguments bound.
+
+    Attributes:
+        joint_states: ``() -> ((position, velocity, reaction, torque), ...)`` of the 7 joints.
+        inverse_dynamics: ``(q, qd, qdd) -> torques``, each 7 floats.
+        motor: ``(forces=torques)``: command joint torques for the next physics step.
+        step: ``()``: one physics step.
+        link_state: ``() -> getLinkState`` tuple of the end-effector link, forward kinematics
+            recomputed.
+        link_states: ``() -> (end-effector state, other link's state)``, as ``link_state``.
+        box_pose: ``() -> (position, quaternion)`` of the box.
+        box_velocity: ``() -> (linear, angular)`` velocity of the box.
+        contacts: ``() -> getContactPoints`` tuples between the box and the other link.
+    """
+
+    joint_states: Callable[[], Any]
+    inverse_dynamics: Callable[..., Any]
+    motor: Callable[..., Any]
+    step: Callable[[], Any]
+    link_state: Callable[[], Any]
+    link_states: Callable[[], Any]
+    box_pose: Callable[[], Any]
+    box_velocity: Callable[[], Any]
+    contacts: Callable[[], Any]
 
 
 class BulletWorld:
@@ -257,8 +321,12 @@ class BulletWorld:
         if self.render_mode == "human":
             c.configureDebugVisualizer(pybullet.COV_ENABLE_GUI, 0)
 
-    def add_floor(self, *, friction: float) -> int:
-        """A static plane at z = 0; returns its body id."""
+    def add_floor(self, *, friction: float, arm_contacts: bool = True) -> int:
+        """A static plane at z = 0; returns its body id.
+
+        With ``arm_contacts=False`` a robot loaded with ``floor_contacts=False`` passes
+        through the floor; everything else still rests on it.
+        """
         c = self.client
         shape = c.createCollisionShape(pybullet.GEOM_PLANE)
         visual = -1
@@ -268,6 +336,9 @@ class BulletWorld:
                 visual = c.createVisualShape(pybullet.GEOM_PLANE, rgbaColor=[0.85, 0.85, 0.85, 1])
             body = c.createMultiBody(0.0, shape, visual, [0, 0, 0])
         c.changeDynamics(body, -1, lateralFriction=friction)
+        if not arm_contacts:
+            mask = _ALL ^ _STATIC_GROUP ^ _ARM_GROUP
+            c.setCollisionFilterGroupMask(body, -1, _STATIC_GROUP, mask)
         return body
 
     def add_box(
@@ -309,6 +380,7 @@ class BulletWorld:
         tool_mass: float | None = None,
         tool_inertia_diagonal: tuple[float, float, float] | None = None,
         tool_friction: float = 0.5,
+        floor_contacts: bool = True,
     ) -> RobotHandles:
         """Load a robot from URDF text with a fixed base at the origin.
 
@@ -316,6 +388,8 @@ class BulletWorld:
         fresh file name, deleted right after loading. PyBullet takes inertia from the collision
         shapes' bounding box unless told otherwise, so the tool's mass and principal moments are
         set here explicitly (its inertial frame, with the principal axes, comes from the URDF).
+        With ``floor_contacts=False`` its links pass through a floor made with
+        ``arm_contacts=False``.
         """
         c = self.client
         fd, path = tempfile.mkstemp(prefix=f"tooldesign-{uuid.uuid4().hex}-", suffix=".urdf")
@@ -340,6 +414,9 @@ class BulletWorld:
                 localInertiaDiagonal=list(tool_inertia_diagonal or (0.0, 0.0, 0.0)),
                 lateralFriction=tool_friction,
             )
+        if not floor_contacts:
+            for j in range(c.getNumJoints(body)):
+                c.setCollisionFilterGroupMask(body, j, _ARM_GROUP, _ALL ^ _STATIC_GROUP)
         # The default velocity motors fight torque control unless switched off.
         c.setJointMotorControlArray(
             body, list(joints), pybullet.VELOCITY_CONTROL, forces=[0.0] * len(joints)
@@ -366,6 +443,45 @@ class BulletWorld:
         """Joint positions (rad) and velocities (rad/s) of the 7 arm joints, as lists."""
         states = self._joint_states(robot.body, robot.joints)
         return [s[0] for s in states], [s[1] for s in states]
+
+    def control_calls(self, robot: RobotHandles, box: int, link: int) -> ControlCalls:
+        """The reads and writes of one control step, bound to ``robot``, ``box`` and ``link``.
+
+        Each is a PyBullet function with every argument but the changing ones bound, so the
+        control loop pays one C call and no Python-level lookups per use (see
+        :class:`ControlCalls`).
+        """
+        cid, body, joints = self.client_id, robot.body, list(robot.joints)
+        partial = functools.partial
+        return ControlCalls(
+            joint_states=partial(pybullet.getJointStates, body, joints, physicsClientId=cid),
+            inverse_dynamics=partial(pybullet.calculateInverseDynamics, body, physicsClientId=cid),
+            motor=partial(
+                pybullet.setJointMotorControlArray,
+                body,
+                joints,
+                pybullet.TORQUE_CONTROL,
+                physicsClientId=cid,
+            ),
+            step=partial(pybullet.stepSimulation, physicsClientId=cid),
+            link_state=partial(
+                pybullet.getLinkState,
+                body,
+                robot.ee_link,
+                computeForwardKinematics=1,
+                physicsClientId=cid,
+            ),
+            link_states=partial(
+                pybullet.getLinkStates,
+                body,
+                [robot.ee_link, link],
+                computeForwardKinematics=1,
+                physicsClientId=cid,
+            ),
+            box_pose=partial(pybullet.getBasePositionAndOrientation, box, physicsClientId=cid),
+            box_velocity=partial(pybullet.getBaseVelocity, box, physicsClientId=cid),
+            contacts=partial(pybullet.getContactPoints, box, body, -1, link, physicsClientId=cid),
+        )
 
     def inverse_dynamics(
         self, robot: RobotHandles, q: list[float], qd: list[float], qdd: list[float]
@@ -466,6 +582,28 @@ class BulletWorld:
         zeros = [0.0] * len(q)
         linear, angular = self._jacobian(robot.body, link, (0.0, 0.0, 0.0), q, zeros, zeros)
         return np.asarray(linear, dtype=float), np.asarray(angular, dtype=float)
+
+    def jacobian_calls(
+        self, robot: RobotHandles, link: int
+    ) -> tuple[Callable[[Sequence[float]], Any], Callable[[Sequence[float]], Any]]:
+        """``jacobian(q)`` and ``mass_matrix(q)`` as PyBullet returns them (nested tuples).
+
+        The batched forms of :meth:`link_com_jacobian` (``(linear, angular)``, each 3 rows of
+        7) and :meth:`mass_matrix` (7 rows of 7), for many configurations in a row.
+        """
+        cid, body = self.client_id, robot.body
+        zeros = [0.0] * len(robot.joints)
+        origin = (0.0, 0.0, 0.0)
+
+        def jacobian(q: Sequence[float]) -> Any:
+            return pybullet.calculateJacobian(
+                body, link, origin, q, zeros, zeros, physicsClientId=cid
+            )
+
+        def mass_matrix(q: Sequence[float]) -> Any:
+            return pybullet.calculateMassMatrix(body, q, physicsClientId=cid)
+
+        return jacobian, mass_matrix
 
     def mass_matrix(self, robot: RobotHandles, q: list[float]) -> np.ndarray:
         """Joint-space inertia matrix M(q) (7, 7) of the arm with its tool, kg m^2."""

@@ -1,23 +1,51 @@
 """The fixed tool-use plan pi_0: a Cartesian path for the grasp point and its joint references.
 
 The plan is the same for every tool (the tool hangs below the grasp point and does not change the
-arm's kinematics), so its inverse kinematics is computed once per :class:`PlanSpec` and cached.
+arm's kinematics), so its inverse kinematics is computed once per :class:`PlanSpec` and cached: in
+memory, and on disk (:func:`cache_dir`) keyed by everything the solution depends on
+(:func:`cache_key`), so that a new process does not solve it again.
 """
 
 from __future__ import annotations
 
+import contextlib
+import hashlib
+import json
 import math
+import os
+import tempfile
+import warnings
 from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 from scipy.interpolate import CubicSpline
 
 from tooldesign_env.specs import PlanSpec
 
-__all__ = ["JointReference", "Phase", "cartesian_path", "min_jerk", "phases"]
+__all__ = [
+    "CACHE_ENV",
+    "JointReference",
+    "Phase",
+    "cache_dir",
+    "cache_key",
+    "cartesian_path",
+    "joint_reference",
+    "knot_times",
+    "load_knots",
+    "min_jerk",
+    "phases",
+    "reference_from_knots",
+    "solve_knots",
+    "store_knots",
+]
 
 #: A comfortable elbow-up posture that resolves the Panda's redundancy in inverse kinematics.
 REST_POSE = (0.0, 0.2, 0.0, -2.0, 0.0, 2.2, 0.785)
+
+#: Spacing of the inverse-kinematics knots of the plan, s.
+KNOT_DT = 0.02
 
 
 def min_jerk(tau: np.ndarray) -> np.ndarray:
@@ -124,40 +152,53 @@ class JointReference:
     yaw: np.ndarray
 
 
-def joint_reference(
-    plan: PlanSpec,
-    control_dt: float,
-    solve_ik: object,
-    *,
-    knot_dt: float = 0.02,
-) -> JointReference:
-    """Solve the plan's inverse kinematics on a grid and spline it to the control steps.
+def knot_times(plan: PlanSpec, knot_dt: float = KNOT_DT) -> np.ndarray:
+    """Times (n,) s of the inverse-kinematics knots of :func:`joint_reference`."""
+    duration = plan.duration
+    n_knots = max(int(math.ceil(duration / knot_dt)), 4) + 1
+    return np.linspace(0.0, duration, n_knots)
 
-    Inverse kinematics runs every ``knot_dt`` seconds, warm-started from the previous solution so
-    the arm stays on one branch; a cubic spline through the solutions gives positions, velocities
-    and accelerations that are consistent with each other (finite differences of per-step IK
-    solutions are noisy, and the computed-torque controller feeds the accelerations forward).
+
+def solve_knots(plan: PlanSpec, solve_ik: object, *, knot_dt: float = KNOT_DT) -> np.ndarray:
+    """Joint positions (n, 7) rad at the :func:`knot_times`, by inverse kinematics.
+
+    Warm-started from the previous solution so the arm stays on one branch.
 
     Args:
         plan: the plan.
-        control_dt: control period, s.
         solve_ik: callable ``(position (3,), quaternion (4,), seed q (7,)) -> q (7,)``.
-        knot_dt: spacing of the IK knots, s.
+        knot_dt: spacing of the knots, s.
     """
-    duration = plan.duration
-    n_knots = max(int(math.ceil(duration / knot_dt)), 4) + 1
-    knots = np.linspace(0.0, duration, n_knots)
+    knots = knot_times(plan, knot_dt)
     pos, yaw = cartesian_path(plan, knots)
-    q = np.empty((n_knots, 7))
+    q = np.empty((knots.size, 7))
     seed = np.asarray(REST_POSE, dtype=float)
-    for i in range(n_knots):
+    for i in range(knots.size):
         # Two passes: the first from the seed, the second from its own answer, which removes
         # most of the residual of PyBullet's damped-least-squares solver.
         sol = solve_ik(pos[i], end_effector_quaternion(float(yaw[i])), seed)  # type: ignore[operator]
         sol = solve_ik(pos[i], end_effector_quaternion(float(yaw[i])), sol)  # type: ignore[operator]
         q[i] = seed = sol
+    return q
+
+
+def reference_from_knots(
+    plan: PlanSpec, control_dt: float, knot_q: np.ndarray, *, knot_dt: float = KNOT_DT
+) -> JointReference:
+    """Spline the knot solutions (n, 7) rad of :func:`solve_knots` to the control steps.
+
+    A cubic spline through the solutions gives positions, velocities and accelerations that
+    are consistent with each other (finite differences of per-step IK solutions are noisy, and
+    the computed-torque controller feeds the accelerations forward).
+    """
+    knots = knot_times(plan, knot_dt)
+    q = np.asarray(knot_q, dtype=float)
+    if q.shape != (knots.size, 7) or not np.all(np.isfinite(q)):
+        raise ValueError(
+            f"knot_q must be a finite ({knots.size}, 7) array for this plan, got shape {q.shape}"
+        )
     spline = CubicSpline(knots, q, axis=0, bc_type="clamped")
-    n_steps = int(round(duration / control_dt))
+    n_steps = int(round(plan.duration / control_dt))
     times = control_dt * np.arange(1, n_steps + 1)
     ee, yaws = cartesian_path(plan, times)
     return JointReference(
@@ -169,3 +210,123 @@ def joint_reference(
         ee_position=ee,
         yaw=yaws,
     )
+
+
+def joint_reference(
+    plan: PlanSpec,
+    control_dt: float,
+    solve_ik: object,
+    *,
+    knot_dt: float = KNOT_DT,
+) -> JointReference:
+    """Solve the plan's inverse kinematics on a grid and spline it to the control steps.
+
+    Inverse kinematics runs every ``knot_dt`` seconds (:func:`solve_knots`), and a cubic spline
+    through the solutions gives the references (:func:`reference_from_knots`).
+
+    Args:
+        plan: the plan.
+        control_dt: control period, s.
+        solve_ik: callable ``(position (3,), quaternion (4,), seed q (7,)) -> q (7,)``.
+        knot_dt: spacing of the IK knots, s.
+    """
+    knot_q = solve_knots(plan, solve_ik, knot_dt=knot_dt)
+    return reference_from_knots(plan, control_dt, knot_q, knot_dt=knot_dt)
+
+
+# ------------------------------------------------------------------ the knot cache on disk
+#: Environment variable naming the folder of the on-disk plan cache; set it to an empty
+#: string to keep the cache in memory only.
+CACHE_ENV = "TOOLDESIGN_CACHE_DIR"
+
+#: Bumped whenever what a cache file holds, or how the knots are solved, changes meaning.
+CACHE_FORMAT = "tooldesign-plan-knots/1"
+
+
+def cache_dir() -> Path | None:
+    """The folder of the on-disk plan cache, or None when it is switched off.
+
+    ``$TOOLDESIGN_CACHE_DIR`` if set (an empty value switches the disk cache off), else
+    ``$XDG_CACHE_HOME/tooldesign``, else ``~/.cache/tooldesign``.
+    """
+    value = os.environ.get(CACHE_ENV)
+    if value is not None:
+        return Path(value).expanduser() if value.strip() else None
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "tooldesign"
+
+
+def cache_key(material: dict[str, Any]) -> str:
+    """A hex SHA-256 of everything a cached result depends on (JSON, sorted keys).
+
+    Floats are written by ``repr``, so every bit of every number counts.
+    """
+    text = json.dumps({"format": CACHE_FORMAT, **material}, sort_keys=True, allow_nan=False)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def _cache_path(folder: Path, key: str) -> Path:
+    return folder / f"plan-knots-{key[:40]}.npz"
+
+
+def load_knots(key: str, shape: tuple[int, int], folder: Path | None = None) -> np.ndarray | None:
+    """The cached knot solutions for ``key``, or None if absent or not to be trusted.
+
+    A file is used only if it is a NumPy archive (no pickles) holding the full key and a
+    finite float64 array of exactly ``shape``; anything else (truncated, corrupt, written for
+    another key, NaN) counts as a miss, never as an error.
+    """
+    folder = cache_dir() if folder is None else folder
+    if folder is None:
+        return None
+    path = _cache_path(folder, key)
+    try:
+        with np.load(path, allow_pickle=False) as archive:
+            stored_key = bytes(np.asarray(archive["key"], dtype=np.uint8)).decode("ascii")
+            q = np.array(archive["q"])
+    except FileNotFoundError:
+        return None
+    except Exception:  # noqa: BLE001 - any unreadable file is a miss, and will be rewritten
+        return None
+    if stored_key != key or q.dtype != np.float64 or q.shape != shape:
+        return None
+    if not np.all(np.isfinite(q)):
+        return None
+    return q
+
+
+def store_knots(key: str, q: np.ndarray, folder: Path | None = None) -> bool:
+    """Write the knot solutions for ``key`` atomically; whether it was written.
+
+    The archive is written to a temporary file in the same folder and renamed over the
+    target, so a reader sees the old file, the new one, or none: never half a file. A folder
+    that cannot be created or written leaves the cache in memory only (a warning says so).
+    """
+    folder = cache_dir() if folder is None else folder
+    if folder is None:
+        return False
+    q = np.asarray(q, dtype=np.float64)
+    tmp = None
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=".plan-knots-", suffix=".tmp", dir=folder)
+        with os.fdopen(fd, "wb") as f:
+            np.savez(f, key=np.frombuffer(key.encode("ascii"), dtype=np.uint8), q=q)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, _cache_path(folder, key))
+        tmp = None
+        return True
+    except OSError as err:
+        warnings.warn(
+            f"the plan cache folder {str(folder)!r} cannot be written ({err}); the plan's "
+            f"inverse kinematics is cached in memory only (set {CACHE_ENV} to a writable "
+            "folder, or to an empty string to silence this)",
+            RuntimeWarning,
+            stacklevel=2,
+        )
+        return False
+    finally:
+        if tmp is not None:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)

@@ -1,27 +1,54 @@
 """How long one evaluation of F takes, next to the floor of simulating the same episode.
 
-Prints, for a fixed set of designs evaluated in one process on one core:
+Prints, for a fixed set of designs evaluated in one process, each design's evaluation and its
+floor measured back to back (so that load on a shared machine hits both alike):
 
-* the median wall time of ``env.step`` with the default (trajectory) estimator, and its parts:
-  building the world, the controlled rollout, the objective;
-* the floor: building the same world and applying the same torques with no controller and no
-  objective (``ToolSimulator.replay_open_loop``), for the same number of simulated steps;
+* the median wall time of ``env.step`` with the env's default estimator (``contact``, which
+  records the contact manifold during the rollout and computes Jacobians and mass matrices
+  after it), and its parts: building the world, the controlled rollout (with the contact log),
+  the objective (the post-rollout mobility, the estimator and F);
+* the floor: building the same world and applying the same torques open loop, for the same
+  number of simulated control steps, with no controller and no objective
+  (``ToolSimulator.replay_open_loop``);
+* the ratio evaluation / floor: the median over designs of each design's own ratio, the ratio
+  of the medians, and the median of per-design ratios of process CPU time (less sensitive to
+  other jobs on a shared machine than wall time);
+* the cost of the first evaluation in a fresh process, which needs the plan's inverse
+  kinematics: in a child process with an empty plan cache (cold), then in another child that
+  finds the cache on disk (warm), in units of the median evaluation;
 * the cost of the reference (re-simulation) estimator.
 
-Run: ``python benchmarks/perf/evaluation_speed.py [--designs 12] [--repeats 3]``. Pin it to one
-core with ``taskset -c 0`` for a one-core figure. Target: a median of at most 0.15 s.
+Run: ``taskset -c 0 python benchmarks/perf/evaluation_speed.py [--designs 12] [--repeats 3]``
+(``taskset`` pins it, and its child processes, to one core).
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import statistics
+import subprocess
+import sys
+import tempfile
 import time
 
 import numpy as np
 
 from tooldesign_env import ObjectiveSpec, ToolDesignEnv, make_tool
 from tooldesign_env.objective import free_energy
+
+#: Run in a child process: the wall time of the first env.step of a fresh process, after imports.
+_FIRST_EVALUATION = """
+import time
+import numpy as np
+from tooldesign_env import ToolDesignEnv
+env = ToolDesignEnv()
+env.reset(seed=0)
+t0 = time.perf_counter()
+env.step(np.zeros(3))
+print(time.perf_counter() - t0)
+env.close()
+"""
 
 
 def designs(n: int, seed: int) -> list[np.ndarray]:
@@ -32,6 +59,19 @@ def designs(n: int, seed: int) -> list[np.ndarray]:
     return out
 
 
+def first_evaluation(cache_dir: str) -> float:
+    """Seconds of the first ``env.step`` in a fresh process whose plan cache is ``cache_dir``."""
+    env = dict(os.environ, TOOLDESIGN_CACHE_DIR=cache_dir)
+    out = subprocess.run(
+        [sys.executable, "-c", _FIRST_EVALUATION],
+        env=env,
+        check=True,
+        capture_output=True,
+        text=True,
+    )
+    return float(out.stdout.strip().splitlines()[-1])
+
+
 def main() -> None:
     """Measure and print."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -39,75 +79,110 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--reference", type=int, default=3, help="designs for the reference")
+    parser.add_argument("--first", type=int, default=3, help="fresh processes per cache state")
     args = parser.parse_args()
 
     env = ToolDesignEnv()
     env.reset(seed=0)
     sim = env.simulator
-    t0 = time.perf_counter()
-    env.step(np.zeros(3))  # the first step solves the plan's inverse kinematics once
-    first = time.perf_counter() - t0
+    env.step(np.zeros(3))  # warm: the plan's inverse kinematics, imports, caches
 
-    step_t, build_t, rollout_t, objective_t, floor_t, steps = [], [], [], [], [], []
+    step_t, build_t, rollout_t, objective_t, floor_t, ratios, steps = [], [], [], [], [], [], []
+    cpu_ratios = []
     for _ in range(args.repeats):
         for c in designs(args.designs, args.seed):
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             info = env.step(c)[4]
-            step_t.append(time.perf_counter() - t0)
+            step, step_cpu = time.perf_counter() - t0, time.process_time() - c0
             if not info["valid"]:
                 continue
             geometry = make_tool(c)
+            # The per-step series are left out of info by default (info_series=False); the env
+            # keeps the last step's (older versions put them in info).
+            series = getattr(env, "_last_series", None) or info
+            simulated = series["torques"][: info["fast_forward_from"]]
+            t0, c0 = time.perf_counter(), time.process_time()
+            sim.replay_open_loop(geometry, simulated)
+            floor, floor_cpu = time.perf_counter() - t0, time.process_time() - c0
+            step_t.append(step)
+            floor_t.append(floor)
+            ratios.append(step / floor)
+            cpu_ratios.append(step_cpu / floor_cpu)
+            steps.append(info["fast_forward_from"])
+            # The parts of env.step, as it does them.
             t0 = time.perf_counter()
             sim.build(geometry)
             build_t.append(time.perf_counter() - t0)
             t0 = time.perf_counter()
-            traj = sim.rollout(geometry)
+            traj = sim.run(record_mobility=True)
             rollout_t.append(time.perf_counter() - t0)
             t0 = time.perf_counter()
-            free_energy(traj.box_position, traj.torques, env._goal, env.objective)
+            free_energy(
+                traj.box_position,
+                traj.torques,
+                env._goal,
+                env.objective,
+                mobility=traj.contact_mobility,
+                control_dt=sim.control_dt,
+            )
             objective_t.append(time.perf_counter() - t0)
-            simulated = traj.torques[: traj.fast_forward_from]
-            t0 = time.perf_counter()
-            sim.replay_open_loop(geometry, simulated)
-            floor_t.append(time.perf_counter() - t0)
-            steps.append(traj.fast_forward_from)
-
-    ref = ToolDesignEnv(objective=ObjectiveSpec(estimator="resimulation"))
-    ref.reset(seed=0)
-    ref_t = []
-    for c in designs(args.reference, args.seed):
-        t0 = time.perf_counter()
-        ref.step(c)
-        ref_t.append(time.perf_counter() - t0)
 
     med = statistics.median
     n_total = len(sim.reference.times)
+    period = sim.controller.control_period
+    physics_steps = med(steps) * period + round(sim.scene.box_settle_time / sim.scene.time_step)
     print(
-        f"designs x repeats: {args.designs} x {args.repeats}; control steps per episode: "
-        f"{n_total} ({sim.controller.control_period} physics steps each)"
+        f"designs x repeats: {args.designs} x {args.repeats} (valid: {len(step_t)}); control "
+        f"steps per episode: {n_total} ({period} physics steps each); estimator: "
+        f"{env.objective.estimator}"
     )
-    print(f"first evaluation in a process (solves the plan's IK): {first:.3f} s")
     print(
-        f"evaluation of F, default estimator:   median {med(step_t):.3f} s "
-        f"(min {min(step_t):.3f}, max {max(step_t):.3f})"
+        f"evaluation of F (env.step):          median {med(step_t):.4f} s "
+        f"(min {min(step_t):.4f}, max {max(step_t):.4f})"
     )
     print(f"  build world (floor, box, arm+tool): median {med(build_t):.4f} s")
     print(
-        f"  controlled rollout incl. build:     median {med(rollout_t):.3f} s "
+        f"  controlled rollout + contact log:   median {med(rollout_t):.4f} s "
         f"(simulated control steps: median {int(med(steps))} of {n_total})"
     )
-    print(f"  objective (estimator + F):          median {med(objective_t):.4f} s")
+    print(f"  objective (mobility, estimator, F): median {med(objective_t):.4f} s")
     print(
         f"floor (build + same steps, open loop, no controller/objective): "
-        f"median {med(floor_t):.3f} s"
+        f"median {med(floor_t):.4f} s, {1e6 * (med(floor_t) - med(build_t)) / physics_steps:.1f} "
+        f"us per physics step after the build"
     )
-    print(f"ratio evaluation / floor: {med(step_t) / med(floor_t):.2f}")
     print(
-        f"reference estimator (re-simulation): median {med(ref_t):.3f} s over {len(ref_t)} "
-        f"designs ({med(ref_t) / med(step_t):.1f}x the default)"
+        f"ratio evaluation / floor: median of per-design ratios {med(ratios):.3f}; "
+        f"ratio of medians {med(step_t) / med(floor_t):.3f}; median of per-design CPU-time "
+        f"ratios {med(cpu_ratios):.3f}"
     )
+
+    if args.first > 0:
+        with tempfile.TemporaryDirectory(prefix="tooldesign-cache-") as cache:
+            cold = [first_evaluation(tempfile.mkdtemp(dir=cache)) for _ in range(args.first)]
+            warm_dir = tempfile.mkdtemp(dir=cache)
+            first_evaluation(warm_dir)  # fills it
+            warm = [first_evaluation(warm_dir) for _ in range(args.first)]
+        print(
+            f"first evaluation in a fresh process: empty plan cache median {med(cold):.3f} s "
+            f"({med(cold) / med(step_t):.1f} medians); plan cache on disk median "
+            f"{med(warm):.3f} s ({med(warm) / med(step_t):.1f} medians)"
+        )
+
+    if args.reference > 0:
+        ref = ToolDesignEnv(objective=ObjectiveSpec(estimator="resimulation"))
+        ref.reset(seed=0)
+        ref_t = []
+        for c in designs(args.reference, args.seed):
+            t0 = time.perf_counter()
+            ref.step(c)
+            ref_t.append(time.perf_counter() - t0)
+        print(
+            f"reference estimator (re-simulation): median {med(ref_t):.3f} s over {len(ref_t)} "
+            f"designs ({med(ref_t) / med(step_t):.1f}x the default)"
+        )
+        ref.close()
     env.close()
-    ref.close()
 
 
 if __name__ == "__main__":

@@ -1,0 +1,88 @@
+"""Run evaluation_speed.py against two source trees in turn and print their figures side by side.
+
+Each round runs this folder's ``evaluation_speed.py`` once with ``PYTHONPATH`` set to the first
+tree and once to the second (alternating which goes first), so that both see the same load on a
+shared machine; the table shows the median of each figure over the rounds. The script measured
+is always this one, so both trees are measured the same way (the floor, the parts, the ratio).
+
+Run, e.g. main against this worktree, one core:
+``taskset -c 0 python benchmarks/perf/compare_trees.py /work/main . --rounds 3 -- --designs 12
+--repeats 2 --reference 0``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import statistics
+import subprocess
+import sys
+from pathlib import Path
+
+SCRIPT = Path(__file__).with_name("evaluation_speed.py")
+
+#: (label, regular expression with one group) of the figures read from the script's output.
+FIGURES = (
+    ("evaluation (env.step), median s", r"evaluation of F \(env.step\):\s+median ([0-9.]+)"),
+    ("build, median s", r"build world .*median ([0-9.]+)"),
+    ("rollout + contact log, median s", r"controlled rollout .*median ([0-9.]+)"),
+    ("objective, median s", r"objective \(mobility.*median ([0-9.]+)"),
+    ("floor, median s", r"floor \(build .*median ([0-9.]+) s"),
+    ("us per physics step (floor)", r"s, ([0-9.]+) us per physics step"),
+    ("ratio: median of per-design ratios", r"median of per-design ratios ([0-9.]+);"),
+    ("ratio of medians", r"ratio of medians ([0-9.]+)"),
+    ("ratio: median per-design CPU ratio", r"CPU-time ratios ([0-9.]+)"),
+    ("first evaluation, empty cache, s", r"empty plan cache median ([0-9.]+) s"),
+    ("first evaluation, empty cache, medians", r"empty plan cache median [0-9.]+ s \(([0-9.]+)"),
+    ("first evaluation, cache on disk, s", r"plan cache on disk median ([0-9.]+) s"),
+    ("first evaluation, cache on disk, medians", r"on disk median [0-9.]+ s \(([0-9.]+)"),
+)
+
+
+def run(tree: Path, extra: list[str]) -> dict[str, float]:
+    """The figures of one run of evaluation_speed.py with ``tree`` first on PYTHONPATH."""
+    env = dict(os.environ, PYTHONPATH=str(tree))
+    out = subprocess.run(
+        [sys.executable, str(SCRIPT), *extra], env=env, check=True, capture_output=True, text=True
+    ).stdout
+    figures = {}
+    for label, pattern in FIGURES:
+        match = re.search(pattern, out)
+        if match:
+            figures[label] = float(match.group(1))
+    return figures
+
+
+def main() -> None:
+    """Measure and print."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("before", type=Path, help="source tree measured as 'before'")
+    parser.add_argument("after", type=Path, help="source tree measured as 'after'")
+    parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument("rest", nargs=argparse.REMAINDER, help="-- arguments of the script")
+    args = parser.parse_args()
+    extra = args.rest[1:] if args.rest[:1] == ["--"] else args.rest
+    trees = {"before": args.before.resolve(), "after": args.after.resolve()}
+    for name, tree in trees.items():
+        if not (tree / "tooldesign_env" / "__init__.py").is_file():
+            raise SystemExit(f"{name} tree {str(tree)!r} has no tooldesign_env package")
+    results: dict[str, list[dict[str, float]]] = {"before": [], "after": []}
+    for i in range(args.rounds):
+        order = ("before", "after") if i % 2 == 0 else ("after", "before")
+        for name in order:
+            results[name].append(run(trees[name], extra))
+    print(f"before: {trees['before']}\nafter:  {trees['after']}")
+    print(f"rounds: {args.rounds}, script arguments: {' '.join(extra) or '(defaults)'}")
+    print(f"load average at the end: {os.getloadavg()[0]:.2f}")
+    print(f"{'figure (median over rounds)':42s} {'before':>9s} {'after':>9s}")
+    for label, _ in FIGURES:
+        cells = []
+        for name in ("before", "after"):
+            values = [r[label] for r in results[name] if label in r]
+            cells.append(f"{statistics.median(values):9.3f}" if values else f"{'-':>9s}")
+        print(f"{label:42s} {cells[0]} {cells[1]}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,183 @@
+"""The cache of the plan's inverse-kinematics knots: hit, miss, corruption, key change."""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import warnings
+
+import numpy as np
+import pytest
+
+from tooldesign_env import simulation
+from tooldesign_env.plan import (
+    CACHE_ENV,
+    cache_dir,
+    cache_key,
+    knot_times,
+    load_knots,
+    store_knots,
+)
+from tooldesign_env.simulation import ToolSimulator, plan_cache_key
+from tooldesign_env.specs import PlanSpec
+
+SHAPE = (5, 7)
+
+
+def _knots() -> np.ndarray:
+    return np.arange(35, dtype=float).reshape(SHAPE) / 7.0
+
+
+def _only_file(folder) -> str:
+    files = [f for f in os.listdir(folder) if f.endswith(".npz")]
+    assert len(files) == 1, files
+    return os.path.join(folder, files[0])
+
+
+def test_cache_dir_follows_the_environment(monkeypatch, tmp_path):
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path / "c"))
+    assert cache_dir() == tmp_path / "c"
+    monkeypatch.setenv(CACHE_ENV, "")
+    assert cache_dir() is None
+    monkeypatch.delenv(CACHE_ENV)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert cache_dir() == tmp_path / "xdg" / "tooldesign"
+
+
+def test_store_then_load_gives_the_same_bits(tmp_path):
+    key = cache_key({"a": 1})
+    q = _knots()
+    assert load_knots(key, SHAPE, tmp_path) is None  # miss
+    assert store_knots(key, q, tmp_path)
+    back = load_knots(key, SHAPE, tmp_path)
+    assert back is not None and back.dtype == np.float64
+    assert back.tobytes() == q.tobytes()
+    # Nothing but the archive is left behind (the temporary file was renamed).
+    assert os.listdir(tmp_path) == [os.path.basename(_only_file(tmp_path))]
+
+
+def test_the_key_counts_every_bit_of_its_material():
+    assert cache_key({"x": 0.1}) != cache_key({"x": 0.1 + 1e-17 + 2e-17})
+    assert cache_key({"x": 0.1, "y": 2}) == cache_key({"y": 2, "x": 0.1})
+    assert cache_key({"x": 1}) != cache_key({"x": 2})
+
+
+@pytest.mark.parametrize(
+    "corrupt",
+    ["garbage", "empty", "truncated", "wrong_key", "wrong_shape", "nan", "wrong_dtype", "pickle"],
+)
+def test_a_bad_file_is_a_miss_never_an_error(tmp_path, corrupt):
+    key = cache_key({"a": 1})
+    store_knots(key, _knots(), tmp_path)
+    path = _only_file(tmp_path)
+    if corrupt == "garbage":
+        with open(path, "wb") as f:
+            f.write(b"not a numpy archive at all")
+    elif corrupt == "empty":
+        open(path, "wb").close()
+    elif corrupt == "truncated":
+        data = open(path, "rb").read()
+        with open(path, "wb") as f:
+            f.write(data[: len(data) // 2])
+    else:
+        arrays = {
+            "key": np.frombuffer(key.encode("ascii"), dtype=np.uint8),
+            "q": _knots(),
+        }
+        if corrupt == "wrong_key":
+            arrays["key"] = np.frombuffer(cache_key({"a": 2}).encode("ascii"), dtype=np.uint8)
+        elif corrupt == "wrong_shape":
+            arrays["q"] = np.zeros((4, 7))
+        elif corrupt == "nan":
+            arrays["q"] = _knots()
+            arrays["q"][2, 3] = np.nan
+        elif corrupt == "wrong_dtype":
+            arrays["q"] = _knots().astype(np.float32)
+        elif corrupt == "pickle":
+            arrays["q"] = np.array([object()] * 35, dtype=object).reshape(SHAPE)
+        with open(path, "wb") as f:
+            np.savez(f, **arrays)
+    assert load_knots(key, SHAPE, tmp_path) is None
+    # ... and storing again repairs it.
+    assert store_knots(key, _knots(), tmp_path)
+    assert load_knots(key, SHAPE, tmp_path) is not None
+
+
+def test_an_unwritable_folder_warns_and_keeps_going(tmp_path):
+    blocker = tmp_path / "a-file"
+    blocker.write_text("in the way")
+    with pytest.warns(RuntimeWarning, match="cannot be written"):
+        assert not store_knots(cache_key({"a": 1}), _knots(), blocker / "sub")
+    assert load_knots(cache_key({"a": 1}), SHAPE, blocker / "sub") is None
+
+
+def test_the_plan_key_changes_with_what_the_ik_depends_on(monkeypatch):
+    base = plan_cache_key(PlanSpec())
+    assert plan_cache_key(PlanSpec()) == base
+    assert plan_cache_key(dataclasses.replace(PlanSpec(), reach=0.7000001)) != base
+    assert plan_cache_key(dataclasses.replace(PlanSpec(), hold_duration=1.0)) != base
+    monkeypatch.setattr(simulation, "engine_version", lambda: "9.9.9 api 0")
+    assert plan_cache_key(PlanSpec()) != base
+    monkeypatch.undo()
+    monkeypatch.setattr(simulation, "robot_model_digest", lambda: "0" * 64)
+    assert plan_cache_key(PlanSpec()) != base
+    monkeypatch.undo()
+    monkeypatch.setattr(simulation, "IK_ITERATIONS", 201)
+    assert plan_cache_key(PlanSpec()) != base
+
+
+@pytest.fixture
+def fresh_memory(monkeypatch):
+    """Empty the in-process caches, so only the disk can answer."""
+    monkeypatch.setattr(simulation, "_KNOTS", {})
+    monkeypatch.setattr(simulation, "_REFERENCES", {})
+
+
+def _solved_references(sim: ToolSimulator) -> list[bytes]:
+    ref = sim.reference
+    return [a.tobytes() for a in (ref.times, ref.q, ref.qd, ref.qdd, ref.q0, ref.ee_position)]
+
+
+@pytest.mark.slow
+def test_a_new_process_finds_the_plan_on_disk(monkeypatch, tmp_path, fresh_memory):
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path))
+    sim = ToolSimulator()
+    solved = _solved_references(sim)  # miss: solves and writes the file
+    path = _only_file(tmp_path)
+    sim.close()
+
+    # A "new process": nothing in memory, and solving is not allowed.
+    monkeypatch.setattr(simulation, "_KNOTS", {})
+    monkeypatch.setattr(simulation, "_REFERENCES", {})
+
+    def refuse(self):
+        raise AssertionError("the inverse kinematics ran although the cache holds the plan")
+
+    monkeypatch.setattr(ToolSimulator, "_inverse_kinematics", refuse)
+    sim = ToolSimulator()
+    assert _solved_references(sim) == solved  # hit: the same bits
+    sim.close()
+
+    # A corrupt file is ignored, solved again and rewritten; the result is the same.
+    monkeypatch.undo()
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path))
+    monkeypatch.setattr(simulation, "_KNOTS", {})
+    monkeypatch.setattr(simulation, "_REFERENCES", {})
+    with open(path, "r+b") as f:
+        f.seek(100)
+        f.write(b"\x00" * 64)
+    sim = ToolSimulator()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert _solved_references(sim) == solved
+    sim.close()
+    shape = (knot_times(PlanSpec()).size, 7)
+    assert load_knots(plan_cache_key(PlanSpec()), shape, tmp_path) is not None
+
+
+def test_the_disk_cache_can_be_switched_off(monkeypatch, tmp_path, fresh_memory):
+    monkeypatch.setenv(CACHE_ENV, "")
+    key = plan_cache_key(PlanSpec())
+    assert load_knots(key, (3, 7)) is None
+    assert not store_knots(key, np.zeros((3, 7)))
+    assert os.listdir(tmp_path) == []
