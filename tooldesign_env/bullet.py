@@ -18,7 +18,7 @@ import tempfile
 import uuid
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
-from typing import IO, Any, NamedTuple
+from typing import IO, Any, NamedTuple, cast
 
 import numpy as np
 
@@ -162,7 +162,9 @@ def engine_version() -> str:
     return f"{version} api {pybullet.getAPIVersion()}"
 
 
-def _project(points: np.ndarray, view: tuple, proj: tuple, width: int, height: int) -> np.ndarray:
+def _project(
+    points: np.ndarray, view: tuple[Any, ...], proj: tuple[Any, ...], width: int, height: int
+) -> np.ndarray:
     """Pixel coordinates (T, 2) (column, row) of world points (T, 3) for a PyBullet camera.
 
     Points behind the camera get NaN.
@@ -174,7 +176,9 @@ def _project(points: np.ndarray, view: tuple, proj: tuple, width: int, height: i
     w = clip[:, 3:4]
     with np.errstate(divide="ignore", invalid="ignore"):
         ndc = np.where(w > 0, clip[:, :2] / w, np.nan)
-    return np.c_[(ndc[:, 0] + 1.0) / 2.0 * width, (1.0 - ndc[:, 1]) / 2.0 * height]
+    return cast(
+        "np.ndarray", np.c_[(ndc[:, 0] + 1.0) / 2.0 * width, (1.0 - ndc[:, 1]) / 2.0 * height]
+    )
 
 
 def _draw_polyline(frame: np.ndarray, pixels: np.ndarray, rgb: tuple[int, int, int]) -> None:
@@ -339,7 +343,7 @@ class BulletWorld:
         if not arm_contacts:
             mask = _ALL ^ _STATIC_GROUP ^ _ARM_GROUP
             c.setCollisionFilterGroupMask(body, -1, _STATIC_GROUP, mask)
-        return body
+        return cast("int", body)
 
     def add_box(
         self,
@@ -361,7 +365,7 @@ class BulletWorld:
         orn = c.getQuaternionFromEuler([0.0, 0.0, yaw])
         body = c.createMultiBody(mass, shape, visual, list(position), orn)
         c.changeDynamics(body, -1, lateralFriction=friction)
-        return body
+        return cast("int", body)
 
     def add_marker(self, position: tuple[float, float, float], radius: float = 0.03) -> int:
         """A visual-only sphere (the goal), drawn when rendering; -1 in plain DIRECT mode."""
@@ -371,7 +375,7 @@ class BulletWorld:
         visual = c.createVisualShape(
             pybullet.GEOM_SPHERE, radius=radius, rgbaColor=[0.1, 0.7, 0.2, 0.8]
         )
-        return c.createMultiBody(0.0, -1, visual, list(position))
+        return cast("int", c.createMultiBody(0.0, -1, visual, list(position)))
 
     def load_robot(
         self,
@@ -487,7 +491,7 @@ class BulletWorld:
         self, robot: RobotHandles, q: list[float], qd: list[float], qdd: list[float]
     ) -> tuple[float, ...]:
         """Joint torques (N m) that produce accelerations ``qdd`` at state (q, qd)."""
-        return self._inverse_dynamics(robot.body, q, qd, qdd)
+        return cast("tuple[float, ...]", self._inverse_dynamics(robot.body, q, qd, qdd))
 
     def step_with_torques(self, robot: RobotHandles, torques: list[float], n: int) -> None:
         """Advance ``n`` physics steps, commanding the same joint torques (7,) N m on each.
@@ -537,7 +541,7 @@ class BulletWorld:
         )
         return np.asarray(q[:7], dtype=float)
 
-    def link_pose(self, robot: RobotHandles, link: int) -> tuple[tuple, tuple]:
+    def link_pose(self, robot: RobotHandles, link: int) -> tuple[tuple[Any, ...], tuple[Any, ...]]:
         """World position (m) and quaternion (x, y, z, w) of a link frame."""
         state = self._link_state(robot.body, link, computeForwardKinematics=1)
         return state[4], state[5]
@@ -545,21 +549,21 @@ class BulletWorld:
     # ------------------------------------------------------------ the box etc
     def body_position(self, body: int) -> tuple[float, float, float]:
         """World position of a body's base, m."""
-        return self._base_pose(body)[0]
+        return cast("tuple[float, float, float]", self._base_pose(body)[0])
 
     def box_velocity(self, body: int) -> tuple[float, float, float]:
         """World linear velocity of a body's base, m/s."""
-        return self._base_velocity(body)[0]
+        return cast("tuple[float, float, float]", self._base_velocity(body)[0])
 
-    def body_pose(self, body: int) -> tuple[tuple, tuple]:
+    def body_pose(self, body: int) -> tuple[tuple[Any, ...], tuple[Any, ...]]:
         """World position (m) and quaternion of a body's base."""
-        return self._base_pose(body)
+        return cast("tuple[tuple[Any, ...], tuple[Any, ...]]", self._base_pose(body))
 
     def in_contact(self, body_a: int, body_b: int, link_b: int) -> bool:
         """Whether body A touches link ``link_b`` of body B after the last step."""
         return len(self._contacts(body_a, body_b, -1, link_b)) > 0
 
-    def contact_points(self, body_a: int, body_b: int, link_b: int) -> list[tuple]:
+    def contact_points(self, body_a: int, body_b: int, link_b: int) -> list[tuple[Any, ...]]:
         """The contact manifold between body A and link ``link_b`` of body B after the last step.
 
         Each entry is ``(point on B (3,) m, normal on B (3,) pointing toward A)`` in the world
@@ -567,7 +571,9 @@ class BulletWorld:
         """
         return [(c[6], c[7]) for c in self._contacts(body_a, body_b, -1, link_b)]
 
-    def link_com_pose(self, robot: RobotHandles, link: int) -> tuple[tuple, tuple]:
+    def link_com_pose(
+        self, robot: RobotHandles, link: int
+    ) -> tuple[tuple[Any, ...], tuple[Any, ...]]:
         """World position (m) and quaternion of a link's centre-of-mass (inertial) frame."""
         state = self._link_state(robot.body, link, computeForwardKinematics=1)
         return state[0], state[1]
@@ -619,7 +625,7 @@ class BulletWorld:
         """Snapshot the whole world in memory; returns an id for ``restore_state``."""
         sid = self.client.saveState()
         self._states.append(sid)
-        return sid
+        return cast("int", sid)
 
     def restore_state(self, state_id: int) -> None:
         """Return the world to a snapshot (PyBullet's restore is not exact while in contact)."""
@@ -693,7 +699,7 @@ class BulletWorld:
         frame = np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)[:, :, :3].copy()
         if path is not None and len(path) > 0:
             _draw_polyline(frame, _project(path, view, proj, width, height), (30, 80, 220))
-        return frame
+        return cast("np.ndarray", frame)
 
     def close(self) -> None:
         """Disconnect; safe to call more than once."""

@@ -14,7 +14,7 @@ import itertools
 import math
 from collections.abc import Iterator
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -309,7 +309,9 @@ class ToolSimulator:
         world.reset()
         arm = world.load_robot(panda_urdf_with_tool(None, visuals=False))
 
-        def solve(position: np.ndarray, quaternion: tuple, seed: np.ndarray) -> np.ndarray:
+        def solve(
+            position: np.ndarray, quaternion: tuple[Any, ...], seed: np.ndarray
+        ) -> np.ndarray:
             world.set_joint_positions(arm, seed)
             return world.inverse_kinematics(
                 arm,
@@ -645,7 +647,7 @@ class ToolSimulator:
             key = np.asarray(offsets, dtype=float).tobytes() + horizon.to_bytes(4, "little")
             if key not in snaps.rest_responses:
                 snaps.rest_responses[key] = self._replay(snaps.rest_from, horizon, offsets)
-            return snaps.rest_responses[key].copy()
+            return cast("np.ndarray", snaps.rest_responses[key].copy())
         if snaps is None or k not in snaps.ids:
             raise ValueError(f"no snapshot at control step {k}: roll out with snapshot_every first")
         return self._replay(k, horizon, offsets)
@@ -699,7 +701,7 @@ def _gc_paused() -> Iterator[None]:
             gc.enable()
 
 
-def _tool_yaw(ee_orientation: tuple) -> float:
+def _tool_yaw(ee_orientation: tuple[Any, ...]) -> float:
     """Yaw of the tool frame from the end-effector quaternion (x, y, z, w).
 
     The tool frame is the end-effector frame turned by Rx(pi); its x axis is the end effector's.
