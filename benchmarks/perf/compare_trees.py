@@ -26,7 +26,7 @@ SCRIPT = Path(__file__).with_name("evaluation_speed.py")
 FIGURES = (
     ("evaluation (env.step), median s", r"evaluation of F \(env.step\):\s+median ([0-9.]+)"),
     ("build, median s", r"build world .*median ([0-9.]+)"),
-    ("rollout + contact log, median s", r"controlled rollout .*median ([0-9.]+)"),
+    ("rollout + contact log, median s", r"controlled rollout \+ contact log:\s+median ([0-9.]+)"),
     ("objective, median s", r"objective \(mobility.*median ([0-9.]+)"),
     ("floor, median s", r"floor \(build .*median ([0-9.]+) s"),
     ("us per physics step (floor)", r"s, ([0-9.]+) us per physics step"),
@@ -60,9 +60,13 @@ def main() -> None:
     parser.add_argument("before", type=Path, help="source tree measured as 'before'")
     parser.add_argument("after", type=Path, help="source tree measured as 'after'")
     parser.add_argument("--rounds", type=int, default=3)
-    parser.add_argument("rest", nargs=argparse.REMAINDER, help="-- arguments of the script")
-    args = parser.parse_args()
-    extra = args.rest[1:] if args.rest[:1] == ["--"] else args.rest
+    parser.usage = "%(prog)s before after [--rounds N] [-- arguments of evaluation_speed.py]"
+    argv = sys.argv[1:]
+    cut = argv.index("--") if "--" in argv else len(argv)
+    args = parser.parse_args(argv[:cut])
+    extra = argv[cut + 1 :]
+    if args.rounds < 1:
+        parser.error(f"--rounds must be >= 1, got {args.rounds}")
     trees = {"before": args.before.resolve(), "after": args.after.resolve()}
     for name, tree in trees.items():
         if not (tree / "tooldesign_env" / "__init__.py").is_file():

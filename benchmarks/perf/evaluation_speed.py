@@ -65,6 +65,9 @@ def first_evaluation(cache_dir: str) -> float:
     out = subprocess.run(
         [sys.executable, "-c", _FIRST_EVALUATION],
         env=env,
+        # `python -c` puts the working folder first on sys.path: run it where there is no
+        # package, so PYTHONPATH decides which tooldesign_env is measured.
+        cwd=cache_dir,
         check=True,
         capture_output=True,
         text=True,
