@@ -16,7 +16,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
-from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector import VectorEnv
 
 from tooldesign_env.env import GOAL_HIGH, GOAL_LOW, WORKSPACE_HIGH, WORKSPACE_LOW, ToolDesignEnv
 from tooldesign_env.specs import BOX_MASS_MAX, TaskSpec
@@ -357,6 +357,10 @@ def make_rl_vector_env(
         raise ValueError(
             f"vectorization_mode must be 'async' or 'sync', got {vectorization_mode!r}"
         )
+    # AutoresetMode exists from Gymnasium 1.1 (the `rl` extra asks for it); the env itself
+    # works with 1.0, so it is imported only here.
+    from gymnasium.vector import AutoresetMode
+
     vector_kwargs: dict[str, Any] = {"autoreset_mode": AutoresetMode.SAME_STEP}
     if vectorization_mode == "async" and context is not None:
         vector_kwargs["context"] = context
