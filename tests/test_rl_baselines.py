@@ -240,3 +240,23 @@ def test_bad_policy_cards_and_goals_raise(tmp_path):
         save_policy(policy, "dqn", tmp_path / "d.json", config=config, train_episodes=1)
     with pytest.raises(TypeError, match="Stable-Baselines3"):
         save_policy(policy, "ppo", tmp_path / "e.json", config=config, train_episodes=1)
+
+
+def test_held_out_budgets_include_one_and_the_equal_total():
+    from benchmarks.rl.suite import _held_out_budgets
+
+    size = SIZES["short"]
+    budgets = _held_out_budgets(size)
+    equal = -(-size.train_episodes // size.held_out_goals) + 1
+    assert budgets[0] == 1 and equal in budgets and set(size.budgets) <= set(budgets)
+    # At the equal budget, CMA-ES spends as many episodes as a trained policy tried once per goal.
+    assert equal * size.held_out_goals >= size.train_episodes + size.held_out_goals
+
+
+def test_bad_probe_arguments_raise():
+    from benchmarks.rl.tuning import probe
+
+    with pytest.raises(ValueError, match="method"):
+        probe("dqn", episodes=2, seed=0)
+    with pytest.raises(ValueError, match="overrides"):
+        probe("ppo", episodes=2, seed=0, overrides={"no_such_field": 1})

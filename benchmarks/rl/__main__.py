@@ -1,6 +1,7 @@
 """``python -m benchmarks.rl``: the thin command line of the RL baselines.
 
     python -m benchmarks.rl suite --size smoke --out runs/rl-smoke
+    python -m benchmarks.rl probe ppo --episodes 256 --seed 0 --set '{"log_std_init": -2.0}'
     python -m benchmarks.rl design --policy docs/results/rl/policies/contextual.json \
         --goal 0.2 1.0 0.1
 
@@ -33,6 +34,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         choices=("random", "cmaes", "ppo", "sac"),
         default=["random", "cmaes", "ppo", "sac"],
     )
+    tune = commands.add_parser("probe", help="one tuning probe at the default goal")
+    tune.add_argument("method", choices=("random", "cmaes", "ppo", "sac"))
+    tune.add_argument("--episodes", type=int, default=256)
+    tune.add_argument("--seed", type=int, default=0)
+    tune.add_argument("--set", default="{}", help="config fields as JSON, e.g. '{\"n_steps\": 16}'")
     design = commands.add_parser("design", help="design a tool for a goal with a saved policy")
     design.add_argument("--policy", required=True, help="a policy card (.json)")
     design.add_argument("--goal", type=float, nargs=3, required=True, metavar=("X", "Y", "Z"))
@@ -52,6 +58,14 @@ def main(argv: Sequence[str] | None = None) -> int:
             progress=lambda line: print(line, flush=True),
         )
         print(f"wrote {args.out} in {summary['wall_time_s']} s")
+        return 0
+    if args.command == "probe":
+        from benchmarks.rl.tuning import probe
+
+        report = probe(
+            args.method, episodes=args.episodes, seed=args.seed, overrides=json.loads(args.set)
+        )
+        print(json.dumps(report), flush=True)
         return 0
     from benchmarks.rl.policies import design_for_goal
 

@@ -107,7 +107,8 @@ class SuiteSize:
             runs: ``contextual_goals`` goals of ``train_episodes / contextual_goals`` each).
         contextual_goals: training goals of the contextual method.
         held_out_goals: goals the trained policies are tested on, zero-shot.
-        budgets: episodes per held-out goal at which CMA-ES and random sampling are read.
+        budgets: episodes per held-out goal at which CMA-ES and random sampling are read
+            (1, and the budget of equal total episodes with a trained policy, are added).
         popsize: CMA-ES population size (held-out runs and the contextual method).
         overrides: per-method config fields replaced for this size (the smoke size's tiny
             rollouts), as ``(method, field, value)``.
@@ -144,7 +145,7 @@ SIZES: dict[str, SuiteSize] = {
             ("sac", "batch_size", 4),
         ),
     ),
-    # What docs/rl.md reports: what fits in about an hour on one core.
+    # What docs/rl.md reports: about 5,500 episodes, what fitted the time on a shared machine.
     "short": SuiteSize(
         name="short",
         seeds=3,
@@ -152,7 +153,7 @@ SIZES: dict[str, SuiteSize] = {
         fixed_episodes=256,
         train_episodes=256,
         contextual_goals=8,
-        held_out_goals=6,
+        held_out_goals=8,
         budgets=(50, 100),
     ),
     # The issue's size: 10 seeds of 1,024 episodes, 20 held-out goals, budgets 50/100/200
@@ -450,7 +451,8 @@ def _task_part(
                 f"task {method} seed {seed}: trained on {spent} episodes ({time.time() - t0:.0f} s)"
             )
             write_csv(out / "held_out.csv", HELD_OUT_COLUMNS, rows)
-    budget = max(suite.budgets)
+    budgets = _held_out_budgets(suite)
+    budget = max(budgets)
     for i, goal in enumerate(goals):
         for method in ("cmaes", "random"):
             seed = _seeds(ROOT_SEED, n_goals, 2 if method == "cmaes" else 3)[i]
@@ -460,13 +462,25 @@ def _task_part(
                 )
             else:
                 records = run_random(total_episodes=budget, seed=seed, goal=goal, env=env)
-            for b in suite.budgets:
+            for b in budgets:
                 best = min(records[:b], key=lambda r: r.free_energy)
                 rows.append(_held_row(method, seed, i, best, budget=b, train=0, n_goals=n_goals))
-        say(f"held-out goal {i + 1}/{n_goals}: CMA-ES and random at {suite.budgets}")
+        say(f"held-out goal {i + 1}/{n_goals}: CMA-ES and random at {budgets}")
         write_csv(out / "held_out.csv", HELD_OUT_COLUMNS, rows)
     env.close()
     return _summarize_held_out(rows, goals, train_cost)
+
+
+def _held_out_budgets(suite: SuiteSize) -> tuple[int, ...]:
+    """The size's budgets, plus 1 and the budget whose total equals a trained policy's.
+
+    A policy trained on ``train_episodes`` and tried once on each of n goals spends
+    ``train_episodes + n`` episodes: CMA-ES and random sampling get the same total at
+    ``ceil(train_episodes / n) + 1`` episodes per goal.
+    """
+    n = suite.held_out_goals
+    equal = -(-suite.train_episodes // n) + 1
+    return tuple(sorted({1, equal, *suite.budgets}))
 
 
 def _summarize_held_out(
