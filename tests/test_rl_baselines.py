@@ -260,3 +260,24 @@ def test_bad_probe_arguments_raise():
         probe("dqn", episodes=2, seed=0)
     with pytest.raises(ValueError, match="overrides"):
         probe("ppo", episodes=2, seed=0, overrides={"no_such_field": 1})
+
+
+@pytest.mark.slow
+def test_the_report_reads_a_stored_run(smoke, tmp_path):
+    from benchmarks.rl.report import held_out_table, plot_fixed_goal
+
+    png = plot_fixed_goal(smoke, tmp_path / "f.png")
+    assert png.stat().st_size > 1000
+    table = held_out_table(smoke)
+    straight = next(t for t in table if t["approach"] == "straight")
+    assert straight["median_F_over_straight"] == 1.0 and straight["total_episodes"] == 2
+    assert {t["approach"] for t in table} >= {"ppo", "sac", "contextual", "cmaes@1"}
+
+
+def test_the_report_names_a_missing_run(tmp_path):
+    from benchmarks.rl.report import held_out_table, plot_fixed_goal
+
+    with pytest.raises(FileNotFoundError, match="run the rl suite"):
+        plot_fixed_goal(tmp_path)
+    with pytest.raises(FileNotFoundError, match="run the rl suite"):
+        held_out_table(tmp_path)

@@ -27,9 +27,18 @@ from benchmarks.rl.configs import (
     default_config,
     load_config,
 )
+from benchmarks.rl.policies import DesignResult, design_for_goal, load_policy, save_policy
+from benchmarks.rl.suite import SIZES, SuiteSize, run_rl_suite
 
 __all__ = [
+    "SIZES",
     "ContextualConfig",
+    "DesignResult",
+    "SuiteSize",
+    "design_for_goal",
+    "load_policy",
+    "run_rl_suite",
+    "save_policy",
     "ContextualPolicy",
     "EpisodeLog",
     "EpisodeRecord",
