@@ -281,3 +281,18 @@ def test_the_report_names_a_missing_run(tmp_path):
         plot_fixed_goal(tmp_path)
     with pytest.raises(FileNotFoundError, match="run the rl suite"):
         held_out_table(tmp_path)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("method", ["ppo", "sac"])
+def test_same_seed_same_training(method):
+    if method == "ppo":
+        config, train = PPOConfig(n_steps=4, batch_size=4), train_ppo
+    else:
+        config, train = SACConfig(learning_starts=2, batch_size=2), train_sac
+    a = train(config, total_episodes=6, seed=7, randomize_goal=True)
+    b = train(config, total_episodes=6, seed=7, randomize_goal=True)
+    assert len(a.records) >= 6
+    assert [r.action for r in a.records] == [r.action for r in b.records]
+    assert [r.free_energy for r in a.records] == [r.free_energy for r in b.records]
+    assert len({r.goal for r in a.records}) == len(a.records)  # random goals, all different

@@ -23,7 +23,6 @@ __all__ = [
     "ContextualPolicy",
     "EpisodeLog",
     "EpisodeRecord",
-    "Policy",
     "evaluate_design",
     "make_env",
     "run_cmaes",
@@ -419,14 +418,6 @@ def train_contextual(
     env.close()
     policy = ContextualPolicy(goals, best, bandwidth=config.bandwidth, mode=config.mode)
     return Trained(policy, records)
-
-
-class Policy:
-    """Anything with ``predict(observation, deterministic=True) -> (action, state)``."""
-
-    def predict(self, observation: Any, deterministic: bool = True) -> tuple[np.ndarray, Any]:
-        """The action for ``observation``."""
-        raise NotImplementedError
 
 
 def evaluate_design(
