@@ -66,10 +66,12 @@ __all__ = [
 ]
 
 ENV_ID = "ToolDesign-v0"
+#: The same problem with the interface RL libraries expect (``tooldesign_env.rl``, docs/rl.md).
+RL_ENV_ID = "ToolDesignRL-v0"
 
 
 def register_envs() -> None:
-    """Register ``ToolDesign-v0`` with Gymnasium (idempotent)."""
+    """Register ``ToolDesign-v0`` and ``ToolDesignRL-v0`` with Gymnasium (idempotent)."""
     if ENV_ID not in registry:
         register(
             id=ENV_ID,
@@ -77,6 +79,9 @@ def register_envs() -> None:
             # TimeLimit would also flag that step as truncated.
             entry_point="tooldesign_env.env:ToolDesignEnv",
         )
+    if RL_ENV_ID not in registry:
+        # Imported lazily by Gymnasium: importing the package stays as cheap as before.
+        register(id=RL_ENV_ID, entry_point="tooldesign_env.rl:ToolDesignRLEnv")
 
 
 register_envs()

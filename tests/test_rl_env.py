@@ -1,0 +1,239 @@
+"""ToolDesignRL-v0: spaces, task observation, normalized reward, vector-env recipe, bad input."""
+
+from __future__ import annotations
+
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env as gym_check_env
+
+import tooldesign_env  # noqa: F401  (registers the ids)
+from tooldesign_env.env import GOAL_HIGH, GOAL_LOW
+from tooldesign_env.rl import REWARD_FLOOR, RL_ENV_ID, ToolDesignRLEnv, make_rl_vector_env
+
+HOOK = np.array([1.0, -1.0, 0.3])  # physical coefficients, inside the default bounds
+STRAIGHT = np.zeros(3)
+
+
+@pytest.fixture(scope="module")
+def env() -> ToolDesignRLEnv:
+    e = ToolDesignRLEnv()
+    yield e
+    e.close()
+
+
+def test_make_with_no_arguments_gives_the_rl_interface():
+    e = gym.make(RL_ENV_ID)
+    assert e.action_space == gym.spaces.Box(-1.0, 1.0, (3,), np.float32)
+    assert e.observation_space.dtype == np.float32 and e.observation_space.shape == (4,)
+    obs, info = e.reset(seed=0)
+    np.testing.assert_array_equal(obs, np.array([0.0, 1.5, 0.1, 0.1], dtype=np.float32))
+    assert obs in e.observation_space
+    assert info["box_mass"] == 0.1
+    e.close()
+
+
+def test_the_default_env_is_unchanged():
+    e = gym.make("ToolDesign-v0")
+    assert e.action_space.dtype == np.float64
+    np.testing.assert_array_equal(e.action_space.high, [1.5, 1.5, 0.5])
+    assert e.observation_space.shape == (3,)
+    e.close()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("kwargs", [{}, {"randomize_goal": True, "mass_range": (0.1, 0.9)}])
+def test_both_checkers_pass_with_no_warning_and_no_skip(kwargs):
+    from stable_baselines3.common.env_checker import check_env as sb3_check_env
+
+    e = gym.make(RL_ENV_ID, **kwargs)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        gym_check_env(e.unwrapped)  # render check included: rgb_array is headless
+        sb3_check_env(e.unwrapped, warn=True)
+    e.close()
+
+
+def test_actions_map_onto_the_coefficient_bounds(env):
+    np.testing.assert_array_equal(env.to_coefficients([-1, -1, -1]), [-1.5, -1.5, -0.5])
+    np.testing.assert_array_equal(env.to_coefficients([1, 1, 1]), [1.5, 1.5, 0.5])
+    np.testing.assert_array_equal(env.to_coefficients([0, 0, 0]), STRAIGHT)
+    np.testing.assert_allclose(env.to_coefficients(env.to_action(HOOK)), HOOK, atol=1e-6)
+
+
+def test_the_observation_is_the_task():
+    e = ToolDesignRLEnv(randomize_goal=True, mass_range=(0.2, 0.8))
+    seen = []
+    for seed in range(5):
+        obs, info = e.reset(seed=seed)
+        assert obs in e.observation_space
+        np.testing.assert_allclose(obs[:3], info["goal"], rtol=1e-6)
+        assert obs[3] == pytest.approx(info["box_mass"], rel=1e-6)
+        assert np.all(obs[:3] >= np.asarray(GOAL_LOW, np.float32))
+        assert np.all(obs[:3] <= np.asarray(GOAL_HIGH, np.float32))
+        assert 0.2 <= info["box_mass"] <= 0.8
+        seen.append(obs)
+    assert len({tuple(o) for o in seen}) == 5  # the task changes from episode to episode
+    obs, _ = e.reset(options={"goal": (0.3, 1.0, 0.1), "box_mass": 0.5})
+    np.testing.assert_allclose(obs, [0.3, 1.0, 0.1, 0.5], rtol=1e-6)
+    e.close()
+
+
+def test_same_seed_same_tasks():
+    a, b = ToolDesignRLEnv(randomize_goal=True), ToolDesignRLEnv(randomize_goal=True)
+    a.reset(seed=3)
+    b.reset(seed=3)
+    for _ in range(3):
+        np.testing.assert_array_equal(a.reset()[0], b.reset()[0])
+    a.close()
+    b.close()
+
+
+def test_idle_free_energy_is_the_goal_error_of_a_box_left_in_place(env):
+    env.reset(options={"goal": (0.0, 1.5, 0.1)})
+    start = np.array([1.35 * np.cos(np.pi / 6), 1.35 * np.sin(np.pi / 6), 0.1])
+    steps = len(env.base.simulator.reference.times)
+    expected = steps * 0.5 * 20.0 * float(np.sum((start - [0.0, 1.5, 0.1]) ** 2))
+    assert env.idle_free_energy() == pytest.approx(expected, rel=1e-3)
+
+
+@pytest.mark.slow
+def test_the_normalized_reward_is_one_minus_f_over_f_idle_and_f_is_unchanged():
+    rl = ToolDesignRLEnv(reward="normalized")
+    raw = ToolDesignRLEnv(reward="free-energy")
+    base = gym.make("ToolDesign-v0")
+    for goal in [(0.0, 1.5, 0.1), (-0.4, 0.6, 0.1)]:
+        rl.reset(options={"goal": goal})
+        raw.reset(options={"goal": goal})
+        base.reset(options={"goal": goal})
+        action = rl.to_action(HOOK)
+        _, reward, terminated, truncated, info = rl.step(action)
+        _, raw_reward, *_ = raw.step(action)
+        _, base_reward, *_ = base.step(rl.to_coefficients(action))
+        assert terminated and not truncated
+        assert raw_reward == base_reward == -info["free_energy"]  # same simulation, same floats
+        assert reward == pytest.approx(1.0 - info["free_energy"] / info["idle_free_energy"])
+        assert reward == info["normalized_reward"]
+        assert info["idle_free_energy"] > 0 and "box_trajectory" not in info
+    for e in (rl, raw, base):
+        e.close()
+
+
+def test_an_unusable_design_gets_the_floor_not_a_huge_penalty():
+    e = ToolDesignRLEnv(bounds=[(-10, 10)] * 3, full_info=True)
+    e.reset(seed=0)
+    # y = 4.35 u^2 overlaps the box at the start of the sweep (see test_env.py).
+    _, reward, *_, info = e.step(e.to_action((0.0, 4.35, 0.0)))
+    assert info["valid"] is False and reward == REWARD_FLOOR
+    assert info["box_trajectory"].shape == (0, 3)  # full_info keeps the base env's arrays
+    e.close()
+
+
+def test_rgb_array_renders_headless():
+    e = gym.make(RL_ENV_ID, render_mode="rgb_array")
+    e.reset(seed=0)
+    frame = e.render()
+    assert isinstance(frame, np.ndarray) and frame.dtype == np.uint8 and frame.shape[2] == 3
+    e.close()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("mode", ["sync", "async"])
+def test_the_vector_recipe_resets_in_the_same_step(mode):
+    envs = make_rl_vector_env(2, vectorization_mode=mode, randomize_goal=True)
+    try:
+        obs, _ = envs.reset(seed=0)
+        actions = np.array([[0.0, 0.0, 0.0], [0.5, -0.5, 0.5]], dtype=np.float32)
+        for _ in range(2):
+            next_obs, rewards, terminated, truncated, infos = envs.step(actions)
+            assert terminated.all() and not truncated.any()
+            # Every step is a real episode: a simulated tool, not the autoreset's empty step.
+            final = infos["final_info"]  # the ended episode's info; infos is the reset's
+            assert np.all(rewards != 0.0) and np.all(np.isfinite(final["free_energy"]))
+            np.testing.assert_allclose(-rewards, 0.0, atol=2.0)  # normalized, not -F
+            np.testing.assert_array_equal(infos["final_obs"][0], obs[0])
+            assert not np.array_equal(next_obs, obs)  # the next episode's task
+            obs = next_obs
+    finally:
+        envs.close()
+
+
+@pytest.mark.slow
+def test_next_step_autoreset_loses_every_second_step():
+    # The trap the recipe avoids, kept as a test so the docs' claim stays true.
+    envs = gym.make_vec(RL_ENV_ID, num_envs=1, vectorization_mode="sync")
+    envs.reset(seed=0)
+    rewards = [float(envs.step(np.zeros((1, 3), np.float32))[1][0]) for _ in range(2)]
+    assert rewards[0] != 0.0 and rewards[1] == 0.0
+    envs.close()
+
+
+# ------------------------------------------------------------------ bad input
+@pytest.mark.parametrize(
+    ("kwargs", "error", "match"),
+    [
+        ({"render_mode": "human"}, ValueError, "render_mode"),
+        ({"reward": "raw"}, ValueError, "reward must be"),
+        ({"randomize_goal": "yes"}, TypeError, "randomize_goal"),
+        ({"full_info": 1}, TypeError, "full_info"),
+        ({"mass_range": (0.9, 0.1)}, ValueError, "mass_range"),
+        ({"mass_range": (0.0, 0.5)}, ValueError, "mass_range"),
+        ({"mass_range": "light"}, TypeError, "mass_range"),
+        ({"mass_range": (0.1, float("nan"))}, ValueError, "mass_range"),
+        ({"goal_range": ((0, 1, 0.1), (0, 0.5, 0.1))}, ValueError, "goal_range"),
+        ({"goal_range": ((0, 1, 0.1), (9, 1, 0.1))}, ValueError, "goal_range"),
+        ({"goal_range": 3}, TypeError, "goal_range"),
+        ({"goal_precision": 0.0}, ValueError, "reward='free-energy'"),
+        ({"no_such_option": 1}, TypeError, "no_such_option"),
+    ],
+)
+def test_bad_arguments_raise_clear_errors(kwargs, error, match):
+    with pytest.raises(error, match=match):
+        ToolDesignRLEnv(**kwargs)
+
+
+@pytest.mark.parametrize(
+    ("action", "error"),
+    [
+        ([0.0, 0.0], ValueError),
+        ([np.nan, 0.0, 0.0], ValueError),
+        ([1.5, 0.0, 0.0], ValueError),
+        ("straight", TypeError),
+        ([None, 0.0, 0.0], ValueError),
+        ([[0.0, 0.0, 0.0]], ValueError),
+    ],
+)
+def test_bad_actions_raise_clear_errors(env, action, error):
+    env.reset(seed=0)
+    with pytest.raises(error, match="action"):
+        env.step(action)
+
+
+@pytest.mark.parametrize(
+    ("options", "error"),
+    [
+        ({"goal": (9.0, 1.5, 0.1)}, ValueError),
+        ({"box_mass": -1.0}, ValueError),
+        ({"box_mass": "heavy"}, TypeError),
+        ({"seed": 1}, ValueError),
+    ],
+)
+def test_bad_reset_options_raise_clear_errors(env, options, error):
+    with pytest.raises(error):
+        env.reset(options=options)
+
+
+@pytest.mark.parametrize(
+    ("args", "kwargs", "error"),
+    [
+        ((0,), {}, ValueError),
+        ((1.5,), {}, TypeError),
+        ((True,), {}, TypeError),
+        ((2,), {"vectorization_mode": "threads"}, ValueError),
+    ],
+)
+def test_bad_vector_arguments_raise_clear_errors(args, kwargs, error):
+    with pytest.raises(error, match="num_envs|vectorization_mode"):
+        make_rl_vector_env(*args, **kwargs)

@@ -1,0 +1,373 @@
+"""``ToolDesignRL-v0``: the tool-design problem with the interface RL libraries expect.
+
+``ToolDesign-v0`` is made for optimizers: its action is the physical coefficient vector and its
+reward is -F, whose scale (about -2,000 to -30,000) depends on the goal. This module wraps the same
+simulation for RL agents: a [-1, 1] float32 action, the task (goal and box mass) as a float32
+observation, a reward normalized per task, and :func:`make_rl_vector_env`, the vector-env recipe
+with the autoreset mode a one-step env needs. Nothing here changes ``ToolDesign-v0``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+from gymnasium.vector import VectorEnv
+
+from tooldesign_env.env import GOAL_HIGH, GOAL_LOW, WORKSPACE_HIGH, WORKSPACE_LOW, ToolDesignEnv
+from tooldesign_env.specs import BOX_MASS_MAX, TaskSpec
+
+__all__ = [
+    "REWARD_FLOOR",
+    "RL_ENV_ID",
+    "ToolDesignRLEnv",
+    "make_rl_vector_env",
+]
+
+RL_ENV_ID = "ToolDesignRL-v0"
+
+#: Lowest normalized reward: 1 - F / F_idle is clipped here. Only unusable designs (invalid,
+#: scored F_idle + 1e5) reach it; 39 valid random designs on 40 random goals scored -0.24 to 0.79.
+REWARD_FLOOR = -1.0
+
+#: Keys of the base env's ``info`` kept by default: the scalars (the per-step arrays are large
+#: and would be pickled through every worker's pipe of an async vector env).
+_SCALAR_INFO = (
+    "free_energy",
+    "goal_error",
+    "confidence",
+    "penalty",
+    "final_distance",
+    "valid",
+    "invalid_reason",
+    "coefficients",
+    "goal",
+    "box_mass",
+    "tool_mass",
+)
+
+
+def _check_range(value: Any, name: str, low: float, high: float, unit: str) -> tuple[float, float]:
+    """``value`` as a (lo, hi) pair of finite floats with low <= lo <= hi <= high."""
+    if (
+        isinstance(value, (str, bytes))
+        or not isinstance(value, Sequence)
+        or len(value) != 2
+        or any(isinstance(v, bool) or not isinstance(v, (int, float, np.number)) for v in value)
+    ):
+        raise TypeError(f"{name} must be a pair (low, high) of numbers in {unit}, got {value!r}")
+    lo, hi = float(value[0]), float(value[1])
+    if not (math.isfinite(lo) and math.isfinite(hi) and low <= lo <= hi <= high):
+        raise ValueError(
+            f"{name} must satisfy {low:g} <= low <= high <= {high:g} ({unit}), got {value!r}"
+        )
+    return lo, hi
+
+
+class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
+    """``ToolDesign-v0`` for RL agents: normalized action, task observation, per-task reward.
+
+    ## Description
+
+    The same one-step problem as ``ToolDesign-v0`` (see ``docs/model.md``): one action is one
+    tool, the Panda uses it on the box, and the episode ends. Each episode is a contextual bandit
+    whose context, the task, is the observation. See ``docs/rl.md``.
+
+    ## Action Space
+
+    ``Box(-1, 1, (3,), float32)``, mapped affinely onto the coefficient bounds of the base env
+    (default c1, c2 in [-1.5, 1.5], c3 in [-0.5, 0.5]): -1 is the lower bound, 1 the upper one.
+    Actions that are not finite, have the wrong shape, or lie outside [-1, 1] raise
+    ``ValueError`` / ``TypeError`` (SB3 clips its agents' actions to the box before a step).
+
+    ## Observation Space
+
+    ``Box(float32)`` of shape (4,): the goal X^g = (x, y, z) in m (within x, y in [-2.5, 2.5],
+    z in [0, 1]) and the box mass in kg (within (0, 1000]). The observation is the whole task:
+    the starting scene is otherwise fixed.
+
+    ## Rewards
+
+    With ``reward="normalized"`` (the default) the reward is ``1 - F / F_idle``, clipped below at
+    ``REWARD_FLOOR`` = -1, where F_idle = T * 1/2 p^X |X_start - X^g|^2 is the free energy of
+    leaving the box where it is for the T control steps of the episode, at this goal. 0 means
+    "no better than not touching the box", 1 means "goal error and confidence cancel", and the
+    scale is the same at every goal. Only unusable designs (F = F_idle + 1e5) reach the floor.
+    ``reward="free-energy"`` gives -F as ``ToolDesign-v0`` does. ``info`` holds ``free_energy``,
+    ``idle_free_energy``, ``normalized_reward`` and the base env's scalar terms
+    (``goal_error``, ``confidence``, ``penalty``, ``final_distance``, ``valid``, ...), and with
+    ``full_info=True`` also its per-step arrays.
+
+    ## Starting State
+
+    The box rests at radius 1.35 m, 30 degrees from the robot's x axis. The goal is ``goal``, or
+    with ``randomize_goal=True`` uniform in ``goal_range`` (default the paper's x in [-0.5, 0.5],
+    y in [0.5, 1.5], z = 0.1 m); the box mass is ``box_mass`` (default 0.1 kg), or with
+    ``mass_range=(low, high)`` uniform in it. Both are drawn from ``self.np_random``.
+
+    ## Episode End
+
+    Every episode ends after its one step (``terminated=True``, ``truncated=False``). A vector env
+    must therefore reset in the same step: use :func:`make_rl_vector_env`, or
+    ``vector_kwargs={"autoreset_mode": AutoresetMode.SAME_STEP}``. (Gymnasium's default,
+    next-step autoreset, returns a reward of 0 on every second step of a one-step env.)
+
+    ## Arguments
+
+    ``gym.make("ToolDesignRL-v0", goal=(0, 1.5, 0.1), randomize_goal=False, goal_range=None,
+    box_mass=None, mass_range=None, reward="normalized", full_info=False, render_mode=None,
+    **base_kwargs)``; ``base_kwargs`` go to ``ToolDesign-v0`` (``goal_precision``,
+    ``estimator``, ``objective_kind``, ``bounds``, ``tool``, ``scene``, ``plan``, ``controller``,
+    ``objective``). ``reset(options={"goal": (x, y, z), "box_mass": m})`` sets one episode's
+    task. ``render_mode="rgb_array"`` renders headless as ``ToolDesign-v0`` does; ``"human"``
+    is not offered (it needs a display).
+
+    ## Version History
+
+    * v0: the initial version.
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 4}
+
+    def __init__(
+        self,
+        *,
+        goal: Sequence[float] = TaskSpec().goal,
+        randomize_goal: bool = False,
+        goal_range: tuple[Sequence[float], Sequence[float]] | None = None,
+        box_mass: float | None = None,
+        mass_range: tuple[float, float] | None = None,
+        reward: str = "normalized",
+        full_info: bool = False,
+        render_mode: str | None = None,
+        **base_kwargs: Any,
+    ) -> None:
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(
+                f"render_mode must be None or one of {self.metadata['render_modes']}, "
+                f"got {render_mode!r}"
+            )
+        if reward not in ("normalized", "free-energy"):
+            raise ValueError(f"reward must be 'normalized' or 'free-energy', got {reward!r}")
+        for name, flag in (("randomize_goal", randomize_goal), ("full_info", full_info)):
+            if not isinstance(flag, (bool, np.bool_)):
+                raise TypeError(f"{name} must be True or False, got {flag!r}")
+        self.base = ToolDesignEnv(
+            goal=goal, box_mass=box_mass, render_mode=render_mode, **base_kwargs
+        )
+        if reward == "normalized" and self.base.objective.goal_precision <= 0:
+            raise ValueError(
+                "reward='normalized' divides by the idle goal error, which is 0 at "
+                f"goal_precision={self.base.objective.goal_precision!r}; use "
+                "reward='free-energy' for pure confidence"
+            )
+        self.reward_kind = reward
+        self.full_info = bool(full_info)
+        self.randomize_goal = bool(randomize_goal)
+        if goal_range is None:
+            self.goal_range = (np.asarray(GOAL_LOW, float), np.asarray(GOAL_HIGH, float))
+        else:
+            self.goal_range = self._check_goal_range(goal_range)
+        self.mass_range = (
+            None
+            if mass_range is None
+            else _check_range(mass_range, "mass_range", 1e-6, BOX_MASS_MAX, "kg")
+        )
+        self.render_mode = render_mode
+
+        base_space = self.base.action_space
+        assert isinstance(base_space, spaces.Box)
+        bounds = np.stack([base_space.low, base_space.high], axis=1)
+        self.coefficient_bounds = bounds.astype(np.float64)
+        degree = int(bounds.shape[0])
+        self._degree = degree
+        self.action_space = spaces.Box(-1.0, 1.0, (degree,), dtype=np.float32)
+        low = np.array([*WORKSPACE_LOW, 0.0], dtype=np.float32)
+        high = np.array([*WORKSPACE_HIGH, BOX_MASS_MAX], dtype=np.float32)
+        self.observation_space = spaces.Box(low, high, dtype=np.float32)
+        self._goal = np.asarray(self.base.task.goal, dtype=float)
+        self._mass = float(self.base.simulator.scene.box_mass)
+        self.last_info: dict[str, Any] | None = None
+
+    # ------------------------------------------------------------ gym API
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        """Draw (or set) the task and return it as the observation.
+
+        Args:
+            seed: seeds ``self.np_random``, which draws the randomized goal and box mass.
+            options: ``{"goal": (x, y, z)}`` (m) and/or ``{"box_mass": kg}`` for this episode.
+
+        Returns:
+            The observation (x, y, z, box mass) as float32 and ``{"goal", "box_mass"}``.
+        """
+        super().reset(seed=seed)
+        options = dict(options or {})
+        unknown = set(options) - {"goal", "box_mass"}
+        if unknown:
+            raise ValueError(f"unknown reset options {sorted(unknown)}; allowed: goal, box_mass")
+        if "goal" not in options:
+            if self.randomize_goal:
+                options["goal"] = self.np_random.uniform(*self.goal_range)
+            else:
+                options["goal"] = np.asarray(self.base.task.goal, dtype=float)
+        if "box_mass" not in options:
+            if self.mass_range is not None:
+                options["box_mass"] = float(self.np_random.uniform(*self.mass_range))
+            else:
+                options["box_mass"] = float(self.base.simulator.scene.box_mass)
+        # The base env validates both and raises naming the option.
+        _, info = self.base.reset(options=options)
+        self._goal = np.asarray(info["goal"], dtype=float)
+        self._mass = float(info["box_mass"])
+        self.last_info = None
+        return self._observation(), {"goal": self._goal.copy(), "box_mass": self._mass}
+
+    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        """Build, use and score the tool ``action`` (in [-1, 1]); the episode ends."""
+        coefficients = self.to_coefficients(action)
+        _, raw_reward, _, _, base_info = self.base.step(coefficients)
+        self.last_info = base_info
+        free = float(base_info["free_energy"])
+        idle = self.idle_free_energy()
+        normalized = max(1.0 - free / idle, REWARD_FLOOR) if idle > 0 else -free
+        if self.full_info:
+            info = dict(base_info)
+        else:
+            info = {key: base_info[key] for key in _SCALAR_INFO if key in base_info}
+        info.update(idle_free_energy=idle, normalized_reward=normalized)
+        reward = normalized if self.reward_kind == "normalized" else float(raw_reward)
+        return self._observation(), float(reward), True, False, info
+
+    def render(self) -> np.ndarray | None:  # type: ignore[override]
+        """The scene as an RGB array (360, 480, 3) uint8 (headless), or None without a mode."""
+        if self.render_mode != "rgb_array":
+            return None
+        return self.base.render()
+
+    def close(self) -> None:
+        """Release the physics client (safe to call twice)."""
+        self.base.close()
+
+    # ------------------------------------------------------------ helpers
+    def to_coefficients(self, action: Any) -> np.ndarray:
+        """The physical coefficients (degree,) float64 of a [-1, 1] action.
+
+        Raises:
+            TypeError: ``action`` is not numeric.
+            ValueError: wrong shape, not finite, or outside [-1, 1].
+        """
+        if isinstance(action, (str, bytes)):
+            raise TypeError(f"action must be {self._degree} numbers, got {action!r}")
+        try:
+            a = np.asarray(action, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise TypeError(
+                f"action must be {self._degree} numbers in [-1, 1], got {action!r}"
+            ) from None
+        if a.shape != (self._degree,) or not np.all(np.isfinite(a)):
+            raise ValueError(
+                f"action must be {self._degree} finite numbers in [-1, 1], got {action!r}"
+            )
+        if np.any(np.abs(a) > 1.0):
+            raise ValueError(
+                f"action {a.tolist()} is outside [-1, 1]; clip it (SB3 does) or use the "
+                "physical coefficients with ToolDesign-v0"
+            )
+        low, high = self.coefficient_bounds[:, 0], self.coefficient_bounds[:, 1]
+        return np.clip(low + (a + 1.0) * 0.5 * (high - low), low, high)
+
+    def to_action(self, coefficients: Any) -> np.ndarray:
+        """The [-1, 1] float32 action of physical coefficients inside the bounds.
+
+        Raises:
+            ValueError: wrong shape, not finite, or outside the coefficient bounds.
+        """
+        c = self.base.check_action(coefficients)
+        low, high = self.coefficient_bounds[:, 0], self.coefficient_bounds[:, 1]
+        return np.clip(2.0 * (c - low) / (high - low) - 1.0, -1.0, 1.0).astype(np.float32)
+
+    def idle_free_energy(self) -> float:
+        """F_idle of the current task: the summed goal error of a box that never moves.
+
+        T * 1/2 p^X |X_start - X^g|^2 over the T control steps, the same as the goal-error part
+        of the score of an unusable design.
+        """
+        simulator = self.base.simulator
+        scene = simulator.scene
+        start = np.array([*scene.box_position, scene.box_size[2] / 2.0])
+        steps = len(simulator.reference.times)
+        distance2 = float(np.sum((start - self._goal) ** 2))
+        return steps * 0.5 * float(self.base.objective.goal_precision) * distance2
+
+    def _observation(self) -> np.ndarray:
+        return np.array([*self._goal, self._mass], dtype=np.float32)
+
+    def _check_goal_range(self, goal_range: Any) -> tuple[np.ndarray, np.ndarray]:
+        if not isinstance(goal_range, Sequence) or len(goal_range) != 2:
+            raise TypeError(
+                f"goal_range must be (low, high), two (x, y, z) points in m, got {goal_range!r}"
+            )
+        low = self.base._check_goal(goal_range[0], "goal_range[0]")
+        high = self.base._check_goal(goal_range[1], "goal_range[1]")
+        if np.any(low > high):
+            raise ValueError(f"goal_range must have low <= high per axis, got {goal_range!r}")
+        return low, high
+
+
+def make_rl_vector_env(
+    num_envs: int,
+    *,
+    vectorization_mode: str = "async",
+    context: str | None = "spawn",
+    **env_kwargs: Any,
+) -> VectorEnv:
+    """``num_envs`` copies of ``ToolDesignRL-v0`` in a Gymnasium vector env that resets right.
+
+    A one-step env must reset in the step that ends its episode: with Gymnasium's default
+    (next-step autoreset) every second step of the vector env is a reset step with reward 0.
+    This sets ``autoreset_mode=AutoresetMode.SAME_STEP``: each step returns the reward of the
+    episode it ended and the observation (task) of the next one; the ended episode's observation
+    and info are in ``infos["final_obs"]`` and ``infos["final_info"]``.
+
+    Args:
+        num_envs: number of environments, an int >= 1.
+        vectorization_mode: ``"async"`` (one process per env) or ``"sync"`` (one process).
+        context: multiprocessing start method for ``"async"``; ``"spawn"`` (the default) keeps
+            the workers from inheriting this process's PyBullet client. Ignored for ``"sync"``.
+        **env_kwargs: arguments of ``ToolDesignRL-v0`` (e.g. ``randomize_goal=True``).
+
+    Returns:
+        The vector env; close it when done.
+
+    Raises:
+        TypeError: ``num_envs`` is not an int.
+        ValueError: ``num_envs`` < 1 or an unknown ``vectorization_mode``.
+    """
+    if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)):
+        raise TypeError(f"num_envs must be an int >= 1, got {num_envs!r}")
+    if num_envs < 1:
+        raise ValueError(f"num_envs must be an int >= 1, got {num_envs!r}")
+    if vectorization_mode not in ("async", "sync"):
+        raise ValueError(
+            f"vectorization_mode must be 'async' or 'sync', got {vectorization_mode!r}"
+        )
+    # AutoresetMode exists from Gymnasium 1.1 (the `rl` extra asks for it); the env itself
+    # works with 1.0, so it is imported only here.
+    from gymnasium.vector import AutoresetMode
+
+    vector_kwargs: dict[str, Any] = {"autoreset_mode": AutoresetMode.SAME_STEP}
+    if vectorization_mode == "async" and context is not None:
+        vector_kwargs["context"] = context
+    return gym.make_vec(
+        RL_ENV_ID,
+        num_envs=int(num_envs),
+        vectorization_mode=vectorization_mode,
+        vector_kwargs=vector_kwargs,
+        **env_kwargs,
+    )
