@@ -23,6 +23,7 @@ LAYERS: dict[str, int] = {
     "benchmarks.execution": 1,
     "benchmarks.design": 2,
     "benchmarks.suites": 3,
+    "benchmarks.rl": 3,
     "benchmarks.reports": 4,
     "benchmarks.cli": 5,
 }
@@ -34,12 +35,12 @@ def module_name(path: Path) -> str:
 
 
 def modules() -> dict[str, Path]:
-    """Every module of the three packages except the perf scripts, by dotted name."""
+    """Every module of the three packages, by dotted name (not the scripts or entry points)."""
     out = {}
     for package in PACKAGES:
         for path in sorted((ROOT / package).rglob("*.py")):
-            if "perf" in path.parts:
-                continue
+            if "perf" in path.parts or path.name == "__main__.py":
+                continue  # scripts and `python -m` entry points, not library modules
             out[module_name(path)] = path
     return out
 
@@ -109,6 +110,7 @@ def draw(out: Path) -> None:
         "benchmarks.execution": "executors, evaluator,\nscheduler",
         "benchmarks.design": "Algorithm 1: design a tool",
         "benchmarks.suites": "declared suites, runner, retest",
+        "benchmarks.rl": "RL baselines: agents,\nrl suite, saved policies",
         "benchmarks.reports": "tables, figures, pages\nfrom stored results only",
         "benchmarks.cli": "tooldesign: the only\nargument parsing",
     }

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from benchmarks.cli import main
 from benchmarks.rl import (
     ContextualConfig,
     ContextualPolicy,
@@ -23,7 +24,6 @@ from benchmarks.rl import (
     train_ppo,
     train_sac,
 )
-from benchmarks.rl.__main__ import main
 from benchmarks.rl.policies import design_for_goal, load_policy, save_policy
 from benchmarks.rl.suite import FIXED_COLUMNS, HELD_OUT_COLUMNS, SIZES, run_rl_suite
 
@@ -190,9 +190,12 @@ def test_a_saved_policy_designs_a_tool_for_a_new_goal(smoke, method):
 @pytest.mark.slow
 def test_the_command_line_designs_and_reports_bad_goals(smoke, capsys):
     card = str(smoke / "policies" / "contextual.json")
-    assert main(["design", "--policy", card, "--goal", "0.1", "1.2", "0.1", "--no-simulate"]) == 0
+    goal = ["--goal", "0.1", "1.2", "0.1"]
+    assert main(["rl", "design", "--policy", card, *goal, "--no-simulate"]) == 0
     assert json.loads(capsys.readouterr().out)["goal"] == [0.1, 1.2, 0.1]
-    assert main(["design", "--policy", card, "--goal", "9", "1", "0.1"]) == 2
+    with pytest.raises(SystemExit) as excinfo:
+        main(["rl", "design", "--policy", card, "--goal", "9", "1", "0.1"])
+    assert excinfo.value.code == 2
     assert "outside the workspace" in capsys.readouterr().err
 
 

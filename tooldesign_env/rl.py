@@ -244,7 +244,7 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
         reward = normalized if self.reward_kind == "normalized" else float(raw_reward)
         return self._observation(), float(reward), True, False, info
 
-    def render(self) -> np.ndarray | None:  # type: ignore[override]
+    def render(self) -> np.ndarray | None:
         """The scene as an RGB array (360, 480, 3) uint8 (headless), or None without a mode."""
         if self.render_mode != "rgb_array":
             return None

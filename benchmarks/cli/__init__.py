@@ -51,6 +51,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "benchmarks.cli.reproduce",
         "rebuild the committed suites' reports and write docs/reproduction.md",
     ),
+    "rl": (
+        "benchmarks.cli.rl",
+        "RL baselines on ToolDesignRL-v0: the rl suite, tuning probes, saved policies",
+    ),
     "readme": (
         "benchmarks.cli.readme",
         "regenerate the README's pictures and numbers (a design run of minutes)",

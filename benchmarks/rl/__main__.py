@@ -1,84 +1,10 @@
-"""``python -m benchmarks.rl``: the thin command line of the RL baselines.
-
-    python -m benchmarks.rl suite --size smoke --out runs/rl-smoke
-    python -m benchmarks.rl probe ppo --episodes 256 --seed 0 --set '{"log_std_init": -2.0}'
-    python -m benchmarks.rl design --policy docs/results/rl/policies/contextual.json \
-        --goal 0.2 1.0 0.1
-
-All the work is done by plain functions (``run_rl_suite``, ``design_for_goal``); this module only
-parses arguments and prints.
-"""
+"""``python -m benchmarks.rl`` is ``tooldesign rl`` (see :mod:`benchmarks.cli.rl`)."""
 
 from __future__ import annotations
 
-import argparse
-import json
 import sys
-from collections.abc import Sequence
 
-__all__ = ["main"]
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """Parse ``argv`` and run the command; returns the exit status."""
-    parser = argparse.ArgumentParser(prog="python -m benchmarks.rl", description=__doc__)
-    commands = parser.add_subparsers(dest="command", required=True)
-    suite = commands.add_parser("suite", help="run the rl suite and write its results")
-    suite.add_argument("--size", choices=("smoke", "short", "paper"), default="smoke")
-    suite.add_argument("--out", required=True, help="output folder")
-    suite.add_argument("--seeds", type=int, default=None, help="fixed-goal seeds (override)")
-    suite.add_argument("--parts", nargs="+", choices=("fixed", "task"), default=["fixed", "task"])
-    suite.add_argument(
-        "--methods",
-        nargs="+",
-        choices=("random", "cmaes", "ppo", "sac"),
-        default=["random", "cmaes", "ppo", "sac"],
-    )
-    tune = commands.add_parser("probe", help="one tuning probe at the default goal")
-    tune.add_argument("method", choices=("random", "cmaes", "ppo", "sac"))
-    tune.add_argument("--episodes", type=int, default=256)
-    tune.add_argument("--seed", type=int, default=0)
-    tune.add_argument("--set", default="{}", help="config fields as JSON, e.g. '{\"n_steps\": 16}'")
-    design = commands.add_parser("design", help="design a tool for a goal with a saved policy")
-    design.add_argument("--policy", required=True, help="a policy card (.json)")
-    design.add_argument("--goal", type=float, nargs=3, required=True, metavar=("X", "Y", "Z"))
-    design.add_argument("--box-mass", type=float, default=0.1, help="kg")
-    design.add_argument("--no-simulate", action="store_true", help="print the design only")
-    args = parser.parse_args(argv)
-
-    if args.command == "suite":
-        from benchmarks.rl.suite import run_rl_suite
-
-        summary = run_rl_suite(
-            args.size,
-            args.out,
-            seeds=args.seeds,
-            methods=args.methods,
-            parts=args.parts,
-            progress=lambda line: print(line, flush=True),
-        )
-        print(f"wrote {args.out} in {summary['wall_time_s']} s")
-        return 0
-    if args.command == "probe":
-        from benchmarks.rl.tuning import probe
-
-        report = probe(
-            args.method, episodes=args.episodes, seed=args.seed, overrides=json.loads(args.set)
-        )
-        print(json.dumps(report), flush=True)
-        return 0
-    from benchmarks.rl.policies import design_for_goal
-
-    try:
-        result = design_for_goal(
-            args.policy, args.goal, box_mass=args.box_mass, simulate=not args.no_simulate
-        )
-    except (FileNotFoundError, TypeError, ValueError) as error:
-        print(f"error: {error}", file=sys.stderr)
-        return 2
-    print(json.dumps(result.__dict__, indent=2))
-    return 0
-
+from benchmarks.cli import main
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(main(["rl", *sys.argv[1:]]))

@@ -57,7 +57,7 @@ def probe(
         except TypeError as error:
             raise ValueError(f"bad overrides {over!r} for {method}: {error}") from None
         train = train_ppo if method == "ppo" else train_sac
-        trained = train(config, total_episodes=episodes, seed=seed)  # type: ignore[arg-type]
+        trained = train(config, total_episodes=episodes, seed=seed)
         records = trained.records
         final = evaluate_design(trained.model, _GOAL)
     f = np.array([r.free_energy for r in records])
