@@ -157,7 +157,11 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
             if not isinstance(flag, (bool, np.bool_)):
                 raise TypeError(f"{name} must be True or False, got {flag!r}")
         self.base = ToolDesignEnv(
-            goal=goal, box_mass=box_mass, render_mode=render_mode, **base_kwargs
+            goal=goal,
+            box_mass=box_mass,
+            render_mode=render_mode,
+            info_series=bool(full_info),
+            **base_kwargs,
         )
         if reward == "normalized" and self.base.objective.goal_precision <= 0:
             raise ValueError(
