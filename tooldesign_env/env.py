@@ -237,7 +237,7 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
         self.observation_space = spaces.Box(
             np.asarray(WORKSPACE_LOW), np.asarray(WORKSPACE_HIGH), dtype=np.float64
         )
-        self._check_goal(np.asarray(self.task.goal, dtype=float), "goal")
+        self.check_goal(np.asarray(self.task.goal, dtype=float), "goal")
 
         self.simulator = ToolSimulator(
             scene=scene, plan=plan, controller=controller, render_mode=render_mode
@@ -266,7 +266,7 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
         if unknown:
             raise ValueError(f"unknown reset options {sorted(unknown)}; allowed: goal, box_mass")
         if "goal" in options:
-            self._goal = self._check_goal(options["goal"], "options['goal']")
+            self._goal = self.check_goal(options["goal"], "options['goal']")
         elif self.randomize_goal:
             self._goal = self.np_random.uniform(GOAL_LOW, GOAL_HIGH)
         else:
@@ -478,7 +478,8 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
             nominal_mass=self._box_mass,
         )
 
-    def _check_goal(self, goal: Any, label: str) -> np.ndarray:
+    def check_goal(self, goal: Any, label: str = "goal") -> np.ndarray:
+        """``goal`` as a (3,) float array in the workspace, or an error naming ``label``."""
         if isinstance(goal, (str, bytes)) or (
             hasattr(goal, "__iter__") and any(isinstance(v, (bool, np.bool_, str)) for v in goal)
         ):
@@ -510,8 +511,13 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
         scene = self.simulator.scene
         return np.array([*scene.box_position, scene.box_size[2] / 2.0])
 
-    def _idle_goal_error(self) -> float:
-        # The goal error of a box that never moves: what an unusable tool achieves.
+    def idle_goal_error(self) -> float:
+        """The summed goal error of a box that never moves, at the current task.
+
+        T * 1/2 p^X |X_start - X^g|^2 over the T control steps: what an unusable tool achieves
+        (its F adds ``ObjectiveSpec.invalid_penalty``), and the scale ``ToolDesignRL-v0``
+        normalizes its reward by.
+        """
         steps = len(self.simulator.reference.times)
         dist2 = float(np.sum((self._box_start() - self._goal) ** 2))
         return steps * 0.5 * self.objective.goal_precision * dist2
@@ -556,7 +562,7 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
         return info
 
     def _invalid_info(self, geometry: ToolGeometry, reason: str) -> dict[str, Any]:
-        idle = self._idle_goal_error()
+        idle = self.idle_goal_error()
         penalty = float(self.objective.invalid_penalty)
         info = self._common_info(geometry)
         info.update(

@@ -302,12 +302,7 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
         T * 1/2 p^X |X_start - X^g|^2 over the T control steps, the same as the goal-error part
         of the score of an unusable design.
         """
-        simulator = self.base.simulator
-        scene = simulator.scene
-        start = np.array([*scene.box_position, scene.box_size[2] / 2.0])
-        steps = len(simulator.reference.times)
-        distance2 = float(np.sum((start - self._goal) ** 2))
-        return steps * 0.5 * float(self.base.objective.goal_precision) * distance2
+        return self.base.idle_goal_error()
 
     def _observation(self) -> np.ndarray:
         return np.array([*self._goal, self._mass], dtype=np.float32)
@@ -317,8 +312,8 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
             raise TypeError(
                 f"goal_range must be (low, high), two (x, y, z) points in m, got {goal_range!r}"
             )
-        low = self.base._check_goal(goal_range[0], "goal_range[0]")
-        high = self.base._check_goal(goal_range[1], "goal_range[1]")
+        low = self.base.check_goal(goal_range[0], "goal_range[0]")
+        high = self.base.check_goal(goal_range[1], "goal_range[1]")
         if np.any(low > high):
             raise ValueError(f"goal_range must have low <= high per axis, got {goal_range!r}")
         return low, high

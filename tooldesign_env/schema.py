@@ -24,6 +24,9 @@ Names of stored results (``docs/results-format.md`` documents the files):
 from __future__ import annotations
 
 import re
+from typing import Any, cast
+
+import numpy as np
 
 __all__ = [
     "BEST_SO_FAR",
@@ -47,6 +50,7 @@ __all__ = [
     "TASK_COLUMNS",
     "TIMING_COLUMNS",
     "coefficient_columns",
+    "rounded_path",
 ]
 
 # --- defaults of the task ---------------------------------------------------------------------
@@ -101,6 +105,13 @@ COEFFICIENT_PATTERN = re.compile(r"c([1-9][0-9]*)")
 
 PATH_DECIMALS = 6
 """Stored box paths are in m rounded to 1 um: far below what a figure shows, half the bytes."""
+
+
+def rounded_path(path: Any) -> list[list[float]]:
+    """A (T, 3) path in m as the nested lists stored in JSON, rounded to :data:`PATH_DECIMALS`."""
+    return cast(
+        "list[list[float]]", np.round(np.asarray(path, dtype=np.float64), PATH_DECIMALS).tolist()
+    )
 
 
 def coefficient_columns(degree: int) -> list[str]:

@@ -20,7 +20,7 @@ The figures and ``report.html`` are drawn from the files written here by
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, cast
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -40,8 +40,8 @@ from tooldesign_env.schema import (
     DEFAULT_BOX_MASS,
     DEFAULT_GOAL,
     DEFAULT_GOAL_PRECISION,
-    PATH_DECIMALS,
     ROBUSTNESS_MASSES,
+    rounded_path,
 )
 from tooldesign_env.simulation import PHASES
 
@@ -68,12 +68,6 @@ def trajectory_frame(info: dict[str, Any]) -> pd.DataFrame:
         free_energy_t=info["free_energy_t"],
     )
     return pd.DataFrame(columns)
-
-
-def _rounded(path: Any) -> list[list[float]]:
-    return cast(
-        "list[list[float]]", np.round(np.asarray(path, dtype=np.float64), PATH_DECIMALS).tolist()
-    )
 
 
 def evaluate_coefficients(
@@ -180,8 +174,8 @@ def evaluate_coefficients(
                 paths = {
                     "nominal_mass": result.nominal_mass,
                     "masses": list(result.masses),
-                    "nominal": _rounded(result.nominal.box_position),
-                    "perturbed": [_rounded(t.box_position) for t in result.perturbed],
+                    "nominal": rounded_path(result.nominal.box_position),
+                    "perturbed": [rounded_path(t.box_position) for t in result.perturbed],
                 }
                 atomic_write_text(out / "box_paths.json", json_text(paths, compact=True))
         atomic_write_text(out / "terms.json", json_text(card))

@@ -32,7 +32,7 @@ import numpy as np
 import pandas as pd
 
 from benchmarks.design.config import _RUNTIME_FIELDS, DESIGN_SUITE, DesignConfig
-from benchmarks.design.stepper import DesignStepper, _best_row, _unit
+from benchmarks.design.stepper import DesignStepper, _best_row, _unit, iteration_bests
 from benchmarks.execution import (
     RobustnessRequest,
     evaluate_batch,
@@ -48,7 +48,7 @@ from benchmarks.storage import (
     atomic_write_text,
     json_text,
 )
-from tooldesign_env.schema import PATH_DECIMALS, coefficient_columns
+from tooldesign_env.schema import coefficient_columns, rounded_path
 
 __all__ = ["CARD_VERSION", "DesignResult", "run_design"]
 
@@ -219,13 +219,6 @@ def _warn_failures(iteration: int, rows: Sequence[Mapping[str, Any]]) -> None:
             )
 
 
-def _iteration_bests(evaluations: pd.DataFrame) -> pd.DataFrame:
-    """Per iteration, its lowest-F valid evaluation (iterations without one are left out)."""
-    ok = evaluations[(evaluations["status"] == "ok") & np.isfinite(evaluations["free_energy"])]
-    index = ok.groupby("iteration", sort=True)["free_energy"].idxmin()
-    return ok.loc[index.to_numpy()].reset_index(drop=True)
-
-
 def _coeffs(row: pd.Series, degree: int) -> np.ndarray:
     return cast("np.ndarray", row[coefficient_columns(degree)].to_numpy(dtype=np.float64))
 
@@ -250,18 +243,18 @@ def _finish(
 
     # The trajectories are not logged; the rollouts are deterministic, so simulate them again
     # and store them for the figures (which are made from stored files only).
-    bests = _iteration_bests(evaluations)
+    bests = iteration_bests(evaluations)
     designs = [_coeffs(row, degree) for _, row in bests.iterrows()]
     rows = evaluate_batch(executor, designs, config.task(), keep_trajectory=True)
     robustness = _robustness(config, best, coeffs, executor)
     atomic_write_text(out / DESIGN_RUN_FILES["robustness"], json_text(_without_paths(robustness)))
     paths = {
         "iterations": [int(i) for i in bests["iteration"]],
-        "iteration_bests": [_rounded(r.get("box_trajectory", np.zeros((0, 3)))) for r in rows],
+        "iteration_bests": [rounded_path(r.get("box_trajectory", np.zeros((0, 3)))) for r in rows],
         "nominal_mass": config.box_mass,
         "masses": list(config.robustness_masses),
-        "nominal": _rounded(robustness.get("nominal_box_trajectory", np.zeros((0, 3)))),
-        "perturbed": [_rounded(x) for x in robustness.get("box_trajectories", [])],
+        "nominal": rounded_path(robustness.get("nominal_box_trajectory", np.zeros((0, 3)))),
+        "perturbed": [rounded_path(x) for x in robustness.get("box_trajectories", [])],
     }
     atomic_write_text(out / DESIGN_RUN_FILES["box_paths"], json_text(paths, compact=True))
     return DesignResult(
@@ -332,12 +325,6 @@ def _robustness(
             "error": f"{type(exc).__name__}: {exc}",
         }
     return {**base, **result, "error": ""}
-
-
-def _rounded(path: Any) -> list[list[float]]:
-    return cast(
-        "list[list[float]]", np.round(np.asarray(path, dtype=np.float64), PATH_DECIMALS).tolist()
-    )
 
 
 def _without_paths(robustness: Mapping[str, Any]) -> dict[str, Any]:

@@ -239,3 +239,10 @@ def _best_row(evaluations: pd.DataFrame) -> pd.Series:
         "no design of the run could be evaluated (every evaluation failed); see the status "
         "column of the evaluation log and the warnings above"
     )
+
+
+def iteration_bests(evaluations: pd.DataFrame) -> pd.DataFrame:
+    """Per iteration, its lowest-F valid evaluation (iterations without one are left out)."""
+    ok = evaluations[(evaluations["status"] == "ok") & np.isfinite(evaluations["free_energy"])]
+    index = ok.groupby("iteration", sort=True)["free_energy"].idxmin()
+    return ok.loc[index.to_numpy()].reset_index(drop=True)

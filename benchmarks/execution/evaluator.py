@@ -36,8 +36,8 @@ from tooldesign_env.schema import (
     DEFAULT_GOAL,
     DEFAULT_GOAL_PRECISION,
     METRICS,
-    PATH_DECIMALS,
     ROBUSTNESS_MASSES,
+    rounded_path,
 )
 
 _ESTIMATORS: tuple[str, ...] = ("contact", "trajectory", "resimulation")
@@ -430,8 +430,8 @@ def run_final_test(test: FinalTest) -> dict[str, Any]:
     out["nominal_final_distance"] = float(np.linalg.norm(error[-1])) if len(error) else math.nan
     if test.keep_paths:
         out["paths"] = {
-            "nominal": np.round(nominal, PATH_DECIMALS).tolist(),
-            "perturbed": [np.round(p, PATH_DECIMALS).tolist() for p in perturbed],
+            "nominal": rounded_path(nominal),
+            "perturbed": [rounded_path(p) for p in perturbed],
         }
     out["test_time"] = time.perf_counter() - start
     return out

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from benchmarks.design.stepper import iteration_bests
 from benchmarks.reports import plots
 from benchmarks.reports.html import write_html_report
 from benchmarks.storage import DESIGN_RUN_FILES, ResultStore, read_manifest
@@ -165,7 +166,7 @@ def write_design_report(run_folder: str | os.PathLike[str]) -> list[Path]:
     card = json.loads((out / DESIGN_RUN_FILES["card"]).read_text(encoding="utf-8"))
     robustness = json.loads((out / DESIGN_RUN_FILES["robustness"]).read_text(encoding="utf-8"))
     stored = json.loads((out / DESIGN_RUN_FILES["box_paths"]).read_text(encoding="utf-8"))
-    bests = _iteration_bests(evaluations)
+    bests = iteration_bests(evaluations)
     columns = coefficient_columns(degree)
     designs = [row[columns].to_numpy(dtype=np.float64) for _, row in bests.iterrows()]
     paths = [np.asarray(x, dtype=np.float64).reshape(-1, 3) for x in stored["iteration_bests"]]
@@ -208,10 +209,3 @@ def write_design_report(run_folder: str | os.PathLike[str]) -> list[Path]:
     written.append(plots.save_png(figure, out / DESIGN_RUN_FILES["robustness_png"]))
     written.append(write_html_report(out))
     return written
-
-
-def _iteration_bests(evaluations: pd.DataFrame) -> pd.DataFrame:
-    """Per iteration, its lowest-F valid evaluation (iterations without one are left out)."""
-    ok = evaluations[(evaluations["status"] == "ok") & np.isfinite(evaluations["free_energy"])]
-    index = ok.groupby("iteration", sort=True)["free_energy"].idxmin()
-    return ok.loc[index.to_numpy()].reset_index(drop=True)

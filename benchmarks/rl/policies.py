@@ -17,9 +17,10 @@ from typing import Any
 
 import numpy as np
 
-from benchmarks.rl._io import atomic_write_bytes, write_json
+from benchmarks.rl._io import write_json
 from benchmarks.rl.agents import ContextualPolicy, EpisodeLog, make_env
 from benchmarks.rl.configs import MethodConfig
+from benchmarks.storage import atomic_write_bytes
 
 __all__ = ["POLICY_FORMAT", "DesignResult", "design_for_goal", "load_policy", "save_policy"]
 
