@@ -14,7 +14,14 @@ import numpy as np
 from gymnasium import spaces
 
 from tooldesign_env.geometry import ToolGeometry, ToolSpec, make_tool, validate_coefficients
-from tooldesign_env.objective import ObjectiveTerms, free_energy, goal_error, make_estimator
+from tooldesign_env.objective import (
+    ObjectiveTerms,
+    free_energy,
+    goal_error,
+    make_estimator,
+    mean_terms,
+    scene_offsets,
+)
 from tooldesign_env.robustness import DEFAULT_MASSES, RobustnessResult, evaluate_robustness
 from tooldesign_env.schema import GOAL_HIGH, GOAL_LOW
 from tooldesign_env.simulation import ToolSimulator, Trajectory
@@ -122,10 +129,13 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
 
     reward = -F. ``info`` holds scalars: ``free_energy`` (= -reward), ``goal_error``
     (sum_t E_t), ``confidence`` (sum_t 1/2 log|Pi_U,t|), ``penalty``, ``final_distance``,
-    ``valid`` and the task; F = goal_error - confidence + penalty. With ``info_series=True`` it
-    also holds the per-step series (``goal_error_t``, ``confidence_t``, ``free_energy_t``,
-    ``jacobian_norm_t``) and the trajectories (``times``, ``box_trajectory``, ``torques``,
-    ``tool_position``, ``tool_yaw``, ``joint_positions``, ``contact``, ``phase``,
+    ``valid`` and the task; F = goal_error - confidence + penalty. With
+    ``ObjectiveSpec(scene_samples=K)`` every term is the mean over K scenes whose box differs by
+    a fixed small offset (smoothing the chaos of pushing), ``free_energy_std`` is the standard
+    deviation of F over them (0 with K = 1), and the trajectories are the nominal scene's. With
+    ``info_series=True`` it also holds the per-step series (``goal_error_t``, ``confidence_t``,
+    ``free_energy_t``, ``jacobian_norm_t``) and the trajectories (``times``, ``box_trajectory``,
+    ``torques``, ``tool_position``, ``tool_yaw``, ``joint_positions``, ``contact``, ``phase``,
     ``tracking_error``): :data:`SERIES_KEYS`. They are left out by default because an optimizer
     or an agent that reads only the reward would pay for about 15 arrays per step.
 
@@ -414,6 +424,21 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
             return self._invalid_info(geometry, "overlaps the box at the start of the sweep")
         if self.objective.kind == "expected-goal-error":
             return self._expected_goal_error(geometry)
+        # The nominal scene is built; the others of ObjectiveSpec.scene_samples move the box.
+        nominal, *others = scene_offsets(self.objective)
+        trajectory, terms = self._scored_run(goal)
+        sampled = [terms]
+        for offset in others:
+            dx, dy, dyaw = (float(v) for v in offset)
+            self.simulator.build(geometry, box_mass=self._box_mass, box_offset=(dx, dy, dyaw))
+            sampled.append(self._scored_run(goal)[1])
+        info = self._info(geometry, trajectory, mean_terms(sampled))
+        if len(sampled) > 1:
+            info["free_energy_std"] = float(np.std([t.free_energy for t in sampled], ddof=1))
+        return info
+
+    def _scored_run(self, goal: np.ndarray) -> tuple[Trajectory, ObjectiveTerms]:
+        """Use the tool of the last build once and score the rollout."""
         resim = self.objective.estimator == "resimulation"
         trajectory = self.simulator.run(
             snapshot_every=self.objective.horizon if resim else None,
@@ -433,7 +458,7 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
         finally:
             if resim:
                 self.simulator.release_snapshots()
-        return self._info(geometry, trajectory, terms)
+        return trajectory, terms
 
     def _expected_goal_error(self, geometry: ToolGeometry) -> dict[str, Any]:
         """The robust-design baseline: the summed goal error averaged over box masses.
@@ -540,6 +565,7 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
             valid=True,
             invalid_reason="",
             free_energy=terms.free_energy,
+            free_energy_std=0.0,
             goal_error=terms.goal_error,
             confidence=terms.confidence,
             penalty=0.0,
@@ -569,6 +595,7 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
             valid=False,
             invalid_reason=reason,
             free_energy=idle + penalty,
+            free_energy_std=0.0,
             goal_error=idle,
             confidence=0.0,
             penalty=penalty,

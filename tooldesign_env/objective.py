@@ -35,6 +35,8 @@ __all__ = [
     "free_energy",
     "goal_error",
     "make_estimator",
+    "mean_terms",
+    "scene_offsets",
 ]
 
 #: ``replay(k, offsets (m, 7)) -> (m, 3)``: box positions after replaying the recorded torques of
@@ -387,4 +389,39 @@ def free_energy(
         confidence_t=c_t,
         free_energy_t=f_t,
         jacobian_norm_t=np.linalg.norm(sens.jacobian, axis=(1, 2)),
+    )
+
+
+def scene_offsets(spec: ObjectiveSpec) -> np.ndarray:
+    """The box's offsets (dx m, dy m, dyaw rad) in the ``spec.scene_samples`` scenes, (K, 3).
+
+    The first row is zero (the nominal scene); the others are normal draws with standard
+    deviations ``spec.scene_jitter`` from ``spec.scene_seed``, so every design is scored in the
+    same K scenes (common random numbers) and K = 1 is the nominal scene alone.
+    """
+    shift, turn = spec.scene_jitter
+    rng = np.random.default_rng(spec.scene_seed)
+    draws = rng.standard_normal((spec.scene_samples - 1, 3)) * np.array([shift, shift, turn])
+    return np.vstack([np.zeros((1, 3)), draws])
+
+
+def mean_terms(terms: list[ObjectiveTerms]) -> ObjectiveTerms:
+    """The mean of the terms of F over scenes: every number and every per-step series."""
+    if not terms:
+        raise ValueError("mean_terms needs the terms of at least one scene")
+    if len(terms) == 1:
+        return terms[0]
+
+    def mean(name: str) -> np.ndarray:
+        return np.asarray(np.mean([getattr(t, name) for t in terms], axis=0))
+
+    return ObjectiveTerms(
+        free_energy=float(mean("free_energy")),
+        goal_error=float(mean("goal_error")),
+        confidence=float(mean("confidence")),
+        final_distance=float(mean("final_distance")),
+        goal_error_t=mean("goal_error_t"),
+        confidence_t=mean("confidence_t"),
+        free_energy_t=mean("free_energy_t"),
+        jacobian_norm_t=mean("jacobian_norm_t"),
     )

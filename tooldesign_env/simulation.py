@@ -326,12 +326,20 @@ class ToolSimulator:
         world.reset()
         return knots
 
-    def build(self, geometry: ToolGeometry, *, box_mass: float | None = None) -> bool:
+    def build(
+        self,
+        geometry: ToolGeometry,
+        *,
+        box_mass: float | None = None,
+        box_offset: tuple[float, float, float] | None = None,
+    ) -> bool:
         """Empty the world and set up floor, box, and the arm holding ``geometry`` at q(0).
 
         Args:
             geometry: the tool.
             box_mass: override of the scene's box mass, kg.
+            box_offset: (dx m, dy m, dyaw rad) added to the scene's box pose (the other scenes
+                of ``ObjectiveSpec.scene_samples``).
 
         Returns:
             Whether the tool, lowered to the start of the sweep, overlaps the box. Such a tool
@@ -340,6 +348,9 @@ class ToolSimulator:
         if box_mass is not None and not (math.isfinite(box_mass) and box_mass > 0):
             raise ValueError(f"box_mass must be a finite number > 0 kg, got {box_mass!r}")
         scene = self.scene
+        dx, dy, dyaw = (0.0, 0.0, 0.0) if box_offset is None else box_offset
+        if not all(math.isfinite(v) for v in (dx, dy, dyaw)):
+            raise ValueError(f"box_offset must be 3 finite numbers, got {box_offset!r}")
         reference = self.reference
         world = self.world
         self._builds += 1
@@ -352,8 +363,12 @@ class ToolSimulator:
             size=scene.box_size,
             mass=self._box_mass,
             friction=scene.box_friction,
-            position=(*scene.box_position, scene.box_size[2] / 2.0),
-            yaw=scene.box_yaw,
+            position=(
+                scene.box_position[0] + dx,
+                scene.box_position[1] + dy,
+                scene.box_size[2] / 2.0,
+            ),
+            yaw=scene.box_yaw + dyaw,
         )
         world.step(int(round(scene.box_settle_time / scene.time_step)))
         link, diag = _principal_link_xml(geometry)

@@ -45,6 +45,12 @@ GOAL_PRECISION_MAX = 1e6
 #: meaningful for a box a thousand times heavier than the arm's links).
 BOX_MASS_MAX = 1e3
 
+#: Most scenes F may be averaged over (ObjectiveSpec.scene_samples), and the largest offsets of
+#: the box in them: the smoothing is of the chaos of pushing, not a change of the task.
+SCENE_SAMPLES_MAX = 64
+SCENE_SHIFT_MAX = 0.01
+SCENE_TURN_MAX = 0.1
+
 
 def check_real(value: Any, label: str) -> float:
     """``value`` as a finite float, refusing bools, strings and other non-numbers.
@@ -87,6 +93,17 @@ def _check_vector(obj: object, name: str, length: int) -> None:
         raise ValueError(f"{label} must be {length} finite numbers, got {value!r}")
     for v in value:
         check_real(v, label)
+
+
+def _check_int(obj: object, name: str, low: int, high: int) -> None:
+    value = getattr(obj, name)
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise TypeError(
+            f"{type(obj).__name__}.{name} must be an int from {low} to {high}, got {value!r} "
+            f"({type(value).__name__})"
+        )
+    if not low <= value <= high:
+        raise ValueError(f"{type(obj).__name__}.{name} must be from {low} to {high}, got {value!r}")
 
 
 def _check_bool(obj: object, name: str) -> None:
@@ -316,6 +333,15 @@ class ObjectiveSpec:
             each replay.
         invalid_penalty: the free energy reported for a design that cannot be used (it cannot be
             built, or it overlaps the box at the start); see docs/model.md.
+        scene_samples: K, the number of scenes F is averaged over (randomized smoothing). Pushing
+            is chaotic: a 0.1 mm change of the box's place moves F by about 1.4 % (docs/model.md,
+            "Noise floor"). With K > 1 the design is used in K scenes, the first the nominal one
+            and the others with the box moved by fixed offsets drawn with ``scene_seed`` (the
+            same for every design: common random numbers), and every term is their mean. Costs
+            K rollouts. 1 (the default) is the nominal scene alone.
+        scene_jitter: standard deviations of the box's offsets in the K - 1 other scenes:
+            position (m, along x and y) and yaw (rad).
+        scene_seed: seed of the offsets.
     """
 
     kind: str = "free-energy"
@@ -331,6 +357,9 @@ class ObjectiveSpec:
     perturbation: float = 0.5
     horizon: int = 6
     invalid_penalty: float = 1e5
+    scene_samples: int = 1
+    scene_jitter: tuple[float, float] = (1e-3, 1e-2)
+    scene_seed: int = 0
 
     def __post_init__(self) -> None:
         _check_positive(self, "goal_precision", allow_zero=True)
@@ -370,6 +399,16 @@ class ObjectiveSpec:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 2:
                 raise ValueError(f"ObjectiveSpec.{name} must be an int >= 2, got {value!r}")
+        _check_int(self, "scene_samples", 1, SCENE_SAMPLES_MAX)
+        _check_int(self, "scene_seed", 0, 2**32 - 1)
+        _check_vector(self, "scene_jitter", 2)
+        shift, turn = (float(v) for v in self.scene_jitter)
+        if not (0 <= shift <= SCENE_SHIFT_MAX and 0 <= turn <= SCENE_TURN_MAX):
+            raise ValueError(
+                f"ObjectiveSpec.scene_jitter must be (position 0 to {SCENE_SHIFT_MAX:g} m, yaw 0 "
+                f"to {SCENE_TURN_MAX:g} rad), got {self.scene_jitter!r}"
+            )
+        object.__setattr__(self, "scene_jitter", (shift, turn))
 
 
 def spec_to_dict(spec: Any) -> dict[str, Any]:

@@ -10,7 +10,13 @@ Every estimator is scored on the SAME rollouts (one per design and nudge), so th
 between rows are the estimators' alone. Also printed: what the contact estimator costs, as a share
 of one evaluation with it (its recording in the loop, the Jacobians and the scoring).
 
-Run: ``python benchmarks/perf/confidence_noise.py [--designs 12] [--nudges 6] [--seed 1]``.
+With ``--scene-samples K ...`` it also scores F averaged over K scenes
+(``ObjectiveSpec.scene_samples``, the contact estimator): each nudged scene is used with the box
+at the K fixed offsets of ``scene_offsets`` added to its nudge, and the table gives the spread of
+the mean over the nudges for each K, and its cost relative to one rollout.
+
+Run: ``python benchmarks/perf/confidence_noise.py [--designs 12] [--nudges 6] [--seed 1]
+[--scene-samples 1 4 8]``.
 Targets (issue 8): median spread of F <= 1 %, of the confidence <= 2 %, cost <= 30 %.
 """
 
@@ -24,9 +30,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from tooldesign_env import ObjectiveSpec, SceneSpec, ToolSimulator, make_tool
+from tooldesign_env import ObjectiveSpec, SceneSpec, ToolGeometry, ToolSimulator, make_tool
 from tooldesign_env.env import default_bounds
-from tooldesign_env.objective import free_energy
+from tooldesign_env.objective import free_energy, scene_offsets
 
 #: name -> ObjectiveSpec changes; the estimators compared by default.
 SETTINGS: dict[str, dict[str, object]] = {
@@ -91,7 +97,16 @@ def main() -> None:
     parser.add_argument(
         "--settings", nargs="*", default=list(SETTINGS), help="names of estimator settings"
     )
+    parser.add_argument(
+        "--scene-samples",
+        type=int,
+        nargs="*",
+        default=[],
+        help="also score F averaged over K scenes, for each K given (contact estimator)",
+    )
     args = parser.parse_args()
+    if any(k < 1 for k in args.scene_samples):
+        parser.error(f"--scene-samples must be ints >= 1, got {args.scene_samples}")
 
     base = SceneSpec()
     scenes = nudged_scenes(base, args.nudges, args.shift, args.turn, args.seed)
@@ -105,6 +120,8 @@ def main() -> None:
     # terms[name][design] -> list over nudges of (F, confidence, goal error)
     terms: dict[str, list[list[tuple[float, float, float]]]] = {n: [] for n in specs}
     plain_t, recorded_t, score_t = [], [], []
+    # smoothed[design][nudge][k] -> (F, confidence, goal error) of the k-th scene of that nudge
+    smoothed: list[list[list[tuple[float, float, float]]]] = []
     for c in designs:
         geometry = make_tool(c)
         rows: dict[str, list[tuple[float, float, float]]] = {n: [] for n in specs}
@@ -133,6 +150,9 @@ def main() -> None:
         plain_t.append(time.perf_counter() - t0)
         for name in specs:
             terms[name].append(rows[name])
+        if args.scene_samples:
+            smoothed.append(score_smoothed(geometry, scenes, max(args.scene_samples), goal, args))
+
 
     print(
         f"{len(designs)} random valid designs (seed {args.seed}), {args.nudges} scenes each "
@@ -162,6 +182,54 @@ def main() -> None:
             f"evaluation ({100 * cost / evaluation:.1f} %; rollout without recording "
             f"{plain * 1e3:.1f} ms, scoring {scoring * 1e3:.1f} ms)"
         )
+    if args.scene_samples:
+        print_smoothed(smoothed, args.scene_samples)
+
+
+def score_smoothed(
+    geometry: ToolGeometry,
+    scenes: list[SceneSpec],
+    samples: int,
+    goal: np.ndarray,
+    args: argparse.Namespace,
+) -> list[list[tuple[float, float, float]]]:
+    """Per nudged scene, the terms in each of its ``samples`` scenes (the offsets added)."""
+    spec = ObjectiveSpec(goal_precision=args.goal_precision, scene_samples=samples)
+    offsets = scene_offsets(spec)
+    out = []
+    for scene in scenes:
+        sim = ToolSimulator(scene=scene)
+        row = []
+        for dx, dy, dyaw in offsets:
+            sim.build(geometry, box_offset=(float(dx), float(dy), float(dyaw)))
+            traj = sim.run(record_mobility=True)
+            terms = free_energy(
+                traj.box_position,
+                traj.torques,
+                goal,
+                spec,
+                mobility=traj.contact_mobility,
+                control_dt=sim.control_dt,
+            )
+            row.append((terms.free_energy, terms.confidence, terms.goal_error))
+        sim.close()
+        out.append(row)
+    return out
+
+
+def print_smoothed(smoothed: list[list[list[tuple[float, float, float]]]], ks: list[int]) -> None:
+    """The spread over nudges of the mean over the first K scenes, for each K."""
+    print("F averaged over K scenes (ObjectiveSpec.scene_samples; contact estimator):")
+    print(f"{'K':>4s} {'F spread':>9s} {'conf spread':>12s} {'goal-err spread':>16s} {'cost':>6s}")
+    for k in sorted(ks):
+        spreads = []
+        for j in range(3):
+            per_design = [
+                spread([statistics.fmean(r[j] for r in nudge[:k]) for nudge in design])
+                for design in smoothed
+            ]
+            spreads.append(100 * statistics.median(per_design))
+        print(f"{k:4d} {spreads[0]:8.2f}% {spreads[1]:11.2f}% {spreads[2]:15.2f}% {k:5d}x")
 
 
 if __name__ == "__main__":
