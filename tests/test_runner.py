@@ -134,6 +134,32 @@ def test_rerunning_a_finished_suite_changes_no_result(
     assert manifest["wall_time"] >= manifest["extra"]["sessions"][0]["wall_time"]
 
 
+@pytest.mark.slow
+def test_a_finished_suite_grows_by_the_runs_of_new_seeds(
+    tiny_file: Path, uninterrupted: Path, tmp_path: Path
+) -> None:
+    # The one-seed suite, copied, then resumed with two seeds: its first run is kept as it is
+    # and the result equals a fresh two-seed suite. Fewer seeds are refused.
+    grown = tmp_path / "grown"
+    for path in uninterrupted.rglob("*"):
+        if path.is_file():
+            target = grown / path.relative_to(uninterrupted)
+            target.parent.mkdir(parents=True, exist_ok=True)
+            target.write_bytes(path.read_bytes())
+    first = {p.relative_to(grown): p.read_bytes() for p in (grown / "parts").rglob("*.csv")}
+    two = tmp_path / "two.toml"
+    two.write_text(TINY.replace("n_seeds = 1", "n_seeds = 2"), encoding="utf-8")
+    assert main(bench_args(two, grown, "--executor", "serial", "--no-progress")) == 0
+    assert {p: (grown / p).read_bytes() for p in first} == first
+    fresh = tmp_path / "fresh"
+    assert main(bench_args(two, fresh, "--executor", "serial", "--no-progress")) == 0
+    _compare_suites(grown, fresh)
+    manifest = json.loads((grown / "manifest.json").read_text())
+    assert manifest["config"]["n_seeds"] == 2
+    with pytest.raises(ResumeError, match="n_seeds: 2 -> 1"):
+        run_suite(load_suite(tiny_file, size="smoke"), grown, resume=True, progress=False)
+
+
 def test_resume_refuses_other_settings_and_foreign_folders(tiny_file: Path, tmp_path: Path) -> None:
     suite = load_suite(tiny_file, size="smoke")
     out = tmp_path / "run"

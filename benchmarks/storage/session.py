@@ -6,7 +6,8 @@ the same way, through :class:`RunSession`:
 1. **Open.** An empty (or absent) folder starts a new run. A folder with content is resumed only
    when asked, and only if its ``manifest.json`` is of this format version and of the same kind
    of run, its config equals this one (apart from the fields that may change between sessions,
-   such as the number of workers), and every part file matches the SHA-256 the manifest records.
+   such as the number of workers, and counts that may grow, such as a suite's number of seeds),
+   and every part file matches the SHA-256 the manifest records.
    At most one part may be unrecorded: the one written just before a kill, whose manifest
    update was lost. Anything else raises :class:`ResumeError` and changes nothing on disk.
 2. **Write.** :meth:`RunSession.write_batch` writes one part file atomically, records its
@@ -78,6 +79,8 @@ class RunSession:
         config: The JSON form of the run's config.
         resume: Continue a folder that has content; with ``False`` such a folder is an error.
         runtime_fields: Config keys that may differ between sessions (workers, executor, ...).
+        growable_fields: Config keys holding a count that a later session may raise but not
+            lower (a suite's ``n_seeds``: the runs already made are kept, the new ones added).
         extra: More JSON-able entries for the manifest's ``extra``; :meth:`update_extra` changes
             them later.
 
@@ -95,12 +98,14 @@ class RunSession:
         config: Mapping[str, Any],
         resume: bool,
         runtime_fields: Iterable[str] = (),
+        growable_fields: Iterable[str] = (),
         extra: Mapping[str, Any] | None = None,
     ) -> None:
         self.out = check_out_dir(out_dir)
         self.kind = kind
         self.config = dict(config)
         self._runtime = frozenset(runtime_fields)
+        self._growable = frozenset(growable_fields)
         self.store = ResultStore(self.out)
         self._clock = time.perf_counter()
         self._session: dict[str, Any] = {"start_time": _now().isoformat(), "wall_time": 0.0}
@@ -159,6 +164,7 @@ class RunSession:
             k
             for k in (old.keys() | self.config.keys()) - self._runtime
             if old.get(k) != self.config.get(k)
+            and not self._grows(old.get(k), self.config.get(k), k)
         )
         if changed:
             detail = ", ".join(f"{k}: {old.get(k)!r} -> {self.config.get(k)!r}" for k in changed)
@@ -167,6 +173,10 @@ class RunSession:
                 "the same settings, or another folder"
             )
         return manifest
+
+    def _grows(self, old: Any, new: Any, key: str) -> bool:
+        """Whether ``key`` is a growable count that this session raises (e.g. more seeds)."""
+        return key in self._growable and all(type(v) is int for v in (old, new)) and new >= old
 
     def _verify_parts(self, extra: Mapping[str, Any]) -> None:
         recorded = extra.get(PART_CHECKSUMS)

@@ -60,6 +60,10 @@ FIGURES: dict[str, str] = {
 
 RUNTIME_FIELDS: frozenset[str] = frozenset({"executor", "workers", "scheduler"})
 
+#: Config fields a resumed suite may raise: the runs of the first seeds do not depend on how
+#: many seeds there are, so a suite grows by the runs of the new seeds alone.
+GROWABLE_FIELDS: frozenset[str] = frozenset({"n_seeds"})
+
 
 SUITE_KIND = "suite"
 

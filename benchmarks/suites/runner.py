@@ -64,7 +64,13 @@ from benchmarks.storage import (
     paths_path,
     read_designs,
 )
-from benchmarks.suites.config import RUNTIME_FIELDS, SUITE_KIND, RunSpec, SuiteConfig
+from benchmarks.suites.config import (
+    GROWABLE_FIELDS,
+    RUNTIME_FIELDS,
+    SUITE_KIND,
+    RunSpec,
+    SuiteConfig,
+)
 from tooldesign_env.schema import METRICS, coefficient_columns
 
 __all__ = ["SuiteResult", "run_suite", "summary_text"]
@@ -358,6 +364,7 @@ def run_suite(
         config=config.to_json(),
         resume=bool(resume),
         runtime_fields=RUNTIME_FIELDS,
+        growable_fields=GROWABLE_FIELDS,
         extra={"size": size, "runs": len(runs), "planned_evaluations": config.evaluations()},
     )
     out, store = session.out, session.store
