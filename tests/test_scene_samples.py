@@ -104,3 +104,43 @@ def test_an_invalid_design_has_no_spread_over_scenes():
     info = env.step((1e3, -1e3, 0.0))[4]  # folds into itself: cannot be built
     env.close()
     assert not info["valid"] and info["free_energy_std"] == 0.0
+
+
+@pytest.mark.parametrize(
+    ("value", "error"), [(0, ValueError), (65, ValueError), (True, TypeError), (2.0, TypeError)]
+)
+def test_design_and_suite_configs_check_scene_samples(value, error):
+    from benchmarks.design import DesignConfig
+    from benchmarks.suites import SuiteConfig
+
+    with pytest.raises(error, match="scene_samples"):
+        DesignConfig(scene_samples=value)
+    with pytest.raises(error, match="scene_samples"):
+        SuiteConfig(name="s", scene_samples=value)
+
+
+def test_scene_samples_reach_the_env_only_when_asked_for():
+    from benchmarks.design import DesignConfig
+
+    assert "scene_samples" not in dict(DesignConfig().task().env_kwargs)
+    assert dict(DesignConfig(scene_samples=3).task().env_kwargs)["scene_samples"] == 3
+
+
+def test_a_run_stored_before_scene_samples_existed_is_resumed(tmp_path):
+    # Older manifests have no scene_samples: they are compared as K = 1, the value they had.
+    import json
+
+    from benchmarks.design import DesignConfig, run_design
+    from benchmarks.storage import ResumeError
+
+    config = DesignConfig(optimizer="random", iterations=1, batch_size=2, executor="serial")
+    out = tmp_path / "run"
+    run_design(config, out, progress=False, video=False)
+    manifest_path = out / "manifest.json"
+    manifest = json.loads(manifest_path.read_text())
+    del manifest["config"]["scene_samples"]
+    manifest_path.write_text(json.dumps(manifest))
+    grown = replace(config, iterations=2)
+    run_design(grown, out, resume=True, progress=False, video=False)
+    with pytest.raises(ResumeError, match="scene_samples: 1 -> 2"):
+        run_design(replace(grown, scene_samples=2), out, resume=True, progress=False, video=False)

@@ -185,6 +185,7 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
         box_mass: float | None = None,
         estimator: str | None = None,
         objective_kind: str | None = None,
+        scene_samples: int | None = None,
         bounds: Any = None,
         tool: ToolSpec | None = None,
         scene: SceneSpec | None = None,
@@ -217,6 +218,8 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
             objective = replace(objective, estimator=estimator)
         if objective_kind is not None:
             objective = replace(objective, kind=objective_kind)
+        if scene_samples is not None:
+            objective = replace(objective, scene_samples=scene_samples)
         self.objective = objective
         if isinstance(goal, (str, bytes)) or not hasattr(goal, "__len__"):
             raise TypeError(f"goal must be 3 numbers (x, y, z) in m, got {goal!r}")

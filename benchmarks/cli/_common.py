@@ -50,3 +50,11 @@ def add_task_arguments(parser: argparse.ArgumentParser) -> None:
         help="what is minimized: F, or the goal error averaged over box masses (the "
         "robust-design baseline) (default: %(default)s)",
     )
+    parser.add_argument(
+        "--scene-samples",
+        type=int,
+        default=1,
+        metavar="K",
+        help="average F over K scenes whose box differs by a fixed small offset, which smooths "
+        "the chaos of pushing; costs K rollouts per design (1 to 64, default: %(default)s)",
+    )

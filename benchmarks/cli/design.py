@@ -117,6 +117,7 @@ def config_from_args(args: argparse.Namespace) -> DesignConfig:
         box_mass=args.box_mass,
         estimator=args.estimator,
         objective=args.objective,
+        scene_samples=args.scene_samples,
     )
 
 

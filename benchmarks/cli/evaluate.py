@@ -60,6 +60,7 @@ def _run(args: argparse.Namespace) -> int:
         box_mass=args.box_mass,
         estimator=args.estimator,
         objective=args.objective,
+        scene_samples=args.scene_samples,
         robustness=args.robustness,
         outside_bounds=args.outside_bounds,
         video=args.video,

@@ -24,6 +24,7 @@ from tooldesign_env.schema import (
     DEFAULT_GOAL_PRECISION,
     ROBUSTNESS_MASSES,
 )
+from tooldesign_env.specs import SCENE_SAMPLES_MAX
 
 DESIGN_SUITE = "design"
 
@@ -33,6 +34,10 @@ DESIGN_SUITE = "design"
 # Fields that do not change the results, so a resumed run may set them differently.
 _RUNTIME_FIELDS = frozenset({"iterations", "workers", "executor", "scheduler"})
 
+#: Config fields added after runs were first stored, with the value older runs had: a run
+#: folder whose manifest lacks one is resumed as if it held that value.
+ADDED_FIELDS: dict[str, Any] = {"scene_samples": 1}
+
 
 def _int(name: str, value: Any, minimum: int, maximum: int = 2**63 - 1) -> int:
     # The maximum is int64's: seeds and counts are stored in Parquet and SQLite columns.
@@ -41,7 +46,8 @@ def _int(name: str, value: Any, minimum: int, maximum: int = 2**63 - 1) -> int:
     if value < minimum:
         raise ValueError(f"{name} must be >= {minimum}, got {value}")
     if value > maximum:
-        raise ValueError(f"{name} must be <= {maximum} (int64), got {value}")
+        why = " (int64)" if maximum == 2**63 - 1 else ""
+        raise ValueError(f"{name} must be <= {maximum}{why}, got {value}")
     return int(value)
 
 
@@ -108,6 +114,8 @@ class DesignConfig:
         estimator: ``"contact"``, ``"trajectory"`` or ``"resimulation"`` estimate of dX/dU.
         objective: ``"free-energy"`` (F) or ``"expected-goal-error"`` (the robust-design
             baseline, see ``ObjectiveSpec.kind``).
+        scene_samples: K, the scenes each design's F is averaged over (1 to 64; see
+            ``ObjectiveSpec.scene_samples``): K times the simulation, a smoother objective.
         bounds: (n, 2) coefficient bounds [low, high]; ``None`` is ``default_bounds(3)``
             (c1, c2 in [-1.5, 1.5], c3 in [-0.5, 0.5]). n is the polynomial degree.
         robustness_masses: Altered box masses m_i in kg of the final tool's robustness test.
@@ -126,6 +134,7 @@ class DesignConfig:
     box_mass: float = DEFAULT_BOX_MASS
     estimator: str = "contact"
     objective: str = "free-energy"
+    scene_samples: int = 1
     bounds: Sequence[Sequence[float]] | np.ndarray | None = None
     robustness_masses: Sequence[float] = ROBUSTNESS_MASSES
 
@@ -136,6 +145,9 @@ class DesignConfig:
         object.__setattr__(self, "seed", _int("seed", self.seed, 0))
         object.__setattr__(self, "iterations", _int("iterations", self.iterations, 1))
         object.__setattr__(self, "batch_size", _int("batch_size", self.batch_size, 1))
+        object.__setattr__(
+            self, "scene_samples", _int("scene_samples", self.scene_samples, 1, SCENE_SAMPLES_MAX)
+        )
         if self.workers is not None:
             object.__setattr__(self, "workers", _int("workers", self.workers, 1))
         if self.executor not in EXECUTORS:
@@ -184,6 +196,8 @@ class DesignConfig:
             extra["tool"] = self.tool_spec()
         if self.bounds != _bounds(default_bounds(self.degree)):
             extra["bounds"] = self.bounds
+        if self.scene_samples != 1:
+            extra["scene_samples"] = self.scene_samples
         return TaskSettings(
             goal=self.goal,
             goal_precision=self.goal_precision,

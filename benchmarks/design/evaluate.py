@@ -79,6 +79,7 @@ def evaluate_coefficients(
     box_mass: float = DEFAULT_BOX_MASS,
     estimator: str = "contact",
     objective: str = "free-energy",
+    scene_samples: int = 1,
     robustness: bool = False,
     outside_bounds: bool = False,
     video: bool = False,
@@ -98,6 +99,7 @@ def evaluate_coefficients(
         box_mass: box mass in kg.
         estimator: estimator of dX/dU.
         objective: what is scored (``free-energy`` or ``expected-goal-error``).
+        scene_samples: K, the scenes F is averaged over (``ObjectiveSpec.scene_samples``).
         robustness: also test the design under other box masses.
         outside_bounds: accept a design outside the default bounds (the bounds are widened to
             include it).
@@ -127,6 +129,7 @@ def evaluate_coefficients(
         "box_mass": box_mass,
         "estimator": estimator,
         "objective_kind": objective,
+        "scene_samples": scene_samples,
         "bounds": bounds,
         "tool": spec,
     }
@@ -151,6 +154,7 @@ def evaluate_coefficients(
                 "box_mass": box_mass,
                 "estimator": estimator,
                 "objective": objective,
+                "scene_samples": scene_samples,
             },
             "versions": package_versions(),
         }

@@ -31,7 +31,7 @@ from typing import Any, cast
 import numpy as np
 import pandas as pd
 
-from benchmarks.design.config import _RUNTIME_FIELDS, DESIGN_SUITE, DesignConfig
+from benchmarks.design.config import _RUNTIME_FIELDS, ADDED_FIELDS, DESIGN_SUITE, DesignConfig
 from benchmarks.design.stepper import DesignStepper, _best_row, _unit, iteration_bests
 from benchmarks.execution import (
     RobustnessRequest,
@@ -152,6 +152,7 @@ def run_design(
         config=config.to_json(),
         resume=bool(resume),
         runtime_fields=_RUNTIME_FIELDS,
+        added_fields=ADDED_FIELDS,
     )
     out, store = session.out, session.store
     stepper = DesignStepper(config)

@@ -81,6 +81,8 @@ class RunSession:
         runtime_fields: Config keys that may differ between sessions (workers, executor, ...).
         growable_fields: Config keys holding a count that a later session may raise but not
             lower (a suite's ``n_seeds``: the runs already made are kept, the new ones added).
+        added_fields: Config keys a later version added, with the value every run made before
+            had: a manifest without one is compared as if it held that value.
         extra: More JSON-able entries for the manifest's ``extra``; :meth:`update_extra` changes
             them later.
 
@@ -99,6 +101,7 @@ class RunSession:
         resume: bool,
         runtime_fields: Iterable[str] = (),
         growable_fields: Iterable[str] = (),
+        added_fields: Mapping[str, Any] | None = None,
         extra: Mapping[str, Any] | None = None,
     ) -> None:
         self.out = check_out_dir(out_dir)
@@ -106,6 +109,7 @@ class RunSession:
         self.config = dict(config)
         self._runtime = frozenset(runtime_fields)
         self._growable = frozenset(growable_fields)
+        self._added = dict(added_fields or {})
         self.store = ResultStore(self.out)
         self._clock = time.perf_counter()
         self._session: dict[str, Any] = {"start_time": _now().isoformat(), "wall_time": 0.0}
@@ -160,6 +164,7 @@ class RunSession:
                 f"cannot resume: {out} holds a run of another kind, not a {self.kind} run"
             )
         self._verify_parts(extra)
+        old = {**self._added, **old}
         changed = sorted(
             k
             for k in (old.keys() | self.config.keys()) - self._runtime

@@ -64,6 +64,9 @@ RUNTIME_FIELDS: frozenset[str] = frozenset({"executor", "workers", "scheduler"})
 #: many seeds there are, so a suite grows by the runs of the new seeds alone.
 GROWABLE_FIELDS: frozenset[str] = frozenset({"n_seeds"})
 
+#: Config fields added after suites were first stored, with the value older suites had.
+ADDED_FIELDS: dict[str, Any] = {"scene_samples": 1}
+
 
 SUITE_KIND = "suite"
 
@@ -248,6 +251,8 @@ class SuiteConfig:
         estimator: ``"contact"``, ``"trajectory"`` or ``"resimulation"`` estimate of dX/dU.
         objective: ``"free-energy"`` (F) or ``"expected-goal-error"`` (the robust-design
             baseline: the goal error averaged over box masses, see ``ObjectiveSpec.kind``).
+        scene_samples: K, the scenes each design's F is averaged over (1 to 64, see
+            ``ObjectiveSpec.scene_samples``); K times the simulation.
         bounds: (n, 2) coefficient bounds; ``None`` is ``default_bounds(3)``.
         variants: The variants, names unique.
         optimizers: The optimizers, log names (labels) unique.
@@ -274,6 +279,7 @@ class SuiteConfig:
     box_mass: float = 0.1
     estimator: str = "contact"
     objective: str = "free-energy"
+    scene_samples: int = 1
     bounds: Sequence[Sequence[float]] | None = None
     variants: Sequence[Variant] = (Variant(),)
     optimizers: Sequence[OptimizerSpec] = (OptimizerSpec(name="cmaes"),)
@@ -398,6 +404,7 @@ class SuiteConfig:
             box_mass=self.box_mass,
             estimator=self.estimator,
             objective=self.objective,
+            scene_samples=self.scene_samples,
             bounds=self.bounds,
             robustness_masses=self.robustness_masses,
         )

@@ -65,6 +65,7 @@ from benchmarks.storage import (
     read_designs,
 )
 from benchmarks.suites.config import (
+    ADDED_FIELDS,
     GROWABLE_FIELDS,
     RUNTIME_FIELDS,
     SUITE_KIND,
@@ -365,6 +366,7 @@ def run_suite(
         resume=bool(resume),
         runtime_fields=RUNTIME_FIELDS,
         growable_fields=GROWABLE_FIELDS,
+        added_fields=ADDED_FIELDS,
         extra={"size": size, "runs": len(runs), "planned_evaluations": config.evaluations()},
     )
     out, store = session.out, session.store
