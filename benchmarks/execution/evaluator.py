@@ -7,8 +7,9 @@ deterministic and do not depend on what the env simulated before, so every execu
 same rows apart from ``eval_time``.
 
 Failures never end a run: an exception inside the worker becomes a row with status
-``"failed"``; a worker process that dies (``BrokenProcessPool``) is retried alone in a fresh
-pool and, if it dies again, its design is ``"failed"`` too.
+``"failed"``; a design whose worker process dies (``BrokenProcessPool``) is run again alone in
+a fresh pool, retried up to the pool's ``max_retries`` times if its worker dies again, and then
+is ``"failed"`` too (message "worker process died: WorkerDied: ...").
 
 Example:
     >>> task = TaskSettings(goal=(0.0, 1.5, 0.1), goal_precision=20.0)  # doctest: +SKIP
