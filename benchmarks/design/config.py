@@ -17,6 +17,7 @@ from benchmarks.execution import (
     EXECUTORS,
     RobustnessRequest,
     TaskSettings,
+    check_max_retries,
 )
 from tooldesign_env.schema import (
     DEFAULT_BOX_MASS,
@@ -31,7 +32,7 @@ DESIGN_SUITE = "design"
 
 
 # Fields that do not change the results, so a resumed run may set them differently.
-_RUNTIME_FIELDS = frozenset({"iterations", "workers", "executor", "scheduler"})
+_RUNTIME_FIELDS = frozenset({"iterations", "workers", "executor", "scheduler", "max_retries"})
 
 
 def _int(name: str, value: Any, minimum: int, maximum: int = 2**63 - 1) -> int:
@@ -102,6 +103,11 @@ class DesignConfig:
         executor: ``"serial"``, ``"process"`` or ``"dask"``.
         scheduler: Address of a Dask scheduler (with ``executor="dask"``); a LocalCluster if
             ``None``.
+        max_retries: With ``executor="process"``: how many more times a design whose worker
+            process died while it was evaluated alone is evaluated again, alone in a fresh pool,
+            before it is logged as ``"failed"``; an int from 0 to 100 (default 0: the simulation
+            is deterministic). A design whose worker died in a shared pool is always evaluated
+            once more alone first, so the others' designs are not failed with it.
         goal: X^g, (x, y, z) in m.
         goal_precision: p^X in 1/m^2, >= 0 (the paper's Figure 3 uses 40, its comparisons 20).
         box_mass: Box mass in kg (the paper's 0.1).
@@ -121,6 +127,7 @@ class DesignConfig:
     workers: int | None = None
     executor: str = "process"
     scheduler: str | None = None
+    max_retries: int = 0
     goal: Sequence[float] = DEFAULT_GOAL
     goal_precision: float = DEFAULT_GOAL_PRECISION
     box_mass: float = DEFAULT_BOX_MASS
@@ -148,6 +155,7 @@ class DesignConfig:
                     f"scheduler is a Dask scheduler address; it needs executor='dask', "
                     f"got executor={self.executor!r}"
                 )
+        object.__setattr__(self, "max_retries", check_max_retries(self.max_retries))
         # TaskSettings checks goal, precision, mass and estimator and says what is wrong.
         task = TaskSettings(
             goal=self.goal,

@@ -58,14 +58,14 @@ FIGURES: dict[str, str] = {
 """Suite-specific reports a suite may ask for, and what each shows."""
 
 
-RUNTIME_FIELDS: frozenset[str] = frozenset({"executor", "workers", "scheduler"})
+RUNTIME_FIELDS: frozenset[str] = frozenset({"executor", "workers", "scheduler", "max_retries"})
+
+"""Fields that do not change the results: a resumed suite may set them differently."""
 
 
 SUITE_KIND = "suite"
 
 """``manifest.json`` ``extra.kind`` of a suite run folder."""
-
-"""Fields that do not change the results: a resumed suite may set them differently."""
 
 
 def _int(name: str, value: Any, minimum: int) -> int:
@@ -259,6 +259,9 @@ class SuiteConfig:
         executor: ``"serial"``, ``"process"`` or ``"dask"``.
         workers: Worker processes; ``None`` is ``os.cpu_count()``.
         scheduler: Address of a running Dask scheduler (with ``executor="dask"``).
+        max_retries: With ``executor="process"``: further evaluations, each alone in a fresh
+            pool, of a design whose worker process died while it was evaluated alone, before it
+            is logged as ``"failed"``; an int from 0 to 100 (see ``DesignConfig.max_retries``).
     """
 
     name: str
@@ -284,6 +287,7 @@ class SuiteConfig:
     executor: str = "process"
     workers: int | None = None
     scheduler: str | None = None
+    max_retries: int = 0
 
     def __post_init__(self) -> None:
         _name("name", self.name)
@@ -359,6 +363,7 @@ class SuiteConfig:
             design = self._design(variant, OptimizerSpec(name="random"), 0, self.goal)
         object.__setattr__(self, "bounds", design.bounds)
         object.__setattr__(self, "workers", design.workers)
+        object.__setattr__(self, "max_retries", design.max_retries)
 
     def _checked_goal_box(self) -> tuple[tuple[float, float], ...] | None:
         if self.goal_box is None:
@@ -389,6 +394,7 @@ class SuiteConfig:
             workers=self.workers,
             executor=self.executor,
             scheduler=self.scheduler,
+            max_retries=self.max_retries,
             goal=tuple(goal),
             goal_precision=precision,
             box_mass=self.box_mass,
