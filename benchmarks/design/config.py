@@ -31,6 +31,11 @@ DESIGN_SUITE = "design"
 """Suite name of a design run in its evaluation log."""
 
 
+WORKERS_MAX = 1024
+
+"""Most worker processes: a mistyped count (10^6) would start that many processes."""
+
+
 # Fields that do not change the results, so a resumed run may set them differently.
 _RUNTIME_FIELDS = frozenset({"iterations", "workers", "executor", "scheduler", "max_retries"})
 
@@ -42,13 +47,16 @@ def _int(name: str, value: Any, minimum: int, maximum: int = 2**63 - 1) -> int:
     if value < minimum:
         raise ValueError(f"{name} must be >= {minimum}, got {value}")
     if value > maximum:
-        raise ValueError(f"{name} must be <= {maximum} (int64), got {value}")
+        why = " (int64)" if maximum == 2**63 - 1 else ""
+        raise ValueError(f"{name} must be <= {maximum}{why}, got {value}")
     return int(value)
 
 
 def _settings(value: Any) -> tuple[tuple[str, Any], ...]:
     if isinstance(value, Mapping):
         value = tuple(value.items())
+    if isinstance(value, (str, bytes)):  # iterating "" gives no pairs: it would pass as empty
+        raise TypeError(f"optimizer_settings must be a mapping of names to values, got {value!r}")
     try:
         pairs = tuple(sorted((k, v) for k, v in value))
     except (TypeError, ValueError):
@@ -98,8 +106,8 @@ class DesignConfig:
             pairs), JSON values only.
         seed: Seed of the optimizer, >= 0; the simulation has no randomness.
         iterations: K, iterations of ask/evaluate/tell, >= 1.
-        batch_size: Designs asked per iteration (the population size), >= 1.
-        workers: Worker processes; ``None`` is ``os.cpu_count()``.
+        batch_size: Designs asked per iteration (the population size), 1 to 10,000.
+        workers: Worker processes, 1 to 1024; ``None`` is ``os.cpu_count()``.
         executor: ``"serial"``, ``"process"`` or ``"dask"``.
         scheduler: Address of a Dask scheduler (with ``executor="dask"``); a LocalCluster if
             ``None``.
@@ -142,9 +150,13 @@ class DesignConfig:
         object.__setattr__(self, "optimizer_settings", _settings(self.optimizer_settings))
         object.__setattr__(self, "seed", _int("seed", self.seed, 0))
         object.__setattr__(self, "iterations", _int("iterations", self.iterations, 1))
-        object.__setattr__(self, "batch_size", _int("batch_size", self.batch_size, 1))
+        from optimizers._validation import BATCH_SIZE_MAX
+
+        # The optimizers refuse a larger batch too, but only once the run has started.
+        batch_size = _int("batch_size", self.batch_size, 1, BATCH_SIZE_MAX)
+        object.__setattr__(self, "batch_size", batch_size)
         if self.workers is not None:
-            object.__setattr__(self, "workers", _int("workers", self.workers, 1))
+            object.__setattr__(self, "workers", _int("workers", self.workers, 1, WORKERS_MAX))
         if self.executor not in EXECUTORS:
             raise ValueError(f"executor must be one of {EXECUTORS}, got {self.executor!r}")
         if self.scheduler is not None:
@@ -168,7 +180,10 @@ class DesignConfig:
         object.__setattr__(self, "goal_precision", task.goal_precision)
         object.__setattr__(self, "box_mass", task.box_mass)
         object.__setattr__(self, "bounds", _bounds(self.bounds))
-        masses = RobustnessRequest(coeffs=(0.0,), masses=self.robustness_masses).masses
+        try:
+            masses = RobustnessRequest(coeffs=(0.0,), masses=self.robustness_masses).masses
+        except (TypeError, ValueError) as error:
+            raise type(error)(f"robustness_masses: {error}") from None
         object.__setattr__(self, "robustness_masses", masses)
 
     @property

@@ -88,6 +88,8 @@ def _check_optimizers(config: SuiteConfig) -> None:
             raise ValueError(f"optimizer {spec.name!r} cannot be used: {err}") from err
         except (TypeError, ValueError) as err:
             raise type(err)(f"optimizer {spec.name!r}: {err}") from err
+        except OverflowError as err:  # a setting a backend cannot convert
+            raise ValueError(f"optimizer {spec.name!r}: a setting is out of range: {err}") from err
 
 
 def _logged_frames(
