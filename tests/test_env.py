@@ -337,12 +337,26 @@ def test_robustness_metrics():
     e.close()
 
 
-def test_no_temporary_files_are_left(env):
-    before = set(os.listdir(tempfile.gettempdir()))
+def test_no_temporary_files_are_left(env, tmp_path, monkeypatch):
+    # A private temporary folder: the shared /tmp also holds the files of test runs and other
+    # programs running at the same time, which made this test flaky.
+    private = tmp_path / "tmp"
+    private.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(private))
+    monkeypatch.setenv("TMPDIR", str(private))
+    made = []
+    real_mkstemp = tempfile.mkstemp
+
+    def recording_mkstemp(*args, **kwargs):
+        fd, path = real_mkstemp(*args, **kwargs)
+        made.append(path)
+        return fd, path
+
+    monkeypatch.setattr(tempfile, "mkstemp", recording_mkstemp)
     env.reset(seed=0)
     env.step(HOOK)
-    after = set(os.listdir(tempfile.gettempdir()))
-    assert not {f for f in after - before if f.startswith("tooldesign")}
+    assert made and all(os.path.dirname(p) == str(private) for p in made)  # it watched them
+    assert os.listdir(private) == []
 
 
 def test_specs_are_frozen_and_validated():

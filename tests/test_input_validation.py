@@ -1,23 +1,32 @@
 """Bad input at every public entry point gives a TypeError/ValueError naming it (issue #10).
 
 The cases found by the fuzzing pass first, then properties over the action space, the env
-options and the configuration fields. ``benchmarks/perf/fuzz_inputs.py`` is the rerunnable
-version over many more inputs.
+options, the configuration fields and suite config files. ``benchmarks/perf/fuzz_inputs.py`` is
+the rerunnable version over many more inputs.
 """
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 import optimizers
 from benchmarks.cli import main
 from benchmarks.design import DesignConfig
+from benchmarks.suites import (
+    SuiteConfig,
+    builtin_suite,
+    load_suite,
+    save_suite,
+    suite_from_json,
+)
+from benchmarks.suites.config import N_SEEDS_MAX
 from optimizers._validation import BATCH_SIZE_MAX, BOUND_MAX, VALUE_MAX
 from tooldesign_env import ToolDesignEnv
 from tooldesign_env.specs import BOX_MASS_MAX, GOAL_PRECISION_MAX, ObjectiveSpec
@@ -227,3 +236,166 @@ def test_state_loads_only_with_the_recorded_digest(name, tmp_path: Path):
             optimizers.Optimizer.load_state(path, sha256=digest)
         with pytest.raises(ValueError, match="optimizer state"):
             optimizers.Optimizer.load_state(path)
+
+
+# --- suite config files ------------------------------------------------------------------------
+
+SUITE = {"name": "fuzz", "optimizers": [{"name": "random"}], "n_seeds": 1, "iterations": 1}
+
+
+def _number_in(low: float, high: float, *, integer: bool = False):
+    def allowed(value: object) -> bool:
+        if integer and not isinstance(value, int):
+            return False
+        return _is_number(value) and low <= value <= high  # type: ignore[operator]
+
+    return allowed
+
+
+# (the field the error must name, where the value goes in a valid suite, which values are valid)
+SUITE_PLACES = [
+    ("name", lambda v: {"name": v}, lambda v: isinstance(v, str) and v.strip() == v != ""),
+    ("goal", lambda v: {"goal": v}, lambda v: False),
+    ("goal", lambda v: {"goal": [v, 1.5, 0.1]}, _number_in(-2.5, 2.5)),
+    ("goal_box", lambda v: {"goal_box": [v, [0, 1], [0, 1]]}, lambda v: False),
+    ("goal_box x", lambda v: {"goal_box": [[v, 0.5], [0, 1], [0, 1]]}, _number_in(-2.5, 0.5)),
+    ("goal_precision", lambda v: {"goal_precision": v}, _number_in(0, GOAL_PRECISION_MAX)),
+    ("box_mass", lambda v: {"box_mass": v}, lambda v: _number_in(0, BOX_MASS_MAX)(v) and v > 0),
+    ("bounds", lambda v: {"bounds": [[-1.0, v]] * 3}, lambda v: _number_in(-1, 1e3)(v) and v > -1),
+    ("variants", lambda v: {"variants": v}, lambda v: False),
+    ("variant name", lambda v: {"variants": [{"name": v}]}, lambda v: isinstance(v, str)),
+    (
+        "goal_precision",
+        lambda v: {"variants": [{"goal_precision": v}]},
+        lambda v: v is None or _number_in(0, GOAL_PRECISION_MAX)(v),
+    ),
+    ("optimizers", lambda v: {"optimizers": [v]}, lambda v: False),
+    (
+        "settings of random",
+        lambda v: {"optimizers": [{"name": "random", "settings": v}]},
+        lambda v: _settings_ok(v) and _is_finite_json(v),
+    ),
+    ("batch_size", lambda v: {"batch_size": v}, _number_in(1, BATCH_SIZE_MAX, integer=True)),
+    ("iterations", lambda v: {"iterations": v}, _number_in(1, 2**63 - 1, integer=True)),
+    ("root_seed", lambda v: {"root_seed": v}, _number_in(0, 2**63 - 1, integer=True)),
+    ("n_seeds", lambda v: {"n_seeds": v}, _number_in(1, N_SEEDS_MAX, integer=True)),
+    ("workers", lambda v: {"workers": v}, lambda v: v is None or _number_in(1, 1024, True)(v)),
+    ("max_retries", lambda v: {"max_retries": v}, _number_in(0, 100, integer=True)),
+    ("test_robustness", lambda v: {"test_robustness": v}, lambda v: isinstance(v, bool)),
+    ("robustness_masses", lambda v: {"robustness_masses": [0.5, v]}, _number_in(1e-300, 1e3)),
+    ("figures", lambda v: {"figures": [v]}, lambda v: False),
+]
+
+JSON = st.recursive(
+    st.one_of(
+        st.none(),
+        st.booleans(),
+        st.text(max_size=5),
+        st.floats(allow_nan=True, allow_infinity=True),
+        st.integers(min_value=-(10**400), max_value=10**400),
+    ),
+    lambda inner: st.lists(inner, max_size=3) | st.dictionaries(st.text(max_size=5), inner),
+    max_leaves=6,
+)
+
+
+def _settings_ok(value: object) -> bool:
+    if isinstance(value, list):
+        return value == []
+    return isinstance(value, dict) and all(k.isidentifier() for k in value)  # JSON: str keys
+
+
+@settings(max_examples=300, deadline=None)
+@given(place=st.sampled_from(SUITE_PLACES), value=st.one_of(ANY, JSON))
+def test_suite_file_fields_accept_only_valid_values(tmp_path_factory, place, value):
+    field, put, allowed = place
+    path = tmp_path_factory.mktemp("suite") / "suite.json"
+    path.write_text(json.dumps({**SUITE, **put(value)}), encoding="utf-8")  # NaN as NaN
+    try:
+        suite = load_suite(path)
+    except (TypeError, ValueError) as error:
+        message = str(error)
+        assert message.startswith(str(path)) and field in message, message
+        assert "\n" not in message and len(message) < 5000  # bounds echo 3 ints of 400 digits
+    else:
+        assert allowed(value), value
+        assert len(suite.tasks()) == suite.n_seeds
+
+
+def _is_finite_json(value: object) -> bool:
+    if isinstance(value, float):
+        return math.isfinite(value)
+    if isinstance(value, int) and not isinstance(value, bool):
+        return abs(value) < 2**1024
+    if isinstance(value, list):
+        return all(_is_finite_json(v) for v in value)
+    if isinstance(value, dict):
+        return all(_is_finite_json(v) for v in value.values())
+    return True
+
+
+@settings(max_examples=100, deadline=None)
+@given(key=st.text(min_size=1, max_size=8), value=JSON, nested=st.booleans())
+def test_unknown_suite_keys_are_named(key, value, nested):
+    fields = {"name", "variants", "optimizers", "n_seeds", "iterations", "label", "settings"}
+    assume(key not in fields and key not in SuiteConfig.__dataclass_fields__)
+    data = {**SUITE, **({"variants": [{key: value}]} if nested else {key: value})}
+    with pytest.raises(ValueError, match="unknown keys") as error:
+        suite_from_json(data, where="suite.json")
+    assert repr(key) in str(error.value)
+
+
+@settings(max_examples=150, deadline=None)
+@given(data=st.data(), suffix=st.sampled_from([".json", ".toml"]))
+def test_edited_suite_files_are_accepted_or_refused_naming_the_file(tmp_path_factory, data, suffix):
+    folder = tmp_path_factory.mktemp("edit")
+    valid = save_suite(builtin_suite("robustness", "smoke"), folder / f"valid{suffix}")
+    text = valid.read_text(encoding="utf-8")
+    start = data.draw(st.integers(0, len(text)))
+    end = data.draw(st.integers(start, min(len(text), start + 30)))
+    insert = data.draw(st.text(alphabet='{}[]",:=.-+eE019 \n\tnaNIfy\x00', max_size=4))
+    path = folder / f"edited{suffix}"
+    path.write_text(text[:start] + insert + text[end:], encoding="utf-8")
+    try:
+        load_suite(path).tasks()
+    except (TypeError, ValueError) as error:
+        assert str(path) in str(error)
+
+
+@pytest.mark.parametrize(
+    ("name", "content", "match"),
+    [
+        # Each was a traceback, a message naming no field, or a value accepted, before.
+        ("box.json", {"goal_box": [[10**400, 1], [0, 1], [0, 1]]}, "goal_box x"),
+        ("figure.json", {"figures": [["x"]]}, "figures: unknown figure"),
+        ("settings.json", {"optimizers": [{"name": "random", "settings": ""}]}, "settings of"),
+        ("big.json", {"optimizers": [{"name": "cmaes", "settings": {"sigma0": 10**400}}]}, "JSON"),
+        ("seeds.json", {"n_seeds": 10**12}, "n_seeds must be from 1 to 10000"),
+        ("seed.json", {"root_seed": 10**400}, "root_seed must be from 0"),
+        ("masses.json", {"robustness_masses": [1e300]}, "robustness_masses"),
+        ("workers.json", {"workers": 10**6}, "workers must be <= 1024"),
+        ("batch.json", {"batch_size": 10**9}, "batch_size must be from 1 to 10000"),
+        ("goal.json", {"goal": [1e200, 1.5, 0.1]}, "outside the workspace"),
+        ("p.json", {"variants": [{"goal_precision": 10**400}]}, "goal_precision"),
+        ("long.json", {"variants": [{"name": "a" * 300}]}, "at most 200 characters"),
+        ("deep.json", "[" * 100_000 + "]" * 100_000, "nests lists or tables too deeply"),
+        ("binary.json", b"\xff\xfe{}", "not UTF-8"),
+    ],
+)
+def test_suite_files_found_by_fuzzing_exit_2_with_one_line(tmp_path, capsys, name, content, match):
+    path = tmp_path / name
+    if isinstance(content, bytes):
+        path.write_bytes(content)
+    elif isinstance(content, str):
+        path.write_text(content, encoding="utf-8")
+    else:
+        path.write_text(json.dumps({**SUITE, **content}), encoding="utf-8")
+    with pytest.raises((TypeError, ValueError), match=match):
+        load_suite(path)
+    existing = tmp_path / "file"
+    existing.write_text("x")
+    with pytest.raises(SystemExit) as stop:
+        main(["bench", "--config", str(path), "--out", str(existing), "--no-progress"])
+    assert stop.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(path) in err[0] and "Traceback" not in err[0], err

@@ -13,6 +13,7 @@ import importlib
 import pickle
 import sys
 from collections.abc import Sequence
+from typing import NoReturn
 
 __all__ = ["COMMANDS", "build_parser", "main"]
 
@@ -86,8 +87,17 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     return _parser(set(COMMANDS) if command is None else {command})
 
 
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line (exit code 2), as the command's own are."""
+
+    def error(self, message: str) -> NoReturn:
+        """Print ``PROG: error: MESSAGE`` and where the usage is on one line; exit with 2."""
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
 def _parser(full: set[str]) -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    # Subparsers are made with the class of their parent, so every command's errors are one line.
+    parser = _Parser(
         prog="tooldesign",
         description="Design robot hand tools with control confidence (ToolDesign-v0).",
     )

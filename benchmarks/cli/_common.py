@@ -4,8 +4,36 @@ from __future__ import annotations
 
 import argparse
 
-from benchmarks.execution import TaskSettings
+from benchmarks.execution import MAX_RETRIES_MAX, TaskSettings
 from benchmarks.execution.evaluator import _ESTIMATORS, OBJECTIVES
+
+
+def _max_retries(text: str) -> int:
+    # int() alone would take "1_000" and " 3"; a count is digits only. Booleans are not counts.
+    if not text.isascii() or not text.isdigit() or int(text) > MAX_RETRIES_MAX:
+        raise argparse.ArgumentTypeError(
+            f"must be an int from 0 to {MAX_RETRIES_MAX}, got {text!r}"
+        )
+    return int(text)
+
+
+def add_max_retries_argument(parser: argparse.ArgumentParser, default: int | None) -> None:
+    """Add ``--max-retries N``: retries of a design whose worker process died (process pool).
+
+    Args:
+        parser: The command's parser.
+        default: The value when the flag is not given (``None``: the suite's own).
+    """
+    shown = "the suite's, 0 if it sets none" if default is None else str(default)
+    parser.add_argument(
+        "--max-retries",
+        type=_max_retries,
+        default=default,
+        metavar="N",
+        help="with --executor process: how many more times a design whose worker process died "
+        "while it was evaluated alone is evaluated again, alone in a fresh pool, before it is "
+        f"logged as failed; 0 to {MAX_RETRIES_MAX} (default: {shown})",
+    )
 
 
 def add_task_arguments(parser: argparse.ArgumentParser) -> None:

@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 from typing import Any, cast
 
+from benchmarks.cli._common import add_max_retries_argument
 from benchmarks.execution import EXECUTORS
 from benchmarks.reports.suite import make_suite_report
 from benchmarks.suites import (
@@ -62,6 +63,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         metavar="ADDR",
         help="Dask scheduler address, e.g. tcp://host:8786 (implies --executor dask)",
     )
+    add_max_retries_argument(parser, None)
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument(
         "--dump-config",
@@ -97,6 +99,8 @@ def config_from_args(args: argparse.Namespace) -> SuiteConfig:
         changes["executor"] = args.executor or "dask"
     if args.executor is not None:
         changes["executor"] = args.executor
+    if args.max_retries is not None:
+        changes["max_retries"] = args.max_retries
     return config.replace(**changes) if changes else config
 
 

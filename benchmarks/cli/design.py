@@ -7,7 +7,7 @@ import json
 from pathlib import Path
 from typing import Any, cast
 
-from benchmarks.cli._common import add_task_arguments
+from benchmarks.cli._common import add_max_retries_argument, add_task_arguments
 from benchmarks.design import DesignConfig, run_design
 from benchmarks.execution import EXECUTORS
 from benchmarks.reports import write_design_report
@@ -80,6 +80,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         metavar="ADDR",
         help="Dask scheduler address, e.g. tcp://host:8786 (with --executor dask)",
     )
+    add_max_retries_argument(parser, DesignConfig().max_retries)
     add_task_arguments(parser)
     parser.add_argument(
         "--option",
@@ -112,6 +113,7 @@ def config_from_args(args: argparse.Namespace) -> DesignConfig:
         workers=args.workers,
         executor=args.executor,
         scheduler=args.scheduler,
+        max_retries=args.max_retries,
         goal=tuple(args.goal),
         goal_precision=args.goal_precision,
         box_mass=args.box_mass,
@@ -119,6 +121,16 @@ def config_from_args(args: argparse.Namespace) -> DesignConfig:
         objective=args.objective,
         scene_samples=args.scene_samples,
     )
+
+
+def _counts_text(counts: dict[str, int]) -> str:
+    text = (
+        f"evaluations: {counts['total']} ({counts['ok']} ok, {counts['invalid']} invalid, "
+        f"{counts['failed']} failed)"
+    )
+    if counts["failed"]:
+        text += "; each failure's message is in the warnings above"
+    return text
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -136,6 +148,7 @@ def _run(args: argparse.Namespace) -> int:
         f"best design: C = ({coeffs}), F = {result.free_energy!r} "
         f"(goal error {result.goal_error:.6g}, confidence {result.confidence:.6g}, "
         f"final distance {result.final_distance:.4g} m), iteration {result.iteration}, "
-        f"candidate {result.candidate}\nrun folder: {result.out_dir}"
+        f"candidate {result.candidate}\n{_counts_text(result.card['evaluations'])}\n"
+        f"run folder: {result.out_dir}"
     )
     return 0

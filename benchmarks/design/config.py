@@ -17,6 +17,7 @@ from benchmarks.execution import (
     EXECUTORS,
     RobustnessRequest,
     TaskSettings,
+    check_max_retries,
 )
 from tooldesign_env.schema import (
     DEFAULT_BOX_MASS,
@@ -31,8 +32,13 @@ DESIGN_SUITE = "design"
 """Suite name of a design run in its evaluation log."""
 
 
+WORKERS_MAX = 1024
+
+"""Most worker processes: a mistyped count (10^6) would start that many processes."""
+
+
 # Fields that do not change the results, so a resumed run may set them differently.
-_RUNTIME_FIELDS = frozenset({"iterations", "workers", "executor", "scheduler"})
+_RUNTIME_FIELDS = frozenset({"iterations", "workers", "executor", "scheduler", "max_retries"})
 
 #: Config fields added after runs were first stored, with the value older runs had: a run
 #: folder whose manifest lacks one is resumed as if it held that value.
@@ -54,6 +60,8 @@ def _int(name: str, value: Any, minimum: int, maximum: int = 2**63 - 1) -> int:
 def _settings(value: Any) -> tuple[tuple[str, Any], ...]:
     if isinstance(value, Mapping):
         value = tuple(value.items())
+    if isinstance(value, (str, bytes)):  # iterating "" gives no pairs: it would pass as empty
+        raise TypeError(f"optimizer_settings must be a mapping of names to values, got {value!r}")
     try:
         pairs = tuple(sorted((k, v) for k, v in value))
     except (TypeError, ValueError):
@@ -103,11 +111,16 @@ class DesignConfig:
             pairs), JSON values only.
         seed: Seed of the optimizer, >= 0; the simulation has no randomness.
         iterations: K, iterations of ask/evaluate/tell, >= 1.
-        batch_size: Designs asked per iteration (the population size), >= 1.
-        workers: Worker processes; ``None`` is ``os.cpu_count()``.
+        batch_size: Designs asked per iteration (the population size), 1 to 10,000.
+        workers: Worker processes, 1 to 1024; ``None`` is ``os.cpu_count()``.
         executor: ``"serial"``, ``"process"`` or ``"dask"``.
         scheduler: Address of a Dask scheduler (with ``executor="dask"``); a LocalCluster if
             ``None``.
+        max_retries: With ``executor="process"``: how many more times a design whose worker
+            process died while it was evaluated alone is evaluated again, alone in a fresh pool,
+            before it is logged as ``"failed"``; an int from 0 to 100 (default 0: the simulation
+            is deterministic). A design whose worker died in a shared pool is always evaluated
+            once more alone first, so the others' designs are not failed with it.
         goal: X^g, (x, y, z) in m.
         goal_precision: p^X in 1/m^2, >= 0 (the paper's Figure 3 uses 40, its comparisons 20).
         box_mass: Box mass in kg (the paper's 0.1).
@@ -129,6 +142,7 @@ class DesignConfig:
     workers: int | None = None
     executor: str = "process"
     scheduler: str | None = None
+    max_retries: int = 0
     goal: Sequence[float] = DEFAULT_GOAL
     goal_precision: float = DEFAULT_GOAL_PRECISION
     box_mass: float = DEFAULT_BOX_MASS
@@ -144,12 +158,16 @@ class DesignConfig:
         object.__setattr__(self, "optimizer_settings", _settings(self.optimizer_settings))
         object.__setattr__(self, "seed", _int("seed", self.seed, 0))
         object.__setattr__(self, "iterations", _int("iterations", self.iterations, 1))
-        object.__setattr__(self, "batch_size", _int("batch_size", self.batch_size, 1))
+        from optimizers._validation import BATCH_SIZE_MAX
+
+        # The optimizers refuse a larger batch too, but only once the run has started.
+        batch_size = _int("batch_size", self.batch_size, 1, BATCH_SIZE_MAX)
+        object.__setattr__(self, "batch_size", batch_size)
         object.__setattr__(
             self, "scene_samples", _int("scene_samples", self.scene_samples, 1, SCENE_SAMPLES_MAX)
         )
         if self.workers is not None:
-            object.__setattr__(self, "workers", _int("workers", self.workers, 1))
+            object.__setattr__(self, "workers", _int("workers", self.workers, 1, WORKERS_MAX))
         if self.executor not in EXECUTORS:
             raise ValueError(f"executor must be one of {EXECUTORS}, got {self.executor!r}")
         if self.scheduler is not None:
@@ -160,6 +178,7 @@ class DesignConfig:
                     f"scheduler is a Dask scheduler address; it needs executor='dask', "
                     f"got executor={self.executor!r}"
                 )
+        object.__setattr__(self, "max_retries", check_max_retries(self.max_retries))
         # TaskSettings checks goal, precision, mass and estimator and says what is wrong.
         task = TaskSettings(
             goal=self.goal,
@@ -172,7 +191,10 @@ class DesignConfig:
         object.__setattr__(self, "goal_precision", task.goal_precision)
         object.__setattr__(self, "box_mass", task.box_mass)
         object.__setattr__(self, "bounds", _bounds(self.bounds))
-        masses = RobustnessRequest(coeffs=(0.0,), masses=self.robustness_masses).masses
+        try:
+            masses = RobustnessRequest(coeffs=(0.0,), masses=self.robustness_masses).masses
+        except (TypeError, ValueError) as error:
+            raise type(error)(f"robustness_masses: {error}") from None
         object.__setattr__(self, "robustness_masses", masses)
 
     @property

@@ -129,8 +129,8 @@ def run_design(
         out_dir: The run folder (see ``docs/design-runs.md``); created if absent.
         resume: Continue the interrupted (or finished) run in ``out_dir``. Only the runtime
             fields (``iterations`` (not fewer than are logged), ``workers``, ``executor``,
-            ``scheduler``) may differ from the run's settings. A missing or empty folder starts
-            a new run.
+            ``scheduler``, ``max_retries``) may differ from the run's settings. A missing or
+            empty folder starts a new run.
         progress: Show a tqdm progress bar (iteration, evaluations, best F) on stderr.
         video: Also write ``rollout.gif``, the best design's rollout rendered headless (about
             20 s more; ``tooldesign design`` does it unless ``--no-video``).
@@ -165,7 +165,9 @@ def run_design(
 
     from tqdm.auto import tqdm
 
-    with make_executor(config.executor, config.workers, config.scheduler) as executor:
+    with make_executor(
+        config.executor, config.workers, config.scheduler, max_retries=config.max_retries
+    ) as executor:
         bar = tqdm(
             total=config.iterations,
             initial=len(logged),

@@ -1,7 +1,8 @@
 """Where and how designs are evaluated: executors, the evaluator, and a scheduler of many runs.
 
 - :mod:`~benchmarks.execution.executors`: serial, local process pool or Dask; a worker that
-  dies is replaced and its items retried alone (knows nothing of tools).
+  dies is replaced, its items run again alone and retried up to ``max_retries`` times (knows
+  nothing of tools).
 - :mod:`~benchmarks.execution.scheduler`: keeps many jobs (design runs) in flight on one
   executor; the work function is a parameter.
 - :mod:`~benchmarks.execution.evaluator`: the work functions of this project: simulate and score
@@ -26,16 +27,21 @@ from benchmarks.execution.evaluator import (
 )
 from benchmarks.execution.executors import (
     EXECUTORS,
+    MAX_RETRIES_MAX,
     Outcome,
     SerialExecutor,
+    WorkerDied,
     check_main_guard,
+    check_max_retries,
     make_executor,
     map_robust,
+    run_alone,
 )
 from benchmarks.execution.scheduler import Job, Scheduler
 
 __all__ = [
     "EXECUTORS",
+    "MAX_RETRIES_MAX",
     "EvaluationRequest",
     "FinalTest",
     "Job",
@@ -44,7 +50,9 @@ __all__ = [
     "Scheduler",
     "SerialExecutor",
     "TaskSettings",
+    "WorkerDied",
     "check_main_guard",
+    "check_max_retries",
     "clear_env_cache",
     "evaluate_batch",
     "evaluate_design",
@@ -53,6 +61,7 @@ __all__ = [
     "make_executor",
     "map_robust",
     "outcome_row",
+    "run_alone",
     "run_final_test",
     "worker_env",
 ]

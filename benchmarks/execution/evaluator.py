@@ -7,8 +7,9 @@ deterministic and do not depend on what the env simulated before, so every execu
 same rows apart from ``eval_time``.
 
 Failures never end a run: an exception inside the worker becomes a row with status
-``"failed"``; a worker process that dies (``BrokenProcessPool``) is retried alone in a fresh
-pool and, if it dies again, its design is ``"failed"`` too.
+``"failed"``; a design whose worker process dies (``BrokenProcessPool``) is run again alone in
+a fresh pool, retried up to the pool's ``max_retries`` times if its worker dies again, and then
+is ``"failed"`` too (message "worker process died: WorkerDied: ...").
 
 Example:
     >>> task = TaskSettings(goal=(0.0, 1.5, 0.1), goal_precision=20.0)  # doctest: +SKIP
@@ -63,7 +64,8 @@ class TaskSettings:
     """The task a design is scored on, and the env settings it is scored with.
 
     Attributes:
-        goal: Goal position X^g, (x, y, z) in m; stored as a tuple of floats.
+        goal: Goal position X^g, (x, y, z) in m, in the env's workspace (x, y in [-2.5, 2.5],
+            z in [0, 1]); stored as a tuple of floats.
         goal_precision: p^X, weight of the squared goal error in F, 1/m^2, >= 0.
         box_mass: Mass of the box in kg, > 0.
         estimator: How dX/dU is estimated: ``"contact"``, ``"trajectory"`` or
@@ -89,7 +91,17 @@ class TaskSettings:
         if len(goal) != 3:
             raise ValueError(f"goal must be 3 numbers (x, y, z) in m, got {len(goal)}")
         object.__setattr__(self, "goal", tuple(_finite("goal", v) for v in goal))
+        from tooldesign_env.env import WORKSPACE_HIGH, WORKSPACE_LOW
         from tooldesign_env.specs import BOX_MASS_MAX, GOAL_PRECISION_MAX
+
+        # The env refuses a goal outside its workspace at every reset: refuse it here, once.
+        inside = zip(self.goal, WORKSPACE_LOW, WORKSPACE_HIGH, strict=True)
+        if not all(lo <= v <= hi for v, lo, hi in inside):
+            raise ValueError(
+                f"goal {list(self.goal)} is outside the workspace: x, y in "
+                f"[{WORKSPACE_LOW[0]:g}, {WORKSPACE_HIGH[0]:g}] m, z in "
+                f"[{WORKSPACE_LOW[2]:g}, {WORKSPACE_HIGH[2]:g}] m"
+            )
 
         precision = _finite("goal_precision", self.goal_precision)
         if not 0 <= precision <= GOAL_PRECISION_MAX:
@@ -162,7 +174,7 @@ class RobustnessRequest:
     Attributes:
         coeffs: Design ``(c1, ..., cn)``; stored as a tuple of floats.
         task: The task; ``task.box_mass`` is the nominal mass m.
-        masses: Altered masses m_i in kg; stored as a tuple.
+        masses: Altered masses m_i in kg, each > 0 and <= 1000; stored as a tuple.
     """
 
     coeffs: Sequence[float] | np.ndarray
@@ -173,9 +185,14 @@ class RobustnessRequest:
         object.__setattr__(self, "coeffs", _as_coeffs(self.coeffs))
         if not isinstance(self.task, TaskSettings):
             raise TypeError(f"task must be a TaskSettings, got {type(self.task).__name__}")
+        from tooldesign_env.specs import BOX_MASS_MAX
+
         masses = tuple(_finite("masses", m) for m in self.masses)
-        if not masses or min(masses) <= 0:
-            raise ValueError(f"masses must be one or more masses > 0 kg, got {masses}")
+        if not masses or min(masses) <= 0 or max(masses) > BOX_MASS_MAX:
+            raise ValueError(
+                f"masses must be one or more masses > 0 and <= {BOX_MASS_MAX:g} kg (the limit of "
+                f"box_mass), got {masses}"
+            )
         object.__setattr__(self, "masses", masses)
 
 

@@ -12,9 +12,18 @@ independently, so a batch is spread over workers through a :class:`concurrent.fu
 
 This module knows nothing of tools: the work function is a parameter
 (:func:`map_robust`), and :mod:`benchmarks.execution.evaluator` supplies the one that simulates a
-design. A worker process that dies (``BrokenProcessPool``) takes its pool down; the pool is
-restarted, and :func:`map_robust` retries each of the lost items alone, so a design that kills its
-worker again is reported as an error of that item only.
+design.
+
+A worker process that dies (``BrokenProcessPool``) takes its pool down, and with it every item in
+flight, whose worker it was or not: the pool cannot say which item killed it. The pool is
+restarted and :func:`run_alone` runs each lost item again, alone, so the item that kills its
+worker is found and the others get their own results. An item whose worker dies while it runs
+alone is run again, alone in a fresh pool, up to ``max_retries`` times (default 0: the
+simulation is deterministic, so a design that kills its worker kills it again; retries help when
+something outside, such as the kernel's out-of-memory killer, killed it), then its outcome is a
+:class:`WorkerDied` error and the run goes on. ``max_retries`` is set where the executor is made
+(:func:`make_executor`) and applies to the local process pool only: a Dask scheduler retries a
+task whose worker died by itself (its ``distributed.scheduler.allowed-failures`` setting).
 """
 
 from __future__ import annotations
@@ -36,6 +45,43 @@ import numpy as np
 from benchmarks.execution._parent_death import die_with_parent
 
 ExecutorKind = Literal["serial", "process", "dask"]
+
+MAX_RETRIES_MAX = 100
+
+"""Largest ``max_retries``: each retry starts a fresh pool and evaluates the item again."""
+
+
+def check_max_retries(value: Any) -> int:
+    """``value`` as a number of retries after a worker death: an int from 0 to 100.
+
+    Raises:
+        TypeError: If it is not an int (booleans and strings are refused).
+        ValueError: If it is negative or above :data:`MAX_RETRIES_MAX`.
+    """
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise TypeError(
+            f"max_retries must be an int from 0 to {MAX_RETRIES_MAX}, "
+            f"got {type(value).__name__} {value!r}"
+        )
+    if not 0 <= value <= MAX_RETRIES_MAX:
+        raise ValueError(f"max_retries must be from 0 to {MAX_RETRIES_MAX}, got {value}")
+    return int(value)
+
+
+class WorkerDied(BrokenProcessPool):
+    """The worker process of an item died each time the item ran alone, retries included.
+
+    Attributes:
+        runs: How many times the item ran alone (``1 + max_retries``).
+    """
+
+    def __init__(self, runs: int) -> None:
+        retries = runs - 1
+        super().__init__(
+            f"the worker process died on each of {runs} run(s) of this item alone in a fresh "
+            f"pool ({retries} retr{'y' if retries == 1 else 'ies'}, max_retries={retries})"
+        )
+        self.runs = runs
 
 
 class Outcome(NamedTuple):
@@ -87,11 +133,19 @@ class SerialExecutor(Executor):
 
 
 class _RestartingProcessPool(Executor):
-    """A process pool that replaces itself after a worker died, so the run can go on."""
+    """A process pool that replaces itself after a worker died, so the run can go on.
 
-    def __init__(self, workers: int, context: Any) -> None:
+    Args:
+        workers: Worker processes.
+        context: The multiprocessing context (forkserver or spawn).
+        max_retries: Further runs of an item whose worker died while it ran alone (see
+            :func:`run_alone`).
+    """
+
+    def __init__(self, workers: int, context: Any, max_retries: int = 0) -> None:
         self._workers = workers
         self._context = context
+        self.max_retries = check_max_retries(max_retries)
         self._pool = self._new_pool()
 
     def _new_pool(self) -> ProcessPoolExecutor:
@@ -201,7 +255,11 @@ def _check_workers(workers: int | None) -> int:
 
 @contextlib.contextmanager
 def make_executor(
-    kind: str = "process", workers: int | None = None, scheduler: str | None = None
+    kind: str = "process",
+    workers: int | None = None,
+    scheduler: str | None = None,
+    *,
+    max_retries: int = 0,
 ) -> Iterator[Executor]:
     """An executor for :func:`evaluate_batch`, shut down (and its cluster closed) on exit.
 
@@ -212,19 +270,25 @@ def make_executor(
         scheduler: Address of a running Dask scheduler (``"tcp://host:8786"``); only with
             ``kind="dask"``. Without it a ``LocalCluster`` of ``workers`` single-threaded worker
             processes is started.
+        max_retries: With ``"process"``: how many more times an item whose worker process died
+            while it ran alone is run again, alone in a fresh pool, before its outcome is a
+            :class:`WorkerDied` error (see :func:`run_alone`); an int from 0 to 100. The
+            ``"serial"`` executor has no worker to lose, and Dask retries by itself.
 
     Yields:
         A :class:`concurrent.futures.Executor`.
 
     Raises:
-        ValueError: If ``kind`` is unknown, ``workers`` < 1, or ``scheduler`` is given for a
-            kind other than ``"dask"``.
+        TypeError: If ``workers`` or ``max_retries`` is not an int.
+        ValueError: If ``kind`` is unknown, ``workers`` < 1, ``max_retries`` is not from 0 to
+            100, or ``scheduler`` is given for a kind other than ``"dask"``.
         ImportError: If ``kind="dask"`` and dask.distributed is not installed; the message names
             the extra ``pip install 'tooldesign[dask]'``.
     """
     if kind not in EXECUTORS:
         raise ValueError(f"executor kind must be one of {EXECUTORS}, got {kind!r}")
     count = _check_workers(workers)
+    retries = check_max_retries(max_retries)
     if scheduler is not None and kind != "dask":
         raise ValueError(
             f"scheduler is an address of a Dask scheduler; it needs kind='dask', got {kind!r}"
@@ -237,7 +301,7 @@ def make_executor(
             serial.shutdown()
     elif kind == "process":
         check_main_guard()
-        pool = _RestartingProcessPool(count, _process_context())
+        pool = _RestartingProcessPool(count, _process_context(), retries)
         try:
             yield pool
         finally:
@@ -288,8 +352,9 @@ def map_robust(executor: Executor, fn: Callable[[Any], Any], items: Sequence[Any
     """Call ``fn`` on every item through ``executor``; collect results and exceptions in order.
 
     Items whose worker process died (``BrokenProcessPool`` takes every pending call of the pool
-    with it) are retried one at a time in a fresh pool, so one crashing design does not fail its
-    neighbours and the outcome does not depend on how the batch was spread over workers.
+    with it) are run again one at a time in a fresh pool (:func:`run_alone`, with the pool's
+    ``max_retries``), so one crashing design does not fail its neighbours and the outcome does
+    not depend on how the batch was spread over workers.
 
     Args:
         executor: From :func:`make_executor` (or any executor).
@@ -298,18 +363,52 @@ def map_robust(executor: Executor, fn: Callable[[Any], Any], items: Sequence[Any
 
     Returns:
         ``(result, None, seconds)`` or ``(None, exception, seconds)`` per item, in the order of
-        ``items``; ``seconds`` is the wall time from submitting the item to its outcome.
+        ``items``; ``seconds`` is the wall time from submitting the item to its outcome. An item
+        whose worker kept dying has a :class:`WorkerDied` error.
     """
     start = time.perf_counter()
     futures = [executor.submit(fn, item) for item in items]
     outcomes = [_outcome(f, start) for f in futures]
     broken = [i for i, (_, exc, _) in enumerate(outcomes) if isinstance(exc, BrokenProcessPool)]
     if broken and isinstance(executor, _RestartingProcessPool):
-        for index in broken:
-            executor.restart()
+        again = run_alone(executor, fn, [items[i] for i in broken])
+        for index, outcome in zip(broken, again, strict=True):
+            outcomes[index] = outcome
+    return outcomes
+
+
+def run_alone(executor: Executor, fn: Callable[[Any], Any], items: Sequence[Any]) -> list[Outcome]:
+    """Run each item alone after its pool broke; retry an item whose worker dies again.
+
+    Each item is the only call in the pool while it runs, so a worker that dies now was killed
+    by that item (or by something outside). Such an item is run again, alone in a fresh pool,
+    up to ``executor.max_retries`` times; if its worker dies every time, its outcome is a
+    :class:`WorkerDied` error. The pool is left working for the next batch.
+
+    Args:
+        executor: The restarting process pool of :func:`make_executor`; other executors (which
+            do not lose items with a dead worker) run the items as :func:`map_robust` does.
+        fn: A picklable function of one argument.
+        items: The items whose pool broke.
+
+    Returns:
+        One outcome per item, in order; ``seconds`` counts from the item's last run alone.
+    """
+    if not isinstance(executor, _RestartingProcessPool):
+        start = time.perf_counter()
+        return [_outcome(executor.submit(fn, item), start) for item in items]
+    executor.restart()
+    outcomes = []
+    for item in items:
+        for _ in range(1 + executor.max_retries):
             start = time.perf_counter()
-            outcomes[index] = _outcome(executor.submit(fn, items[index]), start)
-        executor.restart()  # leave a working pool for the next batch
+            outcome = _outcome(executor.submit(fn, item), start)
+            if not isinstance(outcome.error, BrokenProcessPool):
+                break
+            executor.restart()  # the next run, or the next item, gets a fresh pool
+        else:
+            outcome = Outcome(None, WorkerDied(1 + executor.max_retries), outcome.seconds)
+        outcomes.append(outcome)
     return outcomes
 
 

@@ -12,10 +12,11 @@ The work function that runs an item in a worker is a parameter (for a suite:
 :func:`benchmarks.execution.evaluator.evaluate_item`).
 
 A worker that dies takes every pending call of its pool with it. The scheduler then waits for
-every in-flight call, restarts the pool, and retries the lost items through
-:func:`~benchmarks.execution.executors.map_robust`, which runs each alone: an item that kills its
-worker again gets its exception as its outcome, and the others are unaffected, so the outcome of
-an item does not depend on which items shared the pool with it.
+every in-flight call, restarts the pool, and runs each lost item again alone
+(:func:`~benchmarks.execution.executors.run_alone`): an item that kills its worker again is
+retried up to the pool's ``max_retries`` times, then gets a ``WorkerDied`` error as its outcome,
+and the others are unaffected, so the outcome of an item does not depend on which items shared
+the pool with it.
 
 Example:
     >>> with make_executor("process", workers=2) as executor:  # doctest: +SKIP
@@ -32,7 +33,7 @@ from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
-from benchmarks.execution.executors import Outcome, map_robust
+from benchmarks.execution.executors import Outcome, run_alone
 
 __all__ = ["Job", "Scheduler"]
 
@@ -145,14 +146,12 @@ class Scheduler:
         return outcomes
 
     def _recover(self, active: list[_Slot]) -> None:
-        """Evaluate again, in a fresh pool, every item whose worker pool broke."""
+        """Evaluate again, alone in a fresh pool, every item whose worker pool broke."""
         wait([f for slot in active for f in slot.futures])
         broken = [(s, i) for s in active for i, f in enumerate(s.futures) if _broken(f)]
-        restart = getattr(self.executor, "restart", None)
-        if not broken or restart is None:
+        if not broken or not hasattr(self.executor, "restart"):
             return
-        restart()
         items = [slot.items[i] for slot, i in broken]
-        retried = map_robust(self.executor, self.work, items)
+        retried = run_alone(self.executor, self.work, items)
         for (slot, i), (result, exc, _) in zip(broken, retried, strict=True):
             slot.futures[i] = _done_future(result, exc)

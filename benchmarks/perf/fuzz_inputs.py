@@ -9,14 +9,22 @@ malformed sequences on:
 * every registered optimizer (bounds, batch size, seed) and ``tell`` values;
 * ``DesignConfig`` fields (the configuration of ``tooldesign design`` and of suites);
 * every flag of ``tooldesign design`` and ``tooldesign evaluate``, run in this process with
-  ``--out`` pointing at an existing FILE, so no valid combination starts a simulation.
+  ``--out`` pointing at an existing FILE, so no valid combination starts a simulation;
+* suite config files: every field of a suite (top level, variants, optimizers and their
+  settings) set to each value, whole and inside the list or table it belongs in, plus unknown
+  keys, written as a JSON file and read by ``load_suite``; random edits of the text of a valid
+  JSON and TOML suite file (truncated, characters deleted or inserted, deep nesting, bytes that
+  are not UTF-8); and ``tooldesign bench --config FILE --out EXISTING_FILE`` on the bad files.
 
 A GOOD outcome is a ``TypeError``/``ValueError`` (or exit code 2 with one line and no traceback
-on the command line), or acceptance of a value that is a valid number for its field. A BAD
-outcome is any other exception, a hang (more than ``--timeout`` s), or a bool, string or
-non-finite number accepted where a number is expected.
+on the command line), or acceptance of a value that is valid for its field. For suite configs
+the error must also name the field (or the unknown key), so an error from deep inside (say
+"unhashable type") counts as bad. A BAD outcome is any other exception, a hang (more than
+``--timeout`` s), or a bool, string, non-finite or out-of-range number accepted where a number
+in a range is expected.
 
-Run: ``python benchmarks/perf/fuzz_inputs.py [--random 2000] [--seed 0] [--steps 0]``.
+Run: ``python benchmarks/perf/fuzz_inputs.py [--random 2000] [--seed 0] [--steps 0]
+[--edits 300]``.
 ``--steps N`` also simulates N random actions (corners of the action space included) and checks
 that reward and F are finite. Exit code 1 when any outcome is bad.
 """
@@ -27,6 +35,7 @@ import argparse
 import contextlib
 import functools
 import io
+import json
 import math
 import os
 import signal
@@ -63,6 +72,7 @@ NASTY: list[Any] = [
     [1.0],
     [[1.0, 2.0]],
     {"a": 1},
+    {},
     np.float32("nan"),
     np.int64(-5),
     object(),
@@ -104,17 +114,21 @@ class Tally:
         call: Callable[[], Any],
         value: Any,
         allowed: Callable[[Any], bool] = lambda v: _is_number(v),
+        names: str | None = None,
     ) -> None:
         """Run ``call`` and count a bad outcome.
 
-        Bad: an exception other than TypeError/ValueError, a hang, or acceptance of ``value``
-        although ``allowed(value)`` is false.
+        Bad: an exception other than TypeError/ValueError, a hang, acceptance of ``value``
+        although ``allowed(value)`` is false, or (with ``names``) an error whose message does
+        not contain ``names``.
         """
         self.tried += 1
         try:
             with _deadline(TIMEOUT):
                 call()
-        except (TypeError, ValueError):
+        except (TypeError, ValueError) as error:
+            if names is not None and names not in str(error):
+                self.bad.append(f"{label}: error does not name {names!r}: {error}"[:300])
             return
         except _Hang:
             self.bad.append(f"{label}: hang over {TIMEOUT} s")
@@ -357,6 +371,289 @@ def fuzz_cli(tally: Tally) -> None:
                         )
 
 
+def _number_in(low: float, high: float, *, integer: bool = False) -> Callable[[Any], bool]:
+    """A predicate: a number (an int if ``integer``) from ``low`` to ``high``."""
+
+    def allowed(value: Any) -> bool:
+        if integer and not isinstance(value, (int, np.integer)):
+            return False
+        return _is_number(value) and low <= float(value) <= high
+
+    return allowed
+
+
+def _never(value: Any) -> bool:
+    return False
+
+
+def _is_str(value: Any) -> bool:
+    return isinstance(value, str)
+
+
+def _json_finite(value: Any) -> bool:
+    """JSON an optimizer setting may hold: no NaN, no int beyond float64, no other types."""
+    if value is None or isinstance(value, (bool, str)):
+        return True
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        return _is_number(value)
+    if isinstance(value, list):
+        return all(_json_finite(v) for v in value)
+    if isinstance(value, dict):
+        return all(isinstance(k, str) and _json_finite(v) for k, v in value.items())
+    return False
+
+
+def _settings_table(value: Any) -> bool:
+    # Names the optimizer does not take are refused when it is made (the command-line check).
+    if isinstance(value, list):
+        return value == []
+    return isinstance(value, dict) and all(k.isidentifier() for k in value)
+
+
+SUITE_BASE: dict[str, Any] = {
+    # One cheap optimizer and a tiny budget, so the command line gets to its --out check fast.
+    "name": "fuzz",
+    "optimizers": [{"name": "random"}],
+    "n_seeds": 1,
+    "iterations": 1,
+    "batch_size": 2,
+    "executor": "serial",
+}
+
+# (field named in the error, where the value goes, which values are valid). Each place puts the
+# value at one spot of a valid suite; "whole" places replace the field, others put it inside.
+SuitePlace = tuple[str, Callable[[Any], dict[str, Any]], Callable[[Any], bool]]
+SUITE_PLACES: list[SuitePlace] = [
+    ("name", lambda v: {"name": v}, lambda v: isinstance(v, str) and v == v.strip() and v != ""),
+    ("description", lambda v: {"description": v}, _is_str),
+    ("env_id", lambda v: {"env_id": v}, lambda v: v == "ToolDesign-v0"),
+    ("goal", lambda v: {"goal": v}, _never),
+    ("goal", lambda v: {"goal": [v, 1.5, 0.1]}, _number_in(-2.5, 2.5)),
+    ("goal", lambda v: {"goal": [0.0, 1.5, v]}, _number_in(0.0, 1.0)),
+    ("goal_box", lambda v: {"goal_box": v}, lambda v: v is None),
+    ("goal_box", lambda v: {"goal_box": [v, [0.5, 1.5], [0.1, 0.1]]}, _never),
+    (
+        "goal_box x",
+        lambda v: {"goal_box": [[v, 0.5], [0.5, 1.5], [0.1, 0.1]]},
+        _number_in(-2.5, 0.5),
+    ),
+    ("goal_precision", lambda v: {"goal_precision": v}, _number_in(0.0, 1e6)),
+    ("box_mass", lambda v: {"box_mass": v}, lambda v: _number_in(0.0, 1e3)(v) and v > 0),
+    ("estimator", lambda v: {"estimator": v}, _never),
+    ("objective", lambda v: {"objective": v}, _never),
+    ("executor", lambda v: {"executor": v}, _never),
+    ("scheduler", lambda v: {"scheduler": v}, lambda v: v is None),
+    (
+        "bounds",
+        lambda v: {"bounds": v},
+        lambda v: v is None or (isinstance(v, list) and v == [[1.0, 2.0]]),
+    ),
+    (
+        "bounds",
+        lambda v: {"bounds": [[-1.0, v]] * 3},
+        lambda v: _number_in(-1.0, 1e3)(v) and v > -1,
+    ),
+    ("variants", lambda v: {"variants": v}, _never),
+    ("variants", lambda v: {"variants": [v]}, lambda v: isinstance(v, dict) and v == {}),
+    ("variant name", lambda v: {"variants": [{"name": v}]}, _is_str),
+    (
+        "goal_precision",
+        lambda v: {"variants": [{"goal_precision": v}]},
+        lambda v: v is None or _number_in(0.0, 1e6)(v),
+    ),
+    ("label of variant", lambda v: {"variants": [{"label": v}]}, _is_str),
+    ("optimizers", lambda v: {"optimizers": v}, _never),
+    ("optimizers", lambda v: {"optimizers": [v]}, _never),
+    (
+        "optimizer name",
+        lambda v: {"optimizers": [{"name": v}]},
+        lambda v: isinstance(v, str) and v.strip() == v != "",
+    ),
+    ("optimizer label", lambda v: {"optimizers": [{"name": "random", "label": v}]}, _is_str),
+    (
+        "settings of random",
+        lambda v: {"optimizers": [{"name": "random", "settings": v}]},
+        _settings_table,
+    ),
+    (
+        "sigma0",
+        lambda v: {"optimizers": [{"name": "cmaes", "settings": {"sigma0": v}}]},
+        _json_finite,
+    ),
+    ("batch_size", lambda v: {"batch_size": v}, _number_in(1, 10_000, integer=True)),
+    ("iterations", lambda v: {"iterations": v}, _number_in(1, 2**63 - 1, integer=True)),
+    ("root_seed", lambda v: {"root_seed": v}, _number_in(0, 2**63 - 1, integer=True)),
+    ("n_seeds", lambda v: {"n_seeds": v}, _number_in(1, 10_000, integer=True)),
+    (
+        "workers",
+        lambda v: {"workers": v},
+        lambda v: v is None or _number_in(1, 1024, integer=True)(v),
+    ),
+    ("max_retries", lambda v: {"max_retries": v}, _number_in(0, 100, integer=True)),
+    ("test_robustness", lambda v: {"test_robustness": v}, lambda v: isinstance(v, bool)),
+    ("keep_paths", lambda v: {"keep_paths": v}, lambda v: isinstance(v, bool)),
+    (
+        "robustness_masses",
+        lambda v: {"robustness_masses": v},
+        lambda v: isinstance(v, list) and v == [1.0],
+    ),
+    (
+        "robustness_masses",
+        lambda v: {"robustness_masses": [0.5, v]},
+        lambda v: _number_in(0.0, 1e3)(v) and v > 0,
+    ),
+    ("figures", lambda v: {"figures": v}, lambda v: isinstance(v, list) and v == []),
+    ("figures", lambda v: {"figures": [v]}, _never),
+    ("unknown keys", lambda v: {"speed": v}, _never),
+    ("unknown keys", lambda v: {"variants": [{"colour": v}]}, _never),
+]
+
+
+def _suite_data(place: SuitePlace, value: Any) -> dict[str, Any]:
+    """SUITE_BASE with the value put in its place (nested tables merged, not replaced)."""
+    data = dict(SUITE_BASE)
+    for key, item in place[1](value).items():
+        data[key] = item
+    return data
+
+
+def _json_text(data: Any) -> str | None:
+    """The suite as JSON text (NaN and Infinity as their literals), or None.
+
+    None: JSON has no way to write a value (numpy scalars, objects, complex numbers).
+    """
+    try:
+        return json.dumps(data)
+    except (TypeError, ValueError, RecursionError):
+        return None
+
+
+def fuzz_suite_config(tally: Tally, values: list[Any]) -> list[Any]:
+    """Every field of a suite set to each value, read from a JSON file.
+
+    A value JSON cannot write is given to ``suite_from_json`` in memory instead. Returns the
+    paths of the files that were refused, for the command line.
+    """
+    from benchmarks.suites import load_suite, suite_from_json
+
+    folder = tempfile.mkdtemp(prefix="tooldesign-fuzz-suites-")
+    refused: list[Any] = []
+    for index, value in enumerate(values):
+        for number, place in enumerate(SUITE_PLACES):
+            data = _suite_data(place, value)
+            text = _json_text(data)
+            label = f"suite {place[0]} = {value!r}"[:200]
+            if text is None:
+                call: Callable[[], Any] = functools.partial(suite_from_json, data)
+            else:
+                path = os.path.join(folder, f"v{index}-p{number}.json")
+                with open(path, "w", encoding="utf-8") as f:
+                    f.write(text)
+                call = functools.partial(_load_and_plan, load_suite, path)
+            before = len(tally.bad)
+            tally.check(label, call, value=value, allowed=place[2], names=place[0])
+            if text is not None and not place[2](value) and len(tally.bad) == before:
+                refused.append(path)
+    return refused
+
+
+def _load_and_plan(load: Callable[[str], Any], path: str) -> None:
+    # Planning the tasks spawns n_seeds seeds: a huge n_seeds accepted here would hang there.
+    load(path).tasks()
+
+
+def fuzz_suite_files(tally: Tally, rng: np.random.Generator, edits: int) -> list[str]:
+    """Random edits of the text of a valid JSON and TOML suite file, and odd files."""
+    from benchmarks.suites import builtin_suite, load_suite, save_suite
+
+    folder = tempfile.mkdtemp(prefix="tooldesign-fuzz-files-")
+    texts = {}
+    for suffix in (".json", ".toml"):
+        valid = os.path.join(folder, f"valid{suffix}")
+        save_suite(builtin_suite("robustness", "smoke"), valid)
+        with open(valid, encoding="utf-8") as f:
+            texts[suffix] = f.read()
+    odd = {
+        "deep.json": ("[" * 100_000 + "]" * 100_000).encode(),
+        "deep.toml": ("a = " + "[" * 100_000 + "]" * 100_000).encode(),
+        "binary.json": bytes(range(256)),
+        "empty.json": b"",
+        "empty.toml": b"",
+        "bom.json": "\ufeff{}".encode(),
+        "nan.json": b'{"name": "x", "goal_precision": NaN}',
+        "inf.toml": b'name = "x"\nbox_mass = inf\n',
+        "date.toml": b'name = "x"\nroot_seed = 1979-05-27\n',
+        "bigint.json": b'{"name": "x", "n_seeds": 1' + b"0" * 5000 + b"}",
+        "list.json": b"[]",
+        "sizes.toml": b'name = "x"\nsizes = 3\n',
+        "base.toml": b"base = 3\n",
+    }
+    paths = []
+    for name, data in odd.items():
+        paths.append(os.path.join(folder, name))
+        with open(paths[-1], "wb") as f:
+            f.write(data)
+    alphabet = list('{}[]",:=.-+eE0123456789 \n\tabnulltrue\x00') + ["NaN", "1e999", "[[", "]]"]
+    for i in range(edits):
+        suffix = (".json", ".toml")[i % 2]
+        text = texts[suffix]
+        at = int(rng.integers(len(text)))
+        kind = i % 3
+        if kind == 0:
+            text = text[:at]
+        elif kind == 1:
+            text = text[:at] + text[at + int(rng.integers(1, 20)) :]
+        else:
+            text = text[:at] + str(rng.choice(alphabet)) + text[at:]
+        paths.append(os.path.join(folder, f"edit{i}{suffix}"))
+        with open(paths[-1], "w", encoding="utf-8") as f:
+            f.write(text)
+    for path in paths:
+        # A valid edit (a changed number, say) may be accepted; an error must name the file.
+        tally.check(
+            f"load_suite({os.path.basename(path)})",
+            functools.partial(_load_and_plan, load_suite, path),
+            value=path,
+            allowed=lambda v: True,
+            names=os.path.basename(path),
+        )
+    return paths
+
+
+def fuzz_suite_cli(tally: Tally, paths: list[str]) -> None:
+    """``tooldesign bench --config FILE --out EXISTING_FILE``: exit 2 and one line each."""
+    from benchmarks.cli import main
+
+    with tempfile.NamedTemporaryFile(prefix="tooldesign-fuzz-") as existing:
+        for path in paths:
+            argv = ["bench", "--config", path, "--out", existing.name, "--no-progress"]
+            tally.tried += 1
+            err = io.StringIO()
+            code: Any = None
+            try:
+                with (
+                    contextlib.redirect_stderr(err),
+                    contextlib.redirect_stdout(io.StringIO()),
+                    _deadline(TIMEOUT),
+                ):
+                    code = main(argv)
+            except SystemExit as stop:
+                code = stop.code
+            except _Hang:
+                tally.bad.append(f"tooldesign {' '.join(argv)}: hang")
+                continue
+            except Exception as error:  # noqa: BLE001
+                tally.bad.append(
+                    f"tooldesign {' '.join(argv)}: {type(error).__name__}: {error}"[:300]
+                )
+                continue
+            lines = [ln for ln in err.getvalue().splitlines() if ln.strip()]
+            if code != 2 or len(lines) != 1 or "error" not in lines[0]:
+                tally.bad.append(
+                    f"tooldesign {' '.join(argv)}: exit {code!r}, {lines[-3:]!r}"[:300]
+                )
+
+
 def fuzz_steps(tally: Tally, n: int, rng: np.random.Generator) -> None:
     """Simulate ``n`` actions (corners first, then uniform) and check that the reward is finite."""
     from tooldesign_env import ToolDesignEnv
@@ -383,6 +680,12 @@ def main() -> int:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--steps", type=int, default=0, help="simulated random actions")
     parser.add_argument("--timeout", type=float, default=20.0, help="s before a call is a hang")
+    parser.add_argument(
+        "--edits", type=int, default=300, help="random edits of the text of a suite file"
+    )
+    parser.add_argument(
+        "--cli-files", type=int, default=400, help="bad suite files also run through the CLI"
+    )
     args = parser.parse_args()
     TIMEOUT = args.timeout
     os.environ.setdefault("PYTHONWARNINGS", "ignore")
@@ -392,6 +695,17 @@ def main() -> int:
         tally = Tally()
         part(tally, values)
         _report(part.__name__, tally)
+    tally = Tally()
+    refused = fuzz_suite_config(tally, values)
+    _report("fuzz_suite_config", tally)
+    tally = Tally()
+    files = fuzz_suite_files(tally, rng, args.edits)
+    _report("fuzz_suite_files", tally)
+    tally = Tally()
+    # Every odd file and edit, and an even spread over the refused configs.
+    step = max(1, len(refused) // max(1, args.cli_files))
+    fuzz_suite_cli(tally, [*files, *refused[::step]])
+    _report("fuzz_suite_cli", tally)
     for name, run in (("fuzz_cli", fuzz_cli), ("fuzz_steps", None)):
         tally = Tally()
         if run is not None:

@@ -54,6 +54,7 @@ from benchmarks.storage.table import (
     Unit,
     part_checksums,
     resolve_format,
+    status_counts,
     timing_totals,
     validate_evaluations,
 )
@@ -92,6 +93,7 @@ __all__ = [
     "read_designs",
     "read_manifest",
     "resolve_format",
+    "status_counts",
     "timing_totals",
     "validate_evaluations",
     "verify_checksums",

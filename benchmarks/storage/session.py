@@ -13,7 +13,9 @@ the same way, through :class:`RunSession`:
 2. **Write.** :meth:`RunSession.write_batch` writes one part file atomically, records its
    checksum and rewrites the manifest, so the manifest is never more than one part behind.
 3. **Close.** :meth:`RunSession.finish` writes the end time, the wall time summed over every
-   session, and the simulation and optimizer times summed over the evaluation table.
+   session, the simulation and optimizer times summed over the evaluation table, and the
+   number of evaluations of each status (``extra.evaluation_counts``: total, ok, invalid,
+   failed).
 
 The manifest's ``extra`` holds ``kind`` (what wrote the folder), ``sessions`` (start time and
 wall time of each session) and ``part_sha256`` (checksums of the part files, by path relative
@@ -39,7 +41,13 @@ from benchmarks.storage.manifest import (
     read_manifest,
     verify_checksums,
 )
-from benchmarks.storage.table import ResultStore, Unit, part_checksums, timing_totals
+from benchmarks.storage.table import (
+    ResultStore,
+    Unit,
+    part_checksums,
+    status_counts,
+    timing_totals,
+)
 
 __all__ = ["PART_CHECKSUMS", "ResumeError", "RunSession", "check_out_dir"]
 
@@ -232,6 +240,10 @@ class RunSession:
     ) -> dict[str, Any]:
         """The manifest as it stands now (``end`` and ``evaluations`` when the run is done)."""
         totals = timing_totals(evaluations) if evaluations is not None and len(evaluations) else {}
+        if evaluations is not None:
+            # The run says how many evaluations failed (a worker error or a worker that kept
+            # dying) where a reader of the folder looks first.
+            self._extra["evaluation_counts"] = status_counts(evaluations)
         manifest = dict(self._base)
         manifest.update(
             end_time=None if end is None else end.isoformat(),

@@ -618,6 +618,19 @@ def timing_totals(evaluations: pd.DataFrame) -> dict[str, float]:
     }
 
 
+def status_counts(evaluations: pd.DataFrame) -> dict[str, int]:
+    """How many evaluations of a log there are, and of each status.
+
+    Args:
+        evaluations: Rows with a ``status`` column (an empty frame has none).
+
+    Returns:
+        ``{"total": n, "ok": n, "invalid": n, "failed": n}``.
+    """
+    counts = evaluations["status"].value_counts() if "status" in evaluations.columns else {}
+    return {"total": int(len(evaluations)), **{s: int(counts.get(s, 0)) for s in STATUSES}}
+
+
 def part_checksums(store: ResultStore) -> dict[str, str]:
     """``{path relative to the run folder: sha256}`` of every completed part file."""
     out: dict[str, str] = {}

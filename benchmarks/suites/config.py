@@ -29,6 +29,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import urllib.parse
 from collections.abc import Mapping, Sequence
 from typing import Any, cast
 
@@ -36,11 +37,14 @@ import numpy as np
 
 from benchmarks.design import DesignConfig
 from benchmarks.execution import TaskSettings
+from optimizers._validation import BATCH_SIZE_MAX
+from tooldesign_env.env import WORKSPACE_HIGH, WORKSPACE_LOW
 from tooldesign_env.schema import (
     DEFAULT_GOAL,
     DEFAULT_GOAL_PRECISION,
     ROBUSTNESS_MASSES,
 )
+from tooldesign_env.specs import BOX_MASS_MAX, GOAL_PRECISION_MAX
 
 ENV_IDS: tuple[str, ...] = ("ToolDesign-v0",)
 
@@ -58,7 +62,9 @@ FIGURES: dict[str, str] = {
 """Suite-specific reports a suite may ask for, and what each shows."""
 
 
-RUNTIME_FIELDS: frozenset[str] = frozenset({"executor", "workers", "scheduler"})
+RUNTIME_FIELDS: frozenset[str] = frozenset({"executor", "workers", "scheduler", "max_retries"})
+
+"""Fields that do not change the results: a resumed suite may set them differently."""
 
 #: Config fields a resumed suite may raise: the runs of the first seeds do not depend on how
 #: many seeds there are, so a suite grows by the runs of the new seeds alone.
@@ -72,56 +78,117 @@ SUITE_KIND = "suite"
 
 """``manifest.json`` ``extra.kind`` of a suite run folder."""
 
-"""Fields that do not change the results: a resumed suite may set them differently."""
+
+N_SEEDS_MAX = 10_000
+
+"""Most tasks a suite may have: ``SeedSequence.spawn`` and the run list grow with it."""
 
 
-def _int(name: str, value: Any, minimum: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        raise TypeError(f"{name} must be an int, got {type(value).__name__} {value!r}")
-    if value < minimum:
-        raise ValueError(f"{name} must be >= {minimum}, got {value}")
+INT64_MAX = 2**63 - 1
+
+"""Largest ``root_seed`` and ``iterations``: stored as int64, as ``DesignConfig``'s are."""
+
+
+NAME_MAX = 200
+
+"""Longest name (suite, variant, optimizer, label) once percent-encoded: it is a folder name."""
+
+
+def _show(value: Any) -> str:
+    """``repr(value)`` cut to one short line (a suite file may hold huge values)."""
+    try:
+        text = repr(value)
+    except ValueError:  # an int of more digits than Python converts to text
+        return f"an int of {value.bit_length()} bits"
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
+def _kind(value: Any) -> str:
+    return f"{type(value).__name__} {_show(value)}"
+
+
+def _int(name: str, value: Any, minimum: int, maximum: int) -> int:
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise TypeError(f"{name} must be an int from {minimum} to {maximum}, got {_kind(value)}")
+    if not minimum <= value <= maximum:
+        raise ValueError(f"{name} must be from {minimum} to {maximum}, got {_show(value)}")
     return int(value)
 
 
-def _number(name: str, value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise TypeError(f"{name} must be a number, got {type(value).__name__} {value!r}")
-    if not math.isfinite(float(value)):
-        raise ValueError(f"{name} must be finite, got {value!r}")
-    return float(value)
+def _number(name: str, value: Any, low: float = -math.inf, high: float = math.inf) -> float:
+    if isinstance(value, (bool, np.bool_)) or not isinstance(
+        value, (int, float, np.integer, np.floating)
+    ):
+        raise TypeError(f"{name} must be a number, got {_kind(value)}")
+    try:
+        number = float(value)
+    except OverflowError:  # an int beyond float64
+        number = math.inf
+    if not math.isfinite(number):
+        raise ValueError(f"{name} must be a finite number, got {_show(value)}")
+    if not low <= number <= high:
+        raise ValueError(f"{name} must be from {low:g} to {high:g}, got {_show(value)}")
+    return number
 
 
 def _name(name: str, value: Any, *, allow_empty: bool = False) -> str:
     if not isinstance(value, str):
-        raise TypeError(f"{name} must be a string, got {type(value).__name__} {value!r}")
+        raise TypeError(f"{name} must be a string, got {_kind(value)}")
     if value != value.strip() or (not value and not allow_empty):
-        raise ValueError(f"{name} must be a non-empty name without surrounding spaces: {value!r}")
+        raise ValueError(
+            f"{name} must be a non-empty name without surrounding spaces: {_show(value)}"
+        )
+    encoded = len(urllib.parse.quote(value, safe=""))
+    if encoded > NAME_MAX:
+        raise ValueError(
+            f"{name} names a folder of the run: it must be at most {NAME_MAX} characters once "
+            f"percent-encoded, got {encoded}: {_show(value)}"
+        )
     return value
 
 
 def _sequence(name: str, value: Any) -> tuple[Any, ...]:
     if isinstance(value, (str, bytes, Mapping)) or not isinstance(value, (Sequence, np.ndarray)):
-        raise TypeError(f"{name} must be a list, got {type(value).__name__} {value!r}")
+        raise TypeError(f"{name} must be a list, got {_kind(value)}")
     return tuple(value)
 
 
 def _json_settings(name: str, value: Any) -> tuple[tuple[str, Any], ...]:
     if isinstance(value, Mapping):
         value = tuple(value.items())
+    if isinstance(value, (str, bytes)):  # iterating "" gives no pairs: it would pass as empty
+        raise TypeError(f"{name} must be a table of names to values, got {_kind(value)}")
     try:
         pairs = tuple(sorted((k, v) for k, v in value))
     except (TypeError, ValueError):
-        raise TypeError(f"{name} must be a table of names to values, got {value!r}") from None
+        raise TypeError(f"{name} must be a table of names to values, got {_kind(value)}") from None
     for key, item in pairs:
         if not isinstance(key, str) or not key.isidentifier():
-            raise ValueError(f"{name} keys must be identifiers, got {key!r}")
-        try:
-            json.dumps(item, allow_nan=False)
-        except (TypeError, ValueError):
+            raise ValueError(f"{name} keys must be identifiers, got {_show(key)}")
+        if not _json_value(item):
             raise TypeError(
-                f"{name}[{key!r}] must be a JSON value (number, string, bool, list), got {item!r}"
-            ) from None
+                f"{name}[{key!r}] must be a JSON value (a finite number within float64, string, "
+                f"bool, null, list or table of them), got {_kind(item)}"
+            )
     return pairs
+
+
+def _json_value(item: Any, depth: int = 0) -> bool:
+    """Whether ``item`` is JSON that an optimizer can take: no NaN, no int beyond float64."""
+    if depth > 20:  # settings are flat; a deeper nest is a mistake (and recursion is bounded)
+        return False
+    if item is None or isinstance(item, (bool, str)):
+        return True
+    if isinstance(item, (int, float)):
+        try:
+            return math.isfinite(item)  # an int beyond float64 raises OverflowError here
+        except OverflowError:
+            return False
+    if isinstance(item, (list, tuple)):
+        return all(_json_value(v, depth + 1) for v in item)
+    if isinstance(item, dict):
+        return all(isinstance(k, str) and _json_value(v, depth + 1) for k, v in item.items())
+    return False
 
 
 def _from_mapping(cls: type, data: Any, where: str) -> Any:
@@ -129,11 +196,19 @@ def _from_mapping(cls: type, data: Any, where: str) -> Any:
     if isinstance(data, cls):
         return data
     if not isinstance(data, Mapping):
-        raise TypeError(f"{where} must be a table (mapping), got {type(data).__name__} {data!r}")
+        raise TypeError(f"{where} must be a table (mapping), got {_kind(data)}")
     fields = {f.name for f in dataclasses.fields(cls)}
-    unknown = sorted(set(data) - fields)
+    unknown = sorted(_show(key) for key in set(data) - fields)
     if unknown:
-        raise ValueError(f"{where}: unknown keys {unknown}; allowed: {sorted(fields)}")
+        raise ValueError(f"{where}: unknown keys [{', '.join(unknown)}]; allowed: {sorted(fields)}")
+    required = [
+        f.name
+        for f in dataclasses.fields(cls)
+        if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING
+    ]
+    missing = [name for name in required if name not in data]
+    if missing:
+        raise ValueError(f"{where}: missing keys {missing}; each {cls.__name__} needs them")
     return cls(**data)
 
 
@@ -184,12 +259,17 @@ class Variant:
     def __post_init__(self) -> None:
         _name("variant name", self.name, allow_empty=True)
         if self.goal_precision is not None:
-            value = _number(f"goal_precision of variant {self.name!r}", self.goal_precision)
-            if value < 0:
-                raise ValueError(f"goal_precision of variant {self.name!r} must be >= 0")
+            value = _number(
+                f"goal_precision (p^X, 1/m^2) of variant {self.name!r}",
+                self.goal_precision,
+                0.0,
+                GOAL_PRECISION_MAX,
+            )
             object.__setattr__(self, "goal_precision", value)
         if not isinstance(self.label, str):
-            raise TypeError(f"label of variant {self.name!r} must be a string")
+            raise TypeError(
+                f"label of variant {self.name!r} must be a string, got {_kind(self.label)}"
+            )
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
@@ -268,6 +348,9 @@ class SuiteConfig:
         executor: ``"serial"``, ``"process"`` or ``"dask"``.
         workers: Worker processes; ``None`` is ``os.cpu_count()``.
         scheduler: Address of a running Dask scheduler (with ``executor="dask"``).
+        max_retries: With ``executor="process"``: further evaluations, each alone in a fresh
+            pool, of a design whose worker process died while it was evaluated alone, before it
+            is logged as ``"failed"``; an int from 0 to 100 (see ``DesignConfig.max_retries``).
     """
 
     name: str
@@ -294,6 +377,7 @@ class SuiteConfig:
     executor: str = "process"
     workers: int | None = None
     scheduler: str | None = None
+    max_retries: int = 0
 
     def __post_init__(self) -> None:
         _name("name", self.name)
@@ -334,15 +418,19 @@ class SuiteConfig:
                 raise ValueError(f"{what} must have unique names (labels), got {names}")
         object.__setattr__(self, "variants", variants)
         object.__setattr__(self, "optimizers", optimizers)
-        object.__setattr__(self, "batch_size", _int("batch_size", self.batch_size, 1))
-        object.__setattr__(self, "iterations", _int("iterations", self.iterations, 1))
-        object.__setattr__(self, "root_seed", _int("root_seed", self.root_seed, 0))
-        object.__setattr__(self, "n_seeds", _int("n_seeds", self.n_seeds, 1))
+        counts = (
+            ("batch_size", 1, BATCH_SIZE_MAX),
+            ("iterations", 1, INT64_MAX),
+            ("root_seed", 0, INT64_MAX),
+            ("n_seeds", 1, N_SEEDS_MAX),
+        )
+        for field, low, high in counts:
+            object.__setattr__(self, field, _int(field, getattr(self, field), low, high))
         for flag in ("test_robustness", "keep_paths"):
             if not isinstance(getattr(self, flag), bool):
-                raise TypeError(f"{flag} must be true or false, got {getattr(self, flag)!r}")
+                raise TypeError(f"{flag} must be true or false, got {_kind(getattr(self, flag))}")
         masses = tuple(
-            _number("robustness_masses", m)
+            _number("robustness_masses (kg)", m, 0.0, BOX_MASS_MAX)
             for m in _sequence("robustness_masses", self.robustness_masses)
         )
         if not masses or min(masses) <= 0:
@@ -350,8 +438,10 @@ class SuiteConfig:
         object.__setattr__(self, "robustness_masses", masses)
         figures = tuple(_sequence("figures", self.figures))
         for figure in figures:
-            if figure not in FIGURES:
-                raise ValueError(f"unknown figure {figure!r}; allowed: {sorted(FIGURES)}")
+            if not isinstance(figure, str) or figure not in FIGURES:
+                raise ValueError(
+                    f"figures: unknown figure {_show(figure)}; allowed: {sorted(FIGURES)}"
+                )
         needs = {
             "tool-shapes": ("keep_paths",),
             "robustness-table": ("test_robustness",),
@@ -369,6 +459,7 @@ class SuiteConfig:
             design = self._design(variant, OptimizerSpec(name="random"), 0, self.goal)
         object.__setattr__(self, "bounds", design.bounds)
         object.__setattr__(self, "workers", design.workers)
+        object.__setattr__(self, "max_retries", design.max_retries)
 
     def _checked_goal_box(self) -> tuple[tuple[float, float], ...] | None:
         if self.goal_box is None:
@@ -377,8 +468,12 @@ class SuiteConfig:
         if len(rows) != 3:
             raise ValueError(f"goal_box must be 3 [low, high] pairs (x, y, z) in m, got {rows}")
         box = []
-        for axis, row in zip("xyz", rows, strict=True):
-            pair = tuple(_number(f"goal_box {axis}", v) for v in _sequence(f"goal_box {axis}", row))
+        for axis, row, low, high in zip("xyz", rows, WORKSPACE_LOW, WORKSPACE_HIGH, strict=True):
+            # Every goal drawn must be one the env accepts: inside its workspace.
+            pair = tuple(
+                _number(f"goal_box {axis} (m, in the workspace)", v, low, high)
+                for v in _sequence(f"goal_box {axis}", row)
+            )
             if len(pair) != 2 or pair[0] > pair[1]:
                 raise ValueError(f"goal_box {axis} must be [low, high] with low <= high: {pair}")
             box.append(pair)
@@ -399,6 +494,7 @@ class SuiteConfig:
             workers=self.workers,
             executor=self.executor,
             scheduler=self.scheduler,
+            max_retries=self.max_retries,
             goal=tuple(goal),
             goal_precision=precision,
             box_mass=self.box_mass,

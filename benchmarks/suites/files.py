@@ -36,7 +36,10 @@ def _read_file(path: Path) -> dict[str, Any]:
         raise FileNotFoundError(f"suite file {path} does not exist")
     if path.suffix not in (".toml", ".json"):
         raise ValueError(f"suite file {path} must end in .toml or .json")
-    text = path.read_text(encoding="utf-8")
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as err:
+        raise ValueError(f"suite file {path} is not UTF-8 text: {err}") from None
     toml = _toml_module() if path.suffix == ".toml" else None
     try:
         data: Any = toml.loads(text) if toml is not None else json.loads(text)
@@ -44,6 +47,10 @@ def _read_file(path: Path) -> dict[str, Any]:
         raise ValueError(
             f"suite file {path} is not valid {path.suffix[1:].upper()}: {err}"
         ) from err
+    except RecursionError:  # the parsers recurse once per level of nesting
+        raise ValueError(
+            f"suite file {path} nests lists or tables too deeply; a suite is at most 3 deep"
+        ) from None
     if not isinstance(data, dict):
         raise ValueError(f"suite file {path} must hold a table (JSON object) of suite fields")
     return data

@@ -95,6 +95,8 @@ def _check_optimizers(config: SuiteConfig) -> None:
             raise ValueError(f"optimizer {spec.name!r} cannot be used: {err}") from err
         except (TypeError, ValueError) as err:
             raise type(err)(f"optimizer {spec.name!r}: {err}") from err
+        except OverflowError as err:  # a setting a backend cannot convert
+            raise ValueError(f"optimizer {spec.name!r}: a setting is out of range: {err}") from err
 
 
 def _logged_frames(
@@ -343,7 +345,8 @@ def run_suite(
         config: The suite.
         out_dir: The run folder; created if absent.
         resume: Continue the suite in a non-empty ``out_dir`` (made with the same config apart
-            from executor, workers and scheduler); with ``False`` a non-empty folder is an error.
+            from executor, workers, scheduler and max_retries); with ``False`` a non-empty
+            folder is an error.
         progress: Show a progress bar (simulations, runs done) on stderr.
         size: The built-in size the config came from, recorded in the manifest.
 
@@ -398,7 +401,9 @@ def run_suite(
 
     try:
         if pending:
-            with make_executor(config.executor, config.workers, config.scheduler) as executor:
+            with make_executor(
+                config.executor, config.workers, config.scheduler, max_retries=config.max_retries
+            ) as executor:
                 jobs = [
                     _RunJob(spec, list(logged.get(spec.key, [])), config, session, bar, on_run_done)
                     for spec in pending
