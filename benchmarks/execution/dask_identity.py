@@ -145,6 +145,10 @@ def check_workers(client: Client) -> None:
     """
     try:
         client.register_plugin(IdentityCheck(code_identity()), name=PLUGIN_NAME)
+    except OSError:
+        # A worker died while the check was sent to it (CommClosedError is an OSError). The
+        # scheduler keeps the plugin, so a restarted worker is checked when it registers.
+        pass
     except Exception as err:  # the worker's error, sent back by the scheduler
         raise RuntimeError(
             f"a worker of the Dask cluster cannot evaluate designs for this process: {err} "
