@@ -29,7 +29,7 @@ import time
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Executor, Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
-from typing import Any, Literal, NamedTuple, cast
+from typing import Any, Literal, NamedTuple
 
 import numpy as np
 
@@ -276,41 +276,19 @@ def _dask_executor(workers: int, scheduler: str | None) -> Iterator[Executor]:
         )
         client = Client(cluster)
     try:
-        from benchmarks.execution.dask_identity import check_workers, forget_check
+        from benchmarks.execution.dask_client import DaskExecutor, check_workers, forget_check
 
         try:
             # Every worker, present or joining later, must run this process's code and
             # libraries: otherwise where a design ran could change its result.
             check_workers(client)
-            yield _DaskExecutor(client)
+            yield DaskExecutor(client)
         finally:
             forget_check(client)
     finally:
         client.close()
         if cluster is not None:
             cluster.close()
-
-
-class _DaskExecutor(Executor):
-    """A Dask client's executor that also tells how many evaluations the cluster runs at once."""
-
-    def __init__(self, client: Any) -> None:
-        self._client = client
-        # pure=False: two equal designs are two evaluations (each timed), not one cached task.
-        self._executor = client.get_executor(pure=False)
-
-    @property
-    def max_workers(self) -> int:
-        """Worker threads of the cluster now (workers may join or leave during a run)."""
-        return int(sum(self._client.nthreads().values()))
-
-    def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future[Any]:
-        """Submit ``fn(*args, **kwargs)`` as a task of the cluster."""
-        return cast("Future[Any]", self._executor.submit(fn, *args, **kwargs))
-
-    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
-        """Stop accepting calls (the client is closed by :func:`make_executor`)."""
-        self._executor.shutdown(wait=wait)
 
 
 def map_robust(executor: Executor, fn: Callable[[Any], Any], items: Sequence[Any]) -> list[Outcome]:

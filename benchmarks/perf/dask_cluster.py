@@ -22,7 +22,7 @@ those groups is left. The cluster's processes also die with this script if it is
 
 The cluster's processes get a ``PYTHONPATH`` that starts with the folder this script imported
 the project from, so that they run the same code as the client (the executor checks that, see
-:mod:`benchmarks.execution.dask_identity`).
+:mod:`benchmarks.execution.dask_client`).
 
 Run (a few minutes; ``--size full`` is the paper's suite, about 4,800 evaluations)::
 
@@ -328,6 +328,26 @@ def run_bench(label: str, suite_file: Path, out: Path, options: list[str]) -> Ru
     )
 
 
+_SPIN = "t = 0\nfor i in range(4_000_000):\n    t += i * i"
+
+
+def parallelism(processes: int) -> float:
+    """Speed-up of ``processes`` CPU-bound loops run at once over the same loops one by one.
+
+    About ``processes`` on an idle machine with that many cores; lower while other work holds
+    the cores. No executor can beat it, so it is printed next to the speed-ups.
+    """
+    argv = [sys.executable, "-c", _SPIN]
+    start = time.perf_counter()
+    for _ in range(processes):
+        subprocess.run(argv, check=True)
+    alone = time.perf_counter() - start
+    start = time.perf_counter()
+    for process in [subprocess.Popen(argv) for _ in range(processes)]:
+        process.wait()
+    return alone / (time.perf_counter() - start)
+
+
 # --- the comparison ----------------------------------------------------------------------------
 
 
@@ -424,6 +444,14 @@ def _stop_on_sigterm(signum: int, frame: FrameType | None) -> None:
     raise SystemExit(f"stopped by signal {signum}")
 
 
+def _print_machine(when: str, workers: int) -> None:
+    load = ", ".join(f"{v:.2f}" for v in os.getloadavg())
+    print(
+        f"{when}: load average (1, 5, 15 min) {load}; {workers} CPU-bound processes run at once "
+        f"{parallelism(workers):.2f}x as fast as one by one"
+    )
+
+
 def _print_table(runs: list[Run], cluster_start: float, workers: int) -> None:
     base = runs[0]
     head = f"{'run':<8} {'suite wall':>11} {'command wall':>13} {'speed-up':>9}"
@@ -479,7 +507,7 @@ def main(argv: list[str] | None = None) -> int:
         f"{config.iterations} iterations x batch {config.batch_size} = {config.evaluations()} "
         f"evaluations; runs in {out}"
     )
-    print(f"load average before: {', '.join(f'{v:.2f}' for v in os.getloadavg())}")
+    _print_machine("before", args.workers)
     runs: list[Run] = []
     cluster = DaskCluster(workers=args.workers, logs=out / "cluster", port=args.port)
     started = 0.0
@@ -518,6 +546,7 @@ def main(argv: list[str] | None = None) -> int:
                 f"{len(stored[base])} files (timings aside), bit for bit"
             )
     _print_table(runs, started, args.workers)
+    _print_machine("after", args.workers)
     return 1 if different else 0
 
 

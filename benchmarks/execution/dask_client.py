@@ -1,14 +1,20 @@
-"""A Dask worker must run the client's code and libraries, or its results would differ.
+"""What the Dask executor adds to a client so that results do not depend on where they ran.
 
-A suite's results do not depend on where a design was evaluated only if every worker simulates
-it with the same code: the same ``tooldesign_env``/``optimizers``/``benchmarks`` sources, the
-same NumPy, SciPy, PyBullet, Gymnasium and trimesh, the same Python and machine type. On a
-cluster nothing enforces that: a worker may have another release installed, or an editable
-install of another checkout. :class:`IdentityCheck` is a Dask worker plugin that compares the
-worker's :func:`code_identity` with the client's. The executor registers it when it connects
-(:func:`check_workers`): a worker that differs makes the run fail at once with a message that
-names it and what differs. A worker that differs shuts itself down (its log says why), also
-when it joins while a run is going on, so it never evaluates a design.
+- **The same code on every worker.** A suite's results do not depend on where a design was
+  evaluated only if every worker simulates it with the same code: the same
+  ``tooldesign_env``/``optimizers``/``benchmarks`` sources, the same NumPy, SciPy, PyBullet,
+  Gymnasium and trimesh, the same Python and machine type. On a cluster nothing enforces that:
+  a worker may have another release installed, or an editable install of another checkout.
+  :class:`IdentityCheck` is a worker plugin that compares the worker's :func:`code_identity`
+  with the client's; :func:`check_workers` registers it when the executor connects. A worker
+  that differs makes the run fail at once with a message that names it and what differs, and
+  shuts itself down (its log says why), also when it joins while a run is going on, so it never
+  evaluates a design.
+- **A lost cluster stops the run.** When the scheduler goes away, Dask cancels every task in
+  flight. A cancelled task is not an outcome of its design: logged as a failed evaluation, it
+  would be told to the optimizer and kept on resume, and the run would differ from an
+  uninterrupted one. :class:`DaskExecutor` turns the cancellation into :class:`ClusterLost`,
+  which ends the run with nothing of the unfinished batches logged; the same command resumes it.
 
 This module needs ``dask.distributed`` (``pip install 'tooldesign[dask]'``); the executor
 imports it only for ``--executor dask``.
@@ -21,6 +27,8 @@ import hashlib
 import importlib.metadata
 import importlib.util
 import platform
+from collections.abc import Callable
+from concurrent.futures import Executor, Future
 from pathlib import Path
 from typing import Any
 
@@ -28,6 +36,8 @@ from distributed import Client, WorkerPlugin
 
 __all__ = [
     "PLUGIN_NAME",
+    "ClusterLost",
+    "DaskExecutor",
     "IdentityCheck",
     "check_workers",
     "code_identity",
@@ -162,3 +172,57 @@ def forget_check(client: Client) -> None:
         client.unregister_worker_plugin(PLUGIN_NAME)
     except Exception:  # the scheduler may be gone already; nothing is left to undo then
         pass
+
+
+class ClusterLost(BaseException):
+    """The Dask cluster went away while designs were being evaluated; the run must stop.
+
+    A :class:`BaseException`, like :class:`KeyboardInterrupt`: the executors' callers take every
+    :class:`Exception` of a work item as that item's outcome (a failed evaluation), and a lost
+    cluster says nothing about the design.
+    """
+
+
+class DaskExecutor(Executor):
+    """A Dask client's executor: cancelled tasks raise :class:`ClusterLost`; knows its workers.
+
+    Args:
+        client: A connected client; closed by its owner, not here.
+    """
+
+    def __init__(self, client: Client) -> None:
+        self._client = client
+        # pure=False: two equal designs are two evaluations (each timed), not one cached task.
+        self._executor = client.get_executor(pure=False)
+
+    @property
+    def max_workers(self) -> int:
+        """Worker threads of the cluster now (workers may join or leave during a run)."""
+        return int(sum(self._client.nthreads().values()))
+
+    def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future[Any]:
+        """Submit ``fn(*args, **kwargs)`` as a task of the cluster."""
+        task = self._executor.submit(fn, *args, **kwargs)
+        future: Future[Any] = Future()
+        task.add_done_callback(functools.partial(_forward, future))
+        return future
+
+    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
+        """Stop accepting calls."""
+        self._executor.shutdown(wait=wait)
+
+
+def _forward(future: Future[Any], task: Future[Any]) -> None:
+    """Give ``future`` the outcome of the cluster's ``task``."""
+    if task.cancelled():
+        future.set_exception(
+            ClusterLost(
+                "the Dask cluster was lost while designs were being evaluated (its scheduler "
+                "stopped or could not be reached): nothing of the unfinished batches was "
+                "logged; run the same command again to resume"
+            )
+        )
+    elif (exc := task.exception()) is not None:
+        future.set_exception(exc)
+    else:
+        future.set_result(task.result())
