@@ -317,7 +317,12 @@ def run_bench(label: str, suite_file: Path, out: Path, options: list[str]) -> Ru
     start = time.perf_counter()
     with (out / f"{label}.log").open("wb") as log:
         code = subprocess.run(
-            argv, stdout=log, stderr=subprocess.STDOUT, env=cluster_env(), cwd=out
+            argv,
+            stdout=log,
+            stderr=subprocess.STDOUT,
+            env=cluster_env(),
+            cwd=out,
+            preexec_fn=die_with_parent,  # a SIGKILLed script leaves no run going on
         ).returncode
     seconds = time.perf_counter() - start
     if code != 0:
