@@ -12,7 +12,9 @@ In one run, this script:
 3. compares every number the runs stored (the evaluation log, the parts, the design files, the
    report's tables, the manifest's counts and settings), timings aside, to the last bit;
 4. prints the wall times side by side with the load average before and after each run, and the
-   speed-up of the cluster over the first local run.
+   speed-up of the cluster over the first local run; and, before and after everything, how
+   much parallelism the machine gives ``--workers`` CPU-bound processes (a busy machine is not
+   a slow cluster).
 
 The cluster is shut down whatever happens (an error, Ctrl-C, SIGTERM): each Dask command runs in
 its own process group, which is sent SIGTERM, then SIGKILL; the script checks that no process of
@@ -28,7 +30,7 @@ Run (a few minutes; ``--size full`` is the paper's suite, about 4,800 evaluation
 
     python benchmarks/perf/dask_cluster.py [--size reduced|smoke|full] [--seeds N]
         [--iterations N] [--batch-size N] [--workers 2] [--local serial [--local process]]
-        [--out DIR] [--port P]
+        [--out DIR] [--port P] [--timeout S]
 
 Exit code: 0 if every run stored the same numbers, 1 if they differ, 2 if a run or the cluster
 failed or a process of the cluster was left behind. Linux only (process groups, ``/proc``).
@@ -67,7 +69,7 @@ SIZES: dict[str, dict[str, int]] = {
 
 # Keys and columns that hold wall or CPU times, checksums of files that hold times, the machine's
 # load, and how the run was executed: they may differ between executors; nothing else may.
-_VOLATILE = {"part_sha256", "sessions", "load_average_at_end", "start_time", "end_time"}
+_VOLATILE = {"part_sha256", "sessions", "load_average_at_end"}
 
 
 _DASK = [sys.executable, "-m", "dask"]
