@@ -340,8 +340,15 @@ def _dask_executor(workers: int, scheduler: str | None) -> Iterator[Executor]:
         )
         client = Client(cluster)
     try:
-        # pure=False: two equal designs are two evaluations (each timed), not one cached task.
-        yield client.get_executor(pure=False)
+        from benchmarks.execution.dask_client import DaskExecutor, check_workers, forget_check
+
+        try:
+            # Every worker, present or joining later, must run this process's code and
+            # libraries: otherwise where a design ran could change its result.
+            check_workers(client)
+            yield DaskExecutor(client)
+        finally:
+            forget_check(client)
     finally:
         client.close()
         if cluster is not None:

@@ -320,10 +320,12 @@ class SuiteResult:
     optimizer_time: float
 
 
-def _max_active(config: SuiteConfig) -> int:
+def _max_active(config: SuiteConfig, executor: object = None) -> int:
     if config.executor == "serial":
         return 1
-    workers = config.workers or os.cpu_count() or 1
+    # A Dask scheduler's cluster may have far more workers than this machine has CPUs.
+    cluster = getattr(executor, "max_workers", None) if config.scheduler is not None else None
+    workers = config.workers or cluster or os.cpu_count() or 1
     # Enough queued evaluations to keep twice the workers busy, plus one run being told.
     return max(2, math.ceil(2 * workers / config.batch_size) + 1)
 
@@ -408,7 +410,7 @@ def run_suite(
                     _RunJob(spec, list(logged.get(spec.key, [])), config, session, bar, on_run_done)
                     for spec in pending
                 ]
-                Scheduler(executor, evaluate_item, _max_active(config)).run(jobs)
+                Scheduler(executor, evaluate_item, _max_active(config, executor)).run(jobs)
     finally:
         bar.close()
         session.checkpoint()
