@@ -57,3 +57,21 @@ def test_evaluate_help_has_no_raw_markup(capsys):
         main(["evaluate", "--help"])
     text = capsys.readouterr().out
     assert "``" not in text and "--outside-bounds" in text
+
+
+@pytest.mark.parametrize("error", ["lost", "mismatch"])
+def test_a_lost_or_mismatched_dask_cluster_is_one_line(monkeypatch, capsys, error):
+    # Neither is a design's failure: the command stops with exit 1 and one line, no traceback.
+    import benchmarks.cli.evaluate as evaluate
+    from benchmarks.cli import main
+    from benchmarks.execution.errors import ClusterLost, ClusterMismatch
+
+    def fail(args):
+        raise ClusterLost("scheduler gone") if error == "lost" else ClusterMismatch("worker w")
+
+    monkeypatch.setattr(evaluate, "_run", fail)
+    with pytest.raises(SystemExit) as exit_info:
+        main(["evaluate", "--coeffs", "0", "0", "0", "--out", "unused"])
+    assert exit_info.value.code == 1
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "error:" in err

@@ -145,9 +145,22 @@ def main(argv: Sequence[str] | None = None) -> int:
         print("interrupted", file=sys.stderr)
         return 130
     except RuntimeError as exc:
+        from benchmarks.execution.errors import ClusterMismatch
         from optimizers import PluginError
 
-        if not isinstance(exc, PluginError):
+        # A third-party optimizer failed (its message names the plugin and the hook), or a
+        # worker of the Dask cluster runs other code (the message names it and the difference).
+        if not isinstance(exc, (PluginError, ClusterMismatch)):
             raise
-        # A third-party optimizer failed: its message names the plugin and the hook.
         parser.exit(1, f"tooldesign {args.command}: error: {exc}\n")
+    except BaseException as exc:
+        from benchmarks.execution.errors import ClusterLost
+
+        if not isinstance(exc, ClusterLost):
+            raise
+        parser.exit(
+            1,
+            f"tooldesign {args.command}: error: the Dask cluster went away ({exc}); nothing of "
+            "the unfinished batches was stored: rerun the same command on a working cluster to "
+            "resume\n",
+        )

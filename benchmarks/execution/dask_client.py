@@ -34,6 +34,8 @@ from typing import Any
 
 from distributed import Client, WorkerPlugin
 
+from benchmarks.execution.errors import ClusterLost, ClusterMismatch
+
 __all__ = [
     "PLUGIN_NAME",
     "ClusterLost",
@@ -151,7 +153,7 @@ def check_workers(client: Client) -> None:
         client: A connected client.
 
     Raises:
-        RuntimeError: A connected worker differs (or cannot import this project at all).
+        ClusterMismatch: A connected worker differs (or cannot import this project at all).
     """
     try:
         client.register_plugin(IdentityCheck(code_identity()), name=PLUGIN_NAME)
@@ -160,7 +162,7 @@ def check_workers(client: Client) -> None:
         # scheduler keeps the plugin, so a restarted worker is checked when it registers.
         pass
     except Exception as err:  # the worker's error, sent back by the scheduler
-        raise RuntimeError(
+        raise ClusterMismatch(
             f"a worker of the Dask cluster cannot evaluate designs for this process: {err} "
             "(every worker needs the same tooldesign and libraries as this machine)"
         ) from err
@@ -172,15 +174,6 @@ def forget_check(client: Client) -> None:
         client.unregister_worker_plugin(PLUGIN_NAME)
     except Exception:  # the scheduler may be gone already; nothing is left to undo then
         pass
-
-
-class ClusterLost(BaseException):
-    """The Dask cluster went away while designs were being evaluated; the run must stop.
-
-    A :class:`BaseException`, like :class:`KeyboardInterrupt`: the executors' callers take every
-    :class:`Exception` of a work item as that item's outcome (a failed evaluation), and a lost
-    cluster says nothing about the design.
-    """
 
 
 class DaskExecutor(Executor):
