@@ -35,7 +35,7 @@ from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, wait
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import pandas as pd
@@ -43,6 +43,7 @@ import pandas as pd
 from benchmarks.execution import make_executor
 from benchmarks.rl.agents import (
     EpisodeRecord,
+    Trained,
     evaluate_design,
     make_env,
     run_cmaes,
@@ -51,13 +52,20 @@ from benchmarks.rl.agents import (
     train_ppo,
     train_sac,
 )
-from benchmarks.rl.configs import ContextualConfig, MethodConfig, default_config
+from benchmarks.rl.configs import (
+    ContextualConfig,
+    MethodConfig,
+    PPOConfig,
+    SACConfig,
+    default_config,
+)
 from benchmarks.rl.policies import save_policy
 from benchmarks.storage import (
     ResultStore,
     ResumeError,
     RunSession,
     Unit,
+    json_ready,
     validate_evaluations,
 )
 from tooldesign_env.schema import (
@@ -127,7 +135,8 @@ POLICIES_DIR = "policies"
 
 VARIANTS: dict[str, str] = {
     "fixed": "fixed goal: one row per episode of each method and seed",
-    "fixed-policy": "fixed goal: PPO's and SAC's final deterministic design, one row per seed",
+    "fixed-policy": "fixed goal: PPO's and SAC's final deterministic design, one row per seed; "
+    "optimizer 'straight' is the straight tool",
     "train": "task part: the training episodes of each method and training seed",
     "zero-shot": "task part: each policy's design per held-out goal (candidate = goal index); "
     "optimizer 'straight' is the straight tool",
@@ -294,6 +303,7 @@ class RLSuiteConfig:
         size, n = self.size, self.size.held_out_goals
         total = 0
         if "fixed" in self.parts:
+            total += 1  # the straight tool
             for method in self.methods:
                 extra = 1 if method in ("ppo", "sac") else 0
                 total += size.seeds * (size.fixed_episodes + extra)
@@ -314,21 +324,26 @@ class RLSuiteConfig:
 
     def to_json(self) -> dict[str, Any]:
         """The JSON form stored as the manifest's ``config`` (compared when resuming)."""
-        return {
-            "name": RL_SUITE_NAME,
-            "size": dataclasses.asdict(self.size),
-            "methods": list(self.methods),
-            "parts": list(self.parts),
-            "mass_range": list(self.mass_range),
-            "configs": {m: dataclasses.asdict(c) for m, c in sorted(self.configs.items())},
-            "root_seed": self.root_seed,
-            "workers": self.workers,
-            "fixed_goal": list(FIXED_GOAL),
-            "budgets": list(self.budgets),
-            "held_out_goals": self.goals.tolist(),
-            "held_out_masses": self.masses.tolist(),
-            "noise_floor": NOISE_FLOOR,
-        }
+        return cast(
+            "dict[str, Any]",
+            json_ready(
+                {
+                    "name": RL_SUITE_NAME,
+                    "size": dataclasses.asdict(self.size),
+                    "methods": list(self.methods),
+                    "parts": list(self.parts),
+                    "mass_range": list(self.mass_range),
+                    "configs": {m: dataclasses.asdict(c) for m, c in sorted(self.configs.items())},
+                    "root_seed": self.root_seed,
+                    "workers": self.workers,
+                    "fixed_goal": list(FIXED_GOAL),
+                    "budgets": list(self.budgets),
+                    "held_out_goals": self.goals.tolist(),
+                    "held_out_masses": self.masses.tolist(),
+                    "noise_floor": NOISE_FLOOR,
+                }
+            ),
+        )
 
 
 def _check_size(size: Any) -> SuiteSize:
@@ -464,7 +479,8 @@ class _Work:
                 *(policy if self.method in ("ppo", "sac") else []),
             ]
         if self.kind == "straight":
-            return [(f"{prefix}zero-shot", "straight", 0)]
+            variant = "fixed-policy" if self.part == "fixed" else f"{prefix}zero-shot"
+            return [(variant, "straight", 0)]
         if self.kind == "train":
             return [
                 (f"{prefix}train", self.method, self.seed),
@@ -484,6 +500,7 @@ def _plan(config: RLSuiteConfig) -> list[_Work]:
     size, root = config.size, config.root_seed
     work: list[_Work] = []
     if "fixed" in config.parts:
+        work.append(_Work("straight", "fixed", "straight", 0))
         for method in config.methods:
             work += [_Work("fixed", "fixed", method, s) for s in _seeds(root, size.seeds, 0)]
     for part in ("task", "mass"):
@@ -557,14 +574,18 @@ def _frame(
     return pd.DataFrame(rows)
 
 
-def _tasks(config: RLSuiteConfig, part: str) -> list[tuple[np.ndarray, float | None]]:
-    masses = config.masses if part == "mass" else [None] * config.size.held_out_goals
-    return list(zip(config.goals, masses, strict=True))
+Task = tuple[tuple[float, float, float], "float | None"]
 
 
-def _zero_shot(
-    policy: Any, tasks: Sequence[tuple[np.ndarray, float | None]]
-) -> list[EpisodeRecord]:
+def _tasks(config: RLSuiteConfig, part: str) -> list[Task]:
+    """The held-out tasks of a part: (goal in m, box mass in kg or None for the env's)."""
+    goals = [(float(x), float(y), float(z)) for x, y, z in config.goals]
+    if part == "mass":
+        return [(g, float(m)) for g, m in zip(goals, config.masses, strict=True)]
+    return [(g, None) for g in goals]
+
+
+def _zero_shot(policy: Any, tasks: Sequence[Task]) -> list[EpisodeRecord]:
     env = make_env()
     try:
         default = float(env.base.simulator.scene.box_mass)
@@ -576,6 +597,15 @@ def _zero_shot(
         env.close()
 
 
+def _train_agent(config: MethodConfig, **kwargs: Any) -> Trained:
+    """PPO or SAC, by its config."""
+    if isinstance(config, PPOConfig):
+        return train_ppo(config, **kwargs)
+    if isinstance(config, SACConfig):
+        return train_sac(config, **kwargs)
+    raise TypeError(f"not an agent's config: {config!r}")
+
+
 def _run_work(work: _Work, config: RLSuiteConfig, out: Path) -> list[pd.DataFrame]:
     """Do one unit of work; returns the frames of :meth:`_Work.keys`, in that order.
 
@@ -585,12 +615,15 @@ def _run_work(work: _Work, config: RLSuiteConfig, out: Path) -> list[pd.DataFram
     started = time.perf_counter()
     size = config.size
     keys = work.keys()
+    straight = _Fixed(np.zeros(3, np.float32))  # a = 0 is the straight tool (default bounds)
 
     def frame(records: Sequence[EpisodeRecord], key: int, **kwargs: Any) -> pd.DataFrame:
         variant, method, seed = keys[key]
         elapsed = time.perf_counter() - started
         return _frame(records, variant=variant, method=method, seed=seed, seconds=elapsed, **kwargs)
 
+    if work.kind == "straight" and work.part == "fixed":
+        return [frame([evaluate_design(straight, FIXED_GOAL)], 0)]
     if work.kind == "fixed":
         n = size.fixed_episodes
         if work.method == "random":
@@ -600,8 +633,7 @@ def _run_work(work: _Work, config: RLSuiteConfig, out: Path) -> list[pd.DataFram
                 total_episodes=n, seed=work.seed, goal=FIXED_GOAL, popsize=size.popsize
             )
             return [frame(records, 0)]
-        train = train_ppo if work.method == "ppo" else train_sac
-        trained = train(
+        trained = _train_agent(
             config.configs[work.method], total_episodes=n, seed=work.seed, goal=FIXED_GOAL
         )
         fixed = frame(trained.records[:n], 0)
@@ -610,7 +642,7 @@ def _run_work(work: _Work, config: RLSuiteConfig, out: Path) -> list[pd.DataFram
     tasks = _tasks(config, work.part)
     indices = list(range(len(tasks)))
     if work.kind == "straight":
-        return [frame(_zero_shot(_Fixed(np.zeros(3, np.float32)), tasks), 0, goal_index=indices)]
+        return [frame(_zero_shot(straight, tasks), 0, goal_index=indices)]
     if work.kind == "held-out":
         goal, mass = tasks[work.index]
         budget = max(config.budgets)
@@ -631,9 +663,8 @@ def _run_work(work: _Work, config: RLSuiteConfig, out: Path) -> list[pd.DataFram
         assert isinstance(method_config, ContextualConfig)
         trained = train_contextual(method_config, seed=work.seed, env_kwargs=env_kwargs)
     else:
-        train = train_ppo if work.method == "ppo" else train_sac
-        trained = train(
-            method_config,  # type: ignore[arg-type]
+        trained = _train_agent(
+            method_config,
             total_episodes=size.train_episodes,
             seed=work.seed,
             randomize_goal=True,
