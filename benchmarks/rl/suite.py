@@ -32,7 +32,7 @@ import math
 import os
 import time
 from collections.abc import Callable, Iterable, Sequence
-from concurrent.futures import FIRST_COMPLETED, Future, wait
+from concurrent.futures import FIRST_COMPLETED, wait
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, cast
@@ -821,17 +821,18 @@ def run_rl_suite(
         f"disk, {len(pending)} to run (about {config.planned_episodes()} episodes in all)"
     )
 
-    def finished(item: _Work, frames: list[pd.DataFrame], seconds: float) -> None:
+    def finished(item: _Work, frames: list[pd.DataFrame]) -> None:
         _write(session, item, frames, stored)
         best = min(float(f["free_energy"].min()) for f in frames)
         episodes = sum(len(f) for f in frames)
+        # The unit's own time (simulation and agent), wherever it ran: not its wait in a queue.
+        seconds = sum(float(f["eval_time"].sum() + f["opt_time"].sum()) for f in frames)
         say(f"{item.label()}: {episodes} episodes, best F {best:.0f} ({seconds:.0f} s)")
 
     try:
         if config.workers == 1 or len(pending) <= 1:
             for item in pending:
-                t0 = time.perf_counter()
-                finished(item, _run_work(item, config, session.out), time.perf_counter() - t0)
+                finished(item, _run_work(item, config, session.out))
         else:
             _run_pool(pending, config, session, finished)
     finally:
@@ -857,22 +858,18 @@ def _run_pool(
     pending: list[_Work],
     config: RLSuiteConfig,
     session: RunSession,
-    finished: Callable[[_Work, list[pd.DataFrame], float], None],
+    finished: Callable[[_Work, list[pd.DataFrame]], None],
 ) -> None:
     """Run the units on a process pool; this process writes every part as its unit ends."""
     with make_executor("process", config.workers) as executor:
-        started: dict[Future[Any], tuple[_Work, float]] = {}
-        for item in pending:
-            future = executor.submit(_run_work, item, config, session.out)
-            started[future] = (item, time.perf_counter())
-        remaining = set(started)
+        futures = {executor.submit(_run_work, item, config, session.out): item for item in pending}
+        remaining = set(futures)
         while remaining:
             done, remaining = wait(remaining, return_when=FIRST_COMPLETED)
             # In plan order within a batch of finished units: the log does not depend on it, the
             # progress lines read better.
-            for future in sorted(done, key=lambda f: pending.index(started[f][0])):
-                item, t0 = started[future]
-                finished(item, future.result(), time.perf_counter() - t0)
+            for future in sorted(done, key=lambda f: pending.index(futures[f])):
+                finished(futures[future], future.result())
 
 
 def _load_average() -> str:
