@@ -33,7 +33,7 @@ from typing import Any, cast
 import numpy as np
 import pandas as pd
 from matplotlib.axes import Axes
-from matplotlib.ticker import ScalarFormatter
+from matplotlib.ticker import FixedLocator, FuncFormatter, NullLocator
 
 from benchmarks.reports.comparison import REPORT_DIR, new_figure
 from benchmarks.reports.plots import save_png
@@ -193,13 +193,11 @@ def _fixed_figure(log: pd.DataFrame, straight: float | None, path: Path) -> Path
 
 
 def _log_x(ax: Axes) -> None:
-    """A log x axis labelled with plain numbers (16, 64, 256), not powers of ten."""
-    ax.set_xscale("log")
-    formatter = ScalarFormatter()
-    formatter.set_scientific(False)
-    ax.xaxis.set_major_formatter(formatter)
-    ax.xaxis.set_minor_formatter(ScalarFormatter())
-    ax.tick_params(axis="x", which="minor", labelsize="x-small")
+    """A log x axis with ticks at 1, 2, 4, ..., 1024 labelled as plain numbers."""
+    ax.set_xscale("log", base=2)
+    ax.xaxis.set_major_locator(FixedLocator([2.0**k for k in range(11)]))
+    ax.xaxis.set_major_formatter(FuncFormatter(lambda value, _: f"{value:.0f}"))
+    ax.xaxis.set_minor_locator(NullLocator())
 
 
 def _fixed_markdown(
