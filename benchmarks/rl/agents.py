@@ -23,10 +23,12 @@ from benchmarks.rl.configs import ContextualConfig, PPOConfig, SACConfig
 from tooldesign_env.rl import ToolDesignRLEnv
 
 __all__ = [
+    "RL_EXTRA",
     "ContextualPolicy",
     "EpisodeLog",
     "EpisodeRecord",
     "evaluate_design",
+    "import_sb3",
     "make_env",
     "run_cmaes",
     "run_random",
