@@ -1,11 +1,15 @@
-"""The RL baselines of benchmarks/rl: configs, methods, the rl suite (smoke), saved policies."""
+"""The RL baselines of benchmarks/rl: configs, methods and saved policies.
+
+The rl suite itself (storage, resume, report, command line) is tested in test_rl_suite.py; the
+saved policies tested here are those of its smoke run (the ``rl_smoke`` fixture, conftest.py).
+"""
 
 from __future__ import annotations
 
-import csv
 import dataclasses
 import json
-from pathlib import Path
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -25,7 +29,7 @@ from benchmarks.rl import (
     train_sac,
 )
 from benchmarks.rl.policies import design_for_goal, load_policy, save_policy
-from benchmarks.rl.suite import FIXED_COLUMNS, HELD_OUT_COLUMNS, SIZES, run_rl_suite
+from benchmarks.rl.suite import SIZES, held_out_budgets
 
 
 # ------------------------------------------------------------------ configs
@@ -138,45 +142,11 @@ def test_a_config_of_the_wrong_method_is_refused():
         run_cmaes(total_episodes=2, seed="zero")  # type: ignore[arg-type]
 
 
-# ------------------------------------------------------------------ the suite (smoke)
-@pytest.fixture(scope="module")
-def smoke(tmp_path_factory) -> Path:
-    out = tmp_path_factory.mktemp("rl-smoke")
-    run_rl_suite("smoke", out)
-    return out
-
-
-def _rows(path: Path) -> list[dict[str, str]]:
-    with open(path, newline="") as handle:
-        return list(csv.DictReader(handle))
-
-
-@pytest.mark.slow
-def test_the_smoke_suite_writes_long_csvs_and_a_summary(smoke):
-    size = SIZES["smoke"]
-    fixed = _rows(smoke / "fixed_goal.csv")
-    assert tuple(fixed[0]) == FIXED_COLUMNS
-    for method in ("random", "cmaes", "ppo", "sac"):
-        mine = [r for r in fixed if r["method"] == method]
-        assert len(mine) == size.seeds * size.fixed_episodes
-        best = [float(r["best_so_far_F"]) for r in mine]
-        assert best == list(np.minimum.accumulate([float(r["free_energy"]) for r in mine]))
-    held = _rows(smoke / "held_out.csv")
-    assert tuple(held[0]) == HELD_OUT_COLUMNS
-    methods = {r["method"] for r in held}
-    assert methods == {"straight", "ppo", "sac", "contextual", "cmaes", "random"}
-    for row in held:
-        n = int(row["budget_per_goal"]) * size.held_out_goals
-        assert int(row["total_episodes"]) == int(row["train_episodes"]) + n
-    summary = json.loads((smoke / "summary.json").read_text())
-    assert summary["noise_floor"]["relative_F"] == 0.015
-    assert set(summary["task_conditioned"]["approaches"]) >= {"ppo", "contextual", "cmaes@4"}
-
-
+# ------------------------------------------------------------------ saved policies
 @pytest.mark.slow
 @pytest.mark.parametrize("method", ["ppo", "sac", "contextual"])
-def test_a_saved_policy_designs_a_tool_for_a_new_goal(smoke, method):
-    card = smoke / "policies" / f"{method}.json"
+def test_a_saved_policy_designs_a_tool_for_a_new_goal(rl_smoke, method):
+    card = rl_smoke / "policies" / f"{method}.json"
     result = design_for_goal(card, (0.2, 1.0, 0.1))
     assert np.isfinite(result.free_energy) and result.valid is not None
     low, high = np.array([-1.5, -1.5, -0.5]), np.array([1.5, 1.5, 0.5])
@@ -188,8 +158,8 @@ def test_a_saved_policy_designs_a_tool_for_a_new_goal(smoke, method):
 
 
 @pytest.mark.slow
-def test_the_command_line_designs_and_reports_bad_goals(smoke, capsys):
-    card = str(smoke / "policies" / "contextual.json")
+def test_the_command_line_designs_and_reports_bad_goals(rl_smoke, capsys):
+    card = str(rl_smoke / "policies" / "contextual.json")
     goal = ["--goal", "0.1", "1.2", "0.1"]
     assert main(["rl", "design", "--policy", card, *goal, "--no-simulate"]) == 0
     assert json.loads(capsys.readouterr().out)["goal"] == [0.1, 1.2, 0.1]
@@ -200,24 +170,6 @@ def test_the_command_line_designs_and_reports_bad_goals(smoke, capsys):
 
 
 # ------------------------------------------------------------------ bad input
-@pytest.mark.parametrize(
-    ("kwargs", "error"),
-    [
-        ({"size": "huge"}, ValueError),
-        ({"size": 3}, TypeError),
-        ({"size": "smoke", "seeds": 0}, ValueError),
-        ({"size": "smoke", "seeds": 1.5}, TypeError),
-        ({"size": "smoke", "methods": ("dqn",)}, ValueError),
-        ({"size": "smoke", "methods": "ppo"}, ValueError),
-        ({"size": "smoke", "parts": ()}, ValueError),
-        ({"size": "smoke", "parts": ("all",)}, ValueError),
-    ],
-)
-def test_bad_suite_arguments_raise(tmp_path, kwargs, error):
-    with pytest.raises(error):
-        run_rl_suite(out_dir=tmp_path, **kwargs)
-
-
 def test_bad_policy_cards_and_goals_raise(tmp_path):
     card = tmp_path / "p.json"
     with pytest.raises(FileNotFoundError):
@@ -246,10 +198,8 @@ def test_bad_policy_cards_and_goals_raise(tmp_path):
 
 
 def test_held_out_budgets_include_one_and_the_equal_total():
-    from benchmarks.rl.suite import _held_out_budgets
-
     size = SIZES["short"]
-    budgets = _held_out_budgets(size)
+    budgets = held_out_budgets(size)
     equal = -(-size.train_episodes // size.held_out_goals) + 1
     assert budgets[0] == 1 and equal in budgets and set(size.budgets) <= set(budgets)
     # At the equal budget, CMA-ES spends as many episodes as a trained policy tried once per goal.
@@ -266,27 +216,6 @@ def test_bad_probe_arguments_raise():
 
 
 @pytest.mark.slow
-def test_the_report_reads_a_stored_run(smoke, tmp_path):
-    from benchmarks.rl.report import held_out_table, plot_fixed_goal
-
-    png = plot_fixed_goal(smoke, tmp_path / "f.png")
-    assert png.stat().st_size > 1000
-    table = held_out_table(smoke)
-    straight = next(t for t in table if t["approach"] == "straight")
-    assert straight["median_F_over_straight"] == 1.0 and straight["total_episodes"] == 2
-    assert {t["approach"] for t in table} >= {"ppo", "sac", "contextual", "cmaes@1"}
-
-
-def test_the_report_names_a_missing_run(tmp_path):
-    from benchmarks.rl.report import held_out_table, plot_fixed_goal
-
-    with pytest.raises(FileNotFoundError, match="run the rl suite"):
-        plot_fixed_goal(tmp_path)
-    with pytest.raises(FileNotFoundError, match="run the rl suite"):
-        held_out_table(tmp_path)
-
-
-@pytest.mark.slow
 @pytest.mark.parametrize("method", ["ppo", "sac"])
 def test_same_seed_same_training(method):
     if method == "ppo":
@@ -299,3 +228,88 @@ def test_same_seed_same_training(method):
     assert [r.action for r in a.records] == [r.action for r in b.records]
     assert [r.free_energy for r in a.records] == [r.free_energy for r in b.records]
     assert len({r.goal for r in a.records}) == len(a.records)  # random goals, all different
+
+
+# ------------------------------------------------------------------ goal and box mass as the task
+def test_a_contextual_policy_with_masses_reads_the_mass_from_the_observation():
+    goals = [(0.0, 1.0, 0.1), (0.0, 1.0, 0.1)]
+    actions = [(-1.0, 0.0, 0.0), (1.0, 0.0, 0.0)]
+    policy = ContextualPolicy(goals, actions, mode="nearest", masses=[0.1, 0.9], mass_scale=1.0)
+    assert policy.predict([0.0, 1.0, 0.1, 0.2])[0][0] == -1.0
+    assert policy.predict([0.0, 1.0, 0.1, 0.8])[0][0] == 1.0
+    back = ContextualPolicy.from_dict(json.loads(json.dumps(policy.to_dict())))
+    assert back.predict([0.0, 1.0, 0.1, 0.8])[0][0] == 1.0
+    with pytest.raises(ValueError, match="box mass"):
+        policy.predict([0.0, 1.0, 0.1])  # the mass is missing
+    # A card without masses (phase 1's) is a goal-only policy.
+    old = {"goals": [[0.0, 1.0, 0.1]], "actions": [[0.5, 0.0, 0.0]], "bandwidth": 0.25}
+    assert ContextualPolicy.from_dict({**old, "mode": "kernel"}).masses is None
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        {"masses": [0.1]},  # one mass for two goals
+        {"masses": [0.1, -0.5]},
+        {"masses": [0.1, 0.5], "mass_scale": 0.0},
+        {"masses": [0.1, 0.5], "mass_scale": float("inf")},
+    ],
+)
+def test_bad_masses_of_a_contextual_policy_raise(kwargs):
+    with pytest.raises(ValueError, match="mass"):
+        ContextualPolicy([(0, 1, 0.1), (0, 1.2, 0.1)], [(0, 0, 0), (0, 0, 0)], **kwargs)
+
+
+@pytest.mark.slow
+def test_ppo_and_the_contextual_method_train_on_random_goals_and_masses():
+    env_kwargs = {"mass_range": (0.2, 0.8)}
+    ppo = train_ppo(
+        PPOConfig(n_steps=4, batch_size=4),
+        total_episodes=4,
+        seed=3,
+        randomize_goal=True,
+        env_kwargs=env_kwargs,
+    )
+    masses = [r.box_mass for r in ppo.records]
+    assert len(set(masses)) == 4 and all(0.2 <= m <= 0.8 for m in masses)
+    config = ContextualConfig(n_goals=2, episodes_per_goal=2, popsize=2, mode="nearest")
+    contextual = train_contextual(config, seed=3, env_kwargs=env_kwargs)
+    policy = contextual.model
+    assert policy.masses is not None and np.all((policy.masses >= 0.2) & (policy.masses <= 0.8))
+    # Each training task's CMA-ES ran at its own mass; the goals are those of a goal-only run.
+    assert [r.box_mass for r in contextual.records] == list(np.repeat(policy.masses, 2))
+    goal_only = train_contextual(config, seed=3)
+    np.testing.assert_array_equal(goal_only.model.goals, policy.goals)
+
+
+# ------------------------------------------------------------------ without torch
+def test_benchmarks_import_and_refuse_ppo_clearly_without_torch(tmp_path):
+    card = tmp_path / "c.json"
+    policy = ContextualPolicy([(0.0, 1.0, 0.1)], [(0.0, 0.0, 0.0)])
+    save_policy(policy, "contextual", card, config=ContextualConfig(), train_episodes=1)
+    code = f"""
+import importlib.abc, sys
+
+class NoTorch(importlib.abc.MetaPathFinder):  # as if torch and SB3 were not installed
+    def find_spec(self, name, path, target=None):
+        if name.split(".")[0] in ("torch", "stable_baselines3"):
+            raise ModuleNotFoundError(f"No module named {{name!r}}")
+        return None
+
+sys.meta_path.insert(0, NoTorch())
+import benchmarks, benchmarks.rl, benchmarks.reports, benchmarks.reports.rl
+from benchmarks.cli import build_parser
+build_parser("bench"); build_parser("rl")
+from benchmarks.rl import PPOConfig, design_for_goal, rl_suite_config, train_ppo
+rl_suite_config("full")
+print(design_for_goal({str(card)!r}, (0.1, 1.0, 0.1), simulate=False).coefficients)
+try:
+    train_ppo(PPOConfig(), total_episodes=1, seed=0)
+except ImportError as error:
+    print("refused:", error)
+"""
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    assert "(0.0, 0.0, 0.0)" in out.stdout
+    assert "refused:" in out.stdout and 'pip install "tooldesign[rl]"' in out.stdout
+    assert "torch" not in out.stderr

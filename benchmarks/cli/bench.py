@@ -1,4 +1,8 @@
-"""``tooldesign bench``: run a benchmark suite into one run folder, then write its report."""
+"""``tooldesign bench``: run a benchmark suite into one run folder, then write its report.
+
+``tooldesign bench rl`` runs the rl suite (:mod:`benchmarks.rl`), which has its own sizes and
+options (:mod:`benchmarks.cli.rl_suite`).
+"""
 
 from __future__ import annotations
 
@@ -7,8 +11,11 @@ from pathlib import Path
 from typing import Any, cast
 
 from benchmarks.cli._common import add_max_retries_argument
+from benchmarks.cli.rl_suite import RL_ONLY_OPTIONS, add_rl_suite_arguments, run_rl_command
 from benchmarks.execution import EXECUTORS
 from benchmarks.reports.suite import make_suite_report
+from benchmarks.rl import RL_SUITE_NAME
+from benchmarks.rl import SIZES as RL_SIZES
 from benchmarks.suites import (
     BUILTIN_SUITES,
     SIZES,
@@ -35,13 +42,14 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         "suite",
         nargs="?",
         metavar="SUITE",
-        help=f"a built-in suite: {', '.join(BUILTIN_SUITES)} (or omit it and give --config)",
+        help=f"a built-in suite: {', '.join(BUILTIN_SUITES)}, or {RL_SUITE_NAME} (the RL "
+        "baselines, docs/rl.md); or omit it and give --config",
     )
     parser.add_argument(
         "--size",
         default=None,
         help=f"size of the suite: {' or '.join(SIZES)} (default: full; a suite file may define "
-        "its own)",
+        f"its own; the rl suite: {', '.join(RL_SIZES)})",
     )
     parser.add_argument("--out", type=Path, required=True, metavar="DIR", help="run folder")
     parser.add_argument(
@@ -52,7 +60,11 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         help="a suite file (.toml or .json); see docs/benchmarks.md",
     )
     parser.add_argument(
-        "--workers", type=int, default=None, metavar="N", help="worker processes (default: CPUs)"
+        "--workers",
+        type=int,
+        default=None,
+        metavar="N",
+        help="worker processes (default: CPUs; the rl suite: 1, this process)",
     )
     parser.add_argument(
         "--executor", choices=EXECUTORS, default=None, help="where designs are evaluated"
@@ -72,6 +84,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         metavar="FILE",
         help="write the resolved suite to FILE (.toml or .json) and exit without running",
     )
+    add_rl_suite_arguments(parser, title=f"the {RL_SUITE_NAME} suite only")
     parser.set_defaults(run=_run)
     return cast("argparse.ArgumentParser", parser)
 
@@ -105,6 +118,11 @@ def config_from_args(args: argparse.Namespace) -> SuiteConfig:
 
 
 def _run(args: argparse.Namespace) -> int:
+    if args.suite == RL_SUITE_NAME:
+        return run_rl_command(args, default_size="full")
+    given = [f"--{n.replace('_', '-')}" for n in RL_ONLY_OPTIONS if getattr(args, n) is not None]
+    if given:
+        raise ValueError(f"{', '.join(given)}: for the {RL_SUITE_NAME} suite only")
     config = config_from_args(args)
     if args.dump_config is not None:
         print(f"suite written to {save_suite(config, args.dump_config)}")

@@ -1,18 +1,23 @@
 """``tooldesign rl``: the RL baselines' command line (``python -m benchmarks.rl`` is the same).
 
-    tooldesign rl suite --size smoke --out runs/rl-smoke
+    tooldesign rl suite --size smoke --out runs/rl-smoke    # = tooldesign bench rl --size smoke
     tooldesign rl probe ppo --episodes 256 --seed 0 --set '{"log_std_init": -2.0}'
     tooldesign rl design --policy docs/results/rl/policies/contextual.json --goal 0.2 1.0 0.1
 
 All the work is done by plain functions of :mod:`benchmarks.rl` (``run_rl_suite``,
-``design_for_goal``); this module only parses arguments and prints.
+``design_for_goal``); this module only parses arguments and prints. ``rl suite`` is
+``tooldesign bench rl`` with the same options (:mod:`benchmarks.cli.rl_suite`), but its default
+size is ``smoke``.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+from pathlib import Path
 from typing import Any, cast
+
+from benchmarks.cli.rl_suite import add_rl_suite_arguments, run_rl_command
 
 __all__ = ["add_parser"]
 
@@ -26,17 +31,24 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         "tuning probe, or design a tool for a goal with a saved policy.",
     )
     commands = parser.add_subparsers(dest="rl_command", required=True)
-    suite = commands.add_parser("suite", help="run the rl suite and write its results")
-    suite.add_argument("--size", choices=("smoke", "short", "paper"), default="smoke")
-    suite.add_argument("--out", required=True, help="output folder")
-    suite.add_argument("--seeds", type=int, default=None, help="fixed-goal seeds (override)")
-    suite.add_argument("--parts", nargs="+", choices=("fixed", "task"), default=["fixed", "task"])
-    suite.add_argument(
-        "--methods",
-        nargs="+",
-        choices=("random", "cmaes", "ppo", "sac"),
-        default=["random", "cmaes", "ppo", "sac"],
+    suite = commands.add_parser(
+        "suite",
+        help="run the rl suite into a run folder and write its report (= tooldesign bench rl)",
+        description="Run the rl suite into one run folder, resuming what is there, and write "
+        "its report: the same as tooldesign bench rl, with the default size smoke.",
     )
+    suite.add_argument(
+        "--size", default=None, help="smoke (default, CI), short (docs/rl.md) or full (the issue's)"
+    )
+    suite.add_argument("--out", type=Path, required=True, metavar="DIR", help="run folder")
+    suite.add_argument(
+        "--workers",
+        default=None,
+        metavar="N",
+        help="processes that run units of work at once (default 1: this process)",
+    )
+    suite.add_argument("--no-progress", action="store_true", help="no progress lines")
+    add_rl_suite_arguments(suite, title="what to run")
     tune = commands.add_parser("probe", help="one tuning probe at the default goal")
     tune.add_argument("method", choices=("random", "cmaes", "ppo", "sac"))
     tune.add_argument("--episodes", type=int, default=256)
@@ -54,18 +66,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 def _run(args: argparse.Namespace) -> int:
 
     if args.rl_command == "suite":
-        from benchmarks.rl.suite import run_rl_suite
-
-        summary = run_rl_suite(
-            args.size,
-            args.out,
-            seeds=args.seeds,
-            methods=args.methods,
-            parts=args.parts,
-            progress=lambda line: print(line, flush=True),
-        )
-        print(f"wrote {args.out} in {summary['wall_time_s']} s")
-        return 0
+        return run_rl_command(args, default_size="smoke")
     if args.rl_command == "probe":
         from benchmarks.rl.tuning import probe
 

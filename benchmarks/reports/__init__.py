@@ -5,6 +5,8 @@
 - :mod:`~benchmarks.reports.comparison`: the optimizer comparison of any run folder
   (convergence, summary, pairwise tests with the noise floor).
 - :mod:`~benchmarks.reports.suite`: a suite's own figures and tables (Table I, tool shapes, ...).
+- :mod:`~benchmarks.reports.rl`: the rl suite's tables, figures and page (``make_suite_report``
+  hands an rl suite's folder to it).
 - :mod:`~benchmarks.reports.retest`: the noise floor and the stress test of retested designs.
 - :mod:`~benchmarks.reports.design_figures`: a design run's Figure 3 panels and robustness plot.
 - :mod:`~benchmarks.reports.evaluation_figures`: one evaluated design's figures.

@@ -41,7 +41,9 @@ from matplotlib import colormaps
 from benchmarks.reports import plots
 from benchmarks.reports.comparison import REPORT_DIR, make_report
 from benchmarks.reports.retest import make_retest_report, noise_floor
+from benchmarks.reports.rl import make_rl_report
 from benchmarks.reports.stats import bootstrap_ci
+from benchmarks.rl.suite import RL_SUITE_KIND
 from benchmarks.storage import atomic_write_text, read_designs, read_manifest, read_retests
 from benchmarks.suites.config import SuiteConfig, suite_of_manifest
 
@@ -749,6 +751,15 @@ _FIGURES: dict[str, Callable[..., list[Path]]] = {
 # --- the report --------------------------------------------------------------------------------
 
 
+def _kind(folder: Path) -> str | None:
+    """``extra.kind`` of the folder's manifest, or None without a readable one."""
+    try:
+        extra = read_manifest(folder).get("extra")
+    except (FileNotFoundError, ValueError):
+        return None
+    return extra.get("kind") if isinstance(extra, dict) else None
+
+
 def make_suite_report(
     run_folder: str | os.PathLike[str],
     *,
@@ -758,9 +769,13 @@ def make_suite_report(
 ) -> list[Path]:
     """Rebuild every report of a run folder from its stored results alone.
 
+    An rl suite's folder (:func:`benchmarks.rl.run_rl_suite`) gets its own report,
+    :func:`benchmarks.reports.rl.make_rl_report`.
+
     Args:
-        run_folder: A suite run folder (:func:`benchmarks.suites.runner.run_suite`); a design run
-            folder or a bare store gets the generic report of :func:`make_report` only.
+        run_folder: A suite run folder (:func:`benchmarks.suites.runner.run_suite` or
+            :func:`benchmarks.rl.run_rl_suite`); a design run folder or a bare store gets the
+            generic report of :func:`make_report` only.
         out_dir: Where to write; ``run_folder/report`` if ``None``.
         n_boot: Bootstrap resamples per interval.
         seed: Root seed of the bootstraps; the same results and seed give the same bytes.
@@ -779,6 +794,8 @@ def make_suite_report(
         raise FileNotFoundError(f"run folder {folder} does not exist")
     if not folder.is_dir():
         raise NotADirectoryError(f"run folder {folder} is not a folder")
+    if _kind(folder) == RL_SUITE_KIND:
+        return make_rl_report(folder, out_dir=out_dir)
     target = folder / REPORT_DIR if out_dir is None else Path(out_dir)
     retests = read_retests(folder)
     floors = {

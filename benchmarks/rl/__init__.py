@@ -2,13 +2,17 @@
 
 Plain functions, no argument parsing: :func:`train_ppo`, :func:`train_sac`,
 :func:`train_contextual`, :func:`run_random`, :func:`run_cmaes`, :func:`evaluate_design`,
-:func:`run_rl_suite`, :func:`save_policy` and :func:`design_for_goal`.
-``python -m benchmarks.rl`` is a thin command line over them.
+:func:`rl_suite_config` and :func:`run_rl_suite` (the suite, into a run folder like every
+suite's), :func:`save_policy` and :func:`design_for_goal`. ``tooldesign bench rl`` and
+``tooldesign rl`` are the command line over them; the suite's report is
+:func:`benchmarks.reports.make_suite_report`. Stable-Baselines3 and torch are imported only when
+PPO or SAC is trained or loaded.
 """
 
 from __future__ import annotations
 
 from benchmarks.rl.agents import (
+    RL_EXTRA,
     ContextualPolicy,
     EpisodeLog,
     EpisodeRecord,
@@ -28,28 +32,47 @@ from benchmarks.rl.configs import (
     load_config,
 )
 from benchmarks.rl.policies import DesignResult, design_for_goal, load_policy, save_policy
-from benchmarks.rl.suite import SIZES, SuiteSize, run_rl_suite
+from benchmarks.rl.suite import (
+    PARTS,
+    RL_SUITE_KIND,
+    RL_SUITE_NAME,
+    SIZES,
+    RLSuiteConfig,
+    RLSuiteResult,
+    SuiteSize,
+    rl_suite_config,
+    rl_summary_text,
+    run_rl_suite,
+)
 
 __all__ = [
+    "PARTS",
+    "RL_EXTRA",
+    "RL_SUITE_KIND",
+    "RL_SUITE_NAME",
     "SIZES",
     "ContextualConfig",
-    "DesignResult",
-    "SuiteSize",
-    "design_for_goal",
-    "load_policy",
-    "run_rl_suite",
-    "save_policy",
     "ContextualPolicy",
+    "DesignResult",
     "EpisodeLog",
     "EpisodeRecord",
     "PPOConfig",
+    "RLSuiteConfig",
+    "RLSuiteResult",
     "SACConfig",
+    "SuiteSize",
     "default_config",
+    "design_for_goal",
     "evaluate_design",
     "load_config",
+    "load_policy",
     "make_env",
+    "rl_suite_config",
+    "rl_summary_text",
     "run_cmaes",
     "run_random",
+    "run_rl_suite",
+    "save_policy",
     "train_contextual",
     "train_ppo",
     "train_sac",

@@ -1,13 +1,16 @@
 """The baselines on ``ToolDesignRL-v0``: PPO, SAC, a contextual regression, random sampling, CMA-ES.
 
 Every method sees the same env and is charged one episode per tool it simulates; every episode
-is logged (:class:`EpisodeLog`) with its goal and its unscaled F, so methods are compared on F at
-equal episodes. Stable-Baselines3 is imported only by the functions that need it (extra ``rl``).
+is logged (:class:`EpisodeLog`) with its task and its unscaled F, so methods are compared on F at
+equal episodes. Stable-Baselines3 is imported only by the functions that need it (extra ``rl``):
+without it, :func:`train_ppo` and :func:`train_sac` raise an ``ImportError`` that says how to
+install it, and everything else works.
 """
 
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -20,10 +23,12 @@ from benchmarks.rl.configs import ContextualConfig, PPOConfig, SACConfig
 from tooldesign_env.rl import ToolDesignRLEnv
 
 __all__ = [
+    "RL_EXTRA",
     "ContextualPolicy",
     "EpisodeLog",
     "EpisodeRecord",
     "evaluate_design",
+    "import_sb3",
     "make_env",
     "run_cmaes",
     "run_random",
@@ -33,6 +38,9 @@ __all__ = [
 ]
 
 Progress = Callable[[str], None]
+
+#: What to run when Stable-Baselines3 (or torch) is missing: the CPU build of torch first.
+RL_EXTRA = 'pip install "torch==2.13.0" && pip install "tooldesign[rl]"'
 
 
 @dataclass(frozen=True)
@@ -47,6 +55,11 @@ class EpisodeRecord:
         reward: the normalized reward 1 - F / F_idle.
         valid: whether the design could be used.
         final_distance: the box's final distance to the goal, m.
+        coefficients: (3,) the tool's physical coefficients (c1, c2, c3).
+        goal_error: the goal-error term of F.
+        confidence: the control-confidence term of F.
+        goal_precision: p^X of the objective, 1/m^2.
+        seconds: wall time of the episode's step (the simulation), s.
     """
 
     goal: tuple[float, float, float]
@@ -56,6 +69,11 @@ class EpisodeRecord:
     reward: float
     valid: bool
     final_distance: float
+    coefficients: tuple[float, ...] = ()
+    goal_error: float = float("nan")
+    confidence: float = float("nan")
+    goal_precision: float = float("nan")
+    seconds: float = float("nan")
 
 
 class EpisodeLog(gym.Wrapper[np.ndarray, np.ndarray, np.ndarray, np.ndarray]):
@@ -73,7 +91,11 @@ class EpisodeLog(gym.Wrapper[np.ndarray, np.ndarray, np.ndarray, np.ndarray]):
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Step the env and log the episode."""
+        started = time.perf_counter()
         obs, reward, terminated, truncated, info = self.env.step(action)
+        seconds = time.perf_counter() - started
+        base = getattr(self.env.unwrapped, "base", None)
+        precision = float("nan") if base is None else float(base.objective.goal_precision)
         self.records.append(
             EpisodeRecord(
                 goal=tuple(float(v) for v in info["goal"]),  # type: ignore[arg-type]
@@ -83,6 +105,11 @@ class EpisodeLog(gym.Wrapper[np.ndarray, np.ndarray, np.ndarray, np.ndarray]):
                 reward=float(info["normalized_reward"]),
                 valid=bool(info["valid"]),
                 final_distance=float(info["final_distance"]),
+                coefficients=tuple(float(c) for c in np.asarray(info["coefficients"]).ravel()),
+                goal_error=float(info["goal_error"]),
+                confidence=float(info["confidence"]),
+                goal_precision=precision,
+                seconds=seconds,
             )
         )
         return obs, float(reward) * self.reward_scale, terminated, truncated, info
@@ -109,6 +136,18 @@ def _check_seed(seed: Any) -> int:
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise TypeError(f"seed must be an int >= 0, got {seed!r}")
     return int(seed)
+
+
+def import_sb3() -> Any:
+    """The ``stable_baselines3`` module, or an ``ImportError`` that says how to install it."""
+    try:
+        import stable_baselines3
+    except ImportError as error:
+        raise ImportError(
+            f"PPO and SAC need Stable-Baselines3 and torch, which are not installed ({error}); "
+            f"install them with `{RL_EXTRA}`"
+        ) from error
+    return stable_baselines3
 
 
 def _torch_single_thread() -> None:
@@ -162,8 +201,7 @@ def train_ppo(
         raise TypeError(f"config must be a PPOConfig, got {config!r}")
     total = _check_episodes(total_episodes)
     seed = _check_seed(seed)
-    from stable_baselines3 import PPO
-
+    PPO = import_sb3().PPO
     _torch_single_thread()
     env = EpisodeLog(
         make_env(goal=goal, randomize_goal=randomize_goal, **(env_kwargs or {})),
@@ -220,8 +258,7 @@ def train_sac(
         raise TypeError(f"config must be a SACConfig, got {config!r}")
     total = _check_episodes(total_episodes)
     seed = _check_seed(seed)
-    from stable_baselines3 import SAC
-
+    SAC = import_sb3().SAC
     _torch_single_thread()
     env = EpisodeLog(
         make_env(goal=goal, randomize_goal=randomize_goal, **(env_kwargs or {})),
@@ -253,9 +290,17 @@ def run_random(
     total_episodes: int,
     seed: int,
     goal: Sequence[float] | None = None,
+    box_mass: float | None = None,
     env: ToolDesignRLEnv | None = None,
 ) -> list[EpisodeRecord]:
-    """Random sampling: ``total_episodes`` designs uniform in the [-1, 1] action box at a goal.
+    """Random sampling: ``total_episodes`` designs uniform in the [-1, 1] action box at a task.
+
+    Args:
+        total_episodes: designs to simulate.
+        seed: seeds the sampler.
+        goal: (x, y, z) in m; the env's goal if None.
+        box_mass: kg; the env's box mass if None.
+        env: an env to reuse; a fresh one if None.
 
     Raises:
         TypeError / ValueError: bad ``total_episodes`` or ``seed``.
@@ -264,7 +309,7 @@ def run_random(
     rng = np.random.default_rng(_check_seed(seed))
     own = env is None
     logged = EpisodeLog(env if env is not None else make_env(goal=goal))
-    options = None if goal is None else {"goal": tuple(goal)}
+    options = _task_options(goal, box_mass)
     for _ in range(total):
         logged.reset(options=options)
         logged.step(rng.uniform(-1.0, 1.0, 3).astype(np.float32))
@@ -273,20 +318,31 @@ def run_random(
     return logged.records
 
 
+def _task_options(goal: Sequence[float] | None, box_mass: float | None) -> dict[str, Any] | None:
+    options: dict[str, Any] = {}
+    if goal is not None:
+        options["goal"] = tuple(goal)
+    if box_mass is not None:
+        options["box_mass"] = box_mass
+    return options or None
+
+
 def run_cmaes(
     *,
     total_episodes: int,
     seed: int,
     goal: Sequence[float] | None = None,
+    box_mass: float | None = None,
     popsize: int = 8,
     sigma0: float = 0.3,
     env: ToolDesignRLEnv | None = None,
 ) -> list[EpisodeRecord]:
-    """CMA-ES (``optimizers.make("cmaes")``) on F at one goal, in the [-1, 1] action box.
+    """CMA-ES (``optimizers.make("cmaes")``) on F at one task, in the [-1, 1] action box.
 
     Runs whole generations until ``total_episodes`` designs are simulated (the last generation
     is cut short if needed; CMA-ES's behaviour does not depend on the budget, so the first n
-    episodes of a long run are the run of budget n).
+    episodes of a long run are the run of budget n). ``goal`` (m) and ``box_mass`` (kg) are the
+    env's if None.
 
     Raises:
         TypeError / ValueError: bad ``total_episodes`` or ``seed``.
@@ -297,7 +353,7 @@ def run_cmaes(
     seed = _check_seed(seed)
     own = env is None
     logged = EpisodeLog(env if env is not None else make_env(goal=goal))
-    options = None if goal is None else {"goal": tuple(goal)}
+    options = _task_options(goal, box_mass)
     opt = optimizers.make(
         "cmaes", bounds=[[-1.0, 1.0]] * 3, batch_size=popsize, seed=seed, sigma0=sigma0
     )
@@ -319,17 +375,29 @@ def run_cmaes(
 
 
 class ContextualPolicy:
-    """Goal -> design: a kernel regression (or nearest neighbour) over per-goal optima.
+    """Task -> design: a kernel regression (or nearest neighbour) over per-task optima.
+
+    The task is the goal, or the goal and the box mass when ``masses`` are given; the distance
+    between two tasks is sqrt(|goal - goal'|^2 + (mass_scale (m - m'))^2) in m.
 
     Args:
         goals: (k, 3) training goals in m.
         actions: (k, 3) the best design found at each, in [-1, 1].
         bandwidth: Gaussian kernel width in m.
         mode: ``"kernel"`` or ``"nearest"``.
+        masses: (k,) the training tasks' box masses in kg, or None for a goal-only policy.
+        mass_scale: m of goal distance one kg of mass difference counts as, > 0.
     """
 
     def __init__(
-        self, goals: Any, actions: Any, *, bandwidth: float = 0.25, mode: str = "kernel"
+        self,
+        goals: Any,
+        actions: Any,
+        *,
+        bandwidth: float = 0.25,
+        mode: str = "kernel",
+        masses: Any = None,
+        mass_scale: float = 1.0,
     ) -> None:
         self.goals = np.asarray(goals, dtype=float).reshape(-1, 3)
         self.actions = np.asarray(actions, dtype=float).reshape(-1, 3)
@@ -341,17 +409,38 @@ class ContextualPolicy:
             raise ValueError(f"mode must be 'kernel' or 'nearest', got {mode!r}")
         if not (isinstance(bandwidth, (int, float)) and math.isfinite(bandwidth) and bandwidth > 0):
             raise ValueError(f"bandwidth must be a finite number > 0 (m), got {bandwidth!r}")
+        if not (
+            isinstance(mass_scale, (int, float)) and math.isfinite(mass_scale) and mass_scale > 0
+        ):
+            raise ValueError(f"mass_scale must be a finite number > 0 (m/kg), got {mass_scale!r}")
+        self.masses: np.ndarray | None = None
+        if masses is not None:
+            self.masses = np.asarray(masses, dtype=float).ravel()
+            if len(self.masses) != len(self.goals) or not np.all(self.masses > 0):
+                raise ValueError(
+                    f"masses must be {len(self.goals)} box masses > 0 kg, one per goal, "
+                    f"got {masses!r}"
+                )
         self.bandwidth = float(bandwidth)
         self.mode = mode
+        self.mass_scale = float(mass_scale)
 
     def predict(self, observation: Any, deterministic: bool = True) -> tuple[np.ndarray, None]:
         """The design (3,) float32 in [-1, 1] for an observation (x, y, z[, box mass]).
 
-        Same call shape as a Stable-Baselines3 model's ``predict``.
+        Same call shape as a Stable-Baselines3 model's ``predict``. A policy trained with masses
+        needs the box mass (kg) in the observation.
         """
         obs = np.asarray(observation, dtype=float).ravel()
         goal = obs[:3]
         d2 = np.sum((self.goals - goal) ** 2, axis=1)
+        if self.masses is not None:
+            if obs.size < 4:
+                raise ValueError(
+                    "this policy was trained on box masses: the observation must be "
+                    f"(x, y, z, box mass), got {observation!r}"
+                )
+            d2 = d2 + (self.mass_scale * (self.masses - obs[3])) ** 2
         if self.mode == "nearest":
             action = self.actions[int(np.argmin(d2))]
         else:
@@ -362,17 +451,27 @@ class ContextualPolicy:
 
     def to_dict(self) -> dict[str, Any]:
         """A JSON-ready description (the saved policy)."""
-        return {
+        data: dict[str, Any] = {
             "goals": self.goals.tolist(),
             "actions": self.actions.tolist(),
             "bandwidth": self.bandwidth,
             "mode": self.mode,
         }
+        if self.masses is not None:
+            data.update(masses=self.masses.tolist(), mass_scale=self.mass_scale)
+        return data
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> ContextualPolicy:
-        """The inverse of :meth:`to_dict`."""
-        return cls(data["goals"], data["actions"], bandwidth=data["bandwidth"], mode=data["mode"])
+        """The inverse of :meth:`to_dict` (a card without masses is a goal-only policy)."""
+        return cls(
+            data["goals"],
+            data["actions"],
+            bandwidth=data["bandwidth"],
+            mode=data["mode"],
+            masses=data.get("masses"),
+            mass_scale=data.get("mass_scale", 1.0),
+        )
 
 
 def train_contextual(
@@ -382,9 +481,12 @@ def train_contextual(
     env_kwargs: dict[str, Any] | None = None,
     progress: Progress | None = None,
 ) -> Trained:
-    """CMA-ES afresh on ``config.n_goals`` random goals, then the goal -> design regression.
+    """CMA-ES afresh on ``config.n_goals`` random tasks, then the task -> design regression.
 
-    Goals are drawn uniformly from the paper's range by a generator seeded with ``seed``.
+    Goals are drawn uniformly from the paper's range by a generator seeded with ``seed``; with
+    ``env_kwargs={"mass_range": (low, high)}`` each task also gets a box mass drawn uniformly
+    from that range (after the goals, from the same generator, so the goals stay the same) and
+    the policy regresses on goal and mass.
 
     Returns:
         The :class:`ContextualPolicy` and every episode of the CMA-ES runs.
@@ -398,7 +500,9 @@ def train_contextual(
     env = make_env(**(env_kwargs or {}))
     low, high = env.goal_range
     children = np.random.SeedSequence(seed).spawn(config.n_goals + 1)
-    goals = np.random.default_rng(children[0]).uniform(low, high, size=(config.n_goals, 3))
+    rng = np.random.default_rng(children[0])
+    goals = rng.uniform(low, high, size=(config.n_goals, 3))
+    masses = None if env.mass_range is None else rng.uniform(*env.mass_range, config.n_goals)
     records: list[EpisodeRecord] = []
     best = []
     for k, goal in enumerate(goals):
@@ -406,6 +510,7 @@ def train_contextual(
             total_episodes=config.episodes_per_goal,
             seed=int(children[k + 1].generate_state(1)[0]),
             goal=goal,
+            box_mass=None if masses is None else float(masses[k]),
             popsize=config.popsize,
             sigma0=config.sigma0,
             env=env,
@@ -414,9 +519,16 @@ def train_contextual(
         top = min(run, key=lambda r: r.free_energy)
         best.append(top.action)
         if progress is not None:
-            progress(f"contextual: goal {k + 1}/{config.n_goals} best F {top.free_energy:.0f}")
+            progress(f"contextual: task {k + 1}/{config.n_goals} best F {top.free_energy:.0f}")
     env.close()
-    policy = ContextualPolicy(goals, best, bandwidth=config.bandwidth, mode=config.mode)
+    policy = ContextualPolicy(
+        goals,
+        best,
+        bandwidth=config.bandwidth,
+        mode=config.mode,
+        masses=masses,
+        mass_scale=config.mass_scale,
+    )
     return Trained(policy, records)
 
 

@@ -136,7 +136,9 @@ class ContextualConfig:
     Training runs CMA-ES afresh on ``n_goals`` goals drawn from the paper's range, each with
     ``episodes_per_goal`` episodes, and keeps each goal's best design. A new goal gets the
     designs of the training goals weighted by a Gaussian kernel of the goal distance
-    (``mode="kernel"``) or the nearest training goal's design (``mode="nearest"``).
+    (``mode="kernel"``) or the nearest training goal's design (``mode="nearest"``). Trained with
+    randomized box masses, the task is the goal and the mass, and a kg of mass difference counts
+    as ``mass_scale`` m of goal distance.
 
     Attributes:
         n_goals: training goals.
@@ -145,6 +147,7 @@ class ContextualConfig:
         sigma0: CMA-ES initial step, a fraction of the [-1, 1] action box.
         bandwidth: kernel width in m (``mode="kernel"``).
         mode: ``"kernel"`` or ``"nearest"``.
+        mass_scale: m of goal distance per kg of box-mass difference (tasks with masses).
     """
 
     n_goals: int = 8
@@ -153,6 +156,7 @@ class ContextualConfig:
     sigma0: float = 0.3
     bandwidth: float = 0.25
     mode: str = "kernel"
+    mass_scale: float = 1.0
 
     def __post_init__(self) -> None:
         for name in ("n_goals", "episodes_per_goal", "popsize"):
@@ -161,6 +165,7 @@ class ContextualConfig:
             raise ValueError(f"popsize must be >= 2 (CMA-ES), got {self.popsize}")
         _number("sigma0", self.sigma0, 1e-6, 1.0)
         _number("bandwidth", self.bandwidth, 1e-6, 10.0)
+        _number("mass_scale", self.mass_scale, 1e-6, 1e6)
         if self.mode not in ("kernel", "nearest"):
             raise ValueError(f"mode must be 'kernel' or 'nearest', got {self.mode!r}")
 

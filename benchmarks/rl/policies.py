@@ -17,10 +17,9 @@ from typing import Any
 
 import numpy as np
 
-from benchmarks.rl._io import write_json
 from benchmarks.rl.agents import ContextualPolicy, EpisodeLog, make_env
 from benchmarks.rl.configs import MethodConfig
-from benchmarks.storage import atomic_write_bytes
+from benchmarks.storage import atomic_write_bytes, atomic_write_text, json_text
 
 __all__ = ["POLICY_FORMAT", "DesignResult", "design_for_goal", "load_policy", "save_policy"]
 
@@ -108,7 +107,7 @@ def save_policy(
         model.save(buffer, exclude=["replay_buffer"])
         atomic_write_bytes(zip_path, buffer.getvalue())
         card["file"] = zip_path.name
-    return write_json(card_path, card)
+    return atomic_write_text(card_path, json_text(card))
 
 
 def load_policy(path: str | os.PathLike[str]) -> tuple[Any, dict[str, Any]]:
@@ -134,16 +133,11 @@ def load_policy(path: str | os.PathLike[str]) -> tuple[Any, dict[str, Any]]:
         zip_path = card_path.parent / card["file"]
         if not zip_path.is_file():
             raise FileNotFoundError(f"{card_path} names {zip_path}, which does not exist")
-        from benchmarks.rl.agents import _torch_single_thread
+        from benchmarks.rl.agents import _torch_single_thread, import_sb3
 
+        algorithm = getattr(import_sb3(), method.upper())
         _torch_single_thread()
-        if method == "ppo":
-            from stable_baselines3 import PPO
-
-            return PPO.load(zip_path, device="cpu"), card
-        from stable_baselines3 import SAC
-
-        return SAC.load(zip_path, device="cpu"), card
+        return algorithm.load(zip_path, device="cpu"), card
     raise ValueError(f"{card_path}: method must be one of {_METHODS}, got {method!r}")
 
 

@@ -1,37 +1,49 @@
-"""The ``rl`` suite: RL baselines against random sampling and CMA-ES, at equal episodes.
+"""The ``rl`` suite: RL baselines against random sampling and CMA-ES at equal episodes.
 
-Two parts (``docs/rl.md``):
+It is stored in a run folder like every other suite.
 
-* **Fixed goal** (the default goal (0, 1.5, 0.1)): PPO, SAC, CMA-ES and random sampling, each for
-  ``fixed_episodes`` episodes per seed; the best F so far after every episode.
-* **Task-conditioned**: PPO, SAC and the contextual regression train on goals drawn from the
-  paper's range (``train_episodes`` each); on held-out goals, their zero-shot tool (one episode
-  per goal) is compared with the straight tool, and with CMA-ES and random sampling run afresh
-  on each goal at each budget. Every row carries the episodes the approach spent in total,
-  training included.
+Three parts (``docs/rl.md``):
 
-Files written to ``out_dir`` (atomically): ``fixed_goal.csv`` (method, seed, episode,
-free_energy, best_so_far_F, ...), ``held_out.csv`` (method, seed, goal, budget_per_goal,
-train_episodes, total_episodes, free_energy, ...), ``summary.json``, and the trained policies
-of the first seed under ``policies/``.
+* ``fixed``: at the default goal (0, 1.5, 0.1), PPO, SAC, CMA-ES and random sampling, each for
+  ``fixed_episodes`` episodes per seed; PPO's and SAC's final deterministic design is simulated
+  once more.
+* ``task``: PPO, SAC and the contextual regression train on goals drawn from the paper's range;
+  on held-out goals, each policy's zero-shot tool (one episode per goal) is compared with the
+  straight tool and with CMA-ES and random sampling run afresh on each goal (read at every
+  budget from one run of the largest).
+* ``mass``: the same with the box mass in the task: PPO and the contextual regression train on
+  goals *and* box masses drawn from ``mass_range``, and are tested on held-out (goal, mass)
+  tasks against CMA-ES and random sampling run afresh at each.
+
+The run folder is written through :class:`benchmarks.storage.RunSession`: every episode is one
+row of the evaluation log (``docs/results-format.md``, "The rl suite"), one part file per run
+(``iteration`` 0, ``candidate`` = episode), written atomically and recorded with its checksum
+in ``manifest.json`` as soon as it is written. A unit of work (one training, one fixed-goal run,
+one held-out task's CMA-ES or random run) is redone whole if it was interrupted, and an
+interrupted suite resumes where it stopped: the same command with the same settings skips the
+finished units and ends with the same stored results (apart from the timing columns). The
+report is made from the stored files by :func:`benchmarks.reports.make_suite_report`.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
-import platform
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
+from concurrent.futures import FIRST_COMPLETED, wait
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
+import pandas as pd
 
-from benchmarks.rl._io import write_csv, write_json
+from benchmarks.execution import make_executor
 from benchmarks.rl.agents import (
     EpisodeRecord,
+    Trained,
     evaluate_design,
     make_env,
     run_cmaes,
@@ -40,56 +52,103 @@ from benchmarks.rl.agents import (
     train_ppo,
     train_sac,
 )
-from benchmarks.rl.configs import ContextualConfig, default_config
+from benchmarks.rl.configs import (
+    ContextualConfig,
+    MethodConfig,
+    PPOConfig,
+    SACConfig,
+    default_config,
+)
 from benchmarks.rl.policies import save_policy
+from benchmarks.storage import (
+    ResultStore,
+    ResumeError,
+    RunSession,
+    Unit,
+    json_ready,
+    validate_evaluations,
+)
+from tooldesign_env.schema import (
+    BEST_SO_FAR,
+    DEFAULT_GOAL,
+    GOAL_HIGH,
+    GOAL_LOW,
+    TIMING_COLUMNS,
+    coefficient_columns,
+)
+from tooldesign_env.specs import BOX_MASS_MAX
 
 __all__ = [
-    "FIXED_COLUMNS",
-    "HELD_OUT_COLUMNS",
+    "FIXED_GOAL",
+    "FIXED_METHODS",
+    "MASS_METHODS",
+    "MASS_RANGE",
     "NOISE_FLOOR",
+    "PARTS",
+    "POLICIES_DIR",
+    "RL_SUITE_KIND",
+    "RL_SUITE_NAME",
+    "RUNTIME_FIELDS",
     "SIZES",
+    "TASK_METHODS",
+    "VARIANTS",
+    "RLSuiteConfig",
+    "RLSuiteResult",
     "SuiteSize",
+    "held_out_budgets",
+    "held_out_goals",
+    "held_out_masses",
+    "rl_suite_config",
+    "rl_summary_text",
     "run_rl_suite",
 ]
 
-#: The default goal of the fixed-goal part, (x, y, z) in m.
-FIXED_GOAL = (0.0, 1.5, 0.1)
-#: Relative change of F below which two results are not told apart: a 0.1 mm nudge of the box
-#: moves F by a median 1.4-1.6 % (docs/model.md, "Stability: the noise floor").
-NOISE_FLOOR = 0.015
-#: Root of the seeds: run seeds and held-out goals come from SeedSequence(ROOT_SEED).spawn.
-ROOT_SEED = 20261123
+RL_SUITE_NAME = "rl"
+"""The ``suite`` column of every row, and the suite's name in ``tooldesign bench``."""
 
-FIXED_COLUMNS = (
-    "method",
-    "seed",
-    "episode",
-    "free_energy",
-    "best_so_far_F",
-    "normalized_reward",
-    "valid",
-    "a1",
-    "a2",
-    "a3",
-)
-HELD_OUT_COLUMNS = (
-    "method",
-    "seed",
-    "goal_index",
-    "goal_x",
-    "goal_y",
-    "goal_z",
-    "budget_per_goal",
-    "train_episodes",
-    "total_episodes",
-    "free_energy",
-    "normalized_reward",
-    "final_distance",
-    "valid",
-    "a1",
-    "a2",
-    "a3",
-)
+RL_SUITE_KIND = "rl-suite"
+"""``manifest.json`` ``extra.kind`` of an rl suite run folder."""
+
+RUNTIME_FIELDS: frozenset[str] = frozenset({"workers"})
+"""Config fields that do not change the results: a resumed suite may set them differently."""
+
+FIXED_GOAL: tuple[float, float, float] = DEFAULT_GOAL
+"""The goal of the fixed-goal part, (x, y, z) in m."""
+
+NOISE_FLOOR = 0.015
+"""Relative change of F below which two results are not told apart: a 0.1 mm nudge of the box
+moves F by a median 1.4-1.6 % (docs/model.md, "Stability: the noise floor")."""
+
+ROOT_SEED = 20261123
+"""Root of the seeds: run seeds and held-out tasks come from ``SeedSequence([ROOT_SEED, k])``."""
+
+MASS_RANGE: tuple[float, float] = (0.1, 0.9)
+"""Box masses of the ``mass`` part, kg: the nominal 0.1 kg to the heaviest robustness mass."""
+
+PARTS: tuple[str, ...] = ("fixed", "task", "mass")
+FIXED_METHODS: tuple[str, ...] = ("random", "cmaes", "ppo", "sac")
+TASK_METHODS: tuple[str, ...] = ("ppo", "sac", "contextual")
+MASS_METHODS: tuple[str, ...] = ("ppo", "contextual")
+
+POLICIES_DIR = "policies"
+"""Folder of the saved task-conditioned policies (first training seed) in the run folder."""
+
+VARIANTS: dict[str, str] = {
+    "fixed": "fixed goal: one row per episode of each method and seed",
+    "fixed-policy": "fixed goal: PPO's and SAC's final deterministic design, one row per seed; "
+    "optimizer 'straight' is the straight tool",
+    "train": "task part: the training episodes of each method and training seed",
+    "zero-shot": "task part: each policy's design per held-out goal (candidate = goal index); "
+    "optimizer 'straight' is the straight tool",
+    "held-out": "task part: CMA-ES and random sampling afresh on each held-out goal, one run "
+    "per goal",
+    "mass-train": "mass part: the training episodes (random goals and box masses)",
+    "mass-zero-shot": "mass part: each policy's design per held-out (goal, mass) task",
+    "mass-held-out": "mass part: CMA-ES and random sampling afresh on each held-out task",
+}
+"""The ``variant`` column: which part of the suite a row belongs to."""
+
+_PREFIX = {"task": "", "mass": "mass-"}
 
 Progress = Callable[[str], None]
 
@@ -101,15 +160,15 @@ class SuiteSize:
     Attributes:
         name: the size's name.
         seeds: seeds of the fixed-goal part.
-        task_seeds: seeds of the task-conditioned part (trainings per method).
+        task_seeds: trainings per method in the task and mass parts.
         fixed_episodes: episodes per method and seed at the fixed goal.
         train_episodes: training episodes of PPO, SAC and the contextual method (its CMA-ES
-            runs: ``contextual_goals`` goals of ``train_episodes / contextual_goals`` each).
-        contextual_goals: training goals of the contextual method.
-        held_out_goals: goals the trained policies are tested on, zero-shot.
-        budgets: episodes per held-out goal at which CMA-ES and random sampling are read
+            runs: ``contextual_goals`` tasks of ``train_episodes / contextual_goals`` each).
+        contextual_goals: training tasks of the contextual method.
+        held_out_goals: tasks the trained policies are tested on, zero-shot.
+        budgets: episodes per held-out task at which CMA-ES and random sampling are read
             (1, and the budget of equal total episodes with a trained policy, are added).
-        popsize: CMA-ES population size (held-out runs and the contextual method).
+        popsize: CMA-ES population size (everywhere in the suite).
         overrides: per-method config fields replaced for this size (the smoke size's tiny
             rollouts), as ``(method, field, value)``.
     """
@@ -127,7 +186,7 @@ class SuiteSize:
 
 
 SIZES: dict[str, SuiteSize] = {
-    # Runs in CI (about 80 episodes).
+    # Runs in CI: about 130 episodes, well under a minute.
     "smoke": SuiteSize(
         name="smoke",
         seeds=1,
@@ -145,7 +204,7 @@ SIZES: dict[str, SuiteSize] = {
             ("sac", "batch_size", 4),
         ),
     ),
-    # What docs/rl.md reports: about 5,500 episodes, what fitted the time on a shared machine.
+    # What docs/rl.md reports: what fits an hour on a shared machine.
     "short": SuiteSize(
         name="short",
         seeds=3,
@@ -156,10 +215,10 @@ SIZES: dict[str, SuiteSize] = {
         held_out_goals=8,
         budgets=(50, 100),
     ),
-    # The issue's size: 10 seeds of 1,024 episodes, 20 held-out goals, budgets 50/100/200
-    # (about 60,000 episodes: 4-5 hours on one core at 4-5 episodes/s).
-    "paper": SuiteSize(
-        name="paper",
+    # The issue's size: 10 seeds of 1,024 episodes at the fixed goal, 20 held-out goals,
+    # CMA-ES afresh per goal at budgets 50, 100 and 200.
+    "full": SuiteSize(
+        name="full",
         seeds=10,
         task_seeds=3,
         fixed_episodes=1024,
@@ -169,24 +228,31 @@ SIZES: dict[str, SuiteSize] = {
         budgets=(50, 100, 200),
     ),
 }
+"""The sizes of the suite: ``smoke`` (CI), ``short`` (docs/rl.md), ``full`` (the issue's)."""
 
 
-def _configs(size: SuiteSize) -> dict[str, Any]:
-    configs: dict[str, Any] = {m: default_config(m) for m in ("ppo", "sac")}
-    contextual = default_config("contextual")
-    assert isinstance(contextual, ContextualConfig)
-    configs["contextual"] = dataclasses.replace(
-        contextual,
-        n_goals=size.contextual_goals,
-        episodes_per_goal=max(1, size.train_episodes // size.contextual_goals),
-        popsize=size.popsize,
-    )
-    changes: dict[str, dict[str, Any]] = {}
-    for method, name, value in size.overrides:
-        changes.setdefault(method, {})[name] = value
-    for method, fields_ in changes.items():
-        configs[method] = dataclasses.replace(configs[method], **fields_)
-    return configs
+def held_out_budgets(size: SuiteSize) -> tuple[int, ...]:
+    """The size's budgets, plus 1 and the budget whose total equals a trained policy's.
+
+    A policy trained on ``train_episodes`` and tried once on each of n tasks spends
+    ``train_episodes + n`` episodes: CMA-ES and random sampling get the same total at
+    ``ceil(train_episodes / n) + 1`` episodes per task.
+    """
+    n = size.held_out_goals
+    equal = -(-size.train_episodes // n) + 1
+    return tuple(sorted({1, equal, *size.budgets}))
+
+
+def held_out_goals(n: int, root: int = ROOT_SEED) -> np.ndarray:
+    """(n, 3) held-out goals in m, uniform in the paper's range, from their own seed stream."""
+    rng = np.random.default_rng(np.random.SeedSequence([root, 99]))
+    return rng.uniform(np.asarray(GOAL_LOW, float), np.asarray(GOAL_HIGH, float), (n, 3))
+
+
+def held_out_masses(n: int, mass_range: Sequence[float], root: int = ROOT_SEED) -> np.ndarray:
+    """(n,) held-out box masses in kg, uniform in ``mass_range``, from their own seed stream."""
+    rng = np.random.default_rng(np.random.SeedSequence([root, 98]))
+    return rng.uniform(float(mass_range[0]), float(mass_range[1]), n)
 
 
 def _seeds(root: int, n: int, part: int) -> list[int]:
@@ -194,208 +260,261 @@ def _seeds(root: int, n: int, part: int) -> list[int]:
     return [int(c.generate_state(1)[0]) for c in children]
 
 
-def held_out_goals(n: int, root: int = ROOT_SEED) -> np.ndarray:
-    """(n, 3) held-out goals, uniform in the paper's range, from their own seed stream."""
-    env = make_env()
-    low, high = env.goal_range
-    env.close()
-    return np.random.default_rng(np.random.SeedSequence([root, 99])).uniform(low, high, (n, 3))
+@dataclass(frozen=True, kw_only=True)
+class RLSuiteConfig:
+    """Everything that decides the results of a run of the rl suite (see :func:`rl_suite_config`).
 
+    Attributes:
+        size: the size.
+        methods: fixed-goal methods, a subset of :data:`FIXED_METHODS`.
+        parts: a subset of :data:`PARTS`.
+        mass_range: (low, high) box masses of the ``mass`` part, kg.
+        configs: the configuration of each method (``ppo``, ``sac``, ``contextual``).
+        workers: processes that run units of work at once (1: this process); does not change
+            the results.
+        root_seed: root of every seed and held-out task.
+    """
 
-def _fixed_rows(method: str, seed: int, records: Sequence[EpisodeRecord]) -> list[dict[str, Any]]:
-    rows = []
-    best = float("inf")
-    for k, r in enumerate(records, start=1):
-        best = min(best, r.free_energy)
-        rows.append(
-            {
-                "method": method,
-                "seed": seed,
-                "episode": k,
-                "free_energy": round(r.free_energy, 3),
-                "best_so_far_F": round(best, 3),
-                "normalized_reward": round(r.reward, 6),
-                "valid": int(r.valid),
-                "a1": round(r.action[0], 5),
-                "a2": round(r.action[1], 5),
-                "a3": round(r.action[2], 5),
-            }
+    size: SuiteSize
+    methods: tuple[str, ...]
+    parts: tuple[str, ...]
+    mass_range: tuple[float, float]
+    configs: dict[str, MethodConfig]
+    workers: int = 1
+    root_seed: int = ROOT_SEED
+
+    @property
+    def budgets(self) -> tuple[int, ...]:
+        """Episodes per held-out task at which CMA-ES and random sampling are read."""
+        return held_out_budgets(self.size)
+
+    @property
+    def goals(self) -> np.ndarray:
+        """(n, 3) held-out goals in m (both task parts)."""
+        return held_out_goals(self.size.held_out_goals, self.root_seed)
+
+    @property
+    def masses(self) -> np.ndarray:
+        """(n,) held-out box masses in kg of the ``mass`` part."""
+        return held_out_masses(self.size.held_out_goals, self.mass_range, self.root_seed)
+
+    def planned_episodes(self) -> int:
+        """Episodes the whole suite simulates (PPO rounds its training up to whole rollouts)."""
+        size, n = self.size, self.size.held_out_goals
+        total = 0
+        if "fixed" in self.parts:
+            total += 1  # the straight tool
+            for method in self.methods:
+                extra = 1 if method in ("ppo", "sac") else 0
+                total += size.seeds * (size.fixed_episodes + extra)
+        for part in ("task", "mass"):
+            if part in self.parts:
+                methods = TASK_METHODS if part == "task" else MASS_METHODS
+                trainings = sum(self._train_episodes(m) for m in methods)
+                total += n + size.task_seeds * (trainings + len(methods) * n)
+                total += 2 * n * max(self.budgets)
+        return total
+
+    def _train_episodes(self, method: str) -> int:
+        config = self.configs[method]
+        if isinstance(config, ContextualConfig):
+            return config.total_episodes
+        steps = getattr(config, "n_steps", 1)
+        return -(-self.size.train_episodes // steps) * steps
+
+    def to_json(self) -> dict[str, Any]:
+        """The JSON form stored as the manifest's ``config`` (compared when resuming)."""
+        return cast(
+            "dict[str, Any]",
+            json_ready(
+                {
+                    "name": RL_SUITE_NAME,
+                    "size": dataclasses.asdict(self.size),
+                    "methods": list(self.methods),
+                    "parts": list(self.parts),
+                    "mass_range": list(self.mass_range),
+                    "configs": {m: dataclasses.asdict(c) for m, c in sorted(self.configs.items())},
+                    "root_seed": self.root_seed,
+                    "workers": self.workers,
+                    "fixed_goal": list(FIXED_GOAL),
+                    "budgets": list(self.budgets),
+                    "held_out_goals": self.goals.tolist(),
+                    "held_out_masses": self.masses.tolist(),
+                    "noise_floor": NOISE_FLOOR,
+                }
+            ),
         )
-    return rows
-
-
-def _held_row(
-    method: str,
-    seed: int,
-    index: int,
-    record: EpisodeRecord,
-    *,
-    budget: int,
-    train: int,
-    n_goals: int,
-) -> dict[str, Any]:
-    return {
-        "method": method,
-        "seed": seed,
-        "goal_index": index,
-        "goal_x": round(record.goal[0], 6),
-        "goal_y": round(record.goal[1], 6),
-        "goal_z": round(record.goal[2], 6),
-        "budget_per_goal": budget,
-        "train_episodes": train,
-        "total_episodes": train + budget * n_goals,
-        "free_energy": round(record.free_energy, 3),
-        "normalized_reward": round(record.reward, 6),
-        "final_distance": round(record.final_distance, 6),
-        "valid": int(record.valid),
-        "a1": round(record.action[0], 5),
-        "a2": round(record.action[1], 5),
-        "a3": round(record.action[2], 5),
-    }
 
 
 def _check_size(size: Any) -> SuiteSize:
     if isinstance(size, SuiteSize):
         return size
     if not isinstance(size, str):
-        raise TypeError(f"size must be a name in {sorted(SIZES)} or a SuiteSize, got {size!r}")
+        raise TypeError(f"size must be one of {', '.join(SIZES)} or a SuiteSize, got {size!r}")
     if size not in SIZES:
-        raise ValueError(f"size must be one of {sorted(SIZES)}, got {size!r}")
+        raise ValueError(f"unknown size {size!r} of the rl suite; sizes: {', '.join(SIZES)}")
     return SIZES[size]
 
 
-def run_rl_suite(
-    size: str | SuiteSize,
-    out_dir: str | os.PathLike[str],
+def _check_subset(name: str, values: Any, allowed: Sequence[str]) -> tuple[str, ...]:
+    if isinstance(values, str) or not isinstance(values, Iterable):
+        raise ValueError(
+            f"{name} must be a list of names from {', '.join(allowed)}, got {values!r}"
+        )
+    chosen = tuple(values)
+    unknown = [v for v in chosen if v not in allowed]
+    if not chosen or unknown or len(set(chosen)) != len(chosen):
+        raise ValueError(
+            f"{name} must be a non-empty list of distinct names from {', '.join(allowed)}, "
+            f"got {' '.join(map(str, chosen)) or 'none'}"
+        )
+    # The order of the suite's own list: the same choice is the same config, however given.
+    return tuple(a for a in allowed if a in chosen)
+
+
+def _check_count(name: str, value: Any) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise TypeError(f"{name} must be an int >= 1, got {value!r}")
+    if value < 1:
+        raise ValueError(f"{name} must be an int >= 1, got {value!r}")
+    return int(value)
+
+
+def _check_mass_range(value: Any) -> tuple[float, float]:
+    if (
+        isinstance(value, (str, bytes))
+        or not isinstance(value, Sequence)
+        or len(value) != 2
+        or any(isinstance(v, bool) or not isinstance(v, (int, float, np.number)) for v in value)
+    ):
+        raise TypeError(f"mass_range must be two numbers (low, high) in kg, got {value!r}")
+    low, high = float(value[0]), float(value[1])
+    if not (math.isfinite(low) and math.isfinite(high) and 0 < low <= high <= BOX_MASS_MAX):
+        raise ValueError(
+            f"mass_range must satisfy 0 < low <= high <= {BOX_MASS_MAX:g} (kg), got "
+            f"{low:g} {high:g}"
+        )
+    return low, high
+
+
+def rl_suite_config(
+    size: str | SuiteSize = "smoke",
     *,
     seeds: int | None = None,
-    methods: Sequence[str] = ("random", "cmaes", "ppo", "sac"),
-    parts: Sequence[str] = ("fixed", "task"),
-    progress: Progress | None = None,
-) -> dict[str, Any]:
-    """Run the ``rl`` suite and write its CSV files and JSON summary to ``out_dir``.
+    methods: Sequence[str] = FIXED_METHODS,
+    parts: Sequence[str] = PARTS,
+    mass_range: Sequence[float] = MASS_RANGE,
+    workers: int = 1,
+) -> RLSuiteConfig:
+    """The configuration of a run of the rl suite, checked.
 
     Args:
-        size: ``"smoke"`` (CI), ``"short"`` (docs/rl.md) or ``"paper"``, or a :class:`SuiteSize`.
-        out_dir: folder for ``fixed_goal.csv``, ``held_out.csv``, ``summary.json`` and
-            ``policies/``; created if missing.
-        seeds: number of seeds of the fixed-goal part instead of the size's.
+        size: ``"smoke"`` (CI), ``"short"`` (docs/rl.md), ``"full"`` (the issue's), or a
+            :class:`SuiteSize`.
+        seeds: seeds of the fixed-goal part instead of the size's.
         methods: fixed-goal methods, a subset of random, cmaes, ppo, sac.
-        parts: ``"fixed"`` and/or ``"task"``.
-        progress: called with a line of text after each run.
+        parts: a subset of fixed, task, mass.
+        mass_range: (low, high) box masses of the ``mass`` part in kg, 0 < low <= high.
+        workers: processes that run units of work at once (1: in this process).
 
     Returns:
-        The summary (also written as ``summary.json``).
+        The configuration; the committed configs of each method, with the size's overrides.
 
     Raises:
-        TypeError / ValueError: an unknown size, method or part, or a bad ``seeds``.
+        TypeError / ValueError: an unknown size, method or part, or a bad number; the message
+            names the value and what is allowed.
     """
     suite = _check_size(size)
     if seeds is not None:
-        if isinstance(seeds, bool) or not isinstance(seeds, int):
-            raise TypeError(f"seeds must be an int >= 1 or None, got {seeds!r}")
-        if seeds < 1:
-            raise ValueError(f"seeds must be an int >= 1 or None, got {seeds!r}")
-        suite = dataclasses.replace(suite, seeds=seeds)
-    allowed = ("random", "cmaes", "ppo", "sac")
-    if isinstance(methods, str) or any(m not in allowed for m in methods):
-        raise ValueError(f"methods must be a subset of {allowed}, got {methods!r}")
-    if isinstance(parts, str) or not parts or any(p not in ("fixed", "task") for p in parts):
-        raise ValueError(f"parts must be a non-empty subset of ('fixed', 'task'), got {parts!r}")
-    if not isinstance(out_dir, (str, os.PathLike)):
-        raise TypeError(f"out_dir must be a str or os.PathLike, got {out_dir!r}")
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    say = progress or (lambda line: None)
-    configs = _configs(suite)
-    started = time.time()
-    summary: dict[str, Any] = {
-        "suite": "rl",
-        "size": dataclasses.asdict(suite),
-        "root_seed": ROOT_SEED,
-        "noise_floor": {
-            "relative_F": NOISE_FLOOR,
-            "note": "a 0.1 mm nudge of the box moves F by a median 1.4-1.6 % (docs/model.md); "
-            "differences of F below this are not told apart",
-        },
-        "configs": {m: dataclasses.asdict(c) for m, c in configs.items()},
-        "machine": {"python": platform.python_version(), "processor": platform.machine()},
-    }
-    if "fixed" in parts:
-        summary["fixed_goal"] = _fixed_part(suite, configs, methods, out, say)
-    if "task" in parts:
-        summary["task_conditioned"] = _task_part(suite, configs, out, say)
-    summary["wall_time_s"] = round(time.time() - started, 1)
-    write_json(out / "summary.json", summary)
-    return summary
+        suite = dataclasses.replace(suite, seeds=_check_count("seeds", seeds))
+    configs: dict[str, Any] = {m: default_config(m) for m in ("ppo", "sac")}
+    contextual = default_config("contextual")
+    assert isinstance(contextual, ContextualConfig)
+    configs["contextual"] = dataclasses.replace(
+        contextual,
+        n_goals=suite.contextual_goals,
+        episodes_per_goal=max(1, suite.train_episodes // suite.contextual_goals),
+        popsize=suite.popsize,
+    )
+    changes: dict[str, dict[str, Any]] = {}
+    for method, name, value in suite.overrides:
+        changes.setdefault(method, {})[name] = value
+    for method, fields_ in changes.items():
+        configs[method] = dataclasses.replace(configs[method], **fields_)
+    return RLSuiteConfig(
+        size=suite,
+        methods=_check_subset("methods", methods, FIXED_METHODS),
+        parts=_check_subset("parts", parts, PARTS),
+        mass_range=_check_mass_range(mass_range),
+        configs=configs,
+        workers=_check_count("workers", workers),
+    )
 
 
-def _fixed_part(
-    suite: SuiteSize,
-    configs: dict[str, Any],
-    methods: Sequence[str],
-    out: Path,
-    say: Progress,
-) -> dict[str, Any]:
-    rows: list[dict[str, Any]] = []
-    result: dict[str, Any] = {"goal": list(FIXED_GOAL), "episodes": suite.fixed_episodes}
-    straight = evaluate_design(_Fixed(np.zeros(3, np.float32)), FIXED_GOAL)
-    result["straight_F"] = straight.free_energy
-    checkpoints = sorted({c for c in (16, 32, 64, 128, 256, 512, 1024) if c < suite.fixed_episodes})
-    checkpoints.append(suite.fixed_episodes)
-    per_method: dict[str, Any] = {}
-    for method in methods:
-        finals: dict[str, list[float]] = {str(c): [] for c in checkpoints}
-        policy_f: list[float] = []
-        seconds: list[float] = []
-        for seed in _seeds(ROOT_SEED, suite.seeds, 0):
-            t0 = time.time()
-            n = suite.fixed_episodes
-            if method == "random":
-                records = run_random(total_episodes=n, seed=seed, goal=FIXED_GOAL)
-            elif method == "cmaes":
-                records = run_cmaes(
-                    total_episodes=n, seed=seed, goal=FIXED_GOAL, popsize=suite.popsize
-                )
-            else:
-                train = train_ppo if method == "ppo" else train_sac
-                trained = train(configs[method], total_episodes=n, seed=seed, goal=FIXED_GOAL)
-                records = trained.records[:n]
-                policy_f.append(evaluate_design(trained.model, FIXED_GOAL).free_energy)
-            seconds.append(time.time() - t0)
-            rows.extend(_fixed_rows(method, seed, records))
-            best = np.minimum.accumulate([r.free_energy for r in records])
-            for c in checkpoints:
-                finals[str(c)].append(float(best[min(c, len(best)) - 1]))
-            say(f"fixed {method} seed {seed}: best F {best[-1]:.0f} ({seconds[-1]:.0f} s)")
-        per_method[method] = {
-            "best_so_far_F": finals,
-            "median_best_so_far_F": {c: float(np.median(v)) for c, v in finals.items()},
-            "final_policy_F": policy_f,
-            "seconds_per_run": [round(s, 1) for s in seconds],
-        }
-        write_csv(out / "fixed_goal.csv", FIXED_COLUMNS, rows)
-    result["methods"] = per_method
-    if "random" in per_method:
-        ref = per_method["random"]["median_best_so_far_F"]
-        result["vs_random_at_equal_episodes"] = {
-            m: {
-                c: _compare(v["median_best_so_far_F"][c], ref[c]) for c in v["median_best_so_far_F"]
-            }
-            for m, v in per_method.items()
-            if m != "random"
-        }
-    return result
+# --- units of work -------------------------------------------------------------------------
 
 
-def _compare(value: float, reference: float) -> dict[str, Any]:
-    """How ``value`` compares with ``reference`` (lower F is better), against the noise floor."""
-    relative = (value - reference) / abs(reference)
-    if abs(relative) < NOISE_FLOOR:
-        verdict = "within the noise floor"
-    else:
-        verdict = "better" if relative < 0 else "worse"
-    return {"relative": round(relative, 4), "verdict": verdict}
+@dataclass(frozen=True)
+class _Work:
+    """One unit of work: what is redone whole after an interruption.
+
+    ``kind`` is ``"fixed"`` (one method and seed at the fixed goal), ``"straight"`` (the
+    straight tool on the held-out tasks), ``"train"`` (one training and its zero-shot designs)
+    or ``"held-out"`` (CMA-ES or random sampling afresh on one held-out task, ``index``).
+    """
+
+    kind: str
+    part: str
+    method: str
+    seed: int
+    index: int = 0
+
+    def keys(self) -> list[tuple[str, str, int]]:
+        """(variant, optimizer, seed) of the parts it writes, the last one marking it done."""
+        prefix = _PREFIX.get(self.part, "")
+        if self.kind == "fixed":
+            policy = [("fixed-policy", self.method, self.seed)]
+            return [
+                ("fixed", self.method, self.seed),
+                *(policy if self.method in ("ppo", "sac") else []),
+            ]
+        if self.kind == "straight":
+            variant = "fixed-policy" if self.part == "fixed" else f"{prefix}zero-shot"
+            return [(variant, "straight", 0)]
+        if self.kind == "train":
+            return [
+                (f"{prefix}train", self.method, self.seed),
+                (f"{prefix}zero-shot", self.method, self.seed),
+            ]
+        return [(f"{prefix}held-out", self.method, self.seed)]
+
+    def label(self) -> str:
+        if self.kind == "held-out":
+            return f"{self.part} held-out task {self.index + 1}: {self.method} seed {self.seed}"
+        if self.kind == "straight":
+            return f"{self.part} straight tool"
+        return f"{self.part} {self.method} seed {self.seed}"
+
+
+def _plan(config: RLSuiteConfig) -> list[_Work]:
+    size, root = config.size, config.root_seed
+    work: list[_Work] = []
+    if "fixed" in config.parts:
+        work.append(_Work("straight", "fixed", "straight", 0))
+        for method in config.methods:
+            work += [_Work("fixed", "fixed", method, s) for s in _seeds(root, size.seeds, 0)]
+    for part in ("task", "mass"):
+        if part not in config.parts:
+            continue
+        methods = TASK_METHODS if part == "task" else MASS_METHODS
+        work.append(_Work("straight", part, "straight", 0))
+        for k, seed in enumerate(_seeds(root, size.task_seeds, 1)):
+            work += [_Work("train", part, m, seed, k) for m in methods]
+        cmaes, random = (_seeds(root, size.held_out_goals, p) for p in (2, 3))
+        for i in range(size.held_out_goals):
+            work.append(_Work("held-out", part, "cmaes", cmaes[i], i))
+            work.append(_Work("held-out", part, "random", random[i], i))
+    return work
 
 
 class _Fixed:
@@ -408,115 +527,374 @@ class _Fixed:
         return self.action, None
 
 
-def _task_part(
-    suite: SuiteSize, configs: dict[str, Any], out: Path, say: Progress
-) -> dict[str, Any]:
-    goals = held_out_goals(suite.held_out_goals)
-    n_goals = len(goals)
-    rows: list[dict[str, Any]] = []
-    env = make_env()
-    train_cost: dict[str, int] = {}
-
-    def zero_shot(method: str, seed: int, policy: Any, train: int) -> None:
-        for i, goal in enumerate(goals):
-            record = evaluate_design(policy, goal, env=env)
-            rows.append(_held_row(method, seed, i, record, budget=1, train=train, n_goals=n_goals))
-
-    zero_shot("straight", 0, _Fixed(env.to_action(np.zeros(3))), 0)
-    policies_dir = out / "policies"
-    for k, seed in enumerate(_seeds(ROOT_SEED, suite.task_seeds, 1)):
-        for method in ("ppo", "sac", "contextual"):
-            t0 = time.time()
-            config = configs[method]
-            if method == "contextual":
-                trained = train_contextual(config, seed=seed, progress=say)
-            else:
-                train = train_ppo if method == "ppo" else train_sac
-                trained = train(
-                    config, total_episodes=suite.train_episodes, seed=seed, randomize_goal=True
-                )
-            spent = len(trained.records)
-            train_cost[method] = spent
-            zero_shot(method, seed, trained.model, spent)
-            if k == 0:
-                save_policy(
-                    trained.model,
-                    method,
-                    policies_dir / f"{method}.json",
-                    config=config,
-                    train_episodes=spent,
-                    extra={"seed": seed, "suite_size": suite.name},
-                )
-            say(
-                f"task {method} seed {seed}: trained on {spent} episodes ({time.time() - t0:.0f} s)"
-            )
-            write_csv(out / "held_out.csv", HELD_OUT_COLUMNS, rows)
-    budgets = _held_out_budgets(suite)
-    budget = max(budgets)
-    for i, goal in enumerate(goals):
-        for method in ("cmaes", "random"):
-            seed = _seeds(ROOT_SEED, n_goals, 2 if method == "cmaes" else 3)[i]
-            if method == "cmaes":
-                records = run_cmaes(
-                    total_episodes=budget, seed=seed, goal=goal, popsize=suite.popsize, env=env
-                )
-            else:
-                records = run_random(total_episodes=budget, seed=seed, goal=goal, env=env)
-            for b in budgets:
-                best = min(records[:b], key=lambda r: r.free_energy)
-                rows.append(_held_row(method, seed, i, best, budget=b, train=0, n_goals=n_goals))
-        say(f"held-out goal {i + 1}/{n_goals}: CMA-ES and random at {budgets}")
-        write_csv(out / "held_out.csv", HELD_OUT_COLUMNS, rows)
-    env.close()
-    return _summarize_held_out(rows, goals, train_cost)
-
-
-def _held_out_budgets(suite: SuiteSize) -> tuple[int, ...]:
-    """The size's budgets, plus 1 and the budget whose total equals a trained policy's.
-
-    A policy trained on ``train_episodes`` and tried once on each of n goals spends
-    ``train_episodes + n`` episodes: CMA-ES and random sampling get the same total at
-    ``ceil(train_episodes / n) + 1`` episodes per goal.
-    """
-    n = suite.held_out_goals
-    equal = -(-suite.train_episodes // n) + 1
-    return tuple(sorted({1, equal, *suite.budgets}))
-
-
-def _summarize_held_out(
-    rows: list[dict[str, Any]], goals: np.ndarray, train_cost: dict[str, int]
-) -> dict[str, Any]:
-    by: dict[str, list[dict[str, Any]]] = {}
-    for row in rows:
-        key = (
-            row["method"]
-            if row["budget_per_goal"] == 1
-            else (f"{row['method']}@{row['budget_per_goal']}")
-        )
-        by.setdefault(key, []).append(row)
-    straight = {r["goal_index"]: r["free_energy"] for r in by["straight"]}
-    approaches: dict[str, Any] = {}
-    for key, group in by.items():
-        ratio = [r["free_energy"] / straight[r["goal_index"]] for r in group]
-        approaches[key] = {
-            "median_F": float(np.median([r["free_energy"] for r in group])),
-            "median_F_over_straight": float(np.median(ratio)),
-            "total_episodes": int(group[0]["total_episodes"]),
-            "train_episodes": int(group[0]["train_episodes"]),
+def _frame(
+    records: Sequence[EpisodeRecord],
+    *,
+    variant: str,
+    method: str,
+    seed: int,
+    seconds: float,
+    goal_index: Sequence[int] | None = None,
+) -> pd.DataFrame:
+    """The evaluation rows of one run: one per episode, in order (``candidate`` = episode)."""
+    simulated = sum(r.seconds for r in records)
+    # The agent's time (training, asking) per episode: what is not simulation.
+    agent = max(seconds - simulated, 0.0) / len(records)
+    rows = []
+    for k, r in enumerate(records):
+        row: dict[str, Any] = {
+            "suite": RL_SUITE_NAME,
+            "variant": variant,
+            "optimizer": method,
+            "seed": seed,
+            "iteration": 0,
+            "candidate": k,
+            "eval_id": k,
         }
-    # Per goal, each zero-shot policy against CMA-ES and random at each budget.
-    wins: dict[str, Any] = {}
-    for key in ("ppo", "sac", "contextual", "straight"):
-        if key not in by:
+        row.update(zip(coefficient_columns(len(r.coefficients)), r.coefficients, strict=True))
+        row.update(
+            free_energy=r.free_energy,
+            goal_error=r.goal_error,
+            confidence=r.confidence,
+            final_distance=r.final_distance,
+            status="ok" if r.valid else "invalid",
+            eval_time=r.seconds,
+            opt_time=agent,
+            goal_x=r.goal[0],
+            goal_y=r.goal[1],
+            goal_z=r.goal[2],
+            goal_precision=r.goal_precision,
+            box_mass=r.box_mass,
+            normalized_reward=r.reward,
+        )
+        row.update({f"a{i + 1}": a for i, a in enumerate(r.action)})
+        if goal_index is not None:
+            row["goal_index"] = int(goal_index[k])
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+Task = tuple[tuple[float, float, float], "float | None"]
+
+
+def _tasks(config: RLSuiteConfig, part: str) -> list[Task]:
+    """The held-out tasks of a part: (goal in m, box mass in kg or None for the env's)."""
+    goals = [(float(x), float(y), float(z)) for x, y, z in config.goals]
+    if part == "mass":
+        return [(g, float(m)) for g, m in zip(goals, config.masses, strict=True)]
+    return [(g, None) for g in goals]
+
+
+def _zero_shot(policy: Any, tasks: Sequence[Task]) -> list[EpisodeRecord]:
+    env = make_env()
+    try:
+        default = float(env.base.simulator.scene.box_mass)
+        return [
+            evaluate_design(policy, goal, env=env, box_mass=default if mass is None else mass)
+            for goal, mass in tasks
+        ]
+    finally:
+        env.close()
+
+
+def _train_agent(config: MethodConfig, **kwargs: Any) -> Trained:
+    """PPO or SAC, by its config."""
+    if isinstance(config, PPOConfig):
+        return train_ppo(config, **kwargs)
+    if isinstance(config, SACConfig):
+        return train_sac(config, **kwargs)
+    raise TypeError(f"not an agent's config: {config!r}")
+
+
+def _run_work(work: _Work, config: RLSuiteConfig, out: Path) -> list[pd.DataFrame]:
+    """Do one unit of work; returns the frames of :meth:`_Work.keys`, in that order.
+
+    Module-level and of picklable arguments: a worker process of a pool runs it. A training's
+    policy (first training seed) is saved here, before any of its parts is written.
+    """
+    started = time.perf_counter()
+    size = config.size
+    keys = work.keys()
+    straight = _Fixed(np.zeros(3, np.float32))  # a = 0 is the straight tool (default bounds)
+
+    def frame(records: Sequence[EpisodeRecord], key: int, **kwargs: Any) -> pd.DataFrame:
+        variant, method, seed = keys[key]
+        elapsed = time.perf_counter() - started
+        return _frame(records, variant=variant, method=method, seed=seed, seconds=elapsed, **kwargs)
+
+    if work.kind == "straight" and work.part == "fixed":
+        return [frame([evaluate_design(straight, FIXED_GOAL)], 0)]
+    if work.kind == "fixed":
+        n = size.fixed_episodes
+        if work.method == "random":
+            return [frame(run_random(total_episodes=n, seed=work.seed, goal=FIXED_GOAL), 0)]
+        if work.method == "cmaes":
+            records = run_cmaes(
+                total_episodes=n, seed=work.seed, goal=FIXED_GOAL, popsize=size.popsize
+            )
+            return [frame(records, 0)]
+        trained = _train_agent(
+            config.configs[work.method], total_episodes=n, seed=work.seed, goal=FIXED_GOAL
+        )
+        fixed = frame(trained.records[:n], 0)
+        started = time.perf_counter()
+        return [fixed, frame([evaluate_design(trained.model, FIXED_GOAL)], 1)]
+    tasks = _tasks(config, work.part)
+    indices = list(range(len(tasks)))
+    if work.kind == "straight":
+        return [frame(_zero_shot(straight, tasks), 0, goal_index=indices)]
+    if work.kind == "held-out":
+        goal, mass = tasks[work.index]
+        budget = max(config.budgets)
+        if work.method == "cmaes":
+            records = run_cmaes(
+                total_episodes=budget,
+                seed=work.seed,
+                goal=goal,
+                box_mass=mass,
+                popsize=size.popsize,
+            )
+        else:
+            records = run_random(total_episodes=budget, seed=work.seed, goal=goal, box_mass=mass)
+        return [frame(records, 0, goal_index=[work.index] * len(records))]
+    env_kwargs = {"mass_range": config.mass_range} if work.part == "mass" else {}
+    method_config = config.configs[work.method]
+    if work.method == "contextual":
+        assert isinstance(method_config, ContextualConfig)
+        trained = train_contextual(method_config, seed=work.seed, env_kwargs=env_kwargs)
+    else:
+        trained = _train_agent(
+            method_config,
+            total_episodes=size.train_episodes,
+            seed=work.seed,
+            randomize_goal=True,
+            env_kwargs=env_kwargs,
+        )
+    training = frame(trained.records, 0)
+    started = time.perf_counter()
+    zero_shot = frame(_zero_shot(trained.model, tasks), 1, goal_index=indices)
+    if work.index == 0:
+        extra: dict[str, Any] = {"seed": work.seed, "suite_size": size.name}
+        if work.part == "mass":
+            extra["mass_range"] = list(config.mass_range)
+        save_policy(
+            trained.model,
+            work.method,
+            out / POLICIES_DIR / f"{_PREFIX[work.part]}{work.method}.json",
+            config=method_config,
+            train_episodes=len(trained.records),
+            extra=extra,
+        )
+    return [training, zero_shot]
+
+
+# --- the run -------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class RLSuiteResult:
+    """What :func:`run_rl_suite` did.
+
+    Attributes:
+        out_dir: The run folder.
+        config: The suite's configuration.
+        evaluations: Every episode (``ResultStore.read`` format).
+        units: Units of work in the suite.
+        units_run: Units of work done by this call (the others were on disk).
+        wall_time: s, summed over the sessions of the run folder.
+        session_time: s, of this call.
+        simulation_time: s: the sum of ``eval_time``.
+        agent_time: s: the sum of ``opt_time`` (training and asking, outside the simulation).
+    """
+
+    out_dir: Path
+    config: RLSuiteConfig
+    evaluations: pd.DataFrame
+    units: int
+    units_run: int
+    wall_time: float
+    session_time: float
+    simulation_time: float
+    agent_time: float
+
+
+def _stored_keys(
+    store: ResultStore, planned: set[tuple[str, str, int]]
+) -> set[tuple[str, str, int]]:
+    """(variant, optimizer, seed) of the stored parts, refusing parts this suite does not plan."""
+    keys = set()
+    for unit in store.completed_units():
+        key = (unit.variant, unit.optimizer, unit.seed)
+        if unit.suite != RL_SUITE_NAME or unit.iteration != 0 or key not in planned:
+            raise ResumeError(
+                f"cannot resume: {store.parts_dir} holds a part this rl suite does not plan "
+                f"({unit}); use another folder"
+            )
+        keys.add(key)
+    return keys
+
+
+def _unit(key: tuple[str, str, int]) -> Unit:
+    return Unit(suite=RL_SUITE_NAME, variant=key[0], optimizer=key[1], seed=key[2], iteration=0)
+
+
+def _without_timing(frame: pd.DataFrame) -> pd.DataFrame:
+    drop = [c for c in (*TIMING_COLUMNS, BEST_SO_FAR) if c in frame.columns]
+    return frame.drop(columns=drop).reset_index(drop=True)
+
+
+def _write(
+    session: RunSession,
+    work: _Work,
+    frames: list[pd.DataFrame],
+    stored: set[tuple[str, str, int]],
+) -> None:
+    """Write the parts of a finished unit that are not on disk; check the ones that are."""
+    keys = work.keys()
+    log = session.store.read() if any(k in stored for k in keys) else None
+    for key, frame in zip(keys, frames, strict=True):
+        if key not in stored or log is None:
+            session.write_batch(frame)
+            stored.add(key)
             continue
-        mine = {(r["seed"], r["goal_index"]): r["free_energy"] for r in by[key]}
-        for ref in [k for k in by if "@" in k]:
-            theirs = {r["goal_index"]: r["free_energy"] for r in by[ref]}
-            verdicts = [_compare(f, theirs[g])["verdict"] for (_, g), f in mine.items()]
-            wins[f"{key} vs {ref}"] = {v: verdicts.count(v) for v in sorted(set(verdicts))}
-    return {
-        "goals": goals.round(6).tolist(),
-        "approaches": approaches,
-        "per_goal_verdicts": wins,
-        "train_episodes": train_cost,
-    }
+        mine = log[
+            (log["variant"] == key[0]) & (log["optimizer"] == key[1]) & (log["seed"] == key[2])
+        ]
+        fresh = _without_timing(validate_evaluations(frame, source=str(key)))
+        old = _without_timing(mine)[list(fresh.columns)]
+        if not old.equals(fresh):
+            raise ResumeError(
+                f"cannot resume: redoing {work.label()} gave other results than its part "
+                f"{_unit(key)} on disk; the runs are not reproducible here, use a new folder"
+            )
+
+
+def run_rl_suite(
+    config: RLSuiteConfig | str | SuiteSize,
+    out_dir: str | os.PathLike[str],
+    *,
+    resume: bool = True,
+    progress: Progress | None = None,
+) -> RLSuiteResult:
+    """Run the rl suite into one run folder, resuming what is there.
+
+    The report is not written here: :func:`benchmarks.reports.make_suite_report` makes it from
+    the stored results (``tooldesign bench rl`` calls both).
+
+    Args:
+        config: from :func:`rl_suite_config`, or a size (its default configuration).
+        out_dir: The run folder; created if absent.
+        resume: Continue the suite in a non-empty ``out_dir`` (made with the same configuration
+            apart from ``workers``); with ``False`` a non-empty folder is an error.
+        progress: called with a line of text after each unit of work.
+
+    Returns:
+        The log and the times.
+
+    Raises:
+        TypeError / ValueError: a bad configuration or ``out_dir``; a folder that holds another
+            run, or whose parts do not match (:class:`~benchmarks.storage.ResumeError`).
+    """
+    if not isinstance(config, RLSuiteConfig):
+        config = rl_suite_config(config)
+    work = _plan(config)
+    planned = {key for w in work for key in w.keys()}
+    session = RunSession(
+        out_dir,
+        kind=RL_SUITE_KIND,
+        config=config.to_json(),
+        resume=bool(resume),
+        runtime_fields=RUNTIME_FIELDS,
+        extra={
+            "size": config.size.name,
+            "units": len(work),
+            "planned_episodes": config.planned_episodes(),
+        },
+    )
+    store = session.store
+    stored = _stored_keys(store, planned)
+    session.checkpoint()
+    pending = [w for w in work if not all(k in stored for k in w.keys())]
+    say = progress or (lambda line: None)
+    say(
+        f"rl suite, size {config.size.name}: {len(work) - len(pending)} of {len(work)} units on "
+        f"disk, {len(pending)} to run (about {config.planned_episodes()} episodes in all)"
+    )
+
+    def finished(item: _Work, frames: list[pd.DataFrame]) -> None:
+        _write(session, item, frames, stored)
+        best = min(float(f["free_energy"].min()) for f in frames)
+        episodes = sum(len(f) for f in frames)
+        # The unit's own time (simulation and agent), wherever it ran: not its wait in a queue.
+        seconds = sum(float(f["eval_time"].sum() + f["opt_time"].sum()) for f in frames)
+        say(f"{item.label()}: {episodes} episodes, best F {best:.0f} ({seconds:.0f} s)")
+
+    try:
+        if config.workers == 1 or len(pending) <= 1:
+            for item in pending:
+                finished(item, _run_work(item, config, session.out))
+        else:
+            _run_pool(pending, config, session, finished)
+    finally:
+        session.checkpoint()
+    evaluations = store.read()
+    store.consolidate()
+    session.update_extra(load_average_at_end=_load_average())
+    manifest = session.finish(evaluations)
+    return RLSuiteResult(
+        out_dir=session.out,
+        config=config,
+        evaluations=evaluations,
+        units=len(work),
+        units_run=len(pending),
+        wall_time=float(manifest["wall_time"]),
+        session_time=session.session_time,
+        simulation_time=float(manifest["simulation_time"] or 0.0),
+        agent_time=float(manifest["optimizer_time"] or 0.0),
+    )
+
+
+def _run_pool(
+    pending: list[_Work],
+    config: RLSuiteConfig,
+    session: RunSession,
+    finished: Callable[[_Work, list[pd.DataFrame]], None],
+) -> None:
+    """Run the units on a process pool; this process writes every part as its unit ends."""
+    with make_executor("process", config.workers) as executor:
+        futures = {executor.submit(_run_work, item, config, session.out): item for item in pending}
+        remaining = set(futures)
+        while remaining:
+            done, remaining = wait(remaining, return_when=FIRST_COMPLETED)
+            # In plan order within a batch of finished units: the log does not depend on it, the
+            # progress lines read better.
+            for future in sorted(done, key=lambda f: pending.index(futures[f])):
+                finished(futures[future], future.result())
+
+
+def _load_average() -> str:
+    try:
+        return ", ".join(f"{v:.2f}" for v in os.getloadavg())
+    except OSError:  # pragma: no cover - not on every platform
+        return "n/a"
+
+
+def rl_summary_text(result: RLSuiteResult) -> str:
+    """What a finished rl suite prints: counts, total time and its split."""
+    log = result.evaluations
+    counts = log["status"].value_counts()
+    per_second = len(log) / max(result.simulation_time, 1e-9)
+    return "\n".join(
+        [
+            f"suite rl ({result.config.size.name}): {result.units} units of work "
+            f"({result.units_run} run now), {len(log)} episodes "
+            f"({int(counts.get('ok', 0))} valid designs, "
+            f"{int(counts.get('invalid', 0))} unusable)",
+            f"total time: {result.wall_time:.1f} s wall (this session "
+            f"{result.session_time:.1f} s), {result.config.workers} worker(s)",
+            f"simulation: {result.simulation_time:.1f} s ({per_second:.2f} episodes/s of "
+            f"simulation); agents: {result.agent_time:.1f} s (training, asking)",
+            f"load average (1, 5, 15 min) at the end: {_load_average()}",
+            f"run folder: {result.out_dir}",
+        ]
+    )
