@@ -252,12 +252,22 @@ def _number_in(low: float, high: float, *, integer: bool = False):
     return allowed
 
 
+def _is_x_range(value: object) -> bool:
+    """A valid x row of a goal box: [low, high] in the workspace's x range, low <= high."""
+    return (
+        isinstance(value, list)
+        and len(value) == 2
+        and all(_number_in(-2.5, 2.5)(v) for v in value)
+        and value[0] <= value[1]
+    )
+
+
 # (the field the error must name, where the value goes in a valid suite, which values are valid)
 SUITE_PLACES = [
     ("name", lambda v: {"name": v}, lambda v: isinstance(v, str) and v.strip() == v != ""),
     ("goal", lambda v: {"goal": v}, lambda v: False),
     ("goal", lambda v: {"goal": [v, 1.5, 0.1]}, _number_in(-2.5, 2.5)),
-    ("goal_box", lambda v: {"goal_box": [v, [0, 1], [0, 1]]}, lambda v: False),
+    ("goal_box", lambda v: {"goal_box": [v, [0, 1], [0, 1]]}, lambda v: _is_x_range(v)),
     ("goal_box x", lambda v: {"goal_box": [[v, 0.5], [0, 1], [0, 1]]}, _number_in(-2.5, 0.5)),
     ("goal_precision", lambda v: {"goal_precision": v}, _number_in(0, GOAL_PRECISION_MAX)),
     ("box_mass", lambda v: {"box_mass": v}, lambda v: _number_in(0, BOX_MASS_MAX)(v) and v > 0),
