@@ -137,3 +137,19 @@ def test_a_run_stored_before_scene_existed_is_resumed(tmp_path: Path):
     run_design(grown, out, resume=True, progress=False, video=False)
     with pytest.raises(ResumeError, match="scene"):
         run_design(replace(grown, scene=CAGE), out, resume=True, progress=False, video=False)
+
+
+def test_a_suite_file_may_sit_in_its_own_run_folder(tmp_path: Path):
+    # docs/results/cage/suite.toml is run with --out docs/results/cage: the file alone does not
+    # make the folder a (foreign) run folder; anything else still does.
+    from benchmarks.storage import ResumeError
+    from benchmarks.storage.session import RunSession
+
+    out = tmp_path / "cage"
+    out.mkdir()
+    suite_file = save_suite(SuiteConfig(name="s", scene=CAGE), out / "suite.toml")
+    session = RunSession(out, kind="suite", config={}, resume=True, own_files=[suite_file])
+    assert not session.resumed
+    (out / "notes.txt").write_text("mine")
+    with pytest.raises(ResumeError, match="no manifest.json"):
+        RunSession(tmp_path / "cage", kind="suite", config={}, resume=True, own_files=[suite_file])
