@@ -128,7 +128,9 @@ def _run(args: argparse.Namespace) -> int:
         print(f"suite written to {save_suite(config, args.dump_config)}")
         return 0
     size = args.size or ("full" if args.config is None else None)
-    result = run_suite(config, args.out, progress=not args.no_progress, size=size)
+    # A suite file may be kept in the folder of its results (docs/results/cage/suite.toml).
+    own = [args.config] if args.config is not None else []
+    result = run_suite(config, args.out, progress=not args.no_progress, size=size, own_files=own)
     report = make_suite_report(result.out_dir)
     print(summary_text(result))
     if report:

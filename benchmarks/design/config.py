@@ -25,7 +25,7 @@ from tooldesign_env.schema import (
     DEFAULT_GOAL_PRECISION,
     ROBUSTNESS_MASSES,
 )
-from tooldesign_env.specs import SCENE_SAMPLES_MAX
+from tooldesign_env.specs import SCENE_SAMPLES_MAX, SceneSpec
 
 DESIGN_SUITE = "design"
 
@@ -42,7 +42,10 @@ _RUNTIME_FIELDS = frozenset({"iterations", "workers", "executor", "scheduler", "
 
 #: Config fields added after runs were first stored, with the value older runs had: a run
 #: folder whose manifest lacks one is resumed as if it held that value.
-ADDED_FIELDS: dict[str, Any] = {"scene_samples": 1}
+ADDED_FIELDS: dict[str, Any] = {"scene_samples": 1, "scene": {}}
+
+#: SceneSpec fields a config may not override in ``scene``: they have a field of their own.
+_SCENE_OWN_FIELDS = {"box_mass": "box_mass"}
 
 
 def _int(name: str, value: Any, minimum: int, maximum: int = 2**63 - 1) -> int:
@@ -79,6 +82,79 @@ def _settings(value: Any) -> tuple[tuple[str, Any], ...]:
                 f"null) so the run folder can record it, got {item!r}"
             ) from None
     return pairs
+
+
+def _frozen(value: Any) -> Any:
+    """A JSON value with its lists as tuples: hashable, and what the frozen specs hold."""
+    if isinstance(value, (list, tuple)):
+        return tuple(_frozen(v) for v in value)
+    return value
+
+
+def scene_overrides(value: Any) -> tuple[tuple[str, Any], ...]:
+    """Check a mapping of ``SceneSpec`` field overrides; return it as sorted (name, value) pairs.
+
+    The overrides are checked by building the ``SceneSpec`` they make, so a value is refused
+    with the message the spec gives (it names the field and what it accepts). Lists become
+    tuples, as the spec's fields are.
+
+    Args:
+        value: ``{"box_position": [x, y], ...}`` (JSON values), or (name, value) pairs.
+
+    Returns:
+        The overrides as sorted pairs; ``()`` for none.
+
+    Raises:
+        TypeError: Not a mapping, a key that is not a string, or a value of the wrong type.
+        ValueError: An unknown field, ``box_mass`` (a field of its own), or a value the spec
+            refuses.
+    """
+    if isinstance(value, Mapping):
+        value = tuple(value.items())
+    if isinstance(value, (str, bytes)):
+        raise TypeError(f"scene must be a mapping of SceneSpec fields to values, got {value!r}")
+    try:
+        pairs = tuple(sorted((k, _frozen(v)) for k, v in value))
+    except (TypeError, ValueError):
+        raise TypeError(
+            f"scene must be a mapping of SceneSpec fields to values, got {value!r}"
+        ) from None
+    allowed = sorted(
+        f.name for f in dataclasses.fields(SceneSpec) if f.name not in _SCENE_OWN_FIELDS
+    )
+    for key, item in pairs:
+        if not isinstance(key, str):
+            raise TypeError(f"scene keys must be SceneSpec field names, got {key!r}")
+        if key in _SCENE_OWN_FIELDS:
+            raise ValueError(
+                f"scene must not set {key!r}: it is the config's own field "
+                f"{_SCENE_OWN_FIELDS[key]!r}; allowed in scene: {allowed}"
+            )
+        if key not in allowed:
+            raise ValueError(f"scene: unknown SceneSpec field {key!r}; allowed: {allowed}")
+        try:
+            json.dumps(item, allow_nan=False)
+        except (TypeError, ValueError) as err:
+            # NaN and inf are values of the right type but not JSON: a ValueError.
+            raise type(err)(
+                f"scene[{key!r}] must be a finite JSON value (number, bool, list of numbers) so "
+                f"the run folder can record it, got {item!r}"
+            ) from None
+    try:
+        SceneSpec(**dict(pairs))
+    except (TypeError, ValueError) as err:
+        raise type(err)(f"scene: {err}") from None
+    return pairs
+
+
+def scene_spec(overrides: Any) -> SceneSpec | None:
+    """The ``SceneSpec`` that ``overrides`` (see :func:`scene_overrides`) make, or ``None``.
+
+    ``None`` for no overrides: the env then uses its default scene, so a config without a
+    ``scene`` gives bit for bit the results it gave before the field existed.
+    """
+    pairs = scene_overrides(overrides)
+    return SceneSpec(**dict(pairs)) if pairs else None
 
 
 def _bounds(value: Any) -> tuple[tuple[float, float], ...]:
@@ -131,6 +207,9 @@ class DesignConfig:
             ``ObjectiveSpec.scene_samples``): K times the simulation, a smoother objective.
         bounds: (n, 2) coefficient bounds [low, high]; ``None`` is ``default_bounds(3)``
             (c1, c2 in [-1.5, 1.5], c3 in [-0.5, 0.5]). n is the polynomial degree.
+        scene: Overrides of ``SceneSpec`` fields (a mapping; stored as sorted pairs, lists as
+            tuples), JSON values, e.g. ``{"box_position": [-0.4, 1.1]}`` to move the box. Not
+            ``box_mass`` (its own field). Empty (the default) is the default scene.
         robustness_masses: Altered box masses m_i in kg of the final tool's robustness test.
     """
 
@@ -150,6 +229,7 @@ class DesignConfig:
     objective: str = "free-energy"
     scene_samples: int = 1
     bounds: Sequence[Sequence[float]] | np.ndarray | None = None
+    scene: tuple[tuple[str, Any], ...] | Mapping[str, Any] = ()
     robustness_masses: Sequence[float] = ROBUSTNESS_MASSES
 
     def __post_init__(self) -> None:
@@ -191,6 +271,7 @@ class DesignConfig:
         object.__setattr__(self, "goal_precision", task.goal_precision)
         object.__setattr__(self, "box_mass", task.box_mass)
         object.__setattr__(self, "bounds", _bounds(self.bounds))
+        object.__setattr__(self, "scene", scene_overrides(self.scene))
         try:
             masses = RobustnessRequest(coeffs=(0.0,), masses=self.robustness_masses).masses
         except (TypeError, ValueError) as error:
@@ -220,6 +301,8 @@ class DesignConfig:
             extra["bounds"] = self.bounds
         if self.scene_samples != 1:
             extra["scene_samples"] = self.scene_samples
+        if self.scene:
+            extra["scene"] = scene_spec(self.scene)
         return TaskSettings(
             goal=self.goal,
             goal_precision=self.goal_precision,
@@ -233,4 +316,5 @@ class DesignConfig:
         """The configuration as JSON values (settings as an object, tuples as lists)."""
         data = dataclasses.asdict(self)
         data["optimizer_settings"] = dict(self.optimizer_settings)
+        data["scene"] = dict(self.scene)
         return cast("dict[str, Any]", json.loads(json.dumps(data, allow_nan=False)))

@@ -93,6 +93,9 @@ class RunSession:
             had: a manifest without one is compared as if it held that value.
         extra: More JSON-able entries for the manifest's ``extra``; :meth:`update_extra` changes
             them later.
+        own_files: The user's files that may sit in ``out_dir`` before the run began, e.g. the
+            suite file given with ``--config`` kept with its results: they do not make the
+            folder non-empty.
 
     Raises:
         TypeError: If ``out_dir`` is not a path.
@@ -111,8 +114,10 @@ class RunSession:
         growable_fields: Iterable[str] = (),
         added_fields: Mapping[str, Any] | None = None,
         extra: Mapping[str, Any] | None = None,
+        own_files: Iterable[str | os.PathLike[str]] = (),
     ) -> None:
         self.out = check_out_dir(out_dir)
+        self._own = frozenset(Path(f).resolve() for f in own_files)
         self.kind = kind
         self.config = dict(config)
         self._runtime = frozenset(runtime_fields)
@@ -142,7 +147,7 @@ class RunSession:
     def _previous(self, resume: bool) -> dict[str, Any] | None:
         """The manifest of the run to continue, ``None`` for a new run; refuses to mix runs."""
         out = self.out
-        if not (out.is_dir() and any(out.iterdir())):
+        if not (out.is_dir() and any(p.resolve() not in self._own for p in out.iterdir())):
             return None
         if not resume:
             raise ValueError(

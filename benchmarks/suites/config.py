@@ -36,6 +36,7 @@ from typing import Any, cast
 import numpy as np
 
 from benchmarks.design import DesignConfig
+from benchmarks.design.config import scene_overrides
 from benchmarks.execution import TaskSettings
 from optimizers._validation import BATCH_SIZE_MAX
 from tooldesign_env.env import WORKSPACE_HIGH, WORKSPACE_LOW
@@ -71,7 +72,7 @@ RUNTIME_FIELDS: frozenset[str] = frozenset({"executor", "workers", "scheduler", 
 GROWABLE_FIELDS: frozenset[str] = frozenset({"n_seeds"})
 
 #: Config fields added after suites were first stored, with the value older suites had.
-ADDED_FIELDS: dict[str, Any] = {"scene_samples": 1}
+ADDED_FIELDS: dict[str, Any] = {"scene_samples": 1, "scene": {}}
 
 
 SUITE_KIND = "suite"
@@ -334,6 +335,9 @@ class SuiteConfig:
         scene_samples: K, the scenes each design's F is averaged over (1 to 64, see
             ``ObjectiveSpec.scene_samples``); K times the simulation.
         bounds: (n, 2) coefficient bounds; ``None`` is ``default_bounds(3)``.
+        scene: Overrides of ``SceneSpec`` fields for every run (a mapping, a ``[scene]`` table
+            in a suite file; stored as sorted pairs), e.g. ``{"box_position": [-0.4, 1.1]}``.
+            Not ``box_mass`` (its own field). Empty (the default) is the default scene.
         variants: The variants, names unique.
         optimizers: The optimizers, log names (labels) unique.
         batch_size: Designs per iteration (the population size), the same for every optimizer.
@@ -364,6 +368,7 @@ class SuiteConfig:
     objective: str = "free-energy"
     scene_samples: int = 1
     bounds: Sequence[Sequence[float]] | None = None
+    scene: tuple[tuple[str, Any], ...] | Mapping[str, Any] = ()
     variants: Sequence[Variant] = (Variant(),)
     optimizers: Sequence[OptimizerSpec] = (OptimizerSpec(name="cmaes"),)
     batch_size: int = 8
@@ -399,6 +404,7 @@ class SuiteConfig:
         object.__setattr__(self, "goal_precision", task.goal_precision)
         object.__setattr__(self, "box_mass", task.box_mass)
         object.__setattr__(self, "goal_box", self._checked_goal_box())
+        object.__setattr__(self, "scene", scene_overrides(self.scene))
         variants = tuple(
             _from_mapping(Variant, v, f"variants[{i}]")
             for i, v in enumerate(_sequence("variants", self.variants))
@@ -502,6 +508,7 @@ class SuiteConfig:
             objective=self.objective,
             scene_samples=self.scene_samples,
             bounds=self.bounds,
+            scene=self.scene,
             robustness_masses=self.robustness_masses,
         )
 
@@ -556,6 +563,7 @@ class SuiteConfig:
         data["optimizers"] = [
             {**dataclasses.asdict(o), "settings": dict(o.settings)} for o in self.optimizers
         ]
+        data["scene"] = dict(self.scene)
         return cast("dict[str, Any]", json.loads(json.dumps(data, allow_nan=False)))
 
     def replace(self, **changes: Any) -> SuiteConfig:

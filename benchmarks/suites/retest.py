@@ -29,13 +29,14 @@ import json
 import math
 import os
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from concurrent.futures import Executor
 from pathlib import Path
 from typing import Any, cast
 
 import numpy as np
 
+from benchmarks.design.config import scene_spec
 from benchmarks.execution import TaskSettings, make_executor, map_robust, worker_env
 from benchmarks.storage import (
     DESIGNS_DIR,
@@ -198,6 +199,25 @@ def default_config(suite: Any) -> RetestConfig:
     return RetestConfig(masses=(0.2, 0.4, 0.6, 0.8, 1.0), frictions=(0.2, 0.6))
 
 
+def retest_task(suite: Any, record: Mapping[str, Any]) -> TaskSettings:
+    """The task a stored final design is retested on: its goal, p^X and mass, the suite's scene.
+
+    Args:
+        suite: The suite's :class:`~benchmarks.suites.config.SuiteConfig`.
+        record: The design file's record (``goal``, ``goal_precision``, ``box_mass``).
+    """
+    # The suite's scene (the box moved, say) is the base the nudges start from; a suite
+    # without one gets no scene argument, as before the field existed.
+    scene = scene_spec(suite.scene)
+    return TaskSettings(
+        goal=record["goal"],
+        goal_precision=record["goal_precision"],
+        box_mass=record["box_mass"],
+        estimator=suite.estimator,
+        env_kwargs={} if scene is None else {"scene": scene},
+    )
+
+
 def retest_suite(
     run_folder: str | os.PathLike[str],
     config: RetestConfig | None = None,
@@ -239,12 +259,7 @@ def retest_suite(
                 done = {}
             if done.get("settings") == settings:
                 continue
-        task = TaskSettings(
-            goal=record["goal"],
-            goal_precision=record["goal_precision"],
-            box_mass=record["box_mass"],
-            estimator=suite.estimator,
-        )
+        task = retest_task(suite, record)
         item = RetestItem(coeffs=tuple(record["coefficients"]), task=task, config=config)
         pending.append((target, item, record))
     if not pending and not read_designs(folder):

@@ -337,6 +337,7 @@ def run_suite(
     resume: bool = True,
     progress: bool = True,
     size: str | None = None,
+    own_files: Sequence[str | os.PathLike[str]] = (),
 ) -> SuiteResult:
     """Run every design run of a suite into one run folder, resuming what is there.
 
@@ -351,6 +352,8 @@ def run_suite(
             folder is an error.
         progress: Show a progress bar (simulations, runs done) on stderr.
         size: The built-in size the config came from, recorded in the manifest.
+        own_files: The user's files in ``out_dir`` that are not a run (the suite's own file,
+            kept with its results): a folder holding only these is a new run folder.
 
     Returns:
         The log, the designs and the times.
@@ -373,6 +376,7 @@ def run_suite(
         growable_fields=GROWABLE_FIELDS,
         added_fields=ADDED_FIELDS,
         extra={"size": size, "runs": len(runs), "planned_evaluations": config.evaluations()},
+        own_files=own_files,
     )
     out, store = session.out, session.store
     logged = _logged_frames(store, config, runs)
