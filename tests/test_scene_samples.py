@@ -144,3 +144,27 @@ def test_a_run_stored_before_scene_samples_existed_is_resumed(tmp_path):
     run_design(grown, out, resume=True, progress=False, video=False)
     with pytest.raises(ResumeError, match="scene_samples: 1 -> 2"):
         run_design(replace(grown, scene_samples=2), out, resume=True, progress=False, video=False)
+
+
+@pytest.mark.slow
+def test_the_expected_goal_error_is_averaged_over_the_scenes_too():
+    # The robust-design objective: the mean over masses, and with K > 1 over the K scenes.
+    masses = (0.1, 0.5)
+    spec = ObjectiveSpec(kind="expected-goal-error", expected_masses=masses, scene_samples=2)
+    env = ToolDesignEnv(objective=spec)
+    env.reset(seed=0)
+    info = env.step(HOOK)[4]
+    env.close()
+    base = SceneSpec()
+    single = []
+    for dx, dy, dyaw in scene_offsets(spec):
+        x, y = base.box_position
+        scene = replace(
+            base, box_position=(x + float(dx), y + float(dy)), box_yaw=base.box_yaw + float(dyaw)
+        )
+        one = ToolDesignEnv(scene=scene, objective=replace(spec, scene_samples=1))
+        one.reset(seed=0)
+        single.append(one.step(HOOK)[4]["goal_error"])
+        one.close()
+    assert info["goal_error"] == pytest.approx(np.mean(single), rel=1e-12)
+    assert single[0] != single[1]

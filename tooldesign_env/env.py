@@ -467,11 +467,17 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
         """The robust-design baseline: the summed goal error averaged over box masses.
 
         ``info`` holds the mean goal error as ``free_energy`` and ``goal_error``, a confidence
-        of 0, the mean final distance, and the trajectories of the episode's own box mass.
+        of 0, the mean final distance, and the trajectories of the episode's own box mass. With
+        ``scene_samples`` K > 1 the mean is over every mass in each of the K scenes.
         """
         masses = self.objective.expected_masses
-        runs = {m: self.simulator.rollout(geometry, box_mass=m) for m in masses}
-        nominal = runs.get(self._box_mass)
+        offsets = [(float(a), float(b), float(c)) for a, b, c in scene_offsets(self.objective)]
+        runs = {
+            (m, k): self.simulator.rollout(geometry, box_mass=m, box_offset=offset)
+            for m in masses
+            for k, offset in enumerate(offsets)
+        }
+        nominal = runs.get((self._box_mass, 0))
         if nominal is None:
             nominal = self.simulator.rollout(geometry, box_mass=self._box_mass)
         precision = self.objective.goal_precision

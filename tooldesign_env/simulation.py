@@ -392,14 +392,16 @@ class ToolSimulator:
         geometry: ToolGeometry,
         *,
         box_mass: float | None = None,
+        box_offset: tuple[float, float, float] | None = None,
         snapshot_every: int | None = None,
     ) -> Trajectory:
         """Build the world for ``geometry`` and use the tool once (see :meth:`run`).
 
         The tool is used even if it overlaps the box at the start; to refuse such tools, call
-        :meth:`build` and then :meth:`run` only when it answers False.
+        :meth:`build` and then :meth:`run` only when it answers False. ``box_mass`` and
+        ``box_offset`` are those of :meth:`build`.
         """
-        self.build(geometry, box_mass=box_mass)
+        self.build(geometry, box_mass=box_mass, box_offset=box_offset)
         return self.run(snapshot_every=snapshot_every)
 
     def run(
