@@ -32,7 +32,8 @@ import numpy as np
 
 from tooldesign_env import ObjectiveSpec, SceneSpec, ToolGeometry, ToolSimulator, make_tool
 from tooldesign_env.env import default_bounds
-from tooldesign_env.objective import free_energy, scene_offsets
+from tooldesign_env.objective import ObjectiveTerms, free_energy, scene_offsets
+from tooldesign_env.simulation import Trajectory
 
 #: name -> ObjectiveSpec changes; the estimators compared by default.
 SETTINGS: dict[str, dict[str, object]] = {
@@ -77,6 +78,20 @@ def valid_designs(n: int, seed: int, sim: ToolSimulator) -> list[np.ndarray]:
         if geometry.buildable and not sim.build(geometry):
             out.append(c)
     return out
+
+
+def score(
+    traj: Trajectory, sim: ToolSimulator, goal: np.ndarray, spec: ObjectiveSpec
+) -> ObjectiveTerms:
+    """The terms of F of a rollout recorded with ``record_mobility=True``."""
+    return free_energy(
+        traj.box_position,
+        traj.torques,
+        goal,
+        spec,
+        mobility=traj.contact_mobility,
+        control_dt=sim.control_dt,
+    )
 
 
 def spread(values: list[float]) -> float:
@@ -132,14 +147,7 @@ def main() -> None:
             recorded_t.append(time.perf_counter() - t0)
             for name, spec in specs.items():
                 t0 = time.perf_counter()
-                out = free_energy(
-                    traj.box_position,
-                    traj.torques,
-                    goal,
-                    spec,
-                    mobility=traj.contact_mobility,
-                    control_dt=sim.control_dt,
-                )
+                out = score(traj, sim, goal, spec)
                 if name == "contact":
                     score_t.append(time.perf_counter() - t0)
                 rows[name].append((out.free_energy, out.confidence, out.goal_error))
@@ -152,7 +160,6 @@ def main() -> None:
             terms[name].append(rows[name])
         if args.scene_samples:
             smoothed.append(score_smoothed(geometry, scenes, max(args.scene_samples), goal, args))
-
 
     print(
         f"{len(designs)} random valid designs (seed {args.seed}), {args.nudges} scenes each "
@@ -203,14 +210,7 @@ def score_smoothed(
         for dx, dy, dyaw in offsets:
             sim.build(geometry, box_offset=(float(dx), float(dy), float(dyaw)))
             traj = sim.run(record_mobility=True)
-            terms = free_energy(
-                traj.box_position,
-                traj.torques,
-                goal,
-                spec,
-                mobility=traj.contact_mobility,
-                control_dt=sim.control_dt,
-            )
+            terms = score(traj, sim, goal, spec)
             row.append((terms.free_energy, terms.confidence, terms.goal_error))
         sim.close()
         out.append(row)

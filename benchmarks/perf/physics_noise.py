@@ -25,11 +25,10 @@ from dataclasses import replace
 from typing import Any
 
 import numpy as np
-from confidence_noise import nudged_scenes, spread, valid_designs
+from confidence_noise import nudged_scenes, score, spread, valid_designs
 
 from tooldesign_env import ObjectiveSpec, SceneSpec, ToolSimulator, make_tool
 from tooldesign_env.geometry import ToolSpec
-from tooldesign_env.objective import free_energy
 
 #: name -> (SceneSpec changes, ToolSpec changes, engine parameters, contact dynamics).
 SETTINGS: dict[str, tuple[dict[str, Any], dict[str, Any], dict[str, Any], dict[str, Any]]] = {
@@ -76,14 +75,7 @@ def measure(name: str, args: argparse.Namespace) -> tuple[float, float, float, f
                 client.changeDynamics(sim._box, -1, **dynamics)
                 client.changeDynamics(robot.body, robot.tool_link, **dynamics)
             traj = sim.run(record_mobility=True)
-            out = free_energy(
-                traj.box_position,
-                traj.torques,
-                goal,
-                spec,
-                mobility=traj.contact_mobility,
-                control_dt=sim.control_dt,
-            )
+            out = score(traj, sim, goal, spec)
             rows.append((out.free_energy, out.confidence, out.goal_error, traj.box_position[-1]))
         else:
             f_spread.append(spread([r[0] for r in rows]))
