@@ -189,6 +189,9 @@ def run_design(
                 evaluations_done += len(frame)
                 bar.set_postfix(evals=evaluations_done, best_F=_fmt(best), refresh=False)
                 bar.update(1)
+        except BaseException:
+            session.close()  # its heartbeat stays: resuming counts this session's time
+            raise
         finally:
             bar.close()
         evaluations = store.read()

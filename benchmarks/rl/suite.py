@@ -835,6 +835,9 @@ def run_rl_suite(
                 finished(item, _run_work(item, config, session.out))
         else:
             _run_pool(pending, config, session, finished)
+    except BaseException:
+        session.close()  # its heartbeat stays: resuming counts this session's time
+        raise
     finally:
         session.checkpoint()
     evaluations = store.read()

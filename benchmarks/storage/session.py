@@ -20,19 +20,32 @@ the same way, through :class:`RunSession`:
 The manifest's ``extra`` holds ``kind`` (what wrote the folder), ``sessions`` (start time and
 wall time of each session) and ``part_sha256`` (checksums of the part files, by path relative
 to the run folder), beside whatever the caller adds.
+
+**Killed sessions keep their time.** The manifest is rewritten after each part, so a session that
+is killed would lose the time since its last part (an interrupted iteration can take minutes).
+From its first checkpoint on, a session also rewrites ``heartbeat.json`` (its start time and wall
+time so far) every :data:`HEARTBEAT_INTERVAL` s from a background thread. :meth:`RunSession.finish`
+deletes it, so a folder that holds one was left by a session that did not finish: the next session
+raises that session's wall time to the heartbeat's and marks it ``"interrupted": true``. The total
+is then short of the truth by at most one interval.
 """
 
 from __future__ import annotations
 
 import datetime as dt
+import json
+import math
 import os
+import threading
 import time
+import warnings
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
 import pandas as pd
 
+from benchmarks.storage.atomic import atomic_write_text
 from benchmarks.storage.manifest import (
     MANIFEST_VERSION,
     _jsonable,
@@ -49,10 +62,23 @@ from benchmarks.storage.table import (
     timing_totals,
 )
 
-__all__ = ["PART_CHECKSUMS", "ResumeError", "RunSession", "check_out_dir"]
+__all__ = [
+    "HEARTBEAT",
+    "HEARTBEAT_INTERVAL",
+    "PART_CHECKSUMS",
+    "ResumeError",
+    "RunSession",
+    "check_out_dir",
+]
 
 PART_CHECKSUMS = "part_sha256"
 """Key in the manifest's ``extra`` of the part files' SHA-256 checksums."""
+
+HEARTBEAT = "heartbeat.json"
+"""File of a running (or killed) session's wall time in the run folder; see the module docstring."""
+
+HEARTBEAT_INTERVAL = 2.0
+"""Seconds between two writes of :data:`HEARTBEAT`: the most wall time a killed session loses."""
 
 
 class ResumeError(ValueError):
@@ -96,10 +122,12 @@ class RunSession:
         own_files: The user's files that may sit in ``out_dir`` before the run began, e.g. the
             suite file given with ``--config`` kept with its results: they do not make the
             folder non-empty.
+        heartbeat_interval: Seconds between two writes of :data:`HEARTBEAT`.
 
     Raises:
         TypeError: If ``out_dir`` is not a path.
-        ValueError: If ``out_dir`` is a file, or has content and ``resume`` is false.
+        ValueError: If ``out_dir`` is a file, or has content and ``resume`` is false, or
+            ``heartbeat_interval`` is not a positive finite number of seconds.
         ResumeError: If the folder cannot be continued (see the module docstring).
     """
 
@@ -115,8 +143,21 @@ class RunSession:
         added_fields: Mapping[str, Any] | None = None,
         extra: Mapping[str, Any] | None = None,
         own_files: Iterable[str | os.PathLike[str]] = (),
+        heartbeat_interval: float = HEARTBEAT_INTERVAL,
     ) -> None:
         self.out = check_out_dir(out_dir)
+        if (
+            isinstance(heartbeat_interval, bool)
+            or not isinstance(heartbeat_interval, (int, float))
+            or not (math.isfinite(heartbeat_interval) and heartbeat_interval > 0)
+        ):
+            raise ValueError(
+                f"heartbeat_interval must be a positive finite number of seconds, got "
+                f"{heartbeat_interval!r}"
+            )
+        self._heartbeat_interval = float(heartbeat_interval)
+        self._heartbeat: _Heartbeat | None = None
+        self._closed = False
         self._own = frozenset(Path(f).resolve() for f in own_files)
         self.kind = kind
         self.config = dict(config)
@@ -135,7 +176,8 @@ class RunSession:
             self._checksums: dict[str, str] = {}
         else:
             self.start_time = dt.datetime.fromisoformat(previous["start_time"])
-            self.sessions = [*previous["extra"].get("sessions", []), self._session]
+            earlier = self._with_killed_session(previous["extra"].get("sessions", []))
+            self.sessions = [*earlier, self._session]
             self._checksums = part_checksums(self.store)  # verified in _previous
             self.store.remove_stale_temp_files()  # only this process writes here
         # The parts of the manifest that do not change within a session (packages, commit,
@@ -191,6 +233,51 @@ class RunSession:
                 "the same settings, or another folder"
             )
         return manifest
+
+    def _with_killed_session(self, sessions: list[Any]) -> list[Any]:
+        """``sessions`` with the wall time of a session that was killed taken from its heartbeat.
+
+        Its manifest was last written after its last part; :data:`HEARTBEAT` was written every
+        few seconds until the kill. A heartbeat that cannot be read, or that names no session
+        of the manifest, is reported and left out: it only ever adds time, never results.
+        """
+        path = self.out / HEARTBEAT
+        if not path.is_file():
+            return list(sessions)
+        try:
+            beat = json.loads(path.read_text(encoding="utf-8"))
+            start, wall = beat["start_time"], beat["wall_time"]
+            if not (
+                isinstance(start, str)
+                and type(wall) in (int, float)
+                and math.isfinite(wall)
+                and wall >= 0
+            ):
+                raise ValueError("start_time must be a string, wall_time a finite float >= 0")
+        except (OSError, ValueError, KeyError, TypeError) as error:
+            warnings.warn(
+                f"{path} cannot be read ({error}); the wall time of the session that was "
+                "interrupted is counted up to its last part only",
+                RuntimeWarning,
+                stacklevel=3,
+            )
+            return list(sessions)
+        out = []
+        matched = False
+        for session in sessions:
+            if isinstance(session, dict) and session.get("start_time") == start:
+                matched = True
+                if wall > session.get("wall_time", 0.0):
+                    session = {**session, "wall_time": float(wall), "interrupted": True}
+            out.append(session)
+        if not matched:
+            warnings.warn(
+                f"{path} is of a session ({start}) that manifest.json does not record; its "
+                "wall time is left out",
+                RuntimeWarning,
+                stacklevel=3,
+            )
+        return out
 
     def _grows(self, old: Any, new: Any, key: str) -> bool:
         """Whether ``key`` is a growable count that this session raises (e.g. more seeds)."""
@@ -266,11 +353,60 @@ class RunSession:
         return manifest
 
     def checkpoint(self) -> None:
-        """Rewrite the manifest: times so far, checksums, ``extra``."""
+        """Rewrite the manifest: times so far, checksums, ``extra``; start the heartbeat."""
         self.store.write_manifest(self.manifest())
+        if self._heartbeat is None and not self._closed:
+            self._heartbeat = _Heartbeat(
+                self.out / HEARTBEAT,
+                self._session["start_time"],
+                self._clock,
+                self._heartbeat_interval,
+            )
+            self._heartbeat.start()
 
     def finish(self, evaluations: pd.DataFrame | None) -> dict[str, Any]:
-        """Write the final manifest (end time, summed times); returns it."""
+        """Write the final manifest (end time, summed times) and delete the heartbeat."""
+        self.close()
         manifest = self.manifest(end=_now(), evaluations=evaluations)
         self.store.write_manifest(manifest)
+        (self.out / HEARTBEAT).unlink(missing_ok=True)
         return manifest
+
+    def close(self) -> None:
+        """Stop the heartbeat for good; its file stays, as after a kill.
+
+        :meth:`finish` calls this. A caller whose run stops on an error calls it too, so that no
+        thread keeps writing into the folder; the next session then counts this one's time.
+        """
+        self._closed = True
+        if self._heartbeat is not None:
+            self._heartbeat.stop()
+            self._heartbeat = None
+
+
+class _Heartbeat(threading.Thread):
+    """Rewrites ``path`` with the session's wall time every ``interval`` s until stopped."""
+
+    def __init__(self, path: Path, start_time: str, clock: float, interval: float) -> None:
+        super().__init__(name="tooldesign-heartbeat", daemon=True)
+        self._path, self._start, self._clock, self._interval = path, start_time, clock, interval
+        self._stopped = threading.Event()
+
+    def beat(self) -> None:
+        if not self._path.parent.is_dir():  # the folder was removed under the run
+            return
+        wall = time.perf_counter() - self._clock
+        text = json.dumps({"start_time": self._start, "wall_time": wall})
+        try:
+            atomic_write_text(self._path, text + "\n", durable=False)
+        except OSError:  # a full disk must not kill the run: the manifest reports the error
+            pass
+
+    def run(self) -> None:
+        self.beat()
+        while not self._stopped.wait(self._interval):
+            self.beat()
+
+    def stop(self) -> None:
+        self._stopped.set()
+        self.join()

@@ -415,6 +415,9 @@ def run_suite(
                     for spec in pending
                 ]
                 Scheduler(executor, evaluate_item, _max_active(config, executor)).run(jobs)
+    except BaseException:
+        session.close()  # its heartbeat stays: resuming counts this session's time
+        raise
     finally:
         bar.close()
         session.checkpoint()
