@@ -38,28 +38,43 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     defaults = DesignConfig.__dataclass_fields__
     from optimizers import registry
 
+    # The designer's options default to None so that --policy can tell which were given.
     parser.add_argument(
         "--optimizer",
-        default="cmaes",
+        default=None,
         metavar="NAME",
         help=f"optimizer: {', '.join(registry.available())}, an installed plugin's name, or "
-        "'module:Class' (default: cmaes)",
+        f"'module:Class' (default: {_DEFAULTS['optimizer']})",
     )
-    parser.add_argument("--seed", type=int, default=0, help="seed of the optimizer (default: 0)")
+    parser.add_argument(
+        "--policy",
+        type=Path,
+        default=None,
+        metavar="PATH",
+        help="design with a saved RL policy (a card .json of `tooldesign bench rl`) instead of "
+        "an optimizer: its zero-shot tool for --goal and --box-mass, one evaluation, the same "
+        "run folder (see docs/rl.md)",
+    )
+    parser.add_argument(
+        "--seed",
+        type=int,
+        default=None,
+        help=f"seed of the optimizer (default: {_DEFAULTS['seed']})",
+    )
     parser.add_argument(
         "--iterations",
         type=int,
-        default=defaults["iterations"].default,
+        default=None,
         metavar="K",
-        help="iterations K (default: %(default)s)",
+        help=f"iterations K (default: {defaults['iterations'].default})",
     )
     parser.add_argument("--out", type=Path, required=True, metavar="DIR", help="run folder")
     parser.add_argument(
         "--batch-size",
         type=int,
-        default=defaults["batch_size"].default,
+        default=None,
         metavar="B",
-        help="designs per iteration (default: %(default)s)",
+        help=f"designs per iteration (default: {defaults['batch_size'].default})",
     )
     parser.add_argument(
         "--workers",
@@ -71,8 +86,8 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     parser.add_argument(
         "--executor",
         choices=EXECUTORS,
-        default="process",
-        help="where designs are evaluated (default: process)",
+        default=None,
+        help="where designs are evaluated (default: process; serial with --policy)",
     )
     parser.add_argument(
         "--scheduler",
@@ -99,19 +114,64 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     return cast("argparse.ArgumentParser", parser)
 
 
+_DEFAULTS: dict[str, Any] = {"optimizer": "cmaes", "seed": 0}
+_DESIGNER_FLAGS = {
+    "optimizer": "--optimizer",
+    "option": "--option",
+    "seed": "--seed",
+    "iterations": "--iterations",
+    "batch_size": "--batch-size",
+}
+
+
+def _designer(args: argparse.Namespace) -> dict[str, Any]:
+    """The designer's fields of the config: an optimizer's, or a saved policy's one design."""
+    if args.policy is None:
+        settings = dict(args.option)
+        if len(settings) != len(args.option):
+            raise ValueError("--option: a KEY is given twice")
+        defaults = DesignConfig.__dataclass_fields__
+        return {
+            "optimizer": args.optimizer or _DEFAULTS["optimizer"],
+            "optimizer_settings": settings,
+            "seed": _DEFAULTS["seed"] if args.seed is None else args.seed,
+            "iterations": defaults["iterations"].default
+            if args.iterations is None
+            else args.iterations,
+            "batch_size": defaults["batch_size"].default
+            if args.batch_size is None
+            else args.batch_size,
+            "executor": args.executor or "process",
+        }
+    given = [flag for key, flag in _DESIGNER_FLAGS.items() if getattr(args, key) not in (None, [])]
+    if given:
+        raise ValueError(
+            f"--policy designs one tool with the saved policy: {', '.join(given)} do not apply"
+        )
+    from benchmarks.rl.designer import POLICY_DESIGNER
+    from benchmarks.rl.policies import policy_digest
+
+    policy = Path(args.policy).resolve()
+    return {
+        "optimizer": POLICY_DESIGNER,
+        "optimizer_settings": {
+            "policy": str(policy),
+            "sha256": policy_digest(policy),
+            "goal": [float(v) for v in args.goal],
+            "box_mass": float(args.box_mass),
+        },
+        "seed": 0,
+        "iterations": 1,
+        "batch_size": 1,
+        "executor": args.executor or "serial",
+    }
+
+
 def config_from_args(args: argparse.Namespace) -> DesignConfig:
     """The :class:`DesignConfig` of parsed ``tooldesign design`` arguments."""
-    settings = dict(args.option)
-    if len(settings) != len(args.option):
-        raise ValueError("--option: a KEY is given twice")
     return DesignConfig(
-        optimizer=args.optimizer,
-        optimizer_settings=settings,
-        seed=args.seed,
-        iterations=args.iterations,
-        batch_size=args.batch_size,
+        **_designer(args),
         workers=args.workers,
-        executor=args.executor,
         scheduler=args.scheduler,
         max_retries=args.max_retries,
         goal=tuple(args.goal),

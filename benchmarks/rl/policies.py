@@ -8,6 +8,7 @@ regression is stored in the card itself (no torch needed to use it).
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import json
 import os
 from collections.abc import Sequence
@@ -21,7 +22,14 @@ from benchmarks.rl.agents import ContextualPolicy, EpisodeLog, make_env
 from benchmarks.rl.configs import MethodConfig
 from benchmarks.storage import atomic_write_bytes, atomic_write_text, json_text
 
-__all__ = ["POLICY_FORMAT", "DesignResult", "design_for_goal", "load_policy", "save_policy"]
+__all__ = [
+    "POLICY_FORMAT",
+    "DesignResult",
+    "design_for_goal",
+    "load_policy",
+    "policy_digest",
+    "save_policy",
+]
 
 #: Version of the card format.
 POLICY_FORMAT = 1
@@ -108,6 +116,35 @@ def save_policy(
         atomic_write_bytes(zip_path, buffer.getvalue())
         card["file"] = zip_path.name
     return atomic_write_text(card_path, json_text(card))
+
+
+def policy_digest(path: str | os.PathLike[str]) -> str:
+    """SHA-256 of a saved policy: its card and, for PPO and SAC, the ``.zip`` it names.
+
+    A design run made with a policy records it, so that resuming with a changed policy is
+    refused instead of mixing two policies' designs.
+
+    Raises:
+        FileNotFoundError: no such card (or its ``.zip`` is missing).
+        ValueError: not a policy card of a known format.
+    """
+    if not isinstance(path, (str, os.PathLike)):
+        raise TypeError(f"path must be a str or os.PathLike, got {path!r}")
+    card_path = Path(path)
+    data = card_path.read_bytes()
+    try:
+        card = json.loads(data)
+    except (json.JSONDecodeError, UnicodeDecodeError) as error:
+        raise ValueError(f"{card_path} is not a policy card (invalid JSON: {error})") from None
+    if not isinstance(card, dict) or card.get("format") != POLICY_FORMAT:
+        raise ValueError(f"{card_path} is not a policy card of format {POLICY_FORMAT}")
+    digest = hashlib.sha256(data)
+    if isinstance(card.get("file"), str):
+        zip_path = card_path.parent / card["file"]
+        if not zip_path.is_file():
+            raise FileNotFoundError(f"{card_path} names {zip_path}, which does not exist")
+        digest.update(zip_path.read_bytes())
+    return digest.hexdigest()
 
 
 def load_policy(path: str | os.PathLike[str]) -> tuple[Any, dict[str, Any]]:
