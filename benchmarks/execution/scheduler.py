@@ -109,7 +109,12 @@ class Scheduler:
                     active.append(slot)
             if not active:
                 continue
-            wait([f for slot in active for f in slot.futures], return_when=FIRST_COMPLETED)
+            # Only the futures still running: `wait` returns at once while any future it is given
+            # is done, so passing a job's finished items too would spin this loop (a core's
+            # worth of CPU taken from the workers) until the job's last item is done.
+            running = [f for slot in active for f in slot.futures if not f.done()]
+            if running:
+                wait(running, return_when=FIRST_COMPLETED)
             # Which jobs are done is decided first, then whether a pool broke: a future that
             # breaks between the two checks belongs to a job not yet taken as done, so no job
             # is ever handed an outcome that recovery should have replaced.

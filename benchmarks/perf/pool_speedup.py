@@ -7,7 +7,7 @@ Prints, in one run, for the same designs:
 * pool: the wall time on a ``ProcessPoolExecutor`` of ``--workers`` processes, cold (including
   starting the workers, their imports and their first env) and warm (the same pool again, so
   only evaluation and the pool's messaging are measured);
-* the warm speed-up serial / pool (target >= 1.7 with 2 workers on 2 cores);
+* the warm speed-up serial / pool (target >= 1.85 with 2 workers on 2 cores, issue 13);
 * whether the pool's rows equal the serial ones apart from ``eval_time``;
 * the load average, the CPU share of the serial run and the speed-up of a pure CPU-bound loop on
   the same pool, to tell a slow pool from a busy machine.
@@ -102,7 +102,7 @@ def main() -> None:
     print(f"statuses: {statuses}")
     print(f"serial   cold {serial_cold:7.2f} s   warm {serial_warm:7.2f} s")
     print(f"pool     cold {pool_cold:7.2f} s   warm {pool_warm:7.2f} s")
-    print(f"speed-up (warm serial / warm pool): {serial_warm / pool_warm:.2f}x (target >= 1.7x)")
+    print(f"speed-up (warm serial / warm pool): {serial_warm / pool_warm:.2f}x (target >= 1.85x)")
     # Below 1, this process waited for a CPU: other work competed and all figures are slower.
     print(f"CPU share of the serial run (CPU time / wall time): {serial_cpu / serial_warm:.2f}")
     print(f"parallelism the machine gave the pool just now (a CPU-bound loop): {parallelism:.2f}x")
