@@ -211,6 +211,8 @@ def test_cli_errors_are_one_line_exit_2(argv, tmp_path, capsys):
     assert stop.value.code == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "error" in err[0] and "Traceback" not in err[0]
+    if argv[-1] == "0":  # only --out is wrong: the message says what it is and what is wanted
+        assert f"{existing} is a file; give a folder" in err[0]
 
 
 def test_report_of_an_existing_file_exits_2(tmp_path: Path, capsys):

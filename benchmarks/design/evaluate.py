@@ -26,7 +26,13 @@ import numpy as np
 import pandas as pd
 
 from benchmarks.design.video import rollout_gif
-from benchmarks.storage import atomic_write_text, json_ready, json_text, package_versions
+from benchmarks.storage import (
+    atomic_write_text,
+    check_out_dir,
+    json_ready,
+    json_text,
+    package_versions,
+)
 from tooldesign_env import (
     ToolDesignEnv,
     ToolSpec,
@@ -110,9 +116,11 @@ def evaluate_coefficients(
         The env's step ``info``.
 
     Raises:
-        ValueError: the design is malformed, or outside the bounds without ``outside_bounds``.
+        ValueError: the design is malformed, or outside the bounds without ``outside_bounds``,
+            or ``out`` is an existing file.
+        TypeError: ``out`` is not a path.
     """
-    out = Path(out)
+    out = check_out_dir(out)  # before the simulation: a file named like the folder is refused
     spec = ToolSpec(degree=int(np.size(coeffs)) if np.ndim(coeffs) == 1 else 3)
     c = validate_coefficients(coeffs, spec.degree)
     bounds = default_bounds(spec.degree)
