@@ -78,7 +78,7 @@ class PolicyDesigner(Optimizer):
                 f"the policy's design {c.tolist()} is outside the run's bounds "
                 f"{np.stack([low, high], axis=1).tolist()}; give the bounds it was trained with"
             )
-        self.coefficients = c
+        self.coefficients: np.ndarray = c
         self._unit = (c - low) / self._span
 
     def _ask(self, ids: tuple[int, ...]) -> np.ndarray:
@@ -88,7 +88,7 @@ class PolicyDesigner(Optimizer):
         # The policy's own coefficients, bit for bit: the way through the unit box and back may
         # round the last digit, and a design run must simulate what `tooldesign rl design` does.
         if u.ndim == 1:
-            return self.coefficients.copy()
+            return np.array(self.coefficients, dtype=np.float64)
         return np.repeat(self.coefficients[np.newaxis, :], len(u), axis=0)
 
     def _tell(
