@@ -9,6 +9,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 from cli_kill import run_until
+from scheduler_jobs import OneBatch
 
 from benchmarks.cli import main
 from benchmarks.design import DesignConfig, run_design
@@ -206,26 +207,11 @@ def test_parts_of_runs_the_suite_does_not_plan_are_refused(tiny_file: Path, tmp_
     assert path.read_bytes() == before
 
 
-class _Batches:
-    """A job of the scheduler: one batch of items, its outcomes kept."""
-
-    def __init__(self, items: list[str]) -> None:
-        self.items = items
-        self.outcomes: list[Outcome] = []
-
-    def start(self) -> list[str]:
-        return self.items
-
-    def advance(self, outcomes: list[Outcome]) -> None:
-        self.outcomes = outcomes
-        return None
-
-
 def test_a_dead_worker_is_retried_alone_and_fails_only_its_own_item() -> None:
     # eval is a picklable builtin: one item kills its worker process, the pool breaks and takes
     # the other job's pending items with it; recovery gives each item its own outcome.
-    killer = _Batches(["abs(-2)", "__import__('os')._exit(3)"])
-    other = _Batches(["abs(-5)", "1 + 1"])
+    killer = OneBatch(["abs(-2)", "__import__('os')._exit(3)"])
+    other = OneBatch(["abs(-5)", "1 + 1"])
     with make_executor("process", workers=1) as executor:
         Scheduler(executor, eval, max_active=2).run([killer, other])
         assert [o.result for o in killer.outcomes] == [2, None]
@@ -277,7 +263,7 @@ def test_the_scheduler_sleeps_while_a_job_waits_for_its_last_item(
     monkeypatch.setattr(module, "wait", counting_wait)
     timer = threading.Timer(0.3, release.set)
     timer.start()
-    job = _Batches(["fast", "slow"])
+    job = OneBatch(["fast", "slow"])
     try:
         with ThreadPoolExecutor(2) as executor:
             work = lambda item: item if item == "fast" else (release.wait(30), item)[1]  # noqa: E731

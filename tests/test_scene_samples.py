@@ -70,6 +70,22 @@ def test_build_rejects_a_bad_box_offset():
         sim.close()
 
 
+def _each_scene_alone(spec: ObjectiveSpec, objective: ObjectiveSpec) -> list[dict]:
+    """The step ``info`` of HOOK in each of ``spec``'s scenes, built as a scene of its own."""
+    base = SceneSpec()
+    infos = []
+    for dx, dy, dyaw in scene_offsets(spec):
+        x, y = base.box_position
+        scene = replace(
+            base, box_position=(x + float(dx), y + float(dy)), box_yaw=base.box_yaw + float(dyaw)
+        )
+        one = ToolDesignEnv(scene=scene, objective=objective)
+        one.reset(seed=0)
+        infos.append(one.step(HOOK)[4])
+        one.close()
+    return infos
+
+
 @pytest.mark.slow
 def test_f_is_the_mean_over_the_scenes_and_the_first_is_the_nominal_one():
     spec = ObjectiveSpec(scene_samples=3, scene_jitter=(1e-3, 1e-2), scene_seed=3)
@@ -78,17 +94,7 @@ def test_f_is_the_mean_over_the_scenes_and_the_first_is_the_nominal_one():
     info = env.step(HOOK)[4]
     env.close()
     # The same three scenes, each built as a scene of its own with K = 1.
-    base = SceneSpec()
-    single = []
-    for dx, dy, dyaw in scene_offsets(spec):
-        x, y = base.box_position
-        scene = replace(
-            base, box_position=(x + float(dx), y + float(dy)), box_yaw=base.box_yaw + float(dyaw)
-        )
-        one = ToolDesignEnv(scene=scene)
-        one.reset(seed=0)
-        single.append(one.step(HOOK)[4])
-        one.close()
+    single = _each_scene_alone(spec, ObjectiveSpec())
     for key in ("free_energy", "goal_error", "confidence", "final_distance"):
         assert info[key] == pytest.approx(np.mean([s[key] for s in single]), rel=1e-12), key
     assert info["free_energy_std"] == pytest.approx(
@@ -155,16 +161,6 @@ def test_the_expected_goal_error_is_averaged_over_the_scenes_too():
     env.reset(seed=0)
     info = env.step(HOOK)[4]
     env.close()
-    base = SceneSpec()
-    single = []
-    for dx, dy, dyaw in scene_offsets(spec):
-        x, y = base.box_position
-        scene = replace(
-            base, box_position=(x + float(dx), y + float(dy)), box_yaw=base.box_yaw + float(dyaw)
-        )
-        one = ToolDesignEnv(scene=scene, objective=replace(spec, scene_samples=1))
-        one.reset(seed=0)
-        single.append(one.step(HOOK)[4]["goal_error"])
-        one.close()
+    single = [i["goal_error"] for i in _each_scene_alone(spec, replace(spec, scene_samples=1))]
     assert info["goal_error"] == pytest.approx(np.mean(single), rel=1e-12)
     assert single[0] != single[1]

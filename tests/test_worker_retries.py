@@ -16,12 +16,12 @@ from pathlib import Path
 import psutil
 import pytest
 import worker_killer
+from scheduler_jobs import OneBatch
 
 from benchmarks.cli import main
 from benchmarks.design import DesignConfig, DesignStepper, run_design
 from benchmarks.execution import (
     MAX_RETRIES_MAX,
-    Outcome,
     Scheduler,
     WorkerDied,
     evaluator,
@@ -83,20 +83,6 @@ def test_a_killed_item_is_retried_max_retries_times_then_failed(
     _assert_no_worker_left(tmp_path)
 
 
-class _Batch:
-    """A job of the scheduler: one batch of items, its outcomes kept."""
-
-    def __init__(self, items: list[str]) -> None:
-        self.items = items
-        self.outcomes: list[Outcome] = []
-
-    def start(self) -> list[str]:
-        return self.items
-
-    def advance(self, outcomes: list[Outcome]) -> None:
-        self.outcomes = outcomes
-
-
 @pytest.mark.parametrize(("max_retries", "starts"), [(0, 2), (2, 4)])
 def test_the_scheduler_retries_a_killed_item_alone(
     tmp_path: Path, max_retries: int, starts: int
@@ -104,7 +90,7 @@ def test_the_scheduler_retries_a_killed_item_alone(
     work = functools.partial(
         worker_killer.die_or_eval, victim="0 - 1", deaths=None, starts_dir=str(tmp_path)
     )
-    killer, other = _Batch(["abs(-2)", "0 - 1"]), _Batch(["abs(-5)", "1 + 1"])
+    killer, other = OneBatch(["abs(-2)", "0 - 1"]), OneBatch(["abs(-5)", "1 + 1"])
     with make_executor("process", workers=2, max_retries=max_retries) as executor:
         Scheduler(executor, work, max_active=2).run([killer, other])
     assert [o.result for o in killer.outcomes] == [2, None]

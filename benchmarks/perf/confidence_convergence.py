@@ -44,14 +44,13 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from confidence_noise import nudged_scenes, spread, valid_designs
+from confidence_noise import nudged_scenes, score, spread, valid_designs
 from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from benchmarks.reports.comparison import DPI, figure_png_bytes
 from tooldesign_env import ObjectiveSpec, SceneSpec, ToolDesignEnv, ToolSimulator, make_tool
-from tooldesign_env.objective import free_energy
 from tooldesign_env.specs import ControllerSpec, TaskSpec
 
 #: (physics time step s, control period in physics steps): the control rate stays 120 Hz.
@@ -117,14 +116,7 @@ def time_step_study(
                     raise RuntimeError(f"{name} overlaps the box in a nudged scene")
                 traj = sim.run(record_mobility=True)
                 for estimator, spec in ESTIMATORS.items():
-                    terms = free_energy(
-                        traj.box_position,
-                        traj.torques,
-                        goal,
-                        spec,
-                        mobility=traj.contact_mobility,
-                        control_dt=sim.control_dt,
-                    )
+                    terms = score(traj, sim, goal, spec)
                     row = (terms.confidence, terms.goal_error)
                     out.setdefault((name, time_step, estimator), []).append(row)
         for sim in sims:

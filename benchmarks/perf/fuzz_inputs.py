@@ -333,10 +333,33 @@ CLI_TEXT = [
 ]
 
 
-def fuzz_cli(tally: Tally) -> None:
-    """Every numeric flag of ``design`` and ``evaluate`` with text a user could type."""
+def _run_cli(tally: Tally, argv: list[str]) -> tuple[Any, str] | None:
+    """Run ``tooldesign ARGV`` here: exit code and stderr, or ``None`` (recorded) on a failure."""
     from benchmarks.cli import main
 
+    tally.tried += 1
+    err = io.StringIO()
+    code: Any = None
+    try:
+        with (
+            contextlib.redirect_stderr(err),
+            contextlib.redirect_stdout(io.StringIO()),
+            _deadline(TIMEOUT),
+        ):
+            code = main(argv)
+    except SystemExit as stop:
+        code = stop.code
+    except _Hang:
+        tally.bad.append(f"tooldesign {' '.join(argv)}: hang")
+        return None
+    except Exception as error:  # noqa: BLE001
+        tally.bad.append(f"tooldesign {' '.join(argv)}: {type(error).__name__}: {error}"[:300])
+        return None
+    return code, err.getvalue()
+
+
+def fuzz_cli(tally: Tally) -> None:
+    """Every numeric flag of ``design`` and ``evaluate`` with text a user could type."""
     with tempfile.NamedTemporaryFile(prefix="tooldesign-fuzz-") as existing:
         for command, flags in CLI_FLAGS.items():
             base = [command, "--out", existing.name]
@@ -345,27 +368,13 @@ def fuzz_cli(tally: Tally) -> None:
             for flag in flags:
                 for text in CLI_TEXT:
                     argv = [*base, flag, text]
-                    tally.tried += 1
-                    err = io.StringIO()
-                    code: Any = None
-                    try:
-                        with (
-                            contextlib.redirect_stderr(err),
-                            contextlib.redirect_stdout(io.StringIO()),
-                            _deadline(TIMEOUT),
-                        ):
-                            code = main(argv)
-                    except SystemExit as stop:
-                        code = stop.code
-                    except _Hang:
-                        tally.bad.append(f"tooldesign {' '.join(argv)}: hang")
+                    ran = _run_cli(tally, argv)
+                    if ran is None:
                         continue
-                    except Exception as error:  # noqa: BLE001
-                        tally.bad.append(f"tooldesign {' '.join(argv)}: {type(error).__name__}")
-                        continue
-                    lines = [ln for ln in err.getvalue().splitlines() if ln.strip()]
+                    code, err = ran
+                    lines = [ln for ln in err.splitlines() if ln.strip()]
                     message = lines[-1] if lines else ""
-                    if code != 2 or "Traceback" in err.getvalue() or "error" not in message:
+                    if code != 2 or "Traceback" in err or "error" not in message:
                         tally.bad.append(
                             f"tooldesign {' '.join(map(repr, argv))}: exit {code!r}, {message!r}"
                         )
@@ -622,32 +631,14 @@ def fuzz_suite_files(tally: Tally, rng: np.random.Generator, edits: int) -> list
 
 def fuzz_suite_cli(tally: Tally, paths: list[str]) -> None:
     """``tooldesign bench --config FILE --out EXISTING_FILE``: exit 2 and one line each."""
-    from benchmarks.cli import main
-
     with tempfile.NamedTemporaryFile(prefix="tooldesign-fuzz-") as existing:
         for path in paths:
             argv = ["bench", "--config", path, "--out", existing.name, "--no-progress"]
-            tally.tried += 1
-            err = io.StringIO()
-            code: Any = None
-            try:
-                with (
-                    contextlib.redirect_stderr(err),
-                    contextlib.redirect_stdout(io.StringIO()),
-                    _deadline(TIMEOUT),
-                ):
-                    code = main(argv)
-            except SystemExit as stop:
-                code = stop.code
-            except _Hang:
-                tally.bad.append(f"tooldesign {' '.join(argv)}: hang")
+            ran = _run_cli(tally, argv)
+            if ran is None:
                 continue
-            except Exception as error:  # noqa: BLE001
-                tally.bad.append(
-                    f"tooldesign {' '.join(argv)}: {type(error).__name__}: {error}"[:300]
-                )
-                continue
-            lines = [ln for ln in err.getvalue().splitlines() if ln.strip()]
+            code, err = ran
+            lines = [ln for ln in err.splitlines() if ln.strip()]
             if code != 2 or len(lines) != 1 or "error" not in lines[0]:
                 tally.bad.append(
                     f"tooldesign {' '.join(argv)}: exit {code!r}, {lines[-3:]!r}"[:300]
