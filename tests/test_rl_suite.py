@@ -108,10 +108,11 @@ def test_the_smoke_run_folder_is_as_documented(rl_smoke: Path) -> None:
     # The mass part: training on random masses in the range, tests at the held-out masses.
     low, high = config["mass_range"]
     train = log[log["variant"] == "mass-train"]
-    assert set(train["optimizer"]) == {"ppo", "contextual"}
+    assert set(train["optimizer"]) == {"ppo", "sac", "contextual"}
     assert train["box_mass"].between(low, high).all() and train["box_mass"].nunique() > 2
-    zero = log[(log["variant"] == "mass-zero-shot") & (log["optimizer"] == "ppo")]
-    np.testing.assert_array_equal(zero["box_mass"], config["held_out_masses"])
+    for method in ("ppo", "sac"):
+        zero = log[(log["variant"] == "mass-zero-shot") & (log["optimizer"] == method)]
+        np.testing.assert_array_equal(zero["box_mass"], config["held_out_masses"])
     assert (log[log["variant"] == "zero-shot"]["box_mass"] == 0.1).all()
 
     policies = sorted(p.name for p in (rl_smoke / "policies").iterdir())
@@ -120,6 +121,8 @@ def test_the_smoke_run_folder_is_as_documented(rl_smoke: Path) -> None:
         "mass-contextual.json",
         "mass-ppo.json",
         "mass-ppo.zip",
+        "mass-sac.json",
+        "mass-sac.zip",
         "ppo.json",
         "ppo.zip",
         "sac.json",

@@ -11,8 +11,8 @@ Three parts (``docs/rl.md``):
   on held-out goals, each policy's zero-shot tool (one episode per goal) is compared with the
   straight tool and with CMA-ES and random sampling run afresh on each goal (read at every
   budget from one run of the largest).
-* ``mass``: the same with the box mass in the task: PPO and the contextual regression train on
-  goals *and* box masses drawn from ``mass_range``, and are tested on held-out (goal, mass)
+* ``mass``: the same with the box mass in the task: PPO, SAC and the contextual regression
+  train on goals *and* box masses drawn from ``mass_range``, and are tested on held-out (goal, mass)
   tasks against CMA-ES and random sampling run afresh at each.
 
 The run folder is written through :class:`benchmarks.storage.RunSession`: every episode is one
@@ -128,7 +128,7 @@ MASS_RANGE: tuple[float, float] = (0.1, 0.9)
 PARTS: tuple[str, ...] = ("fixed", "task", "mass")
 FIXED_METHODS: tuple[str, ...] = ("random", "cmaes", "ppo", "sac")
 TASK_METHODS: tuple[str, ...] = ("ppo", "sac", "contextual")
-MASS_METHODS: tuple[str, ...] = ("ppo", "contextual")
+MASS_METHODS: tuple[str, ...] = ("ppo", "sac", "contextual")
 
 POLICIES_DIR = "policies"
 """Folder of the saved task-conditioned policies (first training seed) in the run folder."""
@@ -186,7 +186,7 @@ class SuiteSize:
 
 
 SIZES: dict[str, SuiteSize] = {
-    # Runs in CI: about 130 episodes, well under a minute.
+    # Runs in CI: about 140 episodes, well under a minute.
     "smoke": SuiteSize(
         name="smoke",
         seeds=1,
