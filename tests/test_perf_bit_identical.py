@@ -15,6 +15,7 @@ from __future__ import annotations
 import hashlib
 import json
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -127,11 +128,151 @@ def test_the_arm_passes_through_the_floor_only_when_asked():
     assert counts[True][1] > 0 and counts[False][1] > 0  # the box rests on the floor either way
 
 
-def test_arm_floor_contacts_must_be_a_bool():
+@pytest.mark.parametrize("value", ["no", "AUTO", None, 1, 0.0])
+def test_arm_floor_contacts_must_be_a_bool_or_auto(value):
     from tooldesign_env import SceneSpec
 
-    with pytest.raises(TypeError, match="arm_floor_contacts"):
-        SceneSpec(arm_floor_contacts="no")
+    with pytest.raises(TypeError, match=r"arm_floor_contacts must be True, False or 'auto'"):
+        SceneSpec(arm_floor_contacts=value)
+
+
+@pytest.mark.parametrize("value", [0.02, 0.0, -0.1, 1.5, float("nan"), float("inf"), True, "0.1"])
+def test_floor_clearance_must_exceed_the_contact_threshold(value):
+    from tooldesign_env import SceneSpec
+
+    with pytest.raises(
+        ValueError, match=r"floor_clearance must be a number of metres in \(0.02, 1\]"
+    ):
+        SceneSpec(floor_clearance=value)
+
+
+def test_auto_is_the_default_and_keeps_its_clearance_as_a_float():
+    from tooldesign_env import SceneSpec
+
+    scene = SceneSpec(floor_clearance=np.float32(0.05))
+    assert scene.arm_floor_contacts == "auto" and type(scene.floor_clearance) is float
+    assert SceneSpec(arm_floor_contacts=np.bool_(False)).arm_floor_contacts is not True
+
+
+# ------------------------------------------------------------------ the floor guard ("auto")
+
+
+def _flat(z, n=4):
+    """n recorded steps of a frame at height z, axes aligned with the world's."""
+    return np.tile([0.0, 0.0, z], (n, 1)), np.tile([0.0, 0.0, 0.0, 1.0], (n, 1))
+
+
+def test_the_bound_is_the_lowest_point_of_the_tools_group():
+    from tooldesign_env.simulation import floor_clearance_bound
+
+    points = np.array([[0.3, 0.0, -0.02], [0.0, 0.0, 0.1]])
+    position, orientation = _flat(0.08)
+    bound = floor_clearance_bound(position, orientation, points, np.zeros(4), 1.0, 2.0)
+    assert bound == pytest.approx(0.06)
+    # Turned upside down (180 degrees about x): the point 10 cm above the frame is now below it.
+    flipped = np.tile([1.0, 0.0, 0.0, 0.0], (4, 1))
+    bound = floor_clearance_bound(position, flipped, points, np.zeros(4), 1.0, 2.0)
+    assert bound == pytest.approx(-0.02)
+    # Tilted by 0.1 rad about y: the point 30 cm along x goes down by 0.3 sin(0.1).
+    half = 0.05
+    tilted = np.tile([0.0, np.sin(half), 0.0, np.cos(half)], (4, 1))
+    bound = floor_clearance_bound(position, tilted, points, np.zeros(4), 1.0, 2.0)
+    expected = 0.08 - 0.3 * np.sin(0.1) - 0.02 * np.cos(0.1)
+    assert bound == pytest.approx(expected)
+
+
+def test_the_bound_takes_the_arms_tracking_error_and_the_steps_between_records():
+    from tooldesign_env.simulation import floor_clearance_bound
+
+    points = np.array([[0.0, 0.0, -0.01]])
+    position, orientation = _flat(0.5)
+    # The other links: 14 cm above the floor along the plan, 0.02 rad astray, reach 2 m.
+    deviation = np.array([0.0, 0.0, 0.02, 0.0])
+    bound = floor_clearance_bound(position, orientation, points, deviation, 0.14, 2.0)
+    # 0.14 - 2 x 0.02, less the largest change between two records (2 x 0.02).
+    assert bound == pytest.approx(0.14 - 0.04 - 0.04)
+    # A group that drops 3 cm between two records: 3 cm more margin is taken.
+    position[2, 2] = 0.47
+    bound = floor_clearance_bound(position, orientation, points, np.zeros(4), 1.0, 2.0)
+    assert bound == pytest.approx(0.46 - 0.03)
+
+
+@pytest.mark.slow
+def test_auto_gives_the_results_of_true_in_the_default_scene():
+    from tooldesign_env import SceneSpec, ToolSimulator, make_tool
+
+    sims = {
+        flag: ToolSimulator(scene=SceneSpec(arm_floor_contacts=flag)) for flag in (True, "auto")
+    }
+    try:
+        for design in DESIGNS[:3]:
+            runs = {}
+            for flag, sim in sims.items():
+                sim.build(make_tool(np.asarray(design)))
+                runs[flag] = sim.run(record_mobility=True)
+            auto = runs["auto"]
+            assert not auto.floor_contacts and auto.floor_clearance > 0.05
+            assert runs[True].floor_contacts and runs[True].floor_clearance is None
+            for name in ("box_position", "torques", "joint_positions", "contact_mobility"):
+                np.testing.assert_array_equal(getattr(auto, name), getattr(runs[True], name))
+    finally:
+        for sim in sims.values():
+            sim.close()
+
+
+@pytest.mark.slow
+def test_auto_simulates_again_with_the_floor_when_a_plan_lowers_the_tool_onto_it():
+    # With the grasp point 1 cm above the floor the tool's 3 cm section goes into it: without
+    # the floor contacts the tool would pass through, and the outcome would be False's.
+    from tooldesign_env import PlanSpec, SceneSpec, ToolSimulator, make_tool
+
+    plan = PlanSpec(height=0.01)
+    tool = make_tool(np.zeros(3))
+    sims = [
+        ToolSimulator(scene=SceneSpec(arm_floor_contacts=flag), plan=plan)
+        for flag in (True, False, "auto")
+    ]
+    runs = {True: sims[0].rollout(tool), False: sims[1].rollout(tool)}
+    with pytest.warns(RuntimeWarning, match="came within 0.000 m of the floor"):
+        runs["auto"] = sims[2].rollout(tool)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a simulator says it once
+        again = sims[2].rollout(tool)
+    try:
+        auto = runs["auto"]
+        assert auto.floor_contacts and auto.floor_clearance < 0.0
+        assert not np.array_equal(runs[False].joint_positions, runs[True].joint_positions)
+        for run in (auto, again):
+            for name in ("box_position", "torques", "joint_positions"):
+                np.testing.assert_array_equal(getattr(run, name), getattr(runs[True], name))
+    finally:
+        for sim in sims:
+            sim.close()
+
+
+@pytest.mark.slow
+def test_an_episode_simulated_again_scores_as_with_the_floor_with_re_simulation():
+    # The re-simulation estimator replays from snapshots of the rollout: the snapshots of the
+    # first rollout (without the floor) must not survive into the second.
+    from tooldesign_env import ObjectiveSpec, PlanSpec, SceneSpec
+
+    plan = PlanSpec(height=0.01)
+    for estimator in ("resimulation",):  # the contact estimator: the simulator's test above
+        objective = ObjectiveSpec(estimator=estimator)
+        infos = {}
+        for flag in (True, "auto"):
+            env = ToolDesignEnv(
+                scene=SceneSpec(arm_floor_contacts=flag), plan=plan, objective=objective
+            )
+            env.reset(seed=0)
+            try:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore", RuntimeWarning)
+                    infos[flag] = env.step(np.zeros(3, dtype=np.float32))[4]
+            finally:
+                env.close()
+        for key in ("free_energy", "goal_error", "confidence"):
+            assert infos["auto"][key] == infos[True][key], (estimator, key)
 
 
 if __name__ == "__main__":

@@ -546,6 +546,18 @@ class BulletWorld:
         state = self._link_state(robot.body, link, computeForwardKinematics=1)
         return state[4], state[5]
 
+    def link_count(self, robot: RobotHandles) -> int:
+        """Links of the robot after its base (PyBullet's joint count)."""
+        return int(self.client.getNumJoints(robot.body))
+
+    def link_boxes(self, robot: RobotHandles, links: Sequence[int]) -> np.ndarray:
+        """(len(links), 2, 3) world axis-aligned bounding boxes (min, max) of links, m.
+
+        PyBullet's boxes include the shapes' collision margins: they bound the shapes.
+        """
+        c = self.client
+        return np.array([c.getAABB(robot.body, link) for link in links], dtype=float)
+
     # ------------------------------------------------------------ the box etc
     def body_position(self, body: int) -> tuple[float, float, float]:
         """World position of a body's base, m."""

@@ -9,10 +9,12 @@ needed to plot and diagnose (grasp-point pose, joint positions, tool-box contact
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import gc
 import itertools
 import math
-from collections.abc import Iterator
+import warnings
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any, cast
 
@@ -102,6 +104,11 @@ class Trajectory:
         contact_mobility: (T, 3, 7) the box's acceleration per unit joint torque through its
             contact with the tool, m s^-2 / N m (zero without contact; see
             :func:`contact_mobility`), or None when the rollout did not record it.
+        floor_contacts: whether the arm's and the tool's contacts with the floor were
+            simulated (``SceneSpec.arm_floor_contacts``).
+        floor_clearance: with ``arm_floor_contacts="auto"``, a lower bound on how close the arm
+            and the tool came to the floor in the rollout without those contacts, m (see
+            :func:`floor_clearance_bound`); None otherwise.
     """
 
     times: np.ndarray
@@ -115,6 +122,8 @@ class Trajectory:
     tracking_error: np.ndarray
     fast_forward_from: int
     contact_mobility: np.ndarray | None = None
+    floor_contacts: bool = True
+    floor_clearance: float | None = None
 
     def __len__(self) -> int:
         return int(self.times.shape[0])
@@ -192,6 +201,59 @@ def contact_mobility(
     return np.asarray(np.einsum("ni,nj,n->nij", horizontal, push, force_per_push) / box_mass)
 
 
+def floor_clearance_bound(
+    tool_position: np.ndarray,
+    tool_orientation: np.ndarray,
+    points: np.ndarray,
+    deviation: np.ndarray,
+    arm_clearance: float,
+    arm_reach: float,
+) -> float:
+    """A lower bound on the distance of the arm and its tool from the floor z = 0 over a rollout.
+
+    Two groups of links, each bounded in its own way:
+
+    * the tool and the links rigidly attached to it (the last arm link, the hand, the fingers):
+      ``points`` bound their shapes in a frame attached to them, so their lowest point at each
+      recorded step is exact for those points: ``z + min(R[2] . p)``;
+    * the links before the last arm joint: their clearance along the plan, ``arm_clearance``,
+      less how far the joints strayed from the plan, ``deviation`` (the sum of the 7 joints'
+      absolute errors, rad) times ``arm_reach`` (a bound on any of their points' distance from
+      a joint axis): a rotation by dq moves a point at distance r from its axis by at most r dq.
+
+    The physics steps between two recorded steps are covered by subtracting the largest change
+    of each group's figure between two consecutive records.
+
+    Args:
+        tool_position: (T, 3) origin of a frame attached to the tool per recorded step, m.
+        tool_orientation: (T, 4) that frame's quaternion (x, y, z, w) per recorded step.
+        points: (m, 3) points in that frame whose convex hull holds the tool's group.
+        deviation: (T,) sum over the arm's joints of |q - q_ref| per recorded step, rad.
+        arm_clearance: lowest point of the other links along the plan, m.
+        arm_reach: m.
+
+    Returns:
+        The bound, m (negative if the floor may have been reached).
+    """
+    x, y, z, w = np.asarray(tool_orientation, dtype=float).T
+    third_row = np.stack(
+        [2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y)]
+    )
+    lowest = np.asarray(tool_position, dtype=float)[:, 2] + (points @ third_row).min(axis=0)
+    strayed = arm_reach * np.asarray(deviation, dtype=float)
+    bound = float(arm_clearance - strayed.max())
+    bound = min(bound, float(lowest.min()))
+    if lowest.shape[0] > 1:
+        bound -= max(float(np.abs(np.diff(lowest)).max()), float(np.abs(np.diff(strayed)).max()))
+    return bound
+
+
+def _box_corners(boxes: np.ndarray) -> np.ndarray:
+    """(8 k, 3) corners of k axis-aligned boxes given as (k, 2, 3) (min, max)."""
+    pick = np.array(list(itertools.product((0, 1), repeat=3)))  # (8, 3) min/max per axis
+    return boxes[:, pick, np.arange(3)].reshape(-1, 3)
+
+
 def _principal_link_xml(geometry: ToolGeometry) -> tuple[str, np.ndarray]:
     """The tool's URDF link with its inertial frame turned to the principal axes."""
     diag, yaw = principal_inertia(np.asarray(geometry.inertia))
@@ -259,6 +321,15 @@ class ToolSimulator:
         self._last_torques: np.ndarray | None = None
         self._box_mass = self.scene.box_mass
         self._builds = 0
+        self._floor_contacts = True
+        # SceneSpec.arm_floor_contacts == "auto": the last build's arguments (to build again
+        # with the floor contacts), the points that bound the tool's group in its frame, and,
+        # once per simulator, the plan's clearance and reach of the other links.
+        self._last_build: tuple[ToolGeometry, float | None, Any] | None = None
+        self._guarded = False
+        self._guard_points: np.ndarray | None = None
+        self._arm_floor: tuple[float, float] | None = None
+        self._guard_warned = False
         self._targets_for: JointReference | None = None
         self._target_rows: list[tuple[list[float], list[float], list[float]]] = []
 
@@ -347,17 +418,30 @@ class ToolSimulator:
         """
         if box_mass is not None and not (math.isfinite(box_mass) and box_mass > 0):
             raise ValueError(f"box_mass must be a finite number > 0 kg, got {box_mass!r}")
-        scene = self.scene
         dx, dy, dyaw = (0.0, 0.0, 0.0) if box_offset is None else box_offset
         if not all(math.isfinite(v) for v in (dx, dy, dyaw)):
             raise ValueError(f"box_offset must be 3 finite numbers, got {box_offset!r}")
+        contacts = self.scene.arm_floor_contacts
+        self._last_build = (geometry, box_mass, box_offset)
+        return self._build(geometry, box_mass, (dx, dy, dyaw), floor_contacts=contacts is True)
+
+    def _build(
+        self,
+        geometry: ToolGeometry,
+        box_mass: float | None,
+        box_offset: tuple[float, float, float],
+        *,
+        floor_contacts: bool,
+    ) -> bool:
+        scene = self.scene
+        dx, dy, dyaw = box_offset
         reference = self.reference
         world = self.world
         self._builds += 1
         if self._builds % RECONNECT_EVERY == 0:
             world.reconnect()  # else PyBullet's cache of loaded URDFs grows with every build
         world.reset()
-        world.add_floor(friction=scene.floor_friction, arm_contacts=scene.arm_floor_contacts)
+        world.add_floor(friction=scene.floor_friction, arm_contacts=floor_contacts)
         self._box_mass = scene.box_mass if box_mass is None else float(box_mass)
         self._box = world.add_box(
             size=scene.box_size,
@@ -377,14 +461,57 @@ class ToolSimulator:
             tool_mass=geometry.mass,
             tool_inertia_diagonal=(float(diag[0]), float(diag[1]), float(diag[2])),
             tool_friction=scene.tool_friction,
-            floor_contacts=scene.arm_floor_contacts,
+            floor_contacts=floor_contacts,
         )
+        self._floor_contacts = floor_contacts
+        self._guarded = scene.arm_floor_contacts == "auto" and not floor_contacts
+        if self._guarded:
+            self._set_up_floor_guard(geometry)
         lowered = phases(self.plan)[0].duration
         k = min(max(int(round(lowered / self.control_dt)) - 1, 0), len(reference.times) - 1)
         world.set_joint_positions(robot, reference.q[k])
         overlaps = world.overlaps(self._box, robot.body, robot.tool_link)
         world.set_joint_positions(robot, reference.q0)
         return overlaps
+
+    def _set_up_floor_guard(self, geometry: ToolGeometry) -> None:
+        """What :func:`floor_clearance_bound` needs, with the arm at q(0).
+
+        The tool's group (the last arm link and every link after it: the hand, the fingers and
+        the tool) is bounded, in the grasp frame whose pose the rollout records, by the corners of
+        the tool's bounding box and of the other links' world bounding boxes, carried into that
+        frame. The other links'
+        clearance and reach along the plan do not depend on the tool: they are found once per
+        simulator by teleporting the arm through every control step of the plan.
+        """
+        world, robot = self.world, self._robot
+        assert robot is not None
+        last = robot.joints[-1]
+        links = world.link_count(robot)
+        attached = [j for j in range(last, links) if j != robot.tool_link]
+        # At q(0), where the hand points down: its links' boxes are tight there. (Just after
+        # loading, PyBullet's boxes and link frames do not yet agree.)
+        world.set_joint_positions(robot, self.reference.q0)
+        # The rollout records the pose of the grasp frame (EE_LINK): the points are in it.
+        ee_position, ee_orientation = world.link_pose(robot, robot.ee_link)
+        tool_position, tool_orientation = world.link_pose(robot, robot.tool_link)
+        to_ee = _rotation(ee_orientation)
+        tool_corners = _box_corners(np.asarray(geometry.bounds, dtype=float)[None])
+        tool_world = tool_corners @ _rotation(tool_orientation).T + np.asarray(tool_position)
+        attached_world = _box_corners(world.link_boxes(robot, attached))
+        corners = np.vstack([tool_world, attached_world])
+        self._guard_points = (corners - np.asarray(ee_position)) @ to_ee
+        if self._arm_floor is None:
+            lowest, reach = math.inf, 0.0
+            for q in self.reference.q:
+                world.set_joint_positions(robot, q)
+                boxes = world.link_boxes(robot, range(last))
+                lowest = min(lowest, float(boxes[:, 0, 2].min()))
+                reach = max(reach, float(np.linalg.norm(_box_corners(boxes), axis=1).max()))
+            world.set_joint_positions(robot, self.reference.q0)
+            # A point's distance from any joint axis is at most its distance from the base
+            # plus the axis's: twice the farthest corner.
+            self._arm_floor = (lowest, 2.0 * reach)
 
     # -------------------------------------------------------------- rollout
     def rollout(
@@ -421,7 +548,29 @@ class ToolSimulator:
         if self._robot is None:
             raise RuntimeError("call build(geometry) before run()")
         with _gc_paused():
-            return self._run(snapshot_every, record_mobility)
+            trajectory = self._run(snapshot_every, record_mobility)
+        clearance = trajectory.floor_clearance
+        if clearance is None or clearance >= self.scene.floor_clearance:
+            return trajectory
+        # The arm or the tool may have come near the floor: simulate again with its contacts.
+        if not self._guard_warned:
+            self._guard_warned = True
+            warnings.warn(
+                f"the arm or the tool came within {max(clearance, 0.0):.3f} m of the floor "
+                f"(SceneSpec.floor_clearance = {self.scene.floor_clearance:g} m): the episode is "
+                "simulated again with their floor contacts; with this plan, "
+                "SceneSpec(arm_floor_contacts=True) saves the first rollout",
+                RuntimeWarning,
+                stacklevel=2,
+            )
+        self.release_snapshots()
+        assert self._last_build is not None
+        geometry, box_mass, box_offset = self._last_build
+        offset = (0.0, 0.0, 0.0) if box_offset is None else box_offset
+        self._build(geometry, box_mass, offset, floor_contacts=True)
+        with _gc_paused():
+            again = self._run(snapshot_every, record_mobility)
+        return dataclasses.replace(again, floor_clearance=clearance)
 
     def _run(self, snapshot_every: int | None, record_mobility: bool) -> Trajectory:
         world, robot, box = self.world, self._robot, self._box
@@ -507,6 +656,27 @@ class ToolSimulator:
                         snapshots.rest_from = fast_forward_from
                     break
         yaw_rows = [_tool_yaw(o) for o in orientations]
+        clearance = None
+        if self._guarded:
+            assert self._guard_points is not None and self._arm_floor is not None
+            steps = len(q_rows)
+            deviation = np.abs(
+                np.fromiter(itertools.chain.from_iterable(q_rows), float, steps * 7).reshape(
+                    steps, 7
+                )
+                - ref.q[:steps]
+            ).sum(axis=1)
+            clearance = floor_clearance_bound(
+                np.fromiter(itertools.chain.from_iterable(tool_rows), float, steps * 3).reshape(
+                    steps, 3
+                ),
+                np.fromiter(itertools.chain.from_iterable(orientations), float, steps * 4).reshape(
+                    steps, 4
+                ),
+                self._guard_points,
+                deviation,
+                *self._arm_floor,
+            )
         # The scene is static and the reference constant after a fast-forward: every remaining
         # step repeats the last one (the controller's torque at rest is the gravity torque it
         # just applied).
@@ -549,6 +719,8 @@ class ToolSimulator:
             tracking_error=np.linalg.norm(tool_position - ref.ee_position, axis=1),
             fast_forward_from=fast_forward_from,
             contact_mobility=mobility,
+            floor_contacts=self._floor_contacts,
+            floor_clearance=clearance,
         )
 
     def _mobility(self, contact_log: list[_ContactStep], n: int) -> np.ndarray:
@@ -716,6 +888,18 @@ def _gc_paused() -> Iterator[None]:
     finally:
         if enabled:
             gc.enable()
+
+
+def _rotation(quaternion: Sequence[float]) -> np.ndarray:
+    """(3, 3) rotation matrix of a quaternion (x, y, z, w); its columns are the frame's axes."""
+    x, y, z, w = (float(v) for v in quaternion)
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ]
+    )
 
 
 def _tool_yaw(ee_orientation: tuple[Any, ...]) -> float:

@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 import numbers
 from dataclasses import dataclass, fields
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
@@ -50,6 +50,10 @@ BOX_MASS_MAX = 1e3
 SCENE_SAMPLES_MAX = 64
 SCENE_SHIFT_MAX = 0.01
 SCENE_TURN_MAX = 0.1
+
+#: m: PyBullet's contact breaking threshold: shapes closer than this get contact points
+#: (SceneSpec.floor_clearance must exceed it).
+FLOOR_CONTACT_THRESHOLD = 0.02
 
 
 def check_real(value: Any, label: str) -> float:
@@ -106,12 +110,12 @@ def _check_int(obj: object, name: str, low: int, high: int) -> None:
         raise ValueError(f"{type(obj).__name__}.{name} must be from {low} to {high}, got {value!r}")
 
 
-def _check_bool(obj: object, name: str) -> None:
+def _check_bool(obj: object, name: str, also: str = "") -> None:
     value = getattr(obj, name)
     if not isinstance(value, (bool, np.bool_)):
+        allowed = f"True, False or {also}" if also else "True or False"
         raise TypeError(
-            f"{type(obj).__name__}.{name} must be True or False, got {value!r} "
-            f"({type(value).__name__})"
+            f"{type(obj).__name__}.{name} must be {allowed}, got {value!r} ({type(value).__name__})"
         )
 
 
@@ -231,12 +235,20 @@ class SceneSpec:
             tolerance and saves about 40 % of the simulation time (see docs/model.md).
         rest_speed: box speed (m/s) and joint speed (rad/s) below which the scene is at rest.
         rest_time: how long the scene must stay at rest before fast-forwarding, s.
-        arm_floor_contacts: whether the arm and the tool can touch the floor. With False only
-            the box touches it, and PyBullet no longer tests the arm's 12 links and the tool's
-            ~31 boxes against the floor on every step (about 10 % of a step, see
-            docs/performance.md). With the default plan they stay at least 5 cm above it, so
-            results are bit for bit the same; set it to False only for a plan that keeps them
-            clear of the floor (a tool lowered onto the floor would pass through it).
+        arm_floor_contacts: whether the arm and the tool can touch the floor: True, False or
+            ``"auto"`` (the default). With False only the box touches it, and PyBullet no
+            longer tests the arm's 12 links and the tool's ~31 boxes against the floor on every
+            step (10-14 % of an evaluation, see docs/performance.md); a tool lowered onto the
+            floor would pass through it. ``"auto"`` simulates without those contacts, then
+            checks a lower bound on how close the arm and the tool came to the floor; if it is
+            below ``floor_clearance`` the episode is simulated again with them (so a plan that
+            lowers the tool onto the floor costs two rollouts, and gives True's result). With
+            the default plan they stay more than 5 cm above it and results are bit for bit
+            those of True.
+        floor_clearance: with ``arm_floor_contacts="auto"``, the clearance from the floor (m)
+            below which an episode is simulated again with the arm's floor contacts. It must
+            exceed PyBullet's contact threshold (0.02 m), within which a contact point changes
+            the solver's rows even before the shapes touch.
     """
 
     time_step: float = 1.0 / 240.0
@@ -255,7 +267,8 @@ class SceneSpec:
     fast_forward_rest: bool = True
     rest_speed: float = 1e-3
     rest_time: float = 0.1
-    arm_floor_contacts: bool = True
+    arm_floor_contacts: bool | Literal["auto"] = "auto"
+    floor_clearance: float = 0.03
 
     def __post_init__(self) -> None:
         _check_positive(self, "time_step", "box_mass", "rest_speed")
@@ -275,7 +288,21 @@ class SceneSpec:
             )
         check_real(self.box_yaw, "SceneSpec.box_yaw")
         _check_bool(self, "fast_forward_rest")
-        _check_bool(self, "arm_floor_contacts")
+        if isinstance(self.arm_floor_contacts, str) and self.arm_floor_contacts == "auto":
+            object.__setattr__(self, "arm_floor_contacts", "auto")
+        else:
+            _check_bool(self, "arm_floor_contacts", also="'auto'")
+        if not (
+            isinstance(self.floor_clearance, numbers.Real)
+            and not isinstance(self.floor_clearance, (bool, np.bool_))
+            and math.isfinite(self.floor_clearance)
+            and FLOOR_CONTACT_THRESHOLD < self.floor_clearance <= 1.0
+        ):
+            raise ValueError(
+                f"SceneSpec.floor_clearance must be a number of metres in "
+                f"({FLOOR_CONTACT_THRESHOLD:g}, 1], got {self.floor_clearance!r}"
+            )
+        object.__setattr__(self, "floor_clearance", float(self.floor_clearance))
         if self.box_mass > BOX_MASS_MAX:
             raise ValueError(
                 f"SceneSpec.box_mass must be <= {BOX_MASS_MAX:g} kg, got {self.box_mass!r}"
