@@ -181,3 +181,43 @@ def test_the_disk_cache_can_be_switched_off(monkeypatch, tmp_path, fresh_memory)
     assert load_knots(key, (3, 7)) is None
     assert not store_knots(key, np.zeros((3, 7)))
     assert os.listdir(tmp_path) == []
+
+
+@pytest.mark.slow
+def test_the_floor_guards_sweep_of_the_plan_is_cached_beside_its_knots(
+    monkeypatch, tmp_path, fresh_memory
+):
+    # The sweep costs about one evaluation: a new process reads it from disk instead.
+    from tooldesign_env import make_tool
+
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path))
+    monkeypatch.setattr(simulation, "_ARM_FLOOR", {})
+    tool = make_tool(np.zeros(3))
+    sim = ToolSimulator()
+    sim.build(tool)
+    swept = sim._arm_floor
+    sim.close()
+    assert len([f for f in os.listdir(tmp_path) if f.endswith(".npz")]) == 2  # knots, sweep
+    assert swept is not None and 0.05 < swept[0] < 0.5 and 1.0 < swept[1] < 5.0
+
+    # A "new process": nothing in memory; the plan must come from the disk, unswept.
+    monkeypatch.setattr(simulation, "_ARM_FLOOR", {})
+    monkeypatch.setattr(simulation, "_KNOTS", {})
+    monkeypatch.setattr(simulation, "_REFERENCES", {})
+    monkeypatch.setattr(
+        ToolSimulator, "_inverse_kinematics", lambda self: pytest.fail("solved again")
+    )
+    calls = []
+    real = simulation.BulletWorld.link_boxes
+    monkeypatch.setattr(
+        simulation.BulletWorld,
+        "link_boxes",
+        lambda world, robot, links: calls.append(list(links)) or real(world, robot, links),
+    )
+    again = ToolSimulator()
+    try:
+        again.build(tool)
+        assert again._arm_floor == swept
+        assert len(calls) == 1  # the tool's group at q(0), not the plan's 1,710 steps
+    finally:
+        again.close()

@@ -60,6 +60,10 @@ RECONNECT_EVERY = 100
 # on disk (plan.cache_dir); the spline to the control steps is redone per control period.
 _REFERENCES: dict[tuple[PlanSpec, float], JointReference] = {}
 _KNOTS: dict[str, np.ndarray] = {}
+#: The floor guard's sweep of a plan (lowest point and reach of the arm's first links), per key.
+_ARM_FLOOR: dict[str, tuple[float, float]] = {}
+#: Bump when the sweep changes: it is part of the sweep's cache key.
+FLOOR_GUARD_VERSION = 1
 
 #: Settings of PyBullet's inverse-kinematics solver for the plan's knots.
 IK_ITERATIONS = 200
@@ -502,6 +506,27 @@ class ToolSimulator:
         corners = np.vstack([tool_world, attached_world])
         self._guard_points = (corners - np.asarray(ee_position)) @ to_ee
         if self._arm_floor is None:
+            self._arm_floor = self._arm_floor_of_plan(last)
+
+    def _arm_floor_of_plan(self, last: int) -> tuple[float, float]:
+        """(lowest point m, reach m) of the links before ``last`` along the plan.
+
+        From memory, else from the plan cache on disk (the sweep costs about one evaluation,
+        which would double the first evaluation of a process), else swept.
+        """
+        key = cache_key(
+            {
+                "arm_floor": FLOOR_GUARD_VERSION,
+                "knots": plan_cache_key(self.plan),
+                "control_dt": self.control_dt,
+            }
+        )
+        if key in _ARM_FLOOR:
+            return _ARM_FLOOR[key]
+        stored = load_knots(key, (1, 2))
+        if stored is None:
+            world, robot = self.world, self._robot
+            assert robot is not None
             lowest, reach = math.inf, 0.0
             for q in self.reference.q:
                 world.set_joint_positions(robot, q)
@@ -511,7 +536,10 @@ class ToolSimulator:
             world.set_joint_positions(robot, self.reference.q0)
             # A point's distance from any joint axis is at most its distance from the base
             # plus the axis's: twice the farthest corner.
-            self._arm_floor = (lowest, 2.0 * reach)
+            stored = np.array([[lowest, 2.0 * reach]])
+            store_knots(key, stored)
+        _ARM_FLOOR[key] = (float(stored[0, 0]), float(stored[0, 1]))
+        return _ARM_FLOOR[key]
 
     # -------------------------------------------------------------- rollout
     def rollout(
