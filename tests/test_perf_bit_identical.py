@@ -167,16 +167,16 @@ def test_the_bound_is_the_lowest_point_of_the_tools_group():
 
     points = np.array([[0.3, 0.0, -0.02], [0.0, 0.0, 0.1]])
     position, orientation = _flat(0.08)
-    bound = floor_clearance_bound(position, orientation, points, np.zeros(4), 1.0, 2.0)
+    bound = floor_clearance_bound(position, orientation, points, np.ones(4), np.zeros(4))
     assert bound == pytest.approx(0.06)
     # Turned upside down (180 degrees about x): the point 10 cm above the frame is now below it.
     flipped = np.tile([1.0, 0.0, 0.0, 0.0], (4, 1))
-    bound = floor_clearance_bound(position, flipped, points, np.zeros(4), 1.0, 2.0)
+    bound = floor_clearance_bound(position, flipped, points, np.ones(4), np.zeros(4))
     assert bound == pytest.approx(-0.02)
     # Tilted by 0.1 rad about y: the point 30 cm along x goes down by 0.3 sin(0.1).
     half = 0.05
     tilted = np.tile([0.0, np.sin(half), 0.0, np.cos(half)], (4, 1))
-    bound = floor_clearance_bound(position, tilted, points, np.zeros(4), 1.0, 2.0)
+    bound = floor_clearance_bound(position, tilted, points, np.ones(4), np.zeros(4))
     expected = 0.08 - 0.3 * np.sin(0.1) - 0.02 * np.cos(0.1)
     assert bound == pytest.approx(expected)
 
@@ -186,15 +186,43 @@ def test_the_bound_takes_the_arms_tracking_error_and_the_steps_between_records()
 
     points = np.array([[0.0, 0.0, -0.01]])
     position, orientation = _flat(0.5)
-    # The other links: 14 cm above the floor along the plan, 0.02 rad astray, reach 2 m.
-    deviation = np.array([0.0, 0.0, 0.02, 0.0])
-    bound = floor_clearance_bound(position, orientation, points, deviation, 0.14, 2.0)
-    # 0.14 - 2 x 0.02, less the largest change between two records (2 x 0.02).
-    assert bound == pytest.approx(0.14 - 0.04 - 0.04)
-    # A group that drops 3 cm between two records: 3 cm more margin is taken.
+    # The other links: 14-20 cm above the floor along the plan, strayed by up to 4 cm.
+    plan = np.array([0.20, 0.18, 0.14, 0.16])
+    strayed = np.array([0.0, 0.0, 0.04, 0.0])
+    bound = floor_clearance_bound(position, orientation, points, plan, strayed)
+    # 0.14 - 0.04, less the largest change between two records (0.18 -> 0.10).
+    assert bound == pytest.approx(0.10 - 0.08)
+    # A tool that drops 3 cm between two records: 3 cm more margin is taken.
     position[2, 2] = 0.47
-    bound = floor_clearance_bound(position, orientation, points, np.zeros(4), 1.0, 2.0)
+    bound = floor_clearance_bound(position, orientation, points, np.ones(4), np.zeros(4))
     assert bound == pytest.approx(0.46 - 0.03)
+
+
+def test_the_levers_bound_the_arm_and_the_base_joint_has_none():
+    # A rotation of joint i by dq moves no point of the links before the last joint by more
+    # than lever_i dq: checked against PyBullet by turning each joint alone.
+    from tooldesign_env import SceneSpec, ToolSimulator, make_tool
+
+    sim = ToolSimulator(scene=SceneSpec())
+    try:
+        sim.build(make_tool(np.zeros(3)))
+        robot, world = sim._robot, sim.world
+        levers, plan_floor, fixed = sim._arm_floor
+        last = robot.joints[-1]
+        assert levers[0] == 0.0 and levers[-1] == 0.0 and np.all(levers[1:-1] > 0.1)
+        assert plan_floor.shape == sim.reference.times.shape and 0.1 < fixed < plan_floor.min()
+        q0 = np.array(sim.reference.q[900])
+        world.set_joint_positions(robot, q0)
+        before = world.link_boxes(robot, range(1, last))
+        for i in range(7):
+            q = q0.copy()
+            q[i] += 0.05
+            world.set_joint_positions(robot, q)
+            after = world.link_boxes(robot, range(1, last))
+            dropped = np.max(before[:, 0, 2] - after[:, 0, 2])
+            assert dropped <= levers[i] * 0.05 + 1e-9, (i, dropped)
+    finally:
+        sim.close()
 
 
 @pytest.mark.slow

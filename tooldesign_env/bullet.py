@@ -550,6 +550,14 @@ class BulletWorld:
         """Links of the robot after its base (PyBullet's joint count)."""
         return int(self.client.getNumJoints(robot.body))
 
+    def joint_axis(self, robot: RobotHandles, joint: int) -> np.ndarray:
+        """(3,) world direction of a joint's axis at the current joint positions."""
+        c = self.client
+        local = np.asarray(c.getJointInfo(robot.body, joint)[13], dtype=float)
+        orientation = self._link_state(robot.body, joint, computeForwardKinematics=1)[5]
+        rotation = np.asarray(c.getMatrixFromQuaternion(orientation), dtype=float).reshape(3, 3)
+        return np.asarray(rotation @ local)
+
     def link_boxes(self, robot: RobotHandles, links: Sequence[int]) -> np.ndarray:
         """(len(links), 2, 3) world axis-aligned bounding boxes (min, max) of links, m.
 

@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 from typing import Any, cast
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from tooldesign_env.bullet import (
     BulletWorld,
@@ -60,10 +61,10 @@ RECONNECT_EVERY = 100
 # on disk (plan.cache_dir); the spline to the control steps is redone per control period.
 _REFERENCES: dict[tuple[PlanSpec, float], JointReference] = {}
 _KNOTS: dict[str, np.ndarray] = {}
-#: The floor guard's sweep of a plan (lowest point and reach of the arm's first links), per key.
-_ARM_FLOOR: dict[str, tuple[float, float]] = {}
+#: The floor guard's sweep of a plan (the lowest point of the arm's first links per step), by key.
+_ARM_FLOOR: dict[str, np.ndarray] = {}
 #: Bump when the sweep changes: it is part of the sweep's cache key.
-FLOOR_GUARD_VERSION = 1
+FLOOR_GUARD_VERSION = 2
 
 #: Settings of PyBullet's inverse-kinematics solver for the plan's knots.
 IK_ITERATIONS = 200
@@ -209,9 +210,8 @@ def floor_clearance_bound(
     tool_position: np.ndarray,
     tool_orientation: np.ndarray,
     points: np.ndarray,
-    deviation: np.ndarray,
-    arm_clearance: float,
-    arm_reach: float,
+    arm_clearance: ArrayLike,
+    strayed: ArrayLike,
 ) -> float:
     """A lower bound on the distance of the arm and its tool from the floor z = 0 over a rollout.
 
@@ -220,10 +220,9 @@ def floor_clearance_bound(
     * the tool and the links rigidly attached to it (the last arm link, the hand, the fingers):
       ``points`` bound their shapes in a frame attached to them, so their lowest point at each
       recorded step is exact for those points: ``z + min(R[2] . p)``;
-    * the links before the last arm joint: their clearance along the plan, ``arm_clearance``,
-      less how far the joints strayed from the plan, ``deviation`` (the sum of the 7 joints'
-      absolute errors, rad) times ``arm_reach`` (a bound on any of their points' distance from
-      a joint axis): a rotation by dq moves a point at distance r from its axis by at most r dq.
+    * the links before the last arm joint: their lowest point at the same step of the plan,
+      ``arm_clearance``, less a bound on how far any of their points strayed from its planned
+      place, ``strayed`` (see :meth:`ToolSimulator.run`).
 
     The physics steps between two recorded steps are covered by subtracting the largest change
     of each group's figure between two consecutive records.
@@ -232,9 +231,8 @@ def floor_clearance_bound(
         tool_position: (T, 3) origin of a frame attached to the tool per recorded step, m.
         tool_orientation: (T, 4) that frame's quaternion (x, y, z, w) per recorded step.
         points: (m, 3) points in that frame whose convex hull holds the tool's group.
-        deviation: (T,) sum over the arm's joints of |q - q_ref| per recorded step, rad.
-        arm_clearance: lowest point of the other links along the plan, m.
-        arm_reach: m.
+        arm_clearance: (T,) lowest point of the other links at each step of the plan, m.
+        strayed: (T,) how far their points may have moved from the plan at each step, m.
 
     Returns:
         The bound, m (negative if the floor may have been reached).
@@ -244,11 +242,10 @@ def floor_clearance_bound(
         [2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y)]
     )
     lowest = np.asarray(tool_position, dtype=float)[:, 2] + (points @ third_row).min(axis=0)
-    strayed = arm_reach * np.asarray(deviation, dtype=float)
-    bound = float(arm_clearance - strayed.max())
-    bound = min(bound, float(lowest.min()))
+    arm = np.asarray(arm_clearance, dtype=float) - np.asarray(strayed, dtype=float)
+    bound = min(float(lowest.min()), float(arm.min()))
     if lowest.shape[0] > 1:
-        bound -= max(float(np.abs(np.diff(lowest)).max()), float(np.abs(np.diff(strayed)).max()))
+        bound -= max(float(np.abs(np.diff(lowest)).max()), float(np.abs(np.diff(arm)).max()))
     return bound
 
 
@@ -332,7 +329,7 @@ class ToolSimulator:
         self._last_build: tuple[ToolGeometry, float | None, Any] | None = None
         self._guarded = False
         self._guard_points: np.ndarray | None = None
-        self._arm_floor: tuple[float, float] | None = None
+        self._arm_floor: tuple[np.ndarray, np.ndarray, float] | None = None
         self._guard_warned = False
         self._targets_for: JointReference | None = None
         self._target_rows: list[tuple[list[float], list[float], list[float]]] = []
@@ -482,11 +479,10 @@ class ToolSimulator:
         """What :func:`floor_clearance_bound` needs, with the arm at q(0).
 
         The tool's group (the last arm link and every link after it: the hand, the fingers and
-        the tool) is bounded, in the grasp frame whose pose the rollout records, by the corners of
-        the tool's bounding box and of the other links' world bounding boxes, carried into that
-        frame. The other links'
-        clearance and reach along the plan do not depend on the tool: they are found once per
-        simulator by teleporting the arm through every control step of the plan.
+        the tool) is bounded, in the grasp frame whose pose the rollout records, by the corners
+        of the tool's bounding box and of the other links' world bounding boxes, carried into
+        that frame. What the other links need does not depend on the tool: it is found once per
+        simulator (:meth:`_arm_levers`, :meth:`_arm_floor_of_plan`).
         """
         world, robot = self.world, self._robot
         assert robot is not None
@@ -506,10 +502,45 @@ class ToolSimulator:
         corners = np.vstack([tool_world, attached_world])
         self._guard_points = (corners - np.asarray(ee_position)) @ to_ee
         if self._arm_floor is None:
-            self._arm_floor = self._arm_floor_of_plan(last)
+            levers, first, fixed = self._arm_levers(last)
+            self._arm_floor = (levers, self._arm_floor_of_plan(first, last), fixed)
 
-    def _arm_floor_of_plan(self, last: int) -> tuple[float, float]:
-        """(lowest point m, reach m) of the links before ``last`` along the plan.
+    def _arm_levers(self, last: int) -> tuple[np.ndarray, int, float]:
+        """What bounds the links before ``last``.
+
+        Returns (levers, first, fixed): per arm joint (7,), how far (m) a rotation of 1 rad
+        may move a point of those links; the first link that a joint can move up or down; and
+        the lowest point (m) of the links before it, which stays where it is (inf if none).
+
+        A rotation by dq about an axis through o moves a point p by at most |p - o| dq. For
+        joint i, |p - o_i| is at most the joint-to-joint distances from o_i to the origin of
+        p's link plus the farthest corner of that link's bounding box from its origin: sums of
+        lengths that no joint changes, taken at q(0). The first joint turns about the vertical
+        axis through the base: it moves no point up or down, and so, with the links it alone
+        moves (the first), has no lever.
+        """
+        world, robot = self.world, self._robot
+        assert robot is not None
+        chain = list(range(last))  # the links before the last arm joint, base side first
+        origins = np.array([world.link_pose(robot, j)[0] for j in chain], dtype=float)
+        boxes = world.link_boxes(robot, chain)
+        corners = _box_corners(boxes).reshape(len(chain), 8, 3)
+        radius = np.linalg.norm(corners - origins[:, None, :], axis=2).max(axis=1)
+        steps = np.linalg.norm(np.diff(origins, axis=0), axis=1)
+        levers = np.zeros(len(robot.joints))
+        for i, joint in enumerate(robot.joints):
+            if joint >= last:
+                continue  # moves the tool's group only, whose pose is recorded
+            if i == 0 and abs(world.joint_axis(robot, joint)[2]) > 1.0 - 1e-9:
+                continue
+            reach = [steps[joint:m].sum() + radius[m] for m in range(joint, last)]
+            levers[i] = max(reach)
+        first = 1 if levers[0] == 0.0 else 0
+        fixed = float(boxes[:first, 0, 2].min()) if first else math.inf
+        return levers, first, fixed
+
+    def _arm_floor_of_plan(self, first: int, last: int) -> np.ndarray:
+        """(T,) lowest point (m) of the links ``first`` to ``last - 1`` at each step of the plan.
 
         From memory, else from the plan cache on disk (the sweep costs about one evaluation,
         which would double the first evaluation of a process), else swept.
@@ -517,28 +548,26 @@ class ToolSimulator:
         key = cache_key(
             {
                 "arm_floor": FLOOR_GUARD_VERSION,
+                "links": [first, last],
                 "knots": plan_cache_key(self.plan),
                 "control_dt": self.control_dt,
             }
         )
         if key in _ARM_FLOOR:
             return _ARM_FLOOR[key]
-        stored = load_knots(key, (1, 2))
+        steps = len(self.reference.q)
+        stored = load_knots(key, (1, steps))
         if stored is None:
             world, robot = self.world, self._robot
             assert robot is not None
-            lowest, reach = math.inf, 0.0
-            for q in self.reference.q:
+            lowest = np.empty((1, steps))
+            for k, q in enumerate(self.reference.q):
                 world.set_joint_positions(robot, q)
-                boxes = world.link_boxes(robot, range(last))
-                lowest = min(lowest, float(boxes[:, 0, 2].min()))
-                reach = max(reach, float(np.linalg.norm(_box_corners(boxes), axis=1).max()))
+                lowest[0, k] = world.link_boxes(robot, range(first, last))[:, 0, 2].min()
             world.set_joint_positions(robot, self.reference.q0)
-            # A point's distance from any joint axis is at most its distance from the base
-            # plus the axis's: twice the farthest corner.
-            stored = np.array([[lowest, 2.0 * reach]])
+            stored = lowest
             store_knots(key, stored)
-        _ARM_FLOOR[key] = (float(stored[0, 0]), float(stored[0, 1]))
+        _ARM_FLOOR[key] = stored[0]
         return _ARM_FLOOR[key]
 
     # -------------------------------------------------------------- rollout
@@ -688,23 +717,23 @@ class ToolSimulator:
         if self._guarded:
             assert self._guard_points is not None and self._arm_floor is not None
             steps = len(q_rows)
-            deviation = np.abs(
-                np.fromiter(itertools.chain.from_iterable(q_rows), float, steps * 7).reshape(
-                    steps, 7
-                )
-                - ref.q[:steps]
-            ).sum(axis=1)
+            levers, plan_floor, fixed = self._arm_floor
+
+            def rows(values: list[Any], width: int) -> np.ndarray:
+                flat = itertools.chain.from_iterable(values)
+                return np.fromiter(flat, float, steps * width).reshape(steps, width)
+
+            # How far a point of the links before the last joint may have strayed from its
+            # planned place: each joint's error times its lever (see _arm_levers).
+            strayed = np.abs(rows(q_rows, 7) - ref.q[:steps]) @ levers
             clearance = floor_clearance_bound(
-                np.fromiter(itertools.chain.from_iterable(tool_rows), float, steps * 3).reshape(
-                    steps, 3
-                ),
-                np.fromiter(itertools.chain.from_iterable(orientations), float, steps * 4).reshape(
-                    steps, 4
-                ),
+                rows(tool_rows, 3),
+                rows(orientations, 4),
                 self._guard_points,
-                deviation,
-                *self._arm_floor,
+                plan_floor[:steps],
+                strayed,
             )
+            clearance = min(clearance, fixed)
         # The scene is static and the reference constant after a fast-forward: every remaining
         # step repeats the last one (the controller's torque at rest is the gravity torque it
         # just applied).

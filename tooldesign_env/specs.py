@@ -238,7 +238,7 @@ class SceneSpec:
         arm_floor_contacts: whether the arm and the tool can touch the floor: True, False or
             ``"auto"`` (the default). With False only the box touches it, and PyBullet no
             longer tests the arm's 12 links and the tool's ~31 boxes against the floor on every
-            step (10-14 % of an evaluation, see docs/performance.md); a tool lowered onto the
+            step (about 16 % of an evaluation, see docs/performance.md); a tool lowered onto the
             floor would pass through it. ``"auto"`` simulates without those contacts, then
             checks a lower bound on how close the arm and the tool came to the floor; if it is
             below ``floor_clearance`` the episode is simulated again with them (so a plan that
