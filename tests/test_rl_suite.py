@@ -376,3 +376,31 @@ def test_bench_help_lists_the_rl_suite_and_its_sizes(capsys: pytest.CaptureFixtu
     assert "rl (the RL baselines" in text and "smoke, short, full" in text
     for option in ("--seeds", "--methods", "--parts", "--mass-range"):
         assert option in text
+
+
+def test_the_fixed_goal_table_tests_the_seeds_against_random_sampling():
+    from benchmarks.reports.rl import fixed_goal_table
+
+    rng = np.random.default_rng(0)
+    rows = []
+    for method, shift in (("random", 0.0), ("cmaes", -500.0), ("ppo", 0.0)):
+        for seed in range(10):
+            values = 8000.0 + shift + rng.normal(0.0, 50.0, 16)
+            rows += [
+                {
+                    "variant": "fixed",
+                    "optimizer": method,
+                    "seed": seed,
+                    "candidate": k,
+                    "free_energy": v,
+                }
+                for k, v in enumerate(values)
+            ]
+    table = fixed_goal_table(pd.DataFrame(rows), 0.015).set_index(["method", "episodes"])
+    cmaes, ppo = table.loc[("cmaes", 16)], table.loc[("ppo", 16)]
+    assert cmaes["a12"] == 0.0 and cmaes["significant"] and cmaes["p_holm"] < 1e-3
+    assert 0.2 < ppo["a12"] < 0.8 and not ppo["significant"]
+    assert np.isnan(table.loc[("random", 16), "p_holm"])
+    # One seed each: nothing to test.
+    one = pd.DataFrame([r for r in rows if r["seed"] == 0])
+    assert fixed_goal_table(one, 0.015)["p_holm"].isna().all()

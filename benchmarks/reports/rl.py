@@ -32,11 +32,13 @@ from typing import Any, cast
 
 import numpy as np
 import pandas as pd
+import scipy.stats as _sps
 from matplotlib.axes import Axes
 from matplotlib.ticker import FixedLocator, FuncFormatter, NullLocator
 
 from benchmarks.reports.comparison import REPORT_DIR, new_figure
 from benchmarks.reports.plots import save_png
+from benchmarks.reports.stats import holm_bonferroni, vargha_delaney_a12
 from benchmarks.rl.suite import RL_SUITE_KIND, RL_SUITE_NAME
 from benchmarks.storage import ResultStore, atomic_write_text, json_text, read_manifest
 
@@ -49,6 +51,8 @@ __all__ = [
 
 _POLICIES = ("contextual", "ppo", "sac")
 _CHECKPOINTS = (16, 32, 64, 128, 256, 512, 1024)
+#: Family-wise error rate of the seeds' tests against random sampling.
+_ALPHA = 0.05
 # One colour per method in every figure; CMA-ES and random sampling as in the other reports.
 _COLORS = {
     "random": "tab:red",
@@ -127,7 +131,13 @@ def fixed_goal_table(log: pd.DataFrame, noise_floor: float) -> pd.DataFrame:
     Returns:
         One row per (method, episodes): ``seeds``, ``median_best_F``, ``min_best_F``,
         ``max_best_F``, ``random_median_best_F``, ``relative_to_random`` and ``verdict``
-        (empty for random sampling itself, or when random sampling was not run).
+        (empty for random sampling itself, or when random sampling was not run), and the
+        seeds' test against random sampling's at the same number of episodes: ``a12`` (Vargha
+        and Delaney's A12 of the method against random sampling: the probability that a seed
+        of the method ends above one of random sampling's, ties counting half; below 0.5 the
+        method tends to be better), ``p_holm`` (two-sided Mann-Whitney U, Holm-corrected over
+        the methods at that number of episodes; NaN with fewer than 2 seeds) and
+        ``significant`` (``p_holm < 0.05``).
     """
     curves = _best_so_far(log)
     rows = []
@@ -153,7 +163,45 @@ def fixed_goal_table(log: pd.DataFrame, noise_floor: float) -> pd.DataFrame:
                 relative, verdict = _compare(row["median_best_F"], ref, noise_floor)
                 row.update(random_median_best_F=ref, relative_to_random=relative, verdict=verdict)
             rows.append(row)
-    return pd.DataFrame(rows)
+    table = pd.DataFrame(rows)
+    tests = _seed_tests(curves)
+    table["a12"] = [
+        tests.get((r.method, r.episodes), (math.nan,) * 2)[0] for r in table.itertuples()
+    ]
+    table["p_holm"] = [
+        tests.get((r.method, r.episodes), (math.nan,) * 2)[1] for r in table.itertuples()
+    ]
+    table["significant"] = (table["p_holm"] < _ALPHA).astype(bool)
+    return table
+
+
+def _seed_tests(curves: Mapping[str, np.ndarray]) -> dict[tuple[str, int], tuple[float, float]]:
+    """(method, episodes) -> (A12 against random sampling, Holm-corrected p) over seeds.
+
+    A12 is the method's against random sampling: below 0.5 the method tends to end lower.
+    """
+    reference = curves.get("random")
+    if reference is None or reference.shape[0] < 2:
+        return {}
+    out: dict[tuple[str, int], tuple[float, float]] = {}
+    for episodes in sorted({c for c in _CHECKPOINTS} | {r.shape[1] for r in curves.values()}):
+        if episodes > reference.shape[1]:
+            continue
+        ref = reference[:, episodes - 1]
+        names, a12, p = [], [], []
+        for method, runs in curves.items():
+            if method == "random" or episodes > runs.shape[1] or runs.shape[0] < 2:
+                continue
+            best = runs[:, episodes - 1]
+            names.append(method)
+            a12.append(vargha_delaney_a12(best, ref))
+            if np.unique(np.concatenate([best, ref])).size == 1:
+                p.append(1.0)
+            else:
+                p.append(float(_sps.mannwhitneyu(best, ref, alternative="two-sided").pvalue))
+        for method, effect, adjusted in zip(names, a12, holm_bonferroni(np.array(p)), strict=True):
+            out[(method, episodes)] = (float(effect), float(adjusted))
+    return out
 
 
 def _fixed_policies(log: pd.DataFrame) -> dict[str, list[float]]:
@@ -232,6 +280,30 @@ def _fixed_markdown(
             cells.append(cell)
         body.append(cells)
     lines += _markdown(header, body)
+    tested = table[table["p_holm"].notna()]
+    if not tested.empty:
+        others = [m for m in methods if m in set(tested["method"])]
+        lines += [
+            "",
+            "The seeds against random sampling's at the same number of episodes: Vargha and "
+            "Delaney's A12 (the chance that a seed of the method ends above one of random "
+            "sampling's; below 0.5 the method tends to be better) and the Holm-corrected p of a "
+            "two-sided Mann-Whitney U test over seeds (bold: significant at 0.05).",
+            "",
+        ]
+        rows = []
+        for episodes in sorted(set(tested["episodes"])):
+            cells = [str(episodes)]
+            for method in others:
+                row = tested[(tested["method"] == method) & (tested["episodes"] == episodes)]
+                if row.empty:
+                    cells.append("")
+                    continue
+                r = row.iloc[0]
+                text = f"A12 {r.a12:.2f}, p {r.p_holm:.3g}"
+                cells.append(f"**{text}**" if r.significant else text)
+            rows.append(cells)
+        lines += _markdown(["episodes", *(_LABELS.get(m, m) for m in others)], rows)
     if policies:
         lines.append("")
         for method in _method_order(policies):
