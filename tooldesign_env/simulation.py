@@ -613,9 +613,9 @@ class ToolSimulator:
         if not self._guard_warned:
             self._guard_warned = True
             warnings.warn(
-                f"the arm or the tool came within {max(clearance, 0.0):.3f} m of the floor "
-                f"(SceneSpec.floor_clearance = {self.scene.floor_clearance:g} m): the episode is "
-                "simulated again with their floor contacts; with this plan, "
+                f"the arm or the tool may have come within {max(clearance, 0.0):.3f} m of the "
+                f"floor (SceneSpec.floor_clearance = {self.scene.floor_clearance:g} m): the "
+                "episode is simulated again with their floor contacts; with this plan, "
                 "SceneSpec(arm_floor_contacts=True) saves the first rollout",
                 RuntimeWarning,
                 stacklevel=2,
