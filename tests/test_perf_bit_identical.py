@@ -136,7 +136,7 @@ def test_arm_floor_contacts_must_be_a_bool_or_auto(value):
         SceneSpec(arm_floor_contacts=value)
 
 
-@pytest.mark.parametrize("value", [0.02, 0.0, -0.1, 1.5, float("nan"), float("inf"), True, "0.1"])
+@pytest.mark.parametrize("value", [0.02, 0.0, -0.1, 1.5])
 def test_floor_clearance_must_exceed_the_contact_threshold(value):
     from tooldesign_env import SceneSpec
 
@@ -146,12 +146,32 @@ def test_floor_clearance_must_exceed_the_contact_threshold(value):
         SceneSpec(floor_clearance=value)
 
 
+@pytest.mark.parametrize(
+    ("value", "error"),
+    [
+        (float("nan"), ValueError),
+        (float("inf"), ValueError),
+        (10**400, ValueError),
+        (True, TypeError),
+        ("0.1", TypeError),
+        (None, TypeError),
+    ],
+)
+def test_floor_clearance_must_be_a_finite_real_number(value, error):
+    from tooldesign_env import SceneSpec
+
+    with pytest.raises(error, match=r"SceneSpec.floor_clearance must be a (real|finite) number"):
+        SceneSpec(floor_clearance=value)
+
+
 def test_auto_is_the_default_and_keeps_its_clearance_as_a_float():
     from tooldesign_env import SceneSpec
 
     scene = SceneSpec(floor_clearance=np.float32(0.05))
     assert scene.arm_floor_contacts == "auto" and type(scene.floor_clearance) is float
-    assert SceneSpec(arm_floor_contacts=np.bool_(False)).arm_floor_contacts is not True
+    # NumPy's booleans are stored as Python's: the simulator tests `is True`.
+    assert SceneSpec(arm_floor_contacts=np.bool_(True)).arm_floor_contacts is True
+    assert SceneSpec(arm_floor_contacts=np.bool_(False)).arm_floor_contacts is False
 
 
 # ------------------------------------------------------------------ the floor guard ("auto")
@@ -167,16 +187,18 @@ def test_the_bound_is_the_lowest_point_of_the_tools_group():
 
     points = np.array([[0.3, 0.0, -0.02], [0.0, 0.0, 0.1]])
     position, orientation = _flat(0.08)
-    bound = floor_clearance_bound(position, orientation, points, np.ones(4), np.zeros(4))
+    bound = floor_clearance_bound(
+        position, orientation, points, np.ones(4), np.zeros(4), np.zeros(4)
+    )
     assert bound == pytest.approx(0.06)
     # Turned upside down (180 degrees about x): the point 10 cm above the frame is now below it.
     flipped = np.tile([1.0, 0.0, 0.0, 0.0], (4, 1))
-    bound = floor_clearance_bound(position, flipped, points, np.ones(4), np.zeros(4))
+    bound = floor_clearance_bound(position, flipped, points, np.ones(4), np.zeros(4), np.zeros(4))
     assert bound == pytest.approx(-0.02)
     # Tilted by 0.1 rad about y: the point 30 cm along x goes down by 0.3 sin(0.1).
     half = 0.05
     tilted = np.tile([0.0, np.sin(half), 0.0, np.cos(half)], (4, 1))
-    bound = floor_clearance_bound(position, tilted, points, np.ones(4), np.zeros(4))
+    bound = floor_clearance_bound(position, tilted, points, np.ones(4), np.zeros(4), np.zeros(4))
     expected = 0.08 - 0.3 * np.sin(0.1) - 0.02 * np.cos(0.1)
     assert bound == pytest.approx(expected)
 
@@ -189,13 +211,28 @@ def test_the_bound_takes_the_arms_tracking_error_and_the_steps_between_records()
     # The other links: 14-20 cm above the floor along the plan, strayed by up to 4 cm.
     plan = np.array([0.20, 0.18, 0.14, 0.16])
     strayed = np.array([0.0, 0.0, 0.04, 0.0])
-    bound = floor_clearance_bound(position, orientation, points, plan, strayed)
-    # 0.14 - 0.04, less the largest change between two records (0.18 -> 0.10).
-    assert bound == pytest.approx(0.10 - 0.08)
-    # A tool that drops 3 cm between two records: 3 cm more margin is taken.
-    position[2, 2] = 0.47
-    bound = floor_clearance_bound(position, orientation, points, np.ones(4), np.zeros(4))
-    assert bound == pytest.approx(0.46 - 0.03)
+    bound = floor_clearance_bound(position, orientation, points, plan, strayed, np.zeros(4))
+    assert bound == pytest.approx(0.14 - 0.04)
+    # The physics steps before each record: taken at the record they precede.
+    between = np.array([0.0, 0.05, 0.0, 0.03])
+    bound = floor_clearance_bound(position, orientation, points, plan, strayed, between)
+    assert bound == pytest.approx(min(0.10, 0.18 - 0.05, 0.16 - 0.03))
+    # The tool's group: its lowest point, less what it may have moved before the record.
+    position[2, 2] = 0.05
+    bound = floor_clearance_bound(position, orientation, points, np.ones(4), np.zeros(4), between)
+    assert bound == pytest.approx(0.04)
+
+
+def test_the_guard_raises_its_limit_for_a_tool_whose_contact_threshold_is_larger():
+    # PyBullet keeps contact points within 0.02 m times a shape's angular-motion disc: for a
+    # long tool that exceeds floor_clearance, and the guard must use it instead.
+    from tooldesign_env import ToolSpec, make_tool
+    from tooldesign_env.simulation import _breaking_threshold
+
+    straight = _breaking_threshold(make_tool(np.zeros(3)))
+    long = _breaking_threshold(make_tool(np.zeros(3), ToolSpec(arc_length=3.0)))
+    assert 0.02 < straight < 0.03 < long
+    assert long > 2.0 * straight
 
 
 def test_the_levers_bound_the_arm_and_the_base_joint_has_none():
@@ -210,6 +247,9 @@ def test_the_levers_bound_the_arm_and_the_base_joint_has_none():
         levers, plan_floor, fixed = sim._arm_floor
         last = robot.joints[-1]
         assert levers[0] == 0.0 and levers[-1] == 0.0 and np.all(levers[1:-1] > 0.1)
+        # Between records every joint but the first moves the tool's group too.
+        substep = sim._substep_levers
+        assert substep[0] == 0.0 and np.all(substep[1:] >= levers[1:]) and substep[-1] > 1.0
         assert plan_floor.shape == sim.reference.times.shape and 0.1 < fixed < plan_floor.min()
         q0 = np.array(sim.reference.q[900])
         world.set_joint_positions(robot, q0)
@@ -239,7 +279,7 @@ def test_auto_gives_the_results_of_true_in_the_default_scene():
                 sim.build(make_tool(np.asarray(design)))
                 runs[flag] = sim.run(record_mobility=True)
             auto = runs["auto"]
-            assert not auto.floor_contacts and auto.floor_clearance > 0.05
+            assert not auto.floor_contacts and auto.floor_clearance > 0.04
             assert runs[True].floor_contacts and runs[True].floor_clearance is None
             for name in ("box_position", "torques", "joint_positions", "contact_mobility"):
                 np.testing.assert_array_equal(getattr(auto, name), getattr(runs[True], name))

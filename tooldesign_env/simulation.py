@@ -65,6 +65,9 @@ _KNOTS: dict[str, np.ndarray] = {}
 _ARM_FLOOR: dict[str, np.ndarray] = {}
 #: Bump when the sweep changes: it is part of the sweep's cache key.
 FLOOR_GUARD_VERSION = 2
+#: Bullet's gContactBreakingThreshold: contact points are kept closer than this times a
+#: shape's angular-motion disc (m).
+BREAKING_THRESHOLD = 0.02
 
 #: Settings of PyBullet's inverse-kinematics solver for the plan's knots.
 IK_ITERATIONS = 200
@@ -212,20 +215,21 @@ def floor_clearance_bound(
     points: np.ndarray,
     arm_clearance: ArrayLike,
     strayed: ArrayLike,
+    between: ArrayLike,
 ) -> float:
     """A lower bound on the distance of the arm and its tool from the floor z = 0 over a rollout.
 
-    Two groups of links, each bounded in its own way:
+    Two groups of links, each bounded in its own way at each recorded step:
 
     * the tool and the links rigidly attached to it (the last arm link, the hand, the fingers):
-      ``points`` bound their shapes in a frame attached to them, so their lowest point at each
-      recorded step is exact for those points: ``z + min(R[2] . p)``;
+      ``points`` bound their shapes in a frame attached to them, so their lowest point is
+      exact for those points: ``z + min(R[2] . p)``;
     * the links before the last arm joint: their lowest point at the same step of the plan,
       ``arm_clearance``, less a bound on how far any of their points strayed from its planned
-      place, ``strayed`` (see :meth:`ToolSimulator.run`).
+      place, ``strayed`` (see :meth:`ToolSimulator._arm_levers`).
 
-    The physics steps between two recorded steps are covered by subtracting the largest change
-    of each group's figure between two consecutive records.
+    The physics steps between two records are covered by ``between``: how far any point may
+    have been from its place at the next record.
 
     Args:
         tool_position: (T, 3) origin of a frame attached to the tool per recorded step, m.
@@ -233,6 +237,8 @@ def floor_clearance_bound(
         points: (m, 3) points in that frame whose convex hull holds the tool's group.
         arm_clearance: (T,) lowest point of the other links at each step of the plan, m.
         strayed: (T,) how far their points may have moved from the plan at each step, m.
+        between: (T,) how far any point may have been, in the physics steps before each
+            record, from where it is at the record, m.
 
     Returns:
         The bound, m (negative if the floor may have been reached).
@@ -243,10 +249,26 @@ def floor_clearance_bound(
     )
     lowest = np.asarray(tool_position, dtype=float)[:, 2] + (points @ third_row).min(axis=0)
     arm = np.asarray(arm_clearance, dtype=float) - np.asarray(strayed, dtype=float)
-    bound = min(float(lowest.min()), float(arm.min()))
-    if lowest.shape[0] > 1:
-        bound -= max(float(np.abs(np.diff(lowest)).max()), float(np.abs(np.diff(arm)).max()))
-    return bound
+    return float((np.minimum(lowest, arm) - np.asarray(between, dtype=float)).min())
+
+
+def _breaking_threshold(geometry: ToolGeometry) -> float:
+    """An upper bound (m) on PyBullet's contact breaking threshold for the tool's shape.
+
+    Bullet keeps contact points closer than 0.02 m times the shape's angular-motion disc,
+    |c| + r for the centre c and half-diagonal r of the shape's box in its own frame (the
+    principal frame at the centre of mass). The shape lies in the tool's bounding box, so
+    |c| is at most that box's farthest corner from the centre of mass, and r at most the
+    half-diagonal of that box turned into the principal frame.
+    """
+    corners = _box_corners(np.asarray(geometry.bounds, dtype=float)[None])
+    corners = corners - np.asarray(geometry.center_of_mass, dtype=float)
+    _, yaw = principal_inertia(np.asarray(geometry.inertia))
+    turn = np.array([[math.cos(yaw), -math.sin(yaw), 0.0], [math.sin(yaw), math.cos(yaw), 0.0]])
+    turned = np.column_stack([corners[:, :2] @ turn[:, :2], corners[:, 2]])
+    half_diagonal = float(np.linalg.norm(turned.max(axis=0) - turned.min(axis=0))) / 2.0
+    farthest = float(np.linalg.norm(corners, axis=1).max())
+    return BREAKING_THRESHOLD * (farthest + half_diagonal)
 
 
 def _box_corners(boxes: np.ndarray) -> np.ndarray:
@@ -331,6 +353,9 @@ class ToolSimulator:
         self._guard_points: np.ndarray | None = None
         self._arm_floor: tuple[np.ndarray, np.ndarray, float] | None = None
         self._guard_warned = False
+        self._arm_chain: list[float | None] | None = None
+        self._substep_levers = np.zeros(7)
+        self._guard_threshold = self.scene.floor_clearance
         self._targets_for: JointReference | None = None
         self._target_rows: list[tuple[list[float], list[float], list[float]]] = []
 
@@ -504,6 +529,20 @@ class ToolSimulator:
         if self._arm_floor is None:
             levers, first, fixed = self._arm_levers(last)
             self._arm_floor = (levers, self._arm_floor_of_plan(first, last), fixed)
+        # Between two records every point of the arm and the tool moves, so the levers of the
+        # sub-steps reach to the tool's group too: the joint-to-joint lengths up to the last
+        # joint plus the farthest corner of the group from it.
+        assert self._arm_chain is not None
+        origin = np.asarray(world.link_pose(robot, last)[0], dtype=float)
+        radius = float(np.linalg.norm(corners - origin, axis=1).max())
+        tool_levers = np.array(
+            [0.0 if lever is None else lever + radius for lever in self._arm_chain]
+        )
+        self._substep_levers = np.maximum(self._arm_floor[0], tool_levers)
+        # PyBullet keeps contact points closer than its breaking threshold, 0.02 m times the
+        # shape's angular-motion disc (|AABB centre| + AABB half-diagonal, about the centre of
+        # mass), in its own frame: the tool's grows with its size.
+        self._guard_threshold = max(self.scene.floor_clearance, _breaking_threshold(geometry))
 
     def _arm_levers(self, last: int) -> tuple[np.ndarray, int, float]:
         """What bounds the links before ``last``.
@@ -535,6 +574,18 @@ class ToolSimulator:
                 continue
             reach = [steps[joint:m].sum() + radius[m] for m in range(joint, last)]
             levers[i] = max(reach)
+        # Per arm joint: its distance along the chain to the last joint (None: it lowers
+        # nothing), for the levers that reach the tool's group.
+        last_origin = np.asarray(world.link_pose(robot, last)[0], dtype=float)
+        to_last = float(np.linalg.norm(last_origin - origins[-1]) + steps.sum())
+        self._arm_chain = [
+            None
+            if (i == 0 and levers[0] == 0.0) or joint > last
+            else float(to_last - steps[:joint].sum())
+            if joint < last
+            else 0.0
+            for i, joint in enumerate(robot.joints)
+        ]
         first = 1 if levers[0] == 0.0 else 0
         fixed = float(boxes[:first, 0, 2].min()) if first else math.inf
         return levers, first, fixed
@@ -601,20 +652,24 @@ class ToolSimulator:
 
         Returns:
             The recorded :class:`Trajectory`.
+
+        Build before every run: a second run after one build continues from where the first
+        ended, unless the floor guard (``SceneSpec.arm_floor_contacts="auto"``) sends it back
+        to be simulated again from the build.
         """
         if self._robot is None:
             raise RuntimeError("call build(geometry) before run()")
         with _gc_paused():
             trajectory = self._run(snapshot_every, record_mobility)
         clearance = trajectory.floor_clearance
-        if clearance is None or clearance >= self.scene.floor_clearance:
+        if clearance is None or clearance >= self._guard_threshold:
             return trajectory
         # The arm or the tool may have come near the floor: simulate again with its contacts.
         if not self._guard_warned:
             self._guard_warned = True
             warnings.warn(
                 f"the arm or the tool may have come within {max(clearance, 0.0):.3f} m of the "
-                f"floor (SceneSpec.floor_clearance = {self.scene.floor_clearance:g} m): the "
+                f"floor (the guard's limit: {self._guard_threshold:.3f} m): the "
                 "episode is simulated again with their floor contacts; with this plan, "
                 "SceneSpec(arm_floor_contacts=True) saves the first rollout",
                 RuntimeWarning,
@@ -642,6 +697,7 @@ class ToolSimulator:
         box_rows: list[tuple[float, ...]] = []
         torque_rows: list[list[float]] = []
         q_rows: list[tuple[float, ...]] = []
+        qd_rows: list[tuple[float, ...]] = []  # for the floor guard's sub-steps
         tool_rows: list[tuple[float, ...]] = []
         contact_rows: list[bool] = []
         # Steps in contact: (k, q, tool centre of mass, box centre, PyBullet's contact points),
@@ -692,6 +748,7 @@ class ToolSimulator:
             box_now = box_pose()[0]
             box_rows.append(box_now)
             q_rows.append(q)
+            qd_rows.append(qd)
             manifold = contacts()
             if manifold and record_mobility:
                 ee, tool = link_states()
@@ -726,12 +783,20 @@ class ToolSimulator:
             # How far a point of the links before the last joint may have strayed from its
             # planned place: each joint's error times its lever (see _arm_levers).
             strayed = np.abs(rows(q_rows, 7) - ref.q[:steps]) @ levers
+            # Bullet integrates positions with the step's new velocities, so the physics
+            # step before a record was at q - h qd: its points were at most h |qd| . levers
+            # away (exact for a control period of 2; with more sub-steps their velocities are
+            # taken to be the recorded one).
+            between = (
+                (period - 1) * scene.time_step * (np.abs(rows(qd_rows, 7)) @ self._substep_levers)
+            )
             clearance = floor_clearance_bound(
                 rows(tool_rows, 3),
                 rows(orientations, 4),
                 self._guard_points,
                 plan_floor[:steps],
                 strayed,
+                between,
             )
             clearance = min(clearance, fixed)
         # The scene is static and the reference constant after a fast-forward: every remaining
@@ -832,7 +897,9 @@ class ToolSimulator:
         """Build the scene and apply a torque sequence with no controller in the loop.
 
         The same physics as a rollout without the controller's reads and inverse dynamics:
-        benchmarks use it as the floor of a rollout's cost.
+        benchmarks use it as the floor of a rollout's cost. With
+        ``SceneSpec.arm_floor_contacts="auto"`` it runs without the arm's floor contacts, as a
+        rollout that the floor guard let pass, but nothing checks the clearance.
 
         Args:
             geometry: the tool.
