@@ -162,6 +162,20 @@ def engine_version() -> str:
     return f"{version} api {pybullet.getAPIVersion()}"
 
 
+def rotation_matrices(quaternions: Any) -> np.ndarray:
+    """(..., 3, 3) rotation matrices of quaternions (..., 4) in PyBullet's order (x, y, z, w).
+
+    A matrix's columns are the rotated frame's axes in the world.
+    """
+    x, y, z, w = np.moveaxis(np.asarray(quaternions, dtype=float), -1, 0)
+    rows = [
+        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+    ]
+    return np.moveaxis(np.array(rows, dtype=float), (0, 1), (-2, -1))
+
+
 def _project(
     points: np.ndarray, view: tuple[Any, ...], proj: tuple[Any, ...], width: int, height: int
 ) -> np.ndarray:
@@ -552,11 +566,9 @@ class BulletWorld:
 
     def joint_axis(self, robot: RobotHandles, joint: int) -> np.ndarray:
         """(3,) world direction of a joint's axis at the current joint positions."""
-        c = self.client
-        local = np.asarray(c.getJointInfo(robot.body, joint)[13], dtype=float)
+        local = np.asarray(self.client.getJointInfo(robot.body, joint)[13], dtype=float)
         orientation = self._link_state(robot.body, joint, computeForwardKinematics=1)[5]
-        rotation = np.asarray(c.getMatrixFromQuaternion(orientation), dtype=float).reshape(3, 3)
-        return np.asarray(rotation @ local)
+        return np.asarray(rotation_matrices(orientation) @ local)
 
     def link_boxes(self, robot: RobotHandles, links: Sequence[int]) -> np.ndarray:
         """(len(links), 2, 3) world axis-aligned bounding boxes (min, max) of links, m.

@@ -14,7 +14,7 @@ import gc
 import itertools
 import math
 import warnings
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Any, cast
 
@@ -27,6 +27,7 @@ from tooldesign_env.bullet import (
     engine_version,
     panda_urdf_with_tool,
     robot_model_digest,
+    rotation_matrices,
 )
 from tooldesign_env.geometry import ToolGeometry, tool_link_xml
 from tooldesign_env.plan import (
@@ -243,11 +244,8 @@ def floor_clearance_bound(
     Returns:
         The bound, m (negative if the floor may have been reached).
     """
-    x, y, z, w = np.asarray(tool_orientation, dtype=float).T
-    third_row = np.stack(
-        [2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y)]
-    )
-    lowest = np.asarray(tool_position, dtype=float)[:, 2] + (points @ third_row).min(axis=0)
+    third_row = rotation_matrices(tool_orientation)[:, 2, :]  # (T, 3): world z of each axis
+    lowest = np.asarray(tool_position, dtype=float)[:, 2] + (third_row @ points.T).min(axis=1)
     arm = np.asarray(arm_clearance, dtype=float) - np.asarray(strayed, dtype=float)
     return float((np.minimum(lowest, arm) - np.asarray(between, dtype=float)).min())
 
@@ -353,7 +351,7 @@ class ToolSimulator:
         self._guard_points: np.ndarray | None = None
         self._arm_floor: tuple[np.ndarray, np.ndarray, float] | None = None
         self._guard_warned = False
-        self._arm_chain: list[float | None] | None = None
+        self._arm_to_last = np.zeros(7)
         self._substep_levers = np.zeros(7)
         self._guard_threshold = self.scene.floor_clearance
         self._targets_for: JointReference | None = None
@@ -520,9 +518,11 @@ class ToolSimulator:
         # The rollout records the pose of the grasp frame (EE_LINK): the points are in it.
         ee_position, ee_orientation = world.link_pose(robot, robot.ee_link)
         tool_position, tool_orientation = world.link_pose(robot, robot.tool_link)
-        to_ee = _rotation(ee_orientation)
+        to_ee = rotation_matrices(ee_orientation)
         tool_corners = _box_corners(np.asarray(geometry.bounds, dtype=float)[None])
-        tool_world = tool_corners @ _rotation(tool_orientation).T + np.asarray(tool_position)
+        tool_world = tool_corners @ rotation_matrices(tool_orientation).T + np.asarray(
+            tool_position
+        )
         attached_world = _box_corners(world.link_boxes(robot, attached))
         corners = np.vstack([tool_world, attached_world])
         self._guard_points = (corners - np.asarray(ee_position)) @ to_ee
@@ -532,12 +532,9 @@ class ToolSimulator:
         # Between two records every point of the arm and the tool moves, so the levers of the
         # sub-steps reach to the tool's group too: the joint-to-joint lengths up to the last
         # joint plus the farthest corner of the group from it.
-        assert self._arm_chain is not None
         origin = np.asarray(world.link_pose(robot, last)[0], dtype=float)
         radius = float(np.linalg.norm(corners - origin, axis=1).max())
-        tool_levers = np.array(
-            [0.0 if lever is None else lever + radius for lever in self._arm_chain]
-        )
+        tool_levers = np.nan_to_num(self._arm_to_last + radius)
         self._substep_levers = np.maximum(self._arm_floor[0], tool_levers)
         # PyBullet keeps contact points closer than its breaking threshold, 0.02 m times the
         # shape's angular-motion disc (|AABB centre| + AABB half-diagonal, about the centre of
@@ -574,18 +571,15 @@ class ToolSimulator:
                 continue
             reach = [steps[joint:m].sum() + radius[m] for m in range(joint, last)]
             levers[i] = max(reach)
-        # Per arm joint: its distance along the chain to the last joint (None: it lowers
-        # nothing), for the levers that reach the tool's group.
+        # Per arm joint: its distance along the chain to the last joint, for the levers that
+        # reach the tool's group (NaN for a joint that lowers nothing).
         last_origin = np.asarray(world.link_pose(robot, last)[0], dtype=float)
-        to_last = float(np.linalg.norm(last_origin - origins[-1]) + steps.sum())
-        self._arm_chain = [
-            None
-            if (i == 0 and levers[0] == 0.0) or joint > last
-            else float(to_last - steps[:joint].sum())
-            if joint < last
-            else 0.0
-            for i, joint in enumerate(robot.joints)
-        ]
+        to_last = float(np.linalg.norm(last_origin - origins[-1]))
+        self._arm_to_last = np.array(
+            [to_last + steps[joint:].sum() if joint < last else 0.0 for joint in robot.joints]
+        )
+        if levers[0] == 0.0:
+            self._arm_to_last[0] = math.nan
         first = 1 if levers[0] == 0.0 else 0
         fixed = float(boxes[:first, 0, 2].min()) if first else math.inf
         return levers, first, fixed
@@ -1012,18 +1006,6 @@ def _gc_paused() -> Iterator[None]:
     finally:
         if enabled:
             gc.enable()
-
-
-def _rotation(quaternion: Sequence[float]) -> np.ndarray:
-    """(3, 3) rotation matrix of a quaternion (x, y, z, w); its columns are the frame's axes."""
-    x, y, z, w = (float(v) for v in quaternion)
-    return np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-        ]
-    )
 
 
 def _tool_yaw(ee_orientation: tuple[Any, ...]) -> float:
