@@ -282,10 +282,12 @@ def _principal_link_xml(geometry: ToolGeometry) -> tuple[str, np.ndarray]:
     start = xml.index("<inertial>")
     end = xml.index("</inertial>") + len("</inertial>")
     com = " ".join(repr(float(v)) for v in geometry.center_of_mass)
+    # Python floats: NumPy 2 writes a np.float64 as "np.float64(...)", which is not a URDF number.
+    ixx, iyy, izz = (float(v) for v in diag)
     inertial = (
         f'<inertial><origin xyz="{com}" rpy="0 0 {yaw!r}"/><mass value="{geometry.mass!r}"/>'
-        f'<inertia ixx="{diag[0]!r}" ixy="0" ixz="0" iyy="{diag[1]!r}" iyz="0" '
-        f'izz="{diag[2]!r}"/></inertial>'
+        f'<inertia ixx="{ixx!r}" ixy="0" ixz="0" iyy="{iyy!r}" iyz="0" izz="{izz!r}"/>'
+        "</inertial>"
     )
     return xml[:start] + inertial + xml[end:], diag
 

@@ -7,6 +7,10 @@ import argparse
 from benchmarks.execution import MAX_RETRIES_MAX, TaskSettings
 from benchmarks.execution.evaluator import _ESTIMATORS, OBJECTIVES
 
+#: ``tooldesign_env.geometry.SECTION_SHAPES``, spelled out so that parsing the command line does
+#: not import the simulation (a test checks that the two agree).
+SECTION_SHAPES = ("square", "round")
+
 
 def _max_retries(text: str) -> int:
     # int() alone would take "1_000" and " 3"; a count is digits only. Booleans are not counts.
@@ -77,6 +81,13 @@ def add_task_arguments(parser: argparse.ArgumentParser) -> None:
         default=defaults.objective,
         help="what is minimized: F, or the goal error averaged over box masses (the "
         "robust-design baseline) (default: %(default)s)",
+    )
+    parser.add_argument(
+        "--section-shape",
+        choices=SECTION_SHAPES,
+        default="square",
+        help="the tool's section: the paper's square, or round (far less chaotic contact, "
+        "see docs/model.md) (default: %(default)s)",
     )
     parser.add_argument(
         "--scene-samples",

@@ -31,12 +31,20 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 
 def _run(args: argparse.Namespace) -> int:
+    extra: dict[str, Any] = {}
+    if args.scene_samples != 1:
+        extra["scene_samples"] = args.scene_samples
+    if args.section_shape != "square":
+        from tooldesign_env import ToolSpec
+
+        extra["tool"] = ToolSpec(section_shape=args.section_shape)
     task = TaskSettings(
         goal=tuple(args.goal),
         goal_precision=args.goal_precision,
         box_mass=args.box_mass,
         estimator=args.estimator,
         objective=args.objective,
+        env_kwargs=extra,
     )
     start = time.perf_counter()
 

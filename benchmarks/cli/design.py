@@ -180,6 +180,7 @@ def config_from_args(args: argparse.Namespace) -> DesignConfig:
         estimator=args.estimator,
         objective=args.objective,
         scene_samples=args.scene_samples,
+        section_shape=args.section_shape,
     )
 
 

@@ -61,6 +61,7 @@ def _run(args: argparse.Namespace) -> int:
         estimator=args.estimator,
         objective=args.objective,
         scene_samples=args.scene_samples,
+        section_shape=args.section_shape,
         robustness=args.robustness,
         outside_bounds=args.outside_bounds,
         video=args.video,

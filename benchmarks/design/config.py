@@ -42,10 +42,19 @@ _RUNTIME_FIELDS = frozenset({"iterations", "workers", "executor", "scheduler", "
 
 #: Config fields added after runs were first stored, with the value older runs had: a run
 #: folder whose manifest lacks one is resumed as if it held that value.
-ADDED_FIELDS: dict[str, Any] = {"scene_samples": 1, "scene": {}}
+ADDED_FIELDS: dict[str, Any] = {"scene_samples": 1, "scene": {}, "section_shape": "square"}
 
 #: SceneSpec fields a config may not override in ``scene``: they have a field of their own.
 _SCENE_OWN_FIELDS = {"box_mass": "box_mass"}
+
+
+def check_section_shape(value: Any) -> str:
+    """``value`` if it is one of ``tooldesign_env.geometry.SECTION_SHAPES``, else a ValueError."""
+    from tooldesign_env.geometry import SECTION_SHAPES
+
+    if not isinstance(value, str) or value not in SECTION_SHAPES:
+        raise ValueError(f"section_shape must be one of {SECTION_SHAPES}, got {value!r}")
+    return value
 
 
 def _int(name: str, value: Any, minimum: int, maximum: int = 2**63 - 1) -> int:
@@ -211,6 +220,8 @@ class DesignConfig:
             tuples), JSON values, e.g. ``{"box_position": [-0.4, 1.1]}`` to move the box. Not
             ``box_mass`` (its own field). Empty (the default) is the default scene.
         robustness_masses: Altered box masses m_i in kg of the final tool's robustness test.
+        section_shape: The tool's section, ``"square"`` (the paper's) or ``"round"``
+            (``ToolSpec.section_shape``: far less chaotic contact, see docs/model.md).
     """
 
     optimizer: str = "cmaes"
@@ -231,6 +242,7 @@ class DesignConfig:
     bounds: Sequence[Sequence[float]] | np.ndarray | None = None
     scene: tuple[tuple[str, Any], ...] | Mapping[str, Any] = ()
     robustness_masses: Sequence[float] = ROBUSTNESS_MASSES
+    section_shape: str = "square"
 
     def __post_init__(self) -> None:
         if not isinstance(self.optimizer, str) or not self.optimizer.strip():
@@ -277,6 +289,7 @@ class DesignConfig:
         except (TypeError, ValueError) as error:
             raise type(error)(f"robustness_masses: {error}") from None
         object.__setattr__(self, "robustness_masses", masses)
+        object.__setattr__(self, "section_shape", check_section_shape(self.section_shape))
 
     @property
     def degree(self) -> int:
@@ -284,18 +297,17 @@ class DesignConfig:
         return len(self.bounds or ())
 
     def tool_spec(self) -> Any:
-        """The ``tooldesign_env.ToolSpec`` of the run: the paper's tool with ``degree`` n."""
+        """The ``tooldesign_env.ToolSpec`` of the run: the paper's tool, degree n, its section."""
         from tooldesign_env import ToolSpec
 
-        spec = ToolSpec()
-        return spec if spec.degree == self.degree else dataclasses.replace(spec, degree=self.degree)
+        return ToolSpec(degree=self.degree, section_shape=self.section_shape)
 
     def task(self) -> TaskSettings:
         """The task and env settings every design of the run is scored with."""
         from tooldesign_env import ToolSpec, default_bounds
 
         extra: dict[str, Any] = {}
-        if self.degree != ToolSpec().degree:
+        if self.tool_spec() != ToolSpec():
             extra["tool"] = self.tool_spec()
         if self.bounds != _bounds(default_bounds(self.degree)):
             extra["bounds"] = self.bounds

@@ -86,6 +86,7 @@ def evaluate_coefficients(
     estimator: str = "contact",
     objective: str = "free-energy",
     scene_samples: int = 1,
+    section_shape: str = "square",
     robustness: bool = False,
     outside_bounds: bool = False,
     video: bool = False,
@@ -106,6 +107,7 @@ def evaluate_coefficients(
         estimator: estimator of dX/dU.
         objective: what is scored (``free-energy`` or ``expected-goal-error``).
         scene_samples: K, the scenes F is averaged over (``ObjectiveSpec.scene_samples``).
+        section_shape: the tool's section (``ToolSpec.section_shape``).
         robustness: also test the design under other box masses.
         outside_bounds: accept a design outside the default bounds (the bounds are widened to
             include it).
@@ -121,7 +123,9 @@ def evaluate_coefficients(
         TypeError: ``out`` is not a path.
     """
     out = check_out_dir(out)  # before the simulation: a file named like the folder is refused
-    spec = ToolSpec(degree=int(np.size(coeffs)) if np.ndim(coeffs) == 1 else 3)
+    spec = ToolSpec(
+        degree=int(np.size(coeffs)) if np.ndim(coeffs) == 1 else 3, section_shape=section_shape
+    )
     c = validate_coefficients(coeffs, spec.degree)
     bounds = default_bounds(spec.degree)
     outside = (c < bounds[:, 0]) | (c > bounds[:, 1])
@@ -163,6 +167,7 @@ def evaluate_coefficients(
                 "estimator": estimator,
                 "objective": objective,
                 "scene_samples": scene_samples,
+                "section_shape": section_shape,
             },
             "versions": package_versions(),
         }

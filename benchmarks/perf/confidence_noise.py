@@ -16,7 +16,7 @@ at the K fixed offsets of ``scene_offsets`` added to its nudge, and the table gi
 the mean over the nudges for each K, and its cost relative to one rollout.
 
 Run: ``python benchmarks/perf/confidence_noise.py [--designs 12] [--nudges 6] [--seed 1]
-[--scene-samples 1 4 8]``.
+[--scene-samples 1 4 8] [--section-shape round]``.
 Targets (issue 8): median spread of F <= 1 %, of the confidence <= 2 %, cost <= 30 %.
 """
 
@@ -30,8 +30,16 @@ from dataclasses import replace
 
 import numpy as np
 
-from tooldesign_env import ObjectiveSpec, SceneSpec, ToolGeometry, ToolSimulator, make_tool
+from tooldesign_env import (
+    ObjectiveSpec,
+    SceneSpec,
+    ToolGeometry,
+    ToolSimulator,
+    ToolSpec,
+    make_tool,
+)
 from tooldesign_env.env import default_bounds
+from tooldesign_env.geometry import SECTION_SHAPES
 from tooldesign_env.objective import ObjectiveTerms, free_energy, scene_offsets
 from tooldesign_env.simulation import Trajectory
 
@@ -67,14 +75,16 @@ def nudged_scenes(base: SceneSpec, n: int, shift: float, turn: float, seed: int)
     return out
 
 
-def valid_designs(n: int, seed: int, sim: ToolSimulator) -> list[np.ndarray]:
-    """The first n uniform random designs in the default bounds that can be used."""
+def valid_designs(
+    n: int, seed: int, sim: ToolSimulator, spec: ToolSpec | None = None
+) -> list[np.ndarray]:
+    """The first n uniform random designs in the default bounds that can be used (as ``spec``)."""
     rng = np.random.default_rng(seed)
     bounds = default_bounds(3)
     out: list[np.ndarray] = []
     while len(out) < n:
         c = rng.uniform(bounds[:, 0], bounds[:, 1])
-        geometry = make_tool(c)
+        geometry = make_tool(c, spec)
         if geometry.buildable and not sim.build(geometry):
             out.append(c)
     return out
@@ -95,7 +105,9 @@ def score(
 
 
 def spread(values: list[float]) -> float:
-    """(max - min) / |mean| of a list of numbers."""
+    """(max - min) / |mean| of a list of numbers (0 if they are all equal, e.g. all 0)."""
+    if max(values) == min(values):
+        return 0.0
     return (max(values) - min(values)) / abs(statistics.fmean(values))
 
 
@@ -113,6 +125,12 @@ def main() -> None:
         "--settings", nargs="*", default=list(SETTINGS), help="names of estimator settings"
     )
     parser.add_argument(
+        "--section-shape",
+        choices=SECTION_SHAPES,
+        default=ToolSpec().section_shape,
+        help="the tool's section (ToolSpec.section_shape)",
+    )
+    parser.add_argument(
         "--scene-samples",
         type=int,
         nargs="*",
@@ -126,7 +144,8 @@ def main() -> None:
     base = SceneSpec()
     scenes = nudged_scenes(base, args.nudges, args.shift, args.turn, args.seed)
     sims = [ToolSimulator(scene=s) for s in scenes]
-    designs = valid_designs(args.designs, args.seed, sims[0])
+    tool_spec = ToolSpec(section_shape=args.section_shape)
+    designs = valid_designs(args.designs, args.seed, sims[0], tool_spec)
     goal = np.asarray(args.goal, dtype=float)
     specs = {
         name: ObjectiveSpec(goal_precision=args.goal_precision, **SETTINGS[name])  # type: ignore[arg-type]
@@ -138,7 +157,7 @@ def main() -> None:
     # smoothed[design][nudge][k] -> (F, confidence, goal error) of the k-th scene of that nudge
     smoothed: list[list[list[tuple[float, float, float]]]] = []
     for c in designs:
-        geometry = make_tool(c)
+        geometry = make_tool(c, tool_spec)
         rows: dict[str, list[tuple[float, float, float]]] = {n: [] for n in specs}
         for sim in sims:
             sim.build(geometry)
@@ -164,7 +183,7 @@ def main() -> None:
     print(
         f"{len(designs)} random valid designs (seed {args.seed}), {args.nudges} scenes each "
         f"(box shift <= {args.shift * 1e3:g} mm, turn <= {args.turn:g} rad), "
-        f"p^X = {args.goal_precision:g}"
+        f"p^X = {args.goal_precision:g}, {args.section_shape} section"
     )
     print(
         f"{'estimator':32s} {'F spread':>9s} {'conf spread':>12s} {'goal-err spread':>16s}"

@@ -33,6 +33,12 @@ from tooldesign_env.geometry import ToolSpec
 #: name -> (SceneSpec changes, ToolSpec changes, engine parameters, contact dynamics).
 SETTINGS: dict[str, tuple[dict[str, Any], dict[str, Any], dict[str, Any], dict[str, Any]]] = {
     "default": ({}, {}, {}, {}),
+    "round section": ({}, {"section_shape": "round"}, {}, {}),
+    "round section, 10 segments": ({}, {"section_shape": "round", "n_segments": 10}, {}, {}),
+    "round section, 60 segments": ({}, {"section_shape": "round", "n_segments": 60}, {}, {}),
+    "tool segments 10": ({}, {"n_segments": 10}, {}, {}),
+    "tool segments 15": ({}, {"n_segments": 15}, {}, {}),
+    "tool segments 20": ({}, {"n_segments": 20}, {}, {}),
     "tool segments 60": ({}, {"n_segments": 60}, {}, {}),
     "tool segments 120": ({}, {"n_segments": 120}, {}, {}),
     "no cone friction": ({}, {}, {"enableConeFriction": 0}, {}),
@@ -55,8 +61,8 @@ def measure(name: str, args: argparse.Namespace) -> tuple[float, float, float, f
     base = replace(SceneSpec(), **scene_changes)
     scenes = nudged_scenes(base, args.nudges, 1e-4, 1e-4, args.seed)
     sims = [ToolSimulator(scene=s) for s in scenes]
-    designs = valid_designs(args.designs, args.seed, ToolSimulator())
     tool_spec = replace(ToolSpec(), **tool_changes)
+    designs = valid_designs(args.designs, args.seed, ToolSimulator())
     goal = np.asarray(args.goal, dtype=float)
     spec = ObjectiveSpec(goal_precision=args.goal_precision)
     f_spread, c_spread, e_spread, ends = [], [], [], []

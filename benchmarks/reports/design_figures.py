@@ -8,7 +8,6 @@ panels of the paper's Figure 3 (``fig3a``-``fig3d`` and ``figure3.png``), ``robu
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import math
 import os
@@ -121,17 +120,25 @@ def _panel_paths(
 
 
 def _panel_tool(ax: Any, coeffs: np.ndarray, free_energy: float, spec: Any) -> None:
-    from matplotlib.patches import Polygon
+    from matplotlib.patches import Circle, Polygon
 
     from tooldesign_env import make_tool
 
     geometry = make_tool(coeffs, spec)
     corners = np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]])
-    for box in geometry.boxes:
-        c, s = math.cos(box.yaw), math.sin(box.yaw)
-        local = corners * np.asarray(box.half_extents)[:2]
-        world = local @ np.array([[c, s], [-s, c]]) + np.asarray(box.center)[:2]
-        ax.add_patch(Polygon(world, closed=True, facecolor="tab:orange", edgecolor="0.3", lw=0.5))
+    style = {"facecolor": "tab:orange", "edgecolor": "0.3", "lw": 0.5}
+    # The collision shapes seen from above: boxes, or capsules (a rectangle and two discs).
+    shapes = [(b.center, b.yaw, np.asarray(b.half_extents)[:2]) for b in geometry.boxes]
+    shapes += [(c.center, c.yaw, np.array([c.half_length, c.radius])) for c in geometry.capsules]
+    for center, yaw, half in shapes:
+        c, s = math.cos(yaw), math.sin(yaw)
+        turn = np.array([[c, s], [-s, c]])
+        world = (corners * half) @ turn + np.asarray(center)[:2]
+        ax.add_patch(Polygon(world, closed=True, **style))
+    for capsule in geometry.capsules:
+        axis = capsule.half_length * np.array([math.cos(capsule.yaw), math.sin(capsule.yaw)])
+        for end in (np.asarray(capsule.center)[:2] - axis, np.asarray(capsule.center)[:2] + axis):
+            ax.add_patch(Circle(tuple(end), capsule.radius, **style))
     plots.plot_tool_shapes(ax, [coeffs], colors=["black"], linewidth=0.8, spec=spec)
     text = ", ".join(f"{v:.3g}" for v in coeffs)
     ax.set_title(f"d) final tool: C = ({text}), F = {float(free_energy):.4g}")
@@ -160,8 +167,8 @@ def write_design_report(run_folder: str | os.PathLike[str]) -> list[Path]:
     config = read_manifest(out)["config"]
     goal = tuple(float(v) for v in config["goal"])
     degree = len(config["bounds"])
-    spec = ToolSpec()
-    spec = spec if spec.degree == degree else dataclasses.replace(spec, degree=degree)
+    # Runs stored before the section could be chosen have a square one.
+    spec = ToolSpec(degree=degree, section_shape=config.get("section_shape", "square"))
     evaluations = ResultStore(out).read()
     card = json.loads((out / DESIGN_RUN_FILES["card"]).read_text(encoding="utf-8"))
     robustness = json.loads((out / DESIGN_RUN_FILES["robustness"]).read_text(encoding="utf-8"))

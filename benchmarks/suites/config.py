@@ -36,7 +36,7 @@ from typing import Any, cast
 import numpy as np
 
 from benchmarks.design import DesignConfig
-from benchmarks.design.config import scene_overrides
+from benchmarks.design.config import check_section_shape, scene_overrides
 from benchmarks.execution import TaskSettings
 from optimizers._validation import BATCH_SIZE_MAX
 from tooldesign_env.env import WORKSPACE_HIGH, WORKSPACE_LOW
@@ -72,7 +72,7 @@ RUNTIME_FIELDS: frozenset[str] = frozenset({"executor", "workers", "scheduler", 
 GROWABLE_FIELDS: frozenset[str] = frozenset({"n_seeds"})
 
 #: Config fields added after suites were first stored, with the value older suites had.
-ADDED_FIELDS: dict[str, Any] = {"scene_samples": 1, "scene": {}}
+ADDED_FIELDS: dict[str, Any] = {"scene_samples": 1, "scene": {}, "section_shape": "square"}
 
 
 SUITE_KIND = "suite"
@@ -338,6 +338,8 @@ class SuiteConfig:
         scene: Overrides of ``SceneSpec`` fields for every run (a mapping, a ``[scene]`` table
             in a suite file; stored as sorted pairs), e.g. ``{"box_position": [-0.4, 1.1]}``.
             Not ``box_mass`` (its own field). Empty (the default) is the default scene.
+        section_shape: The tool's section, ``"square"`` (the paper's) or ``"round"``
+            (``ToolSpec.section_shape``).
         variants: The variants, names unique.
         optimizers: The optimizers, log names (labels) unique.
         batch_size: Designs per iteration (the population size), the same for every optimizer.
@@ -369,6 +371,7 @@ class SuiteConfig:
     scene_samples: int = 1
     bounds: Sequence[Sequence[float]] | None = None
     scene: tuple[tuple[str, Any], ...] | Mapping[str, Any] = ()
+    section_shape: str = "square"
     variants: Sequence[Variant] = (Variant(),)
     optimizers: Sequence[OptimizerSpec] = (OptimizerSpec(name="cmaes"),)
     batch_size: int = 8
@@ -405,6 +408,7 @@ class SuiteConfig:
         object.__setattr__(self, "box_mass", task.box_mass)
         object.__setattr__(self, "goal_box", self._checked_goal_box())
         object.__setattr__(self, "scene", scene_overrides(self.scene))
+        object.__setattr__(self, "section_shape", check_section_shape(self.section_shape))
         variants = tuple(
             _from_mapping(Variant, v, f"variants[{i}]")
             for i, v in enumerate(_sequence("variants", self.variants))
@@ -510,6 +514,7 @@ class SuiteConfig:
             bounds=self.bounds,
             scene=self.scene,
             robustness_masses=self.robustness_masses,
+            section_shape=self.section_shape,
         )
 
     # derived plans

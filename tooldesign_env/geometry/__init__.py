@@ -3,7 +3,8 @@
 Nothing here touches PyBullet. The design is a coefficient vector ``C = (c1, ..., cn)`` meaning
 ``p(u) = c1 u^n + ... + cn u`` (highest power first, constant term fixed at 0, as in the paper's
 section "Tool parametrization and generation"). The tool is a straight handle followed by the graph
-of ``p`` cut at a fixed arc length ``L0``, both swept with a square section.
+of ``p`` cut at a fixed arc length ``L0``, both swept with a square section (the paper's) or a
+round one (``ToolSpec.section_shape``).
 
 Tool frame (all outputs): origin at the grasp point (the centre of the straight handle), x along the
 handle toward the curve, y lateral, z up; SI units (m, kg, kg m^2). The handle runs from
@@ -14,7 +15,9 @@ handle toward the curve, y lateral, z up; SI units (m, kg, kg m^2). The handle r
 One polyline drives everything: the handle plus ``n_segments`` chords of equal arc length on the
 curve. The mesh is the mitred sweep of that polyline; the collision boxes are its segments, each
 lengthened at a bend so that their union is exactly the mesh's solid; the mass properties are those
-of the mesh. Collision, inertia and the printed part therefore describe one and the same solid.
+of the mesh. Collision, inertia and the printed part therefore describe one and the same solid. A
+round section's collision shapes are one capsule per segment; its mesh is the capsules' union up to
+the outer corners of the bends and the polygonal circle.
 
 The package is split by concern into modules, listed lowest floor first; each one imports only from
 the ones listed before it, so there are no import cycles:
@@ -24,8 +27,8 @@ the ones listed before it, so there are no import cycles:
 - ``arclength``: the polynomial cut at arc length ``L0``: quadrature, its inversion, the curve's
   points, and its minimum radius of curvature (``curve_arc_length``, ``solve_curve_extent``,
   ``curve_points``).
-- ``sweep``: the mitred sweep of the polyline, its collision boxes and mass properties
-  (``Box``, ``MITRE_LIMIT``).
+- ``sweep``: the mitred sweep of the polyline, its collision boxes or capsules and mass
+  properties (``Box``, ``Capsule``, ``MITRE_LIMIT``).
 - ``intersection``: buildability, i.e. whether the swept tube is a simple solid.
 - ``tool``: ``ToolSpec``, ``ToolGeometry`` and ``make_tool``, which ties the floors below together.
 - ``export``: the mesh, STL/OBJ files and URDF of a tool (``tool_mesh``, ``export_mesh``,
@@ -41,13 +44,15 @@ from __future__ import annotations
 
 from tooldesign_env.geometry.arclength import curve_arc_length, curve_points, solve_curve_extent
 from tooldesign_env.geometry.export import export_mesh, tool_link_xml, tool_mesh, tool_urdf
-from tooldesign_env.geometry.sweep import MITRE_LIMIT, Box
-from tooldesign_env.geometry.tool import ToolGeometry, ToolSpec, make_tool
+from tooldesign_env.geometry.sweep import MITRE_LIMIT, Box, Capsule
+from tooldesign_env.geometry.tool import SECTION_SHAPES, ToolGeometry, ToolSpec, make_tool
 from tooldesign_env.geometry.validation import validate_coefficients
 
 __all__ = [
     "MITRE_LIMIT",
+    "SECTION_SHAPES",
     "Box",
+    "Capsule",
     "ToolGeometry",
     "ToolSpec",
     "curve_arc_length",

@@ -19,7 +19,7 @@ import numpy as np
 import trimesh
 from numpy.typing import NDArray
 
-from tooldesign_env.geometry.sweep import _sweep
+from tooldesign_env.geometry.sweep import _round_mesh, _sweep
 from tooldesign_env.geometry.tool import ToolGeometry
 from tooldesign_env.geometry.validation import FloatArray, _check_positive
 
@@ -34,27 +34,39 @@ def _check_geometry(geometry: object) -> ToolGeometry:
     return geometry
 
 
+def _mesh_arrays(geometry: ToolGeometry) -> tuple[FloatArray, NDArray[np.int64]]:
+    """Vertices and faces of the tool's mesh, for its section shape."""
+    centerline = np.asarray(geometry.centerline)
+    sweep = _sweep(centerline, geometry.spec.section)
+    if geometry.spec.section_shape == "round":
+        return _round_mesh(centerline, sweep, geometry.spec.section)
+    return sweep.vertices, sweep.faces
+
+
 def tool_mesh(geometry: ToolGeometry) -> trimesh.Trimesh:
     """The whole tool (handle and curve) as one watertight triangle mesh.
 
-    The square section is swept along ``geometry.centerline`` (the same polyline as the boxes) with
+    A square section is swept along ``geometry.centerline`` (the same polyline as the boxes) with
     mitred joints and closed by end caps; triangles wind counter-clockwise seen from outside.
     At centreline point k the section's corners are vertices 4k to 4k + 3: (right, bottom),
     (left, bottom), (left, top), (right, top), "left" being +y for a segment along +x. At an
     interior point they sit on the mitre: section / 2 from both neighbouring segments' lines.
+    A round section is a ``ROUND_SIDES``-gon of the circle's area swept the same way, closed by
+    polygonal hemispheres (the capsules' rounded ends).
 
     Args:
         geometry: From :func:`make_tool`.
 
     Returns:
-        A new mesh in m in the tool frame, 4 (n_segments + 2) vertices, 8 (n_segments + 1) + 4
-        faces, density set to ``spec.density`` (so ``mesh.mass_properties`` equals the geometry's).
+        A new mesh in m in the tool frame (square: 4 (n_segments + 2) vertices, 8 (n_segments +
+        1) + 4 faces), density set to ``spec.density`` (so ``mesh.mass_properties`` equals the
+        geometry's).
     """
     geometry = _check_geometry(geometry)
-    sweep = _sweep(np.asarray(geometry.centerline), geometry.spec.section)
+    vertices, faces = _mesh_arrays(geometry)
     # process=False keeps the vertex order and so the exported bytes independent of trimesh's
     # merging heuristics; the sweep has no duplicate vertices to merge anyway.
-    mesh = trimesh.Trimesh(vertices=sweep.vertices, faces=sweep.faces, process=False)
+    mesh = trimesh.Trimesh(vertices=vertices, faces=faces, process=False)
     mesh.density = geometry.spec.density
     return mesh
 
@@ -137,9 +149,9 @@ def export_mesh(
     if suffix not in (".stl", ".obj"):
         raise ValueError(f"path must end in .stl or .obj, got {str(target)!r}")
     factor = _check_positive("scale", scale, "1.0 for m, 1000.0 for mm")
-    sweep = _sweep(np.asarray(geometry.centerline), geometry.spec.section)
+    vertices, faces = _mesh_arrays(geometry)
     writer = _stl_bytes if suffix == ".stl" else _obj_bytes
-    _write_atomic(target, writer(sweep.vertices, sweep.faces, factor))
+    _write_atomic(target, writer(vertices, faces, factor))
     return target
 
 
@@ -181,7 +193,9 @@ def tool_link_xml(
 
     The link frame is the tool frame. ``<inertial>`` holds the mesh's mass, centre of mass and
     inertia about it (tool-frame axes, so ``rpy`` is 0); one ``<collision>`` and one ``<visual>``
-    box per entry of ``geometry.boxes``. Numbers are written with ``repr`` (exact, reproducible).
+    box per entry of ``geometry.boxes``, or capsule per entry of ``geometry.capsules`` (a URDF
+    capsule's axis is its frame's z, turned onto the segment by ``rpy = (0, pi/2, yaw)``).
+    Numbers are written with ``repr`` (exact, reproducible).
 
     Args:
         geometry: From :func:`make_tool`.
@@ -207,16 +221,32 @@ def tool_link_xml(
         "  </inertial>",
     ]
     material = quoteattr(f"{name}_material")
-    for index, box in enumerate(geometry.boxes):
-        origin = f'<origin xyz="{_numbers(box.center)}" rpy="0 0 {_number(box.yaw)}"/>'
-        shape = f'<geometry><box size="{_numbers(2.0 * box.half_extents)}"/></geometry>'
+    shapes = [
+        (
+            f"{name}_box_{index}",
+            f'<origin xyz="{_numbers(box.center)}" rpy="0 0 {_number(box.yaw)}"/>',
+            f'<geometry><box size="{_numbers(2.0 * box.half_extents)}"/></geometry>',
+        )
+        for index, box in enumerate(geometry.boxes)
+    ]
+    shapes += [
+        (
+            f"{name}_capsule_{index}",
+            f'<origin xyz="{_numbers(capsule.center)}" '
+            f'rpy="0 {_number(np.pi / 2)} {_number(capsule.yaw)}"/>',
+            f'<geometry><capsule radius="{_number(capsule.radius)}" '
+            f'length="{_number(2.0 * capsule.half_length)}"/></geometry>',
+        )
+        for index, capsule in enumerate(geometry.capsules)
+    ]
+    for shape_name, origin, shape in shapes:
         lines += [
-            f"  <visual name={quoteattr(f'{name}_box_{index}')}>",
+            f"  <visual name={quoteattr(shape_name)}>",
             f"    {origin}",
             f"    {shape}",
             f'    <material name={material}><color rgba="{_numbers(rgba)}"/></material>',
             "  </visual>",
-            f"  <collision name={quoteattr(f'{name}_box_{index}')}>",
+            f"  <collision name={quoteattr(shape_name)}>",
             f"    {origin}",
             f"    {shape}",
             "  </collision>",

@@ -2,8 +2,11 @@
 
 A square section is swept along the tool's polyline (handle plus curve chords) with mitred joints;
 the collision boxes are the polyline's segments, lengthened at each bend so that their union is
-the swept solid; the volume, centre of mass and inertia are those of the sweep's mesh. Pure
-functions of a polyline in m (tool frame); nothing here knows the polynomial.
+the swept solid; the volume, centre of mass and inertia are those of the sweep's mesh. A round
+section gives the set of points within section / 2 of the polyline instead: one capsule per
+segment, whose union is that solid exactly, and a mesh (a mitred polygonal tube with hemispherical
+end caps) for its mass properties and files. Pure functions of a polyline in m (tool frame);
+nothing here knows the polynomial.
 """
 
 from __future__ import annotations
@@ -15,12 +18,20 @@ from numpy.typing import ArrayLike, NDArray
 
 from tooldesign_env.geometry.validation import FloatArray
 
-__all__ = ["MITRE_LIMIT", "Box"]
+__all__ = ["CAP_RINGS", "MITRE_LIMIT", "ROUND_SIDES", "Box", "Capsule"]
 
 #: Largest mitre scale ``1 / cos(turn / 2)`` used at a joint (SVG's ``stroke-miterlimit`` default).
 #: It caps turns at about 151 degrees so that no offset runs to infinity; a joint that needs more is
 #: reported as not buildable, and its mesh and boxes are clamped (finite, watertight, but inexact).
 MITRE_LIMIT = 4.0
+
+#: Sides of the polygon that stands for a round section in the mesh of a round tool. Its
+#: circumradius is chosen so that its area is the circle's; the collision shapes are exact capsules.
+ROUND_SIDES = 32
+
+#: Latitude steps from the tube's end to the pole of each hemispherical end cap of a round tool's
+#: mesh.
+CAP_RINGS = 8
 
 
 # --------------------------------------------------------------------------------------------
@@ -40,6 +51,26 @@ class Box:
 
     center: FloatArray
     half_extents: FloatArray
+    yaw: float
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class Capsule:
+    """One collision capsule of a round tool, in the tool frame.
+
+    The points within ``radius`` of the segment of length ``2 half_length`` through ``center``
+    along the capsule's own x axis.
+
+    Attributes:
+        center: (3,) centre in m.
+        half_length: Half the length of its axis segment (a polyline segment) in m.
+        radius: Radius in m (section / 2).
+        yaw: Rotation about the tool's z axis in rad (the capsule's x is the segment direction).
+    """
+
+    center: FloatArray
+    half_length: float
+    radius: float
     yaw: float
 
 
@@ -187,3 +218,93 @@ def _mass_properties(
     inertia = density * np.array([[yy + zz, -xy, 0.0], [-xy, xx + zz, 0.0], [0.0, 0.0, xx + yy]])
     center = np.array([cx + reference[0], cy + reference[1], 0.0])
     return float(volume), center, inertia
+
+
+# --------------------------------------------------------------------------------------------
+# The round section: capsules and the mesh that stands for them
+# --------------------------------------------------------------------------------------------
+
+
+def _capsules(polyline: FloatArray, sweep: _Sweep, section: float) -> tuple[Capsule, ...]:
+    """One capsule per polyline segment; their union is the points within section / 2 of it."""
+    centers = 0.5 * (polyline[:-1] + polyline[1:])
+    yaws = np.arctan2(sweep.directions[:, 1], sweep.directions[:, 0])
+    return tuple(
+        Capsule(
+            center=_frozen((cx, cy, 0.0)),
+            half_length=0.5 * chord,
+            radius=0.5 * section,
+            yaw=float(yaw),
+        )
+        for (cx, cy), chord, yaw in zip(
+            centers.tolist(), sweep.chords.tolist(), yaws.tolist(), strict=True
+        )
+    )
+
+
+def _round_mesh(
+    polyline: FloatArray, sweep: _Sweep, section: float
+) -> tuple[FloatArray, NDArray[np.int64]]:
+    """Vertices and faces of a round tool: the capsules' union as a closed triangle mesh.
+
+    A ``ROUND_SIDES``-gon (area pi (section / 2)^2) is swept along the polyline with the square
+    sweep's mitres, and each end is closed by a polygonal hemisphere of ``CAP_RINGS`` latitude
+    steps. It differs from the capsules' union only at the outer side of each bend, where the
+    mitre's corner stands in for the capsules' spherical joint (a few mm^3 per joint), and by the
+    polygons' approximation of the circle. Triangles wind counter-clockwise seen from outside.
+    """
+    sides, rings = ROUND_SIDES, CAP_RINGS
+    step = 2.0 * np.pi / sides
+    rho = 0.5 * section * np.sqrt(step / np.sin(step))  # the polygon's area is the circle's
+    theta = step * (np.arange(sides) + 0.5)
+    width, height = rho * np.cos(theta), rho * np.sin(theta)  # (left, up), counter-clockwise
+
+    count = polyline.shape[0]
+    offsets = (sweep.scales[:, None, None] * width[None, :, None]) * sweep.normals[:, None, :]
+    tube = np.empty((count, sides, 3))
+    tube[..., :2] = polyline[:, None, :] + offsets
+    tube[..., 2] = height[None, :]
+
+    def cap(
+        end: FloatArray, outward: FloatArray, lateral: FloatArray
+    ) -> tuple[FloatArray, FloatArray]:
+        """(rings - 1, sides, 3) latitude rings past an end, from the end on, and the pole (3,)."""
+        phi = 0.5 * np.pi * np.arange(1, rings) / rings
+        ring = np.empty((rings - 1, sides, 3))
+        ring[..., :2] = (
+            end[None, None, :]
+            + (rho * np.sin(phi))[:, None, None] * outward[None, None, :]
+            + (np.cos(phi)[:, None] * width[None, :])[..., None] * lateral[None, None, :]
+        )
+        ring[..., 2] = np.cos(phi)[:, None] * height[None, :]
+        return ring, np.array([end[0] + rho * outward[0], end[1] + rho * outward[1], 0.0])
+
+    # Rings in the order of travel: the start cap's pole and rings, the tube's, the end cap's
+    # rings and pole. Corner k of every ring lies at the same angle about the centreline.
+    start_rings, start_pole = cap(polyline[0], -sweep.directions[0], sweep.normals[0])
+    end_rings, end_pole = cap(polyline[-1], sweep.directions[-1], sweep.normals[-1])
+    stacked = np.concatenate((start_rings[::-1], tube, end_rings))
+    vertices = np.concatenate((start_pole[None], stacked.reshape(-1, 3), end_pole[None]))
+
+    n_rings = stacked.shape[0]
+    k = np.arange(sides)
+    base = 1 + sides * np.arange(n_rings - 1)[:, None]
+    a, b = base + k, base + (k + 1) % sides
+    c, d = b + sides, a + sides
+    sides_faces = np.stack((np.stack((a, b, c), -1), np.stack((a, c, d), -1)), axis=2)
+    first, last_ring = 1, 1 + sides * (n_rings - 1)
+    pole_end = vertices.shape[0] - 1
+    start_fan = np.stack((np.zeros(sides, int), first + (k + 1) % sides, first + k), -1)
+    end_fan = np.stack((last_ring + k, last_ring + (k + 1) % sides, np.full(sides, pole_end)), -1)
+    faces = np.concatenate((start_fan, sides_faces.reshape(-1, 3), end_fan)).astype(np.int64)
+    return vertices, faces
+
+
+def _mesh_mass_properties(
+    vertices: FloatArray, faces: NDArray[np.int64], density: float
+) -> tuple[float, FloatArray, FloatArray]:
+    """Volume (m^3), centre of mass (3,) m and inertia (3, 3) kg m^2 about it, of a closed mesh."""
+    from trimesh.triangles import mass_properties  # only round tools need it
+
+    props = mass_properties(vertices[faces], density=density)
+    return float(props.volume), np.asarray(props.center_mass, float), np.asarray(props.inertia)

@@ -1,9 +1,9 @@
 """The tool: its fixed constants, the geometry a design makes, and the function that makes it.
 
-``ToolSpec`` holds the non-designed constants (arc length, handle, section, density, segments,
-degree); ``make_tool`` runs the arc-length solve, the sweep, the mass properties and the
-buildability check in turn and returns a ``ToolGeometry``. Only the exporters sit above this
-module in the package.
+``ToolSpec`` holds the non-designed constants (arc length, handle, section and its shape,
+density, segments, degree); ``make_tool`` runs the arc-length solve, the sweep, the mass
+properties and the buildability check in turn and returns a ``ToolGeometry``. Only the
+exporters sit above this module in the package.
 """
 
 from __future__ import annotations
@@ -19,7 +19,17 @@ from tooldesign_env.geometry.arclength import (
     _poly,
 )
 from tooldesign_env.geometry.intersection import _buildability
-from tooldesign_env.geometry.sweep import Box, _boxes, _frozen, _mass_properties, _sweep
+from tooldesign_env.geometry.sweep import (
+    Box,
+    Capsule,
+    _boxes,
+    _capsules,
+    _frozen,
+    _mass_properties,
+    _mesh_mass_properties,
+    _round_mesh,
+    _sweep,
+)
 from tooldesign_env.geometry.validation import (
     FloatArray,
     _check_int,
@@ -27,7 +37,10 @@ from tooldesign_env.geometry.validation import (
     validate_coefficients,
 )
 
-__all__ = ["ToolGeometry", "ToolSpec", "make_tool"]
+__all__ = ["SECTION_SHAPES", "ToolGeometry", "ToolSpec", "make_tool"]
+
+#: The sections a tool can have (``ToolSpec.section_shape``).
+SECTION_SHAPES = ("square", "round")
 
 
 # --------------------------------------------------------------------------------------------
@@ -42,11 +55,15 @@ class ToolSpec:
     Attributes:
         arc_length: L0, arc length of the curved part in m (the paper's fixed curve length).
         handle_length: Length of the straight handle in m; the grasp point is its centre.
-        section: Side of the square cross-section in m.
+        section: Side of the square cross-section, or diameter of the round one, in m.
         density: Material density in kg/m^3 (250 is light wood or a porous print).
         n_segments: Number of chords of equal arc length that approximate the curve (>= 1); one
             collision box per chord plus one for the handle.
         degree: Polynomial degree n, i.e. the number of coefficients (c1, ..., cn) (>= 1).
+        section_shape: ``"square"`` (the paper's): a square section swept with mitred joints,
+            collision boxes. ``"round"``: the points within section / 2 of the centreline (a
+            bent round rod with rounded ends), one collision capsule per segment; its contact
+            with the box is far less chaotic (see docs/model.md, "Noise floor").
     """
 
     arc_length: float = 1.1
@@ -55,6 +72,7 @@ class ToolSpec:
     density: float = 250.0
     n_segments: int = 30
     degree: int = 3
+    section_shape: str = "square"
 
     def __post_init__(self) -> None:
         units = {"arc_length": "m", "handle_length": "m", "section": "m", "density": "kg/m^3"}
@@ -63,6 +81,11 @@ class ToolSpec:
             object.__setattr__(self, name, value)
         for name in ("n_segments", "degree"):
             object.__setattr__(self, name, _check_int(f"ToolSpec.{name}", getattr(self, name), 1))
+        if not isinstance(self.section_shape, str) or self.section_shape not in SECTION_SHAPES:
+            raise ValueError(
+                f"ToolSpec.section_shape must be one of {SECTION_SHAPES}, "
+                f"got {self.section_shape!r}"
+            )
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -78,7 +101,10 @@ class ToolGeometry:
         curve_extent: u_end in m: the curve spans ``x`` in ``[x0, x0 + u_end]``.
         centerline: (n_segments + 2, 2) polyline (x, y) in m: handle start, handle end (= curve
             start, x0 = handle_length / 2), then the curve points evenly spaced along the arc.
-        boxes: One :class:`Box` for the handle, then one per curve segment (n_segments + 1).
+        boxes: One :class:`Box` for the handle, then one per curve segment (n_segments + 1);
+            empty for a round section.
+        capsules: One :class:`Capsule` per segment like ``boxes``, for a round section; empty
+            for a square one.
         volume: Volume of the mesh in m^3 (section^2 times the centreline's length).
         mass: Mass in kg (density times volume).
         center_of_mass: (3,) centre of mass in m.
@@ -105,6 +131,7 @@ class ToolGeometry:
     why_not_buildable: str
     tip: FloatArray
     bounds: FloatArray
+    capsules: tuple[Capsule, ...] = ()
 
 
 def make_tool(coeffs: ArrayLike, spec: ToolSpec | None = None) -> ToolGeometry:
@@ -115,8 +142,9 @@ def make_tool(coeffs: ArrayLike, spec: ToolSpec | None = None) -> ToolGeometry:
         spec: Fixed constants; ``ToolSpec()`` (the paper's tool) if None.
 
     Returns:
-        The tool's geometry, collision boxes and mass properties. Mass properties are those of the
-        mitred-sweep mesh (:func:`tool_mesh`), integrated by trimesh over the same triangles.
+        The tool's geometry, collision shapes and mass properties. Mass properties are those of
+        the mesh (:func:`tool_mesh`), integrated over its triangles. Buildability follows the
+        square sweep's rules for both sections (a round section lies inside the square one).
     """
     spec = ToolSpec() if spec is None else spec
     if not isinstance(spec, ToolSpec):
@@ -133,15 +161,27 @@ def make_tool(coeffs: ArrayLike, spec: ToolSpec | None = None) -> ToolGeometry:
     centerline[1, 1] = 0.0  # p(0) = 0 exactly
 
     sweep = _sweep(centerline, spec.section)
-    volume, center_of_mass, inertia = _mass_properties(sweep, spec.section, spec.density)
     radius = _min_radius_of_curvature(values, u_end)
     reason = _buildability(sweep, radius, spec.section)
+    boxes: tuple[Box, ...] = ()
+    capsules: tuple[Capsule, ...] = ()
+    if spec.section_shape == "round":
+        vertices, faces = _round_mesh(centerline, sweep, spec.section)
+        volume, center_of_mass, inertia = _mesh_mass_properties(vertices, faces, spec.density)
+        capsules = _capsules(centerline, sweep, spec.section)
+        half = 0.5 * spec.section  # the capsules' bounds: the centreline's, widened by a radius
+        low = np.append(centerline.min(axis=0) - half, -half)
+        high = np.append(centerline.max(axis=0) + half, half)
+    else:
+        volume, center_of_mass, inertia = _mass_properties(sweep, spec.section, spec.density)
+        boxes = _boxes(centerline, sweep, spec.section)
+        low, high = sweep.vertices.min(axis=0), sweep.vertices.max(axis=0)
     return ToolGeometry(
         coeffs=_frozen(values),
         spec=spec,
         curve_extent=u_end,
         centerline=_frozen(centerline),
-        boxes=_boxes(centerline, sweep, spec.section),
+        boxes=boxes,
         volume=volume,
         mass=spec.density * volume,
         center_of_mass=_frozen(center_of_mass),
@@ -150,5 +190,6 @@ def make_tool(coeffs: ArrayLike, spec: ToolSpec | None = None) -> ToolGeometry:
         buildable=not reason,
         why_not_buildable=reason,
         tip=_frozen((centerline[-1, 0], centerline[-1, 1], 0.0)),
-        bounds=_frozen((sweep.vertices.min(axis=0), sweep.vertices.max(axis=0))),
+        bounds=_frozen((low, high)),
+        capsules=capsules,
     )
