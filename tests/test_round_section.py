@@ -269,3 +269,13 @@ def test_evaluate_writes_a_round_tool(tmp_path):
     assert "<capsule" in urdf and "<box" not in urdf
     card = (tmp_path / "rod").glob("*.json")
     assert any('"section_shape": "round"' in path.read_text() for path in card)
+
+
+def test_retest_evaluates_a_round_suites_designs_with_a_round_tool():
+    from benchmarks.suites import SuiteConfig
+    from benchmarks.suites.retest import retest_task
+
+    record = {"goal": (0.0, 1.5, 0.1), "goal_precision": 20.0, "box_mass": 0.1}
+    assert retest_task(SuiteConfig(name="s"), record).env_kwargs == ()
+    task = retest_task(SuiteConfig(name="s", section_shape="round"), record)
+    assert dict(task.env_kwargs) == {"tool": ROUND}

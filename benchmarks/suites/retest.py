@@ -206,15 +206,26 @@ def retest_task(suite: Any, record: Mapping[str, Any]) -> TaskSettings:
         suite: The suite's :class:`~benchmarks.suites.config.SuiteConfig`.
         record: The design file's record (``goal``, ``goal_precision``, ``box_mass``).
     """
+    from tooldesign_env import ToolSpec
+
     # The suite's scene (the box moved, say) is the base the nudges start from; a suite
-    # without one gets no scene argument, as before the field existed.
+    # without one gets no scene argument, as before the field existed. Likewise its tool.
+    extra: dict[str, Any] = {}
     scene = scene_spec(suite.scene)
+    if scene is not None:
+        extra["scene"] = scene
+    tool = ToolSpec(
+        degree=len(suite.bounds) if suite.bounds else ToolSpec().degree,
+        section_shape=getattr(suite, "section_shape", "square"),
+    )
+    if tool != ToolSpec():
+        extra["tool"] = tool
     return TaskSettings(
         goal=record["goal"],
         goal_precision=record["goal_precision"],
         box_mass=record["box_mass"],
         estimator=suite.estimator,
-        env_kwargs={} if scene is None else {"scene": scene},
+        env_kwargs=extra,
     )
 
 
