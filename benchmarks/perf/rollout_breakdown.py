@@ -1,0 +1,160 @@
+"""Where a rollout's time goes above the physics: each PyBullet call of the control loop, timed.
+
+Every call the control loop makes through ``BulletWorld.control_calls`` is wrapped in a timer
+(the wrapper itself costs about 0.4 us a call, a few ms an episode, and is included in the
+totals), the rollouts are run with and without the contact log of the contact estimator
+(``record_mobility``), alternating, and the script prints, per episode: the time in each call,
+the calls per episode, the whole rollout, and what recording the contact log adds (its
+Jacobians, mass matrices and their conversion).
+
+Run on one core: ``taskset -c 0 python benchmarks/perf/rollout_breakdown.py [--designs 8]
+[--repeats 3]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import collections
+import statistics
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+import tooldesign_env.bullet as bullet
+from tooldesign_env import ToolDesignEnv, make_tool
+from tooldesign_env.env import default_bounds
+
+
+def timed_control_calls(
+    seconds: dict[str, float], counts: collections.Counter[str]
+) -> Callable[..., Any]:
+    """A ``BulletWorld.control_calls`` whose calls add their time to ``seconds[name]``.
+
+    ``seconds`` and ``counts`` are read when a call is made, so the caller may swap their
+    contents between rollouts.
+    """
+    original = bullet.BulletWorld.control_calls
+    clock = time.perf_counter
+
+    def wrap(name: str, call: Callable[..., Any]) -> Callable[..., Any]:
+        def timed(*args: Any, **kwargs: Any) -> Any:
+            start = clock()
+            result = call(*args, **kwargs)
+            seconds[name] += clock() - start
+            counts[name] += 1
+            return result
+
+        return timed
+
+    def control_calls(self: bullet.BulletWorld, *args: Any) -> bullet.ControlCalls:
+        calls = original(self, *args)
+        return calls._replace(**{name: wrap(name, getattr(calls, name)) for name in calls._fields})
+
+    return control_calls
+
+
+def timed_jacobian_calls(seconds: dict[str, float]) -> Callable[..., Any]:
+    """A ``BulletWorld.jacobian_calls`` whose two calls add their time to ``seconds``."""
+    original = bullet.BulletWorld.jacobian_calls
+    clock = time.perf_counter
+
+    def jacobian_calls(self: bullet.BulletWorld, *args: Any) -> Any:
+        def wrap(name: str, call: Callable[..., Any]) -> Callable[..., Any]:
+            def timed(q: Any) -> Any:
+                start = clock()
+                result = call(q)
+                seconds[name] += clock() - start
+                return result
+
+            return timed
+
+        jacobian, mass_matrix = original(self, *args)
+        return wrap("jacobian", jacobian), wrap("mass_matrix", mass_matrix)
+
+    return jacobian_calls
+
+
+def main() -> None:
+    """Measure and print."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--designs", type=int, default=8)
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--seed", type=int, default=1)
+    args = parser.parse_args()
+    if args.designs < 1 or args.repeats < 1:
+        parser.error("--designs and --repeats must be >= 1")
+
+    env = ToolDesignEnv()
+    env.reset(seed=0)
+    env.step(np.zeros(3))  # warm: the plan, imports, caches
+    sim = env.simulator
+    rng = np.random.default_rng(args.seed)
+    bounds = default_bounds(3)
+    geometries = [make_tool(np.zeros(3))]
+    while len(geometries) < args.designs:
+        geometry = make_tool(rng.uniform(bounds[:, 0], bounds[:, 1]))
+        if geometry.buildable and not sim.build(geometry):
+            geometries.append(geometry)
+
+    seconds: dict[str, float] = collections.defaultdict(float)
+    counts: collections.Counter[str] = collections.Counter()
+    bullet.BulletWorld.control_calls = timed_control_calls(seconds, counts)  # type: ignore[method-assign]
+    estimator_calls: dict[str, float] = collections.defaultdict(float)
+    bullet.BulletWorld.jacobian_calls = timed_jacobian_calls(estimator_calls)  # type: ignore[method-assign]
+    # Per mode (with the contact log, without): rollout times, and the calls' totals.
+    rollouts: dict[bool, list[float]] = {True: [], False: []}
+    calls: dict[bool, dict[str, float]] = {
+        True: collections.defaultdict(float),
+        False: collections.defaultdict(float),
+    }
+    made: dict[bool, collections.Counter[str]] = {
+        True: collections.Counter(),
+        False: collections.Counter(),
+    }
+    for _ in range(args.repeats):
+        for geometry in geometries:
+            for record in (True, False):
+                sim.build(geometry)
+                seconds.clear()
+                counts.clear()
+                start = time.perf_counter()
+                sim.run(record_mobility=record)
+                rollouts[record].append(time.perf_counter() - start)
+                for name, value in seconds.items():
+                    calls[record][name] += value
+                made[record].update(counts)
+    env.close()
+
+    episodes = args.repeats * len(geometries)
+    print(f"{len(geometries)} designs x {args.repeats} repeats, one core, without the contact log")
+    print(f"{'call':18s} {'ms/episode':>11s} {'us/call':>9s} {'calls/episode':>14s}")
+    plain_calls = calls[False]
+    for name in sorted(plain_calls, key=plain_calls.__getitem__, reverse=True):
+        print(
+            f"{name:18s} {1e3 * plain_calls[name] / episodes:11.2f} "
+            f"{1e6 * plain_calls[name] / made[False][name]:9.2f} "
+            f"{made[False][name] / episodes:14.0f}"
+        )
+    total_calls = 1e3 * sum(plain_calls.values()) / episodes
+    plain = 1e3 * statistics.median(rollouts[False])
+    logged = 1e3 * statistics.median(rollouts[True])
+    added = statistics.median(a - b for a, b in zip(rollouts[True], rollouts[False], strict=True))
+    print(f"all calls: {total_calls:.1f} ms/episode (mean)")
+    print(
+        f"rollout, median: {plain:.1f} ms without the contact log, {logged:.1f} ms with it "
+        f"(median of per-design differences: +{1e3 * added:.1f} ms)"
+    )
+    estimator = 1e3 * sum(estimator_calls.values()) / episodes
+    print(
+        f"of which the log's Jacobian and mass-matrix calls (mean): {estimator:.1f} ms "
+        f"(jacobian {1e3 * estimator_calls['jacobian'] / episodes:.1f}, mass matrix "
+        f"{1e3 * estimator_calls['mass_matrix'] / episodes:.1f})"
+    )
+    python = 1e3 * statistics.fmean(rollouts[False]) - total_calls
+    print(f"rollout without the log, less its calls (mean): {python:.1f} ms of Python")
+
+
+if __name__ == "__main__":
+    main()
