@@ -279,3 +279,32 @@ def test_retest_evaluates_a_round_suites_designs_with_a_round_tool():
     assert retest_task(SuiteConfig(name="s"), record).env_kwargs == ()
     task = retest_task(SuiteConfig(name="s", section_shape="round"), record)
     assert dict(task.env_kwargs) == {"tool": ROUND}
+    wide = [[-3.0, 3.0], [-1.5, 1.5], [-0.5, 0.5]]
+    task = retest_task(SuiteConfig(name="s", bounds=wide), record)
+    assert dict(task.env_kwargs) == {"bounds": ((-3.0, 3.0), (-1.5, 1.5), (-0.5, 0.5))}
+    assert (
+        retest_task(
+            SuiteConfig(name="s", bounds=[[-1.5, 1.5], [-1.5, 1.5], [-0.5, 0.5]]), record
+        ).env_kwargs
+        == ()
+    )
+
+
+def test_a_round_tools_end_cap_may_not_reach_another_part_of_it():
+    from tooldesign_env.geometry.intersection import _caps_clear
+
+    hook = np.array([[-0.075, 0.0], [0.075, 0.0], [0.5, 0.0], [0.5, 0.2], [0.1, 0.2]])
+    assert _caps_clear(hook, 0.03) == ""
+    # Curled back so that the tip ends 2 cm above the second segment: its cap reaches it.
+    curled = np.vstack([hook, [[0.1, 0.02]]])
+    assert "tip cap reaches segment 1" in _caps_clear(curled, 0.03)
+    assert _caps_clear(curled, 0.019) == ""
+    # The handle's end: the curve passes within a section of the handle's start, the tip is far.
+    around = np.array(
+        [[-0.075, 0.0], [0.075, 0.0], [0.3, 0.0], [0.3, 0.1], [-0.06, 0.015], [-0.06, 0.3]]
+    )
+    assert "handle's end cap reaches segment" in _caps_clear(around, 0.03)
+    assert _caps_clear(around, 0.015) == ""
+    # No design in the bounds is affected: the rule agrees with the square's there.
+    for coeffs in DESIGNS:
+        assert make_tool(coeffs, ROUND).buildable == make_tool(coeffs).buildable

@@ -368,6 +368,7 @@ def _card(
             "arc_length": float(geometry.spec.arc_length),
             "handle_length": float(geometry.spec.handle_length),
             "section": float(geometry.spec.section),
+            "section_shape": geometry.spec.section_shape,
             "min_radius_of_curvature": _finite_or_none(geometry.min_radius_of_curvature),
             "buildable": bool(geometry.buildable),
         },

@@ -62,6 +62,8 @@ def measure(name: str, args: argparse.Namespace) -> tuple[float, float, float, f
     scenes = nudged_scenes(base, args.nudges, 1e-4, 1e-4, args.seed)
     sims = [ToolSimulator(scene=s) for s in scenes]
     tool_spec = replace(ToolSpec(), **tool_changes)
+    # The same designs for every setting, chosen with the default tool, so that rows compare;
+    # a design the setting's tool cannot use is skipped below.
     designs = valid_designs(args.designs, args.seed, ToolSimulator())
     goal = np.asarray(args.goal, dtype=float)
     spec = ObjectiveSpec(goal_precision=args.goal_precision)

@@ -46,7 +46,11 @@ def main() -> None:
             env.close()
             values[n] = [info["free_energy"] if info["valid"] else None for info in infos]
         for n in segments[:-1]:
-            pairs = [(a, b) for a, b in zip(values[n], values[finest], strict=True) if a and b]
+            pairs = [
+                (a, b)
+                for a, b in zip(values[n], values[finest], strict=True)
+                if a is not None and b is not None
+            ]
             change = [abs(a - b) / abs(b) for a, b in pairs]
             median = statistics.median(change)
             print(

@@ -220,6 +220,12 @@ def retest_task(suite: Any, record: Mapping[str, Any]) -> TaskSettings:
     )
     if tool != ToolSpec():
         extra["tool"] = tool
+    if suite.bounds is not None:
+        from tooldesign_env import default_bounds
+
+        bounds = tuple(tuple(float(v) for v in row) for row in suite.bounds)
+        if not np.array_equal(np.asarray(bounds), default_bounds(len(bounds))):
+            extra["bounds"] = bounds  # designs outside the default bounds are the suite's own
     return TaskSettings(
         goal=record["goal"],
         goal_precision=record["goal_precision"],

@@ -1,9 +1,9 @@
 """Shape export: the tool as a ``trimesh.Trimesh``, STL/OBJ files and URDF text.
 
-Everything is read from a :class:`ToolGeometry`, so the mesh, the files and the URDF's boxes and
-inertia describe the one solid ``make_tool`` computed. Files are written atomically (a temporary
-file in the same folder, then ``os.replace``), and numbers with ``repr``, so the same geometry
-gives the same bytes in every process.
+Everything is read from a :class:`ToolGeometry`, so the mesh, the files and the URDF's collision
+shapes and inertia describe the one solid ``make_tool`` computed. Files are written atomically
+(a temporary file in the same folder, then ``os.replace``), and numbers with ``repr``, so the
+same geometry gives the same bytes in every process.
 """
 
 from __future__ import annotations

@@ -3,7 +3,8 @@
 The rules, in the order they are checked: the curve's minimum radius of curvature must exceed
 section / 2 (else the inner wall folds over itself); no joint may need a mitre beyond
 ``MITRE_LIMIT``; no piece of the sweep may be turned inside out; and no two non-adjacent pieces may
-overlap (separating-axis test on their in-plane quadrilaterals). See ``docs/geometry.md``.
+overlap (separating-axis test on their in-plane quadrilaterals). A round tool also needs its end
+caps clear of the rest of it (``_caps_clear``). See ``docs/geometry.md``.
 """
 
 from __future__ import annotations
@@ -84,4 +85,39 @@ def _buildability(sweep: _Sweep, radius: float, section: float) -> str:
         i, j = pairs[0]
         where = "the handle" if i == 0 else f"curve segment {i}"
         return f"curve segment {j} overlaps {where}: the tube folds back into itself"
+    return ""
+
+
+def _segment_distances(point: FloatArray, polyline: FloatArray) -> FloatArray:
+    """(k,) distances in the plane from ``point`` to each segment of ``polyline``."""
+    start, delta = polyline[:-1], np.diff(polyline, axis=0)
+    length2 = np.einsum("kd,kd->k", delta, delta)
+    t = np.clip(
+        np.einsum("kd,kd->k", point - start, delta) / np.where(length2 > 0, length2, 1), 0, 1
+    )
+    gap = start + t[:, None] * delta - point
+    distances: FloatArray = np.hypot(gap[:, 0], gap[:, 1])
+    return distances
+
+
+def _caps_clear(polyline: FloatArray, section: float) -> str:
+    """Empty string if a round tool's end caps stay clear of the rest of it, else why not.
+
+    A round section lies inside the square one, whose rules ``_buildability`` checks, except for
+    the hemispheres that close its two ends: each reaches section / 2 past its end point. It
+    touches the tube of a segment that is not its own or its neighbour iff its centre (the end
+    point) is closer than a section (two radii) to that segment.
+    """
+    count = polyline.shape[0] - 1  # segments
+    for name, point, far in (
+        ("tip", polyline[-1], slice(0, max(count - 2, 0))),
+        ("handle's end", polyline[0], slice(2, count)),
+    ):
+        distances = _segment_distances(point, polyline)[far]
+        if distances.size and distances.min() < section:
+            segment = int(np.argmin(distances)) + (far.start or 0)
+            return (
+                f"the round tool's {name} cap reaches segment {segment} "
+                f"({distances.min():.4g} m from its axis, under a section of {section:.4g} m)"
+            )
     return ""

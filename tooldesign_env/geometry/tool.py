@@ -18,7 +18,7 @@ from tooldesign_env.geometry.arclength import (
     _min_radius_of_curvature,
     _poly,
 )
-from tooldesign_env.geometry.intersection import _buildability
+from tooldesign_env.geometry.intersection import _buildability, _caps_clear
 from tooldesign_env.geometry.sweep import (
     Box,
     Capsule,
@@ -58,12 +58,13 @@ class ToolSpec:
         section: Side of the square cross-section, or diameter of the round one, in m.
         density: Material density in kg/m^3 (250 is light wood or a porous print).
         n_segments: Number of chords of equal arc length that approximate the curve (>= 1); one
-            collision box per chord plus one for the handle.
+            collision box (or capsule) per chord plus one for the handle.
         degree: Polynomial degree n, i.e. the number of coefficients (c1, ..., cn) (>= 1).
         section_shape: ``"square"`` (the paper's): a square section swept with mitred joints,
             collision boxes. ``"round"``: the points within section / 2 of the centreline (a
             bent round rod with rounded ends), one collision capsule per segment; its contact
-            with the box is far less chaotic (see docs/model.md, "Noise floor").
+            with the box is far less chaotic (docs/model.md, "The tool's section: where the
+            chaos came from").
     """
 
     arc_length: float = 1.1
@@ -105,7 +106,8 @@ class ToolGeometry:
             empty for a round section.
         capsules: One :class:`Capsule` per segment like ``boxes``, for a round section; empty
             for a square one.
-        volume: Volume of the mesh in m^3 (section^2 times the centreline's length).
+        volume: Volume of the mesh in m^3 (square: section^2 times the centreline's length;
+            round: about pi section^2 / 4 times it, plus the end caps' sphere).
         mass: Mass in kg (density times volume).
         center_of_mass: (3,) centre of mass in m.
         inertia: (3, 3) inertia tensor in kg m^2 about the centre of mass, tool-frame axes.
@@ -114,7 +116,8 @@ class ToolGeometry:
         buildable: Whether the swept tube is a simple solid (see ``why_not_buildable``).
         why_not_buildable: Empty if buildable, else the first violated rule in words.
         tip: (3,) the curve's end point in m.
-        bounds: (2, 3) axis-aligned bounding box of the mesh in m: (min, max).
+        bounds: (2, 3) axis-aligned bounding box in m, (min, max): of the mesh (square), of the
+            capsules (round: the centreline's, widened by section / 2).
     """
 
     coeffs: FloatArray
@@ -144,7 +147,9 @@ def make_tool(coeffs: ArrayLike, spec: ToolSpec | None = None) -> ToolGeometry:
     Returns:
         The tool's geometry, collision shapes and mass properties. Mass properties are those of
         the mesh (:func:`tool_mesh`), integrated over its triangles. Buildability follows the
-        square sweep's rules for both sections (a round section lies inside the square one).
+        square sweep's rules for both sections (a round section lies inside the square one but
+        for its end caps), plus, for a round one, that neither end cap reaches another part of
+        the tool.
     """
     spec = ToolSpec() if spec is None else spec
     if not isinstance(spec, ToolSpec):
@@ -163,6 +168,8 @@ def make_tool(coeffs: ArrayLike, spec: ToolSpec | None = None) -> ToolGeometry:
     sweep = _sweep(centerline, spec.section)
     radius = _min_radius_of_curvature(values, u_end)
     reason = _buildability(sweep, radius, spec.section)
+    if not reason and spec.section_shape == "round":
+        reason = _caps_clear(centerline, spec.section)
     boxes: tuple[Box, ...] = ()
     capsules: tuple[Capsule, ...] = ()
     if spec.section_shape == "round":
