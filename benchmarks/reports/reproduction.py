@@ -329,16 +329,20 @@ def _seeds(folder: Path) -> str:
     return str(json.loads(path.read_text(encoding="utf-8")).get("config", {}).get("n_seeds"))
 
 
+def _run_facts(folder: Path) -> tuple[dict[str, Any], str, str]:
+    """A suite folder's config, the short commit it ran with, and whether it was retested."""
+    manifest = json.loads((folder / "manifest.json").read_text(encoding="utf-8"))
+    commit = str(manifest.get("git_commit") or manifest.get("commit") or "n/a")[:7]
+    retested = "yes" if (folder / "retest").is_dir() else "no"
+    return manifest.get("config", {}), commit, retested
+
+
 def _suite_rows(results: Path) -> list[str]:
     rows = []
     for suite in SUITES:
-        path = results / suite / "manifest.json"
-        if not path.is_file():
+        if not (results / suite / "manifest.json").is_file():
             continue
-        manifest = json.loads(path.read_text(encoding="utf-8"))
-        config = manifest.get("config", {})
-        commit = str(manifest.get("git_commit") or manifest.get("commit") or "n/a")[:7]
-        retested = "yes" if (results / suite / "retest").is_dir() else "no"
+        config, commit, retested = _run_facts(results / suite)
         rows.append(
             f"| {suite} | {config.get('estimator', 'n/a')} | "
             f"{config.get('objective', 'free-energy')} | {config.get('n_seeds', 'n/a')} | "
@@ -393,10 +397,7 @@ def _round_section(results: Path) -> list[str]:
         "|---|---|---|---|---|---|---|",
     ]
     for name in present:
-        manifest = json.loads((results / name / "manifest.json").read_text(encoding="utf-8"))
-        config = manifest.get("config", {})
-        commit = str(manifest.get("git_commit") or manifest.get("commit") or "n/a")[:7]
-        retested = "yes" if (results / name / "retest").is_dir() else "no"
+        config, commit, retested = _run_facts(results / name)
         lines.append(
             f"| {name} | {ROUND_SUITES[name]} | {config.get('estimator', 'n/a')} | "
             f"{config.get('n_seeds', 'n/a')} | {config.get('batch_size', 'n/a')} x "
