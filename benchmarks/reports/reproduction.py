@@ -34,7 +34,11 @@ SUITES = ("optimizers", "precision-sweep", "mass-perturbation", "robustness", "r
 
 #: Suites rerun with a round tool section (``section_shape = "round"``, docs/model.md): the
 #: folder of each under the results, and the suite it repeats. Reported when present.
-ROUND_SUITES = {"optimizers-round": "optimizers", "robustness-round": "robustness"}
+ROUND_SUITES = {
+    "optimizers-round": "optimizers",
+    "robustness-round": "robustness",
+    "robust-design-round": "robust-design",
+}
 
 
 def _fmt(value: float, digits: int = 4) -> str:
@@ -373,8 +377,9 @@ def _round_section(results: Path) -> list[str]:
         rows.append(f"| (a) CMA-ES lowers F fastest | {a[0]} | {a[1]} |")
         details += ["", *a[2]]
     if "robustness-round" in present:
+        baseline = results / "robust-design-round"
         b = _claim_b(robustness)
-        c = _claim_c(robustness, None)
+        c = _claim_c(robustness, baseline if "robust-design-round" in present else None)
         d = _claim_d(robustness)
         rows += [
             f"| (b) p^X = 0 tools are curved and hold the box; p^X = 50 tools are straighter "
