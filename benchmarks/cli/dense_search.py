@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Any, cast
 
 from benchmarks.cli._common import add_task_arguments
-from benchmarks.execution import EXECUTORS, TaskSettings
+from benchmarks.execution import EXECUTORS
 from benchmarks.suites.dense_search import best_designs, dense_search
 
 
@@ -31,21 +31,18 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 
 def _run(args: argparse.Namespace) -> int:
-    extra: dict[str, Any] = {}
-    if args.scene_samples != 1:
-        extra["scene_samples"] = args.scene_samples
-    if args.section_shape != "square":
-        from tooldesign_env import ToolSpec
+    from benchmarks.design import DesignConfig
 
-        extra["tool"] = ToolSpec(section_shape=args.section_shape)
-    task = TaskSettings(
+    # The task of a design run with these arguments: the same checks and env settings.
+    task = DesignConfig(
         goal=tuple(args.goal),
         goal_precision=args.goal_precision,
         box_mass=args.box_mass,
         estimator=args.estimator,
         objective=args.objective,
-        env_kwargs=extra,
-    )
+        scene_samples=args.scene_samples,
+        section_shape=args.section_shape,
+    ).task()
     start = time.perf_counter()
 
     def progress(done: int, total: int) -> None:

@@ -36,7 +36,6 @@ from typing import Any, cast
 
 import numpy as np
 
-from benchmarks.design.config import scene_spec
 from benchmarks.execution import TaskSettings, make_executor, map_robust, worker_env
 from benchmarks.storage import (
     DESIGNS_DIR,
@@ -200,32 +199,17 @@ def default_config(suite: Any) -> RetestConfig:
 
 
 def retest_task(suite: Any, record: Mapping[str, Any]) -> TaskSettings:
-    """The task a stored final design is retested on: its goal, p^X and mass, the suite's scene.
+    """The task a stored final design is retested on: its goal, p^X and mass, the suite's env.
 
     Args:
         suite: The suite's :class:`~benchmarks.suites.config.SuiteConfig`.
         record: The design file's record (``goal``, ``goal_precision``, ``box_mass``).
     """
-    from tooldesign_env import ToolSpec
-
-    # The suite's scene (the box moved, say) is the base the nudges start from; a suite
-    # without one gets no scene argument, as before the field existed. Likewise its tool.
-    extra: dict[str, Any] = {}
-    scene = scene_spec(suite.scene)
-    if scene is not None:
-        extra["scene"] = scene
-    tool = ToolSpec(
-        degree=len(suite.bounds) if suite.bounds else ToolSpec().degree,
-        section_shape=getattr(suite, "section_shape", "square"),
-    )
-    if tool != ToolSpec():
-        extra["tool"] = tool
-    if suite.bounds is not None:
-        from tooldesign_env import default_bounds
-
-        bounds = tuple(tuple(float(v) for v in row) for row in suite.bounds)
-        if not np.array_equal(np.asarray(bounds), default_bounds(len(bounds))):
-            extra["bounds"] = bounds  # designs outside the default bounds are the suite's own
+    # The env settings every run of the suite was scored with (its scene, which the nudges start
+    # from, its tool and its bounds), but one rollout per evaluation: the noise floor is that of
+    # a single evaluation, whatever scene_samples the suite averaged over.
+    design_task = suite.runs()[0].design.task()
+    extra = {k: v for k, v in design_task.env_kwargs if k != "scene_samples"}
     return TaskSettings(
         goal=record["goal"],
         goal_precision=record["goal_precision"],
