@@ -39,7 +39,9 @@ from tooldesign_env.geometry.intersection import _buildability
 from tooldesign_env.geometry.sweep import _sweep
 
 REPO = Path(__file__).resolve().parents[1]
-SPEC = ToolSpec()
+#: The paper's square section: these tests check its boxes and mitred mesh (the round section's
+#: are in test_round_section.py).
+SPEC = ToolSpec(section_shape="square")
 # The scene's design box: c1, c2 in [-1.5, 1.5], c3 in [-0.5, 0.5].
 CORNERS = [(c1, c2, c3) for c1 in (-1.5, 1.5) for c2 in (-1.5, 1.5) for c3 in (-0.5, 0.5)]
 EXTREME = [(1e3, -1e3, 50.0), (-1e3, 1e3, -50.0), (1e3, 1e3, 1e3), (0.0, 0.0, 0.0), (0, 0, 1e3)]
@@ -202,7 +204,7 @@ def test_validate_rejects_bad_degree(degree, error):
         lambda c: curve_arc_length(c, 0.5),
         lambda c: solve_curve_extent(c, 1.1),
         lambda c: curve_points(c, 1.1, 10),
-        lambda c: make_tool(c),
+        lambda c: make_tool(c, SPEC),
     ],
     ids=["curve_arc_length", "solve_curve_extent", "curve_points", "make_tool"],
 )
@@ -224,8 +226,8 @@ def test_every_entry_point_rejects_bad_coefficients(call, coeffs, error):
 
 def test_make_tool_needs_as_many_coefficients_as_the_degree():
     with pytest.raises(ValueError, match=r"expected \(3,\)"):
-        make_tool([0.0, 0.0])
-    make_tool([0.0, 0.0], ToolSpec(degree=2))
+        make_tool([0.0, 0.0], SPEC)
+    make_tool([0.0, 0.0], ToolSpec(section_shape="square", degree=2))
 
 
 @pytest.mark.parametrize(
@@ -340,7 +342,7 @@ def test_any_finite_design_gives_a_finite_tool_with_bounded_work(coeffs):
     with mock.patch.object(
         _ArcTable, "__call__", autospec=True, side_effect=_ArcTable.__call__
     ) as arc_length:
-        tool = make_tool(coeffs)  # raises if the arc-length check fails
+        tool = make_tool(coeffs, SPEC)  # raises if the arc-length check fails
     assert 0 < arc_length.call_count < 2000
     for array in (tool.centerline, tool.center_of_mass, tool.inertia, tool.bounds):
         assert np.all(np.isfinite(array))
@@ -376,7 +378,7 @@ def test_curve_points_are_evenly_spaced_along_the_arc(coeffs, n):
 @given(coeffs=in_bounds)
 def test_chords_are_shorter_than_arcs_by_at_most_the_curvature_bound(coeffs):
     """chord >= (2 / k) sin(k l / 2) >= l - l^3 k^2 / 24 for curvature <= k (Schur)."""
-    tool = make_tool(coeffs)
+    tool = make_tool(coeffs, SPEC)
     chords = np.linalg.norm(np.diff(tool.centerline[1:], axis=0), axis=1)
     arc = SPEC.arc_length / SPEC.n_segments
     kappa = 1.0 / tool.min_radius_of_curvature
@@ -392,8 +394,10 @@ def test_chords_are_shorter_than_arcs_by_at_most_the_curvature_bound(coeffs):
 
 def test_radius_of_curvature_of_a_parabola_vertex():
     # p = 1.5 u^2: curvature is largest at the vertex u = 0, where it is p'' = 3.
-    assert make_tool((0.0, 1.5, 0.0)).min_radius_of_curvature == pytest.approx(1 / 3, rel=1e-14)
-    assert make_tool((0.0, 0.0, 0.3)).min_radius_of_curvature == math.inf
+    assert make_tool((0.0, 1.5, 0.0), SPEC).min_radius_of_curvature == pytest.approx(
+        1 / 3, rel=1e-14
+    )
+    assert make_tool((0.0, 0.0, 0.3), SPEC).min_radius_of_curvature == math.inf
 
 
 @FAST
@@ -401,7 +405,7 @@ def test_radius_of_curvature_of_a_parabola_vertex():
 @example(coeffs=(1.5, -1.5, 0.5))
 @example(coeffs=(-1.5, 1.5, -0.5))
 def test_radius_of_curvature_matches_dense_sampling(coeffs):
-    tool = make_tool(coeffs)
+    tool = make_tool(coeffs, SPEC)
     sampled = dense_min_radius(coeffs, tool.curve_extent)
     # The analytic minimum can only be lower than a sampled one, and only by sampling error.
     assert tool.min_radius_of_curvature <= sampled * (1 + 1e-12)
@@ -415,7 +419,7 @@ def test_radius_of_curvature_matches_dense_sampling(coeffs):
 
 def test_centerline_is_handle_then_curve_points_in_the_tool_frame():
     coeffs = (0.5, -1.0, 0.2)
-    tool = make_tool(coeffs)
+    tool = make_tool(coeffs, SPEC)
     assert tool.centerline.shape == (SPEC.n_segments + 2, 2)
     np.testing.assert_array_equal(tool.centerline[0], [-0.075, 0.0])
     np.testing.assert_array_equal(tool.centerline[1], [0.075, 0.0])
@@ -427,7 +431,7 @@ def test_centerline_is_handle_then_curve_points_in_the_tool_frame():
 
 
 def test_outputs_are_read_only():
-    tool = make_tool((0.5, -1.0, 0.2))
+    tool = make_tool((0.5, -1.0, 0.2), SPEC)
     for array in (tool.coeffs, tool.centerline, tool.center_of_mass, tool.inertia, tool.tip):
         with pytest.raises(ValueError):
             array[0] = 1.0
@@ -438,7 +442,7 @@ def test_outputs_are_read_only():
 
 
 def test_straight_tool_has_the_hand_computed_box_values():
-    tool = make_tool((0.0, 0.0, 0.0))
+    tool = make_tool((0.0, 0.0, 0.0), SPEC)
     length, side = 1.25, 0.03
     mass = 250.0 * length * side * side
     assert tool.volume == pytest.approx(length * side * side, rel=1e-12)
@@ -466,7 +470,7 @@ def test_straight_tool_has_the_hand_computed_box_values():
 @given(coeffs=st.one_of(in_bounds, any_design))
 @example(coeffs=(1e3, -1e3, 50.0))
 def test_mass_properties_equal_the_meshs(coeffs):
-    tool = make_tool(coeffs)
+    tool = make_tool(coeffs, SPEC)
     mesh = tool_mesh(tool)
     reference = mesh.mass_properties
     assert tool.mass == pytest.approx(SPEC.density * tool.volume, rel=1e-15)
@@ -481,7 +485,7 @@ def test_mass_properties_equal_the_meshs(coeffs):
 @FAST
 @given(coeffs=in_bounds)
 def test_mesh_is_watertight_with_the_analytic_volume(coeffs):
-    tool = make_tool(coeffs)
+    tool = make_tool(coeffs, SPEC)
     mesh = tool_mesh(tool)
     assert mesh.is_watertight
     assert mesh.is_winding_consistent
@@ -504,7 +508,7 @@ def test_mesh_is_watertight_with_the_analytic_volume(coeffs):
 
 @pytest.mark.parametrize("coeffs", EXTREME)
 def test_mesh_stays_closed_for_extreme_designs(coeffs):
-    mesh = tool_mesh(make_tool(coeffs))
+    mesh = tool_mesh(make_tool(coeffs, SPEC))
     assert mesh.is_watertight
     assert mesh.is_winding_consistent
     assert np.all(np.isfinite(mesh.vertices))
@@ -517,7 +521,7 @@ def _mesh_walls(tool: ToolGeometry):
 
 @pytest.mark.parametrize("coeffs", [(1.5, -1.5, 0.5), (-1.5, 1.5, -0.5), (0.3, 1.2, -0.4)])
 def test_mesh_walls_are_half_a_section_from_every_segment(coeffs):
-    tool = make_tool(coeffs, ToolSpec(n_segments=6))
+    tool = make_tool(coeffs, ToolSpec(section_shape="square", n_segments=6))
     right, left = _mesh_walls(tool)
     line = tool.centerline
     for k in range(line.shape[0] - 1):
@@ -554,9 +558,9 @@ def _inside_mesh(tool: ToolGeometry, points: np.ndarray) -> np.ndarray:
 @pytest.mark.parametrize(
     ("coeffs", "spec"),
     [
-        ((1.5, -1.5, 0.5), ToolSpec(n_segments=5)),
-        ((-1.5, 1.5, -0.5), ToolSpec(n_segments=8, section=0.08)),
-        ((0.0, 3.0, 0.5), ToolSpec(n_segments=4, section=0.1)),
+        ((1.5, -1.5, 0.5), ToolSpec(section_shape="square", n_segments=5)),
+        ((-1.5, 1.5, -0.5), ToolSpec(section_shape="square", n_segments=8, section=0.08)),
+        ((0.0, 3.0, 0.5), ToolSpec(section_shape="square", n_segments=4, section=0.1)),
         ((1.5, 1.5, 0.5), SPEC),
     ],
 )
@@ -595,7 +599,7 @@ def _chord_half(tool: ToolGeometry, k: int) -> np.ndarray:
 
 
 def test_box_yaw_follows_each_segment():
-    tool = make_tool((1.5, -1.5, 0.5))
+    tool = make_tool((1.5, -1.5, 0.5), SPEC)
     delta = np.diff(tool.centerline, axis=0)
     np.testing.assert_allclose([b.yaw for b in tool.boxes], np.arctan2(delta[:, 1], delta[:, 0]))
 
@@ -607,14 +611,14 @@ def test_box_yaw_follows_each_segment():
 
 @pytest.mark.parametrize("coeffs", [(0.0, 0.0, 0.0), *CORNERS])
 def test_straight_tool_and_design_box_corners_are_buildable(coeffs):
-    tool = make_tool(coeffs)
+    tool = make_tool(coeffs, SPEC)
     assert tool.buildable
     assert tool.why_not_buildable == ""
 
 
 @pytest.mark.parametrize("coeffs", [(1e3, -1e3, 50.0), (-1e3, 1e3, -50.0), (0.0, 40.0, -3.0)])
 def test_tight_bends_are_not_buildable(coeffs):
-    tool = make_tool(coeffs)
+    tool = make_tool(coeffs, SPEC)
     assert tool.min_radius_of_curvature < SPEC.section / 2
     assert not tool.buildable
     assert "radius of curvature" in tool.why_not_buildable
@@ -622,8 +626,8 @@ def test_tight_bends_are_not_buildable(coeffs):
 
 def test_buildability_follows_the_radius_rule_at_its_threshold():
     # p = c u^2 has its smallest radius 1 / (2c) at u = 0; section / 2 = 0.015 m <=> c = 33.3.
-    assert make_tool((0.0, 33.0, 0.0)).buildable
-    assert not make_tool((0.0, 34.0, 0.0)).buildable
+    assert make_tool((0.0, 33.0, 0.0), SPEC).buildable
+    assert not make_tool((0.0, 34.0, 0.0), SPEC).buildable
 
 
 def _polyline_reason(points, section=0.03) -> str:
@@ -663,7 +667,7 @@ def test_joints_beyond_the_mitre_limit_or_inverted_pieces_are_not_buildable():
 
 @pytest.mark.parametrize("suffix", [".stl", ".obj", ".STL"])
 def test_exported_mesh_reloads_watertight(tmp_path, suffix):
-    tool = make_tool((1.5, -1.5, 0.5))
+    tool = make_tool((1.5, -1.5, 0.5), SPEC)
     path = export_mesh(tool, tmp_path / f"tool{suffix}")
     assert path == tmp_path / f"tool{suffix}"
     loaded = trimesh.load(path, force="mesh")
@@ -676,7 +680,7 @@ def test_exported_mesh_reloads_watertight(tmp_path, suffix):
 
 
 def test_export_scale_turns_metres_into_millimetres(tmp_path):
-    tool = make_tool((0.0, 0.0, 0.0))
+    tool = make_tool((0.0, 0.0, 0.0), SPEC)
     path = export_mesh(tool, tmp_path / "tool.stl", scale=1000.0)
     loaded = trimesh.load(path)
     np.testing.assert_allclose(loaded.bounds, np.asarray(tool.bounds) * 1000.0, rtol=1e-6)
@@ -688,7 +692,7 @@ def test_export_scale_turns_metres_into_millimetres(tmp_path):
 def test_export_replaces_an_existing_file(tmp_path):
     path = tmp_path / "tool.obj"
     path.write_text("old")
-    export_mesh(make_tool((0.0, 0.0, 0.0)), path)
+    export_mesh(make_tool((0.0, 0.0, 0.0), SPEC), path)
     assert path.read_text().startswith("# tooldesign tool, units: m")
 
 
@@ -705,7 +709,7 @@ def test_export_replaces_an_existing_file(tmp_path):
 def test_export_rejects_bad_arguments(tmp_path, kwargs, error):
     kwargs["path"] = tmp_path / kwargs["path"]
     with pytest.raises(error):
-        export_mesh(make_tool((0.0, 0.0, 0.0)), **kwargs)
+        export_mesh(make_tool((0.0, 0.0, 0.0), SPEC), **kwargs)
     assert os.listdir(tmp_path) == []
 
 
@@ -720,7 +724,7 @@ def test_file_functions_need_a_tool_geometry(call):
 
 
 def test_urdf_has_one_collision_and_visual_per_box():
-    tool = make_tool((1.5, -1.5, 0.5))
+    tool = make_tool((1.5, -1.5, 0.5), SPEC)
     root = ET.fromstring(tool_urdf(tool, name="hook"))
     assert root.tag == "robot"
     assert root.get("name") == "hook"
@@ -745,7 +749,7 @@ def test_urdf_has_one_collision_and_visual_per_box():
 
 
 def test_link_xml_is_one_link_element_with_escaped_names():
-    tool = make_tool((0.0, 0.0, 0.0))
+    tool = make_tool((0.0, 0.0, 0.0), SPEC)
     xml = tool_link_xml(tool, 'tool "<1>"', (0.1, 0.2, 0.3, 1.0))
     link = ET.fromstring(xml)
     assert link.tag == "link"
@@ -766,7 +770,7 @@ def test_link_xml_is_one_link_element_with_escaped_names():
 )
 def test_link_xml_rejects_bad_arguments(kwargs, error):
     with pytest.raises(error):
-        tool_link_xml(make_tool((0.0, 0.0, 0.0)), **kwargs)
+        tool_link_xml(make_tool((0.0, 0.0, 0.0), SPEC), **kwargs)
 
 
 FINGERPRINTS = """
@@ -825,7 +829,7 @@ def test_same_input_gives_the_same_bytes_in_another_process(tmp_path):
     ("degree", "coeffs"), [(1, [0.4]), (2, [1.0, -0.2]), (5, [3.0, -2.0, 1.0, 0.5, -0.3])]
 )
 def test_other_degrees(degree, coeffs):
-    tool = make_tool(coeffs, ToolSpec(degree=degree, n_segments=12))
+    tool = make_tool(coeffs, ToolSpec(section_shape="square", degree=degree, n_segments=12))
     assert tool.centerline.shape == (14, 2)
     assert quad_arc_length(coeffs, 0.0, tool.curve_extent) == pytest.approx(1.1, rel=1e-9)
     assert tool_mesh(tool).is_watertight

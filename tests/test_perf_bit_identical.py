@@ -1,10 +1,11 @@
 """Speed-ups that claim to leave results bit for bit the same are checked against a fixture.
 
 ``tests/fixtures/perf_reference.json`` holds, for a few fixed designs, F and its terms (as exact
-float64 hex strings) and SHA-256 digests of the recorded arrays, computed with the code as it
-was before the performance work (commit a23515b on main). A speed-up of the simulation loop must
-reproduce them exactly; a change of the physics must not pass this test and needs its own,
-documented, side-by-side comparison instead (benchmarks/perf/physics_options.py).
+float64 hex strings) and SHA-256 digests of the recorded arrays. The square section's entries
+were computed with the code as it was before the performance work (commit a23515b on main); the
+round section's (keys starting "round"), when it became the default. A speed-up of the
+simulation loop must reproduce them exactly; a change of the physics must not pass this test
+and needs its own, documented, side-by-side comparison instead (benchmarks/perf/physics_options.py).
 
 Regenerate (only when the physics is meant to change, and say so in the commit):
 ``PYTHONPATH=$PWD python tests/test_perf_bit_identical.py --record``.
@@ -13,6 +14,7 @@ Regenerate (only when the physics is meant to change, and say so in the commit):
 from __future__ import annotations
 
 import hashlib
+import itertools
 import json
 import sys
 import warnings
@@ -52,11 +54,18 @@ def _digest(array: np.ndarray) -> str:
     return hashlib.sha256(str(a.dtype).encode() + str(a.shape).encode() + a.tobytes()).hexdigest()
 
 
+#: The tool's sections, with the prefix of their keys in the fixture.
+SECTIONS = {"square": "", "round": "round "}
+
+
 def outcomes() -> dict[str, dict[str, object]]:
     """What the fixture records, computed with the code as it is now."""
+    from tooldesign_env import ToolSpec
+
     out: dict[str, dict[str, object]] = {}
-    for estimator in ESTIMATORS:
-        env = ToolDesignEnv(estimator=estimator, info_series=True)
+    for (shape, prefix), estimator in itertools.product(SECTIONS.items(), ESTIMATORS):
+        tool = ToolSpec(section_shape=shape)
+        env = ToolDesignEnv(estimator=estimator, tool=tool, info_series=True)
         env.reset(seed=0)
         try:
             for design in DESIGNS:
@@ -65,7 +74,7 @@ def outcomes() -> dict[str, dict[str, object]]:
                 row.update({k: float(info[k]).hex() for k in SCALARS})
                 row["fast_forward_from"] = int(info["fast_forward_from"])
                 row.update({k: _digest(np.asarray(info[k])) for k in ARRAYS})
-                out[f"{estimator} {design}"] = row
+                out[f"{prefix}{estimator} {design}"] = row
         finally:
             env.close()
     return out
@@ -95,7 +104,7 @@ def test_keeping_the_arm_off_the_floor_changes_nothing_in_the_default_scene():
     try:
         for design in DESIGNS[:3]:
             info = env.step(np.asarray(design))[4]
-            row = expected[f"contact {design}"]
+            row = expected[f"round contact {design}"]  # the default tool
             assert float(info["free_energy"]).hex() == row["free_energy"]
             assert _digest(np.asarray(info["box_trajectory"])) == row["box_trajectory"]
     finally:

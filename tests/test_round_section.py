@@ -25,6 +25,7 @@ from tooldesign_env.geometry import (
 )
 
 ROUND = ToolSpec(section_shape="round")
+SQUARE = ToolSpec(section_shape="square")
 R = 0.5 * ROUND.section
 DESIGNS = [(0.0, 0.0, 0.0), (1.5, -1.5, 0.5), (-1.5, 1.5, -0.5), (0.3, 1.2, -0.4)]
 
@@ -52,8 +53,8 @@ def capsule_union_volume(polyline: np.ndarray, radius: float) -> float:
     return float(total * step * step)
 
 
-def test_section_shape_is_square_by_default_and_checked():
-    assert ToolSpec().section_shape == "square"
+def test_section_shape_is_round_by_default_and_checked():
+    assert ToolSpec().section_shape == "round"
     assert SECTION_SHAPES == ("square", "round")
     for bad in ("circle", "", None, 1):
         with pytest.raises(ValueError, match=r"ToolSpec.section_shape must be one of .*square"):
@@ -201,14 +202,15 @@ def test_a_round_tool_pushes_the_box_and_its_outcome_is_stable_under_nudges():
 # ------------------------------------------------------------------------------------------------
 
 
-def test_a_design_run_with_a_round_section_scores_with_a_round_tool():
+def test_a_design_run_scores_with_the_tool_of_its_section():
     from benchmarks.design import DesignConfig
 
-    assert "tool" not in dict(DesignConfig().task().env_kwargs)
-    config = DesignConfig(section_shape="round")
-    assert config.tool_spec() == ROUND
-    assert dict(config.task().env_kwargs)["tool"] == ROUND
-    assert config.to_json()["section_shape"] == "round"
+    assert "tool" not in dict(DesignConfig().task().env_kwargs)  # the env's own default
+    assert DesignConfig().tool_spec() == ROUND == ToolSpec()
+    config = DesignConfig(section_shape="square")
+    assert config.tool_spec() == SQUARE
+    assert dict(config.task().env_kwargs)["tool"] == SQUARE
+    assert config.to_json()["section_shape"] == "square"
     with pytest.raises(ValueError, match=r"section_shape must be one of .*'square'.*got 'oval'"):
         DesignConfig(section_shape="oval")
 
@@ -232,10 +234,15 @@ def test_a_suite_passes_its_section_to_every_run_and_old_suites_read_as_square()
         SuiteConfig(name="s", section_shape=None)  # type: ignore[arg-type]
 
 
-def test_the_command_line_offers_the_geometrys_section_shapes():
+def test_the_command_line_offers_the_geometrys_section_shapes_and_default():
+    from benchmarks.cli._common import DEFAULT_SECTION_SHAPE
     from benchmarks.cli._common import SECTION_SHAPES as CLI_SHAPES
+    from benchmarks.design import DesignConfig
+    from benchmarks.suites import SuiteConfig
 
     assert CLI_SHAPES == SECTION_SHAPES
+    assert DEFAULT_SECTION_SHAPE == ToolSpec().section_shape == "round"
+    assert DesignConfig().section_shape == SuiteConfig(name="s").section_shape == "round"
 
 
 def test_dense_search_passes_the_section_and_the_scene_samples(monkeypatch, tmp_path):
@@ -254,10 +261,13 @@ def test_dense_search_passes_the_section_and_the_scene_samples(monkeypatch, tmp_
     from benchmarks.cli import build_parser
 
     args = build_parser().parse_args(
-        ["dense-search", "--out", str(tmp_path), "--section-shape", "round", "--scene-samples", "3"]
+        ["dense-search", "--out", str(tmp_path), "--section-shape", "square"]
+        + ["--scene-samples", "3"]
     )
     assert args.run(args) == 0
-    assert dict(seen["task"].env_kwargs) == {"scene_samples": 3, "tool": ROUND}
+    assert dict(seen["task"].env_kwargs) == {"scene_samples": 3, "tool": SQUARE}
+    args = build_parser().parse_args(["dense-search", "--out", str(tmp_path / "b")])
+    assert args.section_shape == "round"
 
 
 def test_evaluate_writes_a_round_tool(tmp_path):
@@ -271,14 +281,14 @@ def test_evaluate_writes_a_round_tool(tmp_path):
     assert any('"section_shape": "round"' in path.read_text() for path in card)
 
 
-def test_retest_evaluates_a_round_suites_designs_with_a_round_tool():
+def test_retest_evaluates_a_suites_designs_with_the_suites_tool():
     from benchmarks.suites import SuiteConfig
     from benchmarks.suites.retest import retest_task
 
     record = {"goal": (0.0, 1.5, 0.1), "goal_precision": 20.0, "box_mass": 0.1}
     assert retest_task(SuiteConfig(name="s"), record).env_kwargs == ()
-    task = retest_task(SuiteConfig(name="s", section_shape="round"), record)
-    assert dict(task.env_kwargs) == {"tool": ROUND}
+    task = retest_task(SuiteConfig(name="s", section_shape="square"), record)
+    assert dict(task.env_kwargs) == {"tool": SQUARE}
     wide = [[-3.0, 3.0], [-1.5, 1.5], [-0.5, 0.5]]
     task = retest_task(SuiteConfig(name="s", bounds=wide), record)
     assert dict(task.env_kwargs) == {"bounds": ((-3.0, 3.0), (-1.5, 1.5), (-0.5, 0.5))}

@@ -332,7 +332,12 @@ def test_table_one_marks_the_best_of_each_column(smoke_runs: dict[str, Path]) ->
     assert best == table["control_deviation"].min()
     assert (table["robustness_low"] <= table["robustness"]).all()
     assert (table["robustness"] <= table["robustness_high"]).all()
-    assert (smoke_runs["robustness"] / "report" / "table1.md").read_text().count("**") == 6
+    # One bold mean per column, more only where means tie exactly (variants that found the same
+    # design in a run this small).
+    flags = table[["robustness_best", "accuracy_best", "control_deviation_best"]]
+    assert (flags.sum() >= 1).all()
+    bold = (smoke_runs["robustness"] / "report" / "table1.md").read_text().count("**")
+    assert bold == 2 * int(flags.to_numpy().sum())
 
 
 @pytest.mark.slow

@@ -7,9 +7,10 @@ import argparse
 from benchmarks.execution import MAX_RETRIES_MAX, TaskSettings
 from benchmarks.execution.evaluator import _ESTIMATORS, OBJECTIVES
 
-#: ``tooldesign_env.geometry.SECTION_SHAPES``, spelled out so that parsing the command line does
-#: not import the simulation (a test checks that the two agree).
+#: ``tooldesign_env.geometry.SECTION_SHAPES`` and ``ToolSpec().section_shape``, spelled out so
+#: that parsing the command line does not import the simulation (a test checks that they agree).
 SECTION_SHAPES = ("square", "round")
+DEFAULT_SECTION_SHAPE = "round"
 
 
 def _max_retries(text: str) -> int:
@@ -85,9 +86,9 @@ def add_task_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--section-shape",
         choices=SECTION_SHAPES,
-        default="square",
-        help="the tool's section: the paper's square, or round (far less chaotic contact, "
-        "see docs/model.md) (default: %(default)s)",
+        default=DEFAULT_SECTION_SHAPE,
+        help="the tool's section: round (far less chaotic contact, see docs/model.md), or the "
+        "paper's square (default: %(default)s)",
     )
     parser.add_argument(
         "--scene-samples",

@@ -220,8 +220,10 @@ class DesignConfig:
             tuples), JSON values, e.g. ``{"box_position": [-0.4, 1.1]}`` to move the box. Not
             ``box_mass`` (its own field). Empty (the default) is the default scene.
         robustness_masses: Altered box masses m_i in kg of the final tool's robustness test.
-        section_shape: The tool's section, ``"square"`` (the paper's) or ``"round"``
-            (``ToolSpec.section_shape``: far less chaotic contact, see docs/model.md).
+        section_shape: The tool's section, ``"round"`` (the default: far less chaotic contact,
+            see docs/model.md) or ``"square"`` (the paper's) (``ToolSpec.section_shape``). A
+            config file without the field, written before the field existed, reads as
+            ``"square"``.
     """
 
     optimizer: str = "cmaes"
@@ -242,7 +244,7 @@ class DesignConfig:
     bounds: Sequence[Sequence[float]] | np.ndarray | None = None
     scene: tuple[tuple[str, Any], ...] | Mapping[str, Any] = ()
     robustness_masses: Sequence[float] = ROBUSTNESS_MASSES
-    section_shape: str = "square"
+    section_shape: str = "round"
 
     def __post_init__(self) -> None:
         if not isinstance(self.optimizer, str) or not self.optimizer.strip():

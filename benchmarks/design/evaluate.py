@@ -86,7 +86,7 @@ def evaluate_coefficients(
     estimator: str = "contact",
     objective: str = "free-energy",
     scene_samples: int = 1,
-    section_shape: str = "square",
+    section_shape: str = "round",
     robustness: bool = False,
     outside_bounds: bool = False,
     video: bool = False,

@@ -29,8 +29,8 @@ halved (ratio of successive changes > 1) and the estimate at the finest steps di
 next coarser one by no more than about the noise over nudges; in (b), the median ratio tends
 to a constant (ideally 1) and the median |log ratio| shrinks as P decreases.
 
-Run: ``python benchmarks/perf/confidence_convergence.py [--seed 1] [--figure PATH]``
-(about a minute and a half on one core). The figure goes to
+Run: ``python benchmarks/perf/confidence_convergence.py [--seed 1] [--section-shape square|round]
+[--figure PATH]`` (about a minute and a half on one core). The figure goes to
 ``docs/images/confidence_convergence.png`` unless ``--figure`` says otherwise.
 """
 
@@ -51,6 +51,7 @@ from matplotlib.figure import Figure
 
 from benchmarks.reports.comparison import DPI, figure_png_bytes
 from tooldesign_env import ObjectiveSpec, SceneSpec, ToolDesignEnv, ToolSimulator, make_tool
+from tooldesign_env.geometry import SECTION_SHAPES, ToolSpec
 from tooldesign_env.specs import ControllerSpec, TaskSpec
 
 #: (physics time step s, control period in physics steps): the control rate stays 120 Hz.
@@ -101,7 +102,7 @@ class Agreement:
 
 
 def time_step_study(
-    designs: dict[str, np.ndarray], seed: int, goal: np.ndarray
+    designs: dict[str, np.ndarray], seed: int, goal: np.ndarray, tool: ToolSpec
 ) -> dict[tuple[str, float, str], list[tuple[float, float]]]:
     """Study (a): (design, time step, estimator) -> [(confidence, goal error)] over the nudges."""
     out: dict[tuple[str, float, str], list[tuple[float, float]]] = {}
@@ -110,7 +111,7 @@ def time_step_study(
         controller = ControllerSpec(control_period=period)
         sims = [ToolSimulator(scene=s, controller=controller) for s in scenes]
         for name, coeffs in designs.items():
-            geometry = make_tool(coeffs)
+            geometry = make_tool(coeffs, tool)
             for sim in sims:
                 if sim.build(geometry):
                     raise RuntimeError(f"{name} overlaps the box in a nudged scene")
@@ -125,13 +126,14 @@ def time_step_study(
 
 
 def agreement_study(
-    designs: dict[str, np.ndarray], goal: np.ndarray
+    designs: dict[str, np.ndarray], goal: np.ndarray, tool: ToolSpec
 ) -> tuple[dict[str, float], dict[tuple[str, float], Agreement]]:
     """Study (b): the contact estimator's summed confidence per design, and the comparisons."""
-    contact_env = ToolDesignEnv(goal=tuple(goal.tolist()), info_series=True)
+    contact_env = ToolDesignEnv(goal=tuple(goal.tolist()), tool=tool, info_series=True)
     resim_envs = {
         p: ToolDesignEnv(
             goal=tuple(goal.tolist()),
+            tool=tool,
             objective=ObjectiveSpec(estimator="resimulation", perturbation=p, horizon=HORIZON),
             info_series=True,
         )
@@ -312,12 +314,19 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seed", type=int, default=1, help="random designs and nudges")
     parser.add_argument("--figure", type=Path, default=DEFAULT_FIGURE, help="PNG to write")
+    parser.add_argument(
+        "--section-shape",
+        choices=SECTION_SHAPES,
+        default=ToolSpec().section_shape,
+        help="the tool's section (the committed figure: square) (default: %(default)s)",
+    )
     args = parser.parse_args()
 
     goal = np.asarray(TaskSpec().goal, dtype=float)
     probe = ToolSimulator()
     designs = {name: np.asarray(c, dtype=float) for name, c in FIXED_DESIGNS.items()}
-    for i, c in enumerate(valid_designs(2, args.seed, probe)):
+    tool = ToolSpec(section_shape=args.section_shape)
+    for i, c in enumerate(valid_designs(2, args.seed, probe, tool)):
         designs[f"random {i + 1}"] = c
     probe.close()
     for name, c in designs.items():
@@ -325,7 +334,7 @@ def main() -> None:
 
     goal_text = "(" + ", ".join(f"{v:g}" for v in goal) + ") m"
     t0 = time.perf_counter()
-    time_steps = time_step_study(designs, args.seed, goal)
+    time_steps = time_step_study(designs, args.seed, goal, tool)
     t1 = time.perf_counter()
     print()
     print(
@@ -336,7 +345,7 @@ def main() -> None:
     print_time_steps(time_steps)
 
     fixed = {name: designs[name] for name in FIXED_DESIGNS}
-    confidence, agreement = agreement_study(fixed, goal)
+    confidence, agreement = agreement_study(fixed, goal, tool)
     t2 = time.perf_counter()
     print()
     print(

@@ -35,6 +35,7 @@ import time
 import numpy as np
 
 from tooldesign_env import ObjectiveSpec, ToolDesignEnv, make_tool
+from tooldesign_env.geometry import SECTION_SHAPES, ToolSpec
 from tooldesign_env.objective import free_energy
 
 #: Run in a child process: the wall time of the first env.step of a fresh process, after imports.
@@ -83,9 +84,16 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--reference", type=int, default=3, help="designs for the reference")
     parser.add_argument("--first", type=int, default=3, help="fresh processes per cache state")
+    parser.add_argument(
+        "--section-shape",
+        choices=SECTION_SHAPES,
+        default=ToolSpec().section_shape,
+        help="the tool's section (default: %(default)s)",
+    )
     args = parser.parse_args()
 
-    env = ToolDesignEnv()
+    tool = ToolSpec(section_shape=args.section_shape)
+    env = ToolDesignEnv(tool=tool)
     env.reset(seed=0)
     sim = env.simulator
     env.step(np.zeros(3))  # warm: the plan's inverse kinematics, imports, caches
@@ -99,7 +107,7 @@ def main() -> None:
             step, step_cpu = time.perf_counter() - t0, time.process_time() - c0
             if not info["valid"]:
                 continue
-            geometry = make_tool(c)
+            geometry = make_tool(c, tool)
             # The per-step series are left out of info by default (info_series=False); the env
             # keeps the last step's (older versions put them in info).
             series = getattr(env, "_last_series", None) or info
@@ -173,7 +181,7 @@ def main() -> None:
         )
 
     if args.reference > 0:
-        ref = ToolDesignEnv(objective=ObjectiveSpec(estimator="resimulation"))
+        ref = ToolDesignEnv(tool=tool, objective=ObjectiveSpec(estimator="resimulation"))
         ref.reset(seed=0)
         ref_t = []
         for c in designs(args.reference, args.seed):

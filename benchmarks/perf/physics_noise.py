@@ -8,12 +8,15 @@ designs in the same nudged scenes (as ``confidence_noise.py``: box shift <= 0.1 
 the nudges of F, of the confidence and of the goal error, and the median spread of the box's end
 position (the largest distance from the mean end position), mm.
 
-Settings change the scene (``SceneSpec``), the tool (``ToolSpec``), PyBullet's engine parameters
+Every setting starts from the tool of ``--section-shape`` (the default tool's, round; the figures
+in docs/model.md that were measured with the square section give ``--section-shape square``), and
+the designs are the first valid ones for that tool. Settings change the scene (``SceneSpec``),
+the tool (``ToolSpec``), PyBullet's engine parameters
 or the contact dynamics of the box and the tool (``changeDynamics`` after the build). Settings
 that change the task (friction, mass) are measured to locate the chaos, not as candidates.
 
 Run: ``python benchmarks/perf/physics_noise.py [--designs 12] [--nudges 6] [--seed 1]
-[--settings default "tool segments 60" ...]``.
+[--section-shape square|round] [--settings default "tool segments 60" ...]``.
 """
 
 from __future__ import annotations
@@ -28,11 +31,12 @@ import numpy as np
 from confidence_noise import nudged_scenes, score, spread, valid_designs
 
 from tooldesign_env import ObjectiveSpec, SceneSpec, ToolSimulator, make_tool
-from tooldesign_env.geometry import ToolSpec
+from tooldesign_env.geometry import SECTION_SHAPES, ToolSpec
 
 #: name -> (SceneSpec changes, ToolSpec changes, engine parameters, contact dynamics).
 SETTINGS: dict[str, tuple[dict[str, Any], dict[str, Any], dict[str, Any], dict[str, Any]]] = {
     "default": ({}, {}, {}, {}),
+    "square section": ({}, {"section_shape": "square"}, {}, {}),
     "round section": ({}, {"section_shape": "round"}, {}, {}),
     "round section, 10 segments": ({}, {"section_shape": "round", "n_segments": 10}, {}, {}),
     "round section, 60 segments": ({}, {"section_shape": "round", "n_segments": 60}, {}, {}),
@@ -61,10 +65,11 @@ def measure(name: str, args: argparse.Namespace) -> tuple[float, float, float, f
     base = replace(SceneSpec(), **scene_changes)
     scenes = nudged_scenes(base, args.nudges, 1e-4, 1e-4, args.seed)
     sims = [ToolSimulator(scene=s) for s in scenes]
-    tool_spec = replace(ToolSpec(), **tool_changes)
-    # The same designs for every setting, chosen with the default tool, so that rows compare;
+    base_tool = ToolSpec(section_shape=args.section_shape)
+    tool_spec = replace(base_tool, **tool_changes)
+    # The same designs for every setting, chosen with the base tool, so that rows compare;
     # a design the setting's tool cannot use is skipped below.
-    designs = valid_designs(args.designs, args.seed, ToolSimulator())
+    designs = valid_designs(args.designs, args.seed, ToolSimulator(), base_tool)
     goal = np.asarray(args.goal, dtype=float)
     spec = ObjectiveSpec(goal_precision=args.goal_precision)
     f_spread, c_spread, e_spread, ends = [], [], [], []
@@ -111,9 +116,16 @@ def main() -> None:
     parser.add_argument("--goal-precision", type=float, default=20.0)
     parser.add_argument("--goal", type=float, nargs=3, default=(0.0, 1.5, 0.1))
     parser.add_argument("--settings", nargs="*", default=list(SETTINGS), choices=list(SETTINGS))
+    parser.add_argument(
+        "--section-shape",
+        choices=SECTION_SHAPES,
+        default=ToolSpec().section_shape,
+        help="the tool every setting starts from (default: %(default)s)",
+    )
     args = parser.parse_args()
     print(
-        f"{args.designs} random valid designs (seed {args.seed}), {args.nudges} scenes each "
+        f"{args.designs} random valid designs (seed {args.seed}, {args.section_shape} section), "
+        f"{args.nudges} scenes each "
         "(box shift <= 0.1 mm, turn <= 1e-4 rad); median over designs"
     )
     print(

@@ -16,7 +16,10 @@ An option is ``spec.field=value`` with spec one of scene, plan, controller, tool
 Several options joined by ``+`` are applied together.
 
 Run: ``taskset -c 0 python benchmarks/perf/physics_options.py --designs 32 --repeats 3
---option scene.arm_floor_contacts=False --option scene.solver_iterations=25``.
+[--base spec.field=value] --option scene.arm_floor_contacts=False --option
+scene.solver_iterations=25``. ``--base`` changes the defaults themselves and every option with
+them: the figures measured before the round section became the default tool's were taken with
+``--base "tool.section_shape='square'"``.
 """
 
 from __future__ import annotations
@@ -78,6 +81,16 @@ def parse_option(text: str) -> dict[str, dict[str, Any]]:
     return changes
 
 
+def _merged(
+    base: dict[str, dict[str, Any]], changes: dict[str, dict[str, Any]]
+) -> dict[str, dict[str, Any]]:
+    """``changes`` applied on top of ``base`` (spec by spec, field by field)."""
+    out = {spec: dict(values) for spec, values in base.items()}
+    for spec, values in changes.items():
+        out.setdefault(spec, {}).update(values)
+    return out
+
+
 def make_env(changes: dict[str, dict[str, Any]]) -> ToolDesignEnv:
     """An env with the default specs changed by ``changes``."""
     kwargs = {spec: SPECS[spec](**values) for spec, values in changes.items()}
@@ -101,13 +114,20 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=3, help="timed evaluations per design")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--option", action="append", default=[], help="spec.field=value[+...]")
+    parser.add_argument(
+        "--base",
+        default="",
+        help="spec.field=value[+...] applied to the defaults and to every option, e.g. "
+        "\"tool.section_shape='square'\" to measure against the paper's square tool",
+    )
     parser.add_argument("--quiet", action="store_true", help="summary only")
     args = parser.parse_args()
     if not args.option:
         parser.error("give at least one --option, e.g. --option scene.arm_floor_contacts=False")
-    options = [(text, parse_option(text)) for text in args.option]
+    common = parse_option(args.base) if args.base else {}
+    options = [(text, _merged(common, parse_option(text))) for text in args.option]
 
-    base = make_env({})
+    base = make_env(common)
     envs = [make_env(changes) for _, changes in options]
     sample = designs(args.designs, args.seed)
     rows: list[list[dict[str, Any]]] = [[] for _ in options]

@@ -25,6 +25,7 @@ import numpy as np
 import tooldesign_env.bullet as bullet
 from tooldesign_env import ToolDesignEnv, make_tool
 from tooldesign_env.env import default_bounds
+from tooldesign_env.geometry import SECTION_SHAPES, ToolSpec
 
 
 def timed_control_calls(
@@ -82,19 +83,26 @@ def main() -> None:
     parser.add_argument("--designs", type=int, default=8)
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument(
+        "--section-shape",
+        choices=SECTION_SHAPES,
+        default=ToolSpec().section_shape,
+        help="the tool's section (default: %(default)s)",
+    )
     args = parser.parse_args()
     if args.designs < 1 or args.repeats < 1:
         parser.error("--designs and --repeats must be >= 1")
 
-    env = ToolDesignEnv()
+    tool = ToolSpec(section_shape=args.section_shape)
+    env = ToolDesignEnv(tool=tool)
     env.reset(seed=0)
     env.step(np.zeros(3))  # warm: the plan, imports, caches
     sim = env.simulator
     rng = np.random.default_rng(args.seed)
     bounds = default_bounds(3)
-    geometries = [make_tool(np.zeros(3))]
+    geometries = [make_tool(np.zeros(3), tool)]
     while len(geometries) < args.designs:
-        geometry = make_tool(rng.uniform(bounds[:, 0], bounds[:, 1]))
+        geometry = make_tool(rng.uniform(bounds[:, 0], bounds[:, 1]), tool)
         if geometry.buildable and not sim.build(geometry):
             geometries.append(geometry)
 

@@ -338,8 +338,9 @@ class SuiteConfig:
         scene: Overrides of ``SceneSpec`` fields for every run (a mapping, a ``[scene]`` table
             in a suite file; stored as sorted pairs), e.g. ``{"box_position": [-0.4, 1.1]}``.
             Not ``box_mass`` (its own field). Empty (the default) is the default scene.
-        section_shape: The tool's section, ``"square"`` (the paper's) or ``"round"``
-            (``ToolSpec.section_shape``).
+        section_shape: The tool's section, ``"round"`` (the default) or ``"square"`` (the
+            paper's) (``ToolSpec.section_shape``). A suite file without the field, written
+            before the field existed, reads as ``"square"``.
         variants: The variants, names unique.
         optimizers: The optimizers, log names (labels) unique.
         batch_size: Designs per iteration (the population size), the same for every optimizer.
@@ -371,7 +372,7 @@ class SuiteConfig:
     scene_samples: int = 1
     bounds: Sequence[Sequence[float]] | None = None
     scene: tuple[tuple[str, Any], ...] | Mapping[str, Any] = ()
-    section_shape: str = "square"
+    section_shape: str = "round"
     variants: Sequence[Variant] = (Variant(),)
     optimizers: Sequence[OptimizerSpec] = (OptimizerSpec(name="cmaes"),)
     batch_size: int = 8
@@ -608,9 +609,16 @@ def suite_from_json(data: Mapping[str, Any], *, where: str = "suite") -> SuiteCo
 def suite_of_manifest(manifest: Mapping[str, Any]) -> SuiteConfig:
     """The :class:`SuiteConfig` recorded in a suite run folder's manifest.
 
+    A field the run predates takes the value every run made before it had
+    (:data:`ADDED_FIELDS`), not today's default: a folder written before ``section_shape``
+    existed ran with the square section, whatever the default is now.
+
     Raises:
         ValueError: If the manifest is not one of a suite run folder.
     """
     if manifest.get("extra", {}).get("kind") != SUITE_KIND or "config" not in manifest:
         raise ValueError("manifest.json is not the manifest of a suite run folder")
-    return suite_from_json(manifest["config"], where="manifest.json config")
+    config = manifest["config"]
+    if isinstance(config, Mapping):
+        config = {**ADDED_FIELDS, **config}
+    return suite_from_json(config, where="manifest.json config")
