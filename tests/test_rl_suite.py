@@ -255,6 +255,24 @@ def test_resume_refuses_other_settings_and_edited_parts(tmp_path: Path) -> None:
     assert RUNTIME_FIELDS == {"workers"}  # the one setting a resume may change
 
 
+def test_a_folder_made_with_the_square_tool_is_not_resumed_with_the_round_default(
+    tmp_path: Path,
+) -> None:
+    from benchmarks.rl.suite import ADDED_FIELDS
+
+    out = tmp_path / "run"
+    config = rl_suite_config("smoke", parts=("fixed",), methods=("random",))
+    assert config.to_json()["section_shape"] == "round"
+    assert ADDED_FIELDS == {"section_shape": "square"}
+    run_rl_suite(config, out)
+    run_rl_suite(config, out)  # the same settings: resumes (nothing left to do)
+    manifest = json.loads((out / "manifest.json").read_text())
+    del manifest["config"]["section_shape"]  # as the folders made before the field existed
+    (out / "manifest.json").write_text(json.dumps(manifest))
+    with pytest.raises(ResumeError, match="other settings.*section_shape"):
+        run_rl_suite(config, out)
+
+
 @pytest.mark.slow
 def test_a_redone_unit_that_differs_from_its_stored_part_is_refused(tmp_path: Path) -> None:
     out = tmp_path / "run"
@@ -351,6 +369,7 @@ def test_bad_suite_settings_raise(kwargs: dict, error: type, words: str) -> None
         (["bench", "rl", "--workers", "0"], "workers must be an int >= 1, got 0"),
         (["bench", "rl", "--executor", "serial"], "--executor is not available for the rl"),
         (["bench", "rl", "--dump-config", "x.toml"], "--dump-config is not available"),
+        (["bench", "rl", "--section-shape", "square"], "--section-shape square: not for the rl"),
         (["bench", "optimizers", "--parts", "fixed"], "--parts: for the rl suite only"),
         (["bench", "optimizers", "--mass-range", "0.1", "0.2"], "--mass-range: for the rl"),
         (["rl", "suite", "--workers", "many"], "--workers must be an int >= 1, got 'many'"),

@@ -250,6 +250,30 @@ def test_dump_config_writes_a_file_that_loads_back(tmp_path: Path) -> None:
     assert load_suite(target) == builtin_suite("robustness", "smoke").replace(workers=1)
 
 
+@pytest.mark.parametrize("shape", ["square", "round"])
+def test_bench_section_shape_sets_every_runs_tool(tmp_path: Path, shape: str) -> None:
+    target = tmp_path / "optimizers.toml"
+    args = ["bench", "optimizers", "--size", "smoke", "--out", "unused"]
+    assert main([*args, "--section-shape", shape, "--dump-config", str(target)]) == 0
+    suite = load_suite(target)
+    assert suite == builtin_suite("optimizers", "smoke").replace(section_shape=shape)
+    assert {run.design.tool_spec().section_shape for run in suite.runs()} == {shape}
+    # Without the option the suite keeps its own section: the default tool's.
+    assert main([*args, "--dump-config", str(target)]) == 0
+    assert load_suite(target).section_shape == "round"
+
+
+def test_bench_refuses_an_unknown_section_shape(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        main(["bench", "optimizers", "--section-shape", "oval", "--out", str(tmp_path / "o")])
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err
+    assert "--section-shape" in err and "'oval'" in err and "square" in err
+    assert not (tmp_path / "o").exists()
+
+
 def test_python_m_benchmarks_help_works() -> None:
     result = subprocess.run(
         [sys.executable, "-m", "benchmarks", "--help"],

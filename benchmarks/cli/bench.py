@@ -10,7 +10,7 @@ import argparse
 from pathlib import Path
 from typing import Any, cast
 
-from benchmarks.cli._common import add_max_retries_argument
+from benchmarks.cli._common import SECTION_SHAPES, add_max_retries_argument
 from benchmarks.cli.rl_suite import RL_ONLY_OPTIONS, add_rl_suite_arguments, run_rl_command
 from benchmarks.execution import EXECUTORS
 from benchmarks.reports.suite import make_suite_report
@@ -76,6 +76,13 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         help="Dask scheduler address, e.g. tcp://host:8786 (implies --executor dask)",
     )
     add_max_retries_argument(parser, None)
+    parser.add_argument(
+        "--section-shape",
+        choices=SECTION_SHAPES,
+        default=None,
+        help="the tool's section in every run: round or the paper's square (default: the "
+        "suite's own, round unless its file says otherwise; not for the rl suite)",
+    )
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument(
         "--dump-config",
@@ -114,11 +121,18 @@ def config_from_args(args: argparse.Namespace) -> SuiteConfig:
         changes["executor"] = args.executor
     if args.max_retries is not None:
         changes["max_retries"] = args.max_retries
+    if args.section_shape is not None:
+        changes["section_shape"] = args.section_shape
     return config.replace(**changes) if changes else config
 
 
 def _run(args: argparse.Namespace) -> int:
     if args.suite == RL_SUITE_NAME:
+        if args.section_shape is not None:
+            raise ValueError(
+                f"--section-shape {args.section_shape}: not for the {RL_SUITE_NAME} suite, whose "
+                "envs use the default tool (round)"
+            )
         return run_rl_command(args, default_size="full")
     given = [f"--{n.replace('_', '-')}" for n in RL_ONLY_OPTIONS if getattr(args, n) is not None]
     if given:

@@ -16,7 +16,7 @@ at the K fixed offsets of ``scene_offsets`` added to its nudge, and the table gi
 the mean over the nudges for each K, and its cost relative to one rollout.
 
 Run: ``python benchmarks/perf/confidence_noise.py [--designs 12] [--nudges 6] [--seed 1]
-[--scene-samples 1 4 8] [--section-shape round]``.
+[--scene-samples 1 4 8] [--section-shape square|round]`` (the section: the default tool's, round).
 Targets (issue 8): median spread of F <= 1 %, of the confidence <= 2 %, cost <= 30 %.
 """
 

@@ -112,6 +112,10 @@ RL_SUITE_KIND = "rl-suite"
 RUNTIME_FIELDS: frozenset[str] = frozenset({"workers"})
 """Config fields that do not change the results: a resumed suite may set them differently."""
 
+#: Config fields added after the suite was first stored, with the value older runs had: the tool's
+#: section was square until the round one became the default (docs/model.md).
+ADDED_FIELDS: dict[str, Any] = {"section_shape": "square"}
+
 FIXED_GOAL: tuple[float, float, float] = DEFAULT_GOAL
 """The goal of the fixed-goal part, (x, y, z) in m."""
 
@@ -341,9 +345,18 @@ class RLSuiteConfig:
                     "held_out_goals": self.goals.tolist(),
                     "held_out_masses": self.masses.tolist(),
                     "noise_floor": NOISE_FLOOR,
+                    # Every env of the suite uses the default tool; recorded so that a folder
+                    # made with another default is not resumed with this one.
+                    "section_shape": _default_section_shape(),
                 }
             ),
         )
+
+
+def _default_section_shape() -> str:
+    from tooldesign_env.geometry import ToolSpec
+
+    return ToolSpec().section_shape
 
 
 def _check_size(size: Any) -> SuiteSize:
@@ -805,6 +818,7 @@ def run_rl_suite(
         config=config.to_json(),
         resume=bool(resume),
         runtime_fields=RUNTIME_FIELDS,
+        added_fields=ADDED_FIELDS,
         extra={
             "size": config.size.name,
             "units": len(work),
