@@ -28,17 +28,18 @@ def test_a_missing_results_folder_is_one_clear_error(tmp_path: Path) -> None:
     assert not (tmp_path / "page.md").exists()
 
 
-def test_suites_rerun_with_a_round_section_get_a_section_of_their_own(tmp_path: Path) -> None:
-    from benchmarks.reports.reproduction import _round_section
+def test_suites_run_with_the_square_section_get_a_section_of_their_own(tmp_path: Path) -> None:
+    from benchmarks.reports.reproduction import _square_section
 
-    assert _round_section(tmp_path) == []
-    (tmp_path / "optimizers-round").symlink_to(RESULTS / "optimizers-round")
-    lines = _round_section(tmp_path)
+    assert _square_section(tmp_path) == []
+    (tmp_path / "square").mkdir()
+    (tmp_path / "square" / "optimizers").symlink_to(RESULTS / "square" / "optimizers")
+    lines = _square_section(tmp_path)
     text = "\n".join(lines)
-    assert lines[0] == "## With a round tool section"
-    assert "| optimizers-round | optimizers | contact | 10 |" in text
+    assert lines[0] == "## With the paper's square section"
+    assert "| optimizers | square | contact | free-energy | 10 |" in text
     assert "| (a) CMA-ES lowers F fastest |" in text
-    assert "docs/results/optimizers-round/report/summary.md" in text
-    assert "(c) pure confidence" not in text  # no robustness-round folder here
+    assert "docs/results/square/optimizers/report/summary.md" in text
+    assert "(c) pure confidence" not in text  # no square robustness folder here
     # The suites' own claims keep their level-2 headings; these are one level down.
     assert "\n### (a) CMA-ES lowers F fastest" in text

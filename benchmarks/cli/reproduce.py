@@ -7,7 +7,7 @@ import os
 from pathlib import Path
 from typing import Any, cast
 
-from benchmarks.reports.reproduction import ROUND_SUITES, SUITES, reproduction_page
+from benchmarks.reports.reproduction import SQUARE, SUITES, reproduction_page
 from benchmarks.reports.suite import make_suite_report
 from benchmarks.storage import atomic_write_text
 
@@ -31,9 +31,10 @@ def _run(args: argparse.Namespace) -> int:
     if not args.results.is_dir():
         raise ValueError(f"no results folder {args.results}")
     if not args.skip_reports:
-        for suite in (*SUITES, *ROUND_SUITES):
-            if (args.results / suite).is_dir():
-                make_suite_report(args.results / suite)
+        for folder in (args.results, args.results / SQUARE):
+            for suite in SUITES:
+                if (folder / suite).is_dir():
+                    make_suite_report(folder / suite)
     atomic_write_text(args.out, reproduction_page(args.results))
     print(f"wrote {os.fspath(args.out)}")
     return 0

@@ -32,13 +32,15 @@ __all__ = ["SUITES", "reproduction_page"]
 
 SUITES = ("optimizers", "precision-sweep", "mass-perturbation", "robustness", "robust-design")
 
-#: Suites rerun with a round tool section (``section_shape = "round"``, docs/model.md): the
-#: folder of each under the results, and the suite it repeats. Reported when present.
-ROUND_SUITES = {
-    "optimizers-round": "optimizers",
-    "robustness-round": "robustness",
-    "robust-design-round": "robust-design",
-}
+#: The folder under the results that holds the suites of :data:`SUITES` run with the paper's
+#: square tool section (``section_shape = "square"``, the default before the round one,
+#: docs/model.md), one folder each as at the top. Reported when present.
+SQUARE = "square"
+
+
+def _where(folder: Path) -> str:
+    """A suite folder's path under docs/results (``optimizers`` or ``square/optimizers``)."""
+    return f"{SQUARE}/{folder.name}" if folder.parent.name == SQUARE else folder.name
 
 
 def _fmt(value: float, digits: int = 4) -> str:
@@ -82,7 +84,7 @@ def _claim_a(folder: Path) -> tuple[str, str, list[str]]:
         "## (a) CMA-ES lowers F fastest",
         "",
         f"{len(summary)} optimizers, {runs} seeds each "
-        f"(`docs/results/{folder.name}/report/summary.md`, `pairwise.md`, "
+        f"(`docs/results/{_where(folder)}/report/summary.md`, `pairwise.md`, "
         f"`convergence-{folder.name}.png`). Noise floor of F over the {int(floor['designs'])} "
         f"final designs: {_fmt(floor['free_energy'])} "
         f"({100 * floor['free_energy_relative']:.2f} %, median range over nudged scenes, "
@@ -143,7 +145,7 @@ def _claim_b(folder: Path) -> tuple[str, str, list[str]]:
         "",
         f"All {len(table)} designs of the robustness suite "
         f"({table['goal_precision'].nunique()} p^X x {table['seed'].nunique()} random goals), "
-        f"`docs/results/{folder.name}/report/designs.md`; Spearman rank correlation of p^X with "
+        f"`docs/results/{_where(folder)}/report/designs.md`; Spearman rank correlation of p^X with "
         "each shape measure and the final distance (n, p):",
         "",
         "| measure | mean at p^X = 0 | mean at p^X = 50 | rho | p |",
@@ -215,7 +217,7 @@ def _claim_c(folder: Path, baseline: Path | None) -> tuple[str, str, list[str]]:
         "",
         f"Table I over a range of box masses ({masses} kg, each in {settings['repeats']} nudged "
         "scenes, every altered rollout compared with the nominal one in the same scene; "
-        f"`docs/results/{folder.name}/report/stress.md`). Mean over goals [95 % bootstrap "
+        f"`docs/results/{_where(folder)}/report/stress.md`). Mean over goals [95 % bootstrap "
         "interval over goals] (median noise of a design's mean across scenes):",
         "",
         "| objective | p^X | robustness (m) | accuracy (m) | control deviation (N m) | "
@@ -348,7 +350,8 @@ def _suite_rows(results: Path) -> list[str]:
             continue
         config, commit, retested = _run_facts(results / suite)
         rows.append(
-            f"| {suite} | {config.get('estimator', 'n/a')} | "
+            f"| {suite} | {config.get('section_shape', 'square')} | "
+            f"{config.get('estimator', 'n/a')} | "
             f"{config.get('objective', 'free-energy')} | {config.get('n_seeds', 'n/a')} | "
             f"{config.get('batch_size', 'n/a')} x {config.get('iterations', 'n/a')} | "
             f"{commit} | {retested} |"
@@ -365,22 +368,22 @@ def _floor_row(suite: str, floor: Mapping[str, Any]) -> str:
     )
 
 
-def _round_section(results: Path) -> list[str]:
-    """The claims again from the suites rerun with a round tool section, if any are present."""
-    present = [name for name in ROUND_SUITES if (results / name / "manifest.json").is_file()]
+def _square_section(results: Path) -> list[str]:
+    """The claims again from the suites run with the paper's square section, if present."""
+    square = results / SQUARE
+    present = [name for name in SUITES if (square / name / "manifest.json").is_file()]
     if not present:
         return []
     rows, details = [], []
-    optimizers, robustness = results / "optimizers-round", results / "robustness-round"
-    if "optimizers-round" in present:
-        a = _claim_a(optimizers)
+    if "optimizers" in present:
+        a = _claim_a(square / "optimizers")
         rows.append(f"| (a) CMA-ES lowers F fastest | {a[0]} | {a[1]} |")
         details += ["", *a[2]]
-    if "robustness-round" in present:
-        baseline = results / "robust-design-round"
-        b = _claim_b(robustness)
-        c = _claim_c(robustness, baseline if "robust-design-round" in present else None)
-        d = _claim_d(robustness)
+    if "robustness" in present:
+        baseline = square / "robust-design"
+        b = _claim_b(square / "robustness")
+        c = _claim_c(square / "robustness", baseline if "robust-design" in present else None)
+        d = _claim_d(square / "robustness")
         rows += [
             f"| (b) p^X = 0 tools are curved and hold the box; p^X = 50 tools are straighter "
             f"| {b[0]} | {b[1]} |",
@@ -390,26 +393,23 @@ def _round_section(results: Path) -> list[str]:
         ]
         details += ["", *b[2], "", *c[2], "", *d[2]]
     lines = [
-        "## With a round tool section",
+        "## With the paper's square section",
         "",
-        "Pushing with the paper's square-section tool is chaotic: under 0.1 mm nudges F moves "
-        "by about 1.4 % (median over random designs), while a round section (`section_shape = "
-        '"round"`, [The model](model.md#the-tools-section-where-the-chaos-came-from)) brings '
-        "that to about 0.5 %. These suites were rerun with it, with everything else as in the "
-        "suite they repeat; they are judged by the same rules:",
+        "The paper's tool has a square section. Pushing with it is chaotic: under 0.1 mm nudges "
+        "F moves by about 1.4 % (median over random designs), against about 0.5 % with the round "
+        "section of the suites above ([The model](model.md#the-tools-section-where-the-chaos-came-"
+        "from)). These suites ran with the square section, the default until the round one "
+        f"replaced it, with everything else as above (`docs/results/{SQUARE}/`); they are judged "
+        "by the same rules:",
         "",
-        "| suite | repeats | estimator | seeds | batch x iterations | commit | retested |",
-        "|---|---|---|---|---|---|---|",
-    ]
-    for name in present:
-        config, commit, retested = _run_facts(results / name)
-        lines.append(
-            f"| {name} | {ROUND_SUITES[name]} | {config.get('estimator', 'n/a')} | "
-            f"{config.get('n_seeds', 'n/a')} | {config.get('batch_size', 'n/a')} x "
-            f"{config.get('iterations', 'n/a')} | {commit} | {retested} |"
-        )
-    lines += ["", "| claim of the paper | here, round section | verdict |", "|---|---|---|", *rows]
-    lines += [
+        "| suite | section | estimator | objective | seeds | batch x iterations | commit "
+        "| retested |",
+        "|---|---|---|---|---|---|---|---|",
+        *_suite_rows(square),
+        "",
+        "| claim of the paper | here, square section | verdict |",
+        "|---|---|---|",
+        *rows,
         "",
         "Noise floors of the final designs, as above:",
         "",
@@ -417,7 +417,7 @@ def _round_section(results: Path) -> list[str]:
         "|---|---|---|---|---|---|",
     ]
     for name in present:
-        path = results / name / "report" / "noise-floor.json"
+        path = square / name / "report" / "noise-floor.json"
         if path.is_file():
             lines.append(_floor_row(name, json.loads(path.read_text(encoding="utf-8"))["all"]))
     # The details, one heading level down, after the suites' own.
@@ -443,10 +443,13 @@ def reproduction_page(results: Path) -> str:
         "This page is written by `tooldesign reproduce` from the committed results "
         "under `docs/results/` alone (it rebuilds every suite's report first); nothing on it is "
         "typed by hand. Each suite ran with the defaults of [The model](model.md) except what "
-        "its config (`manifest.json`) says; the estimator of Pi_U and the code each ran with:",
+        "its config (`manifest.json`) says; the tool's section (round by default; the paper's "
+        "square section has its own results, in the last section), the estimator of Pi_U and "
+        "the code each ran with:",
         "",
-        "| suite | estimator | objective | seeds | batch x iterations | commit | retested |",
-        "|---|---|---|---|---|---|---|",
+        "| suite | section | estimator | objective | seeds | batch x iterations | commit "
+        "| retested |",
+        "|---|---|---|---|---|---|---|---|",
         *_suite_rows(results),
         "",
         "**How a claim is judged.** A difference counts when its 95 % interval (or its "
@@ -483,21 +486,22 @@ def reproduction_page(results: Path) -> str:
         "table of (c) is `expected goal error` (its interval is over those goals only). Each of "
         "its evaluations costs 3 rollouts instead of 1.",
         "",
-        *_round_section(results),
+        *_square_section(results),
         "## How the results were made",
         "",
         "```bash",
         *[f"tooldesign bench {s} --size full --out docs/results/{s}" for s in SUITES],
         *[f"tooldesign retest docs/results/{s}" for s in SUITES],
         *[
-            f"tooldesign bench --config docs/results/{s}/suite.toml --out docs/results/{s}"
-            for s in ROUND_SUITES
-            if (results / s / "suite.toml").is_file()
+            f"tooldesign bench {s} --size full --section-shape square "
+            f"--out docs/results/{SQUARE}/{s}"
+            for s in SUITES
+            if (results / SQUARE / s / "manifest.json").is_file()
         ],
         *[
-            f"tooldesign retest docs/results/{s}"
-            for s in ROUND_SUITES
-            if (results / s / "suite.toml").is_file()
+            f"tooldesign retest docs/results/{SQUARE}/{s}"
+            for s in SUITES
+            if (results / SQUARE / s / "manifest.json").is_file()
         ],
         "tooldesign reproduce   # every report, then this page",
         "```",
