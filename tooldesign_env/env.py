@@ -103,12 +103,14 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
 
     The reproduction of "Designing Tools with Control Confidence" (Anil Meera, Torres, Lanillos).
     A tool is a planar polynomial curve y = c1 x^3 + c2 x^2 + c3 x of fixed arc length L0 = 1.1 m
-    with a straight 0.15 m handle, extruded with a 0.03 m square section. A simulated Panda holds
-    it and follows a fixed plan (lower, sweep, pull, hold) under computed-torque control, and the
-    tool moves a 0.1 x 0.1 x 0.2 m box toward a goal X^g. The designer minimizes the free energy
-    F = sum_t [1/2 p^X |X_t - X^g|^2 - 1/2 log|Pi_U,t|], where the control confidence Pi_U is the
-    curvature of the goal error with respect to the joint torques U. Each episode is one step: a
-    contextual bandit whose context is the task. See ``docs/model.md``.
+    with a straight 0.15 m handle, 0.03 m thick: a round section by default, or the paper's
+    square one (``ToolSpec.section_shape``; the square's contact is chaotic, see docs/model.md).
+    A simulated Panda holds it and follows a fixed plan (lower, sweep, pull, hold) under
+    computed-torque control, and the tool moves a 0.1 x 0.1 x 0.2 m box toward a goal X^g. The
+    designer minimizes the free energy F = sum_t [1/2 p^X |X_t - X^g|^2 - 1/2 log|Pi_U,t|], where
+    the control confidence Pi_U is the curvature of the goal error with respect to the joint
+    torques U. Each episode is one step: a contextual bandit whose context is the task. See
+    ``docs/model.md``.
 
     ## Action Space
 

@@ -3,8 +3,8 @@
 Nothing here touches PyBullet. The design is a coefficient vector ``C = (c1, ..., cn)`` meaning
 ``p(u) = c1 u^n + ... + cn u`` (highest power first, constant term fixed at 0, as in the paper's
 section "Tool parametrization and generation"). The tool is a straight handle followed by the graph
-of ``p`` cut at a fixed arc length ``L0``, both swept with a square section (the paper's) or a
-round one (``ToolSpec.section_shape``).
+of ``p`` cut at a fixed arc length ``L0``, both swept with a round section (the default) or the
+paper's square one (``ToolSpec.section_shape``).
 
 Tool frame (all outputs): origin at the grasp point (the centre of the straight handle), x along the
 handle toward the curve, y lateral, z up; SI units (m, kg, kg m^2). The handle runs from
