@@ -357,3 +357,23 @@ if __name__ == "__main__":
         raise SystemExit("usage: python tests/test_perf_bit_identical.py --record")
     FIXTURE.write_text(json.dumps(outcomes(), indent=1, sort_keys=True) + "\n", encoding="utf-8")
     print(f"wrote {FIXTURE}")
+
+
+@pytest.mark.parametrize("shape", ["square", "round"])
+def test_without_rendering_no_visual_shape_is_loaded(shape):
+    # Visuals only cost load time (a round tool's capsules are tessellated at load); physics
+    # never reads them, which the fixture above checks bit for bit for both sections.
+    from tooldesign_env import ToolSpec, make_tool
+    from tooldesign_env.bullet import panda_urdf_with_tool
+    from tooldesign_env.geometry import tool_link_xml
+
+    link = tool_link_xml(make_tool((0.3, -0.7, 0.2), ToolSpec(section_shape=shape)))
+    assert "<visual" in link
+    bare = panda_urdf_with_tool(link, visuals=False)
+    assert "<visual" not in bare and bare.count("<collision") == link.count("<collision") + (
+        panda_urdf_with_tool(None, visuals=False).count("<collision")
+    )
+    full = panda_urdf_with_tool(link, visuals=True)
+    assert full.count("<visual") == link.count("<visual") + panda_urdf_with_tool(
+        None, visuals=True
+    ).count("<visual")
