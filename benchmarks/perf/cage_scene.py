@@ -30,8 +30,10 @@ pull then drags it toward the base. This script measures that, with a seeded set
    floor of F. ``--precisions`` and ``--seeds`` pick a comparable subset of a larger suite.
 
 Run: ``python benchmarks/perf/cage_scene.py [--random 6] [--seed 1] [--pick X Y]
-[--goal X Y] [--masses 0.3 0.5 0.7 0.9]`` or ``python benchmarks/perf/cage_scene.py --claims
-docs/results/cage docs/results/robustness --precisions 0 20 50 --seeds 5``. One rollout takes
+[--goal X Y] [--masses 0.3 0.5 0.7 0.9] [--section-shape square|round]`` or ``python
+benchmarks/perf/cage_scene.py --claims docs/results/cage docs/results/square/robustness
+--precisions 0 20 50 --seeds 5``. The committed placement (docs/results/cage) was measured with
+the square section, the default then: ``--section-shape square`` repeats it. One rollout takes
 0.2 to 0.5 s; the default grid is 20 placements.
 """
 
@@ -54,6 +56,7 @@ from benchmarks.reports.suite import designs_table
 from benchmarks.storage import read_designs, read_manifest, read_retests
 from benchmarks.suites.config import suite_of_manifest
 from tooldesign_env import PlanSpec, SceneSpec, ToolSimulator, default_bounds, make_tool
+from tooldesign_env.geometry import SECTION_SHAPES, ToolSpec
 from tooldesign_env.schema import DEFAULT_GOAL
 from tooldesign_env.simulation import PHASES, Trajectory
 
@@ -112,14 +115,16 @@ def outcome(trajectory: Trajectory) -> Outcome:
     )
 
 
-def random_designs(n: int, seed: int) -> dict[str, tuple[float, float, float]]:
-    """``n`` random buildable designs in the default bounds, from ``seed``."""
+def random_designs(
+    n: int, seed: int, tool: ToolSpec | None = None
+) -> dict[str, tuple[float, float, float]]:
+    """``n`` random designs in the default bounds, from ``seed``, buildable as ``tool``."""
     rng = np.random.default_rng(seed)
     bounds = default_bounds(3)
     out: dict[str, tuple[float, float, float]] = {}
     while len(out) < n:
         coeffs = tuple(float(v) for v in np.round(rng.uniform(bounds[:, 0], bounds[:, 1]), 3))
-        if make_tool(coeffs).buildable:
+        if make_tool(coeffs, tool).buildable:
             out[f"random {len(out)} {coeffs}"] = coeffs  # type: ignore[assignment]
     return out
 
@@ -130,6 +135,7 @@ def measure(
     *,
     masses: tuple[float, ...] = (),
     plan: PlanSpec | None = None,
+    tool: ToolSpec | None = None,
 ) -> dict[str, tuple[Outcome, list[Outcome]] | None]:
     """Each design's outcome with the box at ``position`` (and at each of ``masses``).
 
@@ -139,7 +145,7 @@ def measure(
     out: dict[str, tuple[Outcome, list[Outcome]] | None] = {}
     try:
         for name, coeffs in designs.items():
-            geometry = make_tool(coeffs)
+            geometry = make_tool(coeffs, tool)
             if sim.build(geometry):
                 out[name] = None
                 continue
@@ -194,7 +200,7 @@ def print_grid(
     good: dict[tuple[float, float], float] = {}
     for x in args.xs:
         for y in args.ys:
-            results = measure((x, y), designs)
+            results = measure((x, y), designs, tool=_tool(args))
             ok = qualifies(results)
             if ok:
                 good[(x, y)] = hook_sweep(results)
@@ -242,7 +248,7 @@ def print_detail(
         scenes.append(("default", SceneSpec().box_position, DEFAULT_GOAL[:2]))
     for label, position, goal in scenes:
         x, y = position
-        results = measure(position, designs, masses=masses)
+        results = measure(position, designs, masses=masses, tool=_tool(args))
         print(f"\n# Detail: {label} scene, box at ({x:+.3f}, {y:.3f}), goal {tuple(goal)}")
         print(
             f"path of the box (x, y), m: start ({x:+.2f}, {y:.2f}) -> end of sweep -> mid-pull "
@@ -377,6 +383,10 @@ def print_claims(folder: Path, precisions: list[float] | None, seeds: int | None
     )
 
 
+def _tool(args: argparse.Namespace) -> ToolSpec:
+    return ToolSpec(section_shape=args.section_shape)
+
+
 def main(argv: list[str] | None = None) -> None:
     """Measure the grid and, with ``--pick``, one placement in detail."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
@@ -400,6 +410,13 @@ def main(argv: list[str] | None = None) -> None:
         help="goal of the final distances in the cage scene, m",
     )
     parser.add_argument("--masses", type=float, nargs="*", default=[])
+    parser.add_argument(
+        "--section-shape",
+        choices=SECTION_SHAPES,
+        default=ToolSpec().section_shape,
+        help="the tool's section (docs/results/cage was placed with square) "
+        "(default: %(default)s)",
+    )
     parser.add_argument("--no-grid", action="store_true", help="only the --pick detail")
     parser.add_argument(
         "--claims",
@@ -424,7 +441,7 @@ def main(argv: list[str] | None = None) -> None:
             print_claims(folder, args.precisions, args.seeds)
         return
     start = time.perf_counter()
-    designs = {**NAMED, **random_designs(args.random, args.seed)}
+    designs = {**NAMED, **random_designs(args.random, args.seed, _tool(args))}
     print(f"designs: {len(NAMED)} named + {args.random} random (seed {args.seed})")
     if args.no_grid and args.pick is None:
         parser.error("--no-grid needs --pick X Y")
