@@ -202,3 +202,32 @@ def test_the_design_command_retries_a_killed_design_and_prints_the_failures(
     assert manifest["extra"]["evaluation_counts"]["failed"] == 1
     assert worker_killer.starts(starts_dir) == 4  # in the batch, alone, and two retries
     _assert_no_worker_left(starts_dir)
+
+
+def test_a_broken_pools_leftover_workers_are_stopped_and_a_healthy_pools_are_not() -> None:
+    # CPython 3.11 may start one more worker in a submit that races with the breakage; it
+    # waits on the call queue forever and the interpreter never exits. The executor stops
+    # whatever workers a broken pool still has when it restarts or shuts that pool down.
+    import multiprocessing
+    import types
+
+    from benchmarks.execution.executors import _stop_leftover_workers
+
+    context = multiprocessing.get_context("spawn")
+    workers = [context.Process(target=time.sleep, args=(60,), daemon=True) for _ in range(2)]
+    for process in workers:
+        process.start()
+    try:
+        healthy = types.SimpleNamespace(_broken=False, _processes={1: workers[0]})
+        broken = types.SimpleNamespace(_broken="a worker died", _processes={2: workers[1]})
+        _stop_leftover_workers(healthy)  # type: ignore[arg-type]
+        _stop_leftover_workers(broken)  # type: ignore[arg-type]
+        workers[1].join(GRACE)
+        assert not workers[1].is_alive() and workers[1].exitcode is not None
+        assert workers[0].is_alive()
+        # A pool already shut down has no process list; nothing to do, no error.
+        _stop_leftover_workers(types.SimpleNamespace(_broken="x", _processes=None))  # type: ignore[arg-type]
+    finally:
+        for process in workers:
+            process.kill()
+            process.join(GRACE)

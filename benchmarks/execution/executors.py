@@ -160,6 +160,7 @@ class _RestartingProcessPool(Executor):
 
     def restart(self) -> None:
         """Drop the current pool (broken or not) and start a fresh one."""
+        _stop_leftover_workers(self._pool)
         self._pool.shutdown(wait=False, cancel_futures=True)
         self._pool = self._new_pool()
 
@@ -173,7 +174,25 @@ class _RestartingProcessPool(Executor):
 
     def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
         """Shut the pool down."""
+        _stop_leftover_workers(self._pool)
         self._pool.shutdown(wait=wait, cancel_futures=cancel_futures)
+
+
+def _stop_leftover_workers(pool: ProcessPoolExecutor) -> None:
+    """Terminate the worker processes a broken pool still has, so that its threads can end.
+
+    A broken pool terminates its workers itself, but CPython 3.11's pool can start one more
+    worker in a ``submit`` that races with the breakage; that worker waits on the call queue
+    forever, the pool's management thread waits to join it, and the interpreter, which joins
+    that thread at exit, never exits (seen once at the end of a test session). Workers of a
+    broken pool hold no work that can still be delivered, so stopping them loses nothing. Call
+    it before ``shutdown``, which drops the pool's list of processes.
+    """
+    if not getattr(pool, "_broken", False):
+        return
+    for process in list((getattr(pool, "_processes", None) or {}).values()):
+        if process.is_alive():
+            process.terminate()
 
 
 def _ignore_sigint() -> None:
