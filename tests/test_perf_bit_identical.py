@@ -377,3 +377,58 @@ def test_without_rendering_no_visual_shape_is_loaded(shape):
     assert full.count("<visual") == link.count("<visual") + panda_urdf_with_tool(
         None, visuals=True
     ).count("<visual")
+
+
+def _pushed_box(renderer: bool) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """Roll the default evaluation of a hook in a simulator whose world has or lacks a renderer."""
+    import tooldesign_env.simulation as simulation
+    from tooldesign_env import make_tool
+
+    sim = simulation.ToolSimulator()
+    try:
+        if renderer:  # the simulator drops the renderer when not rendering; put it back
+            sim.world.close()
+            sim.world = simulation.BulletWorld(
+                time_step=sim.scene.time_step,
+                solver_iterations=sim.scene.solver_iterations,
+                renderer=True,
+            )
+        sim.build(make_tool((0.0, 1.5, 0.0)))
+        traj = sim.run(record_mobility=True)
+        assert traj.contact.any()
+        return tuple(traj.box_position.ravel()), tuple(traj.contact_mobility.ravel())
+    finally:
+        sim.close()
+
+
+def test_dropping_the_renderer_changes_nothing():
+    # Without a render mode the simulator's world has no software renderer, which makes
+    # loading the arm cheaper; the physics never reads visuals, so nothing may change.
+    assert _pushed_box(renderer=False) == _pushed_box(renderer=True)
+
+
+def test_a_world_without_its_renderer_refuses_to_render_and_stays_without_it():
+    import pybullet
+
+    from tooldesign_env.bullet import BulletWorld, panda_urdf_with_tool
+
+    with pytest.raises(ValueError, match="renderer=False needs render_mode=None"):
+        BulletWorld(render_mode="rgb_array", renderer=False)
+    world = BulletWorld(renderer=False)
+    try:
+        with pytest.raises(RuntimeError, match="renderer=False"):
+            world.render(width=8, height=8)
+        for _ in range(2):  # and again on a fresh physics server
+            robot = world.load_robot(panda_urdf_with_tool(None, visuals=False))
+            # PyBullet keeps visual shapes in its renderer: without one it has none to give.
+            with pytest.raises(pybullet.error, match="visual shape"):
+                world.client.getVisualShapeData(robot.body)
+            world.reconnect()
+    finally:
+        world.close()
+    with_renderer = BulletWorld()
+    try:
+        robot = with_renderer.load_robot(panda_urdf_with_tool(None, visuals=False))
+        assert len(with_renderer.client.getVisualShapeData(robot.body)) > 0
+    finally:
+        with_renderer.close()

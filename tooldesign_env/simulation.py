@@ -335,6 +335,8 @@ class ToolSimulator:
             render_mode=render_mode,
             time_step=self.scene.time_step,
             solver_iterations=self.scene.solver_iterations,
+            # Without a render mode nothing is drawn: loading is cheaper without the renderer.
+            renderer=render_mode is not None,
         )
         self._visuals = render_mode is not None
         self._reference: JointReference | None = None
