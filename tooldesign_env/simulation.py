@@ -25,6 +25,7 @@ from tooldesign_env.bullet import (
     BulletWorld,
     RobotHandles,
     engine_version,
+    lean_collision_meshes,
     panda_urdf_with_tool,
     robot_model_digest,
     rotation_matrices,
@@ -34,6 +35,7 @@ from tooldesign_env.plan import (
     KNOT_DT,
     REST_POSE,
     JointReference,
+    cache_dir,
     cache_key,
     knot_times,
     load_knots,
@@ -339,6 +341,9 @@ class ToolSimulator:
             renderer=render_mode is not None,
         )
         self._visuals = render_mode is not None
+        # The arm's collision meshes, as lean copies in the plan cache's folder (the same
+        # shapes, loaded faster); None loads the originals.
+        self._meshes = lean_collision_meshes(cache_dir())
         self._reference: JointReference | None = None
         self._robot: RobotHandles | None = None
         self._box: int | None = None
@@ -485,7 +490,7 @@ class ToolSimulator:
         world.step(int(round(scene.box_settle_time / scene.time_step)))
         link, diag = _principal_link_xml(geometry)
         robot = self._robot = world.load_robot(
-            panda_urdf_with_tool(link, visuals=self._visuals),
+            panda_urdf_with_tool(link, visuals=self._visuals, meshes=self._meshes),
             tool_mass=geometry.mass,
             tool_inertia_diagonal=(float(diag[0]), float(diag[1]), float(diag[2])),
             tool_friction=scene.tool_friction,
