@@ -136,25 +136,36 @@ def panda_urdf_with_tool(
     Returns:
         The URDF text, with mesh paths made absolute.
     """
-    with open(os.path.join(PANDA_DIR, "panda.urdf"), encoding="utf-8") as f:
-        text = f.read()
-    text = text.replace("package://meshes/", os.path.join(PANDA_DIR, "meshes") + "/")
-    text = re.sub(r'(<joint name="panda_finger_joint\d" )type="prismatic"', r'\1type="fixed"', text)
-    text = re.sub(r"\s*<mimic[^>]*/>", "", text)
+    text = _panda_urdf(visuals)
     if tool_link_xml is not None:
+        if not visuals:
+            tool_link_xml = _without_visuals(tool_link_xml)
         joint = (
             f'<joint name="tool_joint" type="fixed"><parent link="{EE_LINK}"/>'
             f'<child link="{TOOL_LINK}"/><origin rpy="3.141592653589793 0 0" xyz="0 0 0"/>'
             "</joint>"
         )
         text = text.replace("</robot>", f"{tool_link_xml}\n{joint}\n</robot>")
-    if not visuals:
-        # The tool's too: PyBullet tessellates a capsule's visual into a convex hull at load,
-        # which cost a round tool about 9 ms of a 37 ms build. Physics never reads visuals.
-        text = re.sub(r"<visual\b[^>]*>.*?</visual>", "", text, flags=re.S)
     for original, replacement in (meshes or {}).items():
         text = text.replace(f'"{original}"', f'"{replacement}"')
     return text
+
+
+@functools.cache
+def _panda_urdf(visuals: bool) -> str:
+    """The Panda's URDF as :func:`panda_urdf_with_tool` starts from it (read once a process)."""
+    with open(os.path.join(PANDA_DIR, "panda.urdf"), encoding="utf-8") as f:
+        text = f.read()
+    text = text.replace("package://meshes/", os.path.join(PANDA_DIR, "meshes") + "/")
+    text = re.sub(r'(<joint name="panda_finger_joint\d" )type="prismatic"', r'\1type="fixed"', text)
+    text = re.sub(r"\s*<mimic[^>]*/>", "", text)
+    return text if visuals else _without_visuals(text)
+
+
+def _without_visuals(text: str) -> str:
+    # The tool's too: PyBullet tessellates a capsule's visual into a convex hull at load, which
+    # cost a round tool about 9 ms of a 37 ms build. Physics never reads visuals.
+    return re.sub(r"<visual\b[^>]*>.*?</visual>", "", text, flags=re.S)
 
 
 # ------------------------------------------------------ lean copies of the collision meshes

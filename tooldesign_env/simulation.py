@@ -878,9 +878,11 @@ class ToolSimulator:
         counts = np.fromiter((len(entry[4]) for entry in contact_log), dtype=int, count=steps)
         owner = np.repeat(np.arange(steps), counts)  # the step of each contact point
         manifold = [point for entry in contact_log for point in entry[4]]
+        points = len(manifold)
         per_point = contact_mobility(
-            np.array([m[6] for m in manifold], dtype=float),
-            np.array([m[7] for m in manifold], dtype=float),
+            # PyBullet's contact points: position on the tool [6] and normal [7], 3 floats each.
+            np.fromiter(flat(m[6] for m in manifold), np.float64, 3 * points).reshape(points, 3),
+            np.fromiter(flat(m[7] for m in manifold), np.float64, 3 * points).reshape(points, 3),
             np.array([entry[2] for entry in contact_log], dtype=float)[owner],
             jacobians[owner, 0],
             jacobians[owner, 1],
