@@ -8,7 +8,8 @@ alternating (so that load on a shared machine hits both alike), and prints per d
 * the CPU time of ``env.step``, before and after.
 
 Then a summary per option: the median and largest relative difference of each term (to be read
-against the noise floor of F, about 1-1.5 % per design: ``confidence_noise.py``), how many
+against the noise floor of F per design, ``confidence_noise.py``: about 0.3-0.4 % with the
+round section, the default, and 1-1.5 % with the square one), how many
 designs are bit for bit the same, and the ratio of median CPU times.
 
 An option is ``spec.field=value`` with spec one of scene, plan, controller, tool, e.g.
@@ -43,6 +44,9 @@ from tooldesign_env import (
 
 SPECS = {"scene": SceneSpec, "plan": PlanSpec, "controller": ControllerSpec, "tool": ToolSpec}
 TERMS = ("free_energy", "goal_error", "confidence")
+#: The noise floor of F per design (median relative spread over 0.1 mm nudges of the box), as
+#: measured by ``confidence_noise.py`` for each tool section (docs/performance.md).
+NOISE_FLOOR = {"round": "0.3-0.4 %", "square": "1-1.5 %"}
 
 
 def designs(n: int, seed: int) -> list[np.ndarray]:
@@ -128,6 +132,7 @@ def main() -> None:
     options = [(text, _merged(common, parse_option(text))) for text in args.option]
 
     base = make_env(common)
+    tool_shape = base.unwrapped.tool_spec.section_shape
     envs = [make_env(changes) for _, changes in options]
     sample = designs(args.designs, args.seed)
     rows: list[list[dict[str, Any]]] = [[] for _ in options]
@@ -193,7 +198,8 @@ def main() -> None:
             if diffs:
                 print(
                     f"{term:>12}: relative change median {100 * statistics.median(diffs):.3f} %, "
-                    f"max {100 * max(diffs):.3f} % (noise floor of F: about 1-1.5 %)"
+                    f"max {100 * max(diffs):.3f} % (noise floor of F per design: about "
+                    f"{NOISE_FLOOR[tool_shape]})"
                 )
         same = sum(r["identical"] for r in option_rows)
         flips = sum(r["valid"][0] != r["valid"][1] for r in option_rows)
