@@ -407,13 +407,23 @@ def test_dropping_the_renderer_changes_nothing():
     assert _pushed_box(renderer=False) == _pushed_box(renderer=True)
 
 
-def test_a_world_without_its_renderer_refuses_to_render_and_stays_without_it():
+def test_a_world_without_its_renderer_refuses_to_render_and_stays_without_it(monkeypatch):
+    import gc
+    import sys
+
     import pybullet
 
     from tooldesign_env.bullet import BulletWorld, panda_urdf_with_tool
 
+    # The refused world is collected cleanly: its __del__ must not raise (it once did, on an
+    # attribute the refusal had not set yet).
+    unraisable: list[object] = []
+    monkeypatch.setattr(sys, "unraisablehook", unraisable.append)
     with pytest.raises(ValueError, match="renderer=False needs render_mode=None"):
         BulletWorld(render_mode="rgb_array", renderer=False)
+    gc.collect()
+    assert unraisable == []
+    monkeypatch.undo()
     world = BulletWorld(renderer=False)
     try:
         with pytest.raises(RuntimeError, match="renderer=False"):

@@ -414,6 +414,8 @@ class BulletWorld:
         solver_iterations: int = 50,
         renderer: bool = True,
     ) -> None:
+        # First, so that __del__ (close) finds it when a check below refuses the arguments.
+        self._client: BulletClient | None = None
         if not renderer and render_mode is not None:
             raise ValueError(
                 f"renderer=False needs render_mode=None (nothing to render with), "
@@ -423,7 +425,6 @@ class BulletWorld:
         self.time_step = time_step
         self.solver_iterations = solver_iterations
         self.renderer = renderer
-        self._client: BulletClient | None = None
         self._states: list[int] = []
         self._connect()
 

@@ -132,7 +132,7 @@ def main() -> None:
     options = [(text, _merged(common, parse_option(text))) for text in args.option]
 
     base = make_env(common)
-    tool_shape = base.unwrapped.tool_spec.section_shape
+    tool_shape = base.tool_spec.section_shape
     envs = [make_env(changes) for _, changes in options]
     sample = designs(args.designs, args.seed)
     rows: list[list[dict[str, Any]]] = [[] for _ in options]
