@@ -5,8 +5,10 @@
 tests and report tables. Wall times, dates, versions and paths are left out; every float is kept
 as its ``repr``, so two runs match only if they agree to the last bit.
 
-``tests/test_smoke_reproduction.py`` reruns them and compares. Regenerate the fixture (after a
-change that is *meant* to move numbers, and say so in the commit) with::
+``tests/test_smoke_reproduction.py`` reruns them and compares. The last bits depend on the
+platform (``tests/platforms.py``), so the fixture keeps one set per platform. Record this
+platform's set (with the code before a change to be checked, or after a change that is *meant*
+to move numbers, and say so in the commit) with::
 
     python tests/smoke_results.py --write
 """
@@ -22,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 import pandas as pd
+from platforms import platform_id
 
 FIXTURE = Path(__file__).parent / "fixtures" / "smoke-results.json.gz"
 SUITES = ("optimizers", "precision-sweep", "robustness", "mass-perturbation")
@@ -87,10 +90,16 @@ def run_all(root: Path, workers: int = 1) -> dict[str, Any]:
     return results
 
 
-def read_fixture() -> dict[str, Any]:
-    """The committed smoke results."""
+def read_variants() -> dict[str, dict[str, Any]]:
+    """The committed smoke results, one set per platform (``platform_id``)."""
     with gzip.open(FIXTURE, "rt", encoding="utf-8") as f:
-        return json.load(f)
+        variants: dict[str, dict[str, Any]] = json.load(f)["variants"]
+    return variants
+
+
+def read_fixture() -> dict[str, Any] | None:
+    """The committed smoke results of this platform, or None when it has none."""
+    return read_variants().get(platform_id())
 
 
 def main() -> None:
@@ -106,14 +115,16 @@ def main() -> None:
     else:
         with tempfile.TemporaryDirectory() as tmp:
             results = run_all(Path(tmp))
-    text = json.dumps(results, sort_keys=True, indent=0)
+    variants = read_variants() if FIXTURE.exists() else {}
     if args.write:
+        variants[platform_id()] = results
+        text = json.dumps({"variants": variants}, sort_keys=True, indent=0)
         FIXTURE.parent.mkdir(parents=True, exist_ok=True)
         with gzip.GzipFile(FIXTURE, "wb", mtime=0) as f:
             f.write(text.encode())
-        print(f"wrote {FIXTURE} ({FIXTURE.stat().st_size} bytes)")
+        print(f"wrote the results of {platform_id()} to {FIXTURE} ({FIXTURE.stat().st_size} bytes)")
     else:
-        same = results == read_fixture()
+        same = results == variants.get(platform_id())
         print("identical to the committed smoke results" if same else "DIFFERENT")
         sys.exit(0 if same else 1)
 

@@ -8,7 +8,8 @@ committed in ``tests/fixtures/smoke-results.json.gz``, to the last bit of every 
 from __future__ import annotations
 
 import pytest
-from smoke_results import SUITES, read_fixture, run_all
+from platforms import skip_reason
+from smoke_results import SUITES, read_fixture, read_variants, run_all
 
 
 @pytest.fixture(scope="module")
@@ -19,15 +20,24 @@ def fresh(tmp_path_factory):
 @pytest.mark.slow
 @pytest.mark.parametrize("name", [*SUITES, "design"])
 def test_smoke_results_are_reproduced_bit_for_bit(fresh, name):
-    expected = read_fixture()[name]
+    here = read_fixture()
+    if here is None:
+        variants = read_variants()
+        if not any(recorded[name] == fresh[name] for recorded in variants.values()):
+            pytest.skip(
+                skip_reason("smoke results", len(variants), "python tests/smoke_results.py --write")
+            )
+        return
+    expected = here[name]
     got = fresh[name]
     assert sorted(got) == sorted(expected), "the run folder stores other files"
     for key in expected:
         assert got[key] == expected[key], f"{name}: {key} differs from the committed results"
 
 
-def test_the_fixture_holds_every_suite_and_real_numbers():
-    fixture = read_fixture()
+@pytest.mark.parametrize("platform", sorted(read_variants()))
+def test_the_fixture_holds_every_suite_and_real_numbers(platform):
+    fixture = read_variants()[platform]
     assert set(fixture) == {*SUITES, "design"}
     for name, stored in fixture.items():
         assert stored["parts"], name
