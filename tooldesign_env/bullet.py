@@ -92,6 +92,7 @@ __all__ = [
     "BulletWorld",
     "ControlCalls",
     "RobotHandles",
+    "engine_library",
     "engine_version",
     "lean_collision_mesh",
     "lean_collision_meshes",
@@ -297,6 +298,11 @@ def engine_version() -> str:
     return f"{version} api {pybullet.getAPIVersion()}"
 
 
+def engine_library() -> str:
+    """The path of PyBullet's compiled library, whose C API a plugin of a world calls."""
+    return cast("str", pybullet.__file__)
+
+
 def rotation_matrices(quaternions: Any) -> np.ndarray:
     """(..., 3, 3) rotation matrices of quaternions (..., 4) in PyBullet's order (x, y, z, w).
 
@@ -426,6 +432,9 @@ class BulletWorld:
         self.solver_iterations = solver_iterations
         self.renderer = renderer
         self._states: list[int] = []
+        self._plugins: dict[tuple[str, str], int] = {}
+        #: How many physics servers this world has had (each reconnect starts a new one).
+        self.servers = 0
         self._connect()
 
     def _connect(self) -> None:
@@ -434,6 +443,8 @@ class BulletWorld:
             self._client = BulletClient(connection_mode=mode)
         cid = self._client._client
         self.client_id = cid
+        self._plugins.clear()  # a new server has none loaded
+        self.servers += 1
         if not self.renderer:
             # The software renderer is a plugin linked into PyBullet and selected when a client
             # connects; loading it by name returns its id, and unloading it leaves the server
@@ -611,6 +622,11 @@ class BulletWorld:
         """Teleport the arm to joint positions ``q`` (7,) rad with zero velocity."""
         for j, value in zip(robot.joints, q, strict=True):
             self.client.resetJointState(robot.body, j, float(value), 0.0)
+
+    def joint_slots(self, robot: RobotHandles) -> tuple[tuple[int, ...], tuple[int, ...]]:
+        """Where the 7 arm joints sit in PyBullet's state vectors: (q indices, u indices)."""
+        infos = [self.client.getJointInfo(robot.body, j) for j in robot.joints]
+        return tuple(int(i[3]) for i in infos), tuple(int(i[4]) for i in infos)
 
     def joint_state(self, robot: RobotHandles) -> tuple[list[float], list[float]]:
         """Joint positions (rad) and velocities (rad/s) of the 7 arm joints, as lists."""
@@ -818,11 +834,40 @@ class BulletWorld:
         """Return the world to a snapshot (PyBullet's restore is not exact while in contact)."""
         self.client.restoreState(stateId=state_id)
 
+    def adopt_states(self, state_ids: Sequence[int]) -> None:
+        """Count snapshots taken in the server by a plugin as this world's (freed on drop)."""
+        self._states.extend(int(i) for i in state_ids)
+
     def drop_states(self) -> None:
         """Free every snapshot taken since the last reset."""
         for sid in self._states:
             self.client.removeState(sid)
         self._states.clear()
+
+    # ------------------------------------------------------------- plugins
+    def load_plugin(self, path: str, postfix: str) -> int:
+        """Load a PyBullet plugin into this world's server; its id, or -1 if PyBullet refused it.
+
+        Loaded once per server: later calls return the same id. PyBullet refuses a library it
+        cannot open, one without the plugin's functions for ``postfix``, and one built for
+        another version of its C API.
+        """
+        key = (path, postfix)
+        if key not in self._plugins:
+            with _quiet_pybullet():  # a refusal is printed by PyBullet's C code as well
+                plugin = pybullet.loadPlugin(path, postfix, physicsClientId=self.client_id)
+            self._plugins[key] = int(plugin)
+        return self._plugins[key]
+
+    def plugin_command(self, plugin: int, text: str, ints: Sequence[int] = ()) -> int:
+        """Run a command of a loaded plugin inside the server; the plugin's integer answer.
+
+        ``ints`` are C ints (32 bits each).
+        """
+        answer = pybullet.executePluginCommand(
+            plugin, text, [int(i) for i in ints], physicsClientId=self.client_id
+        )
+        return int(answer)
 
     # ------------------------------------------------------------- rendering
     def render(

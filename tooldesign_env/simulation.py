@@ -31,6 +31,7 @@ from tooldesign_env.bullet import (
     rotation_matrices,
 )
 from tooldesign_env.geometry import ToolGeometry, tool_link_xml
+from tooldesign_env.native import LoopRecord, NativeLoop, NativeLoopError
 from tooldesign_env.plan import (
     KNOT_DT,
     REST_POSE,
@@ -294,9 +295,16 @@ def _principal_link_xml(geometry: ToolGeometry) -> tuple[str, np.ndarray]:
     return xml[:start] + inertial + xml[end:], diag
 
 
-#: One control step in contact, as logged during a rollout: (step index, joint positions (7,)
-#: rad, the tool's centre of mass (3,) m, the box's centre (3,) m, PyBullet's contact points).
-_ContactStep = tuple[int, tuple[float, ...], tuple[float, ...], tuple[float, ...], tuple[Any, ...]]
+@dataclass(frozen=True)
+class _LoopSettings:
+    """What a control loop needs beyond the simulator's specs, per rollout."""
+
+    phase: np.ndarray  # (n,) index into PHASES of each control step
+    hold_phase: int  # PHASES.index("hold")
+    hold_from: int  # the first step of the final hold
+    rest_needed: int  # steps at rest before the loop fast-forwards
+    record_mobility: bool
+    snapshot_every: int | None
 
 
 @dataclass
@@ -320,6 +328,11 @@ class ToolSimulator:
         plan: the fixed plan pi_0.
         controller: the computed-torque controller.
         render_mode: None, ``"human"`` or ``"rgb_array"``.
+        native_loop: run the control loop in C, inside PyBullet's server
+            (:mod:`tooldesign_env.native`): None (default) where the plugin is available and
+            nothing is rendered, else the Python loop; True requires it (an error says why it
+            cannot run); False always runs the Python loop. Both give the same results bit for
+            bit; the C loop is faster. :attr:`native_status` says which one ran.
     """
 
     def __init__(
@@ -329,7 +342,15 @@ class ToolSimulator:
         plan: PlanSpec | None = None,
         controller: ControllerSpec | None = None,
         render_mode: str | None = None,
+        native_loop: bool | None = None,
     ) -> None:
+        if not (native_loop is None or native_loop is True or native_loop is False):
+            raise TypeError(f"native_loop must be None, True or False, got {native_loop!r}")
+        if native_loop and render_mode is not None:
+            raise ValueError(
+                f"native_loop=True needs render_mode=None (a rendered world runs the Python "
+                f"loop), got render_mode={render_mode!r}"
+            )
         self.scene = scene or SceneSpec()
         self.plan = plan or PlanSpec()
         self.controller = controller or ControllerSpec()
@@ -365,6 +386,13 @@ class ToolSimulator:
         self._guard_threshold = self.scene.floor_clearance
         self._targets_for: JointReference | None = None
         self._target_rows: list[tuple[list[float], list[float], list[float]]] = []
+        # The C control loop (tooldesign_env.native), loaded on the first rollout.
+        self._native: NativeLoop | None = None
+        self._use_native = native_loop is not False
+        self._native_requested = native_loop is True
+        self._joint_slots: tuple[tuple[int, ...], tuple[int, ...]] | None = None
+        #: Which loop the last rollout ran, and why not the C one ("native" or "Python loop: ...").
+        self.native_status = "not run yet"
 
     # ---------------------------------------------------------------- setup
     @property
@@ -688,11 +716,102 @@ class ToolSimulator:
         return dataclasses.replace(again, floor_clearance=clearance)
 
     def _run(self, snapshot_every: int | None, record_mobility: bool) -> Trajectory:
+        ref = self.reference
+        scene = self.scene
+        n = len(ref.times)
+        phase = self._phase_index(ref.times)
+        hold = PHASES.index("hold")
+        loop = _LoopSettings(
+            phase=phase,
+            hold_phase=hold,
+            hold_from=int(np.argmax(phase == hold)) if np.any(phase == hold) else n,
+            rest_needed=max(int(math.ceil(scene.rest_time / self.control_dt)), 1),
+            record_mobility=record_mobility,
+            snapshot_every=snapshot_every,
+        )
+        native = self._native_loop()
+        record = self._loop_native(native, loop) if native else self._loop_python(loop)
+        self._snapshots = None
+        if snapshot_every:
+            ids = record.snapshots
+            if native is not None:
+                self.world.adopt_states(ids)  # taken in the server by the plugin
+            snapshots = _Snapshots(snapshot_every)
+            regular = range(0, record.steps, snapshot_every)
+            snapshots.ids = dict(zip(regular, ids, strict=False))
+            if len(ids) > len(regular):  # the rest state's, taken when the loop fast-forwarded
+                snapshots.ids[record.fast_forward_from] = ids[-1]
+                snapshots.rest_from = record.fast_forward_from
+            self._snapshots = snapshots
+        return self._trajectory(record, phase, record_mobility)
+
+    def _native_loop(self) -> NativeLoop | None:
+        """The world's C control loop, or None where it cannot run (then the Python loop runs).
+
+        Only a world without a render mode uses it: a GUI's server runs in its own thread, and
+        a rendered rollout is no place to save microseconds.
+        """
+        if not self._use_native or self.world.render_mode is not None:
+            if self.native_status == "not run yet":
+                self.native_status = "Python loop: " + (
+                    "native_loop=False" if not self._use_native else "the world renders"
+                )
+            return None
+        if self._native is None:
+            try:
+                self._native = NativeLoop(self.world)
+            except NativeLoopError as error:
+                self._use_native = False
+                if self._native_requested:
+                    raise
+                self.native_status = f"Python loop: {error}"
+                return None
+            self.native_status = "native"
+        return self._native
+
+    def _loop_native(self, native: NativeLoop, loop: _LoopSettings) -> LoopRecord:
+        robot, box = self._robot, self._box
+        assert robot is not None and box is not None
+        ref, scene, ctrl = self.reference, self.scene, self.controller
+        return native.rollout(
+            robot=robot.body,
+            box=box,
+            ee_link=robot.ee_link,
+            tool_link=robot.tool_link,
+            slots=self._slots(),
+            period=ctrl.control_period,
+            qdd_ref=ref.qdd,
+            q_ref=ref.q,
+            qd_ref=ref.qd,
+            kp=ctrl.kp,
+            kd=ctrl.kd,
+            torque_limits=tuple(ctrl.torque_limits),
+            fast_forward=scene.fast_forward_rest,
+            rest_speed=scene.rest_speed,
+            phase=loop.phase,
+            hold_phase=loop.hold_phase,
+            hold_from=loop.hold_from,
+            rest_needed=loop.rest_needed,
+            record_mobility=loop.record_mobility,
+            snapshot_every=loop.snapshot_every,
+        )
+
+    def _slots(self) -> tuple[tuple[int, ...], tuple[int, ...]]:
+        """The arm joints' places in PyBullet's state vectors (the same for every build)."""
+        if self._joint_slots is None:
+            assert self._robot is not None
+            self._joint_slots = self.world.joint_slots(self._robot)
+        return self._joint_slots
+
+    def _loop_python(self, loop: _LoopSettings) -> LoopRecord:
+        """The control loop in Python: what the plugin (tooldesign_env.native) runs in C."""
+        phase, hold_phase, hold_from = loop.phase, loop.hold_phase, loop.hold_from
+        rest_needed, snapshot_every = loop.rest_needed, loop.snapshot_every
+        record_mobility = loop.record_mobility
         world, robot, box = self.world, self._robot, self._box
         assert robot is not None and box is not None
-        ref = self.reference
         scene, ctrl = self.scene, self.controller
-        n = len(ref.times)
+        n = len(self.reference.times)
         period = ctrl.control_period
         kp, kd = ctrl.kp, ctrl.kd
 
@@ -702,16 +821,14 @@ class ToolSimulator:
         q_rows: list[tuple[float, ...]] = []
         qd_rows: list[tuple[float, ...]] = []  # for the floor guard's sub-steps
         tool_rows: list[tuple[float, ...]] = []
-        contact_rows: list[bool] = []
-        # Steps in contact: (k, q, tool centre of mass, box centre, PyBullet's contact points),
-        # when recording.
-        contact_log: list[_ContactStep] = []
-        phase = self._phase_index(ref.times)
-        hold = PHASES.index("hold")
-        rest_needed = max(int(math.ceil(scene.rest_time / self.control_dt)), 1)
+        orientations: list[tuple[float, ...]] = []
+        counts: list[int] = []
+        # Steps in contact, when recording: the step, the tool's centre of mass and PyBullet's
+        # contact points.
+        logged: list[tuple[int, tuple[float, ...], tuple[Any, ...]]] = []
+        snapshot_ids: list[int] = []
         at_rest = 0
         fast_forward_from = n
-        self._snapshots = _Snapshots(snapshot_every) if snapshot_every else None
 
         # The hot loop works on plain floats: NumPy's per-call overhead on 7-vectors cost more
         # than the arithmetic. The operations and their order are those of
@@ -725,15 +842,12 @@ class ToolSimulator:
         box_pose, contacts, box_velocity = calls.box_pose, calls.contacts, calls.box_velocity
         targets = self._targets()
         limits = list(ctrl.torque_limits)
-        orientations: list[tuple[float, ...]] = []
-        hold_from = int(np.argmax(phase == hold)) if np.any(phase == hold) else n
         fast_forward = scene.fast_forward_rest
         rest_speed = scene.rest_speed
-        snapshots = self._snapshots
         q, qd, _, _ = zip(*joint_states(), strict=True)
         for k in range(n):
-            if snapshots is not None and k % snapshots.every == 0:
-                snapshots.ids[k] = world.save_state()
+            if snapshot_every and k % snapshot_every == 0:
+                snapshot_ids.append(world.save_state())
             qdd_ref, q_ref, qd_ref = targets[k]
             qdd = [
                 a + kp * (b - x) + kd * (c - v)
@@ -755,47 +869,73 @@ class ToolSimulator:
             manifold = contacts()
             if manifold and record_mobility:
                 ee, tool = link_states()
-                contact_log.append((k, q, tool[0], box_now, manifold))
+                logged.append((k, tool[0], manifold))
             else:
                 ee = link_state()
             tool_rows.append(ee[4])
             orientations.append(ee[5])
-            contact_rows.append(bool(manifold))
-            if fast_forward and k >= hold_from and phase[k] == hold:
+            counts.append(len(manifold))
+            if fast_forward and k >= hold_from and phase[k] == hold_phase:
                 box_speed = np.linalg.norm(box_velocity()[0])
                 still = box_speed < rest_speed and max(map(abs, qd)) < rest_speed
                 at_rest = at_rest + 1 if still else 0
                 if at_rest >= rest_needed and k + 1 < n:
                     fast_forward_from = k + 1
-                    if snapshots is not None:
+                    if snapshot_every:
                         # One snapshot of the rest state serves every fast-forwarded step.
-                        snapshots.ids[fast_forward_from] = world.save_state()
-                        snapshots.rest_from = fast_forward_from
+                        snapshot_ids.append(world.save_state())
                     break
+        steps = len(q_rows)
+        flat = itertools.chain.from_iterable
+
+        def rows(values: list[Any], width: int) -> np.ndarray:
+            # Flattened: much faster than np.array's shape discovery on nested rows.
+            return np.fromiter(flat(values), float, len(values) * width).reshape(-1, width)
+
+        manifold_points = [point for _, _, manifold in logged for point in manifold]
+        return LoopRecord(
+            torques=rows(torque_rows, 7),
+            q=rows(q_rows, 7),
+            qd=rows(qd_rows, 7),
+            box_position=rows(box_rows, 3),
+            ee_position=rows(tool_rows, 3),
+            ee_orientation=rows(orientations, 4),
+            contact_points=np.array(counts, dtype=np.int32).reshape(steps),
+            fast_forward_from=fast_forward_from,
+            snapshots=tuple(snapshot_ids),
+            logged_steps=np.array([k for k, _, _ in logged], dtype=np.intp),
+            tool_com=rows([com for _, com, _ in logged], 3),
+            # PyBullet's contact points: position on the tool [6] and normal [7], 3 floats each.
+            points=rows([(*m[6], *m[7]) for m in manifold_points], 6),
+        )
+
+    def _trajectory(
+        self, record: LoopRecord, phase: np.ndarray, record_mobility: bool
+    ) -> Trajectory:
+        """The :class:`Trajectory` of a loop's record: the fast-forward, the guard, the mobility."""
+        ref, scene = self.reference, self.scene
+        n = len(ref.times)
+        steps = record.steps
+        fast_forward_from = record.fast_forward_from
+        rest_needed = max(int(math.ceil(scene.rest_time / self.control_dt)), 1)
+        orientations = record.ee_orientation.tolist()
         yaw_rows = [_tool_yaw(o) for o in orientations]
         clearance = None
         if self._guarded:
             assert self._guard_points is not None and self._arm_floor is not None
-            steps = len(q_rows)
             levers, plan_floor, fixed = self._arm_floor
-
-            def rows(values: list[Any], width: int) -> np.ndarray:
-                flat = itertools.chain.from_iterable(values)
-                return np.fromiter(flat, float, steps * width).reshape(steps, width)
-
             # How far a point of the links before the last joint may have strayed from its
             # planned place: each joint's error times its lever (see _arm_levers).
-            strayed = np.abs(rows(q_rows, 7) - ref.q[:steps]) @ levers
+            strayed = np.abs(record.q - ref.q[:steps]) @ levers
             # Bullet integrates positions with the step's new velocities, so the physics
             # step before a record was at q - h qd: its points were at most h |qd| . levers
             # away (exact for a control period of 2; with more sub-steps their velocities are
             # taken to be the recorded one).
-            between = (
-                (period - 1) * scene.time_step * (np.abs(rows(qd_rows, 7)) @ self._substep_levers)
-            )
+            period = self.controller.control_period
+            between = (period - 1) * scene.time_step * (np.abs(record.qd) @ self._substep_levers)
             clearance = floor_clearance_bound(
-                rows(tool_rows, 3),
-                rows(orientations, 4),
+                record.ee_position,
+                record.ee_orientation,
                 self._guard_points,
                 plan_floor[:steps],
                 strayed,
@@ -807,25 +947,17 @@ class ToolSimulator:
         # just applied).
         repeat = n - fast_forward_from
 
-        def table(rows: list[Any], width: int = 0, dtype: type = float) -> np.ndarray:
-            simulated: np.ndarray
-            if width:
-                # Flattened: much faster than np.array's shape discovery on nested rows.
-                simulated = np.fromiter(
-                    itertools.chain.from_iterable(rows), dtype=dtype, count=len(rows) * width
-                ).reshape(len(rows), width)
-            else:
-                simulated = np.array(rows, dtype=dtype)
+        def table(simulated: np.ndarray) -> np.ndarray:
             if not repeat:
                 return simulated
             return np.concatenate([simulated, np.repeat(simulated[-1:], repeat, axis=0)])
 
-        tool_position = table(tool_rows, 3)
-        torques = table(torque_rows, 7)
+        tool_position = table(record.ee_position)
+        torques = table(record.torques)
         self._last_torques = torques
         mobility = None
         if record_mobility:
-            mobility = self._mobility(contact_log, n)
+            mobility = self._mobility(record, n)
             if fast_forward_from < n:
                 # The fast-forwarded steps repeat the rest state. Its mobility is the mean over
                 # the steps that found the scene at rest, not the last step alone: one contact
@@ -834,12 +966,12 @@ class ToolSimulator:
                 mobility[fast_forward_from:] = rest.mean(axis=0)
         return Trajectory(
             times=ref.times.copy(),
-            box_position=table(box_rows, 3),
+            box_position=table(record.box_position),
             torques=torques,
-            joint_positions=table(q_rows, 7),
+            joint_positions=table(record.q),
             tool_position=tool_position,
-            tool_yaw=table(yaw_rows),
-            contact=table(contact_rows, dtype=bool),
+            tool_yaw=table(np.array(yaw_rows, dtype=float)),
+            contact=table(record.contact_points > 0),
             phase=phase,
             tracking_error=np.linalg.norm(tool_position - ref.ee_position, axis=1),
             fast_forward_from=fast_forward_from,
@@ -848,53 +980,64 @@ class ToolSimulator:
             floor_clearance=clearance,
         )
 
-    def _mobility(self, contact_log: list[_ContactStep], n: int) -> np.ndarray:
+    def _mobility(self, record: LoopRecord, n: int) -> np.ndarray:
         """(n, 3, 7) mean :func:`contact_mobility` over the manifold of each logged step.
 
         The mean, not the sum, so that a manifold that gains or loses a duplicate point does
         not change it. The Jacobians and the mass matrix are functions of q alone, so they are
         computed here, after the rollout, rather than inside the control loop.
         """
-        world, robot = self.world, self._robot
+        robot = self._robot
         assert robot is not None
         out = np.zeros((n, 3, 7))
-        if not contact_log:
+        logged = record.logged_steps
+        steps = len(logged)
+        if not steps:
             return out
-        steps = len(contact_log)
-        # PyBullet's nested tuples are flattened and converted to arrays once: converting each
-        # step's small matrices separately cost more than the calls themselves.
-        jacobian, mass_matrix = world.jacobian_calls(robot, robot.tool_link)
-        flat = itertools.chain.from_iterable
-        jacobians = np.fromiter(
-            flat(flat(flat(jacobian(entry[1]) for entry in contact_log))),
-            dtype=np.float64,
-            count=steps * 2 * 3 * 7,
-        ).reshape(steps, 2, 3, 7)
-        mass = np.fromiter(
-            flat(flat(mass_matrix(entry[1]) for entry in contact_log)),
-            dtype=np.float64,
-            count=steps * 7 * 7,
-        ).reshape(steps, 7, 7)
-        counts = np.fromiter((len(entry[4]) for entry in contact_log), dtype=int, count=steps)
+        jacobians, mass = self._arm_matrices(record.q[logged])
+        counts = record.contact_points[logged].astype(np.intp)
         owner = np.repeat(np.arange(steps), counts)  # the step of each contact point
-        manifold = [point for entry in contact_log for point in entry[4]]
-        points = len(manifold)
+        points = record.points
         per_point = contact_mobility(
-            # PyBullet's contact points: position on the tool [6] and normal [7], 3 floats each.
-            np.fromiter(flat(m[6] for m in manifold), np.float64, 3 * points).reshape(points, 3),
-            np.fromiter(flat(m[7] for m in manifold), np.float64, 3 * points).reshape(points, 3),
-            np.array([entry[2] for entry in contact_log], dtype=float)[owner],
+            np.ascontiguousarray(points[:, :3]),
+            np.ascontiguousarray(points[:, 3:]),
+            record.tool_com[owner],
             jacobians[owner, 0],
             jacobians[owner, 1],
             np.linalg.inv(mass)[owner],
-            np.array([entry[3] for entry in contact_log], dtype=float)[owner],
+            record.box_position[logged][owner],
             self._box_mass,
             self.scene.box_size,
         )
         per_step = np.zeros((steps, 3, 7))
         np.add.at(per_step, owner, per_point)
-        out[[entry[0] for entry in contact_log]] = per_step / counts[:, None, None]
+        out[logged] = per_step / counts[:, None, None]
         return out
+
+    def _arm_matrices(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The tool's centre-of-mass Jacobians (m, 2, 3, 7) and M(q) (m, 7, 7) at q (m, 7)."""
+        robot = self._robot
+        assert robot is not None
+        native = self._native_loop()
+        if native is not None:
+            return native.arm_matrices(robot=robot.body, tool_link=robot.tool_link, q=q)
+        steps = q.shape[0]
+        # PyBullet's nested tuples are flattened and converted to arrays once: converting each
+        # step's small matrices separately cost more than the calls themselves.
+        jacobian, mass_matrix = self.world.jacobian_calls(robot, robot.tool_link)
+        flat = itertools.chain.from_iterable
+        rows = q.tolist()
+        jacobians = np.fromiter(
+            flat(flat(flat(jacobian(row) for row in rows))),
+            dtype=np.float64,
+            count=steps * 2 * 3 * 7,
+        ).reshape(steps, 2, 3, 7)
+        mass = np.fromiter(
+            flat(flat(mass_matrix(row) for row in rows)),
+            dtype=np.float64,
+            count=steps * 7 * 7,
+        ).reshape(steps, 7, 7)
+        return jacobians, mass
 
     def replay_open_loop(
         self, geometry: ToolGeometry, torques: np.ndarray, *, box_mass: float | None = None
@@ -902,7 +1045,8 @@ class ToolSimulator:
         """Build the scene and apply a torque sequence with no controller in the loop.
 
         The same physics as a rollout without the controller's reads and inverse dynamics:
-        benchmarks use it as the floor of a rollout's cost. With
+        benchmarks use it as the floor of a rollout's cost. It runs in the same loop, C or
+        Python, as :meth:`run` would (see :mod:`tooldesign_env.native`). With
         ``SceneSpec.arm_floor_contacts="auto"`` it runs without the arm's floor contacts, as a
         rollout that the floor guard let pass, but nothing checks the clearance.
 
@@ -921,6 +1065,11 @@ class ToolSimulator:
         world, robot, box = self.world, self._robot, self._box
         assert robot is not None and box is not None
         period = self.controller.control_period
+        native = self._native_loop()
+        if native is not None:
+            return native.replay(
+                robot=robot.body, box=box, slots=self._slots(), period=period, torques=torques
+            )
         # The same bound calls as the control loop of run(), so that the two differ only by
         # the controller and the recording.
         calls = world.control_calls(robot, box, robot.tool_link)

@@ -18,6 +18,10 @@ floor measured back to back (so that load on a shared machine hits both alike):
   finds the cache on disk (warm), in units of the median evaluation;
 * the cost of the reference (re-simulation) estimator.
 
+Both the evaluation and the floor run in the simulator's control loop, C (the default, inside
+PyBullet's server: :mod:`tooldesign_env.native`) or Python (``--loop python``), and the script
+says which ran.
+
 Run: ``taskset -c 0 python benchmarks/perf/evaluation_speed.py [--designs 12] [--repeats 3]``
 (``taskset`` pins it, and its child processes, to one core).
 """
@@ -34,6 +38,7 @@ import time
 
 import numpy as np
 
+import tooldesign_env.native as native
 from tooldesign_env import ObjectiveSpec, ToolDesignEnv, make_tool
 from tooldesign_env.geometry import SECTION_SHAPES, ToolSpec
 from tooldesign_env.objective import free_energy
@@ -90,7 +95,15 @@ def main() -> None:
         default=ToolSpec().section_shape,
         help="the tool's section (default: %(default)s)",
     )
+    parser.add_argument(
+        "--loop",
+        choices=("native", "python"),
+        default="native",
+        help="the control loop: C where built (default), or Python (TOOLDESIGN_NATIVE_LOOP=0)",
+    )
     args = parser.parse_args()
+    if args.loop == "python":
+        os.environ[native.ENV_SWITCH] = "0"  # here and in the child processes below
 
     tool = ToolSpec(section_shape=args.section_shape)
     env = ToolDesignEnv(tool=tool)
@@ -145,7 +158,7 @@ def main() -> None:
     print(
         f"designs x repeats: {args.designs} x {args.repeats} (valid: {len(step_t)}); control "
         f"steps per episode: {n_total} ({period} physics steps each); estimator: "
-        f"{env.objective.estimator}"
+        f"{env.objective.estimator}; control loop: {getattr(sim, 'native_status', 'Python')}"
     )
     print(
         f"evaluation of F (env.step):          median {med(step_t):.4f} s "

@@ -7,6 +7,11 @@ totals), the rollouts are run with and without the contact log of the contact es
 the calls per episode, the whole rollout, and what recording the contact log adds (its
 Jacobians, mass matrices and their conversion).
 
+These are the calls of the Python loop, which the script runs (``TOOLDESIGN_NATIVE_LOOP=0``): the
+default loop runs in C inside PyBullet's server (:mod:`tooldesign_env.native`), where no call can
+be timed from Python. The script also times that loop's rollouts on the same designs, alternating
+with the Python loop's, and prints both.
+
 Run on one core: ``taskset -c 0 python benchmarks/perf/rollout_breakdown.py [--designs 8]
 [--repeats 3]``.
 """
@@ -15,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import collections
+import os
 import statistics
 import time
 from collections.abc import Callable
@@ -23,9 +29,11 @@ from typing import Any
 import numpy as np
 
 import tooldesign_env.bullet as bullet
+import tooldesign_env.native as native
 from tooldesign_env import ToolDesignEnv, make_tool
 from tooldesign_env.env import default_bounds
 from tooldesign_env.geometry import SECTION_SHAPES, ToolSpec
+from tooldesign_env.simulation import ToolSimulator
 
 
 def timed_control_calls(
@@ -94,10 +102,18 @@ def main() -> None:
         parser.error("--designs and --repeats must be >= 1")
 
     tool = ToolSpec(section_shape=args.section_shape)
+    os.environ[native.ENV_SWITCH] = "0"  # the env's simulator runs the Python loop
     env = ToolDesignEnv(tool=tool)
     env.reset(seed=0)
+    del os.environ[native.ENV_SWITCH]
     env.step(np.zeros(3))  # warm: the plan, imports, caches
     sim = env.simulator
+    # The default loop, in C, on the same scene (None where the plugin was not built).
+    c_sim = None
+    if native.library_path() is not None:
+        c_sim = ToolSimulator(
+            scene=sim.scene, plan=sim.plan, controller=sim.controller, native_loop=True
+        )
     rng = np.random.default_rng(args.seed)
     bounds = default_bounds(3)
     geometries = [make_tool(np.zeros(3), tool)]
@@ -113,6 +129,7 @@ def main() -> None:
     bullet.BulletWorld.jacobian_calls = timed_jacobian_calls(estimator_calls)  # type: ignore[method-assign]
     # Per mode (with the contact log, without): rollout times, and the calls' totals.
     rollouts: dict[bool, list[float]] = {True: [], False: []}
+    c_rollouts: dict[bool, list[float]] = {True: [], False: []}
     calls: dict[bool, dict[str, float]] = {
         True: collections.defaultdict(float),
         False: collections.defaultdict(float),
@@ -133,7 +150,14 @@ def main() -> None:
                 for name, value in seconds.items():
                     calls[record][name] += value
                 made[record].update(counts)
+                if c_sim is not None:
+                    c_sim.build(geometry)
+                    start = time.perf_counter()
+                    c_sim.run(record_mobility=record)
+                    c_rollouts[record].append(time.perf_counter() - start)
     env.close()
+    if c_sim is not None:
+        c_sim.close()
 
     episodes = args.repeats * len(geometries)
     print(f"{len(geometries)} designs x {args.repeats} repeats, one core, without the contact log")
@@ -162,6 +186,15 @@ def main() -> None:
     )
     python = 1e3 * statistics.fmean(rollouts[False]) - total_calls
     print(f"rollout without the log, less its calls (mean): {python:.1f} ms of Python")
+    if c_sim is None:
+        print(f"the C loop: {native.status()}")
+        return
+    c_plain = 1e3 * statistics.median(c_rollouts[False])
+    c_logged = 1e3 * statistics.median(c_rollouts[True])
+    print(
+        f"the same rollouts in the C loop (the default), median: {c_plain:.1f} ms without the "
+        f"contact log, {c_logged:.1f} ms with it (Python loop: {plain:.1f}, {logged:.1f})"
+    )
 
 
 if __name__ == "__main__":
