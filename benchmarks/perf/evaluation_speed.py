@@ -38,7 +38,6 @@ import time
 
 import numpy as np
 
-import tooldesign_env.native as native
 from tooldesign_env import ObjectiveSpec, ToolDesignEnv, make_tool
 from tooldesign_env.geometry import SECTION_SHAPES, ToolSpec
 from tooldesign_env.objective import free_energy
@@ -103,7 +102,9 @@ def main() -> None:
     )
     args = parser.parse_args()
     if args.loop == "python":
-        os.environ[native.ENV_SWITCH] = "0"  # here and in the child processes below
+        # tooldesign_env.native.ENV_SWITCH, by name: compare_trees.py also runs this script
+        # against trees that predate the module. Set here and for the child processes below.
+        os.environ["TOOLDESIGN_NATIVE_LOOP"] = "0"
 
     tool = ToolSpec(section_shape=args.section_shape)
     env = ToolDesignEnv(tool=tool)
