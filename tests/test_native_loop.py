@@ -35,12 +35,19 @@ def _same(a: object, b: object) -> bool:
 
 
 def _rollouts(native_loop: bool, **kwargs: object) -> list[object]:
+    """Each design with and without the contact log, and the layout of its snapshots."""
     sim = ToolSimulator(native_loop=native_loop)
     try:
-        out = []
+        out: list[object] = []
         for design in DESIGNS:
-            sim.build(make_tool(np.asarray(design), kwargs.get("tool")), box_mass=0.3)
-            out.append(sim.run(record_mobility=True))
+            geometry = make_tool(np.asarray(design), kwargs.get("tool"))
+            for record in (True, False):
+                sim.build(geometry, box_mass=0.3)
+                out.append(sim.run(record_mobility=record, snapshot_every=97))
+                snapshots = sim._snapshots
+                assert snapshots is not None
+                out.append((sorted(snapshots.ids), snapshots.rest_from))
+                sim.release_snapshots()
         assert sim.native_status == ("native" if native_loop else "Python loop: native_loop=False")
         return out
     finally:
@@ -60,13 +67,63 @@ def test_the_c_loop_is_built_where_ci_runs():
 @pytest.mark.parametrize("section", ["round", "square"])
 def test_every_recorded_series_is_the_same_bit_for_bit(section):
     tool = ToolSpec(section_shape=section)
+    fast_forwarded = 0
     for c_run, python_run in zip(
         _rollouts(True, tool=tool), _rollouts(False, tool=tool), strict=True
     ):
+        if isinstance(c_run, tuple):  # the steps with a snapshot, and the rest state's
+            assert c_run == python_run, f"{section} snapshots differ"
+            fast_forwarded += c_run[1] is not None
+            continue
         for field in dataclasses.fields(c_run):
             a, b = getattr(c_run, field.name), getattr(python_run, field.name)
             assert _same(a, b), f"{section} {field.name} differs"
-    assert c_run.contact_mobility is not None and np.any(c_run.contact_mobility)
+    assert fast_forwarded > 0  # the rest snapshot was compared too
+    logged = _rollouts(True, tool=tool)[0]
+    assert logged.contact_mobility is not None and np.any(logged.contact_mobility)
+
+
+@pytest.mark.parametrize("every", [0, -3, True, 2.5, "10"])
+def test_snapshot_every_must_be_none_or_a_positive_int(every):
+    sim = ToolSimulator()
+    try:
+        sim.build(make_tool(np.zeros(3)))
+        with pytest.raises(ValueError, match=r"snapshot_every must be None or an int >= 1, got"):
+            sim.run(snapshot_every=every)  # type: ignore[arg-type]
+    finally:
+        sim.close()
+
+
+@needs_plugin
+def test_a_failed_rollout_leaves_no_snapshots_behind(monkeypatch):
+    geometry = make_tool(np.zeros(3))
+    sim = ToolSimulator(native_loop=True)
+    try:
+        sim.build(geometry)
+        sim.run(snapshot_every=200)
+        assert sim._snapshots is not None and 0 in sim._snapshots.ids
+
+        def refuse(self, text, args):
+            raise native.NativeLoopError("refused")
+
+        monkeypatch.setattr(native.NativeLoop, "_command", refuse)
+        sim.build(geometry)
+        with pytest.raises(native.NativeLoopError, match="refused"):
+            sim.run(snapshot_every=200)
+        with pytest.raises(ValueError, match="no snapshot at control step 0"):
+            sim.replay_responses(0, 5, np.zeros((1, 7)))
+    finally:
+        sim.close()
+
+
+def test_the_controller_stores_its_numbers_as_python_floats():
+    from tooldesign_env import ControllerSpec
+
+    spec = ControllerSpec(
+        kp=np.float32(400.0), kd=np.int64(40), torque_limits=(np.float32(87),) * 7
+    )
+    assert type(spec.kp) is float and type(spec.kd) is float
+    assert all(type(v) is float for v in spec.torque_limits)
 
 
 @needs_plugin
@@ -183,6 +240,16 @@ def test_the_plugin_refuses_bad_commands_with_a_named_error():
             loop._command("nonsense", native.LoopArgs())
         with pytest.raises(native.NativeLoopError, match=r"'rollout' failed: bad arguments"):
             loop._command("rollout", native.LoopArgs())  # period 0
+        with pytest.raises(native.NativeLoopError, match=r"'contacts' failed: bad arguments"):
+            loop._command("contacts", np.zeros((3, 6)))  # the plugin keeps no 3 rows
+        with pytest.raises(ValueError, match=r"torques must be an \(n, 7\) array"):
+            loop.replay(robot=0, box=0, slots=((7,) * 7, (6,) * 7), period=2, torques=np.zeros(7))
+        with pytest.raises(ValueError, match=r"q must be an \(m, 7\) array"):
+            loop.arm_matrices(robot=0, tool_link=0, q=np.zeros((3, 6)))
+        with pytest.raises(native.NativeLoopError, match=r"'replay' failed: bad arguments"):
+            loop.replay(
+                robot=0, box=0, slots=((-1,) * 7, (6,) * 7), period=2, torques=np.zeros((2, 7))
+            )
         with pytest.raises(ValueError, match=r"references must be \(5, 7\) arrays"):
             loop.rollout(
                 robot=0, box=0, ee_link=0, tool_link=0, slots=((0,) * 7, (0,) * 7), period=2,

@@ -295,6 +295,10 @@ def _principal_link_xml(geometry: ToolGeometry) -> tuple[str, np.ndarray]:
     return xml[:start] + inertial + xml[end:], diag
 
 
+#: The arm joints' indices in PyBullet's state vectors: (q indices, u indices).
+_JointSlots = tuple[tuple[int, ...], tuple[int, ...]]
+
+
 @dataclass(frozen=True)
 class _LoopSettings:
     """What a control loop needs beyond the simulator's specs, per rollout."""
@@ -390,7 +394,7 @@ class ToolSimulator:
         self._native: NativeLoop | None = None
         self._use_native = native_loop is not False
         self._native_requested = native_loop is True
-        self._joint_slots: tuple[tuple[int, ...], tuple[int, ...]] | None = None
+        self._joint_slots: tuple[RobotHandles, _JointSlots] | None = None
         #: Which loop the last rollout ran, and why not the C one ("native" or "Python loop: ...").
         self.native_status = "not run yet"
 
@@ -690,6 +694,12 @@ class ToolSimulator:
         """
         if self._robot is None:
             raise RuntimeError("call build(geometry) before run()")
+        if snapshot_every is not None and (
+            isinstance(snapshot_every, bool)
+            or not isinstance(snapshot_every, (int, np.integer))
+            or snapshot_every < 1
+        ):
+            raise ValueError(f"snapshot_every must be None or an int >= 1, got {snapshot_every!r}")
         with _gc_paused():
             trajectory = self._run(snapshot_every, record_mobility)
         clearance = trajectory.floor_clearance
@@ -729,13 +739,11 @@ class ToolSimulator:
             record_mobility=record_mobility,
             snapshot_every=snapshot_every,
         )
+        self._snapshots = None  # before the loop: a failed rollout leaves none behind
         native = self._native_loop()
         record = self._loop_native(native, loop) if native else self._loop_python(loop)
-        self._snapshots = None
         if snapshot_every:
             ids = record.snapshots
-            if native is not None:
-                self.world.adopt_states(ids)  # taken in the server by the plugin
             snapshots = _Snapshots(snapshot_every)
             regular = range(0, record.steps, snapshot_every)
             snapshots.ids = dict(zip(regular, ids, strict=False))
@@ -743,7 +751,7 @@ class ToolSimulator:
                 snapshots.ids[record.fast_forward_from] = ids[-1]
                 snapshots.rest_from = record.fast_forward_from
             self._snapshots = snapshots
-        return self._trajectory(record, phase, record_mobility)
+        return self._trajectory(record, loop)
 
     def _native_loop(self) -> NativeLoop | None:
         """The world's C control loop, or None where it cannot run (then the Python loop runs).
@@ -796,12 +804,12 @@ class ToolSimulator:
             snapshot_every=loop.snapshot_every,
         )
 
-    def _slots(self) -> tuple[tuple[int, ...], tuple[int, ...]]:
-        """The arm joints' places in PyBullet's state vectors (the same for every build)."""
-        if self._joint_slots is None:
-            assert self._robot is not None
-            self._joint_slots = self.world.joint_slots(self._robot)
-        return self._joint_slots
+    def _slots(self) -> _JointSlots:
+        """The arm joints' places in PyBullet's state vectors, read once per build."""
+        assert self._robot is not None
+        if self._joint_slots is None or self._joint_slots[0] is not self._robot:
+            self._joint_slots = (self._robot, self.world.joint_slots(self._robot))
+        return self._joint_slots[1]
 
     def _loop_python(self, loop: _LoopSettings) -> LoopRecord:
         """The control loop in Python: what the plugin (tooldesign_env.native) runs in C."""
@@ -909,15 +917,12 @@ class ToolSimulator:
             points=rows([(*m[6], *m[7]) for m in manifold_points], 6),
         )
 
-    def _trajectory(
-        self, record: LoopRecord, phase: np.ndarray, record_mobility: bool
-    ) -> Trajectory:
+    def _trajectory(self, record: LoopRecord, loop: _LoopSettings) -> Trajectory:
         """The :class:`Trajectory` of a loop's record: the fast-forward, the guard, the mobility."""
         ref, scene = self.reference, self.scene
         n = len(ref.times)
         steps = record.steps
         fast_forward_from = record.fast_forward_from
-        rest_needed = max(int(math.ceil(scene.rest_time / self.control_dt)), 1)
         orientations = record.ee_orientation.tolist()
         yaw_rows = [_tool_yaw(o) for o in orientations]
         clearance = None
@@ -956,13 +961,13 @@ class ToolSimulator:
         torques = table(record.torques)
         self._last_torques = torques
         mobility = None
-        if record_mobility:
+        if loop.record_mobility:
             mobility = self._mobility(record, n)
             if fast_forward_from < n:
                 # The fast-forwarded steps repeat the rest state. Its mobility is the mean over
                 # the steps that found the scene at rest, not the last step alone: one contact
                 # manifold, repeated for seconds, would carry that step's noise into all of them.
-                rest = mobility[fast_forward_from - rest_needed : fast_forward_from]
+                rest = mobility[fast_forward_from - loop.rest_needed : fast_forward_from]
                 mobility[fast_forward_from:] = rest.mean(axis=0)
         return Trajectory(
             times=ref.times.copy(),
@@ -972,7 +977,7 @@ class ToolSimulator:
             tool_position=tool_position,
             tool_yaw=table(np.array(yaw_rows, dtype=float)),
             contact=table(record.contact_points > 0),
-            phase=phase,
+            phase=loop.phase,
             tracking_error=np.linalg.norm(tool_position - ref.ee_position, axis=1),
             fast_forward_from=fast_forward_from,
             contact_mobility=mobility,

@@ -201,6 +201,11 @@ class ControllerSpec:
         _check_vector(self, "torque_limits", 7)
         if not all(v > 0 for v in self.torque_limits):
             raise ValueError(f"ControllerSpec.torque_limits must be > 0, got {self.torque_limits}")
+        # Stored as Python floats: with NumPy 2, a np.float32 gain would make the feedback law
+        # round to float32 in the Python loop (and not in the C loop, which computes in double).
+        object.__setattr__(self, "kp", float(self.kp))
+        object.__setattr__(self, "kd", float(self.kd))
+        object.__setattr__(self, "torque_limits", tuple(float(v) for v in self.torque_limits))
         if (
             isinstance(self.control_period, bool)
             or not isinstance(self.control_period, int)

@@ -46,26 +46,27 @@ ENV_SWITCH = "TOOLDESIGN_NATIVE_LOOP"
 #: The plugin's functions end with this (PyBullet's ``loadPlugin(path, postFix)``).
 POSTFIX = "_tooldesign"
 #: ``LOOP_VERSION`` in control_loop.c: a library built from another version is not used.
-LOOP_VERSION = 2
+LOOP_VERSION = 3
 ARM = 7
 
-#: What the plugin's negative answers mean (``ERR_*`` in control_loop.c).
+#: What the plugin's negative answers mean (``ERR_*`` in control_loop.c); -1 is PyBullet's.
 ERRORS = {
-    -1: "the plugin is not bound to PyBullet's C API",
-    -2: "bad arguments",
-    -3: "unknown command",
-    -4: "a physics step failed",
-    -5: "a torque command failed",
-    -6: "reading a body's state failed",
-    -7: "the inverse dynamics failed",
-    -8: "reading the contact points failed",
-    -9: "the Jacobian failed",
-    -10: "the mass matrix failed",
-    -11: "saving a snapshot failed",
-    -12: "out of memory",
-    -13: "PyBullet's library could not be opened",
-    -14: "a function is missing from PyBullet's library",
-    -15: "the plugin's client could not learn the robot's joints",
+    -1: "PyBullet knows no such plugin in this server",
+    -1001: "the plugin is not bound to PyBullet's C API",
+    -1002: "bad arguments",
+    -1003: "unknown command",
+    -1004: "a physics step failed",
+    -1005: "a torque command failed",
+    -1006: "reading a body's state failed",
+    -1007: "the inverse dynamics failed",
+    -1008: "reading the contact points failed",
+    -1009: "the Jacobian failed",
+    -1010: "the mass matrix failed",
+    -1011: "saving a snapshot failed",
+    -1012: "out of memory",
+    -1013: "PyBullet's library could not be opened",
+    -1014: "a function is missing from PyBullet's library",
+    -1015: "the plugin's client could not learn the robot's joints",
 }
 
 
@@ -179,8 +180,8 @@ def status() -> str:
     return f"built: {path}"
 
 
-def _address(array: np.ndarray | None) -> int | None:
-    return None if array is None else int(array.ctypes.data)
+def _address(array: np.ndarray) -> int:
+    return int(array.ctypes.data)
 
 
 def _halves(address: int) -> list[int]:
@@ -236,7 +237,7 @@ class NativeLoop:
         from tooldesign_env.bullet import engine_library
 
         library = engine_library()
-        if len(library) > 1000:
+        if len(library.encode()) > 1000:  # PyBullet drops a text argument of 1024 bytes
             raise NativeLoopError(f"PyBullet's path is too long for a plugin argument: {library}")
         answer = world.plugin_command(plugin, f"bind {library}")
         if answer != 0:
@@ -245,9 +246,11 @@ class NativeLoop:
         return plugin
 
     def _command(self, text: str, args: LoopArgs | np.ndarray) -> None:
-        address = ctypes.addressof(args) if isinstance(args, LoopArgs) else _address(args)
-        assert address is not None
-        answer = self.world.plugin_command(self._plugin(), text, _halves(address))
+        if isinstance(args, LoopArgs):
+            ints = _halves(ctypes.addressof(args))
+        else:  # a float64 array of rows to fill ("contacts")
+            ints = [*_halves(int(args.ctypes.data)), int(args.shape[0])]
+        answer = self.world.plugin_command(self._plugin(), text, ints)
         if answer != 0:
             raise NativeLoopError(f"the plugin's {text!r} failed: {ERRORS.get(answer, answer)}")
 
@@ -303,6 +306,8 @@ class NativeLoop:
         if phases.shape != (n,):
             raise ValueError(f"phase must be a ({n},) array, got {phases.shape}")
         every = int(snapshot_every or 0)
+        if every < 0:
+            raise ValueError(f"snapshot_every must be None or an int >= 1, got {snapshot_every!r}")
         out: dict[str, np.ndarray] = {
             "torques": np.empty((n, ARM)),
             "q": np.empty((n, ARM)),
@@ -334,7 +339,12 @@ class NativeLoop:
         args.snapshot_every = every
         for name, array in out.items():
             setattr(args, name, _address(array))
-        self._command("rollout", args)
+        try:
+            self._command("rollout", args)
+        finally:
+            # Snapshots taken in the server are the world's to free, a failed rollout's too.
+            snapshots = tuple(int(i) for i in out["snapshot_ids"][: int(args.snapshots)])
+            self.world.adopt_states(snapshots)
         steps = int(args.steps)
         points = np.empty((int(args.logged_points), 6))
         if points.shape[0]:
@@ -350,7 +360,7 @@ class NativeLoop:
             ee_orientation=out["ee_orientation"][:steps],
             contact_points=counts,
             fast_forward_from=int(args.fast_forward_from),
-            snapshots=tuple(int(i) for i in out["snapshot_ids"][: int(args.snapshots)]),
+            snapshots=snapshots,
             logged_steps=logged,
             tool_com=out["tool_com"][logged],
             points=points,
@@ -367,6 +377,8 @@ class NativeLoop:
     ) -> np.ndarray:
         """Apply ``torques`` (n, 7) open loop, ``period`` physics steps each: (n, 3) box centres."""
         commands = np.ascontiguousarray(torques, dtype=np.float64)
+        if commands.ndim != 2 or commands.shape[1] != ARM:
+            raise ValueError(f"torques must be an (n, {ARM}) array, got shape {commands.shape}")
         n = int(commands.shape[0])
         box_position = np.empty((n, 3))
         args = self._args(
@@ -386,6 +398,8 @@ class NativeLoop:
         angular) and ``calculateMassMatrix(robot, q)`` give them.
         """
         positions = np.ascontiguousarray(q, dtype=np.float64)
+        if positions.ndim != 2 or positions.shape[1] != ARM:
+            raise ValueError(f"q must be an (m, {ARM}) array, got shape {positions.shape}")
         m = int(positions.shape[0])
         jacobians, mass = np.empty((m, 2, 3, ARM)), np.empty((m, ARM, ARM))
         args = self._args(

@@ -36,7 +36,7 @@
 #define TOOLDESIGN_ABI_MAGIC 202010061
 /* Bumped whenever a command or struct loop_args changes: the Python side refuses a library
  * built from another version of this file (a stale build of an editable install). */
-#define LOOP_VERSION 2
+#define LOOP_VERSION 3
 
 /* Status codes of PyBullet's server (EnumSharedMemoryServerStatus of that ABI). */
 enum {
@@ -135,25 +135,26 @@ static struct {
 static int api_bound = 0;
 
 #define ARM 7
-#define MAX_DOF 64
+#define MAX_DEGREE_OF_FREEDOM 128 /* the length of PyBullet's state vectors */
 
-/* Error codes returned to Python (tooldesign_env.native.loop.ERRORS names them). */
+/* Error codes returned to Python (tooldesign_env.native.ERRORS names them); far from -1, which
+ * PyBullet itself answers for a plugin id it does not know. */
 enum {
-    ERR_NOT_BOUND = -1,
-    ERR_BAD_ARGUMENTS = -2,
-    ERR_UNKNOWN_COMMAND = -3,
-    ERR_STEP = -4,
-    ERR_MOTOR = -5,
-    ERR_STATE = -6,
-    ERR_INVERSE_DYNAMICS = -7,
-    ERR_CONTACTS = -8,
-    ERR_JACOBIAN = -9,
-    ERR_MASS_MATRIX = -10,
-    ERR_SAVE_STATE = -11,
-    ERR_MEMORY = -12,
-    ERR_LIBRARY = -13,
-    ERR_SYMBOL = -14,
-    ERR_SYNC = -15,
+    ERR_NOT_BOUND = -1001,
+    ERR_BAD_ARGUMENTS = -1002,
+    ERR_UNKNOWN_COMMAND = -1003,
+    ERR_STEP = -1004,
+    ERR_MOTOR = -1005,
+    ERR_STATE = -1006,
+    ERR_INVERSE_DYNAMICS = -1007,
+    ERR_CONTACTS = -1008,
+    ERR_JACOBIAN = -1009,
+    ERR_MASS_MATRIX = -1010,
+    ERR_SAVE_STATE = -1011,
+    ERR_MEMORY = -1012,
+    ERR_LIBRARY = -1013,
+    ERR_SYMBOL = -1014,
+    ERR_SYNC = -1015,
 };
 
 /* What one rollout reads and writes; mirrored by tooldesign_env.native.loop.LoopArgs. Arrays
@@ -215,12 +216,19 @@ static void *address(const struct plugin_arguments *arguments, int first) {
 }
 
 static int bind(const char *path) {
+    /* Resolved into a table of its own and published only when complete: a failed bind must
+     * not leave a NULL in the table an earlier bind filled. */
+    __typeof__(api) table;
+    api_bound = 0;
     void *library = dlopen(path, RTLD_LAZY | RTLD_NOLOAD);
     if (!library) return ERR_LIBRARY;
 #define BIND(field, name)                                              \
     do {                                                               \
-        *(void **)(&api.field) = dlsym(library, name);                 \
-        if (!api.field) return ERR_SYMBOL;                             \
+        *(void **)(&table.field) = dlsym(library, name);               \
+        if (!table.field) {                                            \
+            dlclose(library);                                          \
+            return ERR_SYMBOL;                                         \
+        }                                                              \
     } while (0)
     BIND(submit, "b3SubmitClientCommandAndWaitStatus");
     BIND(status_type, "b3GetStatusType");
@@ -252,6 +260,7 @@ static int bind(const char *path) {
 #undef BIND
     /* The library stays loaded by PyBullet; this reference is dropped, the symbols stay valid. */
     dlclose(library);
+    api = table;
     api_bound = 1;
     return 0;
 }
@@ -354,8 +363,9 @@ static int rollout(client_t client, struct world_data *data, struct loop_args *a
             if ((error = save_state(client, &a->snapshot_ids[a->snapshots]))) return error;
             a->snapshots++;
         }
-        const double *qdd_ref = a->qdd_ref + ARM * k, *q_ref = a->q_ref + ARM * k;
-        const double *qd_ref = a->qd_ref + ARM * k;
+        const size_t row = (size_t)k * ARM;
+        const double *qdd_ref = a->qdd_ref + row, *q_ref = a->q_ref + row;
+        const double *qd_ref = a->qd_ref + row;
         for (int j = 0; j < ARM; j++)
             qdd[j] = qdd_ref[j] + a->kp * (q_ref[j] - q[j]) + a->kd * (qd_ref[j] - qd[j]);
         /* pybullet.calculateInverseDynamics(robot, q, qd, qdd) */
@@ -367,13 +377,13 @@ static int rollout(client_t client, struct world_data *data, struct loop_args *a
         api.inverse_dynamics_forces(status, NULL, &dofs, NULL);
         if (dofs != ARM) return ERR_INVERSE_DYNAMICS;
         api.inverse_dynamics_forces(status, NULL, NULL, force);
-        double *torque = a->torques + ARM * k;
+        double *torque = a->torques + row;
         for (int j = 0; j < ARM; j++) {
             double t = force[j], limit = a->torque_limit[j];
             torque[j] = t < -limit ? -limit : (t > limit ? limit : t);
         }
         if ((error = apply_and_step(client, a, torque))) return error;
-        double *q_row = a->q + ARM * k, *qd_row = a->qd + ARM * k;
+        double *q_row = a->q + row, *qd_row = a->qd + row;
         status = arm_state(client, a, q_row, qd_row);
         if (!status) return ERR_STATE;
         memcpy(q, q_row, sizeof q);
@@ -384,23 +394,29 @@ static int rollout(client_t client, struct world_data *data, struct loop_args *a
         if (!api.link_state(client, status, a->ee_link, &ee)) return ERR_STATE;
         if (a->record_mobility && !api.link_state(client, status, a->tool_link, &tool))
             return ERR_STATE;
-        if ((error = box_state(client, a, a->box_position + 3 * k, box_velocity))) return error;
+        if ((error = box_state(client, a, a->box_position + 3 * (size_t)k, box_velocity))) return error;
         struct contact_information info = {0, NULL};
         if ((error = contacts(client, a, &info))) return error;
         a->contact_points[k] = info.count;
         if (info.count > 0 && a->record_mobility) {
-            memcpy(a->tool_com + 3 * k, tool.world_position, 3 * sizeof(double));
+            memcpy(a->tool_com + 3 * (size_t)k, tool.world_position, 3 * sizeof(double));
             if ((error = keep_points(data, &info))) return error;
         }
-        memcpy(a->ee_position + 3 * k, ee.world_link_frame_position, 3 * sizeof(double));
-        memcpy(a->ee_orientation + 4 * k, ee.world_link_frame_orientation, 4 * sizeof(double));
+        memcpy(a->ee_position + 3 * (size_t)k, ee.world_link_frame_position, 3 * sizeof(double));
+        memcpy(a->ee_orientation + 4 * (size_t)k, ee.world_link_frame_orientation, 4 * sizeof(double));
         a->steps = k + 1;
         if (a->fast_forward && k >= a->hold_from && a->phase[k] == a->hold_phase) {
             double speed = sqrt(box_velocity[0] * box_velocity[0] +
                                 box_velocity[1] * box_velocity[1] +
                                 box_velocity[2] * box_velocity[2]);
-            double fastest = 0.0;
-            for (int j = 0; j < ARM; j++) fastest = fabs(qd[j]) > fastest ? fabs(qd[j]) : fastest;
+            /* Python's max(map(abs, qd)): the first, replaced by any later one that is
+             * greater (so a NaN first stays, and a later NaN is passed over). The speed is
+             * sqrt(x x + y y + z z), where Python takes np.linalg.norm: the same on every
+             * vector tried (they could differ in the last bit, which decides only a speed
+             * within a bit of rest_speed). */
+            double fastest = fabs(qd[0]);
+            for (int j = 1; j < ARM; j++)
+                if (fabs(qd[j]) > fastest) fastest = fabs(qd[j]);
             int still = speed < a->rest_speed && fastest < a->rest_speed;
             at_rest = still ? at_rest + 1 : 0;
             if (at_rest >= a->rest_needed && k + 1 < a->n) {
@@ -424,8 +440,8 @@ static int replay(client_t client, struct loop_args *a) {
     int error;
     a->steps = 0;
     for (int k = 0; k < a->n; k++) {
-        if ((error = apply_and_step(client, a, a->torques_in + ARM * k))) return error;
-        if ((error = box_state(client, a, a->box_position + 3 * k, velocity))) return error;
+        if ((error = apply_and_step(client, a, a->torques_in + (size_t)k * ARM))) return error;
+        if ((error = box_state(client, a, a->box_position + 3 * (size_t)k, velocity))) return error;
         a->steps = k + 1;
     }
     return 0;
@@ -445,14 +461,14 @@ static int arm_matrices(client_t client, struct loop_args *a) {
         return ERR_SYNC;
     if (api.dof_count(client, a->robot) != ARM) return ERR_SYNC;
     for (int k = 0; k < a->n; k++) {
-        const double *q = a->q_ref + ARM * k;
+        const double *q = a->q_ref + (size_t)k * ARM;
         status_t status = api.submit(
             client, api.jacobian(client, a->robot, a->tool_link, origin, q, zeros, zeros));
         if (api.status_type(status) != STATUS_JACOBIAN) return ERR_JACOBIAN;
         int dofs = 0;
         api.jacobian_result(status, &dofs, NULL, NULL);
         if (dofs != ARM) return ERR_JACOBIAN;
-        double *jacobian = a->jacobians + 2 * 3 * ARM * k;
+        double *jacobian = a->jacobians + (size_t)k * 2 * 3 * ARM;
         api.jacobian_result(status, NULL, jacobian, jacobian + 3 * ARM);
         command_t command = api.mass_matrix(client, a->robot, q, ARM);
         api.mass_matrix_flags(command, 0);
@@ -460,15 +476,24 @@ static int arm_matrices(client_t client, struct loop_args *a) {
         if (api.status_type(status) != STATUS_MASS_MATRIX) return ERR_MASS_MATRIX;
         api.mass_matrix_result(client, status, &dofs, NULL);
         if (dofs != ARM) return ERR_MASS_MATRIX;
-        api.mass_matrix_result(client, status, NULL, a->mass_matrices + ARM * ARM * k);
+        api.mass_matrix_result(client, status, NULL, a->mass_matrices + (size_t)k * ARM * ARM);
     }
     return 0;
+}
+
+/* The arm joints' slots in PyBullet's state vectors (a fixed joint has none: -1). */
+static int valid_slots(const struct loop_args *a) {
+    for (int j = 0; j < ARM; j++)
+        if (a->q_index[j] < 0 || a->q_index[j] >= MAX_DEGREE_OF_FREEDOM || a->u_index[j] < 0 ||
+            a->u_index[j] >= MAX_DEGREE_OF_FREEDOM)
+            return 0;
+    return 1;
 }
 
 /* Commands: "version" and "layout" (LOOP_VERSION, sizeof(struct loop_args)), "bind <path of
  * PyBullet's library>"; "rollout", "replay", "arm_matrices",
  * "contacts", each with the address of a struct loop_args in ints[0:2] (for "contacts": of a
- * (logged_points, 6) float64 array to fill). Returns 0, or an ERR_* code. */
+ * (logged_points, 6) float64 array to fill, and its rows in ints[2]). Returns 0, or an ERR_* code. */
 int executePluginCommand_tooldesign(struct plugin_context *context,
                                     const struct plugin_arguments *arguments) {
     struct world_data *data = context->user_pointer;
@@ -483,16 +508,30 @@ int executePluginCommand_tooldesign(struct plugin_context *context,
         !(matrices_command = strcmp(text, "arm_matrices") == 0))
         return ERR_UNKNOWN_COMMAND;
     if (!api_bound) return ERR_NOT_BOUND;
-    if (arguments->num_ints != 2 || !data) return ERR_BAD_ARGUMENTS;
+    if (arguments->num_ints < 2 || !data) return ERR_BAD_ARGUMENTS;
     void *target = address(arguments, 0);
     if (!target) return ERR_BAD_ARGUMENTS;
     if (contacts_command) {
+        /* ints[2]: the rows of the target, which must be the rows kept */
+        if (arguments->num_ints != 3 || arguments->ints[2] != data->count) return ERR_BAD_ARGUMENTS;
         if (data->count) memcpy(target, data->points, sizeof(double) * 6 * (size_t)data->count);
         return 0;
     }
     struct loop_args *a = target;
     if (a->n < 0 || a->period < 1) return ERR_BAD_ARGUMENTS;
-    if (rollout_command) return rollout(context->client, data, a);
-    if (replay_command) return replay(context->client, a);
-    return matrices_command ? arm_matrices(context->client, a) : ERR_UNKNOWN_COMMAND;
+    if (rollout_command) {
+        if (!valid_slots(a) || (a->n > 0 && !(a->qdd_ref && a->q_ref && a->qd_ref && a->phase &&
+                                             a->torques && a->q && a->qd && a->box_position &&
+                                             a->ee_position && a->ee_orientation && a->tool_com &&
+                                             a->contact_points && a->snapshot_ids)))
+            return ERR_BAD_ARGUMENTS;
+        return rollout(context->client, data, a);
+    }
+    if (replay_command) {
+        if (!valid_slots(a) || (a->n > 0 && !(a->torques_in && a->box_position)))
+            return ERR_BAD_ARGUMENTS;
+        return replay(context->client, a);
+    }
+    if (a->n > 0 && !(a->q_ref && a->jacobians && a->mass_matrices)) return ERR_BAD_ARGUMENTS;
+    return arm_matrices(context->client, a);
 }
