@@ -508,6 +508,8 @@ def test_manifest_round_trips_and_records_the_environment(tmp_path: Path) -> Non
     assert loaded["packages"]["numpy"] == np.__version__
     assert "skopt" not in loaded["packages"]
     assert loaded["host"]["cpu_count"] == os.cpu_count()
+    assert loaded["host"]["cpu"] and isinstance(loaded["host"]["cpu"], str)
+    assert loaded["host"]["control_loop"].startswith(("built", "not built", "off"))
     df = store.read()
     assert loaded["simulation_time"] == pytest.approx(df["eval_time"].sum())
     assert loaded["optimizer_time"] == pytest.approx(0.01 * len(df))

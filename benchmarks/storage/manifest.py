@@ -90,13 +90,35 @@ def git_commit(repo_dir: str | os.PathLike[str] | None = None) -> str | None:
 
 
 def host_info() -> dict[str, Any]:
-    """The machine: platform string, machine, Python version and CPU count (no host name)."""
+    """The machine: platform, CPU, Python version, CPU count, control loop (no host name).
+
+    The CPU's model is kept because results agree bit for bit only on the same kind of CPU
+    (PyBullet's maths routines are chosen by the CPU's features), and the control loop because
+    the times depend on it (its results do not: ``tooldesign_env.native``).
+    """
+    from tooldesign_env.native import status
+
     return {
         "platform": platform.platform(),
         "machine": platform.machine(),
+        "cpu": _cpu_model(),
         "python": platform.python_version(),
         "cpu_count": os.cpu_count(),
+        "control_loop": status(),
     }
+
+
+def _cpu_model() -> str:
+    """The CPU's model name (Linux's /proc/cpuinfo), else what the platform module says."""
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as f:
+            for line in f:
+                key, _, value = line.partition(":")
+                if key.strip() == "model name":
+                    return value.strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown"
 
 
 def build_manifest(
