@@ -769,9 +769,9 @@ class ToolSimulator:
             try:
                 self._native = NativeLoop(self.world)
             except NativeLoopError as error:
-                self._use_native = False
                 if self._native_requested:
-                    raise
+                    raise  # and again on the next rollout: never the Python loop instead
+                self._use_native = False
                 self.native_status = f"Python loop: {error}"
                 return None
             self.native_status = "native"
@@ -992,8 +992,6 @@ class ToolSimulator:
         not change it. The Jacobians and the mass matrix are functions of q alone, so they are
         computed here, after the rollout, rather than inside the control loop.
         """
-        robot = self._robot
-        assert robot is not None
         out = np.zeros((n, 3, 7))
         logged = record.logged_steps
         steps = len(logged)

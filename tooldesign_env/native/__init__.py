@@ -170,9 +170,13 @@ def library_path() -> Path | None:
     return None
 
 
+def _switched_off() -> bool:
+    return os.environ.get(ENV_SWITCH, "1") == "0"
+
+
 def status() -> str:
     """Whether the simulator can use the plugin, in words (without loading it into a world)."""
-    if os.environ.get(ENV_SWITCH, "1") == "0":
+    if _switched_off():
         return f"off ({ENV_SWITCH}=0): the Python loop runs"
     path = library_path()
     if path is None:
@@ -201,7 +205,7 @@ class NativeLoop:
     """
 
     def __init__(self, world: BulletWorld) -> None:
-        if os.environ.get(ENV_SWITCH, "1") == "0":
+        if _switched_off():
             raise NativeLoopError(f"switched off by {ENV_SWITCH}=0")
         path = library_path()
         if path is None:
@@ -234,6 +238,7 @@ class NativeLoop:
                 f"block, this module expects version {LOOP_VERSION} and "
                 f"{ctypes.sizeof(LoopArgs)} bytes: reinstall the package to rebuild it"
             )
+        # Imported here: status() runs wherever a run's manifest is written, without PyBullet.
         from tooldesign_env.bullet import engine_library
 
         library = engine_library()
@@ -249,7 +254,7 @@ class NativeLoop:
         if isinstance(args, LoopArgs):
             ints = _halves(ctypes.addressof(args))
         else:  # a float64 array of rows to fill ("contacts")
-            ints = [*_halves(int(args.ctypes.data)), int(args.shape[0])]
+            ints = [*_halves(_address(args)), int(args.shape[0])]
         answer = self.world.plugin_command(self._plugin(), text, ints)
         if answer != 0:
             raise NativeLoopError(f"the plugin's {text!r} failed: {ERRORS.get(answer, answer)}")

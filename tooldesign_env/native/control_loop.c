@@ -501,17 +501,17 @@ int executePluginCommand_tooldesign(struct plugin_context *context,
     if (strcmp(arguments->text, "layout") == 0) return (int)sizeof(struct loop_args);
     if (strncmp(arguments->text, "bind ", 5) == 0) return bind(arguments->text + 5);
     const char *text = arguments->text;
-    int contacts_command = strcmp(text, "contacts") == 0, rollout_command = 0, replay_command = 0;
-    int matrices_command = 0;
-    if (!contacts_command && !(rollout_command = strcmp(text, "rollout") == 0) &&
-        !(replay_command = strcmp(text, "replay") == 0) &&
-        !(matrices_command = strcmp(text, "arm_matrices") == 0))
-        return ERR_UNKNOWN_COMMAND;
+    enum { CONTACTS, ROLLOUT, REPLAY, ARM_MATRICES } command;
+    if (strcmp(text, "contacts") == 0) command = CONTACTS;
+    else if (strcmp(text, "rollout") == 0) command = ROLLOUT;
+    else if (strcmp(text, "replay") == 0) command = REPLAY;
+    else if (strcmp(text, "arm_matrices") == 0) command = ARM_MATRICES;
+    else return ERR_UNKNOWN_COMMAND;
     if (!api_bound) return ERR_NOT_BOUND;
     if (arguments->num_ints < 2 || !data) return ERR_BAD_ARGUMENTS;
     void *target = address(arguments, 0);
     if (!target) return ERR_BAD_ARGUMENTS;
-    if (contacts_command) {
+    if (command == CONTACTS) {
         /* ints[2]: the rows of the target, which must be the rows kept */
         if (arguments->num_ints != 3 || arguments->ints[2] != data->count) return ERR_BAD_ARGUMENTS;
         if (data->count) memcpy(target, data->points, sizeof(double) * 6 * (size_t)data->count);
@@ -519,19 +519,21 @@ int executePluginCommand_tooldesign(struct plugin_context *context,
     }
     struct loop_args *a = target;
     if (a->n < 0 || a->period < 1) return ERR_BAD_ARGUMENTS;
-    if (rollout_command) {
-        if (!valid_slots(a) || (a->n > 0 && !(a->qdd_ref && a->q_ref && a->qd_ref && a->phase &&
-                                             a->torques && a->q && a->qd && a->box_position &&
-                                             a->ee_position && a->ee_orientation && a->tool_com &&
-                                             a->contact_points && a->snapshot_ids)))
-            return ERR_BAD_ARGUMENTS;
-        return rollout(context->client, data, a);
+    switch (command) {
+        case ROLLOUT:
+            if (!valid_slots(a) ||
+                (a->n > 0 && !(a->qdd_ref && a->q_ref && a->qd_ref && a->phase && a->torques &&
+                               a->q && a->qd && a->box_position && a->ee_position &&
+                               a->ee_orientation && a->tool_com && a->contact_points &&
+                               a->snapshot_ids)))
+                return ERR_BAD_ARGUMENTS;
+            return rollout(context->client, data, a);
+        case REPLAY:
+            if (!valid_slots(a) || (a->n > 0 && !(a->torques_in && a->box_position)))
+                return ERR_BAD_ARGUMENTS;
+            return replay(context->client, a);
+        default: /* ARM_MATRICES */
+            if (a->n > 0 && !(a->q_ref && a->jacobians && a->mass_matrices)) return ERR_BAD_ARGUMENTS;
+            return arm_matrices(context->client, a);
     }
-    if (replay_command) {
-        if (!valid_slots(a) || (a->n > 0 && !(a->torques_in && a->box_position)))
-            return ERR_BAD_ARGUMENTS;
-        return replay(context->client, a);
-    }
-    if (a->n > 0 && !(a->q_ref && a->jacobians && a->mass_matrices)) return ERR_BAD_ARGUMENTS;
-    return arm_matrices(context->client, a);
 }
