@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 import tooldesign_env.native as native
-from tooldesign_env import ObjectiveSpec, ToolDesignEnv, ToolSpec, make_tool
+from tooldesign_env import ObjectiveSpec, SceneSpec, ToolDesignEnv, ToolSpec, make_tool
 from tooldesign_env.simulation import ToolSimulator
 
 DESIGNS = (
@@ -36,7 +36,7 @@ def _same(a: object, b: object) -> bool:
 
 def _rollouts(native_loop: bool, **kwargs: object) -> list[object]:
     """Each design with and without the contact log, and the layout of its snapshots."""
-    sim = ToolSimulator(native_loop=native_loop)
+    sim = ToolSimulator(native_loop=native_loop, scene=kwargs.get("scene"))
     try:
         out: list[object] = []
         for design in DESIGNS:
@@ -64,12 +64,17 @@ def test_the_c_loop_is_built_where_ci_runs():
 
 @needs_plugin
 @pytest.mark.slow
-@pytest.mark.parametrize("section", ["round", "square"])
-def test_every_recorded_series_is_the_same_bit_for_bit(section):
+@pytest.mark.parametrize(
+    ("section", "merge"), [("round", False), ("square", False), ("round", True)]
+)
+def test_every_recorded_series_is_the_same_bit_for_bit(section, merge):
     tool = ToolSpec(section_shape=section)
+    scene = SceneSpec(merge_fixed_links=merge)
     fast_forwarded = 0
     for c_run, python_run in zip(
-        _rollouts(True, tool=tool), _rollouts(False, tool=tool), strict=True
+        _rollouts(True, tool=tool, scene=scene),
+        _rollouts(False, tool=tool, scene=scene),
+        strict=True,
     ):
         if isinstance(c_run, tuple):  # the steps with a snapshot, and the rest state's
             assert c_run == python_run, f"{section} snapshots differ"
@@ -79,7 +84,7 @@ def test_every_recorded_series_is_the_same_bit_for_bit(section):
             a, b = getattr(c_run, field.name), getattr(python_run, field.name)
             assert _same(a, b), f"{section} {field.name} differs"
     assert fast_forwarded > 0  # the rest snapshot was compared too
-    logged = _rollouts(True, tool=tool)[0]
+    logged = _rollouts(True, tool=tool, scene=scene)[0]
     assert logged.contact_mobility is not None and np.any(logged.contact_mobility)
 
 

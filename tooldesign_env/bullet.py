@@ -88,7 +88,18 @@ with _quiet_pybullet():
 import pybullet_data  # noqa: E402
 from pybullet_utils.bullet_client import BulletClient  # noqa: E402
 
+from tooldesign_env.rigid_groups import (  # noqa: E402
+    Inertial,
+    combine_inertials,
+    fixed_subtree,
+    merge_fixed_links,
+    parts_in_root,
+    principal_axes,
+)
+
 __all__ = [
+    "HAND_LINKS",
+    "HAND_ROOT",
     "BulletWorld",
     "ControlCalls",
     "RobotHandles",
@@ -96,6 +107,7 @@ __all__ = [
     "engine_version",
     "lean_collision_mesh",
     "lean_collision_meshes",
+    "merged_hand_inertia",
     "panda_urdf_with_tool",
     "robot_model_digest",
 ]
@@ -118,7 +130,11 @@ _RENDERER_PLUGIN = "tinyRendererPlugin"  # the name PyBullet registers its softw
 
 
 def panda_urdf_with_tool(
-    tool_link_xml: str | None, *, visuals: bool, meshes: Mapping[str, str] | None = None
+    tool_link_xml: str | None,
+    *,
+    visuals: bool,
+    meshes: Mapping[str, str] | None = None,
+    merge_hand: bool = False,
 ) -> str:
     """The Panda URDF from ``pybullet_data`` with a tool rigidly attached to the grasp target.
 
@@ -133,11 +149,19 @@ def panda_urdf_with_tool(
             slower to load).
         meshes: mesh files to load in place of the Panda's, {original path: replacement path}
             (:func:`lean_collision_meshes`).
+        merge_hand: fold the links that no joint moves below the last arm joint (the flange
+            ``panda_link8``, the hand and the fingers) into ``panda_link7``
+            (``SceneSpec.merge_fixed_links``): load it with :func:`merged_hand_inertia` given
+            to :meth:`BulletWorld.load_robot`.
 
     Returns:
         The URDF text, with mesh paths made absolute.
     """
-    text = _panda_urdf(visuals)
+    if merge_hand:
+        text = _merged_panda(visuals, tuple(sorted((meshes or {}).items())))[0]
+        meshes = None  # already in place
+    else:
+        text = _panda_urdf(visuals)
     if tool_link_xml is not None:
         if not visuals:
             tool_link_xml = _without_visuals(tool_link_xml)
@@ -150,6 +174,64 @@ def panda_urdf_with_tool(
     for original, replacement in (meshes or {}).items():
         text = text.replace(f'"{original}"', f'"{replacement}"')
     return text
+
+
+#: The links that :func:`panda_urdf_with_tool` folds into ``HAND_ROOT`` with ``merge_hand``:
+#: the grasp target stays a link (the rollout reads its pose), as does the tool (the contact
+#: estimator reads its contacts, its friction and its shape's contact threshold are its own).
+HAND_ROOT = "panda_link7"
+HAND_LINKS = ("panda_link8", "panda_hand", "panda_leftfinger", "panda_rightfinger")
+
+
+def merged_hand_inertia(
+    *, visuals: bool, meshes: Mapping[str, str] | None = None
+) -> dict[str, tuple[float, tuple[float, float, float]]]:
+    """The merged hand's mass properties, for :meth:`BulletWorld.load_robot`.
+
+    Returns:
+        {``HAND_ROOT``: (mass kg, principal moments kg m^2)}, its ``link_inertias`` for the
+        URDF of ``panda_urdf_with_tool(..., merge_hand=True)``.
+    """
+    _, mass, moments = _merged_panda(visuals, tuple(sorted((meshes or {}).items())))
+    return {HAND_ROOT: (mass, moments)}
+
+
+@functools.cache
+def _merged_panda(
+    visuals: bool, meshes: tuple[tuple[str, str], ...]
+) -> tuple[str, float, tuple[float, float, float]]:
+    """The Panda's URDF with ``HAND_LINKS`` folded into ``HAND_ROOT``; its mass and moments.
+
+    The parts' mass properties are PyBullet's own: it takes each link's mass and inertial
+    frame from the URDF but its principal moments from the bounding box of its collision
+    shapes, so they are read off the unmerged model, loaded once in a server of its own (so
+    that no world sees an extra body), and summed exactly (:mod:`tooldesign_env.rigid_groups`).
+    """
+    text = _panda_urdf(visuals)
+    for original, replacement in meshes:
+        text = text.replace(f'"{original}"', f'"{replacement}"')
+    world = BulletWorld(renderer=False)
+    try:
+        robot = world.load_robot(text)
+        client = world.client
+        links = {
+            client.getJointInfo(robot.body, j)[12].decode(): j
+            for j in range(client.getNumJoints(robot.body))
+        }
+        parts = {}
+        for name in (HAND_ROOT, *HAND_LINKS):
+            info = client.getDynamicsInfo(robot.body, links[name])
+            mass, diagonal, center, orientation = info[0], info[2], info[3], info[4]
+            turn = rotation_matrices(orientation)
+            parts[name] = Inertial(
+                float(mass), np.asarray(center, dtype=float), turn @ np.diag(diagonal) @ turn.T
+            )
+    finally:
+        world.close()
+    frames = fixed_subtree(text, HAND_ROOT)
+    whole = combine_inertials(parts_in_root(frames, parts))
+    moments, _ = principal_axes(whole.tensor)
+    return merge_fixed_links(text, HAND_ROOT, HAND_LINKS, whole), whole.mass, moments
 
 
 @functools.cache
@@ -565,6 +647,7 @@ class BulletWorld:
         tool_inertia_diagonal: tuple[float, float, float] | None = None,
         tool_friction: float = 0.5,
         floor_contacts: bool = True,
+        link_inertias: Mapping[str, tuple[float, tuple[float, float, float]]] | None = None,
     ) -> RobotHandles:
         """Load a robot from URDF text with a fixed base at the origin.
 
@@ -573,7 +656,8 @@ class BulletWorld:
         shapes' bounding box unless told otherwise, so the tool's mass and principal moments are
         set here explicitly (its inertial frame, with the principal axes, comes from the URDF).
         With ``floor_contacts=False`` its links pass through a floor made with
-        ``arm_contacts=False``.
+        ``arm_contacts=False``. ``link_inertias`` sets other links' mass and principal moments
+        the same way, {link name: (mass, moments)} (:func:`merged_hand_inertia`).
         """
         c = self.client
         fd, path = tempfile.mkstemp(prefix=f"tooldesign-{uuid.uuid4().hex}-", suffix=".urdf")
@@ -597,6 +681,12 @@ class BulletWorld:
                 mass=tool_mass,
                 localInertiaDiagonal=list(tool_inertia_diagonal or (0.0, 0.0, 0.0)),
                 lateralFriction=tool_friction,
+            )
+        for name, (mass, moments) in (link_inertias or {}).items():
+            if name not in names:
+                raise ValueError(f"link_inertias names a link the robot lacks: {name!r}")
+            c.changeDynamics(
+                body, names[name], mass=mass, localInertiaDiagonal=[float(m) for m in moments]
             )
         if not floor_contacts:
             for j in range(c.getNumJoints(body)):

@@ -26,6 +26,7 @@ from tooldesign_env.bullet import (
     RobotHandles,
     engine_version,
     lean_collision_meshes,
+    merged_hand_inertia,
     panda_urdf_with_tool,
     robot_model_digest,
     rotation_matrices,
@@ -521,12 +522,18 @@ class ToolSimulator:
         )
         world.step(int(round(scene.box_settle_time / scene.time_step)))
         link, diag = _principal_link_xml(geometry)
+        merge = scene.merge_fixed_links
         robot = self._robot = world.load_robot(
-            panda_urdf_with_tool(link, visuals=self._visuals, meshes=self._meshes),
+            panda_urdf_with_tool(
+                link, visuals=self._visuals, meshes=self._meshes, merge_hand=merge
+            ),
             tool_mass=geometry.mass,
             tool_inertia_diagonal=(float(diag[0]), float(diag[1]), float(diag[2])),
             tool_friction=scene.tool_friction,
             floor_contacts=floor_contacts,
+            link_inertias=(
+                merged_hand_inertia(visuals=self._visuals, meshes=self._meshes) if merge else None
+            ),
         )
         self._floor_contacts = floor_contacts
         self._guarded = scene.arm_floor_contacts == "auto" and not floor_contacts

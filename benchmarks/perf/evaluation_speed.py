@@ -22,32 +22,39 @@ Both the evaluation and the floor run in the simulator's control loop, C (the de
 PyBullet's server: :mod:`tooldesign_env.native`) or Python (``--loop python``), and the script
 says which ran.
 
-Run: ``taskset -c 0 python benchmarks/perf/evaluation_speed.py [--designs 12] [--repeats 3]``
-(``taskset`` pins it, and its child processes, to one core).
+``--scene FIELD=VALUE`` measures a scene other than the default, e.g.
+``--scene merge_fixed_links=True``.
+
+Run: ``taskset -c 0 python benchmarks/perf/evaluation_speed.py [--designs 12] [--repeats 3]
+[--scene FIELD=VALUE]`` (``taskset`` pins it, and its child processes, to one core).
 """
 
 from __future__ import annotations
 
 import argparse
+import ast
+import dataclasses
+import json
 import os
 import statistics
 import subprocess
 import sys
 import tempfile
 import time
+from typing import Any
 
 import numpy as np
 
-from tooldesign_env import ObjectiveSpec, ToolDesignEnv, make_tool
+from tooldesign_env import ObjectiveSpec, SceneSpec, ToolDesignEnv, make_tool
 from tooldesign_env.geometry import SECTION_SHAPES, ToolSpec
 from tooldesign_env.objective import free_energy
 
 #: Run in a child process: the wall time of the first env.step of a fresh process, after imports.
 _FIRST_EVALUATION = """
-import time
+import json, sys, time
 import numpy as np
-from tooldesign_env import ToolDesignEnv
-env = ToolDesignEnv()
+from tooldesign_env import SceneSpec, ToolDesignEnv
+env = ToolDesignEnv(scene=SceneSpec(**json.loads(sys.argv[1])))
 env.reset(seed=0)
 t0 = time.perf_counter()
 env.step(np.zeros(3))
@@ -64,11 +71,11 @@ def designs(n: int, seed: int) -> list[np.ndarray]:
     return out
 
 
-def first_evaluation(cache_dir: str) -> float:
+def first_evaluation(cache_dir: str, scene: dict[str, Any]) -> float:
     """Seconds of the first ``env.step`` in a fresh process whose plan cache is ``cache_dir``."""
     env = dict(os.environ, TOOLDESIGN_CACHE_DIR=cache_dir)
     out = subprocess.run(
-        [sys.executable, "-c", _FIRST_EVALUATION],
+        [sys.executable, "-c", _FIRST_EVALUATION, json.dumps(scene)],
         env=env,
         # `python -c` puts the working folder first on sys.path: run it where there is no
         # package, so PYTHONPATH decides which tooldesign_env is measured.
@@ -78,6 +85,23 @@ def first_evaluation(cache_dir: str) -> float:
         text=True,
     )
     return float(out.stdout.strip().splitlines()[-1])
+
+
+def scene_change(text: str) -> tuple[str, Any]:
+    """``"field=value"`` as (field, value), the value a Python literal (argparse type)."""
+    name, sep, raw = text.partition("=")
+    fields = {f.name for f in dataclasses.fields(SceneSpec)}
+    if not sep or name.strip() not in fields:
+        raise argparse.ArgumentTypeError(
+            f"--scene takes field=value with a SceneSpec field, one of {sorted(fields)}; "
+            f"got {text!r}"
+        )
+    try:
+        return name.strip(), ast.literal_eval(raw.strip())
+    except (ValueError, SyntaxError):
+        raise argparse.ArgumentTypeError(
+            f"--scene {text!r}: {raw!r} is not a Python literal"
+        ) from None
 
 
 def main() -> None:
@@ -100,14 +124,26 @@ def main() -> None:
         default="native",
         help="the control loop: C where built (default), or Python (TOOLDESIGN_NATIVE_LOOP=0)",
     )
+    parser.add_argument(
+        "--scene",
+        type=scene_change,
+        action="append",
+        default=[],
+        metavar="FIELD=VALUE",
+        help="a SceneSpec field changed from its default, e.g. merge_fixed_links=True (repeatable)",
+    )
     args = parser.parse_args()
+    scene_fields = dict(args.scene)
     if args.loop == "python":
         # tooldesign_env.native.ENV_SWITCH, by name: compare_trees.py also runs this script
         # against trees that predate the module. Set here and for the child processes below.
         os.environ["TOOLDESIGN_NATIVE_LOOP"] = "0"
 
     tool = ToolSpec(section_shape=args.section_shape)
-    env = ToolDesignEnv(tool=tool)
+    # Without --scene the env is made as older trees make it (compare_trees.py runs this
+    # script against them).
+    scene: dict[str, Any] = {"scene": SceneSpec(**scene_fields)} if scene_fields else {}
+    env = ToolDesignEnv(tool=tool, **scene)
     env.reset(seed=0)
     sim = env.simulator
     env.step(np.zeros(3))  # warm: the plan's inverse kinematics, imports, caches
@@ -160,6 +196,7 @@ def main() -> None:
         f"designs x repeats: {args.designs} x {args.repeats} (valid: {len(step_t)}); control "
         f"steps per episode: {n_total} ({period} physics steps each); estimator: "
         f"{env.objective.estimator}; control loop: {getattr(sim, 'native_status', 'Python')}"
+        + (f"; scene: {scene_fields}" if scene_fields else "")
     )
     print(
         f"evaluation of F (env.step):          median {med(step_t):.4f} s "
@@ -184,10 +221,13 @@ def main() -> None:
 
     if args.first > 0:
         with tempfile.TemporaryDirectory(prefix="tooldesign-cache-") as cache:
-            cold = [first_evaluation(tempfile.mkdtemp(dir=cache)) for _ in range(args.first)]
+            cold = [
+                first_evaluation(tempfile.mkdtemp(dir=cache), scene_fields)
+                for _ in range(args.first)
+            ]
             warm_dir = tempfile.mkdtemp(dir=cache)
-            first_evaluation(warm_dir)  # fills it
-            warm = [first_evaluation(warm_dir) for _ in range(args.first)]
+            first_evaluation(warm_dir, scene_fields)  # fills it
+            warm = [first_evaluation(warm_dir, scene_fields) for _ in range(args.first)]
         print(
             f"first evaluation in a fresh process: empty plan cache median {med(cold):.3f} s "
             f"({med(cold) / med(step_t):.1f} medians); plan cache on disk median "
@@ -195,7 +235,7 @@ def main() -> None:
         )
 
     if args.reference > 0:
-        ref = ToolDesignEnv(tool=tool, objective=ObjectiveSpec(estimator="resimulation"))
+        ref = ToolDesignEnv(tool=tool, objective=ObjectiveSpec(estimator="resimulation"), **scene)
         ref.reset(seed=0)
         ref_t = []
         for c in designs(args.reference, args.seed):
