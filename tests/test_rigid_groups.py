@@ -53,7 +53,17 @@ def test_parts_without_mass_are_refused(parts):
 
 
 @pytest.mark.parametrize(
-    "rpy", [(0.1, -0.7, 2.9), (-3.0, 1.2, 0.4), (0.0, 0.0, -math.pi / 4), (0.3, math.pi / 2, 0)]
+    "rpy",
+    [
+        (0.1, -0.7, 2.9),
+        (-3.0, 1.2, 0.4),
+        (0.0, 0.0, -math.pi / 4),
+        (0.3, math.pi / 2, 0.0),
+        (0.3, math.pi / 2, 0.5),  # gimbal lock: roll and yaw fold into one angle
+        (0.3, -math.pi / 2, 0.5),
+        (0.3, math.pi / 2 - 1e-6, 0.5),  # near the lock
+        (-1.1, -math.pi / 2 + 1.3e-6, 2.0),
+    ],
 )
 def test_rpy_round_trips_through_the_matrix(rpy):
     matrix = rpy_matrix(rpy)

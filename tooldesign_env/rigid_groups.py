@@ -97,8 +97,10 @@ def rpy_matrix(rpy: Sequence[float]) -> np.ndarray:
 def matrix_rpy(rotation: np.ndarray) -> tuple[float, float, float]:
     """The URDF (roll, pitch, yaw) of a rotation matrix (the inverse of :func:`rpy_matrix`)."""
     m = np.asarray(rotation, dtype=float)
-    pitch = math.asin(max(-1.0, min(1.0, -m[2, 0])))
-    if abs(m[2, 0]) < 1.0 - 1e-12:
+    # cos(pitch) from the first column, not asin of one entry: accurate near +-pi/2 as well.
+    cp = math.hypot(m[0, 0], m[1, 0])
+    pitch = math.atan2(-m[2, 0], cp)
+    if cp > 1e-12:
         roll = math.atan2(m[2, 1], m[2, 2])
         yaw = math.atan2(m[1, 0], m[0, 0])
     else:  # gimbal lock: only roll - yaw (or roll + yaw) is defined; take yaw = 0
