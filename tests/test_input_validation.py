@@ -291,7 +291,11 @@ SUITE_PLACES = [
     ("iterations", lambda v: {"iterations": v}, _number_in(1, 2**63 - 1, integer=True)),
     ("root_seed", lambda v: {"root_seed": v}, _number_in(0, 2**63 - 1, integer=True)),
     ("n_seeds", lambda v: {"n_seeds": v}, _number_in(1, N_SEEDS_MAX, integer=True)),
-    ("workers", lambda v: {"workers": v}, lambda v: v is None or _number_in(1, 1024, True)(v)),
+    (
+        "workers",
+        lambda v: {"workers": v},
+        lambda v: v is None or _number_in(1, 1024, integer=True)(v),
+    ),
     ("max_retries", lambda v: {"max_retries": v}, _number_in(0, 100, integer=True)),
     ("test_robustness", lambda v: {"test_robustness": v}, lambda v: isinstance(v, bool)),
     ("robustness_masses", lambda v: {"robustness_masses": [0.5, v]}, _number_in(1e-300, 1e3)),

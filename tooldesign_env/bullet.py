@@ -213,14 +213,10 @@ def _merged_panda(
     world = BulletWorld(renderer=False)
     try:
         robot = world.load_robot(text)
-        client = world.client
-        links = {
-            client.getJointInfo(robot.body, j)[12].decode(): j
-            for j in range(client.getNumJoints(robot.body))
-        }
+        links = world.indices(robot.body)
         parts = {}
         for name in (HAND_ROOT, *HAND_LINKS):
-            info = client.getDynamicsInfo(robot.body, links[name])
+            info = world.client.getDynamicsInfo(robot.body, links[name])
             mass, diagonal, center, orientation = info[0], info[2], info[3], info[4]
             turn = rotation_matrices(orientation)
             parts[name] = Inertial(
@@ -667,11 +663,7 @@ class BulletWorld:
             body = c.loadURDF(path, [0, 0, 0], useFixedBase=True)
         finally:
             os.unlink(path)
-        names = {}
-        for j in range(c.getNumJoints(body)):
-            info = c.getJointInfo(body, j)
-            names[info[1].decode()] = j
-            names[info[12].decode()] = j  # link name -> its index
+        names = self.indices(body)
         joints = tuple(names[n] for n in ARM_JOINTS)
         tool = names.get(TOOL_LINK, -1)
         if tool >= 0 and tool_mass is not None:
@@ -696,6 +688,15 @@ class BulletWorld:
             body, list(joints), pybullet.VELOCITY_CONTROL, forces=[0.0] * len(joints)
         )
         return RobotHandles(body=body, joints=joints, ee_link=names[EE_LINK], tool_link=tool)
+
+    def indices(self, body: int) -> dict[str, int]:
+        """{joint name or link name: index} of a body's joints (a link shares its joint's)."""
+        c, names = self.client, {}
+        for j in range(c.getNumJoints(body)):
+            info = c.getJointInfo(body, j)
+            names[info[1].decode()] = j
+            names[info[12].decode()] = j
+        return names
 
     def remove(self, body: int) -> None:
         """Remove a body from the world."""

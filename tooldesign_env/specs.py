@@ -258,8 +258,8 @@ class SceneSpec:
         merge_fixed_links: fold the links that no joint moves below the last arm joint (the
             flange, the hand and the two fingers) into the last arm link, as one rigid body with
             the same shapes and the parts' exact mass, centre of mass and inertia. The model is
-            the same, the arithmetic is not: PyBullet spends about a fifth less per physics
-            step on a multibody of 9 links instead of 13, and results move by rounding
+            the same, the arithmetic is not: PyBullet spends about 14 % less per physics step
+            on a multibody of 9 links instead of 13, and results move by rounding
             amplified by the pushes' chaos (docs/performance.md, "Fewer links"). The grasp
             target and the tool stay links of their own. The fingers' own contact settings
             (friction 1.0) give way to the last link's; only the tool touches the box here.

@@ -16,7 +16,9 @@ at the K fixed offsets of ``scene_offsets`` added to its nudge, and the table gi
 the mean over the nudges for each K, and its cost relative to one rollout.
 
 Run: ``python benchmarks/perf/confidence_noise.py [--designs 12] [--nudges 6] [--seed 1]
-[--scene-samples 1 4 8] [--section-shape square|round]`` (the section: the default tool's, round).
+[--scene-samples 1 4 8] [--section-shape square|round] [--scene FIELD=VALUE]`` (the section: the
+default tool's, round; ``--scene``, e.g. ``merge_fixed_links=True``: a scene other than the
+default, nudged the same way).
 Targets (issue 8): median spread of F <= 1 %, of the confidence <= 2 %, cost <= 30 %.
 """
 
@@ -29,6 +31,7 @@ import time
 from dataclasses import replace
 
 import numpy as np
+from physics_options import scene_field  # this folder: the script's own, on sys.path
 
 from tooldesign_env import (
     ObjectiveSpec,
@@ -137,11 +140,20 @@ def main() -> None:
         default=[],
         help="also score F averaged over K scenes, for each K given (contact estimator)",
     )
+    parser.add_argument(
+        "--scene",
+        type=scene_field,
+        action="append",
+        default=[],
+        metavar="FIELD=VALUE",
+        help="a SceneSpec field changed from its default, e.g. merge_fixed_links=True "
+        "(repeatable): the scene that is nudged",
+    )
     args = parser.parse_args()
     if any(k < 1 for k in args.scene_samples):
         parser.error(f"--scene-samples must be ints >= 1, got {args.scene_samples}")
 
-    base = SceneSpec()
+    base = SceneSpec(**dict(args.scene))
     scenes = nudged_scenes(base, args.nudges, args.shift, args.turn, args.seed)
     sims = [ToolSimulator(scene=s) for s in scenes]
     tool_spec = ToolSpec(section_shape=args.section_shape)

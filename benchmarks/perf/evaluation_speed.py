@@ -32,8 +32,6 @@ Run: ``taskset -c 0 python benchmarks/perf/evaluation_speed.py [--designs 12] [-
 from __future__ import annotations
 
 import argparse
-import ast
-import dataclasses
 import json
 import os
 import statistics
@@ -44,6 +42,7 @@ import time
 from typing import Any
 
 import numpy as np
+from physics_options import scene_field  # this folder: the script's own, on sys.path
 
 from tooldesign_env import ObjectiveSpec, SceneSpec, ToolDesignEnv, make_tool
 from tooldesign_env.geometry import SECTION_SHAPES, ToolSpec
@@ -87,23 +86,6 @@ def first_evaluation(cache_dir: str, scene: dict[str, Any]) -> float:
     return float(out.stdout.strip().splitlines()[-1])
 
 
-def scene_change(text: str) -> tuple[str, Any]:
-    """``"field=value"`` as (field, value), the value a Python literal (argparse type)."""
-    name, sep, raw = text.partition("=")
-    fields = {f.name for f in dataclasses.fields(SceneSpec)}
-    if not sep or name.strip() not in fields:
-        raise argparse.ArgumentTypeError(
-            f"--scene takes field=value with a SceneSpec field, one of {sorted(fields)}; "
-            f"got {text!r}"
-        )
-    try:
-        return name.strip(), ast.literal_eval(raw.strip())
-    except (ValueError, SyntaxError):
-        raise argparse.ArgumentTypeError(
-            f"--scene {text!r}: {raw!r} is not a Python literal"
-        ) from None
-
-
 def main() -> None:
     """Measure and print."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -126,7 +108,7 @@ def main() -> None:
     )
     parser.add_argument(
         "--scene",
-        type=scene_change,
+        type=scene_field,
         action="append",
         default=[],
         metavar="FIELD=VALUE",

@@ -85,6 +85,21 @@ def parse_option(text: str) -> dict[str, dict[str, Any]]:
     return changes
 
 
+def scene_field(text: str) -> tuple[str, Any]:
+    """``"field=value"``, a ``SceneSpec`` field and a Python literal, as (field, value).
+
+    The argparse type of the ``--scene`` option of evaluation_speed.py and confidence_noise.py.
+    """
+    try:
+        changes = parse_option(f"scene.{text}")
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(f"--scene {text!r}: {error}") from None
+    if list(changes) != ["scene"] or len(changes["scene"]) != 1:
+        raise argparse.ArgumentTypeError(f"--scene takes one field=value, got {text!r}")
+    ((name, value),) = changes["scene"].items()
+    return name, value
+
+
 def _merged(
     base: dict[str, dict[str, Any]], changes: dict[str, dict[str, Any]]
 ) -> dict[str, dict[str, Any]]:
