@@ -255,21 +255,26 @@ def test_resume_refuses_other_settings_and_edited_parts(tmp_path: Path) -> None:
     assert RUNTIME_FIELDS == {"workers"}  # the one setting a resume may change
 
 
-def test_a_folder_made_with_the_square_tool_is_not_resumed_with_the_round_default(
-    tmp_path: Path,
+@pytest.mark.parametrize(
+    ("field", "default", "before"),
+    [("section_shape", "round", "square"), ("merge_fixed_links", True, False)],
+)
+def test_a_folder_made_with_an_older_default_is_not_resumed_with_todays(
+    tmp_path: Path, field: str, default: object, before: object
 ) -> None:
+    # The square tool, and the 13-link arm, were the defaults of the folders made before.
     from benchmarks.rl.suite import ADDED_FIELDS
 
     out = tmp_path / "run"
     config = rl_suite_config("smoke", parts=("fixed",), methods=("random",))
-    assert config.to_json()["section_shape"] == "round"
-    assert ADDED_FIELDS == {"section_shape": "square"}
+    assert config.to_json()[field] == default
+    assert ADDED_FIELDS[field] == before
     run_rl_suite(config, out)
     run_rl_suite(config, out)  # the same settings: resumes (nothing left to do)
     manifest = json.loads((out / "manifest.json").read_text())
-    del manifest["config"]["section_shape"]  # as the folders made before the field existed
+    del manifest["config"][field]  # as the folders made before the field existed
     (out / "manifest.json").write_text(json.dumps(manifest))
-    with pytest.raises(ResumeError, match="other settings.*section_shape"):
+    with pytest.raises(ResumeError, match=f"other settings.*{field}"):
         run_rl_suite(config, out)
 
 

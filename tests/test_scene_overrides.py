@@ -57,6 +57,9 @@ def test_bad_scene_overrides_name_the_field_and_what_is_allowed(scene, error, ma
 def test_scene_reaches_the_env_only_when_set():
     assert "scene" not in dict(DesignConfig().task().env_kwargs)
     assert "scene" not in dict(DesignConfig(scene={}).task().env_kwargs)
+    assert "scene" not in dict(DesignConfig(scene={"merge_fixed_links": True}).task().env_kwargs)
+    unmerged = dict(DesignConfig(scene={"merge_fixed_links": False}).task().env_kwargs)["scene"]
+    assert unmerged == SceneSpec(merge_fixed_links=False)
     spec = dict(DesignConfig(scene=CAGE).task().env_kwargs)["scene"]
     assert spec == SceneSpec(box_position=(-0.3, 1.1))
     hash(spec)  # the task's env settings are hashed to key the workers' envs
@@ -89,10 +92,11 @@ def test_retest_uses_the_suite_scene():
 
 def test_scene_is_stored_as_json_and_reads_back(tmp_path: Path):
     config = DesignConfig(scene=CAGE)
-    assert config.to_json()["scene"] == CAGE
-    assert DesignConfig().to_json()["scene"] == {}
+    # merge_fixed_links is always stored: its default changed (RECORDED_SCENE_FIELDS).
+    assert config.to_json()["scene"] == {**CAGE, "merge_fixed_links": True}
+    assert DesignConfig().to_json()["scene"] == {"merge_fixed_links": True}
     suite = SuiteConfig(name="s", scene=CAGE)
-    assert suite.to_json()["scene"] == CAGE
+    assert suite.to_json()["scene"] == {**CAGE, "merge_fixed_links": True}
     assert suite_from_json(json.loads(json.dumps(suite.to_json()))) == suite
     for suffix in (".toml", ".json"):
         assert load_suite(save_suite(suite, tmp_path / f"s{suffix}")) == suite
@@ -106,19 +110,55 @@ def test_a_suite_file_takes_a_scene_table(tmp_path: Path):
         encoding="utf-8",
     )
     suite = load_suite(path, size="smoke")
-    assert dict(suite.scene) == {"box_position": (-0.3, 1.1), "box_yaw": 0.1}
+    assert dict(suite.scene) == {
+        "box_position": (-0.3, 1.1),
+        "box_yaw": 0.1,
+        "merge_fixed_links": True,
+    }
     assert suite.test_robustness and suite.name == "cage"
     path.write_text('name = "cage"\n[scene]\nbox_mass = 0.3\n', encoding="utf-8")
     with pytest.raises(ValueError, match=f"{path.name}.*must not set 'box_mass'"):
         load_suite(path)
 
 
-def test_older_configs_without_scene_resume_as_the_default_scene():
-    assert DESIGN_ADDED["scene"] == {} and SUITE_ADDED["scene"] == {}
+def test_older_configs_read_as_the_scene_they_ran_in():
+    # Before scene existed, and before the hand was merged by default, runs had the 13-link arm.
+    assert DESIGN_ADDED["scene"] == SUITE_ADDED["scene"] == {"merge_fixed_links": False}
+    unmerged = SuiteConfig(name="s", scene={"merge_fixed_links": False})
     data = SuiteConfig(name="s").to_json()
     del data["scene"]
     manifest = {"extra": {"kind": SUITE_KIND}, "config": data}
+    assert suite_of_manifest(manifest) == unmerged
+    data["scene"] = dict(CAGE)  # stored with the overrides alone, before merge_fixed_links
+    moved = suite_of_manifest(manifest)
+    assert dict(moved.scene) == {"box_position": (-0.3, 1.1), "merge_fixed_links": False}
+    data["scene"] = {"merge_fixed_links": True}  # stored since: kept as stored
     assert suite_of_manifest(manifest) == SuiteConfig(name="s")
+
+
+def test_the_committed_results_keep_the_arm_they_were_made_with():
+    root = Path(__file__).resolve().parents[1] / "docs" / "results"
+    manifests = sorted(root.glob("*/manifest.json"))
+    suites = [m for m in manifests if json.loads(m.read_text())["extra"].get("kind") == SUITE_KIND]
+    assert suites
+    for path in suites:
+        config = suite_of_manifest(json.loads(path.read_text()))
+        assert dict(config.scene)["merge_fixed_links"] is False, path
+
+
+def test_added_tables_fill_in_the_keys_a_stored_table_lacks():
+    from benchmarks.storage import with_added_fields
+
+    added = {"scene": {"merge_fixed_links": False}, "scene_samples": 1}
+    assert with_added_fields({}, added) == added
+    assert with_added_fields({"scene": {"box_yaw": 0.1}}, added) == {
+        "scene": {"merge_fixed_links": False, "box_yaw": 0.1},
+        "scene_samples": 1,
+    }
+    stored = {"scene": {"merge_fixed_links": True}, "scene_samples": 4}
+    assert with_added_fields(stored, added) == stored
+    # A stored value of another type is kept as stored, for the resume check to report.
+    assert with_added_fields({"scene": None}, added)["scene"] is None
 
 
 @pytest.mark.slow
@@ -133,7 +173,12 @@ def test_a_run_stored_before_scene_existed_is_resumed(tmp_path: Path):
     manifest = json.loads(manifest_path.read_text())
     del manifest["config"]["scene"]
     manifest_path.write_text(json.dumps(manifest))
+    # That run had the 13-link arm: today's default (the merged hand) may not continue it ...
     grown = replace(config, iterations=2)
+    with pytest.raises(ResumeError, match="scene.*'merge_fixed_links': False"):
+        run_design(grown, out, resume=True, progress=False, video=False)
+    # ... the scene it ran in may.
+    grown = replace(grown, scene={"merge_fixed_links": False})
     run_design(grown, out, resume=True, progress=False, video=False)
     with pytest.raises(ResumeError, match="scene"):
         run_design(replace(grown, scene=CAGE), out, resume=True, progress=False, video=False)

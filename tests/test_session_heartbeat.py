@@ -147,9 +147,10 @@ def test_sigkill_mid_iteration_keeps_the_interrupted_time(tmp_path: Path) -> Non
     """A real run killed 4.5 s into its second iteration: the resumed manifest counts them."""
     out = tmp_path / "run"
     code = "import sys; from benchmarks.cli import main; sys.exit(main(sys.argv[1:]))"
-    # 64 designs an iteration, serial: an iteration takes at least 6 s (0.1 s per design on a
-    # fast core), so no part is written between the first one and the kill.
-    args = ["design", "--iterations", "5", "--batch-size", "64", "--executor", "serial"]
+    # 256 designs an iteration, serial: an iteration takes at least 10 s (0.04-0.1 s per
+    # design on the fastest cores seen), so no part is written between the first one and the
+    # kill. With 64 a fast core finished the second iteration within the 4.5 s.
+    args = ["design", "--iterations", "5", "--batch-size", "256", "--executor", "serial"]
     process = subprocess.Popen(
         [sys.executable, "-c", code, *args, "--no-video", "--out", str(out)],
         cwd=ROOT,

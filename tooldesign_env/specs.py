@@ -263,6 +263,8 @@ class SceneSpec:
             amplified by the pushes' chaos (docs/performance.md, "Fewer links"). The grasp
             target and the tool stay links of their own. The fingers' own contact settings
             (friction 1.0) give way to the last link's; only the tool touches the box here.
+            On by default since 2026-11-25; a run folder stored before records no value and
+            is read as ``False``, the 13-link arm it ran with (docs/benchmarks.md).
     """
 
     time_step: float = 1.0 / 240.0
@@ -283,7 +285,7 @@ class SceneSpec:
     rest_time: float = 0.1
     arm_floor_contacts: bool | Literal["auto"] = "auto"
     floor_clearance: float = 0.03
-    merge_fixed_links: bool = False
+    merge_fixed_links: bool = True
 
     def __post_init__(self) -> None:
         _check_positive(self, "time_step", "box_mass", "rest_speed")

@@ -41,8 +41,19 @@ WORKERS_MAX = 1024
 _RUNTIME_FIELDS = frozenset({"iterations", "workers", "executor", "scheduler", "max_retries"})
 
 #: Config fields added after runs were first stored, with the value older runs had: a run
-#: folder whose manifest lacks one is resumed as if it held that value.
-ADDED_FIELDS: dict[str, Any] = {"scene_samples": 1, "scene": {}, "section_shape": "square"}
+#: folder whose manifest lacks one is resumed as if it held that value. A table adds its keys to
+#: the stored table of that name (``benchmarks.storage.with_added_fields``): a ``scene`` stored
+#: before the hand was merged by default ran with the 13-link arm.
+ADDED_FIELDS: dict[str, Any] = {
+    "scene_samples": 1,
+    "scene": {"merge_fixed_links": False},
+    "section_shape": "square",
+}
+
+#: ``SceneSpec`` fields whose default has changed since configs were first stored. A config
+#: always records them in ``scene`` (today's default where the user set none), so that a run
+#: folder keeps the scene it ran with whatever the default becomes.
+RECORDED_SCENE_FIELDS: tuple[str, ...] = ("merge_fixed_links",)
 
 #: SceneSpec fields a config may not override in ``scene``: they have a field of their own.
 _SCENE_OWN_FIELDS = {"box_mass": "box_mass"}
@@ -156,14 +167,27 @@ def scene_overrides(value: Any) -> tuple[tuple[str, Any], ...]:
     return pairs
 
 
+def recorded_scene(value: Any) -> tuple[tuple[str, Any], ...]:
+    """The form of ``scene`` a config stores: checked, with every recorded field present.
+
+    :func:`scene_overrides` of ``value``, with each of :data:`RECORDED_SCENE_FIELDS` it lacks set
+    to today's default.
+    """
+    pairs = dict(scene_overrides(value))
+    default = SceneSpec()
+    for name in RECORDED_SCENE_FIELDS:
+        pairs.setdefault(name, getattr(default, name))
+    return tuple(sorted(pairs.items()))
+
+
 def scene_spec(overrides: Any) -> SceneSpec | None:
     """The ``SceneSpec`` that ``overrides`` (see :func:`scene_overrides`) make, or ``None``.
 
-    ``None`` for no overrides: the env then uses its default scene, so a config without a
-    ``scene`` gives bit for bit the results it gave before the field existed.
+    ``None`` when they make the default scene: the env then builds its own, so a config that
+    changes nothing gives bit for bit the results it gave before the field existed.
     """
-    pairs = scene_overrides(overrides)
-    return SceneSpec(**dict(pairs)) if pairs else None
+    spec = SceneSpec(**dict(scene_overrides(overrides)))
+    return None if spec == SceneSpec() else spec
 
 
 def _bounds(value: Any) -> tuple[tuple[float, float], ...]:
@@ -218,7 +242,9 @@ class DesignConfig:
             (c1, c2 in [-1.5, 1.5], c3 in [-0.5, 0.5]). n is the polynomial degree.
         scene: Overrides of ``SceneSpec`` fields (a mapping; stored as sorted pairs, lists as
             tuples), JSON values, e.g. ``{"box_position": [-0.4, 1.1]}`` to move the box. Not
-            ``box_mass`` (its own field). Empty (the default) is the default scene.
+            ``box_mass`` (its own field). Empty (the default) is the default scene. The fields
+            of :data:`RECORDED_SCENE_FIELDS` are always stored (today's default where not set),
+            so a run folder keeps its scene when a default changes.
         robustness_masses: Altered box masses m_i in kg of the final tool's robustness test.
         section_shape: The tool's section, ``"round"`` (the default: far less chaotic contact,
             see docs/model.md) or ``"square"`` (the paper's) (``ToolSpec.section_shape``). A
@@ -285,7 +311,7 @@ class DesignConfig:
         object.__setattr__(self, "goal_precision", task.goal_precision)
         object.__setattr__(self, "box_mass", task.box_mass)
         object.__setattr__(self, "bounds", _bounds(self.bounds))
-        object.__setattr__(self, "scene", scene_overrides(self.scene))
+        object.__setattr__(self, "scene", recorded_scene(self.scene))
         try:
             masses = RobustnessRequest(coeffs=(0.0,), masses=self.robustness_masses).masses
         except (TypeError, ValueError) as error:
@@ -315,8 +341,9 @@ class DesignConfig:
             extra["bounds"] = self.bounds
         if self.scene_samples != 1:
             extra["scene_samples"] = self.scene_samples
-        if self.scene:
-            extra["scene"] = scene_spec(self.scene)
+        scene = scene_spec(self.scene)
+        if scene is not None:
+            extra["scene"] = scene
         return TaskSettings(
             goal=self.goal,
             goal_precision=self.goal_precision,

@@ -113,8 +113,9 @@ RUNTIME_FIELDS: frozenset[str] = frozenset({"workers"})
 """Config fields that do not change the results: a resumed suite may set them differently."""
 
 #: Config fields added after the suite was first stored, with the value older runs had: the tool's
-#: section was square until the round one became the default (docs/model.md).
-ADDED_FIELDS: dict[str, Any] = {"section_shape": "square"}
+#: section was square until the round one became the default (docs/model.md), the hand a chain
+#: of links of its own until it was merged into the last arm link (docs/performance.md).
+ADDED_FIELDS: dict[str, Any] = {"section_shape": "square", "merge_fixed_links": False}
 
 FIXED_GOAL: tuple[float, float, float] = DEFAULT_GOAL
 """The goal of the fixed-goal part, (x, y, z) in m."""
@@ -345,9 +346,10 @@ class RLSuiteConfig:
                     "held_out_goals": self.goals.tolist(),
                     "held_out_masses": self.masses.tolist(),
                     "noise_floor": NOISE_FLOOR,
-                    # Every env of the suite uses the default tool; recorded so that a folder
-                    # made with another default is not resumed with this one.
+                    # Every env of the suite uses the default tool and scene; recorded so that
+                    # a folder made with another default is not resumed with this one.
                     "section_shape": _default_section_shape(),
+                    "merge_fixed_links": _default_merge_fixed_links(),
                 }
             ),
         )
@@ -357,6 +359,12 @@ def _default_section_shape() -> str:
     from tooldesign_env.geometry import ToolSpec
 
     return ToolSpec().section_shape
+
+
+def _default_merge_fixed_links() -> bool:
+    from tooldesign_env.specs import SceneSpec
+
+    return SceneSpec().merge_fixed_links
 
 
 def _check_size(size: Any) -> SuiteSize:

@@ -44,7 +44,13 @@ from benchmarks.storage.manifest import (
     verify_checksums,
     write_manifest,
 )
-from benchmarks.storage.session import PART_CHECKSUMS, ResumeError, RunSession, check_out_dir
+from benchmarks.storage.session import (
+    PART_CHECKSUMS,
+    ResumeError,
+    RunSession,
+    check_out_dir,
+    with_added_fields,
+)
 from benchmarks.storage.table import (
     CONSOLIDATED_STEM,
     PARTS_DIR,
@@ -81,6 +87,7 @@ __all__ = [
     "atomic_write_text",
     "build_manifest",
     "check_out_dir",
+    "with_added_fields",
     "design_path",
     "file_sha256",
     "git_commit",

@@ -69,6 +69,7 @@ __all__ = [
     "ResumeError",
     "RunSession",
     "check_out_dir",
+    "with_added_fields",
 ]
 
 PART_CHECKSUMS = "part_sha256"
@@ -83,6 +84,22 @@ HEARTBEAT_INTERVAL = 2.0
 
 class ResumeError(ValueError):
     """A run folder cannot be continued with this config (or was tampered with)."""
+
+
+def with_added_fields(config: Mapping[str, Any], added: Mapping[str, Any]) -> dict[str, Any]:
+    """A stored ``config`` as its run had it: the fields a later version added, at their old value.
+
+    ``added`` maps a field to the value every run made before it existed had. A value that is a
+    table (a mapping) adds its keys to the stored table of that name, keeping the stored ones:
+    ``{"scene": {"merge_fixed_links": False}}`` makes a stored ``scene`` without that key read
+    as having it ``False``.
+    """
+    out = {**added, **config}
+    for key, value in added.items():
+        stored = config.get(key)
+        if isinstance(value, Mapping) and isinstance(stored, Mapping):
+            out[key] = {**value, **stored}
+    return out
 
 
 def check_out_dir(out_dir: Any) -> Path:
@@ -219,7 +236,7 @@ class RunSession:
                 f"cannot resume: {out} holds a run of another kind, not a {self.kind} run"
             )
         self._verify_parts(extra)
-        old = {**self._added, **old}
+        old = with_added_fields(old, self._added)
         changed = sorted(
             k
             for k in (old.keys() | self.config.keys()) - self._runtime

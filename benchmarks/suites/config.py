@@ -36,8 +36,9 @@ from typing import Any, cast
 import numpy as np
 
 from benchmarks.design import DesignConfig
-from benchmarks.design.config import check_section_shape, scene_overrides
+from benchmarks.design.config import check_section_shape, recorded_scene
 from benchmarks.execution import TaskSettings
+from benchmarks.storage import with_added_fields
 from optimizers._validation import BATCH_SIZE_MAX
 from tooldesign_env.env import WORKSPACE_HIGH, WORKSPACE_LOW
 from tooldesign_env.schema import (
@@ -71,8 +72,13 @@ RUNTIME_FIELDS: frozenset[str] = frozenset({"executor", "workers", "scheduler", 
 #: many seeds there are, so a suite grows by the runs of the new seeds alone.
 GROWABLE_FIELDS: frozenset[str] = frozenset({"n_seeds"})
 
-#: Config fields added after suites were first stored, with the value older suites had.
-ADDED_FIELDS: dict[str, Any] = {"scene_samples": 1, "scene": {}, "section_shape": "square"}
+#: Config fields added after suites were first stored, with the value older suites had; a table
+#: adds its keys to the stored table (see ``benchmarks.design.config.ADDED_FIELDS``).
+ADDED_FIELDS: dict[str, Any] = {
+    "scene_samples": 1,
+    "scene": {"merge_fixed_links": False},
+    "section_shape": "square",
+}
 
 
 SUITE_KIND = "suite"
@@ -337,7 +343,9 @@ class SuiteConfig:
         bounds: (n, 2) coefficient bounds; ``None`` is ``default_bounds(3)``.
         scene: Overrides of ``SceneSpec`` fields for every run (a mapping, a ``[scene]`` table
             in a suite file; stored as sorted pairs), e.g. ``{"box_position": [-0.4, 1.1]}``.
-            Not ``box_mass`` (its own field). Empty (the default) is the default scene.
+            Not ``box_mass`` (its own field). Empty (the default) is the default scene. The
+            fields of ``RECORDED_SCENE_FIELDS`` are always stored (today's default where not
+            set), so a folder keeps its scene when a default changes.
         section_shape: The tool's section, ``"round"`` (the default) or ``"square"`` (the
             paper's) (``ToolSpec.section_shape``). A suite file without the field, written
             before the field existed, reads as ``"square"``.
@@ -408,7 +416,7 @@ class SuiteConfig:
         object.__setattr__(self, "goal_precision", task.goal_precision)
         object.__setattr__(self, "box_mass", task.box_mass)
         object.__setattr__(self, "goal_box", self._checked_goal_box())
-        object.__setattr__(self, "scene", scene_overrides(self.scene))
+        object.__setattr__(self, "scene", recorded_scene(self.scene))
         object.__setattr__(self, "section_shape", check_section_shape(self.section_shape))
         variants = tuple(
             _from_mapping(Variant, v, f"variants[{i}]")
@@ -620,5 +628,5 @@ def suite_of_manifest(manifest: Mapping[str, Any]) -> SuiteConfig:
         raise ValueError("manifest.json is not the manifest of a suite run folder")
     config = manifest["config"]
     if isinstance(config, Mapping):
-        config = {**ADDED_FIELDS, **config}
+        config = with_added_fields(config, ADDED_FIELDS)
     return suite_from_json(config, where="manifest.json config")

@@ -1,0 +1,107 @@
+"""Time per episode of this tree against an older tree's own script, alternating, in one run.
+
+``compare_trees.py`` measures two trees with this tree's ``evaluation_speed.py``, which needs
+this tree's API. A tree from before that API (fb4a75c, issue 13's starting point) is measured
+with its own ``evaluation_speed.py`` instead; both print the median wall time of one
+evaluation of F ("evaluation of F ... median X s"), which is what this script compares. Each
+round runs the baseline, then each variant of this tree (``--variant``, arguments added to this
+tree's script), in turn, so all see the same load; the table shows every round and the median
+of each variant's ratio to the baseline of its round.
+
+Issue 13's comparison, one core, square section for all (fb4a75c had no other):
+``git worktree add /tmp/fb4a75c fb4a75c`` then
+``taskset -c 0 python benchmarks/perf/against_baseline.py /tmp/fb4a75c --rounds 6
+--variant "" --variant "--scene merge_fixed_links=False"``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import shlex
+import statistics
+import subprocess
+import sys
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parents[2]
+SCRIPT = Path("benchmarks") / "perf" / "evaluation_speed.py"
+EVALUATION = re.compile(r"evaluation of F[^\n]*?median ([0-9.]+) s")
+
+
+def _median_evaluation(tree: Path, args: list[str]) -> float:
+    env = {**os.environ, "PYTHONPATH": str(tree)}
+    out = subprocess.run(
+        [sys.executable, str(tree / SCRIPT), *args],
+        env=env,
+        cwd=tree,
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    match = EVALUATION.search(out.stdout)
+    if out.returncode != 0 or match is None:
+        raise SystemExit(
+            f"{tree / SCRIPT} {' '.join(args)} failed (exit {out.returncode}):\n"
+            f"{out.stdout[-2000:]}{out.stderr[-2000:]}"
+        )
+    return float(match.group(1))
+
+
+def main() -> None:
+    """Measure and print."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("baseline", type=Path, help="the older source tree (a git worktree)")
+    parser.add_argument("--rounds", type=int, default=6)
+    parser.add_argument("--designs", type=int, default=12)
+    parser.add_argument("--repeats", type=int, default=2)
+    parser.add_argument(
+        "--baseline-args",
+        default="--reference 1",
+        help="more arguments for the baseline's script (fb4a75c's cannot take --reference 0)",
+    )
+    parser.add_argument(
+        "--this-args",
+        default="--reference 0 --first 0 --section-shape square",
+        help="arguments for this tree's script in every variant",
+    )
+    parser.add_argument(
+        "--variant",
+        action="append",
+        help='arguments added to this tree\'s script, e.g. "--scene merge_fixed_links=False" '
+        '(repeatable; default: one variant, "")',
+    )
+    args = parser.parse_args()
+    if args.rounds < 1 or args.designs < 1 or args.repeats < 1:
+        parser.error("--rounds, --designs and --repeats must be >= 1")
+    baseline = args.baseline.resolve()
+    if not (baseline / SCRIPT).is_file():
+        parser.error(f"{baseline} has no {SCRIPT}: give the root of a source tree")
+    variants = args.variant or [""]
+    common = ["--designs", str(args.designs), "--repeats", str(args.repeats)]
+    times: dict[str, list[float]] = {"baseline": []} | {v: [] for v in variants}
+    for k in range(args.rounds):
+        times["baseline"].append(
+            _median_evaluation(baseline, [*common, *shlex.split(args.baseline_args)])
+        )
+        for v in variants:
+            extra = [*shlex.split(args.this_args), *shlex.split(v)]
+            times[v].append(_median_evaluation(HERE, [*common, *extra]))
+        print(
+            f"round {k + 1}: baseline {times['baseline'][-1]:.3f} s; "
+            + "; ".join(f"[{v or 'this tree'}] {times[v][-1]:.3f} s" for v in variants),
+            flush=True,
+        )
+    print(f"\nmedian evaluation of F over {args.rounds} rounds ({baseline} = baseline):")
+    print(f"  baseline: {statistics.median(times['baseline']):.3f} s")
+    for v in variants:
+        ratios = [t / b for t, b in zip(times[v], times["baseline"], strict=True)]
+        print(
+            f"  [{v or 'this tree'}]: {statistics.median(times[v]):.3f} s; per round / baseline: "
+            f"{' '.join(f'{r:.2f}' for r in ratios)}; median {statistics.median(ratios):.3f}"
+        )
+
+
+if __name__ == "__main__":
+    main()
