@@ -102,12 +102,16 @@ def main() -> None:
         parser.error("--designs and --repeats must be >= 1")
 
     tool = ToolSpec(section_shape=args.section_shape)
-    os.environ[native.ENV_SWITCH] = "0"  # the env's simulator runs the Python loop
+    # The env's simulator runs the Python loop: it looks for the C loop at its first rollout,
+    # finds it switched off and keeps to Python from then on.
+    os.environ[native.ENV_SWITCH] = "0"
     env = ToolDesignEnv(tool=tool)
     env.reset(seed=0)
-    del os.environ[native.ENV_SWITCH]
     env.step(np.zeros(3))  # warm: the plan, imports, caches
+    del os.environ[native.ENV_SWITCH]
     sim = env.simulator
+    if sim.native_status == "native":
+        raise SystemExit("the simulator runs the C loop: this script times the Python loop's calls")
     # The default loop, in C, on the same scene (None where the plugin was not built).
     c_sim = None
     if native.library_path() is not None:
