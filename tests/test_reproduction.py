@@ -37,9 +37,20 @@ def test_suites_run_with_the_square_section_get_a_section_of_their_own(tmp_path:
     lines = _square_section(tmp_path)
     text = "\n".join(lines)
     assert lines[0] == "## With the paper's square section"
-    assert "| optimizers | square | contact | free-energy | 10 |" in text
+    assert "| optimizers | square | 13 links | contact | free-energy | 10 |" in text
     assert "| (a) CMA-ES lowers F fastest |" in text
     assert "docs/results/square/optimizers/report/summary.md" in text
     assert "(c) pure confidence" not in text  # no square robustness folder here
     # The suites' own claims keep their level-2 headings; these are one level down.
     assert "\n### (a) CMA-ES lowers F fastest" in text
+
+
+def test_the_page_names_the_arm_each_suite_ran_with() -> None:
+    # Folders stored before the hand was merged by default record no value: 13 links.
+    from benchmarks.reports.reproduction import _arm
+    from benchmarks.suites import SuiteConfig
+
+    assert _arm({}) == _arm({"scene": {"box_yaw": 0.1}}) == "13 links"
+    assert _arm(SuiteConfig(name="s").to_json()) == "hand merged"
+    unmerged = SuiteConfig(name="s", scene={"merge_fixed_links": False})
+    assert _arm(unmerged.to_json()) == "13 links"

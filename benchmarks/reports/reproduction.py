@@ -26,7 +26,8 @@ from scipy import stats as sstats
 
 from benchmarks.reports.retest import noise_floor, stress_table
 from benchmarks.reports.suite import designs_table
-from benchmarks.storage import read_designs, read_retests
+from benchmarks.storage import read_designs, read_retests, with_added_fields
+from benchmarks.suites.config import ADDED_FIELDS
 
 __all__ = ["SUITES", "reproduction_page"]
 
@@ -343,6 +344,12 @@ def _run_facts(folder: Path) -> tuple[dict[str, Any], str, str]:
     return manifest.get("config", {}), commit, retested
 
 
+def _arm(config: Mapping[str, Any]) -> str:
+    """The arm a suite ran with: a config stored before the hand was merged has 13 links."""
+    scene = with_added_fields(config, ADDED_FIELDS)["scene"]
+    return "hand merged" if scene.get("merge_fixed_links") else "13 links"
+
+
 def _suite_rows(results: Path) -> list[str]:
     rows = []
     for suite in SUITES:
@@ -350,7 +357,7 @@ def _suite_rows(results: Path) -> list[str]:
             continue
         config, commit, retested = _run_facts(results / suite)
         rows.append(
-            f"| {suite} | {config.get('section_shape', 'square')} | "
+            f"| {suite} | {config.get('section_shape', 'square')} | {_arm(config)} | "
             f"{config.get('estimator', 'n/a')} | "
             f"{config.get('objective', 'free-energy')} | {config.get('n_seeds', 'n/a')} | "
             f"{config.get('batch_size', 'n/a')} x {config.get('iterations', 'n/a')} | "
@@ -402,9 +409,9 @@ def _square_section(results: Path) -> list[str]:
         f"replaced it, with everything else as above (`docs/results/{SQUARE}/`); they are judged "
         "by the same rules:",
         "",
-        "| suite | section | estimator | objective | seeds | batch x iterations | commit "
+        "| suite | section | arm | estimator | objective | seeds | batch x iterations | commit "
         "| retested |",
-        "|---|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|---|",
         *_suite_rows(square),
         "",
         "| claim of the paper | here, square section | verdict |",
@@ -444,12 +451,14 @@ def reproduction_page(results: Path) -> str:
         "under `docs/results/` alone (it rebuilds every suite's report first); nothing on it is "
         "typed by hand. Each suite ran with the defaults of [The model](model.md) except what "
         "its config (`manifest.json`) says; the tool's section (round by default; the paper's "
-        "square section has its own results, in the last section), the estimator of Pi_U and "
-        "the code each ran with:",
+        "square section has its own results, in the last section), the arm (13 links, or the "
+        "hand merged into the last arm link, the default since 83b01fb: the same rigid body, "
+        "results equal to rounding, [Performance](performance.md#fewer-links-the-hand-merged-"
+        "into-the-last-arm-link-2026-11-25)), the estimator of Pi_U and the code each ran with:",
         "",
-        "| suite | section | estimator | objective | seeds | batch x iterations | commit "
+        "| suite | section | arm | estimator | objective | seeds | batch x iterations | commit "
         "| retested |",
-        "|---|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|---|",
         *_suite_rows(results),
         "",
         "**How a claim is judged.** A difference counts when its 95 % interval (or its "
