@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
+import re
 from dataclasses import replace
 from pathlib import Path
 
@@ -198,3 +200,139 @@ def test_a_suite_file_may_sit_in_its_own_run_folder(tmp_path: Path):
     (out / "notes.txt").write_text("mine")
     with pytest.raises(ResumeError, match="no manifest.json"):
         RunSession(tmp_path / "cage", kind="suite", config={}, resume=True, own_files=[suite_file])
+
+
+# --- the command line's --scene -------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        ("merge_fixed_links=false", ("merge_fixed_links", False)),
+        ("merge_fixed_links=False", ("merge_fixed_links", False)),
+        ("box_position=[-0.4, 1.2]", ("box_position", [-0.4, 1.2])),
+        (" box_yaw = 0.1 ", ("box_yaw", 0.1)),
+        ("arm_floor_contacts=auto", ("arm_floor_contacts", "auto")),
+    ],
+)
+def test_a_scene_item_is_a_field_and_a_json_value(text, expected):
+    from benchmarks.cli._common import scene_item
+
+    assert scene_item(text) == expected
+
+
+@pytest.mark.parametrize("text", ["merge_fixed_links", "=1", "box_yaw=", "  =  "])
+def test_a_scene_item_without_a_field_or_a_value_is_refused(text):
+    import argparse
+
+    from benchmarks.cli._common import scene_item
+
+    with pytest.raises(argparse.ArgumentTypeError, match="FIELD=VALUE"):
+        scene_item(text)
+
+
+@pytest.mark.parametrize("command", ["design", "evaluate", "dense-search", "bench"])
+@pytest.mark.parametrize(
+    ("value", "match"),
+    [
+        ("foo=1", "unknown SceneSpec field 'foo'"),
+        ("box_mass=0.3", "must not set 'box_mass'"),
+        ("merge_fixed_links=maybe", "merge_fixed_links must be True or False, got 'maybe'"),
+        ("box_yaw=NaN", "must be a finite JSON value"),
+    ],
+)
+def test_bad_scene_values_are_refused_by_every_command(command, value, match, tmp_path, capsys):
+    from benchmarks.cli import main
+
+    args = {
+        "design": ["design", "--iterations", "1", "--no-video"],
+        "evaluate": ["evaluate", "--coeffs", "0", "0", "0"],
+        "dense-search": ["dense-search", "--points", "2"],
+        "bench": ["bench", "optimizers", "--size", "smoke"],
+    }[command]
+    with pytest.raises(SystemExit) as exit_info:
+        main([*args, "--out", str(tmp_path / "out"), "--scene", value])
+    assert exit_info.value.code == 2
+    assert re.search(match, capsys.readouterr().err)
+    assert not (tmp_path / "out").exists()  # refused before anything was written
+
+
+def test_the_command_line_scene_reaches_the_configs():
+    from benchmarks.cli import build_parser
+    from benchmarks.cli.bench import config_from_args as suite_config
+    from benchmarks.cli.design import config_from_args as design_config
+
+    parse = build_parser().parse_args
+    args = parse(["design", "--out", "x", "--scene", "merge_fixed_links=false"])
+    config = design_config(args)
+    assert dict(config.scene) == {"merge_fixed_links": False}
+    assert dict(config.task().env_kwargs)["scene"] == SceneSpec(merge_fixed_links=False)
+    assert dict(design_config(parse(["design", "--out", "x"])).scene) == {
+        "merge_fixed_links": True
+    }
+    # bench: over the suite's own scene, later flags win.
+    args = parse(
+        ["bench", "optimizers", "--out", "x", "--scene", "box_yaw=0.1"]
+        + ["--scene", "merge_fixed_links=false", "--scene", "box_yaw=0.2"]
+    )
+    assert dict(suite_config(args).scene) == {"box_yaw": 0.2, "merge_fixed_links": False}
+
+
+def test_the_rl_suite_takes_no_scene(tmp_path, capsys):
+    from benchmarks.cli import main
+
+    with pytest.raises(SystemExit) as exit_info:
+        main(["bench", "rl", "--out", str(tmp_path / "rl"), "--scene", "box_yaw=0.1"])
+    assert exit_info.value.code == 2
+    assert "not for the rl suite" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_a_design_run_made_with_13_links_is_resumed_from_the_command_line(tmp_path, capsys):
+    from benchmarks.cli import main
+
+    out = tmp_path / "run"
+    base = ["design", "--optimizer", "random", "--batch-size", "2", "--executor", "serial"]
+    base += ["--no-video", "--no-progress", "--out", str(out)]
+    assert main([*base, "--iterations", "1"]) == 0
+    manifest = json.loads((out / "manifest.json").read_text())
+    manifest["config"]["scene"] = {}  # as stored before the hand was merged by default
+    (out / "manifest.json").write_text(json.dumps(manifest))
+    with pytest.raises(SystemExit) as exit_info:
+        main([*base, "--iterations", "2", "--resume"])
+    assert exit_info.value.code == 2
+    assert "'merge_fixed_links': False" in capsys.readouterr().err
+    grown = [*base, "--iterations", "2", "--resume", "--scene", "merge_fixed_links=false"]
+    assert main(grown) == 0
+    assert json.loads((out / "manifest.json").read_text())["config"]["scene"] == {
+        "merge_fixed_links": False
+    }
+
+
+def test_evaluate_records_the_scene_it_ran_in(tmp_path):
+    from benchmarks.design.evaluate import evaluate_coefficients
+
+    evaluate_coefficients((0.0, 0.0, 0.0), tmp_path / "a", scene={"merge_fixed_links": False})
+    card = json.loads((tmp_path / "a" / "terms.json").read_text())
+    assert card["settings"]["scene"] == {"merge_fixed_links": False}
+    evaluate_coefficients((0.0, 0.0, 0.0), tmp_path / "b")
+    card = json.loads((tmp_path / "b" / "terms.json").read_text())
+    assert card["settings"]["scene"] == {"merge_fixed_links": True}
+
+
+def test_the_committed_suite_files_describe_their_folders():
+    # Each docs/results/*/suite.toml reruns its folder: the same config as the folder stored,
+    # read as the folder's own (so the arm and the section it ran with are spelled out).
+    root = Path(__file__).resolve().parents[1] / "docs" / "results"
+    files = sorted(root.glob("**/suite.toml"))
+    assert files
+    for path in files:
+        stored = suite_of_manifest(json.loads((path.parent / "manifest.json").read_text()))
+        written = load_suite(path)
+        runtime = {"executor", "workers", "scheduler", "max_retries"}
+        mismatched = [
+            f.name
+            for f in dataclasses.fields(stored)
+            if f.name not in runtime and getattr(stored, f.name) != getattr(written, f.name)
+        ]
+        assert not mismatched, (path, mismatched)

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import argparse
+import json
+from typing import Any
 
 from benchmarks.execution import MAX_RETRIES_MAX, TaskSettings
 from benchmarks.execution.evaluator import _ESTIMATORS, OBJECTIVES
@@ -38,6 +40,42 @@ def add_max_retries_argument(parser: argparse.ArgumentParser, default: int | Non
         help="with --executor process: how many more times a design whose worker process died "
         "while it was evaluated alone is evaluated again, alone in a fresh pool, before it is "
         f"logged as failed; 0 to {MAX_RETRIES_MAX} (default: {shown})",
+    )
+
+
+def scene_item(text: str) -> tuple[str, Any]:
+    """``FIELD=VALUE`` of ``--scene``: a ``SceneSpec`` field and its value, checked later.
+
+    The value is read as JSON (``false``, ``0.1``, ``[-0.4,1.2]``; Python's ``True`` and
+    ``False`` too); anything else is a string (``auto``), which the spec refuses where a
+    string is not allowed, naming the field.
+    """
+    name, sep, value = text.partition("=")
+    if not sep or not name.strip() or not value.strip():
+        raise argparse.ArgumentTypeError(
+            f"must be FIELD=VALUE with a SceneSpec field and its value, e.g. "
+            f"merge_fixed_links=false or box_position=[-0.4,1.2]; got {text!r}"
+        )
+    value = value.strip()
+    value = {"True": "true", "False": "false"}.get(value, value)
+    try:
+        parsed = json.loads(value)
+    except ValueError:
+        parsed = value
+    return name.strip(), parsed
+
+
+def add_scene_argument(parser: argparse.ArgumentParser, what: str) -> None:
+    """Add ``--scene FIELD=VALUE`` (repeatable): overrides of ``SceneSpec`` fields."""
+    parser.add_argument(
+        "--scene",
+        type=scene_item,
+        action="append",
+        default=[],
+        metavar="FIELD=VALUE",
+        help=f"set a SceneSpec field {what} (repeatable; a JSON value), e.g. box_yaw=0.1 or "
+        "merge_fixed_links=false, the 13-link arm of the runs made before 2026-11-25 "
+        "(docs/benchmarks.md); not box_mass (--box-mass)",
     )
 
 
@@ -98,3 +136,4 @@ def add_task_arguments(parser: argparse.ArgumentParser) -> None:
         help="average F over K scenes whose box differs by a fixed small offset, which smooths "
         "the chaos of pushing; costs K rollouts per design (1 to 64, default: %(default)s)",
     )
+    add_scene_argument(parser, "for every evaluation")

@@ -10,7 +10,7 @@ import argparse
 from pathlib import Path
 from typing import Any, cast
 
-from benchmarks.cli._common import SECTION_SHAPES, add_max_retries_argument
+from benchmarks.cli._common import SECTION_SHAPES, add_max_retries_argument, add_scene_argument
 from benchmarks.cli.rl_suite import RL_ONLY_OPTIONS, add_rl_suite_arguments, run_rl_command
 from benchmarks.execution import EXECUTORS
 from benchmarks.reports.suite import make_suite_report
@@ -83,6 +83,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         help="the tool's section in every run: round or the paper's square (default: the "
         "suite's own, round unless its file says otherwise; not for the rl suite)",
     )
+    add_scene_argument(parser, "in every run, over the suite's own [scene] (not for the rl suite)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument(
         "--dump-config",
@@ -123,6 +124,8 @@ def config_from_args(args: argparse.Namespace) -> SuiteConfig:
         changes["max_retries"] = args.max_retries
     if args.section_shape is not None:
         changes["section_shape"] = args.section_shape
+    if args.scene:
+        changes["scene"] = {**dict(config.scene), **dict(args.scene)}
     return config.replace(**changes) if changes else config
 
 
@@ -132,6 +135,11 @@ def _run(args: argparse.Namespace) -> int:
             raise ValueError(
                 f"--section-shape {args.section_shape}: not for the {RL_SUITE_NAME} suite, whose "
                 "envs use the default tool (round)"
+            )
+        if args.scene:
+            raise ValueError(
+                f"--scene {args.scene[0][0]}=...: not for the {RL_SUITE_NAME} suite, whose envs "
+                "use the default scene"
             )
         return run_rl_command(args, default_size="full")
     given = [f"--{n.replace('_', '-')}" for n in RL_ONLY_OPTIONS if getattr(args, n) is not None]

@@ -42,6 +42,7 @@ def _run(args: argparse.Namespace) -> int:
         objective=args.objective,
         scene_samples=args.scene_samples,
         section_shape=args.section_shape,
+        scene=dict(args.scene),
     ).task()
     start = time.perf_counter()
 

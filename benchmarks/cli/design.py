@@ -181,6 +181,7 @@ def config_from_args(args: argparse.Namespace) -> DesignConfig:
         objective=args.objective,
         scene_samples=args.scene_samples,
         section_shape=args.section_shape,
+        scene=dict(args.scene),
     )
 
 

@@ -62,6 +62,7 @@ def _run(args: argparse.Namespace) -> int:
         objective=args.objective,
         scene_samples=args.scene_samples,
         section_shape=args.section_shape,
+        scene=dict(args.scene),
         robustness=args.robustness,
         outside_bounds=args.outside_bounds,
         video=args.video,

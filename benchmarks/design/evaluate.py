@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from benchmarks.design.config import recorded_scene, scene_spec
 from benchmarks.design.video import rollout_gif
 from benchmarks.storage import (
     atomic_write_text,
@@ -87,6 +88,7 @@ def evaluate_coefficients(
     objective: str = "free-energy",
     scene_samples: int = 1,
     section_shape: str = "round",
+    scene: Any = None,
     robustness: bool = False,
     outside_bounds: bool = False,
     video: bool = False,
@@ -108,6 +110,8 @@ def evaluate_coefficients(
         objective: what is scored (``free-energy`` or ``expected-goal-error``).
         scene_samples: K, the scenes F is averaged over (``ObjectiveSpec.scene_samples``).
         section_shape: the tool's section (``ToolSpec.section_shape``).
+        scene: overrides of ``SceneSpec`` fields, ``{field: value}`` (JSON values, as a design
+            run's ``scene``); ``None`` or ``{}`` is the default scene.
         robustness: also test the design under other box masses.
         outside_bounds: accept a design outside the default bounds (the bounds are widened to
             include it).
@@ -123,6 +127,8 @@ def evaluate_coefficients(
         TypeError: ``out`` is not a path.
     """
     out = check_out_dir(out)  # before the simulation: a file named like the folder is refused
+    scene_pairs = recorded_scene(scene or {})  # checked: a bad field or value is refused here
+    scene_override = scene_spec(scene_pairs)
     spec = ToolSpec(
         degree=int(np.size(coeffs)) if np.ndim(coeffs) == 1 else 3, section_shape=section_shape
     )
@@ -145,6 +151,8 @@ def evaluate_coefficients(
         "bounds": bounds,
         "tool": spec,
     }
+    if scene_override is not None:
+        settings["scene"] = scene_override
     env = ToolDesignEnv(**settings, info_series=True)
     try:
         env.reset(seed=0)
@@ -168,6 +176,7 @@ def evaluate_coefficients(
                 "objective": objective,
                 "scene_samples": scene_samples,
                 "section_shape": section_shape,
+                "scene": dict(scene_pairs),
             },
             "versions": package_versions(),
         }

@@ -30,10 +30,12 @@ pull then drags it toward the base. This script measures that, with a seeded set
    floor of F. ``--precisions`` and ``--seeds`` pick a comparable subset of a larger suite.
 
 Run: ``python benchmarks/perf/cage_scene.py [--random 6] [--seed 1] [--pick X Y]
-[--goal X Y] [--masses 0.3 0.5 0.7 0.9] [--section-shape square|round]`` or ``python
+[--goal X Y] [--masses 0.3 0.5 0.7 0.9] [--section-shape square|round] [--scene FIELD=VALUE]`` or
+``python
 benchmarks/perf/cage_scene.py --claims docs/results/cage docs/results/square/robustness
 --precisions 0 20 50 --seeds 5``. The committed placement (docs/results/cage) was measured with
-the square section, the default then: ``--section-shape square`` repeats it. One rollout takes
+the square section and the 13-link arm, the defaults then: ``--section-shape square --scene
+merge_fixed_links=False`` repeats it. One rollout takes
 0.2 to 0.5 s; the default grid is 20 placements.
 """
 
@@ -49,6 +51,7 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
+from physics_options import scene_field  # this folder: the script's own, on sys.path
 from scipy import stats as sstats
 
 from benchmarks.reports.stats import bootstrap_ci
@@ -136,12 +139,15 @@ def measure(
     masses: tuple[float, ...] = (),
     plan: PlanSpec | None = None,
     tool: ToolSpec | None = None,
+    scene: dict[str, Any] | None = None,
 ) -> dict[str, tuple[Outcome, list[Outcome]] | None]:
     """Each design's outcome with the box at ``position`` (and at each of ``masses``).
 
+    ``scene``: other ``SceneSpec`` fields than the box's position (``--scene``).
+
     ``None`` for a design that overlaps the box at the start of the sweep.
     """
-    sim = ToolSimulator(scene=SceneSpec(box_position=position), plan=plan)
+    sim = ToolSimulator(scene=SceneSpec(box_position=position, **(scene or {})), plan=plan)
     out: dict[str, tuple[Outcome, list[Outcome]] | None] = {}
     try:
         for name, coeffs in designs.items():
@@ -200,7 +206,7 @@ def print_grid(
     good: dict[tuple[float, float], float] = {}
     for x in args.xs:
         for y in args.ys:
-            results = measure((x, y), designs, tool=_tool(args))
+            results = measure((x, y), designs, tool=_tool(args), scene=dict(args.scene))
             ok = qualifies(results)
             if ok:
                 good[(x, y)] = hook_sweep(results)
@@ -248,7 +254,9 @@ def print_detail(
         scenes.append(("default", SceneSpec().box_position, DEFAULT_GOAL[:2]))
     for label, position, goal in scenes:
         x, y = position
-        results = measure(position, designs, masses=masses, tool=_tool(args))
+        results = measure(
+            position, designs, masses=masses, tool=_tool(args), scene=dict(args.scene)
+        )
         print(f"\n# Detail: {label} scene, box at ({x:+.3f}, {y:.3f}), goal {tuple(goal)}")
         print(
             f"path of the box (x, y), m: start ({x:+.2f}, {y:.2f}) -> end of sweep -> mid-pull "
@@ -417,6 +425,15 @@ def main(argv: list[str] | None = None) -> None:
         help="the tool's section (docs/results/cage was placed with square) "
         "(default: %(default)s)",
     )
+    parser.add_argument(
+        "--scene",
+        type=scene_field,
+        action="append",
+        default=[],
+        metavar="FIELD=VALUE",
+        help="a SceneSpec field other than the box's position (repeatable), e.g. "
+        "merge_fixed_links=False: docs/results/cage was placed with the 13-link arm",
+    )
     parser.add_argument("--no-grid", action="store_true", help="only the --pick detail")
     parser.add_argument(
         "--claims",
@@ -432,6 +449,8 @@ def main(argv: list[str] | None = None) -> None:
         "--seeds", type=int, help="with --claims: keep only each suite's first SEEDS goals"
     )
     args = parser.parse_args(argv)
+    if "box_position" in dict(args.scene):
+        parser.error("--scene box_position=...: the placements are the grid's (--xs, --ys, --pick)")
     if args.random < 0:
         parser.error(f"--random must be >= 0, got {args.random}")
     if any(not (math.isfinite(m) and m > 0) for m in args.masses):

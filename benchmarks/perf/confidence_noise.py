@@ -17,7 +17,7 @@ the mean over the nudges for each K, and its cost relative to one rollout.
 
 Run: ``python benchmarks/perf/confidence_noise.py [--designs 12] [--nudges 6] [--seed 1]
 [--scene-samples 1 4 8] [--section-shape square|round] [--scene FIELD=VALUE]`` (the section: the
-default tool's, round; ``--scene``, e.g. ``merge_fixed_links=True``: a scene other than the
+default tool's, round; ``--scene``, e.g. ``merge_fixed_links=False``: a scene other than the
 default, nudged the same way).
 Targets (issue 8): median spread of F <= 1 %, of the confidence <= 2 %, cost <= 30 %.
 """
@@ -146,7 +146,7 @@ def main() -> None:
         action="append",
         default=[],
         metavar="FIELD=VALUE",
-        help="a SceneSpec field changed from its default, e.g. merge_fixed_links=True "
+        help="a SceneSpec field changed from its default, e.g. merge_fixed_links=False "
         "(repeatable): the scene that is nudged",
     )
     args = parser.parse_args()

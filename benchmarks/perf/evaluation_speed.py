@@ -23,7 +23,7 @@ PyBullet's server: :mod:`tooldesign_env.native`) or Python (``--loop python``), 
 says which ran.
 
 ``--scene FIELD=VALUE`` measures a scene other than the default, e.g.
-``--scene merge_fixed_links=True``.
+``--scene merge_fixed_links=False`` (the 13-link arm, the default before 2026-11-25).
 
 Run: ``taskset -c 0 python benchmarks/perf/evaluation_speed.py [--designs 12] [--repeats 3]
 [--scene FIELD=VALUE]`` (``taskset`` pins it, and its child processes, to one core).
@@ -112,7 +112,8 @@ def main() -> None:
         action="append",
         default=[],
         metavar="FIELD=VALUE",
-        help="a SceneSpec field changed from its default, e.g. merge_fixed_links=True (repeatable)",
+        help="a SceneSpec field changed from its default, e.g. merge_fixed_links=False "
+        "(repeatable)",
     )
     args = parser.parse_args()
     scene_fields = dict(args.scene)
