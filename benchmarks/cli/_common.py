@@ -75,7 +75,7 @@ def add_scene_argument(parser: argparse.ArgumentParser, what: str) -> None:
         metavar="FIELD=VALUE",
         help=f"set a SceneSpec field {what} (repeatable; a JSON value), e.g. box_yaw=0.1 or "
         "merge_fixed_links=false, the 13-link arm of the runs made before 2026-11-25 "
-        "(docs/benchmarks.md); not box_mass (--box-mass)",
+        "(docs/benchmarks.md); not box_mass, a setting of its own",
     )
 
 
