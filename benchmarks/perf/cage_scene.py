@@ -51,7 +51,7 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-from physics_options import scene_field  # this folder: the script's own, on sys.path
+from physics_options import add_scene_option  # this folder: the script's own, on sys.path
 from scipy import stats as sstats
 
 from benchmarks.reports.stats import bootstrap_ci
@@ -425,14 +425,10 @@ def main(argv: list[str] | None = None) -> None:
         help="the tool's section (docs/results/cage was placed with square) "
         "(default: %(default)s)",
     )
-    parser.add_argument(
-        "--scene",
-        type=scene_field,
-        action="append",
-        default=[],
-        metavar="FIELD=VALUE",
-        help="a SceneSpec field other than the box's position (repeatable), e.g. "
-        "merge_fixed_links=False: docs/results/cage was placed with the 13-link arm",
+    add_scene_option(
+        parser,
+        "a SceneSpec field other than the box's position, e.g. merge_fixed_links=False: "
+        "docs/results/cage was placed with the 13-link arm",
     )
     parser.add_argument("--no-grid", action="store_true", help="only the --pick detail")
     parser.add_argument(

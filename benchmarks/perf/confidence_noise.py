@@ -31,7 +31,7 @@ import time
 from dataclasses import replace
 
 import numpy as np
-from physics_options import scene_field  # this folder: the script's own, on sys.path
+from physics_options import add_scene_option  # this folder: the script's own, on sys.path
 
 from tooldesign_env import (
     ObjectiveSpec,
@@ -140,14 +140,10 @@ def main() -> None:
         default=[],
         help="also score F averaged over K scenes, for each K given (contact estimator)",
     )
-    parser.add_argument(
-        "--scene",
-        type=scene_field,
-        action="append",
-        default=[],
-        metavar="FIELD=VALUE",
-        help="a SceneSpec field changed from its default, e.g. merge_fixed_links=False "
-        "(repeatable): the scene that is nudged",
+    add_scene_option(
+        parser,
+        "a SceneSpec field changed from its default, e.g. merge_fixed_links=False: "
+        "the scene that is nudged",
     )
     args = parser.parse_args()
     if any(k < 1 for k in args.scene_samples):

@@ -42,7 +42,7 @@ import time
 from typing import Any
 
 import numpy as np
-from physics_options import scene_field  # this folder: the script's own, on sys.path
+from physics_options import add_scene_option  # this folder: the script's own, on sys.path
 
 from tooldesign_env import ObjectiveSpec, SceneSpec, ToolDesignEnv, make_tool
 from tooldesign_env.geometry import SECTION_SHAPES, ToolSpec
@@ -106,14 +106,9 @@ def main() -> None:
         default="native",
         help="the control loop: C where built (default), or Python (TOOLDESIGN_NATIVE_LOOP=0)",
     )
-    parser.add_argument(
-        "--scene",
-        type=scene_field,
-        action="append",
-        default=[],
-        metavar="FIELD=VALUE",
-        help="a SceneSpec field changed from its default, e.g. merge_fixed_links=False "
-        "(repeatable)",
+    add_scene_option(
+        parser,
+        "a SceneSpec field changed from its default, e.g. merge_fixed_links=False",
     )
     args = parser.parse_args()
     scene_fields = dict(args.scene)

@@ -88,7 +88,7 @@ def parse_option(text: str) -> dict[str, dict[str, Any]]:
 def scene_field(text: str) -> tuple[str, Any]:
     """``"field=value"``, a ``SceneSpec`` field and a Python literal, as (field, value).
 
-    The argparse type of the ``--scene`` option of evaluation_speed.py and confidence_noise.py.
+    The argparse type of :func:`add_scene_option`.
     """
     try:
         changes = parse_option(f"scene.{text}")
@@ -98,6 +98,21 @@ def scene_field(text: str) -> tuple[str, Any]:
         raise argparse.ArgumentTypeError(f"--scene takes one field=value, got {text!r}")
     ((name, value),) = changes["scene"].items()
     return name, value
+
+
+def add_scene_option(parser: argparse.ArgumentParser, description: str) -> None:
+    """Add ``--scene FIELD=VALUE`` (repeatable; :func:`scene_field`) to a perf script's parser.
+
+    ``dict(args.scene)`` is then the ``SceneSpec`` fields given, ``{}`` for none.
+    """
+    parser.add_argument(
+        "--scene",
+        type=scene_field,
+        action="append",
+        default=[],
+        metavar="FIELD=VALUE",
+        help=f"{description} (repeatable; a Python literal)",
+    )
 
 
 def _merged(
