@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pybullet
@@ -17,7 +18,8 @@ from tooldesign_env.bullet import (
 )
 
 # Two groups, a quad (cut into triangles by position), corners with texture coordinates and
-# normals, a negative (relative) index, a repeated vertex and what the collision import drops.
+# normals, a negative (relative) index, a repeated vertex, a point inside the second group's
+# hull and what the collision import drops.
 OBJ = """\
 # a comment
 mtllib box.mtl
@@ -46,34 +48,39 @@ f 6 7 10
 f 7 8 10
 f 8 9 10
 f 9 6 10
+v 2.5 2.5 2.2
+f 6 7 11
 """
 
 
-def test_a_lean_copy_keeps_positions_faces_and_groups_only():
+def test_a_lean_copy_keeps_each_shapes_hull_candidates_once_and_its_groups():
     lean = lean_collision_mesh(OBJ)
     assert lean == (
-        "o first\n"
+        "o first\n"  # four points span a tetrahedron: all of them stay
         "v 0.0 0.0 0.0\n"
         "v 1.0 0.0 0.0\n"
         "v 0.0 1.0 0.0\n"
         "v 0.0 0.0 1.0\n"
         "f 1 2 3\n"
-        "f 1 2 4\n"  # -4 is the second of the five vertices defined so far
-        "f 2 3 4\n"
-        "g second\n"
+        "f 4 4 4\n"  # triangles only name the points; a repeated one changes no hull
+        "g second\n"  # a pyramid: its five corners stay, the point inside it goes
         "v 2.0 2.0 2.0\n"
         "v 3.0 2.0 2.0\n"
         "v 3.0 3.0 2.0\n"
         "v 2.0 3.0 2.0\n"
         "v 2.5 2.5 3.0\n"
-        "f 5 6 7 8\n"
-        "f 5 6 9\n"
-        "f 6 7 9\n"
-        "f 7 8 9\n"
-        "f 8 5 9\n"
+        "f 5 6 7\n"
+        "f 8 9 9\n"
     )
     # The fifth vertex repeats the second one's text: written once, referred to by its index.
     assert lean_collision_mesh("v 1 2 3\nv 1 2 3\nf 1 2 2\n") == "v 1 2 3\nf 1 1 1\n"
+
+
+def test_points_on_a_flat_shape_all_stay():
+    # Qhull has no hull of coplanar points: none is dropped, so PyBullet sees all of them.
+    text = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0.5 0.5 0\nv 0.2 0.7 0\nf 1 2 3 4 5 6\n"
+    lean = lean_collision_mesh(text)
+    assert lean.count("\nv ") + lean.startswith("v ") == 6
 
 
 @pytest.mark.parametrize("face", ["f 1 2 4", "f 1 2 -4", "f 0 1 2"])
@@ -82,20 +89,21 @@ def test_a_face_that_refers_to_a_missing_vertex_is_refused(face):
         lean_collision_mesh(f"v 0 0 0\nv 1 0 0\nv 0 1 0\n{face}\n")
 
 
-def _hull_vertices(urdf: str, folder: Path) -> list[np.ndarray | None]:
-    """PyBullet's vertices of every link's collision shape, as it holds them."""
+def _hull_vertices(urdf: str, folder: Path) -> list[tuple[np.ndarray | None, Any, Any]]:
+    """Per link: PyBullet's vertices of its collision shape, its bounding box and dynamics."""
     path = folder / "robot.urdf"
     path.write_text(urdf, encoding="utf-8")
     world = BulletWorld(renderer=False)
     try:
         c = world.client
         body = c.loadURDF(str(path), [0, 0, 0], useFixedBase=True)
-        out: list[np.ndarray | None] = []
+        out: list[tuple[np.ndarray | None, Any, Any]] = []
         for link in range(-1, c.getNumJoints(body)):
             try:
-                out.append(np.array(c.getMeshData(body, link)[1], dtype=float))
+                vertices = np.array(c.getMeshData(body, link)[1], dtype=float)
             except pybullet.error:
-                out.append(None)  # a link without a mesh
+                vertices = None  # a link without a mesh
+            out.append((vertices, c.getAABB(body, link), c.getDynamicsInfo(body, link)))
         return out
     finally:
         world.close()
@@ -107,13 +115,47 @@ def test_the_arm_loads_with_the_same_hulls_from_the_lean_copies(tmp_path):
     assert meshes is not None and len(meshes) >= 10
     original = _hull_vertices(panda_urdf_with_tool(None, visuals=False), tmp_path)
     lean = _hull_vertices(panda_urdf_with_tool(None, visuals=False, meshes=meshes), tmp_path)
-    assert sum(v is not None and len(v) > 0 for v in original) >= 10
+    assert sum(v is not None and len(v) > 0 for v, _, _ in original) >= 10
     assert len(original) == len(lean)
-    for a, b in zip(original, lean, strict=True):
+    for (a, a_box, a_dynamics), (b, b_box, b_dynamics) in zip(original, lean, strict=True):
         if a is None:
             assert b is None
-        else:  # every vertex, in PyBullet's order, bit for bit
-            assert b is not None and a.shape == b.shape and np.array_equal(a, b)
+        else:  # every vertex bit for bit; PyBullet lists them in another order
+            assert b is not None and a.shape == b.shape and _same_points(a, b)
+        assert a_box == b_box  # the broadphase's boxes
+        assert a_dynamics == b_dynamics  # mass, inertia (from the boxes), friction
+    # Fewer points to read and to build the hull of: interior ones and repeated corners go.
+    assert sum(Path(p).stat().st_size for p in meshes.values()) < 0.2 * sum(
+        Path(p).stat().st_size for p in meshes
+    )
+
+
+def _same_points(a: np.ndarray, b: np.ndarray) -> bool:
+    return bool(np.array_equal(np.unique(a, axis=0), np.unique(b, axis=0)))
+
+
+def test_a_cloud_with_interior_points_gives_the_same_hull(tmp_path):
+    rng = np.random.default_rng(5)
+    points = rng.normal(size=(300, 3)) * [0.05, 0.02, 0.1]
+    text = "".join(f"v {x!r} {y!r} {z!r}\n" for x, y, z in points.tolist())
+    text += "".join(f"f {i + 1} {i + 2} {i + 3}\n" for i in range(0, 300, 3))
+    original, lean = tmp_path / "original.obj", tmp_path / "lean.obj"
+    original.write_text(text, encoding="utf-8")
+    lean.write_text(lean_collision_mesh(text), encoding="utf-8")
+    assert lean.read_text(encoding="utf-8").count("v ") < 100
+    a, b = _hull_vertices(_one_link(original), tmp_path), _hull_vertices(_one_link(lean), tmp_path)
+    assert a[0][0] is not None and len(a[0][0]) > 10
+    assert b[0][0] is not None and _same_points(a[0][0], b[0][0])
+    assert a[0][1:] == b[0][1:]
+
+
+def _one_link(mesh: Path) -> str:
+    return (
+        '<robot name="r"><link name="base"><inertial><mass value="1"/>'
+        '<inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial>'
+        f'<collision><geometry><mesh filename="{mesh}"/></geometry></collision>'
+        "</link></robot>"
+    )
 
 
 def test_a_mesh_of_two_groups_and_a_quad_gives_the_same_hulls(tmp_path):
@@ -121,17 +163,10 @@ def test_a_mesh_of_two_groups_and_a_quad_gives_the_same_hulls(tmp_path):
     original.write_text(OBJ, encoding="utf-8")
     lean.write_text(lean_collision_mesh(OBJ), encoding="utf-8")
 
-    def urdf(mesh: Path) -> str:
-        return (
-            '<robot name="r"><link name="base"><inertial><mass value="1"/>'
-            '<inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial>'
-            f'<collision><geometry><mesh filename="{mesh}"/></geometry></collision>'
-            "</link></robot>"
-        )
-
-    a, b = _hull_vertices(urdf(original), tmp_path), _hull_vertices(urdf(lean), tmp_path)
-    assert a[0] is not None and len(a[0]) > 0
-    assert b[0] is not None and np.array_equal(a[0], b[0])
+    a, b = _hull_vertices(_one_link(original), tmp_path), _hull_vertices(_one_link(lean), tmp_path)
+    assert a[0][0] is not None and len(a[0][0]) > 0
+    assert b[0][0] is not None and _same_points(a[0][0], b[0][0])
+    assert a[0][1:] == b[0][1:]
 
 
 def test_copies_are_written_once_and_a_changed_copy_is_written_again(tmp_path, monkeypatch):
@@ -178,3 +213,26 @@ def test_the_simulator_loads_the_lean_copies_from_the_cache_folder(tmp_path, mon
         assert sim._meshes is None
     finally:
         sim.close()
+
+
+@pytest.mark.parametrize("merge", [True, False], ids=["merged-hand", "13-links"])
+def test_an_episode_is_the_same_bit_for_bit_with_the_lean_copies(tmp_path, monkeypatch, merge):
+    # The hull's vertices come in another order from the lean copies; nothing in an episode
+    # may depend on it.
+    from tooldesign_env import SceneSpec, make_tool
+    from tooldesign_env.simulation import ToolSimulator
+
+    tool = make_tool(np.array([0.0, 1.5, 0.0]))
+    runs = []
+    for folder in ("", str(tmp_path)):  # the original meshes, then the lean copies
+        monkeypatch.setenv("TOOLDESIGN_CACHE_DIR", folder)
+        sim = ToolSimulator(scene=SceneSpec(merge_fixed_links=merge))
+        try:
+            assert (sim._meshes is None) == (folder == "")
+            sim.build(tool)
+            runs.append(sim.run(record_mobility=True))
+        finally:
+            sim.close()
+    original, lean = runs
+    for name in ("box_position", "torques", "joint_positions", "contact_mobility"):
+        assert np.array_equal(getattr(original, name), getattr(lean, name)), name

@@ -249,62 +249,112 @@ def _without_visuals(text: str) -> str:
 
 # ------------------------------------------------------ lean copies of the collision meshes
 #: Bumped whenever :func:`lean_collision_mesh` writes something else.
-LEAN_MESH_FORMAT = 1
+LEAN_MESH_FORMAT = 2
+
+#: A vertex farther inside its shape's convex hull than this fraction of the shape's largest
+#: extent is dropped by :func:`lean_collision_mesh`. Bullet snaps points to a grid of about
+#: 2^-30 of the extent before building a hull, so no point that far inside can be a vertex.
+_INTERIOR_TOLERANCE = 1e-6
 
 _LEAN_MESHES: dict[str, dict[str, str] | None] = {}  # per folder, once per process
 
 
 def lean_collision_mesh(text: str) -> str:
-    """An OBJ text from which PyBullet makes the same collision shape as from ``text``, faster.
+    """An OBJ text from which PyBullet makes a collision shape of the same vertices, faster.
 
     PyBullet makes a mesh's collision shape from OBJ text in three steps (Bullet's
     ``tiny_obj_loader`` and ``BulletURDFImporter``): it reads the vertex positions (as floats,
     ``(float)atof``) and the faces, splitting shapes at ``g`` and ``o`` lines; it adds, for
     every corner of every face (polygons cut into triangles by their positions), that corner's
     position to a point list; and it replaces each shape's point list by the vertices of its
-    convex hull (``btConvexHullShape::optimizeConvexHull``). The hull, its vertices' order
-    included, depends on the points only as a multiset: they are sorted before the hull is
-    built.
+    convex hull (``btConvexHullShape::optimizeConvexHull``), which is all it keeps.
 
-    This keeps exactly that: ``v`` lines with their numbers' text unchanged (so each parses to
-    the same float), each written once however many times it appears, ``f`` lines with only
-    their (renumbered) vertex indices, and ``g``/``o`` lines. Normals, texture coordinates,
-    materials, lines and comments, which the collision import reads and drops, go. The Panda's
-    collision meshes shrink from 430 KB to 107 KB and load in 4.2 ms instead of 6.9 ms, with
-    the same hulls (``tests/test_lean_meshes.py`` compares PyBullet's vertices link by link).
+    So this keeps, per shape, only the points that can be vertices of that hull, each once:
+    the positions of its faces' corners, less those strictly inside their convex hull (farther
+    than ``_INTERIOR_TOLERANCE`` of the shape's extent from its surface, by Qhull), written
+    with their numbers' text unchanged (so each parses to the same float) and listed by
+    triangles ``f i j k`` that exist only to name them, with the shapes' ``g``/``o`` lines.
+    Normals, texture coordinates, materials, lines, comments, repeated corners and interior
+    points, which the collision shape never holds, go. The Panda's collision meshes shrink from
+    430 KB to about 45 KB and the arm loads in about 2.1 ms instead of 4.6 ms.
+
+    PyBullet then holds the same hull vertices, bit for bit, but not in the same order: the
+    order its hull builder lists them in depends on the points it was given. Nothing the
+    simulation computes without a contact depends on that order (bounding boxes and inertia
+    take the extreme coordinate, whichever vertex has it); in a contact of an arm link the
+    order decides only between vertices tied exactly for the farthest along a direction.
+    ``tests/test_lean_meshes.py`` compares PyBullet's vertices and bounding boxes link by link.
 
     Raises:
         ValueError: a face refers to a vertex that does not exist.
     """
-    out: list[str] = []
-    index: dict[str, int] = {}  # position text -> its 1-based index in the copy
-    renumber: list[int] = []  # original vertex (0-based) -> index in the copy
+    positions: list[str] = []  # the text "x y z" of every vertex, in file order
+    groups: list[tuple[str | None, list[int]]] = [(None, [])]  # (g/o line, corner vertices)
     for number, raw in enumerate(text.splitlines(), start=1):
         fields = raw.split()
         if not fields:
             continue
         kind = fields[0]
         if kind == "v":
-            position = " ".join(fields[1:4])
+            positions.append(" ".join(fields[1:4]))
+        elif kind == "f":
+            corners = groups[-1][1]
+            for corner in fields[1:]:
+                i = int(corner.split("/", 1)[0])
+                i = i - 1 if i > 0 else len(positions) + i  # OBJ counts from 1, or from the end
+                if not 0 <= i < len(positions):
+                    raise ValueError(
+                        f"line {number}: face corner {corner!r} refers to vertex {i + 1}, "
+                        f"but {len(positions)} are defined so far"
+                    )
+                corners.append(i)
+        elif kind in ("g", "o"):
+            groups.append((raw.strip(), []))
+    out: list[str] = []
+    index: dict[str, int] = {}  # position text -> its 1-based index in the copy
+    for line, corners in groups:
+        if line is not None:
+            out.append(line)
+        # Each distinct position once, in the order of first use.
+        texts = list(dict.fromkeys(positions[i] for i in corners))
+        kept = _hull_candidates(texts)
+        for position in kept:
             if position not in index:
                 index[position] = len(index) + 1
                 out.append(f"v {position}")
-            renumber.append(index[position])
-        elif kind == "f":
-            corners = []
-            for corner in fields[1:]:
-                i = int(corner.split("/", 1)[0])
-                i = i - 1 if i > 0 else len(renumber) + i  # OBJ counts from 1, or from the end
-                if not 0 <= i < len(renumber):
-                    raise ValueError(
-                        f"line {number}: face corner {corner!r} refers to vertex {i + 1}, "
-                        f"but {len(renumber)} are defined so far"
-                    )
-                corners.append(str(renumber[i]))
-            out.append("f " + " ".join(corners))
-        elif kind in ("g", "o"):
-            out.append(raw.strip())
+        numbers = [str(index[p]) for p in kept]
+        while len(numbers) % 3:
+            numbers.append(numbers[-1])  # a repeated point changes no hull
+        out += [f"f {' '.join(numbers[k : k + 3])}" for k in range(0, len(numbers), 3)]
     return "\n".join(out) + "\n"
+
+
+def _hull_candidates(texts: list[str]) -> list[str]:
+    """The positions of ``texts`` that are not strictly inside their convex hull, in order.
+
+    All of them if they span less than three dimensions (Qhull has no hull to offer) or if
+    one is not three numbers (what PyBullet makes of it is left to PyBullet).
+    """
+    from scipy.spatial import ConvexHull, QhullError  # once per process: lean_collision_meshes
+
+    if len(texts) < 5:
+        return texts
+    try:
+        # As PyBullet reads them: (float)atof.
+        points = np.array([[np.float32(v) for v in t.split()] for t in texts], dtype=np.float64)
+    except ValueError:
+        return texts
+    if points.ndim != 2 or points.shape[1] != 3 or not np.isfinite(points).all():
+        return texts
+    extent = float(np.ptp(points, axis=0).max())
+    try:
+        hull = ConvexHull(points)
+    except QhullError:
+        return texts  # flat or degenerate: every point may be on the surface
+    # Signed distance to the farthest facet plane: <= 0 inside, about 0 on the surface.
+    outside = (points @ hull.equations[:, :3].T + hull.equations[:, 3]).max(axis=1)
+    keep = outside >= -_INTERIOR_TOLERANCE * extent
+    return [t for t, k in zip(texts, keep, strict=True) if k]
 
 
 def lean_collision_meshes(folder: Path | None) -> dict[str, str] | None:
