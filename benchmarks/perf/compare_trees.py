@@ -4,6 +4,9 @@ Each round runs this folder's ``evaluation_speed.py`` once with ``PYTHONPATH`` s
 tree and once to the second (alternating which goes first), so that both see the same load on a
 shared machine; the table shows the median of each figure over the rounds. The script measured
 is always this one, so both trees are measured the same way (the floor, the parts, the ratio).
+It prints the control loop each tree ran and warns when they differ: a worktree made with
+``git worktree add`` has no compiled C loop, and silently runs the slower Python one (copy
+``tooldesign_env/native/_control_loop*.so`` into it when the C source is the same).
 
 Run, e.g. main against this worktree, one core:
 ``taskset -c 0 python benchmarks/perf/compare_trees.py /work/main . --rounds 3 -- --designs 12
@@ -40,8 +43,11 @@ FIGURES = (
 )
 
 
-def run(tree: Path, extra: list[str]) -> dict[str, float]:
-    """The figures of one run of evaluation_speed.py with ``tree`` first on PYTHONPATH."""
+LOOP = re.compile(r"control loop: ([^\n]*)")
+
+
+def run(tree: Path, extra: list[str]) -> tuple[dict[str, float], str]:
+    """One run of evaluation_speed.py with ``tree`` first on PYTHONPATH: figures, loop run."""
     env = dict(os.environ, PYTHONPATH=str(tree))
     out = subprocess.run(
         [sys.executable, str(SCRIPT), *extra], env=env, check=True, capture_output=True, text=True
@@ -51,7 +57,8 @@ def run(tree: Path, extra: list[str]) -> dict[str, float]:
         match = re.search(pattern, out)
         if match:
             figures[label] = float(match.group(1))
-    return figures
+    loop = LOOP.search(out)
+    return figures, loop.group(1).strip() if loop else "not printed"
 
 
 def main() -> None:
@@ -72,11 +79,17 @@ def main() -> None:
         if not (tree / "tooldesign_env" / "__init__.py").is_file():
             raise SystemExit(f"{name} tree {str(tree)!r} has no tooldesign_env package")
     results: dict[str, list[dict[str, float]]] = {"before": [], "after": []}
+    loops: dict[str, set[str]] = {"before": set(), "after": set()}
     for i in range(args.rounds):
         order = ("before", "after") if i % 2 == 0 else ("after", "before")
         for name in order:
-            results[name].append(run(trees[name], extra))
-    print(f"before: {trees['before']}\nafter:  {trees['after']}")
+            figures, loop = run(trees[name], extra)
+            results[name].append(figures)
+            loops[name].add(loop)
+    for name in ("before", "after"):
+        print(f"{name + ':':7s} {trees[name]} (control loop: {'; '.join(sorted(loops[name]))})")
+    if loops["before"] != loops["after"]:
+        print("WARNING: the trees ran different control loops; their times are not comparable")
     print(f"rounds: {args.rounds}, script arguments: {' '.join(extra) or '(defaults)'}")
     print(f"load average at the end: {os.getloadavg()[0]:.2f}")
     print(f"{'figure (median over rounds)':42s} {'before':>9s} {'after':>9s}")
