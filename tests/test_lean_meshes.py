@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Any
 
@@ -76,11 +77,67 @@ def test_a_lean_copy_keeps_each_shapes_hull_candidates_once_and_its_groups():
     assert lean_collision_mesh("v 1 2 3\nv 1 2 3\nf 1 2 2\n") == "v 1 2 3\nf 1 1 1\n"
 
 
-def test_points_on_a_flat_shape_all_stay():
+def test_points_on_a_flat_shape_all_stay(tmp_path):
     # Qhull has no hull of coplanar points: none is dropped, so PyBullet sees all of them.
     text = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0.5 0.5 0\nv 0.2 0.7 0\nf 1 2 3 4 5 6\n"
     lean = lean_collision_mesh(text)
     assert lean.count("\nv ") + lean.startswith("v ") == 6
+    _assert_same_shapes(text, lean, tmp_path)
+
+
+@pytest.mark.parametrize("depth", [1e-5, 1e-4, 3e-4])
+def test_a_point_just_inside_a_slanted_face_stays(tmp_path, depth):
+    # Bullet truncates points to a grid of about 1e-4 of the extent before building the hull,
+    # so a point this close inside can become a vertex: it must stay in the copy.
+    inside = (np.array([1.0, 1.0, 1.0]) / 3.0) * (1.0 - depth)  # below the face x + y + z = 1
+    text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\n" + "v {!r} {!r} {!r}\n".format(*inside.tolist())
+    text += "f 1 2 3\nf 1 2 4\nf 1 3 4\nf 2 3 4\nf 1 2 5\n"
+    lean = lean_collision_mesh(text)
+    assert lean.count("v ") == 5
+    _assert_same_shapes(text, lean, tmp_path)
+
+
+def test_a_point_deep_inside_goes(tmp_path):
+    text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nv 0.1 0.1 0.1\n"
+    text += "f 1 2 3\nf 1 2 4\nf 1 3 4\nf 2 3 4\nf 1 2 5\n"
+    lean = lean_collision_mesh(text)
+    assert lean.count("v ") == 4
+    _assert_same_shapes(text, lean, tmp_path)
+
+
+@pytest.mark.parametrize(
+    ("line", "message"),
+    [
+        ("f 1 2", "three corners"),  # Bullet skips it: its points are not the shape's
+        ("v 1 2", "three decimal numbers"),
+        ("v", "three decimal numbers"),
+        ("v 1_0 0 0", "three decimal numbers"),  # Python reads 10, atof 1
+        ("v nan 0 0", "three decimal numbers"),
+        ("v 1e39 0 0\nf 1 2 5", "not finite"),  # beyond a float
+        ("v 1 0 0 \u00e9", "printable ASCII"),
+        ("f 1 2 3x", "not an index"),
+        ("# " + "x" * 1000, "longer than"),
+        ("v 1 0 0\r", "longer than"),
+    ],
+)
+def test_a_file_pybullet_might_read_otherwise_is_refused(line, message):
+    body = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 4\n"
+    with pytest.raises(ValueError, match=message):
+        lean_collision_mesh(body + line + "\n")
+
+
+def test_the_copies_replace_collision_meshes_only(tmp_path):
+    # link0's and link7's visuals load the collision files too; a lean copy is no mesh to draw.
+    meshes = lean_collision_meshes(tmp_path)
+    assert meshes is not None
+    lean = str(tmp_path / "meshes")
+    for merge in (False, True):
+        text = panda_urdf_with_tool(None, visuals=True, meshes=meshes, merge_hand=merge)
+        visuals = "".join(re.findall(r"<visual\b.*?</visual>", text, flags=re.S))
+        collisions = "".join(re.findall(r"<collision\b.*?</collision>", text, flags=re.S))
+        assert lean not in visuals and "collision/link0.obj" in visuals
+        assert re.findall(r'filename="([^"]+)"', collisions)
+        assert all(f.startswith(lean) for f in re.findall(r'filename="([^"]+)"', collisions))
 
 
 @pytest.mark.parametrize("face", ["f 1 2 4", "f 1 2 -4", "f 0 1 2"])
@@ -131,7 +188,24 @@ def test_the_arm_loads_with_the_same_hulls_from_the_lean_copies(tmp_path):
 
 
 def _same_points(a: np.ndarray, b: np.ndarray) -> bool:
-    return bool(np.array_equal(np.unique(a, axis=0), np.unique(b, axis=0)))
+    """The same vertices, bit for bit, in any order (PyBullet lists a link's shapes' together)."""
+    return a.shape == b.shape and (
+        a.size == 0 or bool(np.array_equal(a[np.lexsort(a.T)], b[np.lexsort(b.T)]))
+    )
+
+
+def _assert_same_shapes(original: str, lean: str, folder: Path) -> None:
+    """PyBullet makes shapes of the same vertices, boxes and dynamics from both OBJ texts."""
+    paths = folder / "original.obj", folder / "lean.obj"
+    for path, text in zip(paths, (original, lean), strict=True):
+        path.write_text(text, encoding="utf-8")
+    (a, a_box, a_dynamics), (b, b_box, b_dynamics) = (
+        _hull_vertices(_one_link(path), folder)[0] for path in paths
+    )
+    assert a is not None and b is not None and len(a) >= 4
+    assert _same_points(a, b)
+    assert a_box == b_box
+    assert a_dynamics == b_dynamics
 
 
 def test_a_cloud_with_interior_points_gives_the_same_hull(tmp_path):

@@ -171,9 +171,25 @@ def panda_urdf_with_tool(
             "</joint>"
         )
         text = text.replace("</robot>", f"{tool_link_xml}\n{joint}\n</robot>")
-    for original, replacement in (meshes or {}).items():
-        text = text.replace(f'"{original}"', f'"{replacement}"')
-    return text
+    return _with_collision_meshes(text, tuple((meshes or {}).items()))
+
+
+def _with_collision_meshes(text: str, meshes: Sequence[tuple[str, str]]) -> str:
+    """``text`` with each (original, replacement) mesh path swapped inside ``<collision>``.
+
+    Only there: link0's and link7's visuals load the same files, and the lean copies are no
+    longer meshes to draw (:func:`lean_collision_mesh`).
+    """
+    if not meshes:
+        return text
+
+    def swap(block: re.Match[str]) -> str:
+        part = block.group(0)
+        for original, replacement in meshes:
+            part = part.replace(f'"{original}"', f'"{replacement}"')
+        return part
+
+    return re.sub(r"<collision\b.*?</collision>", swap, text, flags=re.S)
 
 
 #: The links that :func:`panda_urdf_with_tool` folds into ``HAND_ROOT`` with ``merge_hand``:
@@ -207,9 +223,7 @@ def _merged_panda(
     shapes, so they are read off the unmerged model, loaded once in a server of its own (so
     that no world sees an extra body), and summed exactly (:mod:`tooldesign_env.rigid_groups`).
     """
-    text = _panda_urdf(visuals)
-    for original, replacement in meshes:
-        text = text.replace(f'"{original}"', f'"{replacement}"')
+    text = _with_collision_meshes(_panda_urdf(visuals), meshes)
     world = BulletWorld(renderer=False)
     try:
         robot = world.load_robot(text)
@@ -249,18 +263,29 @@ def _without_visuals(text: str) -> str:
 
 # ------------------------------------------------------ lean copies of the collision meshes
 #: Bumped whenever :func:`lean_collision_mesh` writes something else.
-LEAN_MESH_FORMAT = 2
+LEAN_MESH_FORMAT = 3
 
-#: A vertex farther inside its shape's convex hull than this fraction of the shape's largest
-#: extent is dropped by :func:`lean_collision_mesh`. Bullet snaps points to a grid of about
-#: 2^-30 of the extent before building a hull, so no point that far inside can be a vertex.
-_INTERIOR_TOLERANCE = 1e-6
+#: A point farther inside its shape's convex hull than this fraction of the shape's largest
+#: extent is dropped by :func:`lean_collision_mesh`. Bullet's hull builder
+#: (``btConvexHullInternal::compute``) first truncates every point to a grid of 1/10216 of
+#: each axis's extent (about 1e-4), so a point inside the hull by less than a cell or two may
+#: land on it and become a vertex; ten cells keeps every such point.
+_INTERIOR_TOLERANCE = 1e-3
+
+# What Bullet's OBJ reader (tiny_obj_loader) reads as PyBullet builds it: a keyword then
+# fields separated by spaces or tabs, numbers read by atof. The lean copy is made only from
+# files in which every line read is plain: anything else raises ValueError, and
+# lean_collision_meshes then loads the original.
+_PLAIN_LINE = re.compile(r"[ -~\t]*")  # printable ASCII and tabs
+_LONGEST_LINE = 999  # Bullet reads lines with fgets into 1,024 bytes and cuts them at "\r"
+_NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
+_CORNER = re.compile(r"(-?\d+)(?:/\d*(?:/\d*)?)?")
 
 _LEAN_MESHES: dict[str, dict[str, str] | None] = {}  # per folder, once per process
 
 
 def lean_collision_mesh(text: str) -> str:
-    """An OBJ text from which PyBullet makes a collision shape of the same vertices, faster.
+    """An OBJ text from which PyBullet makes collision shapes of the same vertices, faster.
 
     PyBullet makes a mesh's collision shape from OBJ text in three steps (Bullet's
     ``tiny_obj_loader`` and ``BulletURDFImporter``): it reads the vertex positions (as floats,
@@ -270,37 +295,56 @@ def lean_collision_mesh(text: str) -> str:
     convex hull (``btConvexHullShape::optimizeConvexHull``), which is all it keeps.
 
     So this keeps, per shape, only the points that can be vertices of that hull, each once:
-    the positions of its faces' corners, less those strictly inside their convex hull (farther
-    than ``_INTERIOR_TOLERANCE`` of the shape's extent from its surface, by Qhull), written
-    with their numbers' text unchanged (so each parses to the same float) and listed by
-    triangles ``f i j k`` that exist only to name them, with the shapes' ``g``/``o`` lines.
-    Normals, texture coordinates, materials, lines, comments, repeated corners and interior
-    points, which the collision shape never holds, go. The Panda's collision meshes shrink from
-    430 KB to about 45 KB and the arm loads in about 2.1 ms instead of 4.6 ms.
+    the positions of its faces' corners, less those inside their convex hull by more than
+    ``_INTERIOR_TOLERANCE`` of the shape's extent (by Qhull), written with their numbers' text
+    unchanged (so each parses to the same float) and named by triangles ``f i j k`` that exist
+    for nothing else, with the shapes' ``g``/``o`` lines. Normals, texture coordinates,
+    materials, lines, comments, repeated corners and interior points, which the collision
+    shape never holds, go. The copy is no mesh to draw: use it for collision shapes only. The
+    Panda's collision meshes shrink from 430 KB to 49 KB and the arm loads in about 2.1 ms
+    instead of 4.6 ms.
 
     PyBullet then holds the same hull vertices, bit for bit, but not in the same order: the
     order its hull builder lists them in depends on the points it was given. Nothing the
     simulation computes without a contact depends on that order (bounding boxes and inertia
     take the extreme coordinate, whichever vertex has it); in a contact of an arm link the
     order decides only between vertices tied exactly for the farthest along a direction.
-    ``tests/test_lean_meshes.py`` compares PyBullet's vertices and bounding boxes link by link.
+    ``tests/test_lean_meshes.py`` compares PyBullet's vertices, bounding boxes and dynamics
+    link by link, and whole episodes.
 
     Raises:
-        ValueError: a face refers to a vertex that does not exist.
+        ValueError: a face refers to a vertex that does not exist, or a line that PyBullet
+            reads (``v``, ``f``, ``g``, ``o``) is not plain: characters other than printable
+            ASCII and tabs, a vertex without three plain decimal numbers or not finite as a
+            float, a face with fewer than three corners or a corner that is not an index; or
+            any line is 1,000 characters or longer or holds a carriage return (Bullet would
+            split it).
     """
     positions: list[str] = []  # the text "x y z" of every vertex, in file order
     groups: list[tuple[str | None, list[int]]] = [(None, [])]  # (g/o line, corner vertices)
-    for number, raw in enumerate(text.splitlines(), start=1):
+    for number, raw in enumerate(text.split("\n"), start=1):
+        if len(raw) > _LONGEST_LINE or "\r" in raw:
+            raise ValueError(f"line {number}: longer than {_LONGEST_LINE} characters, or a \\r")
         fields = raw.split()
-        if not fields:
-            continue
+        if not fields or fields[0] not in ("v", "f", "g", "o"):
+            continue  # comments, normals, materials...: the collision import skips them
+        if not _PLAIN_LINE.fullmatch(raw):
+            raise ValueError(f"line {number}: not a plain line of printable ASCII: {raw[:80]!r}")
         kind = fields[0]
         if kind == "v":
-            positions.append(" ".join(fields[1:4]))
+            coordinates = fields[1:4]
+            if len(coordinates) < 3 or not all(_NUMBER.fullmatch(c) for c in coordinates):
+                raise ValueError(f"line {number}: a vertex needs three decimal numbers: {raw!r}")
+            positions.append(" ".join(coordinates))
         elif kind == "f":
+            if len(fields) < 4:
+                raise ValueError(f"line {number}: a face needs three corners or more: {raw!r}")
             corners = groups[-1][1]
             for corner in fields[1:]:
-                i = int(corner.split("/", 1)[0])
+                match = _CORNER.fullmatch(corner)
+                if match is None:
+                    raise ValueError(f"line {number}: face corner {corner!r} is not an index")
+                i = int(match.group(1))
                 i = i - 1 if i > 0 else len(positions) + i  # OBJ counts from 1, or from the end
                 if not 0 <= i < len(positions):
                     raise ValueError(
@@ -308,7 +352,7 @@ def lean_collision_mesh(text: str) -> str:
                         f"but {len(positions)} are defined so far"
                     )
                 corners.append(i)
-        elif kind in ("g", "o"):
+        else:
             groups.append((raw.strip(), []))
     out: list[str] = []
     index: dict[str, int] = {}  # position text -> its 1-based index in the copy
@@ -316,8 +360,7 @@ def lean_collision_mesh(text: str) -> str:
         if line is not None:
             out.append(line)
         # Each distinct position once, in the order of first use.
-        texts = list(dict.fromkeys(positions[i] for i in corners))
-        kept = _hull_candidates(texts)
+        kept = _hull_candidates(list(dict.fromkeys(positions[i] for i in corners)))
         for position in kept:
             if position not in index:
                 index[position] = len(index) + 1
@@ -330,21 +373,22 @@ def lean_collision_mesh(text: str) -> str:
 
 
 def _hull_candidates(texts: list[str]) -> list[str]:
-    """The positions of ``texts`` that are not strictly inside their convex hull, in order.
+    """The positions of ``texts`` not inside their convex hull by more than the tolerance.
 
-    All of them if they span less than three dimensions (Qhull has no hull to offer) or if
-    one is not three numbers (what PyBullet makes of it is left to PyBullet).
+    In their order; all of them if they span less than three dimensions (Qhull has no hull to
+    offer).
+
+    Raises:
+        ValueError: a position is not finite as a float.
     """
     from scipy.spatial import ConvexHull, QhullError  # once per process: lean_collision_meshes
 
+    # As PyBullet reads them: (float)atof, a double rounded to a float.
+    doubles = np.array([[float(v) for v in t.split()] for t in texts], dtype=np.float64)
+    if not (np.abs(doubles) <= np.finfo(np.float32).max).all():
+        raise ValueError("a vertex position is not finite as a float")
+    points = doubles.astype(np.float32).astype(np.float64)
     if len(texts) < 5:
-        return texts
-    try:
-        # As PyBullet reads them: (float)atof.
-        points = np.array([[np.float32(v) for v in t.split()] for t in texts], dtype=np.float64)
-    except ValueError:
-        return texts
-    if points.ndim != 2 or points.shape[1] != 3 or not np.isfinite(points).all():
         return texts
     extent = float(np.ptp(points, axis=0).max())
     try:

@@ -43,7 +43,7 @@ FIGURES = (
 )
 
 
-LOOP = re.compile(r"control loop: ([^\n]*)")
+LOOP = re.compile(r"control loop: ([^;\n]*)")
 
 
 def run(tree: Path, extra: list[str]) -> tuple[dict[str, float], str]:
@@ -58,7 +58,10 @@ def run(tree: Path, extra: list[str]) -> tuple[dict[str, float], str]:
         if match:
             figures[label] = float(match.group(1))
     loop = LOOP.search(out)
-    return figures, loop.group(1).strip() if loop else "not printed"
+    if loop is None:
+        return figures, "not printed"
+    # "native", or "Python loop: <why>", whose reason may name the tree's own files.
+    return figures, "C" if loop.group(1).strip() == "native" else "Python"
 
 
 def main() -> None:
