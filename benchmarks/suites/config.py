@@ -36,6 +36,7 @@ from typing import Any, cast
 import numpy as np
 
 from benchmarks.design import DesignConfig
+from benchmarks.design.config import ADDED_FIELDS as DESIGN_ADDED_FIELDS
 from benchmarks.design.config import check_section_shape, recorded_scene
 from benchmarks.execution import TaskSettings
 from benchmarks.storage import with_added_fields
@@ -72,13 +73,9 @@ RUNTIME_FIELDS: frozenset[str] = frozenset({"executor", "workers", "scheduler", 
 #: many seeds there are, so a suite grows by the runs of the new seeds alone.
 GROWABLE_FIELDS: frozenset[str] = frozenset({"n_seeds"})
 
-#: Config fields added after suites were first stored, with the value older suites had; a table
-#: adds its keys to the stored table (see ``benchmarks.design.config.ADDED_FIELDS``).
-ADDED_FIELDS: dict[str, Any] = {
-    "scene_samples": 1,
-    "scene": {"merge_fixed_links": False},
-    "section_shape": "square",
-}
+#: Config fields added after suites were first stored, with the value older suites had: those of
+#: a design run's config, added at the same times (``benchmarks.design.config.ADDED_FIELDS``).
+ADDED_FIELDS: dict[str, Any] = dict(DESIGN_ADDED_FIELDS)
 
 
 SUITE_KIND = "suite"
