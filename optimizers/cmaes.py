@@ -97,3 +97,33 @@ class CMAES(Optimizer):
         import cma
 
         return {"cma": str(cma.__version__)}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        # pycma files the solutions it asked under hash(x.tobytes()), which Python salts per
+        # process: unpickled in another process, a pending generation would no longer be found
+        # and pycma would take the told solutions for foreign ("injected") ones, so the run
+        # would continue otherwise than uninterrupted. File them again under this process's hash.
+        self.__dict__.update(state)
+        _rehash_solution_dicts(self._es)
+
+
+def _rehash_solution_dicts(root: Any) -> None:
+    """Re-key every pycma ``SolutionDict`` reachable from ``root`` with this process's hash."""
+    from cma.utilities.utils import SolutionDict
+
+    seen: set[int] = set()
+    stack = [root]
+    while stack:
+        obj = stack.pop()
+        if id(obj) in seen:
+            continue
+        seen.add(id(obj))
+        if isinstance(obj, SolutionDict):
+            remap = {old: obj.key(x) for old, x in obj._unhashed_keys.items()}
+            obj.data = {remap.get(k, k): v for k, v in obj.data.items()}
+            obj.data_with_same_key = {remap.get(k, k): v for k, v in obj.data_with_same_key.items()}
+            obj._unhashed_keys = {remap[k]: x for k, x in obj._unhashed_keys.items()}
+            continue
+        # Only pycma's own objects are searched: its solution dicts hang off them.
+        if type(obj).__module__.split(".")[0] == "cma":
+            stack.extend(vars(obj).values() if hasattr(obj, "__dict__") else ())
