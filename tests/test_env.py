@@ -15,7 +15,7 @@ import pytest
 from scipy.stats import spearmanr
 
 import tooldesign_env
-from tooldesign_env import ObjectiveSpec, SceneSpec, ToolDesignEnv
+from tooldesign_env import ObjectiveSpec, SceneSpec, ToolDesignEnv, evaluate_robustness, make_tool
 from tooldesign_env.env import SERIES_KEYS
 
 STRAIGHT = (0.0, 0.0, 0.0)
@@ -334,6 +334,27 @@ def test_robustness_metrics():
     assert result.robustness < 0 and result.accuracy < 0 and result.control_deviation > 0
     with pytest.raises(ValueError, match="masses"):
         e.unwrapped.evaluate_robustness(STRAIGHT, masses=(0.3, -1.0))
+    e.close()
+
+
+@pytest.mark.parametrize(
+    ("coeffs", "match"),
+    [
+        # step() reports it invalid: it lies on the box where the sweep starts.
+        ([1.5, 1.5, 0.5], "overlaps the box at the start of the sweep"),
+        # The tube folds over itself (only reachable with wider bounds).
+        ([-7.15474143, 54.5508592, -0.0125023575], "cannot be built"),
+    ],
+)
+def test_robustness_refuses_a_design_that_is_not_a_tool(coeffs, match):
+    e = ToolDesignEnv(bounds=[[-100.0, 100.0]] * 3)
+    e.reset(seed=0)
+    assert not e.step(coeffs)[4]["valid"]
+    with pytest.raises(ValueError, match=match):
+        e.evaluate_robustness(coeffs, masses=(0.3,))
+    geometry = make_tool(coeffs, e.tool_spec)
+    with pytest.raises(ValueError, match=match):
+        evaluate_robustness(e.simulator, geometry, (0.5, 0.0, 0.0), masses=(0.3,))
     e.close()
 
 

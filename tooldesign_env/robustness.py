@@ -85,12 +85,27 @@ def evaluate_robustness(
         goal: X^g (3,), m.
         masses: the altered masses m_i, kg; each finite and > 0.
         nominal_mass: m, kg; the scene's box mass if None.
+
+    Raises:
+        ValueError: bad masses, or a design that is not a usable tool (as ``env.step`` reports
+            it invalid): one that cannot be built, or that overlaps the box where the sweep
+            starts. Its numbers would describe a tool that cannot exist.
     """
     masses = tuple(float(m) for m in masses)
     if not masses or not all(math.isfinite(m) and m > 0 for m in masses):
         raise ValueError(f"masses must be a non-empty list of finite masses > 0 kg, got {masses}")
     m0 = simulator.scene.box_mass if nominal_mass is None else float(nominal_mass)
-    nominal = simulator.rollout(geometry, box_mass=m0)
+    if not geometry.buildable:
+        raise ValueError(
+            f"the design {geometry.coeffs.tolist()} cannot be built "
+            f"({geometry.why_not_buildable}): it has no robustness"
+        )
+    if simulator.build(geometry, box_mass=m0):
+        raise ValueError(
+            f"the design {geometry.coeffs.tolist()} overlaps the box at the start of the "
+            "sweep, so it is not a usable tool: it has no robustness"
+        )
+    nominal = simulator.run()
     perturbed = tuple(simulator.rollout(geometry, box_mass=m) for m in masses)
     rob, acc, dev = robustness_metrics(nominal, perturbed, goal)
     return RobustnessResult(
