@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import copy
 import json
 import os
+import pickle
 import subprocess
 import sys
 import tempfile
@@ -356,6 +358,22 @@ def test_robustness_refuses_a_design_that_is_not_a_tool(coeffs, match):
     with pytest.raises(ValueError, match=match):
         evaluate_robustness(e.simulator, geometry, (0.5, 0.0, 0.0), masses=(0.3,))
     e.close()
+
+
+@pytest.mark.parametrize("how", ["copy", "deepcopy", "pickle"])
+def test_an_env_refuses_to_be_copied_since_it_owns_its_connection(env, how):
+    # A copy shared the PyBullet client: closing it (or collecting it) disconnected the original.
+    copies = {"copy": copy.copy, "deepcopy": copy.deepcopy, "pickle": pickle.dumps}
+    inner = env.unwrapped
+    # A shallow copy of gymnasium's wrapper shares the env inside, as any shallow copy would.
+    wrapper = () if how == "copy" else (env,)
+    rl = gym.make("ToolDesignRL-v0")
+    for obj in (*wrapper, inner, inner.simulator, inner.simulator.world, rl.unwrapped):
+        with pytest.raises(TypeError, match="cannot be copied or pickled"):
+            copies[how](obj)
+    rl.close()
+    env.reset(seed=0)
+    assert np.isfinite(env.step(np.zeros(3))[1])  # the original still works
 
 
 def test_no_temporary_files_are_left(env, tmp_path, monkeypatch):

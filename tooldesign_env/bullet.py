@@ -569,6 +569,19 @@ class ControlCalls(NamedTuple):
     contacts: Callable[[], Any]
 
 
+def not_copyable(what: str) -> TypeError:
+    """The refusal of copy, deepcopy and pickle for ``what``, which holds a PyBullet connection.
+
+    Raised from ``__reduce_ex__``, which copy, deepcopy and pickle all go through.
+    """
+    return TypeError(
+        f"{what} holds its own connection to a PyBullet server, which cannot be copied or "
+        "pickled (the copy would share the connection, and closing either would break the "
+        "other); make another with the same arguments instead (an env: gym.make with the "
+        "same id and keywords)"
+    )
+
+
 class BulletWorld:
     """A PyBullet physics client and the bodies of one scene.
 
@@ -582,7 +595,14 @@ class BulletWorld:
             renderer makes a visual from every collision shape that has no visual of its own,
             which cost about 6 ms of a 13 ms load of the Panda with its tool. Physics never
             reads visuals, so results are the same bit for bit.
+
+    A world owns its connection: it cannot be copied or pickled (a copy would share the
+    connection, and closing either would break the other), so each env, simulator or world is
+    made anew, from the same arguments.
     """
+
+    def __reduce_ex__(self, protocol: Any) -> Any:
+        raise not_copyable("a BulletWorld")
 
     def __init__(
         self,

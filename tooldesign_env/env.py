@@ -13,6 +13,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from tooldesign_env.bullet import not_copyable
 from tooldesign_env.geometry import ToolGeometry, ToolSpec, make_tool, validate_coefficients
 from tooldesign_env.objective import (
     ObjectiveTerms,
@@ -177,6 +178,9 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 4}
+
+    def __reduce_ex__(self, protocol: Any) -> Any:
+        raise not_copyable("a ToolDesignEnv")
 
     def __init__(
         self,

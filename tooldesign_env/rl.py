@@ -18,6 +18,7 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.vector import VectorEnv
 
+from tooldesign_env.bullet import not_copyable
 from tooldesign_env.env import GOAL_HIGH, GOAL_LOW, WORKSPACE_HIGH, WORKSPACE_LOW, ToolDesignEnv
 from tooldesign_env.specs import BOX_MASS_MAX, TaskSpec
 
@@ -132,6 +133,9 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 4}
+
+    def __reduce_ex__(self, protocol: Any) -> Any:
+        raise not_copyable("a ToolDesignRLEnv")
 
     def __init__(
         self,

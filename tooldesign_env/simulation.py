@@ -27,6 +27,7 @@ from tooldesign_env.bullet import (
     engine_version,
     lean_collision_meshes,
     merged_hand_inertia,
+    not_copyable,
     panda_urdf_with_tool,
     robot_model_digest,
     rotation_matrices,
@@ -339,6 +340,9 @@ class ToolSimulator:
             cannot run); False always runs the Python loop. Both give the same results bit for
             bit; the C loop is faster. :attr:`native_status` says which one ran.
     """
+
+    def __reduce_ex__(self, protocol: Any) -> Any:
+        raise not_copyable("a ToolSimulator")
 
     def __init__(
         self,
