@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import itertools
 import json
 import os
 import pickle
@@ -227,6 +228,27 @@ def test_out_of_bounds_message_says_what_is_allowed(env):
     env.reset(seed=0)
     with pytest.raises(ValueError, match=r"outside the action space.*\[low, high\]"):
         env.step([2.0, 0.0, 0.0])
+
+
+def test_an_action_past_a_bound_by_rounding_is_that_bound():
+    # Found by an audit: RescaleAction's corners (and a float32 copy of a bound) landed a few
+    # ulps outside custom bounds, and 9 of 12 corner actions were refused.
+    bounds = [[0.1, 0.7], [-0.3, 1.1], [-0.13, 0.37]]
+    e = ToolDesignEnv(bounds=bounds)
+    low, high = np.array(bounds).T
+    rescaled = gym.wrappers.RescaleAction(e, -1.0, 1.0)
+    for corner in itertools.product((-1.0, 1.0), repeat=3):
+        coeffs = e.check_action(rescaled.action(np.array(corner)))
+        assert np.all((low <= coeffs) & (coeffs <= high))
+        assert np.allclose(coeffs, np.where(np.array(corner) > 0, high, low), rtol=0, atol=1e-12)
+    single = e.check_action(high.astype(np.float32))  # 0.37 -> 0.3700000047, past the bound
+    assert np.all(single <= high) and np.allclose(single, high, rtol=0, atol=1e-7)
+    inside = np.array([0.3, 0.2, 0.1])
+    assert np.array_equal(e.check_action(inside), inside)  # untouched inside the bounds
+    # Past the rounding slack (1e-6 of the bounds' scale) an action is refused, not clipped.
+    with pytest.raises(ValueError, match="outside the action space"):
+        e.check_action(high + [0.0, 0.0, 2e-6])
+    e.close()
 
 
 def test_a_tool_overlapping_the_box_is_invalid_not_a_crash():

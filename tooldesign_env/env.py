@@ -36,6 +36,7 @@ from tooldesign_env.specs import (
 )
 
 __all__ = [
+    "ACTION_ROUNDING",
     "GOAL_HIGH",
     "GOAL_LOW",
     "SERIES_KEYS",
@@ -44,6 +45,11 @@ __all__ = [
     "ToolDesignEnv",
     "default_bounds",
 ]
+
+#: How far past a bound an action may lie and still be taken as that bound, relative to the
+#: larger of the bounds' magnitudes and their width: rounding only. A float32 copy of a bound is
+#: off by up to 6e-8 of it, gymnasium's RescaleAction by a few float64 ulps.
+ACTION_ROUNDING = 1e-6
 
 #: ``info`` keys of the per-step series and trajectories, there only with ``info_series=True``.
 SERIES_KEYS: tuple[str, ...] = (
@@ -119,7 +125,9 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
     first. Default bounds (``default_bounds``): c1, c2 in [-1.5, 1.5], c3 in [-0.5, 0.5].
     Actions with NaN or inf, the wrong shape or a non-numeric type, or outside the bounds,
     raise ``ValueError`` / ``TypeError`` (rescale an agent's [-1, 1] output with
-    ``gymnasium.wrappers.RescaleAction``).
+    ``gymnasium.wrappers.RescaleAction``). An action past a bound by rounding only, at most
+    ``ACTION_ROUNDING`` (1e-6) of the bounds' scale, is the bound: RescaleAction's arithmetic
+    or a float32 copy of a bound lands a few ulps outside.
 
     ## Observation Space
 
@@ -403,14 +411,16 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
         coeffs = validate_coefficients(action, self.tool_spec.degree)
         assert isinstance(self.action_space, spaces.Box)
         low, high = self.action_space.low, self.action_space.high
-        outside = (coeffs < low) | (coeffs > high)
+        # Rounding past a bound (a rescaled or float32 action) is taken as the bound itself.
+        slack = ACTION_ROUNDING * np.maximum(np.maximum(np.abs(low), np.abs(high)), high - low)
+        outside = (coeffs < low - slack) | (coeffs > high + slack)
         if np.any(outside):
             raise ValueError(
                 f"action {coeffs.tolist()} is outside the action space: each c_i must lie in "
                 f"[low, high] = {np.stack([low, high], 1).tolist()}; clip it, or make the env "
                 "with wider bounds=..."
             )
-        return coeffs
+        return np.clip(coeffs, low, high)
 
     def evaluate_geometry(self, geometry: ToolGeometry, *, series: bool = True) -> dict[str, Any]:
         """Simulate and score a tool for the current task.
