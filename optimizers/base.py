@@ -40,6 +40,7 @@ from typing import Any, ClassVar, TypeVar, cast
 import numpy as np
 
 from ._validation import (
+    VALUE_MAX,
     SeedLike,
     check_batch_size,
     check_bounds,
@@ -124,6 +125,10 @@ class FailurePolicy:
     included) and ``spread = worst - best`` (``max(|worst|, 1)`` while all are equal); and
     ``fallback`` while no finite value has been told yet.
 
+    Like a told value, a penalty lies within +-1e100 (``VALUE_MAX``): ``fallback`` and ``fixed``
+    beyond it are refused, and the adaptive penalty stops at it (a Gaussian process fitted to
+    1e155 and 1 sees NaN).
+
     Attributes:
         margin: Fraction of the spread added to the worst value, >= 0.
         fallback: Penalty before any finite value is known; choose it above any real value.
@@ -143,6 +148,11 @@ class FailurePolicy:
                 raise TypeError(f"FailurePolicy.{name} must be a number, got {value!r}")
             if not math.isfinite(value):
                 raise ValueError(f"FailurePolicy.{name} must be finite, got {value!r}")
+            if name != "margin" and abs(value) > VALUE_MAX:
+                raise ValueError(
+                    f"FailurePolicy.{name} must lie within +-{VALUE_MAX:g}, as told values do, "
+                    f"got {value!r}"
+                )
         if self.margin < 0:
             raise ValueError(f"FailurePolicy.margin must be >= 0, got {self.margin!r}")
 
@@ -164,8 +174,8 @@ class FailurePolicy:
         if not spread > 0:
             spread = max(abs(worst), 1.0)
         value = worst + self.margin * spread
-        # Huge objective values must not overflow the penalty to inf.
-        return float(value) if math.isfinite(value) else float(np.finfo(np.float64).max)
+        # Huge values or margins must not take the penalty past what a backend can fit.
+        return float(min(value, VALUE_MAX))
 
 
 class Optimizer(abc.ABC):

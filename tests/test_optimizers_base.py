@@ -102,6 +102,8 @@ def test_plugin_limits_are_enforced() -> None:
         ({"fallback": math.inf}, ValueError),
         ({"fixed": "big"}, TypeError),
         ({"margin": True}, TypeError),
+        ({"fixed": 1e155}, ValueError),  # beyond what a told value may be (VALUE_MAX)
+        ({"fallback": -1e101}, ValueError),
     ],
 )
 def test_failure_policy_rejects_bad_settings(kwargs, error) -> None:  # type: ignore[no-untyped-def]
@@ -118,6 +120,9 @@ def test_failure_policy_penalty_values() -> None:
     assert FailurePolicy(fixed=7.0).penalty(1.0, 3.0) == 7.0
     assert FailurePolicy(margin=1.0, fallback=5.0).penalty(None, None) == 5.0
     assert math.isfinite(policy.penalty(-1e308, 1.7e308))
+    # A huge margin stops at VALUE_MAX, where backends still fit their models.
+    assert FailurePolicy(margin=1e300).penalty(0.0, 1.0) == 1e100
+    assert FailurePolicy(fixed=-1e100).penalty(0.0, 1.0) == -1e100
 
 
 # --- ask ---------------------------------------------------------------------------------------

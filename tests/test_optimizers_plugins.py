@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 import optimizers
-from optimizers import testing
+from optimizers import FailurePolicy, testing
 from optimizers.testing import BOUNDS, shifted_sphere
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -226,6 +226,17 @@ def test_a_state_saved_with_points_pending_continues_exactly_in_another_process(
 
     python(SAVE_PENDING, name, str(state), hash_seed="5")
     assert json.loads(python(CONTINUE_PENDING, str(state), hash_seed="6")) == expected
+
+
+@pytest.mark.parametrize("policy", [{"margin": 1e300}, {"fixed": 1e100}])
+def test_every_optimizer_survives_the_largest_failure_penalty(policy: dict[str, float]) -> None:
+    # bo's Gaussian process saw NaN once penalties passed about 1e155 (an audit of issue 3).
+    for name in sorted(optimizers.available()):
+        optimizer = optimizers.make(
+            name, bounds=BOUNDS, batch_size=4, seed=0, failure_policy=FailurePolicy(**policy)
+        )
+        run(optimizer, 4, fail_first=True)
+        assert optimizer.n_failed == 4 and math.isfinite(optimizer.recommend().value)
 
 
 # --- pso ---------------------------------------------------------------------------------------
