@@ -454,7 +454,9 @@ class Optimizer(abc.ABC):
         """Scores of asked points (to minimize).
 
         Any subset of the pending ids may be told, in any order, each once; an empty tell does
-        nothing. Nothing changes if an argument is rejected.
+        nothing. Nothing changes if an argument is rejected, and if the backend (the plugin's
+        ``_tell``) raises, the points stay pending and uncounted, so the same tell may be tried
+        again; what the backend did to itself before it raised is the plugin's to undo.
 
         Args:
             ids: Ids from :meth:`ask`, e.g. ``batch.ids``.
@@ -479,21 +481,26 @@ class Optimizer(abc.ABC):
                 )
         if not ids_t:
             return
-        u = np.array([self._pending.pop(i) for i in ids_t])
-        self._record(ids_t, u, vals, failed)
-        if self.generational:
-            self._held.extend(zip(ids_t, u, vals, failed, strict=True))
-            if not self._pending:
-                held = sorted(self._held, key=lambda item: item[0])
-                self._held = []
-                self._feed(
-                    tuple(int(item[0]) for item in held),
-                    np.array([item[1] for item in held]),
-                    np.array([item[2] for item in held]),
-                    np.array([item[3] for item in held]),
-                )
-        else:
-            self._feed(ids_t, u, vals, failed)
+        saved = self._bookkeeping()
+        try:
+            u = np.array([self._pending.pop(i) for i in ids_t])
+            self._record(ids_t, u, vals, failed)
+            if self.generational:
+                self._held.extend(zip(ids_t, u, vals, failed, strict=True))
+                if not self._pending:
+                    held = sorted(self._held, key=lambda item: item[0])
+                    self._held = []
+                    self._feed(
+                        tuple(int(item[0]) for item in held),
+                        np.array([item[1] for item in held]),
+                        np.array([item[2] for item in held]),
+                        np.array([item[3] for item in held]),
+                    )
+            else:
+                self._feed(ids_t, u, vals, failed)
+        except BaseException:
+            self._restore(saved)
+            raise
 
     def recommend(self) -> Recommendation:
         """The incumbent: the best finite value told so far.
@@ -681,6 +688,37 @@ class Optimizer(abc.ABC):
                 f"(min {array.min()}, max {array.max()})"
             )
         return np.clip(array, 0.0, 1.0)
+
+    def _bookkeeping(self) -> tuple[Any, ...]:
+        """What :meth:`tell` changes in this class, copied, for :meth:`_restore`."""
+        return (
+            dict(self._pending),
+            dict(self._batch_of),
+            dict(self._open),
+            list(self._held),
+            self._iteration,
+            self._n_told,
+            self._n_failed,
+            self._best_value,
+            self._worst_value,
+            self._best_id,
+            self._best_x,
+        )
+
+    def _restore(self, saved: tuple[Any, ...]) -> None:
+        (
+            self._pending,
+            self._batch_of,
+            self._open,
+            self._held,
+            self._iteration,
+            self._n_told,
+            self._n_failed,
+            self._best_value,
+            self._worst_value,
+            self._best_id,
+            self._best_x,
+        ) = saved
 
     def _record(
         self, ids: tuple[int, ...], u: np.ndarray, values: np.ndarray, failed: np.ndarray

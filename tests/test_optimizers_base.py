@@ -416,3 +416,45 @@ def test_save_state_into_a_folder_or_a_missing_folder_fails_clearly(tmp_path) ->
 def test_repr_names_the_class_and_counts() -> None:
     text = repr(Recorder(BOUNDS, batch_size=3, seed=0))
     assert text.startswith("Recorder(") and "batch_size=3" in text and "n_told=0" in text
+
+
+# --- a backend that raises while told -------------------------------------------------------
+
+
+@pytest.mark.parametrize("cls", [Recorder, Generational])
+def test_a_tell_whose_backend_raises_is_undone_and_can_be_retried(cls) -> None:  # type: ignore[no-untyped-def]
+    from optimizers import PluginError
+
+    class Flaky(cls):  # type: ignore[misc, valid-type]
+        fail_next = False
+
+        def _tell(self, ids, x, values, failed) -> None:  # type: ignore[no-untyped-def]
+            if self.fail_next:
+                self.fail_next = False
+                raise RuntimeError("a transient backend error")
+            super()._tell(ids, x, values, failed)
+
+    steady, flaky = cls(BOUNDS, batch_size=3, seed=0), Flaky(BOUNDS, batch_size=3, seed=0)
+    for optimizer in (steady, flaky):
+        optimizer.tell(*_first_batch(optimizer))
+    batch = flaky.ask()
+    steady_batch = steady.ask()
+    values = [3.0, None, 1.0]
+    flaky.fail_next = True
+    with pytest.raises(PluginError, match="transient"):
+        flaky.tell(batch.ids, values)
+    # Nothing of the failed tell stays: the points are pending, nothing is counted.
+    assert flaky.pending_ids == batch.ids and flaky.n_told == 3 and flaky.n_failed == 0
+    assert flaky.iteration == 1 and flaky.recommend().value == steady.recommend().value
+    flaky.tell(batch.ids, values)  # the retry goes through, as if nothing had failed
+    steady.tell(steady_batch.ids, values)
+    assert (flaky.n_told, flaky.n_failed, flaky.iteration) == (6, 1, 2)
+    assert flaky.recommend().value == steady.recommend().value == 1.0
+    assert [t[0] for t in flaky.told] == [t[0] for t in steady.told]
+    for got, want in zip(flaky.told, steady.told, strict=True):
+        assert all(np.array_equal(a, b) for a, b in zip(got[1:], want[1:], strict=True))
+
+
+def _first_batch(optimizer: Optimizer) -> tuple[tuple[int, ...], list[float]]:
+    batch = optimizer.ask()
+    return batch.ids, [5.0, 4.0, 6.0]
