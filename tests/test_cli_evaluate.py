@@ -93,3 +93,19 @@ def test_the_api_refuses_a_design_outside_the_bounds_as_env_step_does(tmp_path):
     with pytest.raises(ValueError, match="outside the default bounds.*--outside-bounds"):
         evaluate([0.0, 0.0, 3.0], tmp_path / "x")
     assert not (tmp_path / "x").exists()
+
+
+def test_a_folder_that_is_not_empty_is_refused_and_left_as_it_was(tmp_path, capsys):
+    # Evaluating into a design run's folder replaced its tool.stl, tool.obj, tool.urdf and
+    # report.html without a word (an audit of issue 10); into an earlier evaluation's, it mixed
+    # the two designs' files.
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / "design.json").write_text('{"coefficients": [0.0, 1.5, 0.0]}')
+    (out / "tool.stl").write_bytes(b"solid tool\nendsolid tool\n")
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    with pytest.raises(SystemExit) as excinfo:
+        main(["evaluate", "--coeffs", "0", "0", "0", "--out", str(out)])
+    assert excinfo.value.code == 2
+    assert "is not empty" in capsys.readouterr().err
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before

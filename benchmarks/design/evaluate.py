@@ -123,10 +123,17 @@ def evaluate_coefficients(
 
     Raises:
         ValueError: the design is malformed, or outside the bounds without ``outside_bounds``,
-            or ``out`` is an existing file.
+            or ``out`` is an existing file or a folder that is not empty.
         TypeError: ``out`` is not a path.
     """
     out = check_out_dir(out)  # before the simulation: a file named like the folder is refused
+    if out.is_dir() and any(out.iterdir()):
+        # Its files would replace another run's (a design run's tool.stl beside its own
+        # design.json) or mix with an earlier evaluation's (a robustness.json of another design).
+        raise ValueError(
+            f"--out {out} exists and is not empty; tooldesign evaluate writes a folder of its "
+            "own: give a new folder, or delete this one first"
+        )
     scene_pairs = recorded_scene(scene or {})  # checked: a bad field or value is refused here
     scene_override = scene_spec(scene_pairs)
     spec = ToolSpec(
