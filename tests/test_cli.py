@@ -7,6 +7,7 @@ import re
 import subprocess
 import sys
 
+import pandas as pd
 import pytest
 
 from benchmarks.cli import COMMANDS, build_parser, main
@@ -75,3 +76,24 @@ def test_a_lost_or_mismatched_dask_cluster_is_one_line(monkeypatch, capsys, erro
     assert exit_info.value.code == 1
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "error:" in err
+
+
+def test_a_design_run_whose_every_evaluation_fails_ends_in_one_line(
+    tmp_path, monkeypatch, capsys
+):
+    # It ended in a RuntimeError traceback (an audit of issue 10).
+    from tooldesign_env import ToolDesignEnv
+
+    def broken(self, action):
+        raise RuntimeError("no simulation survives this setting")
+
+    monkeypatch.setattr(ToolDesignEnv, "step", broken)
+    out = tmp_path / "run"
+    argv = ["design", "--iterations", "1", "--batch-size", "2", "--executor", "serial"]
+    with pytest.raises(SystemExit) as excinfo:
+        main([*argv, "--no-progress", "--out", str(out)])
+    assert excinfo.value.code == 1
+    err = capsys.readouterr().err
+    assert "no design of the run could be evaluated" in err and "Traceback" not in err
+    log = pd.read_csv(next(out.rglob("*.csv")))
+    assert set(log["status"]) == {"failed"} and len(log) == 2  # the log says why

@@ -145,12 +145,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         print("interrupted", file=sys.stderr)
         return 130
     except RuntimeError as exc:
+        from benchmarks.design.stepper import NothingEvaluated
         from benchmarks.execution.errors import ClusterMismatch
         from optimizers import PluginError
 
-        # A third-party optimizer failed (its message names the plugin and the hook), or a
-        # worker of the Dask cluster runs other code (the message names it and the difference).
-        if not isinstance(exc, (PluginError, ClusterMismatch)):
+        # A third-party optimizer failed (its message names the plugin and the hook), a worker
+        # of the Dask cluster runs other code (the message names it and the difference), or no
+        # evaluation of a run succeeded (the message points to the log, which says why).
+        if not isinstance(exc, (PluginError, ClusterMismatch, NothingEvaluated)):
             raise
         parser.exit(1, f"tooldesign {args.command}: error: {exc}\n")
     except BaseException as exc:

@@ -142,7 +142,7 @@ def run_design(
         TypeError: If ``config`` is not a :class:`DesignConfig` or ``out_dir`` not a path.
         ValueError: If ``out_dir`` is not empty and ``resume`` is false, the optimizer is
             unknown, or (:class:`ResumeError`) the folder cannot be resumed with ``config``.
-        RuntimeError: If no design of the run could be evaluated at all.
+        NothingEvaluated: (a RuntimeError) If no design of the run could be evaluated at all.
     """
     if not isinstance(config, DesignConfig):
         raise TypeError(f"config must be a DesignConfig, got {type(config).__name__}")

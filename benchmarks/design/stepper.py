@@ -222,6 +222,13 @@ def best_evaluation(evaluations: pd.DataFrame) -> pd.Series:
     return _best_row(evaluations)
 
 
+class NothingEvaluated(RuntimeError):
+    """Every evaluation of a run failed, so it has no design to report.
+
+    A setting that no simulation survives, for example; the evaluation log says why.
+    """
+
+
 def _best_row(evaluations: pd.DataFrame) -> pd.Series:
     """The lowest-F valid evaluation (the first in log order on ties)."""
     finite = evaluations[np.isfinite(evaluations["free_energy"])]
@@ -235,7 +242,7 @@ def _best_row(evaluations: pd.DataFrame) -> pd.Series:
             stacklevel=3,
         )
         return finite.loc[finite["free_energy"].idxmin()]
-    raise RuntimeError(
+    raise NothingEvaluated(
         "no design of the run could be evaluated (every evaluation failed); see the status "
         "column of the evaluation log and the warnings above"
     )
