@@ -445,3 +445,22 @@ def test_a_fresh_physics_server_gives_the_same_result(monkeypatch):
     np.testing.assert_array_equal(before["box_trajectory"], after["box_trajectory"])
     assert before["free_energy"] == after["free_energy"]
     e.close()
+
+
+def test_masked_values_and_boolean_seeds_are_refused(env):
+    # np.asarray passed on the value under a mask, and seed=True was taken as the seed 1 (an
+    # audit of issue 10).
+    with pytest.raises(TypeError, match="seed must be an int"):
+        env.reset(seed=True)
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match=r"masked values at index \[0\]"):
+        env.step(np.ma.masked_array([0.1, 0.0, 0.0], mask=[1, 0, 0]))
+    with pytest.raises(ValueError, match="masked values"):
+        env.reset(options={"goal": np.ma.masked_array([0.0, 1.5, 0.1], mask=[0, 0, 1])})
+    unmasked = np.ma.masked_array([0.0, 0.0, 0.0], mask=[0, 0, 0])
+    env.reset(seed=0)
+    assert env.step(unmasked)[1] == env.step(np.zeros(3))[1]
+    rl = gym.make("ToolDesignRL-v0")
+    with pytest.raises(TypeError, match="seed must be an int"):
+        rl.reset(seed=np.bool_(True))
+    rl.close()

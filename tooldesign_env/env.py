@@ -287,6 +287,8 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
             seed: seeds ``self.np_random`` (used for goal randomization).
             options: ``{"goal": (x, y, z)}`` and/or ``{"box_mass": kg}`` for this episode.
         """
+        if isinstance(seed, (bool, np.bool_)):  # numpy would take True for the seed 1
+            raise TypeError(f"seed must be an int >= 0 or None, got {seed!r}")
         super().reset(seed=seed)
         options = dict(options or {})
         unknown = set(options) - {"goal", "box_mass"}
@@ -534,6 +536,10 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
             hasattr(goal, "__iter__") and any(isinstance(v, (bool, np.bool_, str)) for v in goal)
         ):
             raise TypeError(f"{label} must be 3 numbers (x, y, z) in m, got {goal!r}")
+        if np.ma.isMaskedArray(goal) and np.ma.getmaskarray(goal).any():
+            raise ValueError(
+                f"{label} must be 3 numbers (x, y, z) in m, got masked values {goal!r}"
+            )
         try:
             arr = np.asarray(goal, dtype=float)
         except OverflowError:

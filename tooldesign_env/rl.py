@@ -214,6 +214,8 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
         Returns:
             The observation (x, y, z, box mass) as float32 and ``{"goal", "box_mass"}``.
         """
+        if isinstance(seed, (bool, np.bool_)):  # numpy would take True for the seed 1
+            raise TypeError(f"seed must be an int >= 0 or None, got {seed!r}")
         super().reset(seed=seed)
         options = dict(options or {})
         unknown = set(options) - {"goal", "box_mass"}

@@ -68,6 +68,10 @@ def _as_coefficients(coeffs: object, degree: int | None) -> FloatArray:
     allowed = f"allowed: a flat sequence of {count} finite real numbers (c1, ..., cn)"
     if coeffs is None or isinstance(coeffs, (str, bytes)):
         raise TypeError(f"coeffs must be real numbers, got {type(coeffs).__name__}; {allowed}")
+    if np.ma.isMaskedArray(coeffs) and np.ma.getmaskarray(coeffs).any():
+        # np.asarray would pass on the values under the mask, which the caller meant to hide.
+        hidden = np.flatnonzero(np.ma.getmaskarray(coeffs)).tolist()
+        raise ValueError(f"coeffs has masked values at index {hidden}; {allowed}")
     if isinstance(coeffs, (list, tuple)):
         # numpy turns [True, 0, 0] into ints; a bool among numbers is a mistake.
         flags = [item for item in coeffs if isinstance(item, (bool, np.bool_))]
