@@ -69,7 +69,7 @@ SIZES: dict[str, dict[str, int]] = {
 
 # Keys and columns that hold wall or CPU times, checksums of files that hold times, the machine's
 # load, and how the run was executed: they may differ between executors; nothing else may.
-_VOLATILE = {"part_sha256", "sessions", "load_average_at_end"}
+_VOLATILE = {"part_sha256", "file_sha256", "sessions", "load_average_at_end"}
 
 
 _DASK = [sys.executable, "-m", "dask"]

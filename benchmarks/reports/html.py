@@ -19,6 +19,8 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+from benchmarks.storage import ResultStore
+
 __all__ = ["REPORT_FILE", "write_html_report"]
 
 REPORT_FILE = "report.html"
@@ -110,11 +112,14 @@ def write_html_report(
 
     Raises:
         FileNotFoundError: ``folder`` is not a folder.
-        ValueError: the folder holds no figure, table or card to report, or too many files.
+        ValueError: the folder holds no figure, table or card to report, or too many files, or
+            a file differs from the checksum its ``manifest.json`` records for it
+            (:meth:`benchmarks.storage.ResultStore.verify`).
     """
     folder = Path(folder)
     if not folder.is_dir():
         raise FileNotFoundError(f"{folder} is not a folder")
+    ResultStore(folder).verify()  # a run folder that was tampered with is not shown
     files = list(_files(folder))
     if len(files) > _MAX_FILES:
         raise ValueError(f"{folder} has more than {_MAX_FILES} files: give a run folder")

@@ -44,7 +44,13 @@ from benchmarks.reports.retest import make_retest_report, noise_floor
 from benchmarks.reports.rl import make_rl_report
 from benchmarks.reports.stats import bootstrap_ci
 from benchmarks.rl.suite import RL_SUITE_KIND
-from benchmarks.storage import atomic_write_text, read_designs, read_manifest, read_retests
+from benchmarks.storage import (
+    ResultStore,
+    atomic_write_text,
+    read_designs,
+    read_manifest,
+    read_retests,
+)
 from benchmarks.suites.config import SuiteConfig, suite_of_manifest
 
 __all__ = [
@@ -787,17 +793,23 @@ def make_suite_report(
         FileNotFoundError: If ``run_folder`` does not exist.
         NotADirectoryError: If it is a file.
         benchmarks.storage.EmptyStoreError: If it holds no evaluations.
-        ValueError: If a stored file is malformed.
+        ValueError: If a stored file is malformed, or differs from the checksum the manifest
+            records for it (:meth:`benchmarks.storage.ResultStore.verify`); then nothing is
+            written.
     """
     folder = Path(run_folder)
     if not folder.exists():
         raise FileNotFoundError(f"run folder {folder} does not exist")
     if not folder.is_dir():
         raise NotADirectoryError(f"run folder {folder} is not a folder")
+    # Every recorded checksum and every design and retest file first: a folder that was
+    # tampered with is refused before a report file is written.
+    ResultStore(folder).verify()
     if _kind(folder) == RL_SUITE_KIND:
         return make_rl_report(folder, out_dir=out_dir)
     target = folder / REPORT_DIR if out_dir is None else Path(out_dir)
     retests = read_retests(folder)
+    designs = read_designs(folder)
     floors = {
         str(v): noise_floor([r for r in retests if r.get("variant") == v])["free_energy"]
         for v in {r.get("variant") for r in retests}
@@ -810,7 +822,6 @@ def make_suite_report(
         config = suite_of_manifest(read_manifest(folder))
     except (FileNotFoundError, ValueError, TypeError):
         return written  # not a suite folder: the generic report is all there is
-    designs = read_designs(folder)
     if not designs:
         return written
     table = designs_table(designs)

@@ -3,6 +3,8 @@
 A run folder (of ``tooldesign design``, ``tooldesign bench`` or ``tooldesign retest``) holds::
 
     manifest.json                  config, package versions, git commit, host, times, checksums
+                                   (extra.part_sha256: the parts; extra.file_sha256: the design,
+                                   retest and consolidated files)
     parts/suite=<s>/variant=<v>/optimizer=<o>/seed=<n>/iteration=<nnnnnn>.csv
     evaluations.parquet | .csv     the parts consolidated at the end
     designs/...                    a suite's final designs (see :mod:`benchmarks.storage.designs`)
@@ -29,8 +31,10 @@ from benchmarks.storage.designs import (
     read_designs,
     read_retests,
     retest_path,
+    write_retest,
 )
 from benchmarks.storage.manifest import (
+    FILE_CHECKSUMS,
     MANIFEST_NAME,
     MANIFEST_VERSION,
     build_manifest,
@@ -41,6 +45,8 @@ from benchmarks.storage.manifest import (
     json_text,
     package_versions,
     read_manifest,
+    recorded_checksums,
+    update_file_checksums,
     verify_checksums,
     write_manifest,
 )
@@ -66,9 +72,13 @@ from benchmarks.storage.table import (
 )
 
 __all__ = [
+    "FILE_CHECKSUMS",
     "RETEST_DIR",
     "read_retests",
+    "recorded_checksums",
     "retest_path",
+    "update_file_checksums",
+    "write_retest",
     "DESIGN_RUN_FILES",
     "CONSOLIDATED_STEM",
     "DESIGNS_DIR",

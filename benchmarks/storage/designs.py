@@ -6,21 +6,42 @@ Layout (names percent-encoded as in part paths)::
                                                                        its test, its counts
     run_folder/designs/variant=<v>/optimizer=<o>/seed=<n>.paths.json  box paths (optional)
 
-A design file is written last, atomically: its presence marks the run as complete.
+A design file is written last, atomically: its presence marks the run as complete. The suite
+runner records the SHA-256 of both files in the manifest (``extra.file_sha256``), and
+``tooldesign retest`` that of each retest file (:func:`write_retest`): :func:`read_designs` and
+:func:`read_retests` refuse a recorded file that was edited, truncated or removed. Files the
+manifest does not list (a folder written before these checksums were recorded) are read
+unchecked, but their contents are still checked.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
+import math
 import os
 import urllib.parse
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
+
+from benchmarks.storage.atomic import atomic_write_text
+from benchmarks.storage.manifest import (
+    FILE_CHECKSUMS,
+    MANIFEST_NAME,
+    check_sha256,
+    read_manifest,
+    recorded_checksums,
+    update_file_checksums,
+    verify_checksums,
+)
+from tooldesign_env.schema import METRICS
 
 __all__ = [
     "RETEST_DIR",
     "read_retests",
     "retest_path",
+    "write_retest",
     "DESIGN_RUN_FILES",
     "DESIGNS_DIR",
     "DESIGN_VERSION",
@@ -84,6 +105,97 @@ def paths_path(design_file: str | os.PathLike[str]) -> Path:
     return path.with_name(path.name.removesuffix(".json") + ".paths.json")
 
 
+class _Files:
+    """The checksums the manifest of a run folder records for the files below ``under``."""
+
+    def __init__(self, run_folder: Path, under: str) -> None:
+        self.folder = run_folder
+        self.recorded: dict[str, str] = {}
+        manifest = run_folder / MANIFEST_NAME
+        if manifest.is_file():
+            listed = recorded_checksums(read_manifest(run_folder), FILE_CHECKSUMS, manifest)
+            prefix = under + "/"
+            self.recorded = {k: v for k, v in (listed or {}).items() if k.startswith(prefix)}
+        # Missing and moved files first: a file the manifest lists must be there.
+        verify_checksums(run_folder, self.recorded)
+
+    def load(self, path: Path, what: str) -> Any:
+        """The JSON of ``path``, checked against its recorded SHA-256 if it has one."""
+        try:
+            data = path.read_bytes()
+        except OSError as err:
+            raise ValueError(f"{path}: not a readable {what}: {err.strerror or err}") from err
+        expected = self.recorded.get(path.relative_to(self.folder).as_posix())
+        if expected is not None:
+            check_sha256(path, expected, data)
+        try:
+            return json.loads(data.decode("utf-8"), parse_constant=_refuse_constant)
+        except UnicodeDecodeError as err:
+            raise ValueError(
+                f"{path}: not a valid {what}: not UTF-8 text ({err.reason} at byte {err.start})"
+            ) from err
+        except (ValueError, RecursionError) as err:
+            raise ValueError(f"{path}: not a valid {what}: {err}") from err
+
+
+def _refuse_constant(name: str) -> Any:
+    raise ValueError(f"it holds {name}, which JSON has not (a value that is not finite is null)")
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def _check_design(record: Any, path: Path, folder: Path) -> dict[str, Any]:
+    """``record`` if it is a design file of the run its path names; ValueError otherwise."""
+
+    def bad(field: str, allowed: str, value: Any) -> ValueError:
+        got = "nothing" if value is None and field not in record else repr(value)
+        if len(got) > 80:
+            got = got[:77] + "..."
+        return ValueError(f"{path}: field {field!r} must be {allowed}, got {got}")
+
+    if not isinstance(record, dict):
+        kind = "null" if record is None else type(record).__name__
+        raise ValueError(f"{path}: not a valid design file: it must hold a JSON object, got {kind}")
+    version = record.get("format_version", DESIGN_VERSION)
+    if version != DESIGN_VERSION or isinstance(version, bool):
+        raise bad("format_version", f"{DESIGN_VERSION} (this version's design files)", version)
+    for field in ("variant", "optimizer"):
+        if not isinstance(record.get(field), str):
+            raise bad(field, "a string", record.get(field))
+    seed = record.get("seed")
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise bad("seed", "an integer >= 0", seed)
+    expected = design_path(
+        folder, variant=record["variant"], optimizer=record["optimizer"], seed=seed
+    )
+    if expected != path:
+        raise ValueError(
+            f"{path}: holds the design of variant {record['variant']!r}, optimizer "
+            f"{record['optimizer']!r}, seed {seed}, which belongs in {expected}"
+        )
+    goal = record.get("goal")
+    if not (isinstance(goal, list) and len(goal) == 3 and all(_is_number(v) for v in goal)):
+        raise bad("goal", "a list of 3 finite numbers (m)", goal)
+    if not _is_number(record.get("goal_precision")):
+        raise bad("goal_precision", "a finite number", record.get("goal_precision"))
+    coefficients = record.get("coefficients")
+    if coefficients is not None and not (
+        isinstance(coefficients, list) and all(_is_number(v) for v in coefficients)
+    ):
+        raise bad("coefficients", "a list of finite numbers or null", coefficients)
+    for field in ("free_energy", "goal_error", "confidence", "final_distance", "test_time"):
+        value = record.get(field)
+        if value is not None and not _is_number(value):
+            raise bad(field, "a finite number or null", value)
+    if record.get("status") is not None and not isinstance(record["status"], str):
+        raise bad("status", "a string or null", record["status"])
+    if record.get("test") is not None and not isinstance(record["test"], dict):
+        raise bad("test", "a JSON object or null", record["test"])
+    return record
+
+
 def read_designs(run_folder: str | os.PathLike[str]) -> list[dict[str, Any]]:
     """The design files of a run folder, in a fixed order (variant, optimizer, seed).
 
@@ -95,25 +207,32 @@ def read_designs(run_folder: str | os.PathLike[str]) -> list[dict[str, Any]]:
         its paths file, when there is one. Empty if the folder has no ``designs/``.
 
     Raises:
-        ValueError: If a design file is not valid JSON.
+        ValueError: If a design or paths file the manifest records is missing or changed
+            (its SHA-256 differs), or a file is not UTF-8 JSON of the expected form (a design
+            file: an object whose ``variant``, ``optimizer`` and ``seed`` name its path, with
+            its goal and numbers); the message names the file and the field.
     """
-    folder = Path(run_folder) / DESIGNS_DIR
+    root = Path(run_folder)
+    folder = root / DESIGNS_DIR
     if not folder.is_dir():
         return []
+    files = _Files(root, DESIGNS_DIR)
     records = []
     for path in sorted(folder.rglob("seed=*.json")):
         if path.name.endswith(".paths.json") or path.name.startswith("."):
             continue
-        try:
-            record = json.loads(path.read_text(encoding="utf-8"))
-            extra = paths_path(path)
-            if extra.is_file():
-                record["paths"] = json.loads(extra.read_text(encoding="utf-8"))
-        except json.JSONDecodeError as err:
-            raise ValueError(f"{path}: not a valid design file: {err}") from err
+        record = _check_design(files.load(path, "design file"), path, root)
+        extra = paths_path(path)
+        if extra.is_file():
+            paths = files.load(extra, "box-path file")
+            if not isinstance(paths, dict):
+                raise ValueError(
+                    f"{extra}: not a valid box-path file: it must hold a JSON object, got "
+                    f"{'null' if paths is None else type(paths).__name__}"
+                )
+            record["paths"] = paths
         records.append(record)
-    order = {"variant": str, "optimizer": str, "seed": int}
-    records.sort(key=lambda r: tuple(t(r.get(k, "")) for k, t in order.items()))
+    records.sort(key=lambda r: (r["variant"], r["optimizer"], r["seed"]))
     return records
 
 
@@ -126,15 +245,71 @@ def retest_path(run_folder: Path, design_file: Path) -> Path:
     return run_folder / RETEST_DIR / design_file.relative_to(run_folder / DESIGNS_DIR)
 
 
+def write_retest(run_folder: str | os.PathLike[str], target: Path, text: str) -> Path:
+    """Write a retest file atomically and record its SHA-256 in the run folder's manifest.
+
+    The old record is removed first, so a kill between the writes leaves the file unrecorded
+    (read unchecked), never recorded with the checksum of the file it replaced.
+
+    Args:
+        run_folder: The suite run folder (it holds ``manifest.json``).
+        target: The retest file, from :func:`retest_path`.
+        text: Its JSON text.
+
+    Returns:
+        ``target``.
+    """
+    folder = Path(run_folder)
+    relative = target.relative_to(folder).as_posix()
+    update_file_checksums(folder, {relative: None})
+    atomic_write_text(target, text)
+    digest = hashlib.sha256(text.encode("utf-8")).hexdigest()
+    update_file_checksums(folder, {relative: digest})
+    return target
+
+
+def _check_retest(record: Any, path: Path) -> dict[str, Any]:
+    """``record`` if it has the form the retest reports read; ValueError otherwise."""
+    if not isinstance(record, dict):
+        kind = "null" if record is None else type(record).__name__
+        raise ValueError(f"{path}: not a valid retest file: it must hold a JSON object, got {kind}")
+    for field in ("noise", "stress"):
+        rows = record.get(field)
+        if rows is None:
+            continue
+        if not (isinstance(rows, list) and all(isinstance(r, Mapping) for r in rows)):
+            raise ValueError(f"{path}: field {field!r} must be a list of JSON objects")
+        needed = METRICS if field == "noise" else ("change", "value")
+        for i, row in enumerate(rows):
+            missing = [k for k in needed if k not in row]
+            if missing:
+                raise ValueError(f"{path}: field '{field}[{i}]' has no {', '.join(missing)}")
+            if field == "stress" and not isinstance(row["change"], str):
+                raise ValueError(f"{path}: field 'stress[{i}].change' must be a string")
+            for key, value in row.items():
+                if key != "change" and not (value is None or _is_number(value)):
+                    raise ValueError(
+                        f"{path}: field '{field}[{i}].{key}' must be a finite number or null, "
+                        f"got {value!r}"
+                    )
+    return record
+
+
 def read_retests(run_folder: str | os.PathLike[str]) -> list[dict[str, Any]]:
-    """Every retest file of a run folder (empty if it was not retested), in a fixed order."""
-    folder = Path(run_folder) / RETEST_DIR
+    """Every retest file of a run folder (empty if it was not retested), in a fixed order.
+
+    Raises:
+        ValueError: If a retest file the manifest records is missing or changed, or a file
+            is not UTF-8 JSON of the expected form; the message names the file.
+    """
+    root = Path(run_folder)
+    folder = root / RETEST_DIR
     if not folder.is_dir():
         return []
+    files = _Files(root, RETEST_DIR)
     out = []
     for path in sorted(folder.rglob("seed=*.json")):
-        try:
-            out.append(json.loads(path.read_text(encoding="utf-8")))
-        except ValueError as err:
-            raise ValueError(f"{path}: not a valid retest file: {err}") from err
+        if path.name.startswith("."):
+            continue
+        out.append(_check_retest(files.load(path, "retest file"), path))
     return out

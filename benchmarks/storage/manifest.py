@@ -27,6 +27,18 @@ MANIFEST_NAME = "manifest.json"
 MANIFEST_VERSION = 1
 
 
+PART_CHECKSUMS = "part_sha256"
+"""Key in the manifest's ``extra`` of the part files' SHA-256 checksums."""
+
+FILE_CHECKSUMS = "file_sha256"
+"""Key in the manifest's ``extra`` of the SHA-256 checksums of the run's other result files.
+
+The design files of a suite (and their box-path files), the retest files and the consolidated
+evaluation table, by path relative to the run folder. Folders written before this key existed
+do not have it: their files are read unchecked (see :func:`recorded_checksums`).
+"""
+
+
 # Distribution names (what importlib.metadata knows), not module names: skopt is scikit-optimize.
 _PACKAGES: tuple[str, ...] = (
     "tooldesign",
@@ -257,6 +269,51 @@ def file_sha256(path: str | os.PathLike[str]) -> str:
     return digest.hexdigest()
 
 
+def recorded_checksums(
+    manifest: Mapping[str, Any], key: str, where: str | os.PathLike[str]
+) -> dict[str, str] | None:
+    """The checksums a manifest records under ``extra[key]``, or ``None`` if it records none.
+
+    Args:
+        manifest: A manifest, e.g. from :func:`read_manifest`.
+        key: :data:`PART_CHECKSUMS` or :data:`FILE_CHECKSUMS`.
+        where: The manifest's path, for error messages.
+
+    Returns:
+        ``{path relative to the run folder: hex sha256}``; ``None`` if ``extra`` has no ``key``
+        (a folder written before the key existed).
+
+    Raises:
+        ValueError: If ``extra`` is not an object, or ``extra[key]`` is not an object of
+            relative paths to 64-digit hex strings.
+    """
+    extra = manifest.get("extra", {})
+    if not isinstance(extra, Mapping):
+        raise ValueError(f"{where}: field 'extra' must be a JSON object, got {_kind(extra)}")
+    if key not in extra:
+        return None
+    recorded = extra[key]
+    if not isinstance(recorded, Mapping):
+        raise ValueError(
+            f"{where}: field 'extra.{key}' must be a JSON object of relative paths to SHA-256 "
+            f"checksums, got {_kind(recorded)}"
+        )
+    for relative, digest in recorded.items():
+        if not (isinstance(digest, str) and _SHA256.fullmatch(digest)):
+            raise ValueError(
+                f"{where}: field 'extra.{key}' holds {digest!r} for {relative!r}; a checksum "
+                "is 64 hex digits"
+            )
+    return dict(recorded)
+
+
+_SHA256 = re.compile(r"[0-9a-f]{64}")
+
+
+def _kind(value: Any) -> str:
+    return "null" if value is None else type(value).__name__
+
+
 def verify_checksums(run_folder: str | os.PathLike[str], recorded: Mapping[str, Any]) -> None:
     """Refuse a run folder whose recorded files are missing or changed.
 
@@ -279,13 +336,56 @@ def verify_checksums(run_folder: str | os.PathLike[str], recorded: Mapping[str, 
             raise ValueError(
                 f"{path} is listed in the manifest but missing; the run folder is incomplete"
             )
-        actual = file_sha256(path)
-        if actual != expected:
-            raise ValueError(
-                f"{path} has changed since it was written (sha256 {actual[:12]}..., the "
-                f"manifest records {expected[:12]}...): the file was edited, truncated or "
-                "corrupted; restore it or start a new run folder"
-            )
+        check_sha256(path, expected)
+
+
+def check_sha256(path: str | os.PathLike[str], expected: str, data: bytes | None = None) -> None:
+    """Refuse a file whose SHA-256 is not the ``expected`` one the manifest records.
+
+    Args:
+        path: The file.
+        expected: Its recorded hex SHA-256.
+        data: Its bytes, if already read (then they are hashed, not the file).
+
+    Raises:
+        ValueError: If it differs; the message names the file.
+    """
+    actual = file_sha256(path) if data is None else hashlib.sha256(data).hexdigest()
+    if actual != expected:
+        raise ValueError(
+            f"{path} has changed since it was written (sha256 {actual[:12]}..., the "
+            f"manifest records {expected[:12]}...): the file was edited, truncated or "
+            "corrupted; restore it or start a new run folder"
+        )
+
+
+def update_file_checksums(
+    run_folder: str | os.PathLike[str], changes: Mapping[str, str | None]
+) -> None:
+    """Set (or, with ``None``, remove) entries of the manifest's :data:`FILE_CHECKSUMS`.
+
+    For files written after the run's session finished (``tooldesign retest``): the manifest
+    is read, changed and rewritten atomically.
+
+    Args:
+        run_folder: The run folder; it must hold a manifest.
+        changes: ``{path relative to the run folder: sha256 or None}``.
+
+    Raises:
+        FileNotFoundError: If there is no manifest.
+        ValueError: If it cannot be read or its checksums are malformed.
+    """
+    manifest = read_manifest(run_folder)
+    where = Path(run_folder) / MANIFEST_NAME
+    recorded = recorded_checksums(manifest, FILE_CHECKSUMS, where) or {}
+    for relative, digest in changes.items():
+        if digest is None:
+            recorded.pop(relative, None)
+        else:
+            recorded[relative] = digest
+    checksums = dict(sorted(recorded.items()))
+    manifest["extra"] = {**manifest.get("extra", {}), FILE_CHECKSUMS: checksums}
+    write_manifest(run_folder, manifest)
 
 
 def write_manifest(run_folder: str | os.PathLike[str], manifest: Mapping[str, Any]) -> Path:
@@ -312,15 +412,19 @@ def read_manifest(run_folder: str | os.PathLike[str]) -> dict[str, Any]:
 
     Raises:
         FileNotFoundError: If there is no manifest.
-        ValueError: If it is not a JSON object.
+        ValueError: If it is not UTF-8 text holding a JSON object.
     """
     path = Path(run_folder) / MANIFEST_NAME
     if not path.is_file():
         raise FileNotFoundError(f"{path} does not exist")
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
+    except UnicodeDecodeError as err:
+        raise ValueError(f"{path} is not UTF-8 text ({err.reason} at byte {err.start})") from err
     except json.JSONDecodeError as err:
         raise ValueError(f"{path} is not valid JSON: {err}") from err
+    except RecursionError as err:
+        raise ValueError(f"{path} is nested too deeply to be a manifest") from err
     if not isinstance(data, dict):
         raise ValueError(f"{path} must hold a JSON object, got {type(data).__name__}")
     return data

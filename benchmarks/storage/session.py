@@ -18,8 +18,17 @@ the same way, through :class:`RunSession`:
    failed).
 
 The manifest's ``extra`` holds ``kind`` (what wrote the folder), ``sessions`` (start time and
-wall time of each session) and ``part_sha256`` (checksums of the part files, by path relative
-to the run folder), beside whatever the caller adds.
+wall time of each session), ``part_sha256`` (checksums of the part files, by path relative
+to the run folder) and ``file_sha256`` (checksums of the other result files the writer records
+with :meth:`RunSession.record_file`, e.g. a suite's design files, and of the consolidated
+evaluation table, recorded by :meth:`RunSession.finish`), beside whatever the caller adds.
+
+**Checked on resume.** Every file either record lists must exist with its checksum, and the
+manifest's own fields the session uses (``start_time``, ``extra.sessions``) must be what this
+code writes; otherwise :class:`ResumeError` names the file and the field. A folder written
+before ``file_sha256`` existed has none: its files are taken as they are, and the writer records
+them from then on. The consolidated table is rewritten at the end of every session, so its
+checksum is dropped when a session starts and recorded again when it finishes.
 
 **Killed sessions keep their time.** The manifest is rewritten after each part, so a session that
 is killed would lose the time since its last part (an interrupted iteration can take minutes).
@@ -47,14 +56,19 @@ import pandas as pd
 
 from benchmarks.storage.atomic import atomic_write_text
 from benchmarks.storage.manifest import (
+    FILE_CHECKSUMS,
+    MANIFEST_NAME,
     MANIFEST_VERSION,
+    PART_CHECKSUMS,
     _jsonable,
     build_manifest,
     file_sha256,
     read_manifest,
+    recorded_checksums,
     verify_checksums,
 )
 from benchmarks.storage.table import (
+    CONSOLIDATED_STEM,
     ResultStore,
     Unit,
     part_checksums,
@@ -63,6 +77,7 @@ from benchmarks.storage.table import (
 )
 
 __all__ = [
+    "FILE_CHECKSUMS",
     "HEARTBEAT",
     "HEARTBEAT_INTERVAL",
     "PART_CHECKSUMS",
@@ -72,14 +87,18 @@ __all__ = [
     "with_added_fields",
 ]
 
-PART_CHECKSUMS = "part_sha256"
-"""Key in the manifest's ``extra`` of the part files' SHA-256 checksums."""
-
 HEARTBEAT = "heartbeat.json"
 """File of a running (or killed) session's wall time in the run folder; see the module docstring."""
 
 HEARTBEAT_INTERVAL = 2.0
 """Seconds between two writes of :data:`HEARTBEAT`: the most wall time a killed session loses."""
+
+CLOCK_TOLERANCE = 86_400.0
+"""Seconds a session's recorded wall time may exceed the time from its start to now.
+
+A session cannot have lasted longer than the time since it started; the tolerance (a day)
+allows for a folder moved between machines whose clocks differ.
+"""
 
 
 class ResumeError(ValueError):
@@ -119,6 +138,48 @@ def check_out_dir(out_dir: Any) -> Path:
 
 def _now() -> dt.datetime:
     return dt.datetime.now(dt.timezone.utc)
+
+
+def _parse_time(value: Any, where: Path, field: str) -> dt.datetime:
+    """``value``, a timezone-aware ISO 8601 time as :class:`RunSession` writes, as a datetime.
+
+    Raises:
+        ResumeError: Naming the file ``where`` and the ``field`` otherwise.
+    """
+    moment = None
+    if isinstance(value, str):
+        try:
+            moment = dt.datetime.fromisoformat(value)
+        except ValueError:
+            moment = None
+    if moment is None or moment.utcoffset() is None:
+        got = "nothing" if value is None else repr(value)
+        raise ResumeError(
+            f"cannot resume: {where}: field {field!r} must be a time with its time zone in ISO "
+            f"8601 form, e.g. '2026-01-31T12:00:00+00:00', got {got}"
+        )
+    return moment
+
+
+def _wall_time_error(wall: Any, start: dt.datetime) -> str | None:
+    """Why ``wall`` is not a wall time of a session that started at ``start``; None if it is."""
+    limit = max((_now() - start).total_seconds(), 0.0) + CLOCK_TOLERANCE
+    if isinstance(wall, bool) or not isinstance(wall, (int, float)):
+        got = "nothing" if wall is None else f"{wall!r} ({type(wall).__name__})"
+    elif not (math.isfinite(wall) and 0 <= wall <= limit):
+        got = repr(wall)
+    else:
+        return None
+    return (
+        f"must be a number of seconds from 0 to the time since the session started "
+        f"({limit:.0f} s, a day's tolerance included), got {got}"
+    )
+
+
+def _check_wall_time(wall: Any, start: dt.datetime, where: Path, field: str) -> None:
+    error = _wall_time_error(wall, start)
+    if error is not None:
+        raise ResumeError(f"cannot resume: {where}: field {field!r} {error}")
 
 
 class RunSession:
@@ -191,11 +252,17 @@ class RunSession:
             self.start_time = _now()
             self.sessions: list[dict[str, Any]] = [self._session]
             self._checksums: dict[str, str] = {}
+            self._files: dict[str, str] = {}
         else:
-            self.start_time = dt.datetime.fromisoformat(previous["start_time"])
-            earlier = self._with_killed_session(previous["extra"].get("sessions", []))
+            self.start_time, sessions = self._previous_times(previous)
+            earlier = self._with_killed_session(sessions)
             self.sessions = [*earlier, self._session]
             self._checksums = part_checksums(self.store)  # verified in _previous
+            # Verified in _previous too. The consolidated table is rewritten by finish().
+            files = recorded_checksums(previous, FILE_CHECKSUMS, self.out / MANIFEST_NAME)
+            self._files = {
+                k: v for k, v in (files or {}).items() if k.rpartition(".")[0] != CONSOLIDATED_STEM
+            }
             self.store.remove_stale_temp_files()  # only this process writes here
         # The parts of the manifest that do not change within a session (packages, commit,
         # host) are collected once: a manifest is rewritten after every part.
@@ -220,6 +287,14 @@ class RunSession:
                 f"cannot resume: {out} is not empty and has no manifest.json, so it is not a "
                 f"{self.kind} run folder; choose another folder"
             ) from None
+        except ValueError as error:
+            raise ResumeError(f"cannot resume: {error}") from None
+        heartbeat = out / HEARTBEAT
+        if heartbeat.exists() and not heartbeat.is_file():
+            raise ResumeError(
+                f"cannot resume: {heartbeat} is not a file; it is the file a session writes its "
+                "wall time to: remove it"
+            )
         if manifest.get("format_version") != MANIFEST_VERSION:
             raise ResumeError(
                 f"cannot resume: {out} was written by an incompatible version (manifest "
@@ -263,15 +338,20 @@ class RunSession:
             return list(sessions)
         try:
             beat = json.loads(path.read_text(encoding="utf-8"))
-            start, wall = beat["start_time"], beat["wall_time"]
-            if not (
-                isinstance(start, str)
-                and type(wall) in (int, float)
-                and math.isfinite(wall)
-                and wall >= 0
-            ):
-                raise ValueError("start_time must be a string, wall_time a finite float >= 0")
-        except (OSError, ValueError, KeyError, TypeError) as error:
+            if not isinstance(beat, dict):
+                raise ValueError(f"it must hold a JSON object, got {type(beat).__name__}")
+            start = beat.get("start_time")
+            wall: Any = beat.get("wall_time")
+            try:
+                began = _parse_time(start, path, "start_time")
+            except ResumeError:
+                raise ValueError(
+                    f"field 'start_time' must be an ISO 8601 time with its zone, got {start!r}"
+                ) from None
+            error = _wall_time_error(wall, began)
+            if error is not None:
+                raise ValueError(f"field 'wall_time' {error}")
+        except (OSError, ValueError, RecursionError) as error:
             warnings.warn(
                 f"{path} cannot be read ({error}); the wall time of the session that was "
                 "interrupted is counted up to its last part only",
@@ -300,16 +380,42 @@ class RunSession:
         """Whether ``key`` is a growable count that this session raises (e.g. more seeds)."""
         return key in self._growable and all(type(v) is int for v in (old, new)) and new >= old
 
+    def _previous_times(self, manifest: Mapping[str, Any]) -> tuple[dt.datetime, list[Any]]:
+        """The start time and the sessions of the manifest to continue, checked."""
+        where = self.out / MANIFEST_NAME
+        start = _parse_time(manifest.get("start_time"), where, "start_time")
+        sessions = manifest["extra"].get("sessions", [])
+        if not isinstance(sessions, list):
+            raise ResumeError(
+                f"cannot resume: {where}: field 'extra.sessions' must be a list of sessions "
+                f"({{'start_time': ISO time, 'wall_time': seconds}}), got {type(sessions).__name__}"
+            )
+        for i, session in enumerate(sessions):
+            field = f"extra.sessions[{i}]"
+            if not isinstance(session, dict):
+                raise ResumeError(
+                    f"cannot resume: {where}: field {field!r} must be an object with "
+                    f"'start_time' and 'wall_time', got {type(session).__name__}"
+                )
+            began = _parse_time(session.get("start_time"), where, f"{field}.start_time")
+            _check_wall_time(session.get("wall_time"), began, where, f"{field}.wall_time")
+        return start, sessions
+
     def _verify_parts(self, extra: Mapping[str, Any]) -> None:
-        recorded = extra.get(PART_CHECKSUMS)
-        manifest = self.out / "manifest.json"
-        if not isinstance(recorded, dict):
+        manifest = self.out / MANIFEST_NAME
+        try:
+            recorded = recorded_checksums({"extra": extra}, PART_CHECKSUMS, manifest)
+            files = recorded_checksums({"extra": extra}, FILE_CHECKSUMS, manifest)
+        except ValueError as error:
+            raise ResumeError(f"cannot resume: {error}") from None
+        if recorded is None:
             raise ResumeError(
                 f"cannot resume: {manifest} records no part checksums ({PART_CHECKSUMS!r}): it "
                 "was written by an incompatible version or edited"
             )
         try:
             verify_checksums(self.out, recorded)
+            verify_checksums(self.out, files or {})
         except ValueError as error:
             raise ResumeError(f"cannot resume: {error}") from None
         unrecorded = sorted(set(part_checksums(self.store)) - set(recorded))
@@ -331,6 +437,31 @@ class RunSession:
         """Wall time summed over every session of the folder, this one up to now, s."""
         self._session["wall_time"] = self.session_time
         return float(sum(s["wall_time"] for s in self.sessions))
+
+    def record_file(self, path: str | os.PathLike[str]) -> None:
+        """Record the SHA-256 of a result file of the run (written at the next checkpoint).
+
+        Call it once the file is written for good: a later session, ``tooldesign report`` and
+        :meth:`ResultStore.read` refuse the folder if the file then differs.
+
+        Args:
+            path: A file inside the run folder.
+        """
+        self._files[self._relative(path)] = file_sha256(path)
+
+    def forget_file(self, path: str | os.PathLike[str]) -> None:
+        """Drop the recorded SHA-256 of a file that is about to be rewritten (or is gone)."""
+        self._files.pop(self._relative(path), None)
+
+    def is_recorded(self, path: str | os.PathLike[str]) -> bool:
+        """Whether the manifest records the SHA-256 of ``path`` (see :meth:`record_file`)."""
+        return self._relative(path) in self._files
+
+    def _relative(self, path: str | os.PathLike[str]) -> str:
+        try:
+            return Path(path).resolve().relative_to(self.out.resolve()).as_posix()
+        except ValueError:
+            raise ValueError(f"{path} is not inside the run folder {self.out}") from None
 
     def update_extra(self, **entries: Any) -> None:
         """Set entries of the manifest's ``extra`` (written at the next checkpoint)."""
@@ -364,6 +495,7 @@ class RunSession:
             "kind": self.kind,
             "sessions": self.sessions,
             PART_CHECKSUMS: dict(sorted(self._checksums.items())),
+            FILE_CHECKSUMS: dict(sorted(self._files.items())),
             **self._extra,
         }
         manifest["extra"] = _jsonable(extra, "extra")  # refuses NaN and what JSON cannot store
@@ -382,8 +514,15 @@ class RunSession:
             self._heartbeat.start()
 
     def finish(self, evaluations: pd.DataFrame | None) -> dict[str, Any]:
-        """Write the final manifest (end time, summed times) and delete the heartbeat."""
+        """Write the final manifest (end time, summed times) and delete the heartbeat.
+
+        The consolidated evaluation table, if the caller wrote one, is recorded in
+        ``file_sha256``.
+        """
         self.close()
+        consolidated = self.store.consolidated_path()
+        if consolidated is not None:
+            self.record_file(consolidated)
         manifest = self.manifest(end=_now(), evaluations=evaluations)
         self.store.write_manifest(manifest)
         (self.out / HEARTBEAT).unlink(missing_ok=True)

@@ -34,7 +34,16 @@ import numpy as np
 import pandas as pd
 
 from benchmarks.storage.atomic import _TEMP_SUFFIX, atomic_write_bytes
-from benchmarks.storage.manifest import MANIFEST_NAME, file_sha256, read_manifest, write_manifest
+from benchmarks.storage.manifest import (
+    FILE_CHECKSUMS,
+    MANIFEST_NAME,
+    PART_CHECKSUMS,
+    file_sha256,
+    read_manifest,
+    recorded_checksums,
+    verify_checksums,
+    write_manifest,
+)
 from tooldesign_env.schema import (
     BEST_SO_FAR,
     COEFFICIENT_PATTERN,
@@ -492,11 +501,50 @@ class ResultStore:
             return parquet
         return csv if csv.is_file() else None
 
-    def read(self) -> pd.DataFrame:
+    def verify(self) -> None:
+        """Refuse a run folder whose files differ from what its manifest records.
+
+        The checks a resumed session makes (:class:`~benchmarks.storage.RunSession`), without
+        the ones on the config: every file the manifest's :data:`PART_CHECKSUMS` and
+        :data:`FILE_CHECKSUMS` list exists and has its recorded SHA-256, and at most one part
+        file is unrecorded (the one written just before a kill, ahead of its manifest). A
+        folder shared without its ``parts/`` (the committed results) is read from its
+        consolidated file: the parts are then not checked, the consolidated file is if the
+        manifest records it. A folder without a manifest (a bare store) is not checked, and
+        neither is a file the manifest does not list (e.g. the design files of a folder
+        written before their checksums were recorded). Nothing is written.
+
+        Raises:
+            ValueError: If the manifest cannot be read, its checksums are malformed, or a
+                recorded file is missing or changed; the message names the file.
+        """
+        manifest_path = self.manifest_path
+        if not manifest_path.exists():
+            return
+        manifest = read_manifest(self._folder)
+        parts = recorded_checksums(manifest, PART_CHECKSUMS, manifest_path)
+        files = recorded_checksums(manifest, FILE_CHECKSUMS, manifest_path)
+        on_disk = part_checksums(self, hashed=False)
+        if parts is not None and on_disk:
+            verify_checksums(self._folder, parts)
+            unrecorded = sorted(set(on_disk) - set(parts))
+            if len(unrecorded) > 1:
+                raise ValueError(
+                    f"{self._folder} holds part files {manifest_path} does not record: "
+                    f"{unrecorded}; at most one (written just before a kill) may be unrecorded"
+                )
+        if files is not None:
+            verify_checksums(self._folder, files)
+
+    def read(self, *, verify: bool = True) -> pd.DataFrame:
         """All stored evaluations with ``best_so_far``, sorted by :data:`SORT_COLUMNS`.
 
         Part files are the source of truth; the consolidated file is read only when there are
         no parts (e.g. a run folder shared without them).
+
+        Args:
+            verify: First check the folder against the checksums its manifest records
+                (:meth:`verify`); a caller that has just verified it may skip this.
 
         Returns:
             (n_evaluations, n_columns) DataFrame in the canonical column order and dtypes.
@@ -505,10 +553,13 @@ class ResultStore:
             FileNotFoundError: If the run folder does not exist.
             NotADirectoryError: If it is a file.
             EmptyStoreError: If it holds neither part files nor a consolidated file.
-            TypeError, ValueError: If a stored file does not follow the results format; the
-                message names the file and the column.
+            TypeError, ValueError: If a stored file does not follow the results format, or
+                (``verify``) differs from what the manifest records; the message names the
+                file and the column.
         """
         self._check_folder()
+        if verify:
+            self.verify()
         units = sorted(self.completed_units())
         if units:
             combined = self._read_parts(units)
@@ -631,10 +682,13 @@ def status_counts(evaluations: pd.DataFrame) -> dict[str, int]:
     return {"total": int(len(evaluations)), **{s: int(counts.get(s, 0)) for s in STATUSES}}
 
 
-def part_checksums(store: ResultStore) -> dict[str, str]:
-    """``{path relative to the run folder: sha256}`` of every completed part file."""
+def part_checksums(store: ResultStore, *, hashed: bool = True) -> dict[str, str]:
+    """``{path relative to the run folder: sha256}`` of every completed part file.
+
+    With ``hashed`` false the values are ``""``: the paths alone, without reading the files.
+    """
     out: dict[str, str] = {}
     for unit in sorted(store.completed_units(), key=lambda u: str(u.relative_path)):
         path = store.part_path(unit)
-        out[path.relative_to(store.run_folder).as_posix()] = file_sha256(path)
+        out[path.relative_to(store.run_folder).as_posix()] = file_sha256(path) if hashed else ""
     return out

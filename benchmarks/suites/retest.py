@@ -39,11 +39,12 @@ import numpy as np
 from benchmarks.execution import TaskSettings, make_executor, map_robust, worker_env
 from benchmarks.storage import (
     DESIGNS_DIR,
-    atomic_write_text,
     json_text,
     read_designs,
     read_manifest,
+    read_retests,
     retest_path,
+    write_retest,
 )
 from benchmarks.suites.config import suite_of_manifest
 from tooldesign_env.schema import METRICS
@@ -239,12 +240,17 @@ def retest_suite(
 
     Raises:
         FileNotFoundError: If the folder has no manifest.
-        ValueError: If it is not a suite run folder, or has no finished design.
+        ValueError: If it is not a suite run folder, or has no finished design, or a design or
+            retest file is malformed or differs from its recorded checksum.
     """
     folder = Path(run_folder)
     suite = suite_of_manifest(read_manifest(folder))
     config = config or default_config(suite)
     settings = json.loads(json_text(config.to_json()))  # as stored: tuples become lists
+    # A design or retest file that differs from the checksum the manifest records for it, or
+    # that is malformed, is refused (naming it) before anything is simulated.
+    finished = read_designs(folder)
+    read_retests(folder)
     pending: list[tuple[Path, RetestItem, dict[str, Any]]] = []
     for path in sorted((folder / DESIGNS_DIR).rglob("seed=*.json")):
         if path.name.endswith(".paths.json"):
@@ -263,7 +269,7 @@ def retest_suite(
         task = retest_task(suite, record)
         item = RetestItem(coeffs=tuple(record["coefficients"]), task=task, config=config)
         pending.append((target, item, record))
-    if not pending and not read_designs(folder):
+    if not pending and not finished:
         raise ValueError(f"{folder} has no finished design to retest")
     written: list[Path] = []
     with contextlib.ExitStack() as stack:
@@ -283,5 +289,6 @@ def retest_suite(
                     "error": "" if exc is None else f"{type(exc).__name__}: {exc}",
                     **(result or {"noise": [], "stress": []}),
                 }
-                written.append(atomic_write_text(target, json_text(out)))
+                # Its SHA-256 goes into the manifest, which report and retest check.
+                written.append(write_retest(folder, target, json_text(out)))
     return written

@@ -20,12 +20,19 @@ time (BO fits a Gaussian process per batch) nor the end of a batch leaves worker
 run's asks depend only on its own seed and told scores and every rollout is deterministic, so
 the results do not depend on the interleaving, the executor or the number of workers.
 
-Resume: a rerun of the same suite into the same folder skips every run whose design file is on
-disk, replays the logged iterations of unfinished runs (each replayed ask must match the log
+Resume: a rerun of the same suite into the same folder checks the folder first (the checksums
+the manifest records, see :class:`~benchmarks.storage.RunSession`, and every design file, see
+:func:`~benchmarks.storage.read_designs`), skips every run whose design file is on disk,
+replays the logged iterations of unfinished runs (each replayed ask must match the log
 bit for bit, see :class:`~benchmarks.design.DesignStepper`) and goes on; a batch that was being
 evaluated when the suite stopped is evaluated again. The final evaluation log and design files
 equal those of an uninterrupted run apart from the timing fields (``eval_time``, ``opt_time``,
 ``test_time``).
+
+Each design file and its box-path file are recorded in the manifest's ``extra.file_sha256`` when
+they are written; a design file on disk that the manifest does not list (written just before a
+kill, ahead of the manifest, or by a version that recorded no design checksums) is checked for
+its form and recorded by the session that resumes.
 """
 
 from __future__ import annotations
@@ -230,6 +237,9 @@ class _RunJob:
             paths_record = {"nominal_mass": self.config.box_mass, "masses": masses, **paths}
             atomic_write_text(paths_path(target), json_text(paths_record, compact=True))
         atomic_write_text(target, json_text(record))
+        if paths is not None:
+            self.session.record_file(paths_path(target))
+        self.session.record_file(target)  # in the manifest at the checkpoint of on_done
         if self.testing:
             self.bar.update(_test_rollouts(self.config))
         self.on_done()
@@ -239,6 +249,37 @@ def _design_file(run_folder: Path, spec: RunSpec) -> Path:
     return design_path(
         run_folder, variant=spec.variant.name, optimizer=spec.optimizer.column, seed=spec.task.seed
     )
+
+
+def _adopt_designs(session: RunSession, runs: Sequence[RunSpec]) -> list[RunSpec]:
+    """The runs without a design file; the design files on disk checked and recorded.
+
+    The session has verified the files the manifest records; :func:`read_designs` checks the
+    form of every design file (and the recorded ones again). A design file the manifest does
+    not list is recorded now, with its box-path file: one written just before a kill, or by a
+    version that recorded no design checksums. A pending run's box-path file (written just
+    before its design file) is not: it is written again.
+
+    Raises:
+        ResumeError: If a design file is malformed or differs from its recorded checksum.
+    """
+    try:
+        read_designs(session.out)
+    except ValueError as error:
+        raise ResumeError(f"cannot resume: {error}") from None
+    pending = []
+    for run in runs:
+        target = _design_file(session.out, run)
+        extra = paths_path(target)
+        if not target.is_file():
+            session.forget_file(target)
+            session.forget_file(extra)
+            pending.append(run)
+            continue
+        for path in (target, extra):
+            if path.is_file() and not session.is_recorded(path):
+                session.record_file(path)
+    return pending
 
 
 def _test_rollouts(config: SuiteConfig) -> int:
@@ -380,8 +421,8 @@ def run_suite(
     )
     out, store = session.out, session.store
     logged = _logged_frames(store, config, runs)
+    pending = _adopt_designs(session, runs)
     session.checkpoint()
-    pending = [run for run in runs if not _design_file(out, run).is_file()]
     done_tests = (len(runs) - len(pending)) * _test_rollouts(config)
     total = config.evaluations() + len(runs) * _test_rollouts(config)
     initial = sum(sum(len(f) for f in frames) for frames in logged.values()) + done_tests
