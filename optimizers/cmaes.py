@@ -20,6 +20,9 @@ from .base import Optimizer
 
 __all__ = ["CMAES"]
 
+#: Smallest initial step, a fraction of the box (the rl suite's CMA-ES uses the same limit).
+SIGMA0_MIN = 1e-6
+
 
 class _Randn:
     """pycma's ``randn(*shape)`` drawing from one generator (a picklable callable)."""
@@ -41,15 +44,17 @@ class CMAES(Optimizer):
 
     Args:
         bounds: (d, 2) [low, high] per dimension in physical units.
-        sigma0: Initial step size as a fraction of the box width, in (0, 1]; 0.3 puts most of
-            the first generation inside the box around the centre.
+        sigma0: Initial step size as a fraction of the box width, in [1e-6, 1]; 0.3 puts most
+            of the first generation inside the box around the centre. Below 1e-6 the step is
+            lost in rounding (pycma's update overflows from 1e-300 and 1e-320 failed its
+            assertion after the first generation).
         x0: (d,) initial mean in physical units, inside the bounds; the box centre if None.
         **kwargs: ``batch_size``, ``seed``, ``failure_policy``, ``low``/``high`` of
             :class:`~optimizers.base.Optimizer`.
 
     Raises:
         TypeError: sigma0 or x0 of the wrong type.
-        ValueError: sigma0 outside (0, 1] or x0 outside the bounds.
+        ValueError: sigma0 outside [1e-6, 1] or x0 outside the bounds.
     """
 
     generational = True
@@ -62,8 +67,10 @@ class CMAES(Optimizer):
         super().__init__(bounds, **kwargs)
         if isinstance(sigma0, bool) or not isinstance(sigma0, (int, float, np.number)):
             raise TypeError(f"sigma0 must be a number, got {sigma0!r}")
-        if not (math.isfinite(sigma0) and 0 < sigma0 <= 1):
-            raise ValueError(f"sigma0 must be in (0, 1] (a fraction of the box), got {sigma0!r}")
+        if not (math.isfinite(sigma0) and SIGMA0_MIN <= sigma0 <= 1):
+            raise ValueError(
+                f"sigma0 must be in [{SIGMA0_MIN:g}, 1] (a fraction of the box), got {sigma0!r}"
+            )
         mean = np.full(self.n_dims, 0.5) if x0 is None else self._to_unit(x0, "x0")
         import cma  # a core dependency, imported here to keep `import optimizers` light
 

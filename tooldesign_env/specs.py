@@ -26,6 +26,8 @@ from tooldesign_env.schema import (
 __all__ = [
     "BOX_MASS_MAX",
     "GOAL_PRECISION_MAX",
+    "PLAN_DURATION_MAX",
+    "PLAN_DURATION_MIN",
     "ControllerSpec",
     "ObjectiveSpec",
     "PlanSpec",
@@ -45,11 +47,81 @@ GOAL_PRECISION_MAX = 1e6
 #: meaningful for a box a thousand times heavier than the arm's links).
 BOX_MASS_MAX = 1e3
 
+#: Regularizer eps of log|Pi_U| accepted, (m/N m)^2: six orders of magnitude either side of the
+#: default 10^-6; 10^-320 made log(1 + lambda / eps) overflow (F = -inf).
+EPS_MIN = 1e-12
+EPS_MAX = 1.0
+
+#: Largest relative ridge of the trajectory estimator, response time (s) and slip speed (m/s)
+#: of the contact estimator, and torque perturbation of the resimulation estimator (N m).
+RIDGE_MAX = 1e3
+RESPONSE_TIME_MAX = 1.0
+SLIP_SPEED_MAX = 1.0
+PERTURBATION_MAX = 100.0
+
+#: Largest window and horizon of the estimators, control steps.
+WINDOW_MAX = 10_000
+
+#: Largest free energy reported for an unusable design: within the optimizers' told values, and
+#: far above any F a valid design gets (below 10^12, see GOAL_PRECISION_MAX).
+INVALID_PENALTY_MAX = 1e15
+
+#: Most box masses of the ``"expected-goal-error"`` objective (each costs a rollout).
+EXPECTED_MASSES_MAX = 64
+
 #: Most scenes F may be averaged over (ObjectiveSpec.scene_samples), and the largest offsets of
 #: the box in them: the smoothing is of the chaos of pushing, not a change of the task.
 SCENE_SAMPLES_MAX = 64
 SCENE_SHIFT_MAX = 0.01
 SCENE_TURN_MAX = 0.1
+
+#: Half-width of the workspace in x and y, and its height, m: the env's goals lie in
+#: [-2.5, 2.5] x [-2.5, 2.5] x [0, 1] (``tooldesign_env.env.WORKSPACE_LOW``/``HIGH``), and so must
+#: the box and the plan's points.
+WORKSPACE_HALF_WIDTH = 2.5
+WORKSPACE_HEIGHT = 1.0
+
+#: Largest angle accepted for a yaw, rad: one turn either way (a yaw given in degrees, such as 30,
+#: is refused instead of being read as 30 rad).
+YAW_MAX = 2.0 * math.pi
+
+#: Physics time steps accepted, s: 4 kHz (16 times PyBullet's default 240 Hz) to 50 Hz. With
+#: PLAN_DURATION_MAX the finest step bounds an episode to 240,000 physics steps (about 1.2 GB
+#: and half a minute for the recorded rollout at one control step per physics step).
+TIME_STEP_MIN = 2.5e-4
+TIME_STEP_MAX = 0.02
+
+#: Largest control period, physics steps: with TIME_STEP_MAX the slowest control step is 1 s,
+#: no longer than the shortest plan (PLAN_DURATION_MIN), so every plan has a control step.
+CONTROL_PERIOD_MAX = 50
+
+#: Largest PyBullet solver iterations per step (its default is 50; time grows with them).
+SOLVER_ITERATIONS_MAX = 1000
+
+#: Box extents accepted, m: a 1 mm die to a 2 m crate.
+BOX_SIZE_MIN = 1e-3
+BOX_SIZE_MAX = 2.0
+
+#: Largest friction coefficient (rubber on concrete is about 1; none exceeds a few).
+FRICTION_MAX = 10.0
+
+#: Longest settling of the box before the arm is loaded, s (it is at rest after tenths of one).
+SETTLE_TIME_MAX = 10.0
+
+#: Largest rest speed (m/s, rad/s) and rest time (s) of the fast-forward of the final hold.
+REST_SPEED_MAX = 1.0
+REST_TIME_MAX = 60.0
+
+#: Largest feedback gains, 1/s^2 and 1/s, and joint torque limit, N m (the Panda's are 87 N m).
+GAIN_KP_MAX = 1e6
+GAIN_KD_MAX = 1e4
+TORQUE_LIMIT_MAX = 1e4
+
+#: Shortest and longest plan, s (lower + settle + sweep + pull + hold; the default is 14.25 s).
+#: The Panda cannot sweep a tool across the workspace in less than a second, and 60 s bounds the
+#: episode's memory and time (see TIME_STEP_MIN).
+PLAN_DURATION_MIN = 1.0
+PLAN_DURATION_MAX = 60.0
 
 #: m: PyBullet's contact breaking threshold: shapes closer than this get contact points
 #: (SceneSpec.floor_clearance must exceed it).
@@ -90,6 +162,20 @@ def _check_positive(obj: object, *names: str, allow_zero: bool = False) -> None:
             raise ValueError(f"{label} must be a finite number {bound}, got {value!r}")
 
 
+def _check_range(
+    obj: object, name: str, low: float, high: float, unit: str, *, open_low: bool = False
+) -> float:
+    """``obj.name`` as a finite float in [low, high] (in (low, high] with ``open_low``)."""
+    value = getattr(obj, name)
+    label = f"{type(obj).__name__}.{name}"
+    number = check_real(value, label)
+    if not ((low < number if open_low else low <= number) and number <= high):
+        interval = f"{'(' if open_low else '['}{low:g}, {high:g}]"
+        unit = f" {unit}" if unit else ""
+        raise ValueError(f"{label} must be a number in {interval}{unit}, got {value!r}")
+    return number
+
+
 def _check_vector(obj: object, name: str, length: int) -> None:
     value = getattr(obj, name)
     label = f"{type(obj).__name__}.{name}"
@@ -119,6 +205,16 @@ def _check_bool(obj: object, name: str, also: str = "") -> None:
         )
 
 
+#: The phases' durations of :class:`PlanSpec`, in order.
+PHASE_DURATIONS = (
+    "lower_duration",
+    "settle_duration",
+    "sweep_duration",
+    "pull_duration",
+    "hold_duration",
+)
+
+
 @dataclass(frozen=True, kw_only=True)
 class PlanSpec:
     """The fixed tool-use plan pi_0 of the paper: lower, sweep, pull, hold.
@@ -141,6 +237,11 @@ class PlanSpec:
         yaw_start: tool yaw (x axis of the tool frame from the world x axis) at the sweep's start,
             rad.
         yaw_end: tool yaw at the sweep's end and during the pull, rad.
+
+    Limits (a ValueError names the field otherwise): ``reach`` in (0, 2.5] m and ``pull_to`` in
+    [0, 2.5] m (the workspace), ``height`` in (0, 1] m, ``lift`` in [0, 1] m, the yaws within
+    +-2 pi rad, and the durations together 1 to 60 s (:data:`PLAN_DURATION_MIN`,
+    :data:`PLAN_DURATION_MAX`), which bounds an episode's memory and time.
     """
 
     reach: float = 0.70
@@ -162,8 +263,21 @@ class PlanSpec:
         _check_positive(
             self, "pull_to", "lift", "settle_duration", "hold_duration", allow_zero=True
         )
+        _check_range(self, "reach", 0.0, WORKSPACE_HALF_WIDTH, "m", open_low=True)
+        _check_range(self, "pull_to", 0.0, WORKSPACE_HALF_WIDTH, "m")
+        _check_range(self, "height", 0.0, WORKSPACE_HEIGHT, "m", open_low=True)
+        _check_range(self, "lift", 0.0, WORKSPACE_HEIGHT, "m")
         for name in ("yaw_start", "yaw_end"):
-            check_real(getattr(self, name), f"PlanSpec.{name}")
+            _check_range(self, name, -YAW_MAX, YAW_MAX, "rad")
+        names = PHASE_DURATIONS
+        for name in names:
+            _check_range(self, name, 0.0, PLAN_DURATION_MAX, "s")
+        total = self.duration
+        if not PLAN_DURATION_MIN <= total <= PLAN_DURATION_MAX:
+            raise ValueError(
+                f"PlanSpec: the plan must last {PLAN_DURATION_MIN:g} to {PLAN_DURATION_MAX:g} s "
+                f"in all ({' + '.join(names)}), got {total!r} s"
+            )
 
     @property
     def duration(self) -> float:
@@ -189,6 +303,11 @@ class ControllerSpec:
         kd: derivative gain, 1/s.
         torque_limits: per-joint limits of the Panda, N m.
         control_period: physics steps per control step; torques are held in between.
+
+    Limits: ``kp`` in (0, 10^6] 1/s^2 and ``kd`` in (0, 10^4] 1/s (a natural frequency of up to
+    1000 rad/s, critically damped at kd = 2000), ``torque_limits`` in (0, 10^4] N m (the
+    Panda's are 87 and 12), ``control_period`` from 1 to 50 (with the coarsest time step, a
+    control step of 1 s: every plan, at least 1 s long, has one).
     """
 
     kp: float = 400.0
@@ -198,9 +317,14 @@ class ControllerSpec:
 
     def __post_init__(self) -> None:
         _check_positive(self, "kp", "kd")
+        _check_range(self, "kp", 0.0, GAIN_KP_MAX, "1/s^2", open_low=True)
+        _check_range(self, "kd", 0.0, GAIN_KD_MAX, "1/s", open_low=True)
         _check_vector(self, "torque_limits", 7)
-        if not all(v > 0 for v in self.torque_limits):
-            raise ValueError(f"ControllerSpec.torque_limits must be > 0, got {self.torque_limits}")
+        if not all(0 < v <= TORQUE_LIMIT_MAX for v in self.torque_limits):
+            raise ValueError(
+                f"ControllerSpec.torque_limits must be > 0 and <= {TORQUE_LIMIT_MAX:g} N m, got "
+                f"{self.torque_limits}"
+            )
         # Stored as Python floats: with NumPy 2, a np.float32 gain would make the feedback law
         # round to float32 in the Python loop (and not in the C loop, which computes in double).
         object.__setattr__(self, "kp", float(self.kp))
@@ -209,10 +333,11 @@ class ControllerSpec:
         if (
             isinstance(self.control_period, bool)
             or not isinstance(self.control_period, int)
-            or self.control_period < 1
+            or not 1 <= self.control_period <= CONTROL_PERIOD_MAX
         ):
             raise ValueError(
-                f"ControllerSpec.control_period must be an int >= 1, got {self.control_period!r}"
+                f"ControllerSpec.control_period must be an int from 1 to {CONTROL_PERIOD_MAX}, "
+                f"got {self.control_period!r}"
             )
 
 
@@ -265,6 +390,13 @@ class SceneSpec:
             (friction 1.0) give way to the last link's; only the tool touches the box here.
             On by default since 2026-11-25; a run folder stored before records no value and
             is read as ``False``, the 13-link arm it ran with (docs/benchmarks.md).
+
+    Limits (a ValueError names the field otherwise): ``time_step`` 2.5e-4 to 0.02 s (4 kHz to
+    50 Hz), ``solver_iterations`` 1 to 1000, each ``box_size`` extent 1 mm to 2 m,
+    ``box_mass`` > 0 and <= 1000 kg, ``box_position`` inside the workspace (x, y within
+    +-2.5 m), ``box_yaw`` within +-2 pi rad, frictions 0 to 10, ``box_settle_time`` 0 to
+    10 s, ``rest_speed`` in (0, 1], ``rest_time`` 0 to 60 s, ``floor_clearance`` in
+    (0.02, 1] m.
     """
 
     time_step: float = 1.0 / 240.0
@@ -291,19 +423,34 @@ class SceneSpec:
         _check_positive(self, "time_step", "box_mass", "rest_speed")
         _check_positive(self, "rest_time", "box_settle_time", allow_zero=True)
         _check_positive(self, "box_friction", "floor_friction", "tool_friction", allow_zero=True)
+        _check_range(self, "time_step", TIME_STEP_MIN, TIME_STEP_MAX, "s")
+        _check_range(self, "rest_speed", 0.0, REST_SPEED_MAX, "m/s and rad/s", open_low=True)
+        _check_range(self, "rest_time", 0.0, REST_TIME_MAX, "s")
+        _check_range(self, "box_settle_time", 0.0, SETTLE_TIME_MAX, "s")
+        for name in ("box_friction", "floor_friction", "tool_friction"):
+            _check_range(self, name, 0.0, FRICTION_MAX, "(a friction coefficient)")
         _check_vector(self, "box_size", 3)
         _check_vector(self, "box_position", 2)
-        if not all(v > 0 for v in self.box_size):
-            raise ValueError(f"SceneSpec.box_size must be > 0, got {self.box_size}")
+        if not all(BOX_SIZE_MIN <= v <= BOX_SIZE_MAX for v in self.box_size):
+            raise ValueError(
+                f"SceneSpec.box_size must be three extents from {BOX_SIZE_MIN:g} to "
+                f"{BOX_SIZE_MAX:g} m, got {self.box_size}"
+            )
+        if not all(abs(v) <= WORKSPACE_HALF_WIDTH for v in self.box_position):
+            raise ValueError(
+                f"SceneSpec.box_position must be inside the workspace: x, y in "
+                f"[-{WORKSPACE_HALF_WIDTH:g}, {WORKSPACE_HALF_WIDTH:g}] m, got {self.box_position}"
+            )
         if (
             isinstance(self.solver_iterations, bool)
             or not isinstance(self.solver_iterations, int)
-            or self.solver_iterations < 1
+            or not 1 <= self.solver_iterations <= SOLVER_ITERATIONS_MAX
         ):
             raise ValueError(
-                f"SceneSpec.solver_iterations must be an int >= 1, got {self.solver_iterations!r}"
+                f"SceneSpec.solver_iterations must be an int from 1 to {SOLVER_ITERATIONS_MAX}, "
+                f"got {self.solver_iterations!r}"
             )
-        check_real(self.box_yaw, "SceneSpec.box_yaw")
+        _check_range(self, "box_yaw", -YAW_MAX, YAW_MAX, "rad")
         _check_bool(self, "fast_forward_rest")
         _check_bool(self, "merge_fixed_links")
         object.__setattr__(self, "merge_fixed_links", bool(self.merge_fixed_links))
@@ -386,6 +533,14 @@ class ObjectiveSpec:
         scene_jitter: standard deviations of the box's offsets in the K - 1 other scenes:
             position (m, along x and y) and yaw (rad).
         scene_seed: seed of the offsets.
+
+    Limits (a ValueError names the field otherwise): ``goal_precision`` 0 to 10^6 1/m^2,
+    ``eps`` 10^-12 to 1 (m/N m)^2 (below, log|Pi_U| overflows: 10^-320 gave F = -inf),
+    ``expected_masses`` 1 to 64 masses in (0, 1000] kg, ``window`` and ``horizon`` 2 to
+    10,000 control steps, ``ridge`` in (0, 1000], ``response_time`` in (0, 1] s,
+    ``slip_speed`` in (0, 1] m/s, ``perturbation`` in (0, 100] N m, ``invalid_penalty`` in
+    (0, 10^15], ``scene_samples`` 1 to 64, ``scene_jitter`` at most (0.01 m, 0.1 rad),
+    ``scene_seed`` 0 to 2^32 - 1.
     """
 
     kind: str = "free-energy"
@@ -421,16 +576,29 @@ class ObjectiveSpec:
             "perturbation",
             "invalid_penalty",
         )
+        _check_range(self, "eps", EPS_MIN, EPS_MAX, "(m/N m)^2")
+        _check_range(self, "ridge", 0.0, RIDGE_MAX, "(relative)", open_low=True)
+        _check_range(self, "response_time", 0.0, RESPONSE_TIME_MAX, "s", open_low=True)
+        _check_range(self, "slip_speed", 0.0, SLIP_SPEED_MAX, "m/s", open_low=True)
+        _check_range(self, "perturbation", 0.0, PERTURBATION_MAX, "N m", open_low=True)
+        _check_range(self, "invalid_penalty", 0.0, INVALID_PENALTY_MAX, "", open_low=True)
         if self.kind not in KINDS:
             raise ValueError(f"ObjectiveSpec.kind must be one of {KINDS}, got {self.kind!r}")
         masses = tuple(self.expected_masses)
-        if not masses or not all(
-            not isinstance(m, bool) and isinstance(m, (int, float)) and math.isfinite(m) and m > 0
-            for m in masses
+        if (
+            not masses
+            or len(masses) > EXPECTED_MASSES_MAX
+            or not all(
+                not isinstance(m, bool)
+                and isinstance(m, (int, float))
+                and math.isfinite(m)
+                and 0 < m <= BOX_MASS_MAX
+                for m in masses
+            )
         ):
             raise ValueError(
-                "ObjectiveSpec.expected_masses must be one or more finite masses > 0 kg, "
-                f"got {self.expected_masses!r}"
+                f"ObjectiveSpec.expected_masses must be 1 to {EXPECTED_MASSES_MAX} masses > 0 "
+                f"and <= {BOX_MASS_MAX:g} kg, got {self.expected_masses!r}"
             )
         object.__setattr__(self, "expected_masses", tuple(float(m) for m in masses))
         if self.form not in FORMS:
@@ -441,8 +609,14 @@ class ObjectiveSpec:
             )
         for name in ("window", "horizon"):
             value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < 2:
-                raise ValueError(f"ObjectiveSpec.{name} must be an int >= 2, got {value!r}")
+            if (
+                isinstance(value, bool)
+                or not isinstance(value, int)
+                or not 2 <= value <= WINDOW_MAX
+            ):
+                raise ValueError(
+                    f"ObjectiveSpec.{name} must be an int from 2 to {WINDOW_MAX}, got {value!r}"
+                )
         _check_int(self, "scene_samples", 1, SCENE_SAMPLES_MAX)
         _check_int(self, "scene_seed", 0, 2**32 - 1)
         _check_vector(self, "scene_jitter", 2)

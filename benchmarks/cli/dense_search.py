@@ -20,12 +20,24 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         description="Evaluate every design of a regular grid over the default coefficient "
         "bounds on one task and write dense_search.csv. See docs/dense-search.md.",
     )
-    parser.add_argument("--points", type=int, default=11, help="grid points per coefficient")
-    parser.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder")
+    parser.add_argument(
+        "--points", type=int, default=11, help="grid points per coefficient, 2 to 50"
+    )
+    parser.add_argument(
+        "--out",
+        type=Path,
+        required=True,
+        metavar="DIR",
+        help="output folder, new or empty (an earlier search's table is never replaced)",
+    )
     add_task_arguments(parser)
-    parser.add_argument("--workers", type=int, default=None, metavar="N")
+    parser.add_argument(
+        "--workers", type=int, default=None, metavar="N", help="worker processes, 1 to 1024"
+    )
     parser.add_argument("--executor", choices=EXECUTORS, default="process")
-    parser.add_argument("--batch", type=int, default=64, help="designs per submitted batch")
+    parser.add_argument(
+        "--batch", type=int, default=64, help="designs per submitted batch, 1 to 10000"
+    )
     parser.set_defaults(run=_run)
     return cast("argparse.ArgumentParser", parser)
 

@@ -7,18 +7,26 @@ import dataclasses
 from pathlib import Path
 from typing import Any, cast
 
+from benchmarks.execution import WORKERS_MAX
 from benchmarks.reports.retest import noise_floor
 from benchmarks.storage import RETEST_DIR, read_manifest, read_retests
 from benchmarks.suites.config import suite_of_manifest
 from benchmarks.suites.retest import RetestConfig, default_config, retest_suite
 
+#: Scenes per design of the noise floor (RetestConfig's range).
+NUDGES_MIN, NUDGES_MAX = 2, 100
+
 
 def _positive_floats(text: str) -> tuple[float, ...]:
+    """One or more comma-separated numbers; an empty field (``""``, ``0.2,,0.3``) is refused."""
+    fields = text.split(",")
     try:
-        return tuple(float(v) for v in text.split(",") if v.strip())
+        if any(not v.strip() for v in fields):
+            raise ValueError
+        return tuple(float(v) for v in fields)
     except ValueError:
         raise argparse.ArgumentTypeError(
-            f"expected comma-separated numbers, e.g. 0.2,0.5, got {text!r}"
+            f"expected one or more comma-separated numbers, e.g. 0.2,0.5, got {text!r}"
         ) from None
 
 
@@ -37,7 +45,10 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     defaults = RetestConfig()
     parser.add_argument("run_folder", type=Path, metavar="RUN_FOLDER", help="the run folder")
     parser.add_argument(
-        "--nudges", type=int, default=defaults.nudges, help="scenes per design (default: 5)"
+        "--nudges",
+        type=int,
+        default=defaults.nudges,
+        help=f"scenes per design, {NUDGES_MIN} to {NUDGES_MAX} (default: %(default)s)",
     )
     parser.add_argument(
         "--masses",
@@ -56,20 +67,44 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         "robustness, else none)",
     )
     parser.add_argument(
-        "--repeats", type=int, default=defaults.repeats, help="scenes of the stress test"
+        "--repeats",
+        type=int,
+        default=None,
+        help=f"scenes of the stress test, 1 to --nudges (default: {defaults.repeats}, or "
+        "--nudges if fewer)",
     )
-    parser.add_argument("--workers", type=int, default=None, help="worker processes")
+    parser.add_argument(
+        "--workers", type=int, default=None, help=f"worker processes, 1 to {WORKERS_MAX}"
+    )
     parser.set_defaults(run=_run)
     return cast("argparse.ArgumentParser", parser)
 
 
+def _check_counts(args: argparse.Namespace) -> int:
+    """The stress test's repeats; ValueError naming a flag out of its range."""
+    if not NUDGES_MIN <= args.nudges <= NUDGES_MAX:
+        raise ValueError(f"--nudges must be from {NUDGES_MIN} to {NUDGES_MAX}, got {args.nudges}")
+    if args.repeats is None:
+        repeats = min(RetestConfig().repeats, args.nudges)
+    elif not 1 <= args.repeats <= args.nudges:
+        raise ValueError(
+            f"--repeats must be from 1 to --nudges ({args.nudges}), got {args.repeats}"
+        )
+    else:
+        repeats = args.repeats
+    if args.workers is not None and not 1 <= args.workers <= WORKERS_MAX:
+        raise ValueError(f"--workers must be from 1 to {WORKERS_MAX}, got {args.workers}")
+    return int(repeats)
+
+
 def _run(args: argparse.Namespace) -> int:
+    repeats = _check_counts(args)  # before the folder is read: a bad flag is named first
     suite = suite_of_manifest(read_manifest(args.run_folder))
     base = default_config(suite)
     config = dataclasses.replace(
         base,
         nudges=args.nudges,
-        repeats=min(args.repeats, args.nudges),
+        repeats=repeats,
         masses=base.masses if args.masses is None else args.masses,
         frictions=base.frictions if args.frictions is None else args.frictions,
     )

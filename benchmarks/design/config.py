@@ -15,6 +15,7 @@ import numpy as np
 
 from benchmarks.execution import (
     EXECUTORS,
+    WORKERS_MAX,
     RobustnessRequest,
     TaskSettings,
     check_max_retries,
@@ -30,11 +31,6 @@ from tooldesign_env.specs import SCENE_SAMPLES_MAX, SceneSpec
 DESIGN_SUITE = "design"
 
 """Suite name of a design run in its evaluation log."""
-
-
-WORKERS_MAX = 1024
-
-"""Most worker processes: a mistyped count (10^6) would start that many processes."""
 
 
 # Fields that do not change the results, so a resumed run may set them differently.

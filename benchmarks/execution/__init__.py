@@ -28,6 +28,7 @@ from benchmarks.execution.evaluator import (
 from benchmarks.execution.executors import (
     EXECUTORS,
     MAX_RETRIES_MAX,
+    WORKERS_MAX,
     Outcome,
     SerialExecutor,
     WorkerDied,
@@ -42,6 +43,7 @@ from benchmarks.execution.scheduler import Job, Scheduler
 __all__ = [
     "EXECUTORS",
     "MAX_RETRIES_MAX",
+    "WORKERS_MAX",
     "EvaluationRequest",
     "FinalTest",
     "Job",

@@ -48,6 +48,9 @@ ExecutorKind = Literal["serial", "process", "dask"]
 
 MAX_RETRIES_MAX = 100
 
+#: Most worker processes: a mistyped count (10^6) would start that many processes.
+WORKERS_MAX = 1024
+
 """Largest ``max_retries``: each retry starts a fresh pool and evaluates the item again."""
 
 
@@ -269,6 +272,8 @@ def _check_workers(workers: int | None) -> int:
         raise TypeError(f"workers must be an int >= 1 or None, got {type(workers).__name__}")
     if workers < 1:
         raise ValueError(f"workers must be >= 1, got {workers}")
+    if workers > WORKERS_MAX:
+        raise ValueError(f"workers must be <= {WORKERS_MAX}, got {workers}")
     return int(workers)
 
 

@@ -20,6 +20,7 @@ import numpy as np
 
 import tooldesign_env  # noqa: F401  (registers ToolDesignRL-v0)
 from benchmarks.rl.configs import ContextualConfig, PPOConfig, SACConfig
+from optimizers._validation import SEED_MAX
 from tooldesign_env.rl import ToolDesignRLEnv
 
 __all__ = [
@@ -124,17 +125,31 @@ def make_env(
     return ToolDesignRLEnv(randomize_goal=randomize_goal, reward="normalized", **kwargs)
 
 
+#: Most episodes of one run: each is a simulation (about 0.3 s) and a kept record, so 10^5 is
+#: hours and about 100 MB (the rl suite's largest size spends 1,024); 10^20 hung.
+EPISODES_MAX = 100_000
+
+
 def _check_episodes(total_episodes: Any) -> int:
     if isinstance(total_episodes, bool) or not isinstance(total_episodes, (int, np.integer)):
-        raise TypeError(f"total_episodes must be an int >= 1, got {total_episodes!r}")
-    if total_episodes < 1:
-        raise ValueError(f"total_episodes must be an int >= 1, got {total_episodes!r}")
+        raise TypeError(
+            f"total_episodes must be an int from 1 to {EPISODES_MAX}, got {total_episodes!r}"
+        )
+    if not 1 <= total_episodes <= EPISODES_MAX:
+        raise ValueError(
+            f"total_episodes must be an int from 1 to {EPISODES_MAX}, got {total_episodes!r}"
+        )
     return int(total_episodes)
 
 
 def _check_seed(seed: Any) -> int:
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise TypeError(f"seed must be an int >= 0, got {seed!r}")
+    # Seeds are stored as int64, as everywhere else (optimizers._validation.SEED_MAX).
+    if (
+        isinstance(seed, bool)
+        or not isinstance(seed, (int, np.integer))
+        or not 0 <= seed <= SEED_MAX
+    ):
+        raise TypeError(f"seed must be an int from 0 to 2^63 - 1, got {seed!r}")
     return int(seed)
 
 

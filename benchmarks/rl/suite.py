@@ -40,7 +40,7 @@ from typing import Any, cast
 import numpy as np
 import pandas as pd
 
-from benchmarks.execution import make_executor
+from benchmarks.execution import WORKERS_MAX, make_executor
 from benchmarks.rl.agents import (
     EpisodeRecord,
     Trained,
@@ -77,6 +77,10 @@ from tooldesign_env.schema import (
     coefficient_columns,
 )
 from tooldesign_env.specs import BOX_MASS_MAX
+
+#: Most seeds of the fixed-goal part: a suite's n_seeds limit (benchmarks.suites.config,
+#: which the rl layer does not import).
+SEEDS_MAX = 10_000
 
 __all__ = [
     "FIXED_GOAL",
@@ -393,11 +397,13 @@ def _check_subset(name: str, values: Any, allowed: Sequence[str]) -> tuple[str, 
     return tuple(a for a in allowed if a in chosen)
 
 
-def _check_count(name: str, value: Any) -> int:
+def _check_count(name: str, value: Any, high: int) -> int:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        raise TypeError(f"{name} must be an int >= 1, got {value!r}")
+        raise TypeError(f"{name} must be an int >= 1 and <= {high}, got {value!r}")
     if value < 1:
         raise ValueError(f"{name} must be an int >= 1, got {value!r}")
+    if value > high:
+        raise ValueError(f"{name} must be an int >= 1 and <= {high}, got {value!r}")
     return int(value)
 
 
@@ -432,11 +438,12 @@ def rl_suite_config(
     Args:
         size: ``"smoke"`` (CI), ``"short"`` (docs/rl.md), ``"full"`` (the issue's), or a
             :class:`SuiteSize`.
-        seeds: seeds of the fixed-goal part instead of the size's.
+        seeds: seeds of the fixed-goal part instead of the size's, 1 to 10,000 (as a suite's
+            ``n_seeds``).
         methods: fixed-goal methods, a subset of random, cmaes, ppo, sac.
         parts: a subset of fixed, task, mass.
         mass_range: (low, high) box masses of the ``mass`` part in kg, 0 < low <= high.
-        workers: processes that run units of work at once (1: in this process).
+        workers: processes that run units of work at once (1: in this process), 1 to 1024.
 
     Returns:
         The configuration; the committed configs of each method, with the size's overrides.
@@ -447,7 +454,7 @@ def rl_suite_config(
     """
     suite = _check_size(size)
     if seeds is not None:
-        suite = dataclasses.replace(suite, seeds=_check_count("seeds", seeds))
+        suite = dataclasses.replace(suite, seeds=_check_count("seeds", seeds, SEEDS_MAX))
     configs: dict[str, Any] = {m: default_config(m) for m in ("ppo", "sac")}
     contextual = default_config("contextual")
     assert isinstance(contextual, ContextualConfig)
@@ -468,7 +475,7 @@ def rl_suite_config(
         parts=_check_subset("parts", parts, PARTS),
         mass_range=_check_mass_range(mass_range),
         configs=configs,
-        workers=_check_count("workers", workers),
+        workers=_check_count("workers", workers, WORKERS_MAX),
     )
 
 

@@ -27,9 +27,10 @@ def probe(
 
     Args:
         method: ``"random"``, ``"cmaes"``, ``"ppo"`` or ``"sac"``.
-        episodes: episodes to spend.
-        seed: the run's seed.
-        overrides: config fields to replace (PPO/SAC), or ``run_cmaes`` keywords (CMA-ES).
+        episodes: episodes to spend, 1 to 100,000.
+        seed: the run's seed, 0 to 2^63 - 1.
+        overrides: config fields to replace (PPO/SAC), or ``run_cmaes`` keywords (CMA-ES); a
+            dict (random sampling takes none).
 
     Returns:
         ``best`` (best F so far at 32, 64, ... episodes), ``last32_median`` (median F of the
@@ -37,10 +38,18 @@ def probe(
         deterministic policy's design, one more episode not counted in ``best``).
 
     Raises:
-        ValueError: an unknown method or config field.
+        ValueError: an unknown method or config field, or ``episodes`` out of range.
+        TypeError: ``overrides`` is not a dict, or a bad ``episodes`` or ``seed``.
     """
     if method not in ("random", "cmaes", "ppo", "sac"):
         raise ValueError(f"method must be random, cmaes, ppo or sac, got {method!r}")
+    if overrides is not None and not isinstance(overrides, dict):
+        raise TypeError(
+            'overrides must be a table of config fields, e.g. {"n_steps": 16}, got '
+            f"{overrides!r} ({type(overrides).__name__})"
+        )
+    if overrides and method == "random":
+        raise ValueError(f"random sampling has no config fields to set, got {overrides!r}")
     over: dict[str, Any] = {
         k: tuple(v) if isinstance(v, list) else v for k, v in (overrides or {}).items()
     }

@@ -83,8 +83,10 @@ class RetestConfig:
     def __post_init__(self) -> None:
         for name in ("nudges", "repeats", "seed"):
             value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < 0:
-                raise ValueError(f"RetestConfig.{name} must be an int >= 0, got {value!r}")
+            if isinstance(value, bool) or not isinstance(value, int):
+                raise ValueError(f"RetestConfig.{name} must be an int, got {value!r}")
+        if self.seed < 0:
+            raise ValueError(f"RetestConfig.seed must be an int >= 0, got {self.seed!r}")
         if not 2 <= self.nudges <= 100:
             raise ValueError(f"RetestConfig.nudges must be in [2, 100], got {self.nudges}")
         if not 1 <= self.repeats <= self.nudges:

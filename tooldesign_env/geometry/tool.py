@@ -42,6 +42,20 @@ __all__ = ["SECTION_SHAPES", "ToolGeometry", "ToolSpec", "make_tool"]
 #: The sections a tool can have (``ToolSpec.section_shape``).
 SECTION_SHAPES = ("square", "round")
 
+#: (lowest, highest, unit) of each real field of ``ToolSpec``: a tool the arm can hold in the
+#: workspace, of a real material (the defaults: 1.1 m, 0.15 m, 3 cm, 250 kg/m^3).
+TOOL_LIMITS: dict[str, tuple[float, float, str]] = {
+    "arc_length": (0.01, 5.0, "m"),
+    "handle_length": (0.01, 2.0, "m"),
+    "section": (0.001, 0.5, "m"),
+    "density": (1.0, 30000.0, "kg/m^3"),
+}
+
+#: Most chords of the curve (one collision shape each; 120 is the finest studied) and the
+#: highest polynomial degree (the design's dimension).
+N_SEGMENTS_MAX = 500
+DEGREE_MAX = 20
+
 
 # --------------------------------------------------------------------------------------------
 # Specification and input validation
@@ -66,6 +80,12 @@ class ToolSpec:
             collision box per segment; its contact with the box is chaotic, a 0.1 mm nudge of
             the box moves F by about 1.5 % (docs/model.md, "The tool's section: where the chaos
             came from"), so the round section is the default.
+
+    Limits (:data:`TOOL_LIMITS`; a ValueError names the field otherwise): ``arc_length`` 1 cm
+    to 5 m, ``handle_length`` 1 cm to 2 m, ``section`` 1 mm to 0.5 m, ``density`` 1 to
+    30,000 kg/m^3 (aerogel to beyond osmium's 22,590), ``n_segments`` 1 to 500 (each a
+    collision shape), ``degree`` 1 to 20. Outside them the simulation fails (a 10^-300 m
+    section or a 10^308 kg/m^3 density gave non-finite torques) or runs without bound.
     """
 
     arc_length: float = 1.1
@@ -77,12 +97,20 @@ class ToolSpec:
     section_shape: str = "round"
 
     def __post_init__(self) -> None:
-        units = {"arc_length": "m", "handle_length": "m", "section": "m", "density": "kg/m^3"}
-        for name, unit in units.items():
-            value = _check_positive(f"ToolSpec.{name}", getattr(self, name), unit)
+        for name, (low, high, unit) in TOOL_LIMITS.items():
+            label = f"ToolSpec.{name}"
+            value = _check_positive(label, getattr(self, name), unit)
+            if not low <= value <= high:
+                raise ValueError(
+                    f"{label} must be a number from {low:g} to {high:g} {unit}, got {value!r}"
+                )
             object.__setattr__(self, name, value)
-        for name in ("n_segments", "degree"):
-            object.__setattr__(self, name, _check_int(f"ToolSpec.{name}", getattr(self, name), 1))
+        for name, high in (("n_segments", N_SEGMENTS_MAX), ("degree", DEGREE_MAX)):
+            label = f"ToolSpec.{name}"
+            count = _check_int(label, getattr(self, name), 1)
+            if count > high:
+                raise ValueError(f"{label} must be an integer from 1 to {high}, got {count!r}")
+            object.__setattr__(self, name, count)
         if not isinstance(self.section_shape, str) or self.section_shape not in SECTION_SHAPES:
             raise ValueError(
                 f"ToolSpec.section_shape must be one of {SECTION_SHAPES}, "
