@@ -324,3 +324,12 @@ def test_dense_search_never_replaces_earlier_results(tmp_path, capsys):
         dense_search(tmp_path, points=2, executor="serial")
     assert earlier.read_text(encoding="utf-8") == "c1,c2,c3\n0,0,0\n"
     assert [p.name for p in tmp_path.iterdir()] == ["dense_search.csv"]
+
+
+def test_a_design_config_of_more_coefficients_than_a_tool_can_have_is_refused_at_once() -> None:
+    from benchmarks.design.config import DesignConfig
+    from tooldesign_env.geometry.tool import DEGREE_MAX
+
+    DesignConfig(bounds=[[-1.0, 1.0]] * DEGREE_MAX)  # the most a tool can have
+    with pytest.raises(ValueError, match=f"at most {DEGREE_MAX} rows"):
+        DesignConfig(bounds=[[-1.0, 1.0]] * (DEGREE_MAX + 1))

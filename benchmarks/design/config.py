@@ -193,9 +193,15 @@ def _bounds(value: Any) -> tuple[tuple[float, float], ...]:
         value = default_bounds(3)
     from optimizers._validation import check_bounds
     from tooldesign_env.env import COEFFICIENT_MAX
+    from tooldesign_env.geometry.tool import DEGREE_MAX
 
     # The optimizers' check refuses bools, strings, ragged rows and overflowing ints by name.
     low, high = check_bounds(value)
+    if len(low) > DEGREE_MAX:
+        raise ValueError(
+            f"bounds must have at most {DEGREE_MAX} rows (one per coefficient: a polynomial of "
+            f"degree <= {DEGREE_MAX}), got {len(low)}"
+        )
     array = np.stack([low, high], axis=1)
     if np.any(np.abs(array) > COEFFICIENT_MAX):
         raise ValueError(
