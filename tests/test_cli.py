@@ -90,7 +90,7 @@ def test_a_design_run_whose_every_evaluation_fails_ends_in_one_line(
     monkeypatch.setattr(ToolDesignEnv, "step", broken)
     out = tmp_path / "run"
     argv = ["design", "--iterations", "1", "--batch-size", "2", "--executor", "serial"]
-    with pytest.raises(SystemExit) as excinfo:
+    with pytest.raises(SystemExit) as excinfo, pytest.warns(RuntimeWarning, match="failed"):
         main([*argv, "--no-progress", "--out", str(out)])
     assert excinfo.value.code == 1
     err = capsys.readouterr().err
