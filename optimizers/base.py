@@ -26,6 +26,7 @@ Semantics (also in ``docs/optimizer-plugins.md``):
 from __future__ import annotations
 
 import abc
+import copy
 import hashlib
 import math
 import os
@@ -689,36 +690,28 @@ class Optimizer(abc.ABC):
             )
         return np.clip(array, 0.0, 1.0)
 
-    def _bookkeeping(self) -> tuple[Any, ...]:
-        """What :meth:`tell` changes in this class, copied, for :meth:`_restore`."""
-        return (
-            dict(self._pending),
-            dict(self._batch_of),
-            dict(self._open),
-            list(self._held),
-            self._iteration,
-            self._n_told,
-            self._n_failed,
-            self._best_value,
-            self._worst_value,
-            self._best_id,
-            self._best_x,
-        )
+    #: What :meth:`tell` changes in this class, restored when the backend raises.
+    _TELL_STATE: ClassVar[tuple[str, ...]] = (
+        "_pending",
+        "_batch_of",
+        "_open",
+        "_held",
+        "_iteration",
+        "_n_told",
+        "_n_failed",
+        "_best_value",
+        "_worst_value",
+        "_best_id",
+        "_best_x",
+    )
 
-    def _restore(self, saved: tuple[Any, ...]) -> None:
-        (
-            self._pending,
-            self._batch_of,
-            self._open,
-            self._held,
-            self._iteration,
-            self._n_told,
-            self._n_failed,
-            self._best_value,
-            self._worst_value,
-            self._best_id,
-            self._best_x,
-        ) = saved
+    def _bookkeeping(self) -> dict[str, Any]:
+        """The :data:`_TELL_STATE`, copied (its containers shallowly), for :meth:`_restore`."""
+        return {name: copy.copy(getattr(self, name)) for name in self._TELL_STATE}
+
+    def _restore(self, saved: dict[str, Any]) -> None:
+        for name, value in saved.items():
+            setattr(self, name, value)
 
     def _record(
         self, ids: tuple[int, ...], u: np.ndarray, values: np.ndarray, failed: np.ndarray
