@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import importlib.util
+import os
 import shutil
 import subprocess
 import sys
+import zipfile
 from pathlib import Path
 
 import pytest
@@ -33,3 +36,41 @@ def test_docs_build_strict(tmp_path):
         text=True,
     )
     assert out.returncode == 0, out.stderr
+
+
+@pytest.mark.slow
+def test_a_built_wheel_holds_every_file_the_packages_read(tmp_path):
+    """A normal (not editable) install must carry the data files, e.g. the rl baselines' configs."""
+    src = tmp_path / "src"
+    src.mkdir()
+    for name in ("pyproject.toml", "setup.py", "README.md", "LICENSE"):
+        shutil.copy2(ROOT / name, src / name)
+    packages = ("tooldesign_env", "optimizers", "benchmarks")
+    skip = shutil.ignore_patterns("__pycache__", "*.pyc", "*.so")
+    for name in packages:
+        shutil.copytree(ROOT / name, src / name, ignore=skip)
+    command = [sys.executable, "-m", "pip", "wheel", str(src), "--no-deps", "-q"]
+    command += ["-w", str(tmp_path / "wheel")]
+    if importlib.util.find_spec("setuptools") is not None:
+        command.append("--no-build-isolation")  # offline when the venv has setuptools
+    subprocess.run(command, check=True, capture_output=True, cwd=tmp_path)
+    (wheel,) = (tmp_path / "wheel").glob("*.whl")
+    with zipfile.ZipFile(wheel) as archive:
+        names = set(archive.namelist())
+        archive.extractall(tmp_path / "installed")
+    data = {
+        path.relative_to(src).as_posix()
+        for name in packages
+        for path in (src / name).rglob("*")
+        if path.is_file() and path.suffix != ".py"
+    }
+    assert "benchmarks/rl/configs/ppo.toml" in data
+    assert data <= names, f"left out of the wheel: {sorted(data - names)}"
+    # and they are found where the code looks for them, with the source tree out of reach
+    code = "from benchmarks.rl.configs import default_config as d; print(type(d('ppo')).__name__)"
+    env = {**os.environ, "PYTHONPATH": str(tmp_path / "installed"), "PYTHONSAFEPATH": "1"}
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path, env=env
+    )
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "PPOConfig"
