@@ -35,14 +35,28 @@ def module_name(path: Path) -> str:
 
 
 def modules() -> dict[str, Path]:
-    """Every module of the three packages, by dotted name (not the scripts or entry points)."""
+    """Every module of the three packages, by dotted name, ``python -m`` entry points included.
+
+    Not the scripts of ``benchmarks/perf/``, which print figures and are no part of the library.
+    """
     out = {}
     for package in PACKAGES:
         for path in sorted((ROOT / package).rglob("*.py")):
-            if "perf" in path.parts or path.name == "__main__.py":
-                continue  # scripts and `python -m` entry points, not library modules
+            if "perf" in path.parts:
+                continue
             out[module_name(path)] = path
     return out
+
+
+def _absolute(node: ast.ImportFrom, module: str, path: Path) -> str | None:
+    """The absolute name of what a ``from ... import`` reads, relative imports resolved."""
+    if node.level == 0:
+        return node.module
+    package = module.split(".") if path.name == "__init__.py" else module.split(".")[:-1]
+    base = package[: len(package) - (node.level - 1)]
+    if len(base) < 1:
+        return None  # above the top-level package: Python refuses it too
+    return ".".join([*base, node.module] if node.module else base)
 
 
 def imports(path: Path, known: set[str]) -> set[str]:
@@ -53,14 +67,18 @@ def imports(path: Path, known: set[str]) -> set[str]:
     """
     found: set[str] = set()
     tree = ast.parse(path.read_text(encoding="utf-8"))
+    module = module_name(path)
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
             found.update(a.name for a in node.names)
-        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
-            submodules = {f"{node.module}.{a.name}" for a in node.names} & known
+        elif isinstance(node, ast.ImportFrom):
+            source = _absolute(node, module, path)
+            if source is None:
+                continue
+            submodules = {f"{source}.{a.name}" for a in node.names} & known
             found.update(submodules)
             if len(submodules) < len(node.names):
-                found.add(node.module)
+                found.add(source)
     return {name for name in found if name.split(".")[0] in PACKAGES}
 
 
@@ -72,7 +90,13 @@ def graph() -> dict[str, set[str]]:
 
 
 def layer_of(module: str) -> str:
-    """The layer (a key of :data:`LAYERS`) a module belongs to."""
+    """The layer (a key of :data:`LAYERS`) a module belongs to.
+
+    A ``__main__`` module is an entry point: it hands ``sys.argv`` to the command line, so it
+    sits in the command line's layer, whatever package it is in.
+    """
+    if module.endswith(".__main__"):
+        return "benchmarks.cli"
     for key in sorted(LAYERS, key=len, reverse=True):
         if module == key or module.startswith(key + "."):
             return key
