@@ -130,3 +130,25 @@ def test_the_graph_sees_the_real_imports():
     assert "optimizers.base" in graph()["optimizers.cmaes"]
     # entry points belong to the command line's layer
     assert layer_of("benchmarks.rl.__main__") == "benchmarks.cli"
+
+
+@pytest.mark.parametrize("module", ["tooldesign_env.schema", "tooldesign_env.specs"])
+def test_the_defaults_and_names_load_without_the_simulator(module):
+    """The storage layer reads schema and specs; they must not pull in PyBullet or trimesh."""
+    code = (
+        f"import sys, {module}, tooldesign_env\n"
+        "print(sorted(m for m in ('pybullet', 'trimesh', 'scipy') if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "[]"
+
+
+def test_the_package_names_resolve_on_first_use():
+    import tooldesign_env
+
+    for name in tooldesign_env.__all__:
+        assert getattr(tooldesign_env, name) is not None, name
+    assert set(tooldesign_env.__all__) <= set(dir(tooldesign_env))
+    with pytest.raises(AttributeError, match="no attribute 'not_a_name'"):
+        _ = tooldesign_env.not_a_name

@@ -12,28 +12,72 @@ Importing the package registers the Gymnasium environment ``ToolDesign-v0``::
 
 from __future__ import annotations
 
+import importlib
+from typing import TYPE_CHECKING, Any
+
 from gymnasium.envs.registration import register, registry
 
-from tooldesign_env.env import (
-    GOAL_HIGH,
-    GOAL_LOW,
-    WORKSPACE_HIGH,
-    WORKSPACE_LOW,
-    ToolDesignEnv,
-    default_bounds,
-)
-from tooldesign_env.geometry import (
-    ToolGeometry,
-    ToolSpec,
-    export_mesh,
-    make_tool,
-    tool_mesh,
-    tool_urdf,
-)
-from tooldesign_env.objective import ObjectiveTerms, free_energy
-from tooldesign_env.robustness import DEFAULT_MASSES, RobustnessResult, evaluate_robustness
-from tooldesign_env.simulation import ToolSimulator, Trajectory
-from tooldesign_env.specs import ControllerSpec, ObjectiveSpec, PlanSpec, SceneSpec, TaskSpec
+if TYPE_CHECKING:
+    from tooldesign_env.env import (
+        GOAL_HIGH,
+        GOAL_LOW,
+        WORKSPACE_HIGH,
+        WORKSPACE_LOW,
+        ToolDesignEnv,
+        default_bounds,
+    )
+    from tooldesign_env.geometry import (
+        ToolGeometry,
+        ToolSpec,
+        export_mesh,
+        make_tool,
+        tool_mesh,
+        tool_urdf,
+    )
+    from tooldesign_env.objective import ObjectiveTerms, free_energy
+    from tooldesign_env.robustness import DEFAULT_MASSES, RobustnessResult, evaluate_robustness
+    from tooldesign_env.simulation import ToolSimulator, Trajectory
+    from tooldesign_env.specs import ControllerSpec, ObjectiveSpec, PlanSpec, SceneSpec, TaskSpec
+
+#: Where each public name lives. They are imported on first use (PEP 562), so that
+#: ``import tooldesign_env.schema`` (the storage layer and the reports, which read stored results
+#: only) does not load PyBullet, trimesh and SciPy.
+_LAZY: dict[str, str] = {
+    **dict.fromkeys(
+        ("GOAL_HIGH", "GOAL_LOW", "WORKSPACE_HIGH", "WORKSPACE_LOW", "ToolDesignEnv"),
+        "tooldesign_env.env",
+    ),
+    "default_bounds": "tooldesign_env.env",
+    **dict.fromkeys(
+        ("ToolGeometry", "ToolSpec", "export_mesh", "make_tool", "tool_mesh", "tool_urdf"),
+        "tooldesign_env.geometry",
+    ),
+    "ObjectiveTerms": "tooldesign_env.objective",
+    "free_energy": "tooldesign_env.objective",
+    "DEFAULT_MASSES": "tooldesign_env.robustness",
+    "RobustnessResult": "tooldesign_env.robustness",
+    "evaluate_robustness": "tooldesign_env.robustness",
+    "ToolSimulator": "tooldesign_env.simulation",
+    "Trajectory": "tooldesign_env.simulation",
+    **dict.fromkeys(
+        ("ControllerSpec", "ObjectiveSpec", "PlanSpec", "SceneSpec", "TaskSpec"),
+        "tooldesign_env.specs",
+    ),
+}
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'tooldesign_env' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value  # the next lookup is an ordinary attribute
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_LAZY})
+
 
 __version__ = "0.1.0"
 
