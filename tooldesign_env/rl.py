@@ -20,6 +20,7 @@ from gymnasium.vector import VectorEnv
 
 from tooldesign_env.bullet import not_copyable
 from tooldesign_env.env import GOAL_HIGH, GOAL_LOW, WORKSPACE_HIGH, WORKSPACE_LOW, ToolDesignEnv
+from tooldesign_env.schema import METRICS
 from tooldesign_env.specs import BOX_MASS_MAX, TaskSpec
 
 __all__ = [
@@ -38,11 +39,8 @@ REWARD_FLOOR = -1.0
 #: Keys of the base env's ``info`` kept by default: the scalars (the per-step arrays are large
 #: and would be pickled through every worker's pipe of an async vector env).
 _SCALAR_INFO = (
-    "free_energy",
-    "goal_error",
-    "confidence",
+    *METRICS,
     "penalty",
-    "final_distance",
     "valid",
     "invalid_reason",
     "coefficients",

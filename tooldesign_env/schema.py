@@ -17,8 +17,9 @@ Names of stored results (``docs/results-format.md`` documents the files):
 - :data:`METRICS`: the scalar outcomes of one evaluation (``info`` keys and table columns).
 - :data:`ROBUSTNESS_METRICS`: the robustness test's outcomes (Table I of the paper).
 - the column groups of the evaluation table: :data:`STRING_COLUMNS`, :data:`ID_COLUMNS`,
-  :data:`TIMING_COLUMNS`, :data:`TASK_COLUMNS`, :data:`RUN_COLUMNS`, :data:`SORT_COLUMNS`, and
-  :data:`COEFFICIENT_PATTERN` for the coefficient columns ``c1, c2, ...``.
+  :data:`TIMING_COLUMNS`, :data:`TASK_COLUMNS` (of which :data:`GOAL_COLUMNS`),
+  :data:`RUN_COLUMNS`, :data:`SORT_COLUMNS`, and :data:`COEFFICIENT_PATTERN` for the coefficient
+  columns ``c1, c2, ...``.
 """
 
 from __future__ import annotations
@@ -88,7 +89,8 @@ STATUSES: tuple[str, ...] = ("ok", "invalid", "failed")
 STRING_COLUMNS: tuple[str, ...] = ("suite", "optimizer", "status", "variant")
 ID_COLUMNS: tuple[str, ...] = ("seed", "iteration", "candidate", "eval_id")
 TIMING_COLUMNS: tuple[str, ...] = ("eval_time", "opt_time")
-TASK_COLUMNS: tuple[str, ...] = ("goal_x", "goal_y", "goal_z", "goal_precision", "box_mass")
+GOAL_COLUMNS: tuple[str, str, str] = ("goal_x", "goal_y", "goal_z")
+TASK_COLUMNS: tuple[str, ...] = (*GOAL_COLUMNS, "goal_precision", "box_mass")
 FLOAT_COLUMNS: tuple[str, ...] = METRICS + TIMING_COLUMNS + TASK_COLUMNS
 BEST_SO_FAR = "best_so_far"
 """The column derived on read: the lowest F of a run up to and including each row."""

@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any, cast
 
 from benchmarks.cli.rl_suite import add_rl_suite_arguments, run_rl_command
+from tooldesign_env.schema import DEFAULT_BOX_MASS
 
 __all__ = ["add_parser"]
 
@@ -57,7 +58,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     design = commands.add_parser("design", help="design a tool for a goal with a saved policy")
     design.add_argument("--policy", required=True, help="a policy card (.json)")
     design.add_argument("--goal", type=float, nargs=3, required=True, metavar=("X", "Y", "Z"))
-    design.add_argument("--box-mass", type=float, default=0.1, help="kg")
+    design.add_argument("--box-mass", type=float, default=DEFAULT_BOX_MASS, help="kg")
     design.add_argument("--no-simulate", action="store_true", help="print the design only")
     parser.set_defaults(run=_run)
     return cast(argparse.ArgumentParser, parser)

@@ -48,7 +48,7 @@ from benchmarks.storage import (
     atomic_write_text,
     json_text,
 )
-from tooldesign_env.schema import coefficient_columns, rounded_path
+from tooldesign_env.schema import ROBUSTNESS_METRICS, STATUSES, coefficient_columns, rounded_path
 
 __all__ = ["CARD_VERSION", "DesignResult", "run_design"]
 
@@ -372,16 +372,13 @@ def _card(
             "min_radius_of_curvature": _finite_or_none(geometry.min_radius_of_curvature),
             "buildable": bool(geometry.buildable),
         },
-        "robustness": {
-            k: result.robustness.get(k)
-            for k in ("robustness", "accuracy", "control_deviation", "masses")
-        },
+        "robustness": {k: result.robustness.get(k) for k in (*ROBUSTNESS_METRICS, "masses")},
         "seed": config.seed,
         "config": config.to_json(),
         "evaluations": {
             "total": int(len(evaluations)),
             "iterations": int(evaluations["iteration"].nunique()),
-            **{s: int(counts.get(s, 0)) for s in ("ok", "invalid", "failed")},
+            **{s: int(counts.get(s, 0)) for s in STATUSES},
         },
         "packages": manifest["packages"],
         "git_commit": manifest["git_commit"],

@@ -17,7 +17,7 @@ import pandas as pd
 
 from benchmarks.design.config import DESIGN_SUITE, DesignConfig
 from benchmarks.storage import ResumeError, Unit
-from tooldesign_env.schema import METRICS, coefficient_columns
+from tooldesign_env.schema import GOAL_COLUMNS, METRICS, coefficient_columns
 
 
 def _make_optimizer(config: DesignConfig) -> Any:
@@ -108,7 +108,7 @@ def _batch_frame(
     data["status"] = [str(r["status"]) for r in rows]
     data["eval_time"] = [float(r["eval_time"]) for r in rows]
     data["opt_time"] = [opt_time] * n
-    for axis, value in zip(("goal_x", "goal_y", "goal_z"), config.goal, strict=True):
+    for axis, value in zip(GOAL_COLUMNS, config.goal, strict=True):
         data[axis] = [value] * n
     data["goal_precision"] = [config.goal_precision] * n
     data["box_mass"] = [config.box_mass] * n

@@ -38,6 +38,7 @@ from tooldesign_env.schema import (
     DEFAULT_GOAL_PRECISION,
     METRICS,
     ROBUSTNESS_MASSES,
+    ROBUSTNESS_METRICS,
     rounded_path,
 )
 
@@ -429,12 +430,7 @@ def run_final_test(test: FinalTest) -> dict[str, Any]:
         result = evaluate_robustness_of_design(request)
         nominal = np.asarray(result["nominal_box_trajectory"], dtype=np.float64)
         perturbed = [np.asarray(p, dtype=np.float64) for p in result["box_trajectories"]]
-        out.update(
-            {
-                k: result[k]
-                for k in ("robustness", "accuracy", "control_deviation", "nominal_mass", "masses")
-            }
-        )
+        out.update({k: result[k] for k in (*ROBUSTNESS_METRICS, "nominal_mass", "masses")})
     else:
         row = evaluate_design(
             EvaluationRequest(coeffs=test.coeffs, task=test.task, keep_trajectory=True)

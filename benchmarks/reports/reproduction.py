@@ -28,6 +28,7 @@ from benchmarks.reports.retest import noise_floor, stress_table
 from benchmarks.reports.suite import designs_table
 from benchmarks.storage import read_designs, read_retests, with_added_fields
 from benchmarks.suites.config import ADDED_FIELDS
+from tooldesign_env.schema import ROBUSTNESS_METRICS
 
 __all__ = ["SUITES", "reproduction_page"]
 
@@ -234,7 +235,7 @@ def _claim_c(folder: Path, baseline: Path | None) -> tuple[str, str, list[str]]:
         per_design = labelled
     for _, row in rows.iterrows():
         cells = [str(row["label"] or row["variant"]), _fmt(row["goal_precision"])]
-        for metric in ("robustness", "accuracy", "control_deviation", "final_distance"):
+        for metric in (*ROBUSTNESS_METRICS, "final_distance"):
             cells.append(
                 f"{_fmt(row[metric])} [{_fmt(row[f'{metric}_low'])}, "
                 f"{_fmt(row[f'{metric}_high'])}] ({_fmt(row[f'{metric}_noise'], 2)})"

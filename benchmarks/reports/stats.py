@@ -19,6 +19,8 @@ import pandas as pd
 from numpy.typing import ArrayLike
 from scipy import stats as _sps
 
+from tooldesign_env.schema import RUN_COLUMNS
+
 __all__ = [
     "PAIRWISE_COLUMNS",
     "BootstrapCI",
@@ -32,8 +34,6 @@ __all__ = [
     "vargha_delaney_a12",
 ]
 
-RUN_KEYS: tuple[str, ...] = ("suite", "variant", "optimizer", "seed")
-"""Columns that name one optimisation run, where present (``suite`` and ``variant`` optional)."""
 
 PAIRWISE_COLUMNS: tuple[str, ...] = (
     "a",
@@ -354,7 +354,7 @@ def best_so_far_curves(evaluations: pd.DataFrame) -> pd.DataFrame:
     valid = np.isfinite(energy)
     if "status" in evaluations.columns:
         valid &= evaluations["status"] == "ok"
-    keys = [c for c in RUN_KEYS if c in evaluations.columns]
+    keys = [c for c in RUN_COLUMNS if c in evaluations.columns]  # suite, variant optional
     frame = evaluations[keys + ["iteration"]].assign(_f=energy.where(valid))
     per_iteration = (
         frame.groupby(keys + ["iteration"], sort=True)
@@ -419,7 +419,7 @@ def run_metrics(curves: pd.DataFrame) -> pd.DataFrame:
         over the iteration index).
     """
     _check_columns(curves, ("optimizer", "seed", "iteration", "best_so_far"), "curves")
-    keys = [c for c in RUN_KEYS if c in curves.columns]
+    keys = [c for c in RUN_COLUMNS if c in curves.columns]
     rows = []
     for key, run in curves.sort_values(keys + ["iteration"]).groupby(keys, sort=True):
         values = run["best_so_far"].to_numpy(dtype=np.float64)

@@ -52,6 +52,7 @@ from benchmarks.storage import (
     read_retests,
 )
 from benchmarks.suites.config import SuiteConfig, suite_of_manifest
+from tooldesign_env.schema import GOAL_COLUMNS, METRICS, ROBUSTNESS_METRICS
 
 __all__ = [
     "designs_table",
@@ -179,13 +180,13 @@ def designs_table(designs: Sequence[Mapping[str, Any]]) -> pd.DataFrame:
             k: record.get(k) for k in ("suite", "variant", "label", "optimizer", "seed")
         }
         row["task_index"] = record.get("task_index")
-        for axis, value in zip(("goal_x", "goal_y", "goal_z"), record["goal"], strict=True):
+        for axis, value in zip(GOAL_COLUMNS, record["goal"], strict=True):
             row[axis] = float(value)
         row["goal_precision"] = float(record["goal_precision"])
         coeffs = record.get("coefficients") or []
         for i, value in enumerate(coeffs, start=1):
             row[f"c{i}"] = float(value)
-        for name in ("free_energy", "goal_error", "confidence", "final_distance"):
+        for name in METRICS:
             row[name] = _float(record.get(name))
         row["status"] = record.get("status") or "failed"
         shape = tool_shape(coeffs) if coeffs else {}
@@ -310,7 +311,7 @@ def _tool_shapes(
     written.append(plots.save_png(figure, target / "tool-shapes-overlay.png"))
 
     table = designs_table([r for _, r in chosen])
-    table = table.drop(columns=["robustness", "accuracy", "control_deviation"], errors="ignore")
+    table = table.drop(columns=list(ROBUSTNESS_METRICS), errors="ignore")
     everything = designs_table([d for d in designs if d.get("status") == "ok"])
     written += _write_table(
         target, "tool-shapes", table, _tool_shapes_markdown(table, everything, config)
@@ -702,7 +703,7 @@ def _mass_paths(
             "shown": id(record) in shown,
             "free_energy": _float(record.get("free_energy")),
         }
-        for name in ("robustness", "accuracy", "control_deviation"):
+        for name in ROBUSTNESS_METRICS:
             row[name] = _float(test.get(name))
         row[f"final_distance_m{float(paths['nominal_mass']):g}"] = float(
             np.linalg.norm(np.asarray(paths["nominal"])[-1] - goal)

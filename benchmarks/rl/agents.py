@@ -22,6 +22,7 @@ import tooldesign_env  # noqa: F401  (registers ToolDesignRL-v0)
 from benchmarks.rl.configs import ContextualConfig, PPOConfig, SACConfig
 from optimizers._validation import SEED_MAX
 from tooldesign_env.rl import ToolDesignRLEnv
+from tooldesign_env.schema import DEFAULT_BOX_MASS
 
 __all__ = [
     "RL_EXTRA",
@@ -548,7 +549,11 @@ def train_contextual(
 
 
 def evaluate_design(
-    policy: Any, goal: Sequence[float], *, env: ToolDesignRLEnv | None = None, box_mass: float = 0.1
+    policy: Any,
+    goal: Sequence[float],
+    *,
+    env: ToolDesignRLEnv | None = None,
+    box_mass: float = DEFAULT_BOX_MASS,
 ) -> EpisodeRecord:
     """Simulate the policy's deterministic (zero-shot) design for ``goal``: one episode.
 

@@ -21,6 +21,7 @@ import numpy as np
 from benchmarks.rl.agents import ContextualPolicy, EpisodeLog, make_env
 from benchmarks.rl.configs import MethodConfig
 from benchmarks.storage import atomic_write_bytes, atomic_write_text, json_text
+from tooldesign_env.schema import DEFAULT_BOX_MASS
 
 __all__ = [
     "POLICY_FORMAT",
@@ -182,7 +183,7 @@ def design_for_goal(
     policy_path: str | os.PathLike[str],
     goal: Sequence[float],
     *,
-    box_mass: float = 0.1,
+    box_mass: float = DEFAULT_BOX_MASS,
     simulate: bool = True,
 ) -> DesignResult:
     """Design a tool for ``goal`` with a saved policy (zero-shot), and score it.

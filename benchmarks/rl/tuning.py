@@ -14,10 +14,9 @@ import numpy as np
 
 from benchmarks.rl.agents import evaluate_design, run_cmaes, run_random, train_ppo, train_sac
 from benchmarks.rl.configs import default_config
+from tooldesign_env.schema import DEFAULT_GOAL
 
 __all__ = ["probe"]
-
-_GOAL = (0.0, 1.5, 0.1)
 
 
 def probe(
@@ -68,7 +67,7 @@ def probe(
         train = train_ppo if method == "ppo" else train_sac
         trained = train(config, total_episodes=episodes, seed=seed)
         records = trained.records
-        final = evaluate_design(trained.model, _GOAL)
+        final = evaluate_design(trained.model, DEFAULT_GOAL)
     f = np.array([r.free_energy for r in records])
     best = np.minimum.accumulate(f)
     checkpoints = [c for c in (32, 64, 128, 256, 512, 1024) if c <= len(f)]

@@ -185,7 +185,7 @@ def _check_design(record: Any, path: Path, folder: Path) -> dict[str, Any]:
         isinstance(coefficients, list) and all(_is_number(v) for v in coefficients)
     ):
         raise bad("coefficients", "a list of finite numbers or null", coefficients)
-    for field in ("free_energy", "goal_error", "confidence", "final_distance", "test_time"):
+    for field in (*METRICS, "test_time"):
         value = record.get(field)
         if value is not None and not _is_number(value):
             raise bad(field, "a finite number or null", value)

@@ -79,7 +79,7 @@ def _peers_suite(size: str) -> SuiteConfig:
             "the optimizers suite's peer variant: Optuna and Nevergrad (those installed) next to "
             "CMA-ES, same task, budget and seeds"
         ),
-        variants=(Variant(name="peers", goal_precision=20.0),),
+        variants=(Variant(name="peers", goal_precision=DEFAULT_GOAL_PRECISION),),
         optimizers=tuple(OptimizerSpec(name=n) for n in ("cmaes", *peers)),
     )
 
@@ -128,7 +128,11 @@ def _robust_design_suite(size: str) -> SuiteConfig:
             "and seeds"
         ),
         objective="expected-goal-error",
-        variants=(Variant(name="robust", goal_precision=20.0, label="expected goal error"),),
+        variants=(
+            Variant(
+                name="robust", goal_precision=DEFAULT_GOAL_PRECISION, label="expected goal error"
+            ),
+        ),
     )
 
 

@@ -43,6 +43,7 @@ from benchmarks.storage import with_added_fields
 from optimizers._validation import BATCH_SIZE_MAX
 from tooldesign_env.env import WORKSPACE_HIGH, WORKSPACE_LOW
 from tooldesign_env.schema import (
+    DEFAULT_BOX_MASS,
     DEFAULT_GOAL,
     DEFAULT_GOAL_PRECISION,
     ROBUSTNESS_MASSES,
@@ -371,7 +372,7 @@ class SuiteConfig:
     goal: Sequence[float] = DEFAULT_GOAL
     goal_box: Sequence[Sequence[float]] | None = None
     goal_precision: float = DEFAULT_GOAL_PRECISION
-    box_mass: float = 0.1
+    box_mass: float = DEFAULT_BOX_MASS
     estimator: str = "contact"
     objective: str = "free-energy"
     scene_samples: int = 1

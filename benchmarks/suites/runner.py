@@ -79,7 +79,7 @@ from benchmarks.suites.config import (
     RunSpec,
     SuiteConfig,
 )
-from tooldesign_env.schema import METRICS, coefficient_columns
+from tooldesign_env.schema import METRICS, RUN_COLUMNS, STATUSES, coefficient_columns
 
 __all__ = ["SuiteResult", "run_suite", "summary_text"]
 
@@ -127,7 +127,7 @@ def _logged_frames(
         return {}
     log = store.read(verify=False)  # the session verified the folder when it opened it
     frames: dict[tuple[str, str, str, int], list[pd.DataFrame]] = {}
-    for key, run in log.groupby(["suite", "variant", "optimizer", "seed"], sort=False):
+    for key, run in log.groupby(list(RUN_COLUMNS), sort=False):
         frames[tuple(key)] = [part for _, part in run.groupby("iteration", sort=True)]
     return frames
 
@@ -308,7 +308,7 @@ def _design_record(
         "box_mass": spec.design.box_mass,
         "evaluations": {
             "total": int(len(evaluations)),
-            **{s: int(counts.get(s, 0)) for s in ("ok", "invalid", "failed")},
+            **{s: int(counts.get(s, 0)) for s in STATUSES},
         },
     }
     best = run.best
