@@ -9,30 +9,9 @@ platform, keyed by :func:`platform_id`.
 
 from __future__ import annotations
 
-import importlib.metadata
-import platform
+from benchmarks.storage import platform_id
 
-import numpy as np
-
-
-def platform_id() -> str:
-    """The CPU model and the features glibc and NumPy dispatch on; NumPy's, PyBullet's versions."""
-    model, flags = "unknown CPU", set()
-    try:
-        with open("/proc/cpuinfo", encoding="utf-8") as f:
-            for line in f:
-                key, _, value = line.partition(":")
-                if key.strip() == "model name" and model == "unknown CPU":
-                    model = value.strip()
-                elif key.strip() == "flags" and not flags:
-                    flags = set(value.split())
-    except OSError:
-        pass
-    features = ",".join(f for f in ("fma", "avx2", "avx512f") if f in flags)
-    return (
-        f"{platform.machine()} {model} [{features}] numpy {np.__version__} "
-        f"pybullet {importlib.metadata.version('pybullet')}"
-    )
+__all__ = ["platform_id", "skip_reason"]
 
 
 def skip_reason(fixture: str, recorded: int, command: str) -> str:

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import shutil
 import tempfile
 from collections.abc import Mapping
 from pathlib import Path
@@ -114,6 +113,7 @@ def measure(
 ) -> tuple[dict[str, Any], Path]:
     """Run the README's design and evaluate the straight tool; returns (numbers, run folder)."""
     from benchmarks.design import DesignConfig, run_design
+    from benchmarks.storage import platform_id
     from tooldesign_env import ToolDesignEnv
 
     config = DesignConfig(
@@ -152,6 +152,9 @@ def measure(
         "goal_precision": config.goal_precision,
         "goal": list(config.goal),
         "estimator": config.estimator,
+        # the last bits of F depend on the CPU kind: tests/test_readme_numbers.py re-evaluates
+        # both tools and expects these numbers bit for bit on this platform only
+        "platform": platform_id(),
         "designed": designed,
         "straight": {"coefficients": [0.0, 0.0, 0.0], **_terms(straight)},
     }
@@ -172,10 +175,16 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         help="regenerate the README's pictures and numbers (a design run of minutes)",
         description=(__doc__ or "").splitlines()[0],
     )
-    parser.add_argument("--iterations", type=_positive, default=15)
-    parser.add_argument("--batch-size", type=_positive, default=8)
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--workers", type=_positive, default=None)
+    parser.add_argument(
+        "--iterations", type=_positive, default=15, help="CMA-ES iterations (default: 15)"
+    )
+    parser.add_argument(
+        "--batch-size", type=_positive, default=8, help="tools per iteration (default: 8)"
+    )
+    parser.add_argument("--seed", type=int, default=0, help="the design's seed (default: 0)")
+    parser.add_argument(
+        "--workers", type=_positive, default=None, help="processes (default: every core)"
+    )
     parser.add_argument(
         "--root", type=Path, default=Path.cwd(), help="the repository (default: here)"
     )
@@ -205,15 +214,18 @@ def _run(args: argparse.Namespace) -> int:
         workers=args.workers,
         work=work,
     )
+    from benchmarks.storage import atomic_write_bytes, atomic_write_text
+
     images = root / "docs" / "images"
     images.mkdir(parents=True, exist_ok=True)
+    # Every file is written whole or not at all: an interrupted run leaves the old README.
     for source, target in IMAGES.items():
         if (run / source).exists():
-            shutil.copyfile(run / source, images / target)
-    (images / NUMBERS_FILE).write_text(json.dumps(numbers, indent=2) + "\n", encoding="utf-8")
+            atomic_write_bytes(images / target, (run / source).read_bytes())
+    atomic_write_text(images / NUMBERS_FILE, json.dumps(numbers, indent=2) + "\n")
     for page, prefix in pages.items():
         text = page.read_text(encoding="utf-8")
-        page.write_text(replace_block(text, render_block(numbers, prefix)), encoding="utf-8")
+        atomic_write_text(page, replace_block(text, render_block(numbers, prefix)))
     print(f"wrote {images / NUMBERS_FILE}, the images and the blocks of {len(pages)} pages")
     print(f"run folder: {run}")
     return 0

@@ -120,6 +120,34 @@ def host_info() -> dict[str, Any]:
     }
 
 
+def platform_id() -> str:
+    """Which platform a run of the physics is on: the last bits of its results depend on it.
+
+    PyBullet's physics is deterministic on one machine, but glibc and NumPy pick their maths
+    routines by the CPU's features at run time (an FMA ``sin`` or ``cos`` rounds differently), so
+    the same code gives other last bits on another kind of CPU. The key: the CPU model and the
+    features glibc and NumPy dispatch on, NumPy's and PyBullet's versions. Results recorded with
+    one key are reproduced bit for bit only under the same key (the tests' fixtures,
+    ``readme.json``).
+    """
+    model, flags = "unknown CPU", set[str]()
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as f:
+            for line in f:
+                key, _, value = line.partition(":")
+                if key.strip() == "model name" and model == "unknown CPU":
+                    model = value.strip()
+                elif key.strip() == "flags" and not flags:
+                    flags = set(value.split())
+    except OSError:
+        pass
+    features = ",".join(f for f in ("fma", "avx2", "avx512f") if f in flags)
+    return (
+        f"{platform.machine()} {model} [{features}] numpy {np.__version__} "
+        f"pybullet {importlib.metadata.version('pybullet')}"
+    )
+
+
 def _cpu_model() -> str:
     """The CPU's model name (Linux's /proc/cpuinfo), else what the platform module says."""
     try:
