@@ -222,3 +222,21 @@ def test_the_floor_guards_sweep_of_the_plan_is_cached_beside_its_knots(
         assert len(calls) == 2
     finally:
         again.close()
+
+
+def test_joint_reference_is_the_splined_knot_solutions():
+    """The uncached path: solve the knots (here a fake IK solver), then spline them."""
+    from tooldesign_env.plan import joint_reference, knot_times, reference_from_knots, solve_knots
+    from tooldesign_env.specs import PlanSpec
+
+    def fake_ik(position, quaternion, seed):
+        return 0.5 * np.asarray(seed) + 0.1 * np.concatenate([position, quaternion])
+
+    plan, dt = PlanSpec(), 1.0 / 120.0
+    knots = solve_knots(plan, fake_ik)
+    assert knots.shape == (knot_times(plan).size, 7)
+    reference = joint_reference(plan, dt, fake_ik)
+    expected = reference_from_knots(plan, dt, knots)
+    for field in ("times", "q", "qd", "qdd", "q0", "ee_position", "yaw"):
+        np.testing.assert_array_equal(getattr(reference, field), getattr(expected, field))
+    np.testing.assert_array_equal(reference.q0, knots[0])

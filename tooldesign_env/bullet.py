@@ -88,6 +88,7 @@ with _quiet_pybullet():
 import pybullet_data  # noqa: E402
 from pybullet_utils.bullet_client import BulletClient  # noqa: E402
 
+from tooldesign_env.files import write_atomic  # noqa: E402
 from tooldesign_env.rigid_groups import (  # noqa: E402
     Inertial,
     combine_inertials,
@@ -436,15 +437,7 @@ def _write_lean_meshes(folder: Path) -> dict[str, str] | None:
             except OSError:
                 current = None
             if current != lean:
-                fd, tmp = tempfile.mkstemp(prefix=f".panda-{stem}-", suffix=".tmp", dir=folder)
-                try:
-                    with os.fdopen(fd, "wb") as out:
-                        out.write(lean)
-                    os.replace(tmp, path)
-                except BaseException:
-                    with contextlib.suppress(OSError):
-                        os.unlink(tmp)
-                    raise
+                write_atomic(path, lean)
             copies[original] = str(path)
     except (OSError, ValueError, UnicodeDecodeError):
         return None  # the originals load too, only slower

@@ -177,7 +177,7 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
     ``render_mode="rgb_array"`` renders headless (PyBullet's software renderer, no display):
     ``render()`` returns a (360, 480, 3) uint8 frame of the scene with the goal as a green sphere,
     after a step also the arm, the tool and the box path as a blue line; ``render_rollout()``
-    returns frames of the last rollout (for a GIF: ``benchmarks.video.write_gif``).
+    returns frames of the last rollout (for a GIF: ``benchmarks.design.video.write_gif``).
     ``render_mode="human"`` opens PyBullet's window and needs a display.
 
     ## Version History

@@ -8,12 +8,11 @@ memory, and on disk (:func:`cache_dir`) keyed by everything the solution depends
 
 from __future__ import annotations
 
-import contextlib
 import hashlib
+import io
 import json
 import math
 import os
-import tempfile
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -22,6 +21,7 @@ from typing import Any
 import numpy as np
 from scipy.interpolate import CubicSpline
 
+from tooldesign_env.files import write_atomic
 from tooldesign_env.specs import PlanSpec
 
 __all__ = [
@@ -306,16 +306,11 @@ def store_knots(key: str, q: np.ndarray, folder: Path | None = None) -> bool:
     if folder is None:
         return False
     q = np.asarray(q, dtype=np.float64)
-    tmp = None
+    archive = io.BytesIO()
+    np.savez(archive, key=np.frombuffer(key.encode("ascii"), dtype=np.uint8), q=q)
     try:
         folder.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=".plan-knots-", suffix=".tmp", dir=folder)
-        with os.fdopen(fd, "wb") as f:
-            np.savez(f, key=np.frombuffer(key.encode("ascii"), dtype=np.uint8), q=q)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, _cache_path(folder, key))
-        tmp = None
+        write_atomic(_cache_path(folder, key), archive.getvalue())
         return True
     except OSError as err:
         warnings.warn(
@@ -326,7 +321,3 @@ def store_knots(key: str, q: np.ndarray, folder: Path | None = None) -> bool:
             stacklevel=2,
         )
         return False
-    finally:
-        if tmp is not None:
-            with contextlib.suppress(OSError):
-                os.unlink(tmp)

@@ -9,7 +9,6 @@ same geometry gives the same bytes in every process.
 from __future__ import annotations
 
 import os
-import uuid
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -19,6 +18,7 @@ import numpy as np
 import trimesh
 from numpy.typing import NDArray
 
+from tooldesign_env.files import write_atomic
 from tooldesign_env.geometry.sweep import _round_mesh, _sweep
 from tooldesign_env.geometry.tool import ToolGeometry
 from tooldesign_env.geometry.validation import FloatArray, _check_positive
@@ -76,26 +76,6 @@ def tool_mesh(geometry: ToolGeometry) -> trimesh.Trimesh:
 # --------------------------------------------------------------------------------------------
 
 
-def _write_atomic(path: Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` through a temporary file in the same folder and os.replace."""
-    # O_EXCL with a random name rather than mkstemp, whose 0600 would make the mesh unreadable
-    # to anyone but its owner; this way the file gets the usual umask permissions.
-    temporary = path.with_name(f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp")
-    handle = os.open(
-        temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o666
-    )
-    try:
-        with os.fdopen(handle, "wb") as stream:
-            stream.write(data)
-            stream.flush()
-            os.fsync(stream.fileno())
-        os.replace(temporary, path)
-    except BaseException:
-        if os.path.exists(temporary):
-            os.unlink(temporary)
-        raise
-
-
 def _unit_note(scale: float) -> str:
     return {1.0: "m", 1000.0: "mm"}.get(scale, f"m x {scale!r}")
 
@@ -151,7 +131,7 @@ def export_mesh(
     factor = _check_positive("scale", scale, "1.0 for m, 1000.0 for mm")
     vertices, faces = _mesh_arrays(geometry)
     writer = _stl_bytes if suffix == ".stl" else _obj_bytes
-    _write_atomic(target, writer(vertices, faces, factor))
+    write_atomic(target, writer(vertices, faces, factor))
     return target
 
 
