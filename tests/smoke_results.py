@@ -34,7 +34,7 @@ from platforms import platform_id
 FIXTURE = Path(__file__).parent / "fixtures" / "smoke-results.json.gz"
 SUITES = ("optimizers", "precision-sweep", "robustness", "mass-perturbation")
 DESIGN_ARGS = ("--iterations", "2", "--batch-size", "4", "--seed", "3", "--no-video")
-_DROPPED_KEYS = ("config", "packages", "git_commit", "files", "run_folder", "command")
+_DROPPED_KEYS = ("config", "packages", "git_commit", "git_dirty", "files", "run_folder", "command")
 
 
 def _dropped(key: str) -> bool:

@@ -7,6 +7,7 @@ import datetime as dt
 import json
 import os
 import shutil
+import subprocess
 import tempfile
 import zlib
 from pathlib import Path
@@ -25,6 +26,8 @@ from benchmarks.storage import (
     atomic_write_text,
     build_manifest,
     git_commit,
+    git_dirty,
+    package_versions,
     read_manifest,
     resolve_format,
     timing_totals,
@@ -527,6 +530,41 @@ def test_manifest_bytes_are_deterministic(tmp_path: Path) -> None:
 def test_git_commit_outside_a_repository_is_none(tmp_path: Path) -> None:
     assert git_commit(tmp_path) is None
     assert git_commit(tmp_path / "missing") is None
+    assert git_dirty(tmp_path) is None
+
+
+def test_the_manifest_says_whether_the_code_differed_from_its_commit(tmp_path: Path) -> None:
+    if shutil.which("git") is None:
+        pytest.skip("git is not installed")
+    repo = tmp_path / "repo"
+    repo.mkdir()
+
+    def git(*args: str) -> None:
+        subprocess.run(["git", *args], cwd=repo, check=True, capture_output=True)
+
+    git("init", "-q")
+    (repo / "code.py").write_text("x = 1\n")
+    git("add", "code.py")
+    git("-c", "user.name=t", "-c", "user.email=t@t", "commit", "-q", "-m", "one")
+    assert git_dirty(repo) is False
+    (repo / "notes.txt").write_text("untracked files are not the code\n")
+    assert git_dirty(repo) is False
+    (repo / "code.py").write_text("x = 2\n")
+    assert git_dirty(repo) is True
+    start = dt.datetime(2024, 5, 1, tzinfo=dt.timezone.utc)
+    manifest = build_manifest(config={}, start_time=start, repo_dir=repo)
+    assert manifest["git_dirty"] is True and len(manifest["git_commit"]) == 40
+
+
+def test_the_manifest_records_the_optional_libraries_a_run_may_use() -> None:
+    import importlib.metadata
+
+    versions = package_versions()
+    for name in ("trimesh", "optuna", "nevergrad", "dask", "stable-baselines3"):
+        try:
+            assert versions[name] == importlib.metadata.version(name)
+        except importlib.metadata.PackageNotFoundError:
+            assert name not in versions
 
 
 def test_manifest_bad_input_is_named(tmp_path: Path) -> None:

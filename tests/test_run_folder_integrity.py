@@ -25,6 +25,7 @@ from benchmarks.storage import (
     PART_CHECKSUMS,
     ResultStore,
     ResumeError,
+    file_sha256,
     read_designs,
     read_manifest,
     read_retests,
@@ -373,3 +374,20 @@ def test_a_truncated_box_path_file_is_named(run: Path) -> None:
     paths.write_bytes(paths.read_bytes()[:50])
     with pytest.raises(ValueError, match=r"\.paths\.json: not a valid box-path file"):
         read_designs(run)
+
+
+@pytest.mark.parametrize("fmt", ["csv", "parquet"])
+def test_consolidating_a_finished_folder_in_the_other_format_keeps_it_readable(
+    config_file: Path, run: Path, fmt: str
+) -> None:
+    """The documented way to get CSV (results-format.md) must not orphan the manifest's entry."""
+    before = ResultStore(run).read()
+    target = ResultStore(run).consolidate(format=fmt)
+    recorded = read_manifest(run)["extra"][FILE_CHECKSUMS]
+    names = {k for k in recorded if k.startswith("evaluations.")}
+    assert names == {target.name}
+    assert recorded[target.name] == file_sha256(target)
+    pd.testing.assert_frame_equal(ResultStore(run).read(), before)
+    make_suite_report(run, n_boot=50)
+    resume(config_file, run)  # a later session accepts the folder too
+    pd.testing.assert_frame_equal(ResultStore(run).read(), before)

@@ -186,3 +186,61 @@ def test_sigkill_mid_iteration_keeps_the_interrupted_time(tmp_path: Path) -> Non
     # the kill; the heartbeat at most 2 s (HEARTBEAT_INTERVAL) before it.
     assert first["wall_time"] - recorded >= 4.5 - 2.0 - 0.2, (first, recorded)
     assert first["wall_time"] - recorded <= slept + 1.0, (first, recorded, slept)
+
+
+_HOLDER = """
+import sys, time
+from benchmarks.storage.session import RunSession
+session = RunSession(sys.argv[1], kind="test", config={"name": "lock"}, resume=True)
+session.checkpoint()
+print("holding", flush=True)
+time.sleep(60)
+"""
+
+
+def test_a_second_process_cannot_write_a_folder_in_use(tmp_path: Path) -> None:
+    """Two sessions on one folder would redo each other's work and fail on the other's parts."""
+    out = tmp_path / "run"
+    holder = subprocess.Popen(
+        [sys.executable, "-c", _HOLDER, str(out)],
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert holder.stdout is not None and holder.stdout.readline().strip() == "holding"
+        before = (out / "manifest.json").read_bytes()
+        with pytest.raises(ValueError, match="another process is writing"):
+            RunSession(out, kind="test", config={"name": "lock"}, resume=True)
+        assert (out / "manifest.json").read_bytes() == before
+    finally:
+        holder.kill()  # SIGKILL: the kernel releases the lock with the process
+        holder.wait(timeout=30)
+    resumed = RunSession(out, kind="test", config={"name": "lock"}, resume=True)
+    resumed.close()
+    assert resumed.sessions[0]["interrupted"] is True
+
+
+def test_within_one_process_a_new_session_takes_over_an_unclosed_one(tmp_path: Path) -> None:
+    out = tmp_path / "run"
+    abandoned = _session(out, resume=False)
+    abandoned.checkpoint()  # never closed, as after an error the caller did not handle
+    taken = _session(out, resume=True)
+    taken.checkpoint()
+    abandoned.close()  # does not unlock the folder under the new session
+    other = [sys.executable, "-c", _TRY, str(out)]
+    assert subprocess.run(other, cwd=ROOT, capture_output=True, text=True).stdout == "refused\n"
+    taken.close()
+    assert subprocess.run(other, cwd=ROOT, capture_output=True, text=True).stdout == "opened\n"
+
+
+_TRY = """
+import sys
+from benchmarks.storage.session import RunSession
+try:
+    RunSession(sys.argv[1], kind="test", config={"name": "heartbeat-test", "iterations": 3},
+               resume=True).close()
+    print("opened")
+except ValueError as err:
+    print("refused" if "another process" in str(err) else err)
+"""

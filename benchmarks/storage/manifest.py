@@ -52,6 +52,14 @@ _PACKAGES: tuple[str, ...] = (
     "pyswarms",
     "pyarrow",
     "matplotlib",
+    "trimesh",
+    # the optional backends, executors and agents a run may use (recorded when installed)
+    "optuna",
+    "nevergrad",
+    "dask",
+    "distributed",
+    "stable-baselines3",
+    "torch",
 )
 
 
@@ -99,6 +107,31 @@ def git_commit(repo_dir: str | os.PathLike[str] | None = None) -> str | None:
         return None
     commit = result.stdout.strip()
     return commit if re.fullmatch(r"[0-9a-f]{40}", commit) else None
+
+
+def git_dirty(repo_dir: str | os.PathLike[str] | None = None) -> bool | None:
+    """Whether the repository's tracked files differ from its commit, or ``None`` without git.
+
+    A run's :func:`git_commit` names the code only if this is False: ``git status --porcelain
+    --untracked-files=no`` lists changed tracked files (new untracked files are not code the
+    package imports unless added, so they are not counted).
+
+    Args:
+        repo_dir: A folder inside the repository; defaults to the folder of this module.
+    """
+    folder = Path(repo_dir) if repo_dir is not None else Path(__file__).resolve().parent
+    try:
+        result = subprocess.run(
+            ["git", "status", "--porcelain", "--untracked-files=no"],
+            cwd=folder,
+            capture_output=True,
+            text=True,
+            timeout=10,
+            check=True,
+        )
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return bool(result.stdout.strip())
 
 
 def host_info() -> dict[str, Any]:
@@ -183,7 +216,8 @@ def build_manifest(
             sessions for a resumed run).
         simulation_time: Sum of ``eval_time`` in s (see :func:`timing_totals`).
         optimizer_time: Sum of ``opt_time`` in s.
-        repo_dir: Where to ask git for the commit; see :func:`git_commit`.
+        repo_dir: Where to ask git for the commit and whether the code differs from it; see
+            :func:`git_commit` and :func:`git_dirty`.
         extra: More JSON-able entries, stored under ``"extra"``.
 
     Returns:
@@ -222,6 +256,7 @@ def build_manifest(
         "config": _jsonable(config, "config"),
         "packages": package_versions(),
         "git_commit": git_commit(repo_dir),
+        "git_dirty": git_dirty(repo_dir),
         "host": host_info(),
         "start_time": start_time.isoformat(),
         "end_time": None if end_time is None else end_time.isoformat(),

@@ -205,7 +205,9 @@ class RunSession:
     Raises:
         TypeError: If ``out_dir`` is not a path.
         ValueError: If ``out_dir`` is a file, or has content and ``resume`` is false, or
-            ``heartbeat_interval`` is not a positive finite number of seconds.
+            ``heartbeat_interval`` is not a positive finite number of seconds, or a session
+            of another process is writing the folder (it holds the folder's lock until it
+            closes or its process ends).
         ResumeError: If the folder cannot be continued (see the module docstring).
     """
 
@@ -236,37 +238,47 @@ class RunSession:
         self._heartbeat_interval = float(heartbeat_interval)
         self._heartbeat: _Heartbeat | None = None
         self._closed = False
-        self._own = frozenset(Path(f).resolve() for f in own_files)
-        self.kind = kind
-        self.config = dict(config)
-        self._runtime = frozenset(runtime_fields)
-        self._growable = frozenset(growable_fields)
-        self._added = dict(added_fields or {})
-        self.store = ResultStore(self.out)
-        self._clock = time.perf_counter()
-        self._session: dict[str, Any] = {"start_time": _now().isoformat(), "wall_time": 0.0}
-        self._extra: dict[str, Any] = dict(extra or {})
-        previous = self._previous(bool(resume))
-        self.resumed = previous is not None
-        if previous is None:
-            self.start_time = _now()
-            self.sessions: list[dict[str, Any]] = [self._session]
-            self._checksums: dict[str, str] = {}
-            self._files: dict[str, str] = {}
-        else:
-            self.start_time, sessions = self._previous_times(previous)
-            earlier = self._with_killed_session(sessions)
-            self.sessions = [*earlier, self._session]
-            self._checksums = part_checksums(self.store)  # verified in _previous
-            # Verified in _previous too. The consolidated table is rewritten by finish().
-            files = recorded_checksums(previous, FILE_CHECKSUMS, self.out / MANIFEST_NAME)
-            self._files = {
-                k: v for k, v in (files or {}).items() if k.rpartition(".")[0] != CONSOLIDATED_STEM
-            }
-            self.store.remove_stale_temp_files()  # only this process writes here
-        # The parts of the manifest that do not change within a session (packages, commit,
-        # host) are collected once: a manifest is rewritten after every part.
-        self._base = build_manifest(config=self.config, start_time=self.start_time)
+        # One session at a time per folder: a second one would redo the work and then fail on
+        # the first one's parts. Taken now if the folder exists, else when it is first written.
+        self._lock = _FolderLock(self.out)
+        self._lock.acquire_if_present()
+        try:
+            self._own = frozenset(Path(f).resolve() for f in own_files)
+            self.kind = kind
+            self.config = dict(config)
+            self._runtime = frozenset(runtime_fields)
+            self._growable = frozenset(growable_fields)
+            self._added = dict(added_fields or {})
+            self.store = ResultStore(self.out)
+            self._clock = time.perf_counter()
+            self._session: dict[str, Any] = {"start_time": _now().isoformat(), "wall_time": 0.0}
+            self._extra: dict[str, Any] = dict(extra or {})
+            previous = self._previous(bool(resume))
+            self.resumed = previous is not None
+            if previous is None:
+                self.start_time = _now()
+                self.sessions: list[dict[str, Any]] = [self._session]
+                self._checksums: dict[str, str] = {}
+                self._files: dict[str, str] = {}
+            else:
+                self.start_time, sessions = self._previous_times(previous)
+                earlier = self._with_killed_session(sessions)
+                self.sessions = [*earlier, self._session]
+                self._checksums = part_checksums(self.store)  # verified in _previous
+                # Verified in _previous too. The consolidated table is rewritten by finish().
+                files = recorded_checksums(previous, FILE_CHECKSUMS, self.out / MANIFEST_NAME)
+                self._files = {
+                    k: v
+                    for k, v in (files or {}).items()
+                    if k.rpartition(".")[0] != CONSOLIDATED_STEM
+                }
+                self.store.remove_stale_temp_files()  # only this process writes here
+            # The parts of the manifest that do not change within a session (packages, commit,
+            # host) are collected once: a manifest is rewritten after every part.
+            self._base = build_manifest(config=self.config, start_time=self.start_time)
+        except BaseException:
+            self._lock.release()  # a refused session leaves the folder to the next one
+            raise
 
     # --- opening -------------------------------------------------------------------------------
 
@@ -504,6 +516,7 @@ class RunSession:
     def checkpoint(self) -> None:
         """Rewrite the manifest: times so far, checksums, ``extra``; start the heartbeat."""
         self.store.write_manifest(self.manifest())
+        self._lock.acquire_if_present()
         if self._heartbeat is None and not self._closed:
             self._heartbeat = _Heartbeat(
                 self.out / HEARTBEAT,
@@ -538,6 +551,76 @@ class RunSession:
         if self._heartbeat is not None:
             self._heartbeat.stop()
             self._heartbeat = None
+        self._lock.release()
+
+
+#: The folders this process holds the lock of: {resolved folder: (descriptor, owner)}.
+_HELD: dict[Path, tuple[int, object]] = {}
+_HELD_GUARD = threading.Lock()
+
+
+class _FolderLock:
+    """An advisory lock on a run folder, held by the session writing it (``flock``).
+
+    The kernel releases it when the process ends, also on SIGKILL, so a killed run never leaves
+    a stale lock. Within one process a new session takes the folder over from one that was left
+    unclosed (a caller that stopped on an error, or a test that simulates a kill): the lock is
+    against other processes. Where ``fcntl`` is missing (Windows) or the file system refuses
+    locks (some network file systems), nothing is locked: the folder's checksums still refuse a
+    folder that two sessions mixed up, later.
+    """
+
+    def __init__(self, folder: Path) -> None:
+        self._folder = folder
+        self._key: Path | None = None
+
+    def acquire_if_present(self) -> None:
+        """Lock the folder if it exists and this session does not hold it yet.
+
+        Raises:
+            ValueError: A session of another process holds the lock.
+        """
+        if self._key is not None or not self._folder.is_dir():
+            return
+        try:
+            import fcntl
+        except ImportError:  # pragma: no cover - Windows
+            return
+        key = self._folder.resolve()
+        with _HELD_GUARD:
+            held = _HELD.get(key)
+            if held is not None:
+                _HELD[key] = (held[0], self)
+                self._key = key
+                return
+            try:
+                fd = os.open(key, os.O_RDONLY)
+            except OSError:
+                return
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                os.close(fd)
+                raise ValueError(
+                    f"another process is writing {self._folder} (a run in progress); wait for "
+                    "it to end, or choose another output folder"
+                ) from None
+            except OSError:  # the file system does not lock
+                os.close(fd)
+                return
+            _HELD[key] = (fd, self)
+            self._key = key
+
+    def release(self) -> None:
+        """Unlock, unless another session of this process has taken the folder over."""
+        if self._key is None:
+            return
+        with _HELD_GUARD:
+            held = _HELD.get(self._key)
+            if held is not None and held[1] is self:
+                os.close(held[0])  # closing the descriptor releases the flock
+                del _HELD[self._key]
+        self._key = None
 
 
 class _Heartbeat(threading.Thread):

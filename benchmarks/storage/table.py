@@ -41,6 +41,7 @@ from benchmarks.storage.manifest import (
     file_sha256,
     read_manifest,
     recorded_checksums,
+    update_file_checksums,
     verify_checksums,
     write_manifest,
 )
@@ -613,6 +614,9 @@ class ResultStore:
     def consolidate(self, format: str = "auto") -> Path:
         """Write all evaluations as one file, atomically, and remove one of the other format.
 
+        In a run folder whose manifest records file checksums, the manifest is updated to name
+        the new file (and forget the removed one), so the folder stays readable.
+
         Args:
             format: ``"auto"`` (Parquet if pyarrow is importable, else CSV), ``"csv"`` or
                 ``"parquet"``; see :func:`resolve_format`.
@@ -635,6 +639,14 @@ class ResultStore:
         other = "csv" if chosen == "parquet" else "parquet"
         # A stale file of the other format would be read instead of the fresh one elsewhere.
         (self._folder / f"{CONSOLIDATED_STEM}.{other}").unlink(missing_ok=True)
+        if self.manifest_path.exists():
+            # Keep the folder readable: the manifest's checksums name the file now there.
+            manifest = read_manifest(self._folder)
+            if recorded_checksums(manifest, FILE_CHECKSUMS, self.manifest_path) is not None:
+                update_file_checksums(
+                    self._folder,
+                    {target.name: file_sha256(target), f"{CONSOLIDATED_STEM}.{other}": None},
+                )
         return target
 
     # manifest
