@@ -235,6 +235,9 @@ class Optimizer(abc.ABC):
     min_batch_size: ClassVar[int] = 1
     #: Smallest number of dimensions the method works with.
     min_dims: ClassVar[int] = 1
+    #: Names of the checks of :mod:`optimizers.testing` that do not apply to the method, e.g.
+    #: ``("check_seed_changes_asks",)`` for a deterministic one; those checks skip it.
+    conformance_skip: ClassVar[tuple[str, ...]] = ()
 
     def __init__(
         self,
