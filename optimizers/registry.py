@@ -170,6 +170,7 @@ def make(name_or_spec: str, **kwargs: Any) -> Optimizer:
         DependencyNotInstalled: The plugin's optional backend is missing (the message names the
             pip extra).
         ImportError: The plugin's module or entry point cannot be imported.
+        OverflowError: A setting too large for the backend to convert.
         PluginError: The plugin's ``__init__`` (or factory) raised another exception, a bug
             of the plugin; the message names it (``optimizer plugin MODULE.CLASS.__init__
             raised ...``) and the original exception is the ``__cause__``.
@@ -190,8 +191,10 @@ def make(name_or_spec: str, **kwargs: Any) -> Optimizer:
         )
     try:
         optimizer = factory(**kwargs)
-    except (TypeError, ValueError, ImportError, PluginError):
-        raise  # bad settings or a missing backend: the plugin's own message says which
+    except (TypeError, ValueError, OverflowError, ImportError, PluginError):
+        # Bad settings (OverflowError: a number too large for the backend) or a missing
+        # backend: the plugin's own message says which, and the CLI calls it bad input.
+        raise
     except Exception as error:
         raise PluginError(
             f"optimizer plugin {_factory_name(factory)} raised {type(error).__name__}: {error}"

@@ -151,6 +151,8 @@ def test_bad_settings_given_to_make_keep_the_plugins_own_error() -> None:
         optimizers.make(f"{__name__}:Strict", bounds=BOUNDS, stride=1)
     with pytest.raises(ValueError, match=r"^bounds"):
         optimizers.make(f"{__name__}:InitBoom", bounds=[[1.0, 0.0]])
+    with pytest.raises(OverflowError):  # the CLI and suites read it as a bad setting
+        optimizers.make("cmaes", bounds=BOUNDS, sigma0=10**400)
 
 
 def test_a_missing_backend_and_an_interrupt_in_init_pass_through() -> None:
