@@ -579,6 +579,7 @@ class Optimizer(abc.ABC):
             TypeError: path is not a str or os.PathLike.
             ValueError: path is a folder.
             FileNotFoundError: The folder of path does not exist.
+            PluginError: The plugin's ``_backend_versions`` raised or returned no dict of str.
         """
         target = check_path(path)
         if os.path.isdir(target):
@@ -634,6 +635,7 @@ class Optimizer(abc.ABC):
             ValueError: The file is not an optimizer state of this format.
             FileNotFoundError: No such file.
             ImportError: The plugin's module cannot be imported.
+            PluginError: The plugin's ``_backend_versions`` raised or returned no dict of str.
         """
         source = check_path(path)
         with open(source, "rb") as handle:
