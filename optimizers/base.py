@@ -70,11 +70,16 @@ _O = TypeVar("_O", bound="Optimizer")
 
 
 class PluginError(RuntimeError):
-    """An optimizer's backend hook raised an unexpected exception.
+    """A bug of an optimizer plugin: a hook raised unexpectedly or broke its contract.
 
-    The message names the optimizer class (with its module) and the hook (``_ask`` or
-    ``_tell``); the original exception is the ``__cause__``. TypeError and ValueError pass
-    through unchanged, as do KeyboardInterrupt and other non-``Exception`` signals.
+    Raised when a hook (``_ask``, ``_tell``, ``_backend_versions``), or the plugin's
+    ``__init__`` called by :func:`optimizers.make`, raises an exception other than TypeError,
+    ValueError and the errors of this module (the original exception is the ``__cause__``), and
+    when a hook returns something the base class refuses (``_ask`` points of the wrong shape,
+    not numbers, not finite or outside the unit box). The message starts with
+    ``optimizer plugin MODULE.CLASS.HOOK``. A TypeError or ValueError raised inside a hook keeps
+    its type and gets the same prefix; KeyboardInterrupt and other non-``Exception`` signals
+    pass through unchanged.
     """
 
 
@@ -84,6 +89,27 @@ class OptimizerStateError(RuntimeError):
     Raised when a generational optimizer is asked again before its last generation is told, and
     by :meth:`Optimizer.recommend` before any finite value was told.
     """
+
+
+def _named(error: TypeError | ValueError, where: str) -> TypeError | ValueError:
+    """``error`` again, of its type, with a message that starts with ``where``.
+
+    A TypeError or ValueError from inside a plugin keeps its type (the documented contract), but
+    a bare ``operands could not be broadcast`` would read as bad user input: the new message
+    says where it came from. An exception class that cannot be built from one message
+    (``UnicodeDecodeError`` takes five arguments) is replaced by its nearest base that can.
+    """
+    message = f"{where} raised {type(error).__name__}: {error}"
+    for kind in type(error).__mro__:
+        if not issubclass(kind, (TypeError, ValueError)):
+            continue
+        try:
+            named = kind(message)
+        except Exception:  # a constructor with other arguments: try the base class
+            continue
+        if str(named) == message:
+            return named
+    return ValueError(message) if isinstance(error, ValueError) else TypeError(message)
 
 
 @dataclass(frozen=True, eq=False)
@@ -209,6 +235,9 @@ class Optimizer(abc.ABC):
     min_batch_size: ClassVar[int] = 1
     #: Smallest number of dimensions the method works with.
     min_dims: ClassVar[int] = 1
+    #: Names of the checks of :mod:`optimizers.testing` that do not apply to the method, e.g.
+    #: ``("check_seed_changes_asks",)`` for a deterministic one; those checks skip it.
+    conformance_skip: ClassVar[tuple[str, ...]] = ()
 
     def __init__(
         self,
@@ -348,17 +377,26 @@ class Optimizer(abc.ABC):
         u = self._pending_unit()
         return u.copy() if unit else self._to_physical(u)
 
+    def _hook_name(self, method: str) -> str:
+        """``optimizer plugin MODULE.CLASS.METHOD``, how errors name a hook of this plugin."""
+        cls = type(self)
+        return f"optimizer plugin {cls.__module__}.{cls.__qualname__}.{method}"
+
     def _call_hook(self, method: str, *args: Any) -> Any:
-        """Call the plugin hook ``method``; name the plugin and hook if it fails unexpectedly."""
+        """Call the plugin hook ``method``; a failure names the plugin and the hook.
+
+        TypeError and ValueError keep their type (see :func:`_named`); other exceptions become
+        :class:`PluginError`; errors of this module and non-``Exception`` signals pass through.
+        """
         try:
             return getattr(self, method)(*args)
-        except (TypeError, ValueError, OptimizerStateError):
+        except (OptimizerStateError, PluginError):
             raise
+        except (TypeError, ValueError) as error:
+            raise _named(error, self._hook_name(method)) from error
         except Exception as error:
-            cls = type(self)
             raise PluginError(
-                f"optimizer plugin {cls.__module__}.{cls.__qualname__}.{method} raised "
-                f"{type(error).__name__}: {error}"
+                f"{self._hook_name(method)} raised {type(error).__name__}: {error}"
             ) from error
 
     def _failure_penalty(self) -> float:
@@ -428,7 +466,8 @@ class Optimizer(abc.ABC):
 
         Raises:
             OptimizerStateError: A generational optimizer still has pending points.
-            RuntimeError: The plugin returned points of the wrong shape or outside the unit box.
+            PluginError: The plugin's ``_ask`` raised, or returned points of the wrong shape,
+                not finite or outside the unit box.
         """
         if self.generational and self._pending:
             pending = list(self._pending)
@@ -540,6 +579,7 @@ class Optimizer(abc.ABC):
             TypeError: path is not a str or os.PathLike.
             ValueError: path is a folder.
             FileNotFoundError: The folder of path does not exist.
+            PluginError: The plugin's ``_backend_versions`` raised or returned no dict of str.
         """
         target = check_path(path)
         if os.path.isdir(target):
@@ -595,6 +635,7 @@ class Optimizer(abc.ABC):
             ValueError: The file is not an optimizer state of this format.
             FileNotFoundError: No such file.
             ImportError: The plugin's module cannot be imported.
+            PluginError: The plugin's ``_backend_versions`` raised or returned no dict of str.
         """
         source = check_path(path)
         with open(source, "rb") as handle:
@@ -666,26 +707,42 @@ class Optimizer(abc.ABC):
 
     def _versions(self) -> dict[str, str]:
         versions = {"numpy": np.__version__, "python": sys.version.split()[0]}
-        versions.update(self._backend_versions())
+        versions.update(self._versions_of_backend())
+        return versions
+
+    def _versions_of_backend(self) -> dict[str, str]:
+        """:meth:`_backend_versions`, checked to be a dict of str to str."""
+        versions = self._call_hook("_backend_versions")
+        if not (
+            isinstance(versions, dict)
+            and all(isinstance(k, str) and isinstance(v, str) for k, v in versions.items())
+        ):
+            raise PluginError(
+                f"{self._hook_name('_backend_versions')} returned {versions!r}, expected a dict "
+                "of package names to version strings"
+            )
         return versions
 
     def _check_unit(self, u: Any, n: int) -> np.ndarray:
-        name = type(self).__name__
+        """What ``_ask`` returned, checked: (n, d) finite numbers in the unit box (copied).
+
+        Raises:
+            PluginError: Anything else; the plugin broke its contract.
+        """
+        name = self._hook_name("_ask")
+        if u is None:
+            raise PluginError(f"{name} returned something that is not numbers: None")
         try:
             array = np.array(u, dtype=np.float64)  # a copy: the plugin may reuse its buffer
         except (TypeError, ValueError) as error:
-            raise RuntimeError(
-                f"{name}._ask returned something that is not numbers: {error}"
-            ) from None
+            raise PluginError(f"{name} returned something that is not numbers: {error}") from None
         if array.shape != (n, self.n_dims):
-            raise RuntimeError(
-                f"{name}._ask returned shape {array.shape}, expected {(n, self.n_dims)}"
-            )
+            raise PluginError(f"{name} returned shape {array.shape}, expected {(n, self.n_dims)}")
         if not np.all(np.isfinite(array)):
-            raise RuntimeError(f"{name}._ask returned non-finite points")
+            raise PluginError(f"{name} returned non-finite points")
         if np.any(array < -_UNIT_TOLERANCE) or np.any(array > 1.0 + _UNIT_TOLERANCE):
-            raise RuntimeError(
-                f"{name}._ask returned points outside the unit box [0, 1]^d "
+            raise PluginError(
+                f"{name} returned points outside the unit box [0, 1]^d "
                 f"(min {array.min()}, max {array.max()})"
             )
         return np.clip(array, 0.0, 1.0)

@@ -13,6 +13,7 @@ Built-ins whose optional backend is missing are left out of :func:`available`, a
 
 from __future__ import annotations
 
+import functools
 import importlib
 import importlib.metadata
 import re
@@ -22,7 +23,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from ._imports import DependencyNotInstalled, install_hint, is_installed
-from .base import Optimizer
+from .base import Optimizer, PluginError
 
 __all__ = ["ENTRY_POINT_GROUP", "available", "make", "register"]
 
@@ -142,6 +143,16 @@ def _resolve(name: str) -> Any:
     )
 
 
+def _factory_name(factory: Any) -> str:
+    """``MODULE.CLASS.__init__`` of a plugin class, ``MODULE.NAME`` of another factory."""
+    target = factory.func if isinstance(factory, functools.partial) else factory
+    module = getattr(target, "__module__", None)
+    name = getattr(target, "__qualname__", None)
+    if not (isinstance(module, str) and isinstance(name, str)):
+        return repr(factory)
+    return f"{module}.{name}.__init__" if isinstance(target, type) else f"{module}.{name}"
+
+
 def make(name_or_spec: str, **kwargs: Any) -> Optimizer:
     """Build an optimizer by name.
 
@@ -159,6 +170,10 @@ def make(name_or_spec: str, **kwargs: Any) -> Optimizer:
         DependencyNotInstalled: The plugin's optional backend is missing (the message names the
             pip extra).
         ImportError: The plugin's module or entry point cannot be imported.
+        OverflowError: A setting too large for the backend to convert.
+        PluginError: The plugin's ``__init__`` (or factory) raised another exception, a bug
+            of the plugin; the message names it (``optimizer plugin MODULE.CLASS.__init__
+            raised ...``) and the original exception is the ``__cause__``.
     """
     if not isinstance(name_or_spec, str):
         raise TypeError(f"name_or_spec must be a str, got {name_or_spec!r}")
@@ -174,7 +189,16 @@ def make(name_or_spec: str, **kwargs: Any) -> Optimizer:
         raise TypeError(
             f"optimizer {name_or_spec!r} resolves to {factory!r}, which is not callable"
         )
-    optimizer = factory(**kwargs)
+    try:
+        optimizer = factory(**kwargs)
+    except (TypeError, ValueError, OverflowError, ImportError, PluginError):
+        # Bad settings (OverflowError: a number too large for the backend) or a missing
+        # backend: the plugin's own message says which, and the CLI calls it bad input.
+        raise
+    except Exception as error:
+        raise PluginError(
+            f"optimizer plugin {_factory_name(factory)} raised {type(error).__name__}: {error}"
+        ) from error
     if not isinstance(optimizer, Optimizer):
         raise TypeError(
             f"optimizer {name_or_spec!r} returned a {type(optimizer).__name__}, not an "

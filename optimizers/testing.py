@@ -16,6 +16,16 @@ or one pytest test per check::
     def test_conformance(check):
         check(MyOptimizer)
 
+A check that does not apply to a method (different seeds giving different asks, for a
+deterministic one) is declared on the plugin class, so that every runner of the checks (your
+tests, :func:`check_optimizer`, the tests of a package the plugin is installed beside) leaves
+it out::
+
+    class MyOptimizer(Optimizer):
+        conformance_skip = ("check_seed_changes_asks",)
+
+Such a check then raises ``unittest.SkipTest``, which pytest reports as a skip with the reason.
+
 The checks need only numpy (no pytest) and take a few seconds for a fast plugin.
 """
 
@@ -25,6 +35,7 @@ import functools
 import math
 import os
 import tempfile
+import unittest
 from collections.abc import Callable, Iterable
 from typing import Any, cast
 
@@ -47,6 +58,7 @@ __all__ = [
     "check_same_seed_same_asks",
     "check_save_load_continues_identically",
     "check_seed_changes_asks",
+    "declared_skips",
     "shifted_sphere",
 ]
 
@@ -96,6 +108,66 @@ def _same(a: list[np.ndarray], b: list[np.ndarray]) -> bool:
     )
 
 
+def _check_declaration(cls: type) -> frozenset[str]:
+    """``cls.conformance_skip``, checked to name checks of :data:`CHECKS`."""
+    declared = getattr(cls, "conformance_skip", ())
+    where = f"{cls.__module__}.{cls.__qualname__}.conformance_skip"
+    if not (
+        isinstance(declared, (tuple, list, set, frozenset))
+        and all(isinstance(name, str) for name in declared)
+    ):
+        raise TypeError(
+            f"{where} must be a tuple of check names, got {declared!r} (a single name needs a "
+            "trailing comma: (name,))"
+        )
+    known = {check.__name__ for check in CHECKS}
+    unknown = set(declared) - known
+    if unknown:
+        raise ValueError(f"{where} names unknown checks {sorted(unknown)}; known: {sorted(known)}")
+    return frozenset(declared)
+
+
+def declared_skips(factory: Factory) -> frozenset[str]:
+    """The checks a plugin declares not to apply to it: its class's ``conformance_skip``.
+
+    Args:
+        factory: A plugin class, or a factory; a factory is called once (as the checks call
+            it) to see the class of what it makes.
+
+    Returns:
+        Names of checks of :data:`CHECKS`; empty if the class declares none.
+
+    Raises:
+        TypeError: ``conformance_skip`` is not a tuple of str.
+        ValueError: ``conformance_skip`` names a check that does not exist.
+    """
+    cls = factory if isinstance(factory, type) else type(_make(factory))
+    return _check_declaration(cls)
+
+
+def _applicable(check: Callable[[Factory], None]) -> Callable[[Factory], None]:
+    """``check``, skipped (``unittest.SkipTest``) for a plugin that declares it inapplicable."""
+
+    @functools.wraps(check)
+    def run(factory: Factory) -> None:
+        if isinstance(factory, type):
+            cls: type | None = factory
+        else:
+            try:
+                cls = type(_make(factory))
+            except Exception:  # the check itself calls the factory and reports the failure
+                cls = None
+        if cls is not None and check.__name__ in _check_declaration(cls):
+            raise unittest.SkipTest(
+                f"{check.__name__} does not apply: listed in "
+                f"{cls.__module__}.{cls.__qualname__}.conformance_skip"
+            )
+        check(factory)
+
+    return run
+
+
+@_applicable
 def check_asks_inside_bounds(factory: Factory) -> None:
     """Batches have the right types and shapes, are read-only, finite and inside the bounds."""
     boxes = [
@@ -128,6 +200,7 @@ def check_asks_inside_bounds(factory: Factory) -> None:
             optimizer.tell(batch.ids, np.sum(((x - center) / np.ptp(bounds, axis=1)) ** 2, axis=1))
 
 
+@_applicable
 def check_ids_unique(factory: Factory) -> None:
     """Ids are distinct ints over a run."""
     optimizer = _make(factory)
@@ -135,6 +208,7 @@ def check_ids_unique(factory: Factory) -> None:
     assert len(set(ids)) == len(ids), f"ids repeat: {ids}"
 
 
+@_applicable
 def check_same_seed_same_asks(factory: Factory) -> None:
     """Equal seeds (an int, its SeedSequence or a Generator from it) give equal asks."""
     reference = _run(_make(factory, seed=123), 5)
@@ -144,12 +218,14 @@ def check_same_seed_same_asks(factory: Factory) -> None:
         )
 
 
+@_applicable
 def check_seed_changes_asks(factory: Factory) -> None:
     """Different seeds give different asks (skip this one for a deterministic method)."""
     a, b = _run(_make(factory, seed=1), 2), _run(_make(factory, seed=2), 2)
     assert not _same(a, b), "seeds 1 and 2 gave the same asks"
 
 
+@_applicable
 def check_interleaved_instances_independent(factory: Factory) -> None:
     """Two instances stepped in turns ask what each asks alone; np.random is left alone.
 
@@ -178,6 +254,7 @@ def _same_global_state(before: Any, after: Any) -> bool:
     )
 
 
+@_applicable
 def check_failures_never_reach_backend(factory: Factory) -> None:
     """nan, inf, -inf and None are failures that no backend sees.
 
@@ -217,6 +294,7 @@ def check_failures_never_reach_backend(factory: Factory) -> None:
     del optimizer._tell
 
 
+@_applicable
 def check_save_load_continues_identically(factory: Factory) -> None:
     """A saved and loaded run continues with the asks of an uninterrupted run.
 
@@ -249,6 +327,7 @@ def check_save_load_continues_identically(factory: Factory) -> None:
         assert _same(expected[:5], got), "a state saved with pending points continued differently"
 
 
+@_applicable
 def check_improves_on_sphere(factory: Factory) -> None:
     """On a shifted sphere in 3-D, 12 iterations of 8 beat the first batch's best.
 
@@ -265,6 +344,7 @@ def check_improves_on_sphere(factory: Factory) -> None:
     assert wins >= 2, f"improved on its first batch in only {wins} of 3 seeds"
 
 
+@_applicable
 def check_generation_rule(factory: Factory) -> None:
     """A generational plugin refuses to ask with points pending; others ask on.
 
@@ -298,6 +378,7 @@ def check_generation_rule(factory: Factory) -> None:
         optimizer.ask()
 
 
+@_applicable
 def check_recommend(factory: Factory) -> None:
     """recommend() raises before any value, then returns the best value and its asked point."""
     optimizer = _make(factory)
@@ -325,6 +406,7 @@ def check_recommend(factory: Factory) -> None:
     assert not best.x.flags.writeable, "Recommendation.x must be read-only"
 
 
+@_applicable
 def check_counts(factory: Factory) -> None:
     """n_asked, n_told, n_failed, n_pending and iteration count what happened."""
     optimizer = _make(factory, batch_size=4)
@@ -351,6 +433,7 @@ def _raises(kinds: tuple[type[BaseException], ...], call: Callable[[], Any], wha
     raise AssertionError(f"{what}: nothing raised, expected {kinds}")
 
 
+@_applicable
 def check_bad_inputs_raise(factory: Factory) -> None:
     """Bad arguments of every entry point raise TypeError or ValueError.
 
@@ -433,17 +516,18 @@ CHECKS: tuple[Callable[[Factory], None], ...] = (
 
 
 def check_optimizer(factory: Factory, *, skip: Iterable[str] = ()) -> None:
-    """Run every check of :data:`CHECKS` on a plugin.
+    """Run every check of :data:`CHECKS` on a plugin, but those it declares inapplicable.
 
     Args:
         factory: Called as ``factory(bounds=..., batch_size=..., seed=...)``; a plugin class is
             one. Checks use batch sizes 4, 5 and 8 and 2 to 4 dimensions.
-        skip: Names of checks not to run, e.g. ``{"check_seed_changes_asks"}`` for a
-            deterministic method.
+        skip: Names of further checks not to run, besides those in the class's
+            ``conformance_skip`` (see :func:`declared_skips`).
 
     Raises:
         AssertionError: The first check that fails, with its name in the message.
-        ValueError: An unknown name in ``skip``.
+        TypeError: The class's ``conformance_skip`` is not a tuple of str.
+        ValueError: An unknown name in ``skip`` or in ``conformance_skip``.
     """
     names = {check.__name__ for check in CHECKS}
     unknown = set(skip) - names
@@ -454,5 +538,7 @@ def check_optimizer(factory: Factory, *, skip: Iterable[str] = ()) -> None:
             continue
         try:
             check(factory)
+        except unittest.SkipTest:  # declared inapplicable by the plugin
+            continue
         except AssertionError as error:
             raise AssertionError(f"{check.__name__}: {error}") from error

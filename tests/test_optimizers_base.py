@@ -12,7 +12,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from optimizers import Batch, FailurePolicy, Optimizer, OptimizerStateError, Recommendation
+from optimizers import (
+    Batch,
+    FailurePolicy,
+    Optimizer,
+    OptimizerStateError,
+    PluginError,
+    Recommendation,
+)
 from optimizers.base import STATE_FORMAT
 
 
@@ -169,7 +176,7 @@ def test_a_plugin_returning_bad_points_is_reported(points, match) -> None:  # ty
             return points
 
     optimizer = Broken(BOUNDS, batch_size=3, seed=0)
-    with pytest.raises(RuntimeError, match=match):
+    with pytest.raises(PluginError, match=match):
         optimizer.ask()
     assert optimizer.n_asked == 0
 
@@ -423,8 +430,6 @@ def test_repr_names_the_class_and_counts() -> None:
 
 @pytest.mark.parametrize("cls", [Recorder, Generational])
 def test_a_tell_whose_backend_raises_is_undone_and_can_be_retried(cls) -> None:  # type: ignore[no-untyped-def]
-    from optimizers import PluginError
-
     class Flaky(cls):  # type: ignore[misc, valid-type]
         fail_next = False
 

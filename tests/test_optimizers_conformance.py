@@ -1,13 +1,20 @@
 """Every available optimizer passes the conformance suite and beats random sampling.
 
 Parametrized over ``optimizers.available()``: a new plugin (registered or installed through the
-entry-point group) is tested here without new test code.
+entry-point group) is tested here without new test code, and the checks its class lists in
+``conformance_skip`` (``check_seed_changes_asks`` for a deterministic method) are skipped.
 """
 
 from __future__ import annotations
 
 import functools
 import importlib.util
+import inspect
+import os
+import subprocess
+import sys
+import unittest
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -16,6 +23,7 @@ import optimizers
 from optimizers import testing
 
 NAMES = optimizers.available()
+ROOT = Path(__file__).resolve().parents[1]
 
 # Rosenbrock in 3-D on the tool's coefficient box [-1.5, 1.5]^2 x [-0.5, 0.5]; its minimum
 # (1, 1, 1) lies outside, so the best point is on the boundary x3 = 0.5.
@@ -71,3 +79,124 @@ def test_check_optimizer_runs_every_check_and_names_the_failing_one() -> None:
         testing.check_optimizer(Leaky)
     with pytest.raises(ValueError, match="unknown checks"):
         testing.check_optimizer(Leaky, skip={"check_nothing"})
+
+
+# --- plugins that declare checks inapplicable ----------------------------------------------
+
+
+class Compass(optimizers.Optimizer):
+    """Compass search: polls +-step along each axis around the best point; deterministic."""
+
+    generational = True
+    conformance_skip = ("check_seed_changes_asks",)
+
+    def __init__(self, bounds=None, **kwargs):  # type: ignore[no-untyped-def]
+        super().__init__(bounds, **kwargs)
+        self._step = 0.25
+        self._center = np.full(self.n_dims, 0.5)
+        self._center_value = np.inf
+        self._queue: list[np.ndarray] = []
+
+    def _ask(self, ids):  # type: ignore[no-untyped-def]
+        while len(self._queue) < len(ids):
+            for axis in range(self.n_dims):
+                for sign in (1.0, -1.0):
+                    point = self._center.copy()
+                    point[axis] += sign * self._step
+                    self._queue.append(np.clip(point, 0.0, 1.0))
+        points, self._queue = self._queue[: len(ids)], self._queue[len(ids) :]
+        return np.array(points)
+
+    def _tell(self, ids, x, values, failed):  # type: ignore[no-untyped-def]
+        k = int(np.argmin(values))
+        if values[k] < self._center_value:
+            self._center, self._center_value = x[k].copy(), float(values[k])
+        else:
+            self._step *= 0.5
+
+
+class Undeclared(Compass):
+    conformance_skip = ()
+
+
+class Misspelt(Compass):
+    conformance_skip = ("check_seed_changes_ask",)
+
+
+class NotATuple(Compass):
+    conformance_skip = "check_seed_changes_asks"  # type: ignore[assignment]
+
+
+def test_a_declared_check_is_skipped_and_the_others_run() -> None:
+    with pytest.raises(AssertionError, match="check_seed_changes_asks"):
+        testing.check_optimizer(Undeclared)  # without the declaration the method fails it
+    for factory in (Compass, functools.partial(optimizers.make, f"{__name__}:Compass")):
+        assert testing.declared_skips(factory) == {"check_seed_changes_asks"}
+        testing.check_optimizer(factory)
+        with pytest.raises(unittest.SkipTest) as excinfo:  # pytest reports it as a skip
+            testing.check_seed_changes_asks(factory)
+        assert f"{__name__}.Compass.conformance_skip" in str(excinfo.value)
+        testing.check_same_seed_same_asks(factory)  # the others still run
+
+
+@pytest.mark.parametrize(
+    ("cls", "error", "match"),
+    [
+        (
+            Misspelt,
+            ValueError,
+            r"Misspelt.conformance_skip names unknown checks "
+            r"\['check_seed_changes_ask'\]; known: \['check_asks_inside_bounds'",
+        ),
+        (
+            NotATuple,
+            TypeError,
+            r"NotATuple.conformance_skip must be a tuple of check names, "
+            r"got 'check_seed_changes_asks'",
+        ),
+    ],
+)
+def test_a_bad_declaration_is_refused_by_every_check(cls, error, match) -> None:  # type: ignore[no-untyped-def]
+    with pytest.raises(error, match=match):
+        testing.check_optimizer(cls)
+    for check in (testing.check_seed_changes_asks, testing.check_counts):
+        with pytest.raises(error, match=match):
+            check(cls)
+    with pytest.raises(error, match=match):
+        testing.declared_skips(cls)
+
+
+def test_this_suite_skips_what_an_installed_plugin_declares(tmp_path: Path) -> None:
+    # A deterministic plugin installed through its entry point used to fail this very file.
+    site = tmp_path / "site"
+    info = site / "detcompass-0.1.dist-info"
+    info.mkdir(parents=True)
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: detcompass\nVersion: 0.1\n")
+    (info / "entry_points.txt").write_text(
+        "[tooldesign.optimizers]\ndetcompass = detcompass:Compass\n"
+    )
+    source = "import numpy as np\n\nimport optimizers\n\n\n" + inspect.getsource(Compass)
+    (site / "detcompass.py").write_text(source)
+    result = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "pytest",
+            str(Path(__file__)),
+            "-q",
+            "-rs",
+            "-p",
+            "no:cacheprovider",
+            "-k",
+            "detcompass",
+        ],
+        cwd=ROOT,
+        env={**os.environ, "PYTHONPATH": os.pathsep.join([str(site), str(ROOT)])},
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert result.returncode == 0, result.stdout[-3000:]
+    summary = result.stdout.strip().splitlines()[-1]
+    assert "failed" not in summary and "12 passed, 1 skipped" in summary, summary
+    assert "detcompass.Compass.conformance_skip" in result.stdout

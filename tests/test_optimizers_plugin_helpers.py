@@ -88,10 +88,14 @@ def test_an_unexpected_plugin_error_names_the_plugin_and_the_hook(hook):
 
 
 @pytest.mark.parametrize("error", [ValueError("bad setting"), TypeError("bad type")])
-def test_type_and_value_errors_of_a_plugin_pass_through(error):
+def test_type_and_value_errors_of_a_plugin_keep_their_type_and_name_the_hook(error):
     opt = Broken(BOUNDS, seed=0, error=error)
-    with pytest.raises(type(error), match=str(error)):
+    with pytest.raises(type(error)) as excinfo:
         opt.ask()
+    assert str(excinfo.value) == (
+        f"optimizer plugin {__name__}.Broken._ask raised {type(error).__name__}: {error}"
+    )
+    assert excinfo.value.__cause__ is error
 
 
 def test_the_cli_reports_a_plugin_error_in_one_line(monkeypatch, capsys):
