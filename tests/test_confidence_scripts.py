@@ -92,3 +92,46 @@ def test_no_pure_confidence_line_at_the_default_precision() -> None:
     out = _run("confidence_noise.py", "--designs", "1", "--nudges", "2", "--settings", "contact")
     assert out.returncode == 0, out.stderr
     assert "pure confidence" not in out.stdout
+
+
+def _convergence_module(monkeypatch: pytest.MonkeyPatch):  # noqa: ANN202 (a module)
+    monkeypatch.syspath_prepend(str(PERF))
+    import confidence_convergence
+
+    return confidence_convergence
+
+
+def test_the_convergence_figure_is_named_after_the_section(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    convergence = _convergence_module(monkeypatch)
+    images = ROOT / "docs" / "images"
+    # The committed figures, each shown in docs/model.md: running one section's study must not
+    # overwrite the other's figure.
+    square = convergence.default_figure("square")
+    round_ = convergence.default_figure("round")
+    assert square == images / "confidence_convergence.png" and square.is_file()
+    assert round_ == images / "confidence_convergence_round.png" and round_.is_file()
+    model = (ROOT / "docs" / "model.md").read_text()
+    assert "images/confidence_convergence.png" in model
+    assert "images/confidence_convergence_round.png" in model
+    # Another scene gets a figure of its own.
+    other = convergence.default_figure("round", {"merge_fixed_links": False})
+    assert other == images / "confidence_convergence_round_merge_fixed_links-False.png"
+    assert convergence.default_figure("round", {}) == round_
+    with pytest.raises(ValueError, match="section_shape must be one of"):
+        convergence.default_figure("hexagonal")
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--scene", "time_step=0.001"], "the time steps are the study's"),
+        (["--scene", "box_mass=-1"], "SceneSpec.box_mass must be a finite number > 0"),
+        (["--section-shape", "hexagonal"], "invalid choice: 'hexagonal'"),
+    ],
+)
+def test_confidence_convergence_refuses_bad_input(args: list[str], message: str) -> None:
+    out = _run("confidence_convergence.py", *args)
+    assert out.returncode == 2, out.stderr
+    assert message in out.stderr
