@@ -245,9 +245,10 @@ def check_noise_floor(
             raise ValueError(
                 f"{label} must be a finite number >= 0 (NaN: not measured), got {value!r}"
             )
-        if math.isnan(value):
+        number = float(value)
+        if math.isnan(number):
             return
-        if not (math.isfinite(value) and value >= 0):
+        if not (math.isfinite(number) and number >= 0):
             raise ValueError(
                 f"{label} must be a finite number >= 0 (NaN: not measured), got {value!r}"
             )
@@ -268,7 +269,9 @@ def _floor_of(noise_floor: float | Mapping[str, float] | None, variant: Any) -> 
     """The noise floor of F for one variant; None if it was not measured (missing or NaN)."""
     if noise_floor is None:
         return None
-    value = noise_floor if isinstance(noise_floor, numbers.Real) else noise_floor.get(str(variant))
+    value = (
+        noise_floor.get(str(variant)) if isinstance(noise_floor, Mapping) else float(noise_floor)
+    )
     return None if value is None or math.isnan(value) else float(value)
 
 
@@ -497,20 +500,22 @@ def _pairwise_markdown(
         if "variant" in pairwise.columns and len(pairwise)
         else []
     )
-    if noise_floor is None or (isinstance(noise_floor, numbers.Real) and math.isnan(noise_floor)):
+    if noise_floor is None or (
+        not isinstance(noise_floor, Mapping) and math.isnan(float(noise_floor))
+    ):
         floor = (
             "No noise floor was measured (run `tooldesign retest` on the folder): significance "
             "rests on the tests alone, and every pair says 'no floor'."
         )
     else:
-        values = (
-            _fmt(noise_floor)
-            if isinstance(noise_floor, numbers.Real)
-            else ", ".join(
+        if isinstance(noise_floor, Mapping):
+            floors = {**dict.fromkeys(unmeasured, math.nan), **noise_floor}
+            values = ", ".join(
                 f"{k or 'all'}: {'not measured' if math.isnan(v) else _fmt(v)}"
-                for k, v in sorted({**dict.fromkeys(unmeasured, math.nan), **noise_floor}.items())
+                for k, v in sorted(floors.items())
             )
-        )
+        else:
+            values = _fmt(float(noise_floor))
         floor = (
             f"Noise floor of F: {values} (median range of a final design's F over nudged "
             "scenes, `noise.md`); a pair whose means differ by less is not significant, "
