@@ -191,3 +191,32 @@ def test_confidence_is_stable_under_nudges_that_leave_the_motion_alone(design):
     spread = {k: (max(v) - min(v)) / np.mean(v) for k, v in conf.items()}
     assert spread["contact"] < 0.03, spread
     assert spread["contact"] < spread["trajectory"], spread
+
+
+def test_the_recorded_contact_point_is_on_the_tool() -> None:
+    """PyBullet's contact tuple as the loops read it: [6] is on body B, [7] points from B to A.
+
+    Both loops ask ``getContactPoints(box, robot, -1, tool_link)`` (A the box, B the tool) and
+    keep [6] and [7] (the C loop: ``position_on_b`` and ``normal_on_b``): the point on the tool's
+    surface and the normal from the tool into the box, as ``contact_mobility`` expects. Two
+    overlapping spheres show which index is which.
+    """
+    import pybullet
+
+    client = pybullet.connect(pybullet.DIRECT)
+    try:
+        shape = pybullet.createCollisionShape(
+            pybullet.GEOM_SPHERE, radius=0.5, physicsClientId=client
+        )
+        box = pybullet.createMultiBody(1.0, shape, basePosition=[0, 0, 0], physicsClientId=client)
+        tool = pybullet.createMultiBody(
+            1.0, shape, basePosition=[0.9, 0, 0], physicsClientId=client
+        )
+        pybullet.performCollisionDetection(physicsClientId=client)
+        (point,) = pybullet.getContactPoints(box, tool, physicsClientId=client)
+    finally:
+        pybullet.disconnect(client)
+    assert point[1:3] == (box, tool)
+    assert point[6] == pytest.approx((0.4, 0.0, 0.0))  # the tool's surface: 0.9 - 0.5
+    assert point[5] == pytest.approx((0.5, 0.0, 0.0))  # the box's surface
+    assert point[7] == pytest.approx((-1.0, 0.0, 0.0))  # from the tool into the box

@@ -16,9 +16,7 @@ from tooldesign_env.objective import goal_error
 @pytest.mark.slow
 def test_expected_goal_error_is_the_mean_over_masses():
     masses = (0.1, 0.6)
-    env = ToolDesignEnv(
-        objective=ObjectiveSpec(kind="expected-goal-error", expected_masses=masses)
-    )
+    env = ToolDesignEnv(objective=ObjectiveSpec(kind="expected-goal-error", expected_masses=masses))
     env.reset(seed=0)
     info = env.step([0.0, 0.0, 0.0])[4]
     assert info["valid"] and info["confidence"] == 0.0
@@ -48,6 +46,22 @@ def test_expected_goal_error_is_the_mean_over_masses():
 def test_bad_objective_kinds_and_masses_are_refused(kwargs):
     with pytest.raises(ValueError, match="ObjectiveSpec"):
         ObjectiveSpec(**kwargs)
+
+
+@pytest.mark.parametrize("masses", [0.5, 1, "0.5", None])
+def test_expected_masses_that_are_not_a_sequence_are_refused_naming_the_field(masses):
+    with pytest.raises(ValueError, match=r"ObjectiveSpec.expected_masses must be 1 to 64 masses"):
+        ObjectiveSpec(kind="expected-goal-error", expected_masses=masses)
+
+
+def test_expected_goal_error_without_goal_precision_is_refused():
+    # p^X = 0 makes every design's expected goal error 0: nothing to optimize, at 3 rollouts.
+    with pytest.raises(
+        ValueError, match=r"ObjectiveSpec.goal_precision must be > 0 .*expected-goal-error"
+    ):
+        ObjectiveSpec(kind="expected-goal-error", goal_precision=0.0)
+    assert ObjectiveSpec(kind="expected-goal-error", goal_precision=1e-3).goal_precision == 1e-3
+    assert ObjectiveSpec(goal_precision=0.0).goal_precision == 0.0  # pure confidence: fine
 
 
 def test_the_objective_travels_from_suite_to_task():

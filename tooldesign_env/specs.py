@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import numbers
+from collections.abc import Iterable
 from dataclasses import dataclass, fields
 from typing import Any, Literal
 
@@ -534,10 +535,11 @@ class ObjectiveSpec:
             position (m, along x and y) and yaw (rad).
         scene_seed: seed of the offsets.
 
-    Limits (a ValueError names the field otherwise): ``goal_precision`` 0 to 10^6 1/m^2,
+    Limits (a ValueError names the field otherwise): ``goal_precision`` 0 to 10^6 1/m^2
+    (above 0 with ``kind="expected-goal-error"``, whose objective p^X = 0 would make 0),
     ``eps`` 10^-12 to 1 (m/N m)^2 (below, log|Pi_U| overflows: 10^-320 gave F = -inf),
-    ``expected_masses`` 1 to 64 masses in (0, 1000] kg, ``window`` and ``horizon`` 2 to
-    10,000 control steps, ``ridge`` in (0, 1000], ``response_time`` in (0, 1] s,
+    ``expected_masses`` a sequence of 1 to 64 masses in (0, 1000] kg, ``window`` and
+    ``horizon`` 2 to 10,000 control steps, ``ridge`` in (0, 1000], ``response_time`` in (0, 1] s,
     ``slip_speed`` in (0, 1] m/s, ``perturbation`` in (0, 100] N m, ``invalid_penalty`` in
     (0, 10^15], ``scene_samples`` 1 to 64, ``scene_jitter`` at most (0.01 m, 0.1 rad),
     ``scene_seed`` 0 to 2^32 - 1.
@@ -584,7 +586,18 @@ class ObjectiveSpec:
         _check_range(self, "invalid_penalty", 0.0, INVALID_PENALTY_MAX, "", open_low=True)
         if self.kind not in KINDS:
             raise ValueError(f"ObjectiveSpec.kind must be one of {KINDS}, got {self.kind!r}")
-        masses = tuple(self.expected_masses)
+        if self.kind == "expected-goal-error" and self.goal_precision == 0:
+            raise ValueError(
+                "ObjectiveSpec.goal_precision must be > 0 with kind='expected-goal-error': its "
+                "objective is the goal error weighted by p^X alone, so p^X = 0 scores every "
+                f"design 0; got {self.goal_precision!r}"
+            )
+        masses_given = self.expected_masses
+        masses = (
+            tuple(masses_given)
+            if isinstance(masses_given, Iterable) and not isinstance(masses_given, (str, bytes))
+            else ()
+        )
         if (
             not masses
             or len(masses) > EXPECTED_MASSES_MAX

@@ -30,26 +30,35 @@ next coarser one by no more than about the noise over nudges; in (b), the median
 to a constant (ideally 1) and the median |log ratio| shrinks as P decreases.
 
 Run: ``python benchmarks/perf/confidence_convergence.py [--seed 1] [--section-shape square|round]
-[--figure PATH]`` (about a minute and a half on one core). The figure goes to
-``docs/images/confidence_convergence.png`` unless ``--figure`` says otherwise.
+[--scene FIELD=VALUE] [--figure PATH]`` (about a minute and a half on one core). ``--scene``,
+e.g. ``merge_fixed_links=False`` (the 13-link arm, the default before 2026-11-25): a scene other
+than the default, in which every time step is run. Unless ``--figure`` says otherwise, the
+figure goes to the committed figure of the section (:func:`default_figure`):
+``docs/images/confidence_convergence.png`` for the square section, ``..._round.png`` for the
+round one, and with ``--scene`` to a name that also gives the scene's fields, so that no run
+overwrites the figure of another setting. It is written atomically.
 """
 
 from __future__ import annotations
 
 import argparse
 import math
+import re
 import statistics
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from confidence_noise import nudged_scenes, score, spread, valid_designs
 from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+from physics_options import add_scene_option  # this folder: the script's own, on sys.path
 
 from benchmarks.reports.comparison import DPI, figure_png_bytes
+from benchmarks.storage import atomic_write_bytes
 from tooldesign_env import ObjectiveSpec, SceneSpec, ToolDesignEnv, ToolSimulator, make_tool
 from tooldesign_env.geometry import SECTION_SHAPES, ToolSpec
 from tooldesign_env.specs import ControllerSpec, TaskSpec
@@ -71,9 +80,36 @@ PERTURBATIONS: tuple[float, ...] = (2.0, 0.5, 0.1, 0.02)
 #: Re-simulation horizon, control steps: 0.1 s at 120 Hz, the contact estimator's response time.
 HORIZON = 12
 NUDGES, SHIFT, TURN = 3, 1e-4, 1e-4
-DEFAULT_FIGURE = (
-    Path(__file__).resolve().parents[2] / "docs" / "images" / "confidence_convergence.png"
-)
+#: Where the committed figures are (docs/model.md shows both).
+IMAGES = Path(__file__).resolve().parents[2] / "docs" / "images"
+#: The committed figure of each section (the square's name predates the round section).
+FIGURES: dict[str, str] = {
+    "square": "confidence_convergence.png",
+    "round": "confidence_convergence_round.png",
+}
+
+
+def default_figure(section_shape: str, scene: dict[str, Any] | None = None) -> Path:
+    """The figure of a section's study, in ``docs/images``; a scene's fields named after it.
+
+    Args:
+        section_shape: The tool's section, one of ``SECTION_SHAPES``.
+        scene: ``SceneSpec`` fields changed from the default (``--scene``); ``None`` or ``{}``
+            for the default scene, whose figure is the committed one.
+
+    Returns:
+        ``docs/images/confidence_convergence.png`` (square) or
+        ``docs/images/confidence_convergence_round.png`` (round), with ``_FIELD-VALUE`` per
+        scene field before ``.png`` (e.g. ``..._round_merge_fixed_links-False.png``).
+    """
+    if section_shape not in FIGURES:
+        raise ValueError(f"section_shape must be one of {tuple(FIGURES)}, got {section_shape!r}")
+    name = Path(FIGURES[section_shape])
+    suffix = "".join(
+        "_" + re.sub(r"[^A-Za-z0-9_.+-]+", "-", f"{field}-{value!r}").strip("-")
+        for field, value in sorted((scene or {}).items())
+    )
+    return IMAGES / f"{name.stem}{suffix}{name.suffix}"
 
 
 @dataclass(frozen=True)
@@ -102,12 +138,21 @@ class Agreement:
 
 
 def time_step_study(
-    designs: dict[str, np.ndarray], seed: int, goal: np.ndarray, tool: ToolSpec
+    designs: dict[str, np.ndarray],
+    seed: int,
+    goal: np.ndarray,
+    tool: ToolSpec,
+    scene: SceneSpec | None = None,
 ) -> dict[tuple[str, float, str], list[tuple[float, float]]]:
-    """Study (a): (design, time step, estimator) -> [(confidence, goal error)] over the nudges."""
+    """Study (a): (design, time step, estimator) -> [(confidence, goal error)] over the nudges.
+
+    ``scene``: the scene every time step is run in (its ``time_step`` replaced); the default's
+    if ``None``.
+    """
+    base = SceneSpec() if scene is None else scene
     out: dict[tuple[str, float, str], list[tuple[float, float]]] = {}
     for time_step, period in RESOLUTIONS:
-        scenes = nudged_scenes(SceneSpec(time_step=time_step), NUDGES, SHIFT, TURN, seed)
+        scenes = nudged_scenes(replace(base, time_step=time_step), NUDGES, SHIFT, TURN, seed)
         controller = ControllerSpec(control_period=period)
         sims = [ToolSimulator(scene=s, controller=controller) for s in scenes]
         for name, coeffs in designs.items():
@@ -126,14 +171,22 @@ def time_step_study(
 
 
 def agreement_study(
-    designs: dict[str, np.ndarray], goal: np.ndarray, tool: ToolSpec
+    designs: dict[str, np.ndarray],
+    goal: np.ndarray,
+    tool: ToolSpec,
+    scene: SceneSpec | None = None,
 ) -> tuple[dict[str, float], dict[tuple[str, float], Agreement]]:
-    """Study (b): the contact estimator's summed confidence per design, and the comparisons."""
-    contact_env = ToolDesignEnv(goal=tuple(goal.tolist()), tool=tool, info_series=True)
+    """Study (b): the contact estimator's summed confidence per design, and the comparisons.
+
+    ``scene``: the scene of every rollout; the default's if ``None``.
+    """
+    base = SceneSpec() if scene is None else scene
+    contact_env = ToolDesignEnv(goal=tuple(goal.tolist()), tool=tool, scene=base, info_series=True)
     resim_envs = {
         p: ToolDesignEnv(
             goal=tuple(goal.tolist()),
             tool=tool,
+            scene=base,
             objective=ObjectiveSpec(estimator="resimulation", perturbation=p, horizon=HORIZON),
             info_series=True,
         )
@@ -305,25 +358,42 @@ def plot(
     ax_b.set_ylabel("median |dX/dU| resim / contact")
     ax_b.set_title(f"(b) steps in contact, box sliding (H = {HORIZON}; bars: quartiles)")
     ax_b.legend(fontsize="small")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_bytes(figure_png_bytes(figure))
+    atomic_write_bytes(path, figure_png_bytes(figure))
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     """Measure, print and plot."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seed", type=int, default=1, help="random designs and nudges")
-    parser.add_argument("--figure", type=Path, default=DEFAULT_FIGURE, help="PNG to write")
+    parser.add_argument(
+        "--figure",
+        type=Path,
+        default=None,
+        help="PNG to write (default: the section's committed figure, see default_figure)",
+    )
     parser.add_argument(
         "--section-shape",
         choices=SECTION_SHAPES,
         default=ToolSpec().section_shape,
-        help="the tool's section (the committed figure: square) (default: %(default)s)",
+        help="the tool's section (default: %(default)s)",
     )
-    args = parser.parse_args()
+    add_scene_option(
+        parser,
+        "a SceneSpec field changed from its default, e.g. merge_fixed_links=False: the scene "
+        "every time step is run in (its time_step is the study's)",
+    )
+    args = parser.parse_args(argv)
+    fields = dict(args.scene)
+    if "time_step" in fields:
+        parser.error("--scene time_step=...: the time steps are the study's (RESOLUTIONS)")
+    try:
+        scene = SceneSpec(**fields)
+    except (TypeError, ValueError) as error:
+        parser.error(f"--scene: {error}")
+    figure = default_figure(args.section_shape, fields) if args.figure is None else args.figure
 
     goal = np.asarray(TaskSpec().goal, dtype=float)
-    probe = ToolSimulator()
+    probe = ToolSimulator(scene=scene)
     designs = {name: np.asarray(c, dtype=float) for name, c in FIXED_DESIGNS.items()}
     tool = ToolSpec(section_shape=args.section_shape)
     for i, c in enumerate(valid_designs(2, args.seed, probe, tool)):
@@ -334,18 +404,20 @@ def main() -> None:
 
     goal_text = "(" + ", ".join(f"{v:g}" for v in goal) + ") m"
     t0 = time.perf_counter()
-    time_steps = time_step_study(designs, args.seed, goal, tool)
+    time_steps = time_step_study(designs, args.seed, goal, tool, scene)
     t1 = time.perf_counter()
     print()
     print(
         f"(a) time-step refinement: {NUDGES} scenes per time step (box shift <= {SHIFT * 1e3:g} "
         f"mm, turn <= {TURN:g} rad, seed {args.seed}), control at 120 Hz, goal {goal_text}, "
-        f"p^X = {ObjectiveSpec().goal_precision:g} ({t1 - t0:.0f} s)"
+        f"p^X = {ObjectiveSpec().goal_precision:g}, {args.section_shape} section, "
+        f"{'hand merged (9 links)' if scene.merge_fixed_links else '13-link arm'}"
+        f"{''.join(f', {k}={v!r}' for k, v in sorted(fields.items()))} ({t1 - t0:.0f} s)"
     )
     print_time_steps(time_steps)
 
     fixed = {name: designs[name] for name in FIXED_DESIGNS}
-    confidence, agreement = agreement_study(fixed, goal, tool)
+    confidence, agreement = agreement_study(fixed, goal, tool, scene)
     t2 = time.perf_counter()
     print()
     print(
@@ -355,9 +427,9 @@ def main() -> None:
     )
     print_agreement(confidence, agreement)
 
-    plot(time_steps, agreement, args.figure)
+    plot(time_steps, agreement, figure)
     print()
-    print(f"figure: {args.figure}")
+    print(f"figure: {figure}")
 
 
 if __name__ == "__main__":

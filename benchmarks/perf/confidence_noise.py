@@ -7,8 +7,16 @@ For every estimator setting, per design: the relative spread (max - min) / |mean
 of F, of the confidence and of the goal error; printed: the median over the designs.
 
 Every estimator is scored on the SAME rollouts (one per design and nudge), so the differences
-between rows are the estimators' alone. Also printed: what the contact estimator costs, as a share
-of one evaluation with it (its recording in the loop, the Jacobians and the scoring).
+between rows are the estimators' alone. At p^X = 0 (pure confidence) F is minus the confidence,
+so F's spread is the confidence's; the script says so.
+
+Also printed: what the contact estimator costs, as a share of one evaluation with it (build,
+rollout with the contact log, Jacobians and scoring). For every design and scene the same design
+is evaluated on the same simulator with the estimator and without it (no recording, no scoring),
+in alternating order, each timed in CPU time of this thread (``time.thread_time``); printed is
+the median over these pairs of (with - without) / with, and its quartiles. A ratio within a pair
+barely moves with the machine's load, where a difference of medians of wall-clock times did
+(4-37 %).
 
 With ``--scene-samples K ...`` it also scores F averaged over K scenes
 (``ObjectiveSpec.scene_samples``, the contact estimator): each nudged scene is used with the box
@@ -19,7 +27,12 @@ Run: ``python benchmarks/perf/confidence_noise.py [--designs 12] [--nudges 6] [-
 [--scene-samples 1 4 8] [--section-shape square|round] [--scene FIELD=VALUE]`` (the section: the
 default tool's, round; ``--scene``, e.g. ``merge_fixed_links=False``: a scene other than the
 default, nudged the same way).
-Targets (issue 8): median spread of F <= 1 %, of the confidence <= 2 %, cost <= 30 %.
+Targets (issue 8): median spread of F <= 1 %, of the confidence <= 2 %, cost <= 30 %, over at
+least 12 random valid designs and nudges of at most 0.1 mm and 1e-4 rad (the defaults of
+``--shift`` and ``--turn``; larger ones are allowed, but the targets do not speak of them), at
+p^X > 0 for F (docs/model.md, "The targets"). Bad input (``--nudges`` below 2, ``--designs``
+below 1, a negative ``--shift`` or ``--turn``, an unknown ``--settings`` name, a goal outside
+the workspace) is an argparse error.
 """
 
 from __future__ import annotations
@@ -28,11 +41,13 @@ import argparse
 import math
 import statistics
 import time
+from collections.abc import Callable
 from dataclasses import replace
 
 import numpy as np
 from physics_options import add_scene_option  # this folder: the script's own, on sys.path
 
+from benchmarks.execution import TaskSettings
 from tooldesign_env import (
     ObjectiveSpec,
     SceneSpec,
@@ -114,18 +129,70 @@ def spread(values: list[float]) -> float:
     return (max(values) - min(values)) / abs(statistics.fmean(values))
 
 
-def main() -> None:
-    """Measure and print."""
+def _count(low: int, why: str = "") -> Callable[[str], int]:
+    """An argparse type: an int >= ``low``, or an error naming the value."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(
+                f"must be an int >= {low}{why}, got {text!r}"
+            ) from None
+        if value < low:
+            raise argparse.ArgumentTypeError(f"must be an int >= {low}{why}, got {value}")
+        return value
+
+    return parse
+
+
+def _size(unit: str) -> Callable[[str], float]:
+    """An argparse type: a finite number >= 0, or an error naming the value."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        if not (math.isfinite(value) and value >= 0):
+            raise argparse.ArgumentTypeError(f"must be a finite number >= 0 {unit}, got {text!r}")
+        return value
+
+    return parse
+
+
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """The command line, checked: every bad value is an argparse error naming it."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--designs", type=int, default=12)
-    parser.add_argument("--nudges", type=int, default=6, help="scenes per design, base included")
-    parser.add_argument("--shift", type=float, default=1e-4, help="largest box shift, m")
-    parser.add_argument("--turn", type=float, default=1e-4, help="largest box turn, rad")
+    parser.add_argument("--designs", type=_count(1), default=12)
+    parser.add_argument(
+        "--nudges",
+        type=_count(2, " (a spread needs two scenes)"),
+        default=6,
+        help="scenes per design, base included (>= 2)",
+    )
+    parser.add_argument(
+        "--shift",
+        type=_size("m"),
+        default=1e-4,
+        help="largest box shift, m (the targets of issue 8 are stated for <= 1e-4)",
+    )
+    parser.add_argument(
+        "--turn",
+        type=_size("rad"),
+        default=1e-4,
+        help="largest box turn, rad (the targets of issue 8 are stated for <= 1e-4)",
+    )
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--goal-precision", type=float, default=20.0)
     parser.add_argument("--goal", type=float, nargs=3, default=(0.0, 1.5, 0.1))
     parser.add_argument(
-        "--settings", nargs="*", default=list(SETTINGS), help="names of estimator settings"
+        "--settings",
+        nargs="*",
+        choices=list(SETTINGS),
+        default=list(SETTINGS),
+        metavar="NAME",
+        help=f"names of estimator settings, of: {', '.join(repr(n) for n in SETTINGS)}",
     )
     parser.add_argument(
         "--section-shape",
@@ -145,11 +212,24 @@ def main() -> None:
         "a SceneSpec field changed from its default, e.g. merge_fixed_links=False: "
         "the scene that is nudged",
     )
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     if any(k < 1 for k in args.scene_samples):
         parser.error(f"--scene-samples must be ints >= 1, got {args.scene_samples}")
+    try:
+        TaskSettings(goal=tuple(args.goal), goal_precision=args.goal_precision)
+    except (TypeError, ValueError) as error:
+        parser.error(f"--goal / --goal-precision: {error}")
+    try:
+        args.scene_spec = SceneSpec(**dict(args.scene))
+    except (TypeError, ValueError) as error:
+        parser.error(f"--scene: {error}")
+    return args
 
-    base = SceneSpec(**dict(args.scene))
+
+def main(argv: list[str] | None = None) -> None:
+    """Measure and print."""
+    args = parse_args(argv)
+    base = args.scene_spec
     scenes = nudged_scenes(base, args.nudges, args.shift, args.turn, args.seed)
     sims = [ToolSimulator(scene=s) for s in scenes]
     tool_spec = ToolSpec(section_shape=args.section_shape)
@@ -161,37 +241,37 @@ def main() -> None:
     }
     # terms[name][design] -> list over nudges of (F, confidence, goal error)
     terms: dict[str, list[list[tuple[float, float, float]]]] = {n: [] for n in specs}
-    plain_t, recorded_t, score_t = [], [], []
+    # One (plain, evaluation with the contact estimator) pair of CPU times per design and scene.
+    pairs: list[tuple[float, float]] = []
     # smoothed[design][nudge][k] -> (F, confidence, goal error) of the k-th scene of that nudge
     smoothed: list[list[list[tuple[float, float, float]]]] = []
+    contact = ObjectiveSpec(goal_precision=args.goal_precision)
     for c in designs:
         geometry = make_tool(c, tool_spec)
         rows: dict[str, list[tuple[float, float, float]]] = {n: [] for n in specs}
         for sim in sims:
-            sim.build(geometry)
-            t0 = time.perf_counter()
-            traj = sim.run(record_mobility=True)
-            recorded_t.append(time.perf_counter() - t0)
+            # The cost pair: the same design on the same simulator, without recording and with
+            # the contact estimator (recording and scoring), in alternating order.
+            plain_first = len(pairs) % 2 == 0
+            if plain_first:
+                plain = timed_plain(sim, geometry)
+            traj, evaluation = timed_evaluation(sim, geometry, goal, contact)
+            if not plain_first:
+                plain = timed_plain(sim, geometry)
+            pairs.append((plain, evaluation))
             for name, spec in specs.items():
-                t0 = time.perf_counter()
                 out = score(traj, sim, goal, spec)
-                if name == "contact":
-                    score_t.append(time.perf_counter() - t0)
                 rows[name].append((out.free_energy, out.confidence, out.goal_error))
-        # The rollout without recording, for the cost of the contact estimator.
-        sims[0].build(geometry)
-        t0 = time.perf_counter()
-        sims[0].run()
-        plain_t.append(time.perf_counter() - t0)
         for name in specs:
             terms[name].append(rows[name])
         if args.scene_samples:
             smoothed.append(score_smoothed(geometry, scenes, max(args.scene_samples), goal, args))
 
+    arm = "13-link arm" if not base.merge_fixed_links else "hand merged (9 links)"
     print(
         f"{len(designs)} random valid designs (seed {args.seed}), {args.nudges} scenes each "
         f"(box shift <= {args.shift * 1e3:g} mm, turn <= {args.turn:g} rad), "
-        f"p^X = {args.goal_precision:g}, {args.section_shape} section"
+        f"p^X = {args.goal_precision:g}, {args.section_shape} section, {arm}"
     )
     print(
         f"{'estimator':32s} {'F spread':>9s} {'conf spread':>12s} {'goal-err spread':>16s}"
@@ -207,17 +287,56 @@ def main() -> None:
             f"{name:32s} {100 * statistics.median(f):8.2f}% {100 * statistics.median(conf):11.2f}%"
             f" {100 * statistics.median(err):15.2f}% {mean_conf:10.1f} {mean_f:9.1f}"
         )
-    if "contact" in specs:
-        evaluation = statistics.median(recorded_t) + statistics.median(score_t)
-        cost = evaluation - statistics.median(plain_t)
-        plain, scoring = statistics.median(plain_t), statistics.median(score_t)
+    if args.goal_precision == 0:
         print(
-            f"contact estimator cost: {cost * 1e3:.1f} ms of a {evaluation * 1e3:.1f} ms "
-            f"evaluation ({100 * cost / evaluation:.1f} %; rollout without recording "
-            f"{plain * 1e3:.1f} ms, scoring {scoring * 1e3:.1f} ms)"
+            "p^X = 0 (pure confidence): F = -confidence, so F's spread is the confidence's "
+            "(the target on F, <= 1 %, is stated at p^X > 0; the confidence's is <= 2 %)"
         )
+    print(cost_line(pairs))
     if args.scene_samples:
         print_smoothed(smoothed, args.scene_samples)
+
+
+def timed_plain(sim: ToolSimulator, geometry: ToolGeometry) -> float:
+    """CPU time of this thread to build ``geometry`` and roll it out without recording, s."""
+    t0 = time.thread_time()
+    sim.build(geometry)
+    sim.run()
+    return time.thread_time() - t0
+
+
+def timed_evaluation(
+    sim: ToolSimulator, geometry: ToolGeometry, goal: np.ndarray, spec: ObjectiveSpec
+) -> tuple[Trajectory, float]:
+    """The recorded rollout, and the CPU time of build, rollout and scoring with ``spec``, s."""
+    t0 = time.thread_time()
+    sim.build(geometry)
+    traj = sim.run(record_mobility=True)
+    score(traj, sim, goal, spec)
+    return traj, time.thread_time() - t0
+
+
+def cost_line(pairs: list[tuple[float, float]]) -> str:
+    """The contact estimator's share of one evaluation: the median of the per-pair shares.
+
+    Each pair is the CPU time of the same design on the same simulator built and rolled out
+    without recording (plain) and evaluated with the contact estimator (built, rolled out with
+    the contact log, scored): its share is (evaluation - plain) / evaluation. CPU time of this
+    thread and a median of per-pair ratios, so that the machine's load moves it little.
+    """
+    shares = [(evaluation - plain) / evaluation for plain, evaluation in pairs]
+    plain = statistics.median(p for p, _ in pairs)
+    evaluation = statistics.median(e for _, e in pairs)
+    return (
+        f"contact estimator cost: {100 * statistics.median(shares):.1f} % of an evaluation "
+        f"(median over {len(pairs)} pairs of the same design and scene, CPU time; "
+        f"quartiles {100 * _quantile(shares, 0.25):.1f}-{100 * _quantile(shares, 0.75):.1f} %; "
+        f"evaluation {evaluation * 1e3:.1f} ms, without the estimator {plain * 1e3:.1f} ms)"
+    )
+
+
+def _quantile(values: list[float], q: float) -> float:
+    return float(np.quantile(values, q))
 
 
 def score_smoothed(

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import io
 import math
+import numbers
 import os
 import re
 import zlib
@@ -45,6 +46,8 @@ from benchmarks.storage import ResultStore, atomic_write_bytes, atomic_write_tex
 __all__ = [
     "DPI",
     "FIGSIZE",
+    "beyond_noise_cell",
+    "check_noise_floor",
     "convergence_table",
     "figure_png_bytes",
     "make_report",
@@ -224,12 +227,52 @@ def summary_table(
     return pd.DataFrame(rows)
 
 
-def _floor_of(noise_floor: float | Mapping[str, float] | None, variant: Any) -> float | None:
-    """The noise floor of F for one variant: a number, a number per variant name, or None."""
-    if noise_floor is None or isinstance(noise_floor, (int, float)):
+def check_noise_floor(
+    noise_floor: float | Mapping[str, float] | None,
+) -> float | Mapping[str, float] | None:
+    """``noise_floor`` checked: None, a number or a number per variant, each finite and >= 0.
+
+    NaN means "not measured" (what :func:`benchmarks.reports.retest.noise_floor` gives when no
+    design was retested), as does a variant missing from a mapping.
+
+    Raises:
+        ValueError: If a floor is negative, infinite or not a number; the message names the
+            variant.
+    """
+
+    def check(value: Any, label: str) -> None:
+        if isinstance(value, bool) or not isinstance(value, numbers.Real):
+            raise ValueError(
+                f"{label} must be a finite number >= 0 (NaN: not measured), got {value!r}"
+            )
+        number = float(value)
+        if math.isnan(number):
+            return
+        if not (math.isfinite(number) and number >= 0):
+            raise ValueError(
+                f"{label} must be a finite number >= 0 (NaN: not measured), got {value!r}"
+            )
+
+    if noise_floor is None:
+        return None
+    if isinstance(noise_floor, Mapping):
+        for variant, value in noise_floor.items():
+            check(value, f"noise_floor of variant {str(variant)!r}")
         return noise_floor
-    value = noise_floor.get(str(variant))
-    return None if value is None or not math.isfinite(value) else float(value)
+    if isinstance(noise_floor, numbers.Real) and not isinstance(noise_floor, bool):
+        check(noise_floor, "noise_floor")
+        return noise_floor
+    raise ValueError(f"noise_floor must be a number, one per variant or None, got {noise_floor!r}")
+
+
+def _floor_of(noise_floor: float | Mapping[str, float] | None, variant: Any) -> float | None:
+    """The noise floor of F for one variant; None if it was not measured (missing or NaN)."""
+    if noise_floor is None:
+        return None
+    value = (
+        noise_floor.get(str(variant)) if isinstance(noise_floor, Mapping) else float(noise_floor)
+    )
+    return None if value is None or math.isnan(value) else float(value)
 
 
 def pairwise_table(
@@ -248,14 +291,21 @@ def pairwise_table(
         alpha: Family-wise error rate.
         noise_floor: The noise floor of F (``tooldesign retest``): one number, or one per
             variant name; None if unmeasured. A pair whose difference of means is below it is
-            not ``significant``, whatever its p.
+            not ``significant``, whatever its p. A variant missing from the mapping, or whose
+            floor is NaN, has no floor measured: its pairs' ``beyond_noise`` is missing (NA)
+            and their significance rests on the tests alone (the markdown says "no floor").
 
     Returns:
         ``suite``, ``variant``, ``metric``, the columns of
         :func:`benchmarks.reports.stats.mann_whitney_holm`, ``mean_difference`` (mean of ``a`` minus
-        mean of ``b``, units of F) and ``beyond_noise`` (|mean_difference| > noise floor; True
-        when no floor is given), one row per pair.
+        mean of ``b``, units of F) and ``beyond_noise`` (|mean_difference| > noise floor, a
+        nullable boolean: NA when no floor was measured for the pair's variant), one row per
+        pair.
+
+    Raises:
+        ValueError: If a noise floor is negative or infinite (:func:`check_noise_floor`).
     """
+    noise_floor = check_noise_floor(noise_floor)
     metrics = run_metrics(best_so_far_curves(evaluations))
     group_names = [k for k in GROUP_KEYS if k in metrics.columns]
     tables = []
@@ -273,8 +323,11 @@ def pairwise_table(
             group_values = dict(zip(group_names, group_key, strict=True))
             floor = _floor_of(noise_floor, group_values.get("variant", ""))
             table["mean_difference"] = difference
-            table["beyond_noise"] = [floor is None or abs(d) > floor for d in difference]
-            table["significant"] = table["significant"] & table["beyond_noise"]
+            table["beyond_noise"] = pd.array(
+                [None if floor is None else abs(d) > floor for d in difference], dtype="boolean"
+            )
+            # No floor measured: significance rests on the tests alone, and the table says so.
+            table["significant"] = table["significant"] & table["beyond_noise"].fillna(True)
             table.insert(0, "metric", metric)
             for position, (name, value) in enumerate(zip(group_names, group_key, strict=True)):
                 table.insert(position, name, value)
@@ -442,22 +495,37 @@ def _summary_markdown(summary: pd.DataFrame, level: float) -> str:
 def _pairwise_markdown(
     pairwise: pd.DataFrame, alpha: float, noise_floor: float | Mapping[str, float] | None
 ) -> str:
-    if noise_floor is None:
+    unmeasured = (
+        sorted({str(v) for v in pairwise.loc[pairwise["beyond_noise"].isna(), "variant"]})
+        if "variant" in pairwise.columns and len(pairwise)
+        else []
+    )
+    if noise_floor is None or (
+        not isinstance(noise_floor, Mapping) and math.isnan(float(noise_floor))
+    ):
         floor = (
             "No noise floor was measured (run `tooldesign retest` on the folder): significance "
-            "rests on the tests alone."
+            "rests on the tests alone, and every pair says 'no floor'."
         )
     else:
-        values = (
-            _fmt(noise_floor)
-            if isinstance(noise_floor, (int, float))
-            else ", ".join(f"{k or 'all'}: {_fmt(v)}" for k, v in sorted(noise_floor.items()))
-        )
+        if isinstance(noise_floor, Mapping):
+            floors = {**dict.fromkeys(unmeasured, math.nan), **noise_floor}
+            values = ", ".join(
+                f"{k or 'all'}: {'not measured' if math.isnan(v) else _fmt(v)}"
+                for k, v in sorted(floors.items())
+            )
+        else:
+            values = _fmt(float(noise_floor))
         floor = (
             f"Noise floor of F: {values} (median range of a final design's F over nudged "
             "scenes, `noise.md`); a pair whose means differ by less is not significant, "
             "whatever its p."
         )
+        if unmeasured:
+            floor += (
+                f" No noise floor was measured for {', '.join(v or 'all' for v in unmeasured)}:"
+                " its pairs say 'no floor', and their significance rests on the tests alone."
+            )
     lines = [
         "# Pairwise tests",
         "",
@@ -481,7 +549,7 @@ def _pairwise_markdown(
                 _fmt(row["p_holm"], 3),
                 _fmt(row["a12"], 3),
                 _fmt(row["mean_difference"]),
-                "yes" if row["beyond_noise"] else "no",
+                beyond_noise_cell(row["beyond_noise"]),
                 "yes" if row["significant"] else "no",
                 row["note"],
             ]
@@ -490,6 +558,15 @@ def _pairwise_markdown(
         header = ["a", "b", "U", "p", "p (Holm)", "A12", "mean a - b", "beyond noise"]
         lines += _markdown([*header, "significant", "note"], rows)
     return "\n".join(lines) + "\n"
+
+
+def beyond_noise_cell(value: Any) -> str:
+    """A ``beyond_noise`` value as a table cell: "yes", "no", or "no floor" when NA or NaN."""
+    if value is None or value is pd.NA or (isinstance(value, float) and math.isnan(value)):
+        return "no floor"
+    if isinstance(value, str):  # read back from a CSV written by an older version
+        return {"true": "yes", "false": "no"}.get(value.lower(), "no floor")
+    return "yes" if value else "no"
 
 
 def _slug(*names: str) -> str:
@@ -537,6 +614,7 @@ def make_report(
         raise ValueError(f"level must be in (0, 1), got {level!r}")
     if not 0.0 < alpha < 1.0:
         raise ValueError(f"alpha must be in (0, 1), got {alpha!r}")
+    noise_floor = check_noise_floor(noise_floor)
     evaluations = ResultStore(run_folder).read()
     target = Path(run_folder) / REPORT_DIR if out_dir is None else Path(out_dir)
     written = []

@@ -24,6 +24,7 @@ import numpy as np
 import pandas as pd
 from scipy import stats as sstats
 
+from benchmarks.reports.comparison import beyond_noise_cell
 from benchmarks.reports.retest import noise_floor, stress_table
 from benchmarks.reports.suite import designs_table
 from benchmarks.storage import read_designs, read_retests, with_added_fields
@@ -77,6 +78,23 @@ def _verdict_difference(low: float, high: float, diff: float, floor: float) -> b
     return (low > 0 or high < 0) and abs(diff) > (floor if math.isfinite(floor) else 0.0)
 
 
+def _comparison_noise(pure: float, other: float, label: str) -> tuple[float, str]:
+    """The noise a difference of claim (c) must exceed: the larger of the two rows' noise.
+
+    A row whose noise was not measured (NaN) does not count (``max(nan, x)`` would depend on
+    the order of its arguments); the second value says which was missing, for the table, or
+    is empty. With neither measured the noise is 0: the interval alone decides.
+    """
+    known = [v for v in (pure, other) if math.isfinite(v)]
+    missing = [
+        name for name, v in (("pure confidence", pure), (label, other)) if not math.isfinite(v)
+    ]
+    if len(missing) == 2:
+        return 0.0, "noise not measured"
+    note = f"noise of {missing[0]} not measured" if missing else ""
+    return float(max(known)), note
+
+
 def _claim_a(folder: Path) -> tuple[str, str, list[str]]:
     report = folder / "report"
     summary, pairwise = _read_csv(report / "summary.csv"), _read_csv(report / "pairwise.csv")
@@ -108,7 +126,7 @@ def _claim_a(folder: Path) -> tuple[str, str, list[str]]:
     for _, row in pairwise.iterrows():
         lines.append(
             f"| {row['a']} vs {row['b']} | {row['metric']} | {_fmt(row['mean_difference'])} | "
-            f"{'yes' if row['beyond_noise'] else 'no'} | {_fmt(row['p_holm'], 3)} | "
+            f"{beyond_noise_cell(row['beyond_noise'])} | {_fmt(row['p_holm'], 3)} | "
             f"{'yes' if row['significant'] else 'no'} |"
         )
         if row["metric"] == "auc" and "cmaes" in (row["a"], row["b"]) and row["significant"]:
@@ -259,9 +277,10 @@ def _claim_c(folder: Path, baseline: Path | None) -> tuple[str, str, list[str]]:
             diff, low, high = _bootstrap_difference(
                 pure[metric].to_numpy(), part[metric].to_numpy(), seed=len(other)
             )
-            noise = max(
+            noise, unmeasured = _comparison_noise(
                 float(rows.loc[rows["label"] == "pure confidence", f"{metric}_noise"].max()),
                 float(rows.loc[rows["label"] == other, f"{metric}_noise"].max()),
+                other,
             )
             counts = _verdict_difference(low, high, diff, noise)
             findings[metric].append(counts and diff * better > 0)
@@ -269,7 +288,8 @@ def _claim_c(folder: Path, baseline: Path | None) -> tuple[str, str, list[str]]:
                 f"| {metric.replace('_', ' ')} | {other} | {_fmt(diff)} [{_fmt(low)}, "
                 f"{_fmt(high)}] | {'yes' if counts else 'no'}"
                 f"{' (pure confidence better)' if counts and diff * better > 0 else ''}"
-                f"{' (pure confidence worse)' if counts and diff * better < 0 else ''} |"
+                f"{' (pure confidence worse)' if counts and diff * better < 0 else ''}"
+                f"{f' ({unmeasured})' if unmeasured else ''} |"
             )
     parts = []
     for metric, name in (("robustness", "robustness"), ("control_deviation", "control deviation")):
