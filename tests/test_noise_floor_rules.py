@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -104,3 +105,27 @@ def test_claim_c_noise_does_not_depend_on_the_order_of_a_nan(
     pure: float, other: float, expected: tuple[float, str]
 ) -> None:
     assert _comparison_noise(pure, other, "p20") == expected
+
+
+def test_one_run_without_a_valid_design_does_not_hide_a_difference_beyond_the_floor():
+    """The tests drop non-finite values; the difference of means must too (issue 4's audit)."""
+    rows = [
+        {
+            "suite": "x",
+            "variant": "",
+            "optimizer": name,
+            "seed": seed,
+            "iteration": iteration,
+            "candidate": 0,
+            "free_energy": np.nan if broken else offset + 10.0 * seed - iteration,
+            "status": "invalid" if broken else "ok",
+        }
+        for name, offset in (("a", 0.0), ("b", 100.0))
+        for seed in range(6)
+        for iteration in range(3)
+        for broken in [name == "a" and seed == 0 and iteration == 0]
+    ]
+    table = pairwise_table(pd.DataFrame(rows), noise_floor=5.0)
+    auc = table[table["metric"] == "auc"].iloc[0]
+    assert np.isfinite(auc["mean_difference"]) and abs(auc["mean_difference"]) > 50
+    assert bool(auc["beyond_noise"]) and bool(auc["significant"])

@@ -298,9 +298,9 @@ def pairwise_table(
     Returns:
         ``suite``, ``variant``, ``metric``, the columns of
         :func:`benchmarks.reports.stats.mann_whitney_holm`, ``mean_difference`` (mean of ``a`` minus
-        mean of ``b``, units of F) and ``beyond_noise`` (|mean_difference| > noise floor, a
-        nullable boolean: NA when no floor was measured for the pair's variant), one row per
-        pair.
+        mean of ``b`` over their finite values, as the tests take them; units of F) and
+        ``beyond_noise`` (|mean_difference| > noise floor, a nullable boolean: NA when no floor
+        was measured for the pair's variant), one row per pair.
 
     Raises:
         ValueError: If a noise floor is negative or infinite (:func:`check_noise_floor`).
@@ -316,8 +316,9 @@ def pairwise_table(
                 for name in _optimizer_order(group["optimizer"])
             }
             table = mann_whitney_holm(samples, alpha=alpha)
+            # Over the finite values, as the tests (a run with no valid design has no AUC).
             difference = [
-                float(np.mean(samples[a]) - np.mean(samples[b]))
+                _finite_mean(samples[a]) - _finite_mean(samples[b])
                 for a, b in zip(table["a"], table["b"], strict=True)
             ]
             group_values = dict(zip(group_names, group_key, strict=True))
@@ -333,6 +334,11 @@ def pairwise_table(
                 table.insert(position, name, value)
             tables.append(table)
     return pd.concat(tables, ignore_index=True)
+
+
+def _finite_mean(values: np.ndarray) -> float:
+    finite = values[np.isfinite(values)]
+    return float(np.mean(finite)) if finite.size else math.nan
 
 
 # --- figures -----------------------------------------------------------------------------------
