@@ -33,7 +33,7 @@ def suite_folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
     config = tmp_path_factory.mktemp("config") / "tiny.toml"
     config.write_text(TINY, encoding="utf-8")
     out = tmp_path_factory.mktemp("suite") / "run"
-    args = ["bench", "--config", str(config), "--size", "smoke", "--out", str(out)]
+    args = ["bench", "--config", str(config), "--out", str(out)]
     assert main([*args, "--executor", "serial", "--no-progress"]) == 0
     return out
 

@@ -48,7 +48,7 @@ def tiny_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def bench_args(config: Path, out: Path, *extra: str) -> list[str]:
-    return ["bench", "--config", str(config), "--size", "smoke", "--out", str(out), *extra]
+    return ["bench", "--config", str(config), "--out", str(out), *extra]
 
 
 @pytest.fixture(scope="module")
@@ -85,7 +85,7 @@ def test_resume_after_sigkill_equals_uninterrupted_suite(
     tiny_file: Path, uninterrupted: Path, tmp_path: Path
 ) -> None:
     out = tmp_path / "killed"
-    suite = load_suite(tiny_file, size="smoke")
+    suite = load_suite(tiny_file)
     first = suite.runs()[0]
     unit = Unit(
         suite=first.suite,
@@ -158,11 +158,11 @@ def test_a_finished_suite_grows_by_the_runs_of_new_seeds(
     manifest = json.loads((grown / "manifest.json").read_text())
     assert manifest["config"]["n_seeds"] == 2
     with pytest.raises(ResumeError, match="n_seeds: 2 -> 1"):
-        run_suite(load_suite(tiny_file, size="smoke"), grown, resume=True, progress=False)
+        run_suite(load_suite(tiny_file), grown, resume=True, progress=False)
 
 
 def test_resume_refuses_other_settings_and_foreign_folders(tiny_file: Path, tmp_path: Path) -> None:
-    suite = load_suite(tiny_file, size="smoke")
+    suite = load_suite(tiny_file)
     out = tmp_path / "run"
     RunSession(out, kind="suite", config=suite.to_json(), resume=False).checkpoint()
     with pytest.raises(ResumeError, match="other settings.*iterations"):
@@ -194,7 +194,7 @@ def test_a_design_run_folder_is_not_resumed_as_a_suite(tmp_path: Path) -> None:
 
 
 def test_parts_of_runs_the_suite_does_not_plan_are_refused(tiny_file: Path, tmp_path: Path) -> None:
-    suite = load_suite(tiny_file, size="smoke")
+    suite = load_suite(tiny_file)
     out = tmp_path / "run"
     RunSession(out, kind="suite", config=suite.to_json(), resume=False).checkpoint()
     stray = Unit(suite="other", optimizer="cmaes", seed=1, iteration=0)

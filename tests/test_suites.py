@@ -134,6 +134,22 @@ def test_a_suite_file_may_start_from_a_builtin_and_define_sizes(tmp_path: Path) 
     assert (smoke.n_seeds, smoke.iterations) == (2, 2)
     with pytest.raises(ValueError, match="unknown size 'huge'"):
         load_suite(path, size="huge")
+    assert load_suite(path, size="full") == full  # the default, whether or not a table names it
+
+
+def test_a_size_the_file_cannot_apply_is_refused_not_ignored(tmp_path):
+    """Without base or [sizes], --size smoke would run the file as it is under a smoke label."""
+    path = tmp_path / "plain.toml"
+    path.write_text('name = "plain"\niterations = 3\n[[optimizers]]\nname = "random"\n')
+    assert load_suite(path, size="full") == load_suite(path)
+    with pytest.raises(ValueError, match="defines no sizes, so --size smoke would change nothing"):
+        load_suite(path, size="smoke")
+    typo = tmp_path / "typo.toml"
+    typo.write_text(
+        'name = "typo"\n[[optimizers]]\nname = "random"\n[sizes.smoke]\nn_seed = 2\n'
+    )
+    with pytest.raises(ValueError, match=r"\[sizes.smoke\]: unknown keys \[n_seed\]"):
+        load_suite(typo, size="smoke")
 
 
 @pytest.mark.parametrize(

@@ -6,6 +6,7 @@ own sizes (``[sizes.smoke]``, ``[sizes.full]``). ``docs/benchmarks.md`` document
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 from collections.abc import Mapping
@@ -65,7 +66,8 @@ def load_suite(path: str | os.PathLike[str], *, size: str | None = None) -> Suit
     - ``base = "NAME"``: start from the built-in suite NAME at ``size`` (``full`` if none) and
       override only the fields the file sets;
     - ``[sizes.smoke]``, ``[sizes.full]`` (any names): fields that override the others when
-      that size is chosen.
+      that size is chosen. ``full`` needs no table: it is the file's fields as they are. A
+      file without ``base`` or ``[sizes]`` refuses any other size, which could change nothing.
 
     Args:
         path: A ``.toml`` or ``.json`` file.
@@ -95,13 +97,29 @@ def load_suite(path: str | os.PathLike[str], *, size: str | None = None) -> Suit
         except ValueError as err:
             raise ValueError(f"{source}: base: {err}") from None
     fields.update(data)
-    if size is not None:
-        if sizes and size not in sizes:
+    allowed = {f.name for f in dataclasses.fields(SuiteConfig)}
+    for name, table in sizes.items():
+        unknown = sorted(str(key) for key in set(table) - allowed)
+        if unknown:
             raise ValueError(
-                f"{source}: unknown size {size!r}; the file defines {', '.join(sorted(sizes))}"
+                f"{source}: [sizes.{name}]: unknown keys [{', '.join(unknown)}]; "
+                f"allowed: {sorted(allowed)}"
             )
-        if size not in SIZES and size not in sizes:
+    if size is not None and size not in sizes and size != "full":
+        # "full", the default, is the file's fields as they are (over its base's full size).
+        if sizes:
+            raise ValueError(
+                f"{source}: unknown size {size!r}; the file defines "
+                f"{', '.join(sorted(sizes))} (and 'full': the file as it is)"
+            )
+        if base is None:
+            raise ValueError(
+                f"{source} defines no sizes, so --size {size} would change nothing: leave it "
+                "out, add a [sizes.NAME] table, or start from a built-in suite with base = NAME"
+            )
+        if size not in SIZES:
             raise ValueError(f"unknown size {size!r}; sizes: {', '.join(SIZES)}")
+    if size is not None:
         fields.update(sizes.get(size, {}))
     return suite_from_json(fields, where=str(source))
 
