@@ -27,7 +27,8 @@ def add_parser(subparsers: Any) -> None:
         nargs="+",
         required=True,
         metavar="C",
-        help="coefficients c1 ... cn, highest power first (default degree 3)",
+        help="coefficients c1 ... cn, highest power first; their count is the polynomial "
+        "degree n (the paper's tool has 3; 1 to 20)",
     )
     p.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder (created)")
     add_task_arguments(p)
