@@ -6,6 +6,7 @@ import argparse
 import re
 import subprocess
 import sys
+from pathlib import Path
 
 import pandas as pd
 import pytest
@@ -97,3 +98,37 @@ def test_a_design_run_whose_every_evaluation_fails_ends_in_one_line(
     assert "no design of the run could be evaluated" in err and "Traceback" not in err
     log = pd.read_csv(next(out.rglob("*.csv")))
     assert set(log["status"]) == {"failed"} and len(log) == 2  # the log says why
+
+
+def test_design_refuses_an_empty_optimizer_name(tmp_path, capsys):
+    # "" ran CMA-ES without a word (an audit of issue 11).
+    out = tmp_path / "z"
+    with pytest.raises(SystemExit) as excinfo:
+        main(["design", "--optimizer", "", "--iterations", "1", "--out", str(out)])
+    assert excinfo.value.code == 2
+    err = capsys.readouterr().err
+    assert "--optimizer" in err and "''" in err and "cmaes" in err
+    assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("flags", "message"),
+    [
+        (["--goal", "nan", "1", "0.1"], "goal must be finite, got nan"),
+        (["--goal", "inf", "1", "0.1"], "goal must be finite, got inf"),
+        (["--box-mass", "nan"], "box_mass must be finite"),
+    ],
+)
+def test_design_with_a_policy_names_a_bad_goal_or_mass_as_without(
+    flags, message, tmp_path, capsys
+):
+    # With --policy they were refused as "optimizer_settings['goal'] must be a JSON value"
+    # (an audit of issue 11).
+    policy = Path(__file__).resolve().parents[1] / "docs/results/rl/policies/ppo.json"
+    for designer in (["--policy", str(policy)], []):
+        with pytest.raises(SystemExit) as excinfo:
+            main(["design", *designer, *flags, "--out", str(tmp_path / "x")])
+        assert excinfo.value.code == 2
+        err = capsys.readouterr().err
+        assert message in err and "optimizer_settings" not in err, err
+    assert not (tmp_path / "x").exists()
