@@ -38,20 +38,17 @@ import time
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Executor, Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
-from typing import Any, Literal, NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from benchmarks.execution._parent_death import die_with_parent
 
-ExecutorKind = Literal["serial", "process", "dask"]
-
+#: Largest ``max_retries``: each retry starts a fresh pool and evaluates the item again.
 MAX_RETRIES_MAX = 100
 
 #: Most worker processes: a mistyped count (10^6) would start that many processes.
 WORKERS_MAX = 1024
-
-"""Largest ``max_retries``: each retry starts a fresh pool and evaluates the item again."""
 
 
 def check_max_retries(value: Any) -> int:
