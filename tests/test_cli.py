@@ -34,6 +34,36 @@ def test_top_level_help_and_version_import_no_heavy_module():
         assert name in out.stdout
 
 
+@pytest.mark.parametrize("command", list(COMMANDS))
+def test_every_subcommands_help_imports_no_simulation_plotting_or_torch(command):
+    # Each took 2-5 s: its module imported PyBullet and Matplotlib to build its arguments (an
+    # audit of issue 11). Checked by what is imported, which does not depend on the machine.
+    code = (
+        "import sys\nfrom benchmarks.cli import main\n"
+        f"try:\n    main([{command!r}, '--help'])\nexcept SystemExit as e:\n"
+        "    assert e.code == 0, e.code\n"
+        "print(sorted(m for m in ('pybullet', 'matplotlib', 'torch') if m in sys.modules))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert f"usage: tooldesign {command}" in out.stdout
+    assert out.stdout.rstrip().endswith("[]"), out.stdout.splitlines()[-1]
+
+
+def test_the_help_constants_agree_with_the_suites_they_name():
+    from benchmarks.cli import _common
+    from benchmarks.rl import RL_SUITE_NAME, SIZES
+    from benchmarks.suites import BUILTIN_SUITES
+    from benchmarks.suites import SIZES as SUITE_SIZES
+    from benchmarks.suites.retest import RetestConfig
+
+    assert _common.BUILTIN_SUITES == BUILTIN_SUITES
+    assert _common.SIZES == SUITE_SIZES
+    assert _common.RL_SUITE_NAME == RL_SUITE_NAME
+    assert _common.RL_SIZES == tuple(SIZES)
+    defaults = RetestConfig()
+    assert (_common.RETEST_NUDGES, _common.RETEST_REPEATS) == (defaults.nudges, defaults.repeats)
+
+
 def test_the_stub_help_lines_match_the_subcommands_own():
     full = _subparsers(build_parser())
     lines = {a.dest: a.help for a in full._choices_actions}

@@ -75,7 +75,7 @@ def test_bad_arguments_exit_2_with_a_message(argv, tmp_path, monkeypatch, capsys
 
 
 def test_a_missing_optional_backend_is_one_line(monkeypatch, capsys):
-    import benchmarks.cli.evaluate as evaluate_module
+    import benchmarks.design.evaluate as evaluate_module  # the command imports it when run
 
     def missing(*args, **kwargs):
         raise ImportError("this needs scikit-optimize: pip install 'tooldesign[bo]'")

@@ -8,9 +8,8 @@ from pathlib import Path
 from typing import Any, cast
 
 from benchmarks.cli._common import add_max_retries_argument, add_task_arguments
-from benchmarks.design import DesignConfig, run_design
+from benchmarks.design import DesignConfig
 from benchmarks.execution import EXECUTORS, TaskSettings
-from benchmarks.reports import write_design_report
 
 
 def _setting(text: str) -> tuple[str, Any]:
@@ -95,7 +94,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         metavar="ADDR",
         help="Dask scheduler address, e.g. tcp://host:8786 (with --executor dask)",
     )
-    add_max_retries_argument(parser, DesignConfig().max_retries)
+    add_max_retries_argument(parser, cast("int", defaults["max_retries"].default))
     add_task_arguments(parser)
     parser.add_argument(
         "--option",
@@ -205,6 +204,9 @@ def _counts_text(counts: dict[str, int]) -> str:
 
 
 def _run(args: argparse.Namespace) -> int:
+    from benchmarks.design import run_design
+    from benchmarks.reports import write_design_report
+
     config = config_from_args(args)
     result = run_design(
         config,

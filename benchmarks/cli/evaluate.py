@@ -6,11 +6,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from benchmarks.cli._common import add_task_arguments
-from benchmarks.design.evaluate import evaluate_coefficients
-from benchmarks.reports import write_evaluation_report
 
 
 def add_parser(subparsers: Any) -> None:
@@ -53,6 +49,11 @@ def add_parser(subparsers: Any) -> None:
 
 
 def _run(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from benchmarks.design.evaluate import evaluate_coefficients
+    from benchmarks.reports import write_evaluation_report
+
     info = evaluate_coefficients(
         args.coeffs,
         args.out,

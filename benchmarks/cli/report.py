@@ -6,8 +6,6 @@ import argparse
 from pathlib import Path
 from typing import Any, cast
 
-from benchmarks.reports.suite import make_suite_report
-
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     """Register ``tooldesign report`` on the dispatcher's subparsers."""
@@ -29,6 +27,8 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 
 def _run(args: argparse.Namespace) -> int:
+    from benchmarks.reports import make_suite_report
+
     files = make_suite_report(args.run_folder, out_dir=args.out)
     folder = files[0].parent if files else args.run_folder
     print(f"{len(files)} report files written to {folder}")

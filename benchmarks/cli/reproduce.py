@@ -7,10 +7,6 @@ import os
 from pathlib import Path
 from typing import Any, cast
 
-from benchmarks.reports.reproduction import SQUARE, SUITES, reproduction_page
-from benchmarks.reports.suite import make_suite_report
-from benchmarks.storage import atomic_write_text
-
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     """Register ``tooldesign reproduce``."""
@@ -28,6 +24,10 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 
 def _run(args: argparse.Namespace) -> int:
+    from benchmarks.reports import make_suite_report
+    from benchmarks.reports.reproduction import SQUARE, SUITES, reproduction_page
+    from benchmarks.storage import atomic_write_text
+
     if not args.results.is_dir():
         raise ValueError(f"no results folder {args.results}")
     if not args.skip_reports:

@@ -340,7 +340,7 @@ def csv_text(frame: pd.DataFrame) -> str:
 
     Floats are written with ``repr``, the shortest string that parses back to the same double,
     so they round-trip bit for bit and do not depend on the locale; NaN is an empty field;
-    lines end with ``\\n`` on every platform.
+    every line ends with a bare line feed, on every platform.
     """
     return cast(
         "str", frame.to_csv(index=False, lineterminator="\n", float_format=lambda v: repr(float(v)))
