@@ -141,3 +141,23 @@ def test_a_design_past_a_bound_by_rounding_only_is_the_bound_as_env_step_takes_i
     with pytest.raises(ValueError, match="outside the default bounds"):
         evaluate([0.0, 0.0, 0.5001], tmp_path / "y")
     assert not (tmp_path / "y").exists()
+
+
+def test_video_of_an_invalid_design_says_why_there_is_none(tmp_path, capsys):
+    # It wrote no rollout.gif and said nothing (an audit of issue 11).
+    out = tmp_path / "overlap"
+    argv = ["evaluate", "--coeffs", "0", "4.35", "0", "--out", str(out), "--outside-bounds"]
+    assert main([*argv, "--video"]) == 0
+    err = capsys.readouterr().err
+    assert "no rollout.gif" in err and "overlaps" in err
+    assert not (out / "rollout.gif").exists()
+
+
+def test_reproduce_help_explains_every_option(capsys):
+    with pytest.raises(SystemExit):
+        main(["reproduce", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    for option in ("--results DIR", "--out FILE", "--skip-reports"):
+        assert option in text
+    assert "docs/results" in text and "docs/reproduction.md" in text
+    assert text.count("(default:") >= 2

@@ -119,6 +119,24 @@ def test_the_report_is_written_atomically_through_the_one_writer(tmp_path, monke
     assert written == [folder / REPORT_FILE]
 
 
+def test_report_rebuilds_a_report_html_the_folder_has(tmp_path, capsys):
+    # `tooldesign report DIR` rebuilt the figures but left report.html with the old ones (an
+    # audit of issue 11).
+    from pathlib import Path
+
+    results = Path(__file__).resolve().parents[1] / "docs" / "results" / "robust-design"
+    folder = tmp_path / "robust-design"
+    shutil.copytree(results, folder)
+    assert main(["report", str(folder)]) == 0
+    assert "report.html" not in capsys.readouterr().out  # none to refresh: none is made
+    assert not (folder / REPORT_FILE).exists()
+    write_html_report(folder)
+    (folder / "report" / "notes.md").write_text("written after the page")
+    assert main(["report", str(folder)]) == 0
+    assert f"{folder / REPORT_FILE} rebuilt" in capsys.readouterr().out
+    assert "written after the page" in (folder / REPORT_FILE).read_text()
+
+
 def _browser_probe(report, tmp_path):
     browser = next((shutil.which(b) for b in BROWSERS if shutil.which(b)), None)
     if browser is None:

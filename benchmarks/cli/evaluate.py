@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -43,7 +44,7 @@ def add_parser(subparsers: Any) -> None:
         "--video",
         action="store_true",
         help="also write rollout.gif: the rollout rendered headless, with the goal and the box "
-        "path (about 20 s more)",
+        "path (about 20 s more; a valid design only: an invalid one is not simulated)",
     )
     p.set_defaults(run=_run)
 
@@ -71,6 +72,12 @@ def _run(args: argparse.Namespace) -> int:
     )
     write_evaluation_report(args.out)
     status = "valid" if info["valid"] else f"INVALID ({info['invalid_reason']})"
+    if args.video and not info["valid"]:
+        print(
+            f"no rollout.gif: the design is invalid ({info['invalid_reason']}), so it was not "
+            "simulated and there is no rollout to show",
+            file=sys.stderr,
+        )
     print(
         f"design {np.round(info['coefficients'], 6).tolist()}: {status}\n"
         f"  free energy F = {info['free_energy']:.6g}  (goal error {info['goal_error']:.6g}, "

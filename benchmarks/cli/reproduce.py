@@ -16,9 +16,26 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         description="Rebuild the report of every suite under --results and write the "
         "reproduction page, which states each claim of the paper with its noise floor.",
     )
-    parser.add_argument("--results", type=Path, default=Path("docs/results"))
-    parser.add_argument("--out", type=Path, default=Path("docs/reproduction.md"))
-    parser.add_argument("--skip-reports", action="store_true", help="use the reports as they are")
+    parser.add_argument(
+        "--results",
+        type=Path,
+        default=Path("docs/results"),
+        metavar="DIR",
+        help="the folder of the suites' run folders (optimizers, precision-sweep, ..., and "
+        "their square-section runs in DIR/square) (default: %(default)s)",
+    )
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=Path("docs/reproduction.md"),
+        metavar="FILE",
+        help="the reproduction page to write (Markdown) (default: %(default)s)",
+    )
+    parser.add_argument(
+        "--skip-reports",
+        action="store_true",
+        help="use the suites' reports as they are instead of rebuilding them first",
+    )
     parser.set_defaults(run=_run)
     return cast("argparse.ArgumentParser", parser)
 
