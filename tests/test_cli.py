@@ -6,6 +6,7 @@ import argparse
 import re
 import subprocess
 import sys
+from pathlib import Path
 
 import pandas as pd
 import pytest
@@ -31,6 +32,36 @@ def test_top_level_help_and_version_import_no_heavy_module():
     assert "tooldesign 0." in out.stdout
     for name in COMMANDS:
         assert name in out.stdout
+
+
+@pytest.mark.parametrize("command", list(COMMANDS))
+def test_every_subcommands_help_imports_no_simulation_plotting_or_torch(command):
+    # Each took 2-5 s: its module imported PyBullet and Matplotlib to build its arguments (an
+    # audit of issue 11). Checked by what is imported, which does not depend on the machine.
+    code = (
+        "import sys\nfrom benchmarks.cli import main\n"
+        f"try:\n    main([{command!r}, '--help'])\nexcept SystemExit as e:\n"
+        "    assert e.code == 0, e.code\n"
+        "print(sorted(m for m in ('pybullet', 'matplotlib', 'torch') if m in sys.modules))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert f"usage: tooldesign {command}" in out.stdout
+    assert out.stdout.rstrip().endswith("[]"), out.stdout.splitlines()[-1]
+
+
+def test_the_help_constants_agree_with_the_suites_they_name():
+    from benchmarks.cli import _common
+    from benchmarks.rl import RL_SUITE_NAME, SIZES
+    from benchmarks.suites import BUILTIN_SUITES
+    from benchmarks.suites import SIZES as SUITE_SIZES
+    from benchmarks.suites.retest import RetestConfig
+
+    assert _common.BUILTIN_SUITES == BUILTIN_SUITES
+    assert _common.SIZES == SUITE_SIZES
+    assert _common.RL_SUITE_NAME == RL_SUITE_NAME
+    assert _common.RL_SIZES == tuple(SIZES)
+    defaults = RetestConfig()
+    assert (_common.RETEST_NUDGES, _common.RETEST_REPEATS) == (defaults.nudges, defaults.repeats)
 
 
 def test_the_stub_help_lines_match_the_subcommands_own():
@@ -97,3 +128,37 @@ def test_a_design_run_whose_every_evaluation_fails_ends_in_one_line(
     assert "no design of the run could be evaluated" in err and "Traceback" not in err
     log = pd.read_csv(next(out.rglob("*.csv")))
     assert set(log["status"]) == {"failed"} and len(log) == 2  # the log says why
+
+
+def test_design_refuses_an_empty_optimizer_name(tmp_path, capsys):
+    # "" ran CMA-ES without a word (an audit of issue 11).
+    out = tmp_path / "z"
+    with pytest.raises(SystemExit) as excinfo:
+        main(["design", "--optimizer", "", "--iterations", "1", "--out", str(out)])
+    assert excinfo.value.code == 2
+    err = capsys.readouterr().err
+    assert "--optimizer" in err and "''" in err and "cmaes" in err
+    assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("flags", "message"),
+    [
+        (["--goal", "nan", "1", "0.1"], "goal must be finite, got nan"),
+        (["--goal", "inf", "1", "0.1"], "goal must be finite, got inf"),
+        (["--box-mass", "nan"], "box_mass must be finite"),
+    ],
+)
+def test_design_with_a_policy_names_a_bad_goal_or_mass_as_without(
+    flags, message, tmp_path, capsys
+):
+    # With --policy they were refused as "optimizer_settings['goal'] must be a JSON value"
+    # (an audit of issue 11).
+    policy = Path(__file__).resolve().parents[1] / "docs/results/rl/policies/ppo.json"
+    for designer in (["--policy", str(policy)], []):
+        with pytest.raises(SystemExit) as excinfo:
+            main(["design", *designer, *flags, "--out", str(tmp_path / "x")])
+        assert excinfo.value.code == 2
+        err = capsys.readouterr().err
+        assert message in err and "optimizer_settings" not in err, err
+    assert not (tmp_path / "x").exists()

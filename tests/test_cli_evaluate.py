@@ -75,7 +75,7 @@ def test_bad_arguments_exit_2_with_a_message(argv, tmp_path, monkeypatch, capsys
 
 
 def test_a_missing_optional_backend_is_one_line(monkeypatch, capsys):
-    import benchmarks.cli.evaluate as evaluate_module
+    import benchmarks.design.evaluate as evaluate_module  # the command imports it when run
 
     def missing(*args, **kwargs):
         raise ImportError("this needs scikit-optimize: pip install 'tooldesign[bo]'")
@@ -109,3 +109,55 @@ def test_a_folder_that_is_not_empty_is_refused_and_left_as_it_was(tmp_path, caps
     assert excinfo.value.code == 2
     assert "is not empty" in capsys.readouterr().err
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+
+
+@pytest.mark.parametrize("coeffs", [["0", "0.5"], ["0", "0", "1", "0"]])
+def test_a_design_of_another_degree_gets_its_plots_and_report(coeffs, tmp_path):
+    # Degree 2 and 4 were simulated and stored, then the tool's plot assumed degree 3 and the
+    # command ended with exit 2: no plots, no report.html (an audit of issue 11).
+    out = tmp_path / "e"
+    assert main(["evaluate", "--coeffs", *coeffs, "--out", str(out)]) == 0
+    for name in ("terms.json", "tool_shape.png", "report.html"):
+        assert (out / name).stat().st_size > 0, name
+    terms = json.loads((out / "terms.json").read_text())
+    assert len(terms["coefficients"]) == len(coeffs)
+
+
+def test_the_help_of_coeffs_names_no_option_that_does_not_exist(capsys):
+    with pytest.raises(SystemExit):
+        main(["evaluate", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "default degree" not in text
+    assert "degree" in text  # the count of coefficients is the degree
+
+
+def test_a_design_past_a_bound_by_rounding_only_is_the_bound_as_env_step_takes_it(tmp_path):
+    # env.step takes it as the bound (ACTION_ROUNDING); evaluate refused it, saying "as
+    # env.step refuses it" (an audit of issue 11).
+    from benchmarks.design.evaluate import evaluate_coefficients as evaluate
+
+    info = evaluate([0.0, 0.0, 0.5000001], tmp_path / "x")
+    assert info["coefficients"].tolist() == [0.0, 0.0, 0.5]
+    with pytest.raises(ValueError, match="outside the default bounds"):
+        evaluate([0.0, 0.0, 0.5001], tmp_path / "y")
+    assert not (tmp_path / "y").exists()
+
+
+def test_video_of_an_invalid_design_says_why_there_is_none(tmp_path, capsys):
+    # It wrote no rollout.gif and said nothing (an audit of issue 11).
+    out = tmp_path / "overlap"
+    argv = ["evaluate", "--coeffs", "0", "4.35", "0", "--out", str(out), "--outside-bounds"]
+    assert main([*argv, "--video"]) == 0
+    err = capsys.readouterr().err
+    assert "no rollout.gif" in err and "overlaps" in err
+    assert not (out / "rollout.gif").exists()
+
+
+def test_reproduce_help_explains_every_option(capsys):
+    with pytest.raises(SystemExit):
+        main(["reproduce", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    for option in ("--results DIR", "--out FILE", "--skip-reports"):
+        assert option in text
+    assert "docs/results" in text and "docs/reproduction.md" in text
+    assert text.count("(default:") >= 2

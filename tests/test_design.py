@@ -287,7 +287,8 @@ def test_resume_refuses_a_tampered_folder_and_changes_nothing(
 
 def test_resume_refuses_other_settings_and_foreign_folders(tmp_path: Path) -> None:
     (tmp_path / "notes.txt").write_text("not a run")
-    with pytest.raises(ValueError, match="pass --resume .* or choose another folder"):
+    # The Python API is told its own word too (an audit of issue 11).
+    with pytest.raises(ValueError, match=r"pass --resume \(API: resume=True\) .* another folder"):
         run_design(CONFIG, tmp_path, progress=False)
     with pytest.raises(ResumeError, match="no manifest.json"):
         run_design(CONFIG, tmp_path, resume=True, progress=False)

@@ -80,6 +80,63 @@ def test_cli_prints_where_the_report_is(tmp_path, capsys):
     assert excinfo.value.code == 2
 
 
+def test_cli_refuses_an_out_that_is_a_folder_or_in_a_missing_folder_and_leaves_nothing(
+    tmp_path, capsys
+):
+    # A folder gave "[Errno 21] Is a directory: '/tmp/o.tmp' -> '/tmp/o'" and left a 775 KB
+    # /tmp/o.tmp; a missing folder named the internal x.html.tmp (an audit of issue 11).
+    folder = _run_folder(tmp_path / "run")
+    (tmp_path / "o").mkdir()
+    cases = {
+        tmp_path / "o": "is a folder",
+        tmp_path / "nowhere" / "x.html": f"its folder {tmp_path / 'nowhere'} does not exist",
+    }
+    for out, message in cases.items():
+        with pytest.raises(SystemExit) as excinfo:
+            main(["html", str(folder), "--out", str(out)])
+        assert excinfo.value.code == 2
+        err = capsys.readouterr().err
+        assert message in err and str(out) in err and ".tmp" not in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["o", "run"]
+    assert list((tmp_path / "o").iterdir()) == []
+    assert not any(p.name.endswith(".tmp") for p in folder.rglob("*"))
+
+
+def test_the_report_is_written_atomically_through_the_one_writer(tmp_path, monkeypatch):
+    # html.py had a writer of its own: a fixed .tmp name, no fsync, nothing removed on failure.
+    import benchmarks.reports.html as html_module
+
+    written = []
+    real = html_module.atomic_write_text
+
+    def spy(path, text, **kwargs):
+        written.append(path)
+        return real(path, text, **kwargs)
+
+    monkeypatch.setattr(html_module, "atomic_write_text", spy)
+    folder = _run_folder(tmp_path / "run")
+    assert write_html_report(folder) == folder / REPORT_FILE
+    assert written == [folder / REPORT_FILE]
+
+
+def test_report_rebuilds_a_report_html_the_folder_has(tmp_path, capsys):
+    # `tooldesign report DIR` rebuilt the figures but left report.html with the old ones (an
+    # audit of issue 11).
+    from pathlib import Path
+
+    results = Path(__file__).resolve().parents[1] / "docs" / "results" / "robust-design"
+    folder = tmp_path / "robust-design"
+    shutil.copytree(results, folder)
+    assert main(["report", str(folder)]) == 0
+    assert "report.html" not in capsys.readouterr().out  # none to refresh: none is made
+    assert not (folder / REPORT_FILE).exists()
+    write_html_report(folder)
+    (folder / "report" / "notes.md").write_text("written after the page")
+    assert main(["report", str(folder)]) == 0
+    assert f"{folder / REPORT_FILE} rebuilt" in capsys.readouterr().out
+    assert "written after the page" in (folder / REPORT_FILE).read_text()
+
+
 def _browser_probe(report, tmp_path):
     browser = next((shutil.which(b) for b in BROWSERS if shutil.which(b)), None)
     if browser is None:

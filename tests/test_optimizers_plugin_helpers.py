@@ -99,7 +99,7 @@ def test_type_and_value_errors_of_a_plugin_keep_their_type_and_name_the_hook(err
 
 
 def test_the_cli_reports_a_plugin_error_in_one_line(monkeypatch, capsys):
-    import benchmarks.cli.design as design
+    import benchmarks.design as design  # the command imports run_design from here when run
     from benchmarks.cli import main
 
     def fail(*args, **kwargs):  # type: ignore[no-untyped-def]

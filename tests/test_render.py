@@ -139,3 +139,14 @@ def test_a_design_run_passes_its_task_to_the_video_and_survives_a_failing_one(
         _video(config, np.zeros(3), tmp_path / "rollout.gif")
     assert seen["goal"] == (0.2, 1.2, 0.1) and seen["goal_precision"] == 40.0
     assert seen["box_mass"] == 0.5
+
+
+def test_write_gif_into_a_folder_is_refused_and_leaves_no_temporary_file(tmp_path):
+    # It wrote a fixed-name x.gif.tmp, then failed renaming it onto the folder and left it.
+    target = tmp_path / "video.gif"
+    target.mkdir()
+    frames = [np.zeros((4, 4, 3), np.uint8)] * 2
+    with pytest.raises(IsADirectoryError, match="is a folder"):
+        write_gif(frames, target)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["video.gif"]
+    assert list(target.iterdir()) == []

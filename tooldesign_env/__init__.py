@@ -25,6 +25,7 @@ if TYPE_CHECKING:
         WORKSPACE_LOW,
         ToolDesignEnv,
         default_bounds,
+        past_bounds,
     )
     from tooldesign_env.geometry import (
         ToolGeometry,
@@ -48,6 +49,7 @@ _LAZY: dict[str, str] = {
         "tooldesign_env.env",
     ),
     "default_bounds": "tooldesign_env.env",
+    "past_bounds": "tooldesign_env.env",
     **dict.fromkeys(
         ("ToolGeometry", "ToolSpec", "export_mesh", "make_tool", "tool_mesh", "tool_urdf"),
         "tooldesign_env.geometry",
@@ -104,6 +106,7 @@ __all__ = [
     "export_mesh",
     "free_energy",
     "make_tool",
+    "past_bounds",
     "register_envs",
     "tool_mesh",
     "tool_urdf",

@@ -44,12 +44,33 @@ __all__ = [
     "WORKSPACE_LOW",
     "ToolDesignEnv",
     "default_bounds",
+    "past_bounds",
 ]
 
 #: How far past a bound an action may lie and still be taken as that bound, relative to the
 #: larger of the bounds' magnitudes and their width: rounding only. A float32 copy of a bound is
 #: off by up to 6e-8 of it, gymnasium's RescaleAction by a few float64 ulps.
 ACTION_ROUNDING = 1e-6
+
+
+def past_bounds(coeffs: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.ndarray:
+    """Which coefficients lie past their bound by more than rounding (:data:`ACTION_ROUNDING`).
+
+    The one rule of ``env.step`` and ``tooldesign evaluate``: a coefficient at most
+    ``ACTION_ROUNDING`` of the bounds' scale past a bound is taken as that bound
+    (``np.clip(coeffs, low, high)``); further out, it is refused.
+
+    Args:
+        coeffs: (n,) design (c1, ..., cn).
+        low: (n,) lower bounds.
+        high: (n,) upper bounds.
+
+    Returns:
+        (n,) bool, true where the coefficient is outside.
+    """
+    low, high = np.asarray(low, dtype=np.float64), np.asarray(high, dtype=np.float64)
+    slack = ACTION_ROUNDING * np.maximum(np.maximum(np.abs(low), np.abs(high)), high - low)
+    return np.asarray((coeffs < low - slack) | (coeffs > high + slack))
 
 #: ``info`` keys of the per-step series and trajectories, there only with ``info_series=True``.
 SERIES_KEYS: tuple[str, ...] = (
@@ -414,9 +435,7 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
         assert isinstance(self.action_space, spaces.Box)
         low, high = self.action_space.low, self.action_space.high
         # Rounding past a bound (a rescaled or float32 action) is taken as the bound itself.
-        slack = ACTION_ROUNDING * np.maximum(np.maximum(np.abs(low), np.abs(high)), high - low)
-        outside = (coeffs < low - slack) | (coeffs > high + slack)
-        if np.any(outside):
+        if np.any(past_bounds(coeffs, low, high)):
             raise ValueError(
                 f"action {coeffs.tolist()} is outside the action space: each c_i must lie in "
                 f"[low, high] = {np.stack([low, high], 1).tolist()}; clip it, or make the env "

@@ -14,6 +14,22 @@ from benchmarks.execution.evaluator import _ESTIMATORS, OBJECTIVES
 SECTION_SHAPES = ("square", "round")
 DEFAULT_SECTION_SHAPE = "round"
 
+#: ``benchmarks.suites.BUILTIN_SUITES`` and ``SIZES``, ``benchmarks.rl.RL_SUITE_NAME`` and the
+#: names of ``benchmarks.rl.SIZES``, and ``RetestConfig()``'s ``nudges`` and ``repeats``: the
+#: help of ``tooldesign bench`` and ``retest`` names them without importing the simulation.
+BUILTIN_SUITES = (
+    "optimizers",
+    "precision-sweep",
+    "robustness",
+    "mass-perturbation",
+    "optimizer-peers",
+    "robust-design",
+)
+SIZES = ("smoke", "full")
+RL_SUITE_NAME = "rl"
+RL_SIZES = ("smoke", "short", "full")
+RETEST_NUDGES, RETEST_REPEATS = 5, 3
+
 
 def _max_retries(text: str) -> int:
     # int() alone would take "1_000" and " 3"; a count is digits only. Booleans are not counts.
@@ -85,7 +101,11 @@ def add_task_arguments(parser: argparse.ArgumentParser) -> None:
     Their defaults are :class:`TaskSettings`'; every command that evaluates designs takes the
     same options with the same meaning.
     """
-    defaults = TaskSettings()
+    # The fields' defaults, not TaskSettings(): its checks import the simulation, which --help
+    # does not need.
+    defaults = argparse.Namespace(
+        **{name: f.default for name, f in TaskSettings.__dataclass_fields__.items()}
+    )
     parser.add_argument(
         "--goal",
         type=float,

@@ -8,24 +8,22 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
-from typing import Any, cast
+from typing import TYPE_CHECKING, Any, cast
 
-from benchmarks.cli._common import SECTION_SHAPES, add_max_retries_argument, add_scene_argument
+from benchmarks.cli._common import (
+    BUILTIN_SUITES,
+    RL_SIZES,
+    RL_SUITE_NAME,
+    SECTION_SHAPES,
+    SIZES,
+    add_max_retries_argument,
+    add_scene_argument,
+)
 from benchmarks.cli.rl_suite import RL_ONLY_OPTIONS, add_rl_suite_arguments, run_rl_command
 from benchmarks.execution import EXECUTORS
-from benchmarks.reports.suite import make_suite_report
-from benchmarks.rl import RL_SUITE_NAME
-from benchmarks.rl import SIZES as RL_SIZES
-from benchmarks.suites import (
-    BUILTIN_SUITES,
-    SIZES,
-    SuiteConfig,
-    builtin_suite,
-    load_suite,
-    run_suite,
-    save_suite,
-    summary_text,
-)
+
+if TYPE_CHECKING:
+    from benchmarks.suites import SuiteConfig
 
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
@@ -99,6 +97,8 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 def config_from_args(args: argparse.Namespace) -> SuiteConfig:
     """The suite of parsed ``tooldesign bench`` arguments."""
+    from benchmarks.suites import builtin_suite, load_suite
+
     if args.size is not None and args.size not in SIZES and args.config is None:
         raise ValueError(f"unknown size {args.size!r}; sizes: {', '.join(SIZES)}")
     if args.config is not None:
@@ -145,6 +145,9 @@ def _run(args: argparse.Namespace) -> int:
     given = [f"--{n.replace('_', '-')}" for n in RL_ONLY_OPTIONS if getattr(args, n) is not None]
     if given:
         raise ValueError(f"{', '.join(given)}: for the {RL_SUITE_NAME} suite only")
+    from benchmarks.reports import make_suite_report
+    from benchmarks.suites import run_suite, save_suite, summary_text
+
     config = config_from_args(args)
     if args.dump_config is not None:
         print(f"suite written to {save_suite(config, args.dump_config)}")

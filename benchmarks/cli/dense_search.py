@@ -9,7 +9,6 @@ from typing import Any, cast
 
 from benchmarks.cli._common import add_task_arguments
 from benchmarks.execution import EXECUTORS
-from benchmarks.suites.dense_search import best_designs, dense_search
 
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
@@ -44,6 +43,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 def _run(args: argparse.Namespace) -> int:
     from benchmarks.design import DesignConfig
+    from benchmarks.suites.dense_search import best_designs, dense_search
 
     # The task of a design run with these arguments: the same checks and env settings.
     task = DesignConfig(

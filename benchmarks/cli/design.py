@@ -8,9 +8,8 @@ from pathlib import Path
 from typing import Any, cast
 
 from benchmarks.cli._common import add_max_retries_argument, add_task_arguments
-from benchmarks.design import DesignConfig, run_design
-from benchmarks.execution import EXECUTORS
-from benchmarks.reports import write_design_report
+from benchmarks.design import DesignConfig
+from benchmarks.execution import EXECUTORS, TaskSettings
 
 
 def _setting(text: str) -> tuple[str, Any]:
@@ -95,7 +94,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         metavar="ADDR",
         help="Dask scheduler address, e.g. tcp://host:8786 (with --executor dask)",
     )
-    add_max_retries_argument(parser, DesignConfig().max_retries)
+    add_max_retries_argument(parser, cast("int", defaults["max_retries"].default))
     add_task_arguments(parser)
     parser.add_argument(
         "--option",
@@ -130,9 +129,15 @@ def _designer(args: argparse.Namespace) -> dict[str, Any]:
         settings = dict(args.option)
         if len(settings) != len(args.option):
             raise ValueError("--option: a KEY is given twice")
+        if args.optimizer is not None and not args.optimizer.strip():
+            # An empty name is a mistake (an unset variable in a script), not the default.
+            raise ValueError(
+                f"--optimizer must be a name, got {args.optimizer!r}; omit it for the default "
+                f"({_DEFAULTS['optimizer']}), or see tooldesign design --help for the names"
+            )
         defaults = DesignConfig.__dataclass_fields__
         return {
-            "optimizer": args.optimizer or _DEFAULTS["optimizer"],
+            "optimizer": _DEFAULTS["optimizer"] if args.optimizer is None else args.optimizer,
             "optimizer_settings": settings,
             "seed": _DEFAULTS["seed"] if args.seed is None else args.seed,
             "iterations": defaults["iterations"].default
@@ -148,6 +153,9 @@ def _designer(args: argparse.Namespace) -> dict[str, Any]:
         raise ValueError(
             f"--policy designs one tool with the saved policy: {', '.join(given)} do not apply"
         )
+    # The task is checked before the designer's settings hold its goal and mass: a NaN there
+    # is refused as "goal must be finite", as without --policy, not as a bad JSON value.
+    task = TaskSettings(goal=tuple(args.goal), box_mass=args.box_mass)
     from benchmarks.rl.designer import POLICY_DESIGNER
     from benchmarks.rl.policies import policy_digest
 
@@ -157,8 +165,8 @@ def _designer(args: argparse.Namespace) -> dict[str, Any]:
         "optimizer_settings": {
             "policy": str(policy),
             "sha256": policy_digest(policy),
-            "goal": [float(v) for v in args.goal],
-            "box_mass": float(args.box_mass),
+            "goal": list(task.goal),
+            "box_mass": task.box_mass,
         },
         "seed": 0,
         "iterations": 1,
@@ -196,6 +204,9 @@ def _counts_text(counts: dict[str, int]) -> str:
 
 
 def _run(args: argparse.Namespace) -> int:
+    from benchmarks.design import run_design
+    from benchmarks.reports import write_design_report
+
     config = config_from_args(args)
     result = run_design(
         config,

@@ -3,14 +3,11 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from benchmarks.cli._common import add_task_arguments
-from benchmarks.design.evaluate import evaluate_coefficients
-from benchmarks.reports import write_evaluation_report
 
 
 def add_parser(subparsers: Any) -> None:
@@ -27,7 +24,8 @@ def add_parser(subparsers: Any) -> None:
         nargs="+",
         required=True,
         metavar="C",
-        help="coefficients c1 ... cn, highest power first (default degree 3)",
+        help="coefficients c1 ... cn, highest power first; their count is the polynomial "
+        "degree n (the paper's tool has 3; 1 to 20)",
     )
     p.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder (created)")
     add_task_arguments(p)
@@ -46,12 +44,17 @@ def add_parser(subparsers: Any) -> None:
         "--video",
         action="store_true",
         help="also write rollout.gif: the rollout rendered headless, with the goal and the box "
-        "path (about 20 s more)",
+        "path (about 20 s more; a valid design only: an invalid one is not simulated)",
     )
     p.set_defaults(run=_run)
 
 
 def _run(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from benchmarks.design.evaluate import evaluate_coefficients
+    from benchmarks.reports import write_evaluation_report
+
     info = evaluate_coefficients(
         args.coeffs,
         args.out,
@@ -69,6 +72,12 @@ def _run(args: argparse.Namespace) -> int:
     )
     write_evaluation_report(args.out)
     status = "valid" if info["valid"] else f"INVALID ({info['invalid_reason']})"
+    if args.video and not info["valid"]:
+        print(
+            f"no rollout.gif: the design is invalid ({info['invalid_reason']}), so it was not "
+            "simulated and there is no rollout to show",
+            file=sys.stderr,
+        )
     print(
         f"design {np.round(info['coefficients'], 6).tolist()}: {status}\n"
         f"  free energy F = {info['free_energy']:.6g}  (goal error {info['goal_error']:.6g}, "

@@ -6,8 +6,6 @@ import argparse
 from pathlib import Path
 from typing import Any, cast
 
-from benchmarks.reports.html import write_html_report
-
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     """Register ``tooldesign html``."""
@@ -28,6 +26,8 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 
 def _run(args: argparse.Namespace) -> int:
+    from benchmarks.reports import write_html_report
+
     path = write_html_report(args.folder, out=args.out)
     print(f"report: {path}")
     return 0

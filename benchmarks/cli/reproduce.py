@@ -7,10 +7,6 @@ import os
 from pathlib import Path
 from typing import Any, cast
 
-from benchmarks.reports.reproduction import SQUARE, SUITES, reproduction_page
-from benchmarks.reports.suite import make_suite_report
-from benchmarks.storage import atomic_write_text
-
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     """Register ``tooldesign reproduce``."""
@@ -20,14 +16,35 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         description="Rebuild the report of every suite under --results and write the "
         "reproduction page, which states each claim of the paper with its noise floor.",
     )
-    parser.add_argument("--results", type=Path, default=Path("docs/results"))
-    parser.add_argument("--out", type=Path, default=Path("docs/reproduction.md"))
-    parser.add_argument("--skip-reports", action="store_true", help="use the reports as they are")
+    parser.add_argument(
+        "--results",
+        type=Path,
+        default=Path("docs/results"),
+        metavar="DIR",
+        help="the folder of the suites' run folders (optimizers, precision-sweep, ..., and "
+        "their square-section runs in DIR/square) (default: %(default)s)",
+    )
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=Path("docs/reproduction.md"),
+        metavar="FILE",
+        help="the reproduction page to write (Markdown) (default: %(default)s)",
+    )
+    parser.add_argument(
+        "--skip-reports",
+        action="store_true",
+        help="use the suites' reports as they are instead of rebuilding them first",
+    )
     parser.set_defaults(run=_run)
     return cast("argparse.ArgumentParser", parser)
 
 
 def _run(args: argparse.Namespace) -> int:
+    from benchmarks.reports import make_suite_report
+    from benchmarks.reports.reproduction import SQUARE, SUITES, reproduction_page
+    from benchmarks.storage import atomic_write_text
+
     if not args.results.is_dir():
         raise ValueError(f"no results folder {args.results}")
     if not args.skip_reports:

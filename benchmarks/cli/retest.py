@@ -7,11 +7,8 @@ import dataclasses
 from pathlib import Path
 from typing import Any, cast
 
+from benchmarks.cli._common import RETEST_NUDGES, RETEST_REPEATS
 from benchmarks.execution import WORKERS_MAX
-from benchmarks.reports.retest import noise_floor
-from benchmarks.storage import RETEST_DIR, read_manifest, read_retests
-from benchmarks.suites.config import suite_of_manifest
-from benchmarks.suites.retest import RetestConfig, default_config, retest_suite
 
 #: Scenes per design of the noise floor (RetestConfig's range).
 NUDGES_MIN, NUDGES_MAX = 2, 100
@@ -42,12 +39,11 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
             "docs/benchmarks.md."
         ),
     )
-    defaults = RetestConfig()
     parser.add_argument("run_folder", type=Path, metavar="RUN_FOLDER", help="the run folder")
     parser.add_argument(
         "--nudges",
         type=int,
-        default=defaults.nudges,
+        default=RETEST_NUDGES,
         help=f"scenes per design, {NUDGES_MIN} to {NUDGES_MAX} (default: %(default)s)",
     )
     parser.add_argument(
@@ -70,7 +66,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         "--repeats",
         type=int,
         default=None,
-        help=f"scenes of the stress test, 1 to --nudges (default: {defaults.repeats}, or "
+        help=f"scenes of the stress test, 1 to --nudges (default: {RETEST_REPEATS}, or "
         "--nudges if fewer)",
     )
     parser.add_argument(
@@ -85,7 +81,7 @@ def _check_counts(args: argparse.Namespace) -> int:
     if not NUDGES_MIN <= args.nudges <= NUDGES_MAX:
         raise ValueError(f"--nudges must be from {NUDGES_MIN} to {NUDGES_MAX}, got {args.nudges}")
     if args.repeats is None:
-        repeats = min(RetestConfig().repeats, args.nudges)
+        repeats = min(RETEST_REPEATS, args.nudges)
     elif not 1 <= args.repeats <= args.nudges:
         raise ValueError(
             f"--repeats must be from 1 to --nudges ({args.nudges}), got {args.repeats}"
@@ -99,6 +95,11 @@ def _check_counts(args: argparse.Namespace) -> int:
 
 def _run(args: argparse.Namespace) -> int:
     repeats = _check_counts(args)  # before the folder is read: a bad flag is named first
+    from benchmarks.reports.retest import noise_floor
+    from benchmarks.storage import RETEST_DIR, read_manifest, read_retests
+    from benchmarks.suites.config import suite_of_manifest
+    from benchmarks.suites.retest import default_config, retest_suite
+
     suite = suite_of_manifest(read_manifest(args.run_folder))
     base = default_config(suite)
     config = dataclasses.replace(

@@ -12,9 +12,26 @@ The figures of a run are drawn from its stored files by :mod:`benchmarks.reports
 
 from __future__ import annotations
 
-from benchmarks.design.config import DESIGN_SUITE, DesignConfig
-from benchmarks.design.loop import CARD_VERSION, DesignResult, run_design
-from benchmarks.design.stepper import DesignStepper, best_evaluation
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from benchmarks.design.config import DESIGN_SUITE, DesignConfig
+    from benchmarks.design.loop import CARD_VERSION, DesignResult, run_design
+    from benchmarks.design.stepper import DesignStepper, best_evaluation
+
+#: Where each public name lives. They are imported on first use (PEP 562): the loop loads pandas
+#: and the storage layer, which ``tooldesign design --help`` (reading DesignConfig's defaults)
+#: does not need.
+_LAZY: dict[str, str] = {
+    "CARD_VERSION": "benchmarks.design.loop",
+    "DESIGN_SUITE": "benchmarks.design.config",
+    "DesignConfig": "benchmarks.design.config",
+    "DesignResult": "benchmarks.design.loop",
+    "DesignStepper": "benchmarks.design.stepper",
+    "best_evaluation": "benchmarks.design.stepper",
+    "run_design": "benchmarks.design.loop",
+}
 
 __all__ = [
     "CARD_VERSION",
@@ -25,3 +42,16 @@ __all__ = [
     "best_evaluation",
     "run_design",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'benchmarks.design' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value  # the next lookup is an ordinary attribute
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_LAZY})

@@ -40,6 +40,7 @@ from tooldesign_env import (
     default_bounds,
     export_mesh,
     make_tool,
+    past_bounds,
     tool_urdf,
 )
 from tooldesign_env.geometry import validate_coefficients
@@ -95,10 +96,12 @@ def evaluate_coefficients(
 ) -> dict[str, Any]:
     """Evaluate one design and write the files listed in the module docstring.
 
-    One rule for the command line and the API (``env.step``): a design outside the default
-    bounds (``default_bounds``) is refused with a ValueError, unless asked for explicitly
-    (here ``outside_bounds=True``, on the command line ``--outside-bounds``, for the env
-    ``bounds=``).
+    One rule for the command line and the API (``env.step``, through
+    :func:`tooldesign_env.past_bounds`): a design outside the default bounds
+    (``default_bounds``) is refused with a ValueError, unless asked for explicitly (here
+    ``outside_bounds=True``, on the command line ``--outside-bounds``, for the env
+    ``bounds=``); a coefficient past a bound by rounding only (``ACTION_ROUNDING``) is
+    evaluated at the bound.
 
     Args:
         coeffs: the design (c1, ..., cn), highest power first.
@@ -141,8 +144,9 @@ def evaluate_coefficients(
     )
     c = validate_coefficients(coeffs, spec.degree)
     bounds = default_bounds(spec.degree)
-    outside = (c < bounds[:, 0]) | (c > bounds[:, 1])
-    if np.any(outside) and not outside_bounds:
+    if not np.any(past_bounds(c, bounds[:, 0], bounds[:, 1])):
+        c = np.clip(c, bounds[:, 0], bounds[:, 1])  # past a bound by rounding only: the bound
+    elif not outside_bounds:
         raise ValueError(
             f"design {c.tolist()} is outside the default bounds {bounds.tolist()} (as env.step "
             "refuses it); pass --outside-bounds (API: outside_bounds=True) to evaluate it anyway"

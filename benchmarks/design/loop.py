@@ -35,6 +35,7 @@ from benchmarks.design.config import _RUNTIME_FIELDS, ADDED_FIELDS, DESIGN_SUITE
 from benchmarks.design.stepper import DesignStepper, _best_row, _unit, iteration_bests
 from benchmarks.execution import (
     RobustnessRequest,
+    check_main_guard,
     evaluate_batch,
     evaluate_robustness_of_design,
     make_executor,
@@ -146,6 +147,8 @@ def run_design(
     """
     if not isinstance(config, DesignConfig):
         raise TypeError(f"config must be a DesignConfig, got {type(config).__name__}")
+    # Before the run folder is made: a script refused here reruns cleanly once fixed.
+    check_main_guard(config.executor, config.scheduler)
     session = RunSession(
         out_dir,
         kind=DESIGN_SUITE,

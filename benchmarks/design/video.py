@@ -6,12 +6,16 @@ frames, so no display and no video codec are needed.
 
 from __future__ import annotations
 
+import io
 import os
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from benchmarks.storage import atomic_write_bytes
+from benchmarks.storage.atomic import check_file_target
 
 __all__ = ["rollout_gif", "write_gif"]
 
@@ -31,6 +35,8 @@ def write_gif(
 
     Raises:
         ValueError: no frames, frames of different or wrong shapes or dtypes, or a bad ``fps``.
+        IsADirectoryError: ``path`` is a folder.
+        NotADirectoryError: a file stands where one of its parent folders would be.
     """
     from PIL import Image
 
@@ -47,20 +53,18 @@ def write_gif(
                 f"frame {i} must be a (height, width, 3) uint8 array of shape {shape}, got "
                 f"{arr.shape} {arr.dtype}"
             )
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    path = check_file_target(path)  # before the frames are encoded
     images = [Image.fromarray(np.asarray(f)) for f in frames]
-    tmp = path.with_name(path.name + ".tmp")
+    data = io.BytesIO()
     images[0].save(
-        tmp,
+        data,
         format="GIF",
         save_all=True,
         append_images=images[1:],
         duration=int(round(1000.0 / fps)),
         loop=0,
     )
-    os.replace(tmp, path)
-    return path
+    return atomic_write_bytes(path, data.getvalue())
 
 
 def rollout_gif(

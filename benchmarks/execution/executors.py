@@ -38,20 +38,17 @@ import time
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Executor, Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
-from typing import Any, Literal, NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from benchmarks.execution._parent_death import die_with_parent
 
-ExecutorKind = Literal["serial", "process", "dask"]
-
+#: Largest ``max_retries``: each retry starts a fresh pool and evaluates the item again.
 MAX_RETRIES_MAX = 100
 
 #: Most worker processes: a mistyped count (10^6) would start that many processes.
 WORKERS_MAX = 1024
-
-"""Largest ``max_retries``: each retry starts a fresh pool and evaluates the item again."""
 
 
 def check_max_retries(value: Any) -> int:
@@ -221,19 +218,48 @@ def _process_context() -> Any:
     return context
 
 
-def check_main_guard() -> None:
+_GUARD = "'if __name__ == \"__main__\":' guard"
+_GUARD_EXAMPLE = (
+    'Put the call under that guard, e.g.\n\n    if __name__ == "__main__":\n'
+    "        run_design(...)\n\nor evaluate in this process with executor='serial'."
+)
+
+
+def check_main_guard(kind: str = "process", scheduler: str | None = None) -> None:
     """Refuse to start worker processes from a script without a ``__main__`` guard.
 
-    Worker processes (``forkserver`` or ``spawn``) import the main script again. Without the
-    guard, each worker re-runs the script and would start a pool of its own: the run fails
-    after minutes with a RuntimeError from deep inside multiprocessing. This check fails at once.
-    It looks only at a main module that is a Python file (not ``python -c``, a notebook or an
-    interactive session).
+    Worker processes (``forkserver`` or ``spawn``) import the main script again. A call that
+    starts workers outside the guard is re-run by each worker, which would start a pool of its
+    own: the run fails after seconds or minutes with a RuntimeError from deep inside
+    multiprocessing. This check fails at once, before anything is written:
+
+    - in the script, when the call that starts workers is on a line of the script's top level
+      that is not under its guard (or, called from elsewhere, when the script has no guard);
+    - in a worker process still importing the main script (as ``__mp_main__``).
+
+    It looks only at a main module that is a Python file (not ``python -c``, a notebook, an
+    interactive session or ``python -m``). A guard is ``if __name__ == "__main__":``, also
+    joined with ``and`` to other conditions.
+
+    Args:
+        kind: The executor that would start workers (``"serial"`` starts none, nor does
+            ``"dask"`` with a ``scheduler``: the check then passes).
+        scheduler: Address of a running Dask scheduler, if any.
 
     Raises:
-        RuntimeError: the main script has module-level code but no ``__main__`` guard; the
-            message says what to do.
+        RuntimeError: the call is outside the guard; the message says what to do.
     """
+    if kind == "serial" or (kind == "dask" and scheduler is not None):
+        return
+    if getattr(multiprocessing.current_process(), "_inheriting", False):
+        # A worker (or the forkserver) importing the main script: the call is outside the
+        # guard. multiprocessing's own check (spawn._check_not_importing_main) reads this flag.
+        script = getattr(sys.modules.get("__mp_main__"), "__file__", None) or "the main script"
+        raise RuntimeError(
+            f"this worker process is importing {script} (as __mp_main__) and was asked to "
+            f"start worker processes: the script starts them outside its {_GUARD}, so each "
+            f"worker re-runs that call. {_GUARD_EXAMPLE}"
+        )
     main = sys.modules.get("__main__")
     path = getattr(main, "__file__", None)
     if main is None or path is None or getattr(main, "__spec__", None) is not None:
@@ -245,21 +271,47 @@ def check_main_guard() -> None:
             tree = ast.parse(f.read(), filename=str(path))
     except (OSError, SyntaxError, UnicodeDecodeError, ValueError):
         return
-    if not any(_is_main_guard(node) for node in tree.body):
+    guards = [node for node in tree.body if _is_main_guard(node)]
+    line = _top_level_line(main.__dict__)
+    if not guards:
         raise RuntimeError(
-            f"{path} starts worker processes but has no 'if __name__ == \"__main__\":' guard; "
-            "each worker would re-run the script. Put the call under that guard, e.g.\n\n"
-            '    if __name__ == "__main__":\n        run_design(...)\n\n'
-            "or evaluate in this process with executor='serial'."
+            f"{path} starts worker processes but has no {_GUARD}; each worker would re-run the "
+            f"script. {_GUARD_EXAMPLE}"
+        )
+    if line is not None and not any(
+        g.lineno <= line <= (g.end_lineno or g.lineno) for g in guards
+    ):
+        raise RuntimeError(
+            f"{path}, line {line}, starts worker processes outside its {_GUARD}; each worker "
+            f"would re-run that line. {_GUARD_EXAMPLE}"
         )
 
 
+def _top_level_line(namespace: dict[str, Any]) -> int | None:
+    """The line of the main script's top-level code now running, or None if it is not."""
+    frame = sys._getframe(1)
+    while frame is not None:
+        if frame.f_code.co_name == "<module>" and frame.f_globals is namespace:
+            return frame.f_lineno
+        frame = frame.f_back  # type: ignore[assignment]
+    return None
+
+
 def _is_main_guard(node: ast.stmt) -> bool:
-    if not isinstance(node, ast.If) or not isinstance(node.test, ast.Compare):
+    if not isinstance(node, ast.If):
         return False
-    if not all(isinstance(op, ast.Eq) for op in node.test.ops):
+    test = node.test
+    # ``if __name__ == "__main__" and other:`` runs its body only in the main process too.
+    terms = test.values if isinstance(test, ast.BoolOp) and isinstance(test.op, ast.And) else [test]
+    return any(_is_main_compare(term) for term in terms)
+
+
+def _is_main_compare(test: ast.expr) -> bool:
+    if not isinstance(test, ast.Compare):
         return False
-    names = [node.test.left, *node.test.comparators]
+    if not all(isinstance(op, ast.Eq) for op in test.ops):
+        return False
+    names = [test.left, *test.comparators]
     has_name = any(isinstance(n, ast.Name) and n.id == "__name__" for n in names)
     has_main = any(isinstance(n, ast.Constant) and n.value == "__main__" for n in names)
     return has_name and has_main
@@ -324,15 +376,14 @@ def make_executor(
         finally:
             serial.shutdown()
     elif kind == "process":
-        check_main_guard()
+        check_main_guard(kind)
         pool = _RestartingProcessPool(count, _process_context(), retries)
         try:
             yield pool
         finally:
             pool.shutdown(wait=True, cancel_futures=True)
     else:
-        if scheduler is None:  # a LocalCluster starts worker processes here
-            check_main_guard()
+        check_main_guard(kind, scheduler)  # a LocalCluster starts worker processes here
         with _dask_executor(count, scheduler) as executor:
             yield executor
 

@@ -31,11 +31,16 @@ from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import Any, Protocol, cast
 
-from benchmarks.execution.executors import Outcome, run_alone
+from benchmarks.execution.executors import WORKERS_MAX, Outcome, run_alone
 
-__all__ = ["Job", "Scheduler"]
+__all__ = ["MAX_ACTIVE_MAX", "Job", "Scheduler"]
+
+#: Most jobs in flight at once. Each holds its optimizer and its batch in memory; a suite asks
+#: about ``2 * workers / batch_size + 1``, and a Dask cluster may have more workers than this
+#: machine would start (``WORKERS_MAX``), hence the margin.
+MAX_ACTIVE_MAX = 4 * WORKERS_MAX
 
 
 class Job(Protocol):
@@ -56,6 +61,15 @@ class _Slot:
     items: list[Any] = field(default_factory=list)
     futures: list[Future[Any]] = field(default_factory=list)
     submitted: float = 0.0
+
+
+def _checked_job(job: Any) -> Job:
+    if not (callable(getattr(job, "start", None)) and callable(getattr(job, "advance", None))):
+        raise TypeError(
+            "a job must have start() and advance(outcomes) methods (benchmarks.execution.Job), "
+            f"got {type(job).__name__} {job!r}"
+        )
+    return cast("Job", job)
 
 
 def _done_future(result: Any = None, exc: BaseException | None = None) -> Future[Any]:
@@ -85,15 +99,31 @@ class Scheduler:
             job waits for its slowest item: about ``2 * workers / batch_size + 1``.
 
     Raises:
-        TypeError: If ``work`` is not callable.
-        ValueError: If ``max_active`` is not an int >= 1.
+        TypeError: If ``executor`` has no ``submit`` method or ``work`` is not callable.
+        ValueError: If ``max_active`` is not an int from 1 to :data:`MAX_ACTIVE_MAX`.
     """
 
     def __init__(self, executor: Executor, work: Callable[[Any], Any], max_active: int) -> None:
+        if not callable(getattr(executor, "submit", None)):
+            hint = (
+                "; make_executor is a context manager: with make_executor(...) as executor"
+                if getattr(executor, "__name__", None) == "make_executor"
+                else ""
+            )
+            raise TypeError(
+                "executor must be an Executor (anything with a submit(fn, item) method, e.g. "
+                f"the one make_executor yields), got {type(executor).__name__} {executor!r}{hint}"
+            )
         if not callable(work):
             raise TypeError(f"work must be a callable, got {work!r}")
-        if isinstance(max_active, bool) or not isinstance(max_active, int) or max_active < 1:
-            raise ValueError(f"max_active must be an int >= 1, got {max_active!r}")
+        if (
+            isinstance(max_active, bool)
+            or not isinstance(max_active, int)
+            or not 1 <= max_active <= MAX_ACTIVE_MAX
+        ):
+            raise ValueError(
+                f"max_active must be an int from 1 to {MAX_ACTIVE_MAX}, got {max_active!r}"
+            )
         self.executor = executor
         self.work = work
         self.max_active = max_active
@@ -104,8 +134,8 @@ class Scheduler:
         active: list[_Slot] = []
         while queue or active:
             while queue and len(active) < self.max_active:
-                slot = _Slot(job=queue.popleft())
-                if self._submit(slot, slot.job.start()):
+                slot = _Slot(job=_checked_job(queue.popleft()))
+                if self._submit(slot, slot.job.start(), "start"):
                     active.append(slot)
             if not active:
                 continue
@@ -123,19 +153,25 @@ class Scheduler:
                 self._recover(active)
                 finished = [s for s in active if all(f.done() for f in s.futures)]
             for slot in finished:
-                if not self._submit(slot, slot.job.advance(self._outcomes(slot))):
+                if not self._submit(slot, slot.job.advance(self._outcomes(slot)), "advance"):
                     active.remove(slot)
 
-    def _submit(self, slot: _Slot, items: Sequence[Any] | None) -> bool:
-        """Submit a job's next batch; whether it is still in flight."""
+    def _submit(self, slot: _Slot, items: Sequence[Any] | None, method: str) -> bool:
+        """Submit a job's next batch (what its ``method`` returned); whether it is in flight."""
         if items is None:
             return False
+        if isinstance(items, (str, bytes)) or not isinstance(items, Iterable):
+            raise TypeError(
+                f"{type(slot.job).__name__}.{method}() must return a sequence of work items "
+                f"(a list; empty for a batch of none) or None when the job is done, got "
+                f"{type(items).__name__} {items!r}"
+            )
         slot.items = list(items)
         slot.submitted = time.perf_counter()
         slot.futures = [self.executor.submit(self.work, item) for item in slot.items]
         if not slot.futures:
             # An empty batch: hand the job an empty outcome list at once.
-            return self._submit(slot, slot.job.advance([]))
+            return self._submit(slot, slot.job.advance([]), "advance")
         return True
 
     @staticmethod

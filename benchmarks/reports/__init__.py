@@ -16,10 +16,28 @@
 
 from __future__ import annotations
 
-from benchmarks.reports.design_figures import write_design_report
-from benchmarks.reports.evaluation_figures import write_evaluation_figures, write_evaluation_report
-from benchmarks.reports.html import write_html_report
-from benchmarks.reports.suite import make_suite_report
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from benchmarks.reports.design_figures import write_design_report
+    from benchmarks.reports.evaluation_figures import (
+        write_evaluation_figures,
+        write_evaluation_report,
+    )
+    from benchmarks.reports.html import write_html_report
+    from benchmarks.reports.suite import make_suite_report
+
+#: Where each public name lives. They are imported on first use (PEP 562): the figures load
+#: Matplotlib and the suite reports the simulation, and the command line's ``--help`` of a
+#: command that only names this package should load neither.
+_LAZY: dict[str, str] = {
+    "make_suite_report": "benchmarks.reports.suite",
+    "write_design_report": "benchmarks.reports.design_figures",
+    "write_evaluation_figures": "benchmarks.reports.evaluation_figures",
+    "write_evaluation_report": "benchmarks.reports.evaluation_figures",
+    "write_html_report": "benchmarks.reports.html",
+}
 
 __all__ = [
     "make_suite_report",
@@ -28,3 +46,16 @@ __all__ = [
     "write_evaluation_report",
     "write_html_report",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'benchmarks.reports' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value  # the next lookup is an ordinary attribute
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_LAZY})

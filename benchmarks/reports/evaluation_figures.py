@@ -43,8 +43,13 @@ def write_evaluation_figures(folder: str | os.PathLike[str]) -> list[Path]:
     coeffs = np.asarray(terms["coefficients"], dtype=np.float64)
     goal = tuple(float(v) for v in terms["goal"])
     written = []
+    from tooldesign_env import ToolSpec  # the geometry (trimesh, SciPy), for this figure only
+
+    # The tool that was evaluated: its degree is its coefficients' count, its section is stored.
+    shape = terms.get("settings", {}).get("section_shape", ToolSpec().section_shape)
+    spec = ToolSpec(degree=coeffs.size, section_shape=shape)
     fig, ax = new_figure()
-    plot_tool_shapes(ax, [coeffs])
+    plot_tool_shapes(ax, [coeffs], spec=spec)
     ax.set_title(f"tool C = {np.round(coeffs, 3).tolist()}")
     written.append(save_png(fig, out / "tool_shape.png"))
     table_path = out / "trajectory.csv"

@@ -19,7 +19,8 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-from benchmarks.storage import ResultStore
+from benchmarks.storage import ResultStore, atomic_write_text
+from benchmarks.storage.atomic import check_file_target
 
 __all__ = ["REPORT_FILE", "write_html_report"]
 
@@ -111,7 +112,9 @@ def write_html_report(
         The path written.
 
     Raises:
-        FileNotFoundError: ``folder`` is not a folder.
+        FileNotFoundError: ``folder`` is not a folder, or the folder of ``out`` does not exist.
+        IsADirectoryError: ``out`` is a folder.
+        NotADirectoryError: a file stands where the folder of ``out`` would be.
         ValueError: the folder holds no figure, table or card to report, or too many files, or
             a file differs from the checksum its ``manifest.json`` records for it
             (:meth:`benchmarks.storage.ResultStore.verify`).
@@ -119,6 +122,9 @@ def write_html_report(
     folder = Path(folder)
     if not folder.is_dir():
         raise FileNotFoundError(f"{folder} is not a folder")
+    # Before the folder is read: a wrong --out is named, not found after the work is done.
+    target = Path(out) if out is not None else folder / REPORT_FILE
+    check_file_target(target, parent_must_exist=out is not None)
     ResultStore(folder).verify()  # a run folder that was tampered with is not shown
     files = list(_files(folder))
     if len(files) > _MAX_FILES:
@@ -152,8 +158,4 @@ def write_html_report(
         text = path.read_text(encoding="utf-8", errors="replace")
         parts.append(f"<h2>{name}</h2><pre>{html.escape(text)}</pre>")
     parts.append("</body></html>\n")
-    target = Path(out) if out is not None else folder / REPORT_FILE
-    tmp = target.with_name(target.name + ".tmp")
-    tmp.write_text("\n".join(parts), encoding="utf-8")
-    os.replace(tmp, target)
-    return target
+    return atomic_write_text(target, "\n".join(parts))

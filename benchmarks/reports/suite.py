@@ -32,7 +32,7 @@ import os
 import zlib
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import Any, cast
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -51,6 +51,7 @@ from benchmarks.storage import (
     read_manifest,
     read_retests,
 )
+from benchmarks.storage.table import csv_text
 from benchmarks.suites.config import SuiteConfig, suite_of_manifest
 from tooldesign_env.schema import GOAL_COLUMNS, METRICS, ROBUSTNESS_METRICS
 
@@ -73,12 +74,6 @@ def _rng(seed: int, *labels: Any) -> np.random.Generator:
     # One stream per table cell, keyed by its labels (crc32 is stable across processes).
     key = zlib.crc32("\x1f".join(map(str, labels)).encode("utf-8"))
     return np.random.default_rng([seed, key])
-
-
-def _csv_text(frame: pd.DataFrame) -> str:
-    return cast(
-        "str", frame.to_csv(index=False, lineterminator="\n", float_format=lambda v: repr(float(v)))
-    )
 
 
 def _fmt(value: Any, digits: int = 4) -> str:
@@ -105,7 +100,7 @@ def _markdown(header: Sequence[str], rows: Iterable[Sequence[str]]) -> list[str]
 
 def _write_table(target: Path, stem: str, frame: pd.DataFrame, markdown: str) -> list[Path]:
     return [
-        atomic_write_text(target / f"{stem}.csv", _csv_text(frame)),
+        atomic_write_text(target / f"{stem}.csv", csv_text(frame)),
         atomic_write_text(target / f"{stem}.md", markdown),
     ]
 

@@ -33,10 +33,13 @@ def atomic_write_bytes(path: str | os.PathLike[str], data: bytes, *, durable: bo
 
     Raises:
         TypeError: If ``data`` is not bytes-like.
+        IsADirectoryError: If ``path`` is a folder.
+        NotADirectoryError: If a file stands where one of its parent folders would be.
     """
     if not isinstance(data, (bytes, bytearray, memoryview)):
         raise TypeError(f"data must be bytes, got {type(data).__name__}")
     target = Path(path)
+    check_file_target(target)
     target.parent.mkdir(parents=True, exist_ok=True)
     # A random suffix (not mkstemp) so the file gets the usual umask permissions, not 0600.
     tmp = target.with_name(f".{target.name}.{os.getpid()}.{secrets.token_hex(4)}{_TEMP_SUFFIX}")
@@ -53,6 +56,39 @@ def atomic_write_bytes(path: str | os.PathLike[str], data: bytes, *, durable: bo
         raise
     if durable:
         _fsync_folder(target.parent)
+    return target
+
+
+def check_file_target(path: str | os.PathLike[str], *, parent_must_exist: bool = False) -> Path:
+    """``path`` as a file to write, or an error naming what is in the way (nothing is written).
+
+    Args:
+        path: The file to write.
+        parent_must_exist: Refuse a missing parent folder (a mistyped ``--out``) instead of
+            leaving it to be created.
+
+    Returns:
+        ``path`` as a :class:`~pathlib.Path`.
+
+    Raises:
+        IsADirectoryError: ``path`` is a folder.
+        NotADirectoryError: a file stands where one of its parent folders would be.
+        FileNotFoundError: its parent folder does not exist and ``parent_must_exist``.
+    """
+    target = Path(path)
+    if target.is_dir():
+        raise IsADirectoryError(f"{target} is a folder; give the path of a file to write")
+    for folder in target.parents:
+        if folder.exists():
+            if not folder.is_dir():
+                raise NotADirectoryError(
+                    f"cannot write {target}: {folder} is a file, not a folder"
+                )
+            break
+        if parent_must_exist:
+            raise FileNotFoundError(
+                f"cannot write {target}: its folder {target.parent} does not exist"
+            )
     return target
 
 

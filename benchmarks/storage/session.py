@@ -289,8 +289,8 @@ class RunSession:
             return None
         if not resume:
             raise ValueError(
-                f"--out {out} exists and is not empty; pass --resume to continue the run in it, "
-                "or choose another folder"
+                f"--out {out} exists and is not empty; pass --resume (API: resume=True) to "
+                "continue the run in it, or choose another folder"
             )
         try:
             manifest = read_manifest(out)

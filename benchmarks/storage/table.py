@@ -336,11 +336,20 @@ _NO_PYARROW = (
 )
 
 
+def csv_text(frame: pd.DataFrame) -> str:
+    """``frame`` as the CSV text of every table a run or a report keeps (no index).
+
+    Floats are written with ``repr``, the shortest string that parses back to the same double,
+    so they round-trip bit for bit and do not depend on the locale; NaN is an empty field;
+    every line ends with a bare line feed, on every platform.
+    """
+    return cast(
+        "str", frame.to_csv(index=False, lineterminator="\n", float_format=lambda v: repr(float(v)))
+    )
+
+
 def _csv_bytes(frame: pd.DataFrame) -> bytes:
-    # repr() is the shortest string that parses back to the same double, so CSV floats
-    # round-trip bit for bit; NaN is written as an empty field.
-    text = frame.to_csv(index=False, lineterminator="\n", float_format=lambda v: repr(float(v)))
-    return cast("bytes", text.encode("utf-8"))
+    return csv_text(frame).encode("utf-8")
 
 
 # pandas < 3 parses floats with a fast but not always exact routine unless asked to round-trip;
