@@ -26,7 +26,7 @@ import re
 import zlib
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import Any, cast
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -42,6 +42,7 @@ from benchmarks.reports.stats import (
     run_metrics,
 )
 from benchmarks.storage import ResultStore, atomic_write_bytes, atomic_write_text
+from benchmarks.storage.table import csv_text
 
 __all__ = [
     "DPI",
@@ -438,13 +439,6 @@ def plot_convergence(
 # --- files -------------------------------------------------------------------------------------
 
 
-def _csv_text(frame: pd.DataFrame) -> str:
-    # repr() floats round-trip exactly and do not depend on the locale.
-    return cast(
-        "str", frame.to_csv(index=False, lineterminator="\n", float_format=lambda v: repr(float(v)))
-    )
-
-
 def _fmt(value: float, digits: int = 4) -> str:
     return "n/a" if value is None or not np.isfinite(value) else f"{value:.{digits}g}"
 
@@ -633,10 +627,10 @@ def make_report(
         written.append(atomic_write_bytes(png, figure_png_bytes(figure)))
 
     summary = summary_table(evaluations, level=level, n_boot=n_boot, seed=seed)
-    written.append(atomic_write_text(target / "summary.csv", _csv_text(summary)))
+    written.append(atomic_write_text(target / "summary.csv", csv_text(summary)))
     written.append(atomic_write_text(target / "summary.md", _summary_markdown(summary, level)))
     pairwise = pairwise_table(evaluations, alpha=alpha, noise_floor=noise_floor)
-    written.append(atomic_write_text(target / "pairwise.csv", _csv_text(pairwise)))
+    written.append(atomic_write_text(target / "pairwise.csv", csv_text(pairwise)))
     written.append(
         atomic_write_text(target / "pairwise.md", _pairwise_markdown(pairwise, alpha, noise_floor))
     )
