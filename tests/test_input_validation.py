@@ -264,10 +264,24 @@ def _is_x_range(value: object) -> bool:
     )
 
 
+def _is_goal(value: object) -> bool:
+    """A valid goal: 3 numbers within the workspace (e.g. [0.0, 0.0, 0.0], on the floor)."""
+    from tooldesign_env.env import WORKSPACE_HIGH, WORKSPACE_LOW
+
+    return (
+        isinstance(value, list)
+        and len(value) == 3
+        and all(
+            _number_in(low, high)(v)
+            for v, low, high in zip(value, WORKSPACE_LOW, WORKSPACE_HIGH, strict=True)
+        )
+    )
+
+
 # (the field the error must name, where the value goes in a valid suite, which values are valid)
 SUITE_PLACES = [
     ("name", lambda v: {"name": v}, lambda v: isinstance(v, str) and v.strip() == v != ""),
-    ("goal", lambda v: {"goal": v}, lambda v: False),
+    ("goal", lambda v: {"goal": v}, _is_goal),
     ("goal", lambda v: {"goal": [v, 1.5, 0.1]}, _number_in(-2.5, 2.5)),
     ("goal_box", lambda v: {"goal_box": [v, [0, 1], [0, 1]]}, lambda v: _is_x_range(v)),
     ("goal_box x", lambda v: {"goal_box": [[v, 0.5], [0, 1], [0, 1]]}, _number_in(-2.5, 0.5)),
