@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import math
 import os
+import warnings
 import zlib
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
@@ -52,7 +53,7 @@ from benchmarks.storage import (
     read_retests,
 )
 from benchmarks.storage.table import csv_text
-from benchmarks.suites.config import SuiteConfig, suite_of_manifest
+from benchmarks.suites.config import SUITE_KIND, SuiteConfig, suite_of_manifest
 from tooldesign_env.schema import GOAL_COLUMNS, METRICS, ROBUSTNESS_METRICS
 
 __all__ = [
@@ -459,30 +460,40 @@ def table_one(
         seed: Root seed of the bootstrap.
 
     Returns:
-        One row per variant: ``variant``, ``label``, ``goal_precision``, ``tasks`` and, per
-        metric m, ``m`` (mean over tasks), ``m_low``, ``m_high`` and ``m_best`` (whether the
-        mean is the best of the table: highest robustness and accuracy, lowest control deviation).
+        One row per variant (per variant and optimizer, with an ``optimizer`` column, when the
+        suite has several optimizers: their designs are not pooled): ``variant``, ``label``,
+        ``goal_precision``, ``tasks`` and, per metric m, ``m`` (mean over tasks), ``m_low``,
+        ``m_high`` and ``m_best`` (whether the mean is the best of the table: highest robustness
+        and accuracy, lowest control deviation).
     """
     tested = _tested(designs)
     variants = [v for v in config.variants if v.label] or list(config.variants)
+    # One optimizer: its designs are the tasks'. Several: a row per optimizer, never pooled,
+    # since their designs are not repeats of one another.
+    optimizers = [o.column for o in config.optimizers] if len(config.optimizers) > 1 else [None]
     rows = []
     for variant in variants:
-        part = tested[tested["variant"] == variant.name] if len(tested) else tested
-        row: dict[str, Any] = {
-            "variant": variant.name,
-            "label": variant.label,
-            "goal_precision": variant.goal_precision
-            if variant.goal_precision is not None
-            else config.goal_precision,
-            "tasks": int(len(part)),
-        }
-        for metric, _, _ in _TABLE_ONE:
-            values = part[metric].to_numpy(dtype=np.float64) if len(part) else np.array([])
-            ci = bootstrap_ci(
-                values, n_boot=n_boot, level=LEVEL, rng=_rng(seed, metric, variant.name)
-            )
-            row.update({metric: ci.estimate, f"{metric}_low": ci.low, f"{metric}_high": ci.high})
-        rows.append(row)
+        for optimizer in optimizers:
+            part = tested[tested["variant"] == variant.name] if len(tested) else tested
+            if optimizer is not None and len(part):
+                part = part[part["optimizer"] == optimizer]
+            row: dict[str, Any] = {
+                "variant": variant.name,
+                "label": variant.label,
+                **({} if optimizer is None else {"optimizer": optimizer}),
+                "goal_precision": variant.goal_precision
+                if variant.goal_precision is not None
+                else config.goal_precision,
+                "tasks": int(len(part)),
+            }
+            for metric, _, _ in _TABLE_ONE:
+                values = part[metric].to_numpy(dtype=np.float64) if len(part) else np.array([])
+                key = variant.name if optimizer is None else f"{variant.name}/{optimizer}"
+                ci = bootstrap_ci(values, n_boot=n_boot, level=LEVEL, rng=_rng(seed, metric, key))
+                row.update(
+                    {metric: ci.estimate, f"{metric}_low": ci.low, f"{metric}_high": ci.high}
+                )
+            rows.append(row)
     table = pd.DataFrame(rows)
     for metric, _, pick in _TABLE_ONE:
         finite = table[metric][np.isfinite(table[metric])]
@@ -502,10 +513,13 @@ def _table_one_markdown(table: pd.DataFrame) -> str:
         "the control steps t.",
         "",
     ]
-    header = ["objective", "p^X", "tasks", *[title for _, title, _ in _TABLE_ONE]]
+    split = "optimizer" in table.columns  # several optimizers: a row each, never pooled
+    header = ["objective", *(["optimizer"] if split else []), "p^X", "tasks"]
+    header += [title for _, title, _ in _TABLE_ONE]
     rows = []
     for _, row in table.iterrows():
-        cells = [row["label"] or row["variant"], _fmt(row["goal_precision"]), str(row["tasks"])]
+        cells = [row["label"] or row["variant"], *([row["optimizer"]] if split else [])]
+        cells += [_fmt(row["goal_precision"]), str(row["tasks"])]
         for metric, _, _ in _TABLE_ONE:
             mean = _fmt(row[metric])
             mean = f"**{mean}**" if row[f"{metric}_best"] else mean
@@ -804,6 +818,38 @@ def make_suite_report(
     if _kind(folder) == RL_SUITE_KIND:
         return make_rl_report(folder, out_dir=out_dir)
     target = folder / REPORT_DIR if out_dir is None else Path(out_dir)
+    written = _suite_report(folder, target, n_boot=n_boot, seed=seed)
+    notice = _incomplete_notice(folder)
+    if notice is not None:
+        # Every page says so first: its comparisons may cover unequal budgets.
+        warnings.warn(notice, RuntimeWarning, stacklevel=2)
+        for path in written:
+            if path.suffix == ".md":
+                text = path.read_text(encoding="utf-8")
+                atomic_write_text(path, f"> **Incomplete run.** {notice}\n\n{text}")
+    return written
+
+
+def _incomplete_notice(folder: Path) -> str | None:
+    """What is missing from a suite folder whose run has not finished, or None."""
+    manifest = read_manifest(folder)
+    extra = manifest.get("extra")
+    if not isinstance(extra, dict) or extra.get("kind") != SUITE_KIND:
+        return None
+    planned = extra.get("runs")
+    done = len(read_designs(folder))
+    finished = manifest.get("end_time") is not None
+    if finished and (not isinstance(planned, int) or done >= planned):
+        return None
+    runs = f"{done} of {planned} runs" if isinstance(planned, int) else f"{done} runs"
+    return (
+        f"{runs} finished when this report was made (the run was interrupted or is still "
+        "going), so optimizers and variants may be compared over unequal budgets. Resume the "
+        "run with the command that started it, then run tooldesign report again."
+    )
+
+
+def _suite_report(folder: Path, target: Path, *, n_boot: int, seed: int) -> list[Path]:
     retests = read_retests(folder)
     designs = read_designs(folder)
     floors = {

@@ -475,7 +475,8 @@ def run_suite(
         evaluations=evaluations,
         designs=designs,
         wall_time=float(manifest["wall_time"]),
-        session_time=session.session_time,
+        # read at the same moment as the total (the final manifest), not later
+        session_time=float(manifest["extra"]["sessions"][-1]["wall_time"]),
         simulation_time=float(manifest["simulation_time"] or 0.0),
         test_time=test_time,
         optimizer_time=float(manifest["optimizer_time"] or 0.0),

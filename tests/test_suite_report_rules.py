@@ -1,0 +1,74 @@
+"""A suite's report says when its run is incomplete, and never pools optimizers in Table I."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+
+from benchmarks.reports.suite import make_suite_report
+from benchmarks.storage import read_designs
+from benchmarks.suites import load_suite
+from benchmarks.suites.runner import run_suite
+
+TWO_OPTIMIZERS = (
+    'name = "two"\n'
+    "goal = [0.0, 1.5, 0.1]\n"
+    "batch_size = 2\n"
+    "iterations = 1\n"
+    "root_seed = 3\n"
+    "n_seeds = 1\n"
+    "test_robustness = true\n"
+    "robustness_masses = [0.3]\n"
+    'figures = ["robustness-table"]\n'
+    'executor = "serial"\n'
+    '[[variants]]\nname = "free"\nlabel = "free energy"\ngoal_precision = 20.0\n'
+    '[[optimizers]]\nname = "random"\n'
+    '[[optimizers]]\nname = "random"\nlabel = "random-b"\nsettings = {}\n'
+)
+
+
+@pytest.fixture(scope="module")
+def finished(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    config = tmp_path_factory.mktemp("config") / "two.toml"
+    config.write_text(TWO_OPTIMIZERS, encoding="utf-8")
+    out = tmp_path_factory.mktemp("suite") / "run"
+    run_suite(load_suite(config), out, progress=False)
+    return out
+
+
+@pytest.mark.slow
+def test_table_one_has_a_row_per_optimizer_when_there_are_several(finished: Path) -> None:
+    make_suite_report(finished, n_boot=50)
+    rows = (finished / "report" / "table1.csv").read_text(encoding="utf-8").splitlines()
+    header = rows[0].split(",")
+    assert header[:3] == ["variant", "label", "optimizer"]
+    assert sorted(r.split(",")[2] for r in rows[1:]) == ["random", "random-b"]
+    assert all(r.split(",")[header.index("tasks")] == "1" for r in rows[1:])
+    markdown = (finished / "report" / "table1.md").read_text(encoding="utf-8")
+    assert "| objective | optimizer | p^X | tasks |" in markdown
+
+
+@pytest.mark.slow
+def test_the_report_of_an_unfinished_run_says_so_on_every_page(
+    finished: Path, tmp_path: Path
+) -> None:
+    complete = tmp_path / "complete"
+    shutil.copytree(finished, complete)
+    make_suite_report(complete, n_boot=50)
+    pages = sorted((complete / "report").glob("*.md"))
+    assert pages and not any("Incomplete run" in p.read_text() for p in pages)
+
+    cut = tmp_path / "cut"
+    shutil.copytree(finished, cut)
+    manifest = json.loads((cut / "manifest.json").read_text())
+    # what a run killed before its last run leaves: no end time, fewer designs than planned
+    manifest["end_time"] = None
+    manifest["extra"]["runs"] = len(read_designs(cut)) + 1
+    (cut / "manifest.json").write_text(json.dumps(manifest))
+    with pytest.warns(RuntimeWarning, match="2 of 3 runs finished"):
+        written = make_suite_report(cut, n_boot=50)
+    for page in (p for p in written if p.suffix == ".md"):
+        assert page.read_text().startswith("> **Incomplete run.** 2 of 3 runs"), page.name
