@@ -13,12 +13,17 @@ Built-ins: ``cmaes`` (pycma), ``bo`` (scikit-optimize, extra ``bo``), ``pso`` (p
 ``pso``), ``random``; adapters ``optuna-tpe``, ``optuna-cmaes`` (extra ``optuna``) and
 ``nevergrad`` (extra ``nevergrad``). Plugins from other packages arrive through the entry-point
 group ``tooldesign.optimizers``; see ``docs/optimizer-plugins.md``.
+
+Limits every optimizer enforces (callers that check input early import them from here):
+``BOUND_MAX`` (largest magnitude of a bound), ``BATCH_SIZE_MAX``, ``SEED_MAX`` (int64) and
+``VALUE_MAX`` (largest magnitude of a told value); ``check_bounds`` validates a box.
 """
 
 from __future__ import annotations
 
 from ._imports import DependencyNotInstalled
 from ._rng import GlobalRandomState
+from ._validation import BATCH_SIZE_MAX, BOUND_MAX, SEED_MAX, VALUE_MAX, check_bounds
 from .base import (
     Batch,
     FailurePolicy,
@@ -30,6 +35,10 @@ from .base import (
 from .registry import available, make, register
 
 __all__ = [
+    "BATCH_SIZE_MAX",
+    "BOUND_MAX",
+    "SEED_MAX",
+    "VALUE_MAX",
     "Batch",
     "DependencyNotInstalled",
     "FailurePolicy",
@@ -39,6 +48,7 @@ __all__ = [
     "PluginError",
     "Recommendation",
     "available",
+    "check_bounds",
     "make",
     "register",
 ]

@@ -27,7 +27,7 @@ from benchmarks.suites import (
     suite_from_json,
 )
 from benchmarks.suites.config import N_SEEDS_MAX
-from optimizers._validation import BATCH_SIZE_MAX, BOUND_MAX, VALUE_MAX
+from optimizers import BATCH_SIZE_MAX, BOUND_MAX, VALUE_MAX
 from tooldesign_env import ToolDesignEnv
 from tooldesign_env.specs import BOX_MASS_MAX, GOAL_PRECISION_MAX, ObjectiveSpec
 

@@ -191,7 +191,7 @@ def _bounds(value: Any) -> tuple[tuple[float, float], ...]:
         from tooldesign_env import default_bounds
 
         value = default_bounds(3)
-    from optimizers._validation import check_bounds
+    from optimizers import check_bounds
     from tooldesign_env.env import COEFFICIENT_MAX
     from tooldesign_env.geometry.tool import DEGREE_MAX
 
@@ -280,7 +280,7 @@ class DesignConfig:
         object.__setattr__(self, "optimizer_settings", _settings(self.optimizer_settings))
         object.__setattr__(self, "seed", _int("seed", self.seed, 0))
         object.__setattr__(self, "iterations", _int("iterations", self.iterations, 1))
-        from optimizers._validation import BATCH_SIZE_MAX
+        from optimizers import BATCH_SIZE_MAX
 
         # The optimizers refuse a larger batch too, but only once the run has started.
         batch_size = _int("batch_size", self.batch_size, 1, BATCH_SIZE_MAX)

@@ -40,7 +40,7 @@ from benchmarks.design.config import ADDED_FIELDS as DESIGN_ADDED_FIELDS
 from benchmarks.design.config import check_section_shape, recorded_scene
 from benchmarks.execution import TaskSettings
 from benchmarks.storage import with_added_fields
-from optimizers._validation import BATCH_SIZE_MAX
+from optimizers import BATCH_SIZE_MAX
 from tooldesign_env.env import WORKSPACE_HIGH, WORKSPACE_LOW
 from tooldesign_env.schema import (
     DEFAULT_BOX_MASS,

@@ -20,7 +20,7 @@ import pandas as pd
 
 from benchmarks.execution import WORKERS_MAX, TaskSettings, evaluate_batch, make_executor
 from benchmarks.storage import atomic_write_text, check_out_dir
-from optimizers._validation import BATCH_SIZE_MAX
+from optimizers import BATCH_SIZE_MAX
 from tooldesign_env import default_bounds
 from tooldesign_env.schema import METRICS, coefficient_columns
 
