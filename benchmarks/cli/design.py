@@ -7,7 +7,11 @@ import json
 from pathlib import Path
 from typing import Any, cast
 
-from benchmarks.cli._common import add_max_retries_argument, add_task_arguments
+from benchmarks.cli._common import (
+    DEFAULT_SECTION_SHAPE,
+    add_max_retries_argument,
+    add_task_arguments,
+)
 from benchmarks.design import DesignConfig, run_design
 from benchmarks.execution import EXECUTORS
 from benchmarks.reports import write_design_report
@@ -97,6 +101,15 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     )
     add_max_retries_argument(parser, DesignConfig().max_retries)
     add_task_arguments(parser)
+    # With --policy the tool's section is the policy's unless given: None tells the two apart.
+    for action in parser._actions:
+        if action.dest == "section_shape":
+            action.default = None
+            action.help = (
+                "the tool's section: round (far less chaotic contact, see docs/model.md), or "
+                f"the paper's square (default: {DEFAULT_SECTION_SHAPE}; with --policy, the one "
+                "the policy was trained with)"
+            )
     parser.add_argument(
         "--option",
         type=_setting,
@@ -167,8 +180,21 @@ def _designer(args: argparse.Namespace) -> dict[str, Any]:
     }
 
 
+def _tool_and_arm(args: argparse.Namespace) -> tuple[str, dict[str, Any]]:
+    """The section and the scene: as given; with --policy, the policy's where not given."""
+    section, scene = args.section_shape, dict(args.scene)
+    if args.policy is not None:
+        from benchmarks.rl.policies import read_policy_card
+
+        card = read_policy_card(args.policy)  # the task it was trained with (docs/rl.md)
+        section = section or card["section_shape"]
+        scene.setdefault("merge_fixed_links", card["merge_fixed_links"])
+    return section or DEFAULT_SECTION_SHAPE, scene
+
+
 def config_from_args(args: argparse.Namespace) -> DesignConfig:
     """The :class:`DesignConfig` of parsed ``tooldesign design`` arguments."""
+    section_shape, scene = _tool_and_arm(args)
     return DesignConfig(
         **_designer(args),
         workers=args.workers,
@@ -180,8 +206,8 @@ def config_from_args(args: argparse.Namespace) -> DesignConfig:
         estimator=args.estimator,
         objective=args.objective,
         scene_samples=args.scene_samples,
-        section_shape=args.section_shape,
-        scene=dict(args.scene),
+        section_shape=section_shape,
+        scene=scene,
     )
 
 
