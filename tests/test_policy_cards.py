@@ -23,8 +23,8 @@ from benchmarks.rl.policies import (
     CARD_ADDED_FIELDS,
     design_for_goal,
     load_policy,
-    policy_env_kwargs,
     policy_digest,
+    policy_env_kwargs,
     read_policy_card,
 )
 
@@ -167,7 +167,7 @@ BAD_CARDS = [
     ('{"format": 1, "method": "contextual", "policy": [1]}', TypeError, "'policy'"),
     ('{"format": 1, "method": "contextual", "policy": {"x": 1}}', ValueError, "goals"),
     ('{"format": 1, "method": "dqn"}', ValueError, "method"),
-    ('[1, 2]', ValueError, "not a policy card"),
+    ("[1, 2]", ValueError, "not a policy card"),
     (b"\x80\x81\xfe binary", ValueError, "UTF-8"),
 ]
 SETTINGS = [

@@ -23,7 +23,8 @@ def main() -> None:
     args = parser.parse_args()
     env = ToolDesignRLEnv(randomize_goal=True)
     env.action_space.seed(args.seed)
-    usable, unusable = [], []
+    usable: list[float] = []
+    unusable: list[float] = []
     for k in range(args.episodes):
         env.reset(seed=k)
         _, reward, *_, info = env.step(env.action_space.sample())
