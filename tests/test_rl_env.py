@@ -182,9 +182,17 @@ def test_next_step_autoreset_loses_every_second_step():
         ({"mass_range": (0.0, 0.5)}, ValueError, "mass_range"),
         ({"mass_range": "light"}, TypeError, "mass_range"),
         ({"mass_range": (0.1, float("nan"))}, ValueError, "mass_range"),
-        ({"goal_range": ((0, 1, 0.1), (0, 0.5, 0.1))}, ValueError, "goal_range"),
-        ({"goal_range": ((0, 1, 0.1), (9, 1, 0.1))}, ValueError, "goal_range"),
-        ({"goal_range": 3}, TypeError, "goal_range"),
+        (
+            {"randomize_goal": True, "goal_range": ((0, 1, 0.1), (0, 0.5, 0.1))},
+            ValueError,
+            "goal_range",
+        ),
+        (
+            {"randomize_goal": True, "goal_range": ((0, 1, 0.1), (9, 1, 0.1))},
+            ValueError,
+            "goal_range",
+        ),
+        ({"randomize_goal": True, "goal_range": 3}, TypeError, "goal_range"),
         ({"goal_precision": 0.0}, ValueError, "reward='free-energy'"),
         ({"no_such_option": 1}, TypeError, "no_such_option"),
     ],
@@ -201,7 +209,7 @@ def test_bad_arguments_raise_clear_errors(kwargs, error, match):
         ([np.nan, 0.0, 0.0], ValueError),
         ([1.5, 0.0, 0.0], ValueError),
         ("straight", TypeError),
-        ([None, 0.0, 0.0], ValueError),
+        ([None, 0.0, 0.0], TypeError),
         ([[0.0, 0.0, 0.0]], ValueError),
     ],
 )
@@ -237,3 +245,114 @@ def test_bad_reset_options_raise_clear_errors(env, options, error):
 def test_bad_vector_arguments_raise_clear_errors(args, kwargs, error):
     with pytest.raises(error, match="num_envs|vectorization_mode"):
         make_rl_vector_env(*args, **kwargs)
+
+
+# ------------------------------------------------------------------ the reward near the box
+BOX_START = (1.35 * np.cos(np.pi / 6), 1.35 * np.sin(np.pi / 6), 0.1)
+PAPER_CORNERS = [
+    (x, y, 0.1) for x in (GOAL_LOW[0], GOAL_HIGH[0]) for y in (GOAL_LOW[1], GOAL_HIGH[1])
+]
+
+
+@pytest.mark.parametrize(
+    "goal", [BOX_START, (BOX_START[0] + 0.01, BOX_START[1], 0.1)], ids=["at-start", "1cm"]
+)
+def test_a_goal_at_the_box_start_is_refused_naming_the_minimum_distance(goal):
+    # F_idle is 0 at the start (1 - F / F_idle is undefined) and tiny 1 cm away (every design
+    # would sit at the floor): the normalized reward refuses such goals, at make and at reset.
+    with pytest.raises(ValueError, match=r"0\.1 m.*box"):
+        ToolDesignRLEnv(goal=goal)
+    e = ToolDesignRLEnv()
+    with pytest.raises(ValueError, match=r"0\.1 m.*box"):
+        e.reset(options={"goal": goal})
+    e.close()
+    # -F needs no scale: the free-energy reward takes the goal; the normalized one in info is NaN.
+    raw = ToolDesignRLEnv(goal=goal, reward="free-energy")
+    raw.reset()
+    _, reward, *_, info = raw.step(raw.to_action(STRAIGHT))
+    assert reward == -info["free_energy"] and np.isnan(info["normalized_reward"])
+    raw.close()
+
+
+def test_a_goal_range_that_reaches_the_box_start_is_refused():
+    with pytest.raises(ValueError, match=r"goal_range.*0\.1 m"):
+        ToolDesignRLEnv(randomize_goal=True, goal_range=((0.0, 0.5, 0.1), (1.2, 0.7, 0.1)))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("goal", PAPER_CORNERS)
+def test_the_reward_stays_in_its_range_at_the_corners_of_the_paper_goals(goal):
+    e = ToolDesignRLEnv(goal=goal)
+    e.reset()
+    for coefficients in (STRAIGHT, HOOK):
+        _, reward, *_, info = e.step(e.to_action(coefficients))
+        assert REWARD_FLOOR <= reward <= 1.0
+        expected = max(1.0 - info["free_energy"] / info["idle_free_energy"], REWARD_FLOOR)
+        assert reward == expected
+        e.reset()
+    e.close()
+
+
+@pytest.mark.slow
+def test_a_valid_design_far_worse_than_idle_is_at_the_floor_as_documented():
+    # The paper's corner nearest the robot: the straight tool is usable, but F > 2 F_idle.
+    e = ToolDesignRLEnv(goal=(0.5, 0.5, 0.1))
+    e.reset()
+    _, reward, *_, info = e.step(e.to_action(STRAIGHT))
+    assert info["valid"] is True and info["free_energy"] > 2 * info["idle_free_energy"]
+    assert reward == REWARD_FLOOR
+    e.close()
+
+
+# ------------------------------------------------------------------ actions ToolDesign-v0 refuses
+@pytest.mark.parametrize(
+    ("action", "error", "match"),
+    [
+        ([True, False, True], TypeError, "bool"),
+        (np.array([True, False, True]), TypeError, "not real numbers"),
+        (np.array([0.1 + 0.5j, 0.0, 0.0]), TypeError, "complex"),
+        (np.ma.array([0.1, 0.2, 0.3], mask=[False, True, False]), ValueError, "masked"),
+    ],
+)
+def test_actions_the_base_env_refuses_are_refused(env, action, error, match):
+    env.reset(seed=0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no ComplexWarning on the way
+        with pytest.raises(error, match=f"action.*{match}"):
+            env.to_coefficients(action)
+
+
+def test_a_masked_action_with_nothing_masked_is_taken():
+    e = ToolDesignRLEnv()
+    assert e.to_coefficients(np.ma.array([0.0, 0.0, 0.0])).tolist() == [0.0, 0.0, 0.0]
+    e.close()
+
+
+# ------------------------------------------------------------------ no silently ignored argument
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"goal_range": ((0, 1, 0.1), (0.2, 1.2, 0.1))}, "goal_range.*randomize_goal=True"),
+        ({"box_mass": 0.5, "mass_range": (0.1, 0.2)}, "box_mass.*mass_range"),
+    ],
+)
+def test_arguments_that_would_be_ignored_are_refused(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        ToolDesignRLEnv(**kwargs)
+    with pytest.raises(ValueError, match=match):
+        gym.make(RL_ENV_ID, **kwargs)
+
+
+@pytest.mark.parametrize("mass_range", [np.array([0.1, 0.9]), [0.1, 0.9], (np.float32(0.1), 0.9)])
+def test_mass_range_takes_any_pair_of_numbers(mass_range):
+    e = ToolDesignRLEnv(mass_range=mass_range)
+    assert e.mass_range == (0.1, 0.9) or e.mass_range == pytest.approx((0.1, 0.9))
+    masses = [e.reset(seed=s)[0][3] for s in range(5)]
+    assert all(0.1 - 1e-6 <= m <= 0.9 + 1e-6 for m in masses) and len(set(masses)) == 5
+    e.close()
+
+
+@pytest.mark.parametrize("mass_range", [np.array([0.1, 0.5, 0.9]), np.array([[0.1, 0.9]])])
+def test_mass_range_of_other_shapes_is_refused(mass_range):
+    with pytest.raises(TypeError, match="mass_range must be a pair"):
+        ToolDesignRLEnv(mass_range=mass_range)

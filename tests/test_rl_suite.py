@@ -374,6 +374,7 @@ def test_bad_suite_settings_raise(kwargs: dict, error: type, words: str) -> None
         (["bench", "rl", "--workers", "0"], "workers must be an int >= 1, got 0"),
         (["bench", "rl", "--executor", "serial"], "--executor is not available for the rl"),
         (["bench", "rl", "--dump-config", "x.toml"], "--dump-config is not available"),
+        (["bench", "rl", "--max-retries", "2"], "--max-retries is not available for the rl"),
         (["bench", "rl", "--section-shape", "square"], "--section-shape square: not for the rl"),
         (["bench", "optimizers", "--parts", "fixed"], "--parts: for the rl suite only"),
         (["bench", "optimizers", "--mass-range", "0.1", "0.2"], "--mass-range: for the rl"),

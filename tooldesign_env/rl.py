@@ -20,10 +20,12 @@ from gymnasium.vector import VectorEnv
 
 from tooldesign_env.bullet import not_copyable
 from tooldesign_env.env import GOAL_HIGH, GOAL_LOW, WORKSPACE_HIGH, WORKSPACE_LOW, ToolDesignEnv
+from tooldesign_env.geometry.validation import validate_coefficients
 from tooldesign_env.schema import METRICS
 from tooldesign_env.specs import BOX_MASS_MAX, TaskSpec
 
 __all__ = [
+    "MIN_GOAL_DISTANCE",
     "REWARD_FLOOR",
     "RL_ENV_ID",
     "ToolDesignRLEnv",
@@ -32,9 +34,17 @@ __all__ = [
 
 RL_ENV_ID = "ToolDesignRL-v0"
 
-#: Lowest normalized reward: 1 - F / F_idle is clipped here. Only unusable designs (invalid,
-#: scored F_idle + 1e5) reach it; 39 valid random designs on 40 random goals scored -0.24 to 0.79.
+#: Lowest normalized reward: 1 - F / F_idle is clipped here, so every design with F >= 2 F_idle
+#: gets it: every unusable design (scored F_idle + 1e5), and the rare usable one that leaves the
+#: box more than twice as far off as not touching it (the straight tool at the paper's corner
+#: (0.5, 0.5, 0.1); 20 of the 75,457 usable episodes of the committed rl suite, docs/rl.md).
 REWARD_FLOOR = -1.0
+
+#: Closest a goal may be to the box's starting position (m) under ``reward="normalized"``: the
+#: box's own width. F_idle grows with the squared distance, so at the start it is 0 and
+#: 1 - F / F_idle is undefined, and a few cm away every design would sit at the floor. The
+#: paper's goals are at least 0.67 m away.
+MIN_GOAL_DISTANCE = 0.1
 
 #: Keys of the base env's ``info`` kept by default: the scalars (the per-step arrays are large
 #: and would be pickled through every worker's pipe of an async vector env).
@@ -51,12 +61,21 @@ _SCALAR_INFO = (
 
 
 def _check_range(value: Any, name: str, low: float, high: float, unit: str) -> tuple[float, float]:
-    """``value`` as a (lo, hi) pair of finite floats with low <= lo <= hi <= high."""
+    """``value`` as a (lo, hi) pair of finite floats with low <= lo <= hi <= high.
+
+    ``value`` is any sequence or 1-D array of two real numbers (not bools).
+    """
+    if isinstance(value, np.ndarray):
+        value = value.tolist() if value.ndim == 1 else value
     if (
         isinstance(value, (str, bytes))
         or not isinstance(value, Sequence)
         or len(value) != 2
-        or any(isinstance(v, bool) or not isinstance(v, (int, float, np.number)) for v in value)
+        or any(
+            isinstance(v, (bool, np.bool_))
+            or not isinstance(v, (int, float, np.integer, np.floating))
+            for v in value
+        )
     ):
         raise TypeError(f"{name} must be a pair (low, high) of numbers in {unit}, got {value!r}")
     lo, hi = float(value[0]), float(value[1])
@@ -95,8 +114,15 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
     ``REWARD_FLOOR`` = -1, where F_idle = T * 1/2 p^X |X_start - X^g|^2 is the free energy of
     leaving the box where it is for the T control steps of the episode, at this goal. 0 means
     "no better than not touching the box", 1 means "goal error and confidence cancel", and the
-    scale is the same at every goal. Only unusable designs (F = F_idle + 1e5) reach the floor.
-    ``reward="free-energy"`` gives -F as ``ToolDesign-v0`` does. ``info`` holds ``free_energy``,
+    scale is the same at every goal. Every design with F >= 2 F_idle is at the floor: every
+    unusable design (F = F_idle + 1e5), and a usable one that does more than twice as badly
+    as leaving the box where it is (the straight tool at the paper's corner (0.5, 0.5, 0.1)
+    does; 20 of the 75,457 usable episodes of the committed rl suite did). The reward is thus
+    in [-1, 1] for every goal the env takes: with ``reward="normalized"`` a goal (or a
+    ``goal_range``) closer than ``MIN_GOAL_DISTANCE`` = 0.1 m to the box's starting position
+    is refused (``ValueError``), since F_idle is 0 there.
+    ``reward="free-energy"`` gives -F as ``ToolDesign-v0`` does, at any goal (``info``'s
+    ``normalized_reward`` is then NaN closer than 0.1 m). ``info`` holds ``free_energy``,
     ``idle_free_energy``, ``normalized_reward`` and the base env's scalar terms
     (``goal_error``, ``confidence``, ``penalty``, ``final_distance``, ``valid``, ...), and with
     ``full_info=True`` also its per-step arrays.
@@ -107,6 +133,8 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
     with ``randomize_goal=True`` uniform in ``goal_range`` (default the paper's x in [-0.5, 0.5],
     y in [0.5, 1.5], z = 0.1 m); the box mass is ``box_mass`` (default 0.1 kg), or with
     ``mass_range=(low, high)`` uniform in it. Both are drawn from ``self.np_random``.
+    ``goal_range`` without ``randomize_goal=True``, or ``box_mass`` with ``mass_range``, would
+    be ignored and is refused (``ValueError``).
 
     ## Episode End
 
@@ -158,6 +186,18 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
         for name, flag in (("randomize_goal", randomize_goal), ("full_info", full_info)):
             if not isinstance(flag, (bool, np.bool_)):
                 raise TypeError(f"{name} must be True or False, got {flag!r}")
+        # Each would be ignored otherwise: the goal is drawn only with randomize_goal, and a
+        # drawn mass replaces box_mass at every reset.
+        if goal_range is not None and not randomize_goal:
+            raise ValueError(
+                "goal_range is used only with randomize_goal=True (goals are drawn from it); "
+                f"got goal_range={goal_range!r} with randomize_goal=False"
+            )
+        if box_mass is not None and mass_range is not None:
+            raise ValueError(
+                f"give box_mass ({box_mass!r}) or mass_range ({mass_range!r}), not both: "
+                "with mass_range every episode draws its box mass"
+            )
         self.base = ToolDesignEnv(
             goal=goal,
             box_mass=box_mass,
@@ -184,6 +224,11 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
             else _check_range(mass_range, "mass_range", 1e-6, BOX_MASS_MAX, "kg")
         )
         self.render_mode = render_mode
+        if self.reward_kind == "normalized":
+            if self.randomize_goal:
+                self._check_goal_distance(self._nearest_goal(), "goal_range")
+            else:
+                self._check_goal_distance(np.asarray(self.base.task.goal, float), "goal")
 
         base_space = self.base.action_space
         assert isinstance(base_space, spaces.Box)
@@ -229,6 +274,9 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
                 options["box_mass"] = float(self.np_random.uniform(*self.mass_range))
             else:
                 options["box_mass"] = float(self.base.simulator.scene.box_mass)
+        if self.reward_kind == "normalized":
+            goal = self.base.check_goal(options["goal"], "goal")
+            self._check_goal_distance(goal, "goal")
         # The base env validates both and raises naming the option.
         _, info = self.base.reset(options=options)
         self._goal = np.asarray(info["goal"], dtype=float)
@@ -243,7 +291,10 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
         self.last_info = base_info
         free = float(base_info["free_energy"])
         idle = self.idle_free_energy()
-        normalized = max(1.0 - free / idle, REWARD_FLOOR) if idle > 0 else -free
+        if self._goal_distance(self._goal) >= MIN_GOAL_DISTANCE:
+            normalized = max(1.0 - free / idle, REWARD_FLOOR)
+        else:  # only with reward="free-energy": the normalized reward refuses such goals
+            normalized = math.nan
         if self.full_info:
             info = dict(base_info)
         else:
@@ -266,22 +317,19 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
     def to_coefficients(self, action: Any) -> np.ndarray:
         """The physical coefficients (degree,) float64 of a [-1, 1] action.
 
+        ``action`` is checked as ``ToolDesign-v0`` checks its coefficients
+        (``tooldesign_env.geometry.validate_coefficients``).
+
         Raises:
-            TypeError: ``action`` is not numeric.
-            ValueError: wrong shape, not finite, or outside [-1, 1].
+            TypeError: ``action`` is not real numbers (a string, None, bools, complex numbers).
+            ValueError: wrong shape, masked values, not finite, or outside [-1, 1].
         """
-        if isinstance(action, (str, bytes)):
-            raise TypeError(f"action must be {self._degree} numbers, got {action!r}")
         try:
-            a = np.asarray(action, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise TypeError(
-                f"action must be {self._degree} numbers in [-1, 1], got {action!r}"
-            ) from None
-        if a.shape != (self._degree,) or not np.all(np.isfinite(a)):
-            raise ValueError(
-                f"action must be {self._degree} finite numbers in [-1, 1], got {action!r}"
-            )
+            # ToolDesign-v0's own check: refuses bools, complex and masked values too.
+            a = validate_coefficients(action, self._degree)
+        except (TypeError, ValueError) as error:
+            message = str(error).replace("coeffs", "action", 1).replace(" (c1, ..., cn)", "")
+            raise type(error)(f"{message} in [-1, 1]; got {action!r}") from None
         if np.any(np.abs(a) > 1.0):
             raise ValueError(
                 f"action {a.tolist()} is outside [-1, 1]; clip it (SB3 does) or use the "
@@ -307,6 +355,25 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
         of the score of an unusable design.
         """
         return self.base.idle_goal_error()
+
+    def _goal_distance(self, goal: np.ndarray) -> float:
+        return float(np.linalg.norm(np.asarray(goal, float) - self.base._box_start()))
+
+    def _nearest_goal(self) -> np.ndarray:
+        """The point of ``goal_range`` nearest the box's starting position."""
+        low, high = self.goal_range
+        return np.asarray(np.clip(self.base._box_start(), low, high), dtype=float)
+
+    def _check_goal_distance(self, goal: np.ndarray, name: str) -> None:
+        distance = self._goal_distance(goal)
+        if distance < MIN_GOAL_DISTANCE:
+            where = "reaches" if name == "goal_range" else "is"
+            raise ValueError(
+                f"{name} {where} {distance:.3g} m from the box's starting position "
+                f"{self.base._box_start().round(4).tolist()}; reward='normalized' needs goals at "
+                f"least MIN_GOAL_DISTANCE = {MIN_GOAL_DISTANCE:g} m from the box (F_idle, its "
+                "scale, is 0 there); use reward='free-energy' for goals closer to it"
+            )
 
     def _observation(self) -> np.ndarray:
         return np.array([*self._goal, self._mass], dtype=np.float32)
@@ -344,6 +411,12 @@ def make_rl_vector_env(
         context: multiprocessing start method for ``"async"``; ``"spawn"`` (the default) keeps
             the workers from inheriting this process's PyBullet client. Ignored for ``"sync"``.
         **env_kwargs: arguments of ``ToolDesignRL-v0`` (e.g. ``randomize_goal=True``).
+
+    With ``"async"`` and ``"spawn"`` each worker imports the script that made the vector env
+    again, as its ``__main__``: call this under ``if __name__ == "__main__":`` in a script (not
+    at its top level), or every worker makes vector envs of its own and multiprocessing stops
+    with "An attempt has been made to start a new process before the current process has
+    finished its bootstrapping phase". Notebooks and ``python -c`` need no guard.
 
     Returns:
         The vector env; close it when done.

@@ -7,7 +7,11 @@ import json
 from pathlib import Path
 from typing import Any, cast
 
-from benchmarks.cli._common import add_max_retries_argument, add_task_arguments
+from benchmarks.cli._common import (
+    DEFAULT_SECTION_SHAPE,
+    add_max_retries_argument,
+    add_task_arguments,
+)
 from benchmarks.design import DesignConfig
 from benchmarks.execution import EXECUTORS, TaskSettings
 
@@ -96,6 +100,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     )
     add_max_retries_argument(parser, cast("int", defaults["max_retries"].default))
     add_task_arguments(parser)
+    # With --policy the tool's section is the policy's unless given: None tells the two apart
+    # (_tool_and_arm falls back to DEFAULT_SECTION_SHAPE without a policy).
+    parser.set_defaults(section_shape=None)
     parser.add_argument(
         "--option",
         type=_setting,
@@ -175,8 +182,21 @@ def _designer(args: argparse.Namespace) -> dict[str, Any]:
     }
 
 
+def _tool_and_arm(args: argparse.Namespace) -> tuple[str, dict[str, Any]]:
+    """The section and the scene: as given; with --policy, the policy's where not given."""
+    section, scene = args.section_shape, dict(args.scene)
+    if args.policy is not None:
+        from benchmarks.rl.policies import read_policy_card
+
+        card = read_policy_card(args.policy)  # the task it was trained with (docs/rl.md)
+        section = section or card["section_shape"]
+        scene.setdefault("merge_fixed_links", card["merge_fixed_links"])
+    return section or DEFAULT_SECTION_SHAPE, scene
+
+
 def config_from_args(args: argparse.Namespace) -> DesignConfig:
     """The :class:`DesignConfig` of parsed ``tooldesign design`` arguments."""
+    section_shape, scene = _tool_and_arm(args)
     return DesignConfig(
         **_designer(args),
         workers=args.workers,
@@ -188,8 +208,8 @@ def config_from_args(args: argparse.Namespace) -> DesignConfig:
         estimator=args.estimator,
         objective=args.objective,
         scene_samples=args.scene_samples,
-        section_shape=args.section_shape,
-        scene=dict(args.scene),
+        section_shape=section_shape,
+        scene=scene,
     )
 
 

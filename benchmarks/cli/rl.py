@@ -14,6 +14,9 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
+import sys
+import warnings
 from pathlib import Path
 from typing import Any, cast
 
@@ -59,7 +62,11 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     design.add_argument("--policy", required=True, help="a policy card (.json)")
     design.add_argument("--goal", type=float, nargs=3, required=True, metavar=("X", "Y", "Z"))
     design.add_argument("--box-mass", type=float, default=DEFAULT_BOX_MASS, help="kg")
-    design.add_argument("--no-simulate", action="store_true", help="print the design only")
+    design.add_argument(
+        "--no-simulate",
+        action="store_true",
+        help="print the design only (free_energy, normalized_reward and final_distance are null)",
+    )
     parser.set_defaults(run=_run)
     return cast(argparse.ArgumentParser, parser)
 
@@ -78,8 +85,20 @@ def _run(args: argparse.Namespace) -> int:
         return 0
     from benchmarks.rl.policies import design_for_goal
 
-    result = design_for_goal(
-        args.policy, args.goal, box_mass=args.box_mass, simulate=not args.no_simulate
-    )
-    print(json.dumps(result.__dict__, indent=2))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", UserWarning)
+        result = design_for_goal(
+            args.policy, args.goal, box_mass=args.box_mass, simulate=not args.no_simulate
+        )
+    for warning in caught:  # a task outside the policy's training ranges: one line each
+        print(f"tooldesign rl design: warning: {warning.message}", file=sys.stderr)
+    # JSON has no NaN: what was not simulated is null.
+    printed = {key: _json_value(value) for key, value in result.__dict__.items()}
+    print(json.dumps(printed, indent=2, allow_nan=False))
     return 0
+
+
+def _json_value(value: Any) -> Any:
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value

@@ -78,8 +78,8 @@ def run_rl_command(args: argparse.Namespace, *, default_size: str) -> int:
 
     Args:
         args: ``size``, ``out``, ``workers``, ``no_progress`` and the options of
-            :func:`add_rl_suite_arguments`; ``config``, ``executor``, ``scheduler`` and
-            ``dump_config`` (from ``tooldesign bench``) must be unset.
+            :func:`add_rl_suite_arguments`; ``config``, ``executor``, ``scheduler``,
+            ``max_retries`` and ``dump_config`` (from ``tooldesign bench``) must be unset.
         default_size: the size when ``--size`` is not given.
 
     Returns:
@@ -96,6 +96,7 @@ def run_rl_command(args: argparse.Namespace, *, default_size: str) -> int:
         ("config", "--config"),
         ("executor", "--executor"),
         ("scheduler", "--scheduler"),
+        ("max_retries", "--max-retries"),
         ("dump_config", "--dump-config"),
     ):
         if getattr(args, name, None) is not None:

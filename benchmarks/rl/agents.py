@@ -513,7 +513,9 @@ def train_contextual(
     if not isinstance(config, ContextualConfig):
         raise TypeError(f"config must be a ContextualConfig, got {config!r}")
     seed = _check_seed(seed)
-    env = make_env(**(env_kwargs or {}))
+    # Its training goals come from the env's goal_range, which the env takes only with
+    # randomize_goal=True; each episode's goal is then given at reset, so nothing is drawn.
+    env = make_env(**{"randomize_goal": True, **(env_kwargs or {})})
     low, high = env.goal_range
     children = np.random.SeedSequence(seed).spawn(config.n_goals + 1)
     rng = np.random.default_rng(children[0])

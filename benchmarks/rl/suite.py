@@ -70,6 +70,7 @@ from benchmarks.storage import (
 )
 from tooldesign_env.schema import (
     BEST_SO_FAR,
+    DEFAULT_BOX_MASS,
     DEFAULT_GOAL,
     GOAL_HIGH,
     GOAL_LOW,
@@ -703,14 +704,17 @@ def _run_work(work: _Work, config: RLSuiteConfig, out: Path) -> list[pd.DataFram
     zero_shot = frame(_zero_shot(trained.model, tasks), 1, goal_index=indices)
     if work.index == 0:
         extra: dict[str, Any] = {"seed": work.seed, "suite_size": size.name}
-        if work.part == "mass":
-            extra["mass_range"] = list(config.mass_range)
+        # The training tasks: the paper's goals, and the masses of the part (the default
+        # box mass alone in the goal-only part); a design outside them warns.
+        masses = config.mass_range if work.part == "mass" else (DEFAULT_BOX_MASS,) * 2
         save_policy(
             trained.model,
             work.method,
             out / POLICIES_DIR / f"{_PREFIX[work.part]}{work.method}.json",
             config=method_config,
             train_episodes=len(trained.records),
+            goal_range=(GOAL_LOW, GOAL_HIGH),
+            mass_range=masses,
             extra=extra,
         )
     return [training, zero_shot]
