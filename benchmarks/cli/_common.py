@@ -146,7 +146,8 @@ def add_task_arguments(parser: argparse.ArgumentParser) -> None:
         choices=SECTION_SHAPES,
         default=DEFAULT_SECTION_SHAPE,
         help="the tool's section: round (far less chaotic contact, see docs/model.md), or the "
-        "paper's square (default: %(default)s)",
+        f"paper's square (default: {DEFAULT_SECTION_SHAPE}; with design --policy, the one the "
+        "policy was trained with)",
     )
     parser.add_argument(
         "--scene-samples",

@@ -41,6 +41,7 @@ from benchmarks.reports.plots import save_png
 from benchmarks.reports.stats import holm_bonferroni, vargha_delaney_a12
 from benchmarks.rl.suite import RL_SUITE_KIND, RL_SUITE_NAME
 from benchmarks.storage import ResultStore, atomic_write_text, json_text, read_manifest
+from benchmarks.storage.table import csv_text
 
 __all__ = [
     "fixed_goal_table",
@@ -581,12 +582,6 @@ def _markdown(header: Sequence[str], rows: Iterable[Sequence[str]]) -> list[str]
     return lines
 
 
-def _csv_text(frame: pd.DataFrame) -> str:
-    return cast(
-        "str", frame.to_csv(index=False, lineterminator="\n", float_format=lambda v: repr(float(v)))
-    )
-
-
 def _records(frame: pd.DataFrame) -> list[dict[str, Any]]:
     return cast("list[dict[str, Any]]", frame.to_dict("records"))
 
@@ -639,7 +634,7 @@ def make_rl_report(
         policies = _fixed_policies(log)
         straight = policies.get("straight", [None])[0]
         lines = _fixed_markdown(fixed, policies, floor)
-        written.append(atomic_write_text(target / "fixed-goal.csv", _csv_text(fixed)))
+        written.append(atomic_write_text(target / "fixed-goal.csv", csv_text(fixed)))
         written.append(atomic_write_text(target / "fixed-goal.md", "\n".join(lines) + "\n"))
         written.append(_fixed_figure(log, straight, target / "fixed-goal.png"))
         goal = ", ".join(f"{v:g}" for v in config["fixed_goal"])
@@ -658,9 +653,9 @@ def make_rl_report(
         stem = f"held-out{'-mass' if part == 'mass' else ''}"
         lines = _held_out_markdown(table, per_goal, config, part)
         goal_lines = _per_goal_markdown(per_goal, part)
-        written.append(atomic_write_text(target / f"{stem}.csv", _csv_text(table)))
+        written.append(atomic_write_text(target / f"{stem}.csv", csv_text(table)))
         written.append(atomic_write_text(target / f"{stem}.md", "\n".join(lines) + "\n"))
-        written.append(atomic_write_text(target / f"{stem}-per-goal.csv", _csv_text(per_goal)))
+        written.append(atomic_write_text(target / f"{stem}-per-goal.csv", csv_text(per_goal)))
         written.append(
             atomic_write_text(target / f"{stem}-per-goal.md", "\n".join(goal_lines) + "\n")
         )

@@ -20,7 +20,7 @@ import numpy as np
 
 import tooldesign_env  # noqa: F401  (registers ToolDesignRL-v0)
 from benchmarks.rl.configs import ContextualConfig, PPOConfig, SACConfig
-from optimizers._validation import SEED_MAX
+from optimizers import SEED_MAX
 from tooldesign_env.rl import ToolDesignRLEnv
 from tooldesign_env.schema import DEFAULT_BOX_MASS
 
@@ -144,7 +144,7 @@ def _check_episodes(total_episodes: Any) -> int:
 
 
 def _check_seed(seed: Any) -> int:
-    # Seeds are stored as int64, as everywhere else (optimizers._validation.SEED_MAX).
+    # Seeds are stored as int64, as everywhere else (optimizers.SEED_MAX).
     if (
         isinstance(seed, bool)
         or not isinstance(seed, (int, np.integer))

@@ -885,7 +885,8 @@ def run_rl_suite(
         units=len(work),
         units_run=len(pending),
         wall_time=float(manifest["wall_time"]),
-        session_time=session.session_time,
+        # read at the same moment as the total (the final manifest), not later
+        session_time=float(manifest["extra"]["sessions"][-1]["wall_time"]),
         simulation_time=float(manifest["simulation_time"] or 0.0),
         agent_time=float(manifest["optimizer_time"] or 0.0),
     )
