@@ -152,3 +152,20 @@ def test_the_package_names_resolve_on_first_use():
     assert set(tooldesign_env.__all__) <= set(dir(tooldesign_env))
     with pytest.raises(AttributeError, match="no attribute 'not_a_name'"):
         _ = tooldesign_env.not_a_name
+
+
+@pytest.mark.parametrize(
+    ("package", "attribute"),
+    [
+        ("tooldesign_env", "env.SERIES_KEYS"),
+        ("tooldesign_env", "native.status"),
+        ("benchmarks.reports", "comparison.make_report"),
+        ("benchmarks.design", "config.RECORDED_SCENE_FIELDS"),
+    ],
+)
+def test_a_lazy_package_still_reaches_its_submodules_as_attributes(package, attribute):
+    """``import tooldesign_env; tooldesign_env.env.X``, as the docs write it, in a fresh process."""
+    code = f"import {package} as p\nprint(p.{attribute} is not None)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "True"

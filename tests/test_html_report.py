@@ -135,6 +135,11 @@ def test_report_rebuilds_a_report_html_the_folder_has(tmp_path, capsys):
     assert main(["report", str(folder)]) == 0
     assert f"{folder / REPORT_FILE} rebuilt" in capsys.readouterr().out
     assert "written after the page" in (folder / REPORT_FILE).read_text()
+    # Sent elsewhere with --out, the figures are not the page's: it stays as it was.
+    before = (folder / REPORT_FILE).read_bytes()
+    assert main(["report", str(folder), "--out", str(tmp_path / "elsewhere")]) == 0
+    assert "rebuilt" not in capsys.readouterr().out
+    assert (folder / REPORT_FILE).read_bytes() == before
 
 
 def _browser_probe(report, tmp_path):

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 import warnings
 from pathlib import Path
 
@@ -177,6 +178,8 @@ SETTINGS = [
     ({"goal_range": [[0.5, 1.5, 0.1], [-0.5, 0.5, 0.1]]}, ValueError, "'goal_range'"),
     ({"mass_range": [0.9, 0.1]}, ValueError, "'mass_range'"),
     ({"mass_range": "heavy"}, TypeError, "'mass_range'"),
+    # the message quotes the card's own value, not a reshaped one
+    ({"mass_range": [0.1, 0.5, 0.9]}, TypeError, r"got \[0\.1, 0\.5, 0\.9\]$"),
 ]
 
 
@@ -226,3 +229,19 @@ def test_a_malformed_card_is_one_line_from_tooldesign_design(
     err = capsys.readouterr().err
     assert "Traceback" not in err and err.count("\n") == 1 and "c.json" in err
     assert not (tmp_path / "run").exists()
+
+
+@pytest.mark.slow
+def test_a_goal_at_the_box_start_is_designed_and_scored_by_f_alone(tmp_path: Path) -> None:
+    """The normalized reward has no scale there, but a design needs none (as at 72c22b4)."""
+    from benchmarks.cli import main
+    from benchmarks.rl.policies import design_for_goal
+
+    near = (1.15, 0.7, 0.1)  # 3 cm from the box's start
+    result = design_for_goal(CONTEXTUAL, near)
+    assert result.valid is not None and math.isfinite(result.free_energy)
+    assert math.isnan(result.normalized_reward)
+    far = design_for_goal(CONTEXTUAL, (0.2, 1.0, 0.1))
+    assert math.isfinite(far.normalized_reward)
+    args = ["design", "--policy", str(CONTEXTUAL), "--goal", *map(str, near)]
+    assert main([*args, "--no-video", "--no-progress", "--out", str(tmp_path / "run")]) == 0

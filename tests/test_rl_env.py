@@ -356,3 +356,18 @@ def test_mass_range_takes_any_pair_of_numbers(mass_range):
 def test_mass_range_of_other_shapes_is_refused(mass_range):
     with pytest.raises(TypeError, match="mass_range must be a pair"):
         ToolDesignRLEnv(mass_range=mass_range)
+
+
+def test_a_goal_range_given_as_an_array_is_taken_like_a_pair_of_points():
+    """mass_range takes arrays; goal_range must too (a (2, 3) array of low and high)."""
+    as_tuple = ToolDesignRLEnv(randomize_goal=True, goal_range=((-0.5, 0.5, 0.1), (0.5, 1.5, 0.1)))
+    as_array = ToolDesignRLEnv(
+        randomize_goal=True, goal_range=np.array([(-0.5, 0.5, 0.1), (0.5, 1.5, 0.1)])
+    )
+    try:
+        for env in (as_tuple, as_array):
+            env.reset(seed=3)
+        np.testing.assert_array_equal(as_tuple.goal_range, as_array.goal_range)
+    finally:
+        as_tuple.close()
+        as_array.close()

@@ -245,3 +245,50 @@ try:
 except ValueError as err:
     print("refused" if "another process" in str(err) else err)
 """
+
+
+def test_a_session_stopped_by_an_error_frees_the_folder_for_other_processes(tmp_path: Path) -> None:
+    """close() then a last checkpoint (what the runners do on an error) must not lock again."""
+    out = tmp_path / "run"
+    session = _session(out, resume=False)
+    session.checkpoint()
+    session.close()
+    session.checkpoint()  # the runners' `finally:` after an error
+    other = [sys.executable, "-c", _TRY, str(out)]
+    assert subprocess.run(other, cwd=ROOT, capture_output=True, text=True).stdout == "opened\n"
+
+
+def test_a_session_dropped_without_close_frees_the_folder_when_collected(tmp_path: Path) -> None:
+    import gc
+
+    out = tmp_path / "run"
+    session = _session(out, resume=False)
+    session.checkpoint()
+    other = [sys.executable, "-c", _TRY, str(out)]
+    assert subprocess.run(other, cwd=ROOT, capture_output=True, text=True).stdout == "refused\n"
+    session._heartbeat.stop()  # type: ignore[union-attr]  # the thread holds no session
+    del session
+    gc.collect()
+    assert subprocess.run(other, cwd=ROOT, capture_output=True, text=True).stdout == "opened\n"
+
+
+def test_checksums_are_not_added_while_another_process_writes_the_folder(tmp_path: Path) -> None:
+    from benchmarks.storage import update_file_checksums
+
+    out = tmp_path / "run"
+    holder = subprocess.Popen(
+        [sys.executable, "-c", _HOLDER, str(out)], cwd=ROOT, stdout=subprocess.PIPE, text=True
+    )
+    try:
+        assert holder.stdout is not None and holder.stdout.readline().strip() == "holding"
+        with pytest.raises(ValueError, match="another process is writing"):
+            update_file_checksums(out, {"designs/x.json": "0" * 64})
+    finally:
+        holder.kill()
+        holder.wait(timeout=30)
+        holder.stdout.close()  # type: ignore[union-attr]
+    # in the process holding it, a session's own retest goes through
+    session = RunSession(out, kind="test", config={"name": "lock"}, resume=True)
+    update_file_checksums(out, {"designs/x.json": "0" * 64})
+    assert read_manifest(out)["extra"]["file_sha256"] == {"designs/x.json": "0" * 64}
+    session.close()

@@ -12,10 +12,11 @@ Importing the package registers the Gymnasium environment ``ToolDesign-v0``::
 
 from __future__ import annotations
 
-import importlib
 from typing import TYPE_CHECKING, Any
 
 from gymnasium.envs.registration import register, registry
+
+from tooldesign_env.lazy import lazy_attribute
 
 if TYPE_CHECKING:
     from tooldesign_env.env import (
@@ -69,12 +70,7 @@ _LAZY: dict[str, str] = {
 
 
 def __getattr__(name: str) -> Any:
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'tooldesign_env' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value  # the next lookup is an ordinary attribute
-    return value
+    return lazy_attribute(__name__, _LAZY, name)
 
 
 def __dir__() -> list[str]:

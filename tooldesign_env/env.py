@@ -582,7 +582,8 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
     def _observation(self) -> np.ndarray:
         return self._goal.astype(np.float64, copy=True)
 
-    def _box_start(self) -> np.ndarray:
+    def box_start(self) -> np.ndarray:
+        """The box centre's starting position (x, y, z) in m, in this env's scene."""
         scene = self.simulator.scene
         return np.array([*scene.box_position, scene.box_size[2] / 2.0])
 
@@ -594,7 +595,7 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
         normalizes its reward by.
         """
         steps = len(self.simulator.reference.times)
-        dist2 = float(np.sum((self._box_start() - self._goal) ** 2))
+        dist2 = float(np.sum((self.box_start() - self._goal) ** 2))
         return steps * 0.5 * self.objective.goal_precision * dist2
 
     def _common_info(self, geometry: ToolGeometry) -> dict[str, Any]:
@@ -649,7 +650,7 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
             goal_error=idle,
             confidence=0.0,
             penalty=penalty,
-            final_distance=float(np.linalg.norm(self._box_start() - self._goal)),
+            final_distance=float(np.linalg.norm(self.box_start() - self._goal)),
             times=np.zeros(0),
             box_trajectory=np.zeros((0, 3)),
             torques=np.zeros((0, 7)),

@@ -291,7 +291,7 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
         self.last_info = base_info
         free = float(base_info["free_energy"])
         idle = self.idle_free_energy()
-        if self._goal_distance(self._goal) >= MIN_GOAL_DISTANCE:
+        if self.goal_distance(self._goal) >= MIN_GOAL_DISTANCE:
             normalized = max(1.0 - free / idle, REWARD_FLOOR)
         else:  # only with reward="free-energy": the normalized reward refuses such goals
             normalized = math.nan
@@ -356,21 +356,27 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
         """
         return self.base.idle_goal_error()
 
-    def _goal_distance(self, goal: np.ndarray) -> float:
-        return float(np.linalg.norm(np.asarray(goal, float) - self.base._box_start()))
+    def goal_distance(self, goal: Any) -> float:
+        """How far ``goal`` (x, y, z in m, checked like the env's goals) is from the box's start.
+
+        The normalized reward needs at least :data:`MIN_GOAL_DISTANCE`; ``reward="free-energy"``
+        takes any goal in the workspace.
+        """
+        checked = self.base.check_goal(goal, "goal")
+        return float(np.linalg.norm(checked - self.base.box_start()))
 
     def _nearest_goal(self) -> np.ndarray:
         """The point of ``goal_range`` nearest the box's starting position."""
         low, high = self.goal_range
-        return np.asarray(np.clip(self.base._box_start(), low, high), dtype=float)
+        return np.asarray(np.clip(self.base.box_start(), low, high), dtype=float)
 
     def _check_goal_distance(self, goal: np.ndarray, name: str) -> None:
-        distance = self._goal_distance(goal)
+        distance = self.goal_distance(goal)
         if distance < MIN_GOAL_DISTANCE:
             where = "reaches" if name == "goal_range" else "is"
             raise ValueError(
                 f"{name} {where} {distance:.3g} m from the box's starting position "
-                f"{self.base._box_start().round(4).tolist()}; reward='normalized' needs goals at "
+                f"{self.base.box_start().round(4).tolist()}; reward='normalized' needs goals at "
                 f"least MIN_GOAL_DISTANCE = {MIN_GOAL_DISTANCE:g} m from the box (F_idle, its "
                 "scale, is 0 there); use reward='free-energy' for goals closer to it"
             )
@@ -379,6 +385,8 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
         return np.array([*self._goal, self._mass], dtype=np.float32)
 
     def _check_goal_range(self, goal_range: Any) -> tuple[np.ndarray, np.ndarray]:
+        if isinstance(goal_range, np.ndarray) and goal_range.shape == (2, 3):
+            goal_range = tuple(goal_range)  # (low, high) rows, as mass_range takes arrays
         if not isinstance(goal_range, Sequence) or len(goal_range) != 2:
             raise TypeError(
                 f"goal_range must be (low, high), two (x, y, z) points in m, got {goal_range!r}"

@@ -95,8 +95,11 @@ def add_scene_argument(parser: argparse.ArgumentParser, what: str) -> None:
     )
 
 
-def add_task_arguments(parser: argparse.ArgumentParser) -> None:
+def add_task_arguments(parser: argparse.ArgumentParser, *, section_default: str = "") -> None:
     """Add the task options (goal, p^X, box mass, estimator, objective) to a parser.
+
+    ``section_default`` replaces the words after "default:" in ``--section-shape``'s help, for
+    a command whose default depends on other options.
 
     Their defaults are :class:`TaskSettings`'; every command that evaluates designs takes the
     same options with the same meaning.
@@ -146,8 +149,7 @@ def add_task_arguments(parser: argparse.ArgumentParser) -> None:
         choices=SECTION_SHAPES,
         default=DEFAULT_SECTION_SHAPE,
         help="the tool's section: round (far less chaotic contact, see docs/model.md), or the "
-        f"paper's square (default: {DEFAULT_SECTION_SHAPE}; with design --policy, the one the "
-        "policy was trained with)",
+        f"paper's square (default: {section_default or DEFAULT_SECTION_SHAPE})",
     )
     parser.add_argument(
         "--scene-samples",

@@ -99,7 +99,12 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         help="Dask scheduler address, e.g. tcp://host:8786 (with --executor dask)",
     )
     add_max_retries_argument(parser, cast("int", defaults["max_retries"].default))
-    add_task_arguments(parser)
+    add_task_arguments(
+        parser,
+        section_default=(
+            f"{DEFAULT_SECTION_SHAPE}; with --policy, the one the policy was trained with"
+        ),
+    )
     # With --policy the tool's section is the policy's unless given: None tells the two apart
     # (_tool_and_arm falls back to DEFAULT_SECTION_SHAPE without a policy).
     parser.set_defaults(section_shape=None)

@@ -16,7 +16,8 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
             "Rebuild every report of a run folder (convergence, summary, pairwise tests and the "
             "suite's own figures and tables) from its stored results alone; nothing is "
             "simulated. A report.html in the run folder (tooldesign html) is rebuilt too, so it "
-            "shows the new figures. See docs/benchmarks.md."
+            "shows the new figures (not with --out, whose figures it does not embed). See "
+            "docs/benchmarks.md."
         ),
     )
     parser.add_argument("run_folder", type=Path, metavar="RUN_FOLDER", help="the run folder")
@@ -35,7 +36,7 @@ def _run(args: argparse.Namespace) -> int:
     folder = files[0].parent if files else args.run_folder
     print(f"{len(files)} report files written to {folder}")
     page = Path(args.run_folder) / REPORT_FILE
-    if page.is_file():
+    if page.is_file() and args.out is None:
         # It embeds the figures just replaced: left as it was, it would show the old ones.
         print(f"{write_html_report(args.run_folder)} rebuilt")
     return 0

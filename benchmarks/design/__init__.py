@@ -12,8 +12,9 @@ The figures of a run are drawn from its stored files by :mod:`benchmarks.reports
 
 from __future__ import annotations
 
-import importlib
 from typing import TYPE_CHECKING, Any
+
+from tooldesign_env.lazy import lazy_attribute
 
 if TYPE_CHECKING:
     from benchmarks.design.config import DESIGN_SUITE, DesignConfig
@@ -45,12 +46,7 @@ __all__ = [
 
 
 def __getattr__(name: str) -> Any:
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'benchmarks.design' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value  # the next lookup is an ordinary attribute
-    return value
+    return lazy_attribute(__name__, _LAZY, name)
 
 
 def __dir__() -> list[str]:

@@ -199,11 +199,14 @@ def run_design(
             bar.close()
         evaluations = store.read(verify=False)  # written or verified by this session
         result = _finish(config, out, store, evaluations, executor)
-    manifest = session.finish(evaluations)
-    card = _card(config, result, evaluations, manifest)
-    atomic_write_text(out / DESIGN_RUN_FILES["card"], json_text(card))
-    if video and result.status == "ok":
-        _video(config, result.coefficients, out / DESIGN_RUN_FILES["video"])
+    manifest = session.finish(evaluations, keep_lock=True)  # the card and the GIF come after
+    try:
+        card = _card(config, result, evaluations, manifest)
+        atomic_write_text(out / DESIGN_RUN_FILES["card"], json_text(card))
+        if video and result.status == "ok":
+            _video(config, result.coefficients, out / DESIGN_RUN_FILES["video"])
+    finally:
+        session.release()
     return dataclasses.replace(result, card=card)
 
 

@@ -15,11 +15,25 @@ import argparse
 from tooldesign_env.rl import ToolDesignRLEnv
 
 
+def _count(text: str) -> int:
+    value = int(text)
+    if not 1 <= value <= 100_000:
+        raise argparse.ArgumentTypeError(f"must be an int from 1 to 100000, got {text}")
+    return value
+
+
+def _seed(text: str) -> int:
+    value = int(text)
+    if not 0 <= value < 2**32:
+        raise argparse.ArgumentTypeError(f"must be an int from 0 to 2**32 - 1, got {text}")
+    return value
+
+
 def main() -> None:
     """Run the episodes and print the rewards."""
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--episodes", type=int, default=40)
-    parser.add_argument("--seed", type=int, default=0)
+    parser = argparse.ArgumentParser(description=(__doc__ or "").split("\n")[0])
+    parser.add_argument("--episodes", type=_count, default=40, help="episodes (default: 40)")
+    parser.add_argument("--seed", type=_seed, default=0, help="the actions' seed (default: 0)")
     args = parser.parse_args()
     env = ToolDesignRLEnv(randomize_goal=True)
     env.action_space.seed(args.seed)
@@ -30,8 +44,9 @@ def main() -> None:
         _, reward, *_, info = env.step(env.action_space.sample())
         (usable if info["valid"] else unusable).append(reward)
     env.close()
+    spread = f"rewards {min(usable):.2f} to {max(usable):.2f}" if usable else "no rewards"
     print(
-        f"{len(usable)} usable designs, rewards {min(usable):.2f} to {max(usable):.2f}; "
+        f"{len(usable)} usable designs, {spread}; "
         f"{len(unusable)} unusable, rewards {[round(r, 2) for r in unusable]}"
     )
 

@@ -120,10 +120,14 @@ class EpisodeLog(gym.Wrapper[np.ndarray, np.ndarray, np.ndarray, np.ndarray]):
 def make_env(
     *, goal: Sequence[float] | None = None, randomize_goal: bool = False, **kwargs: Any
 ) -> ToolDesignRLEnv:
-    """A ``ToolDesignRL-v0`` env at a fixed ``goal`` (the default goal if None) or random goals."""
+    """A ``ToolDesignRL-v0`` env at a fixed ``goal`` (the default goal if None) or random goals.
+
+    The reward is the normalized one unless ``reward=`` says otherwise.
+    """
     if goal is not None:
         kwargs["goal"] = tuple(goal)
-    return ToolDesignRLEnv(randomize_goal=randomize_goal, reward="normalized", **kwargs)
+    kwargs.setdefault("reward", "normalized")
+    return ToolDesignRLEnv(randomize_goal=randomize_goal, **kwargs)
 
 
 #: Most episodes of one run: each is a simulation (about 0.3 s) and a kept record, so 10^5 is

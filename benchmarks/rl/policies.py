@@ -26,6 +26,7 @@ import numpy as np
 from benchmarks.rl.agents import ContextualPolicy, EpisodeLog, make_env
 from benchmarks.rl.configs import MethodConfig
 from benchmarks.storage import atomic_write_bytes, atomic_write_text, json_text
+from tooldesign_env.rl import MIN_GOAL_DISTANCE
 from tooldesign_env.schema import DEFAULT_BOX_MASS
 
 __all__ = [
@@ -272,13 +273,19 @@ def _check_settings(card: dict[str, Any], card_path: Path) -> None:
     if "mass_range" in card:
         value = card["mass_range"]
         pair = [[v] for v in value] if isinstance(value, list) else value
-        _check_pairs(pair, card_path, "mass_range", "[low, high] in kg")
+        _check_pairs(pair, card_path, "mass_range", "[low, high] in kg", shown=value)
         if value[0] <= 0:
             raise ValueError(f"{card_path}: 'mass_range' must be > 0 kg, got {value!r}")
 
 
-def _check_pairs(value: Any, card_path: Path, name: str, what: str) -> None:
-    """``value`` must be [low, high], two equally long lists of finite numbers, low <= high."""
+def _check_pairs(
+    value: Any, card_path: Path, name: str, what: str, *, shown: Any = None
+) -> None:
+    """``value`` must be [low, high], two equally long lists of finite numbers, low <= high.
+
+    ``shown``: what the card holds, for the message, if ``value`` was reshaped from it.
+    """
+    shown = value if shown is None else shown
     if (
         not isinstance(value, list)
         or len(value) != 2
@@ -286,13 +293,13 @@ def _check_pairs(value: Any, card_path: Path, name: str, what: str) -> None:
         or len(value[0]) != len(value[1])
         or any(isinstance(v, bool) or not isinstance(v, (int, float)) for c in value for v in c)
     ):
-        raise TypeError(f"{card_path}: '{name}' must be {what}, got {value!r}")
+        raise TypeError(f"{card_path}: '{name}' must be {what}, got {shown!r}")
     low, high = value
     if not all(math.isfinite(v) for v in (*low, *high)) or any(
         lo > hi for lo, hi in zip(low, high, strict=True)
     ):
         raise ValueError(
-            f"{card_path}: '{name}' must be {what}, finite with low <= high, got {value!r}"
+            f"{card_path}: '{name}' must be {what}, finite with low <= high, got {shown!r}"
         )
 
 
@@ -385,6 +392,8 @@ def design_for_goal(
 
     The tool is simulated with the section and arm the policy was trained with (the card's
     ``section_shape`` and ``merge_fixed_links``; the committed cards: square, 13 links). A goal
+    closer than :data:`~tooldesign_env.rl.MIN_GOAL_DISTANCE` to the box's start is designed and
+    scored by F alone: its ``normalized_reward`` is NaN (the reward has no scale there). A goal
     or mass outside the card's ``goal_range`` / ``mass_range`` warns (``UserWarning``); a card
     without them (those written before the fields) never warns.
 
@@ -399,6 +408,12 @@ def design_for_goal(
         raise TypeError(f"simulate must be True or False, got {simulate!r}")
     policy, card = load_policy(policy_path)
     env = make_env(**policy_env_kwargs(card))
+    # The normalized reward has no scale at the box's start; the design needs none: a goal that
+    # near is designed and scored by F alone (normalized_reward NaN), as an optimizer would.
+    near = env.goal_distance(goal) < MIN_GOAL_DISTANCE
+    if near:
+        env.close()
+        env = make_env(**policy_env_kwargs(card), reward="free-energy")
     logged = EpisodeLog(env)
     try:
         obs, info = logged.reset(options={"goal": goal, "box_mass": box_mass})
@@ -423,7 +438,7 @@ def design_for_goal(
             result = dataclasses.replace(
                 result,
                 free_energy=record.free_energy,
-                normalized_reward=record.reward,
+                normalized_reward=nan if near else record.reward,
                 final_distance=record.final_distance,
                 valid=record.valid,
             )

@@ -20,7 +20,7 @@ documented in ``docs/results-format.md``.
 
 from __future__ import annotations
 
-from benchmarks.storage.atomic import atomic_write_bytes, atomic_write_text
+from benchmarks.storage.atomic import atomic_write_bytes, atomic_write_text, check_file_target
 from benchmarks.storage.designs import (
     DESIGN_RUN_FILES,
     DESIGN_VERSION,
@@ -66,6 +66,7 @@ from benchmarks.storage.table import (
     Format,
     ResultStore,
     Unit,
+    csv_text,
     part_checksums,
     resolve_format,
     status_counts,
@@ -97,6 +98,8 @@ __all__ = [
     "Unit",
     "atomic_write_bytes",
     "atomic_write_text",
+    "check_file_target",
+    "csv_text",
     "build_manifest",
     "check_out_dir",
     "with_added_fields",

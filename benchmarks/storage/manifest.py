@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from benchmarks.storage.atomic import atomic_write_text
+from benchmarks.storage.lock import holding
 
 MANIFEST_NAME = "manifest.json"
 
@@ -163,17 +164,8 @@ def platform_id() -> str:
     one key are reproduced bit for bit only under the same key (the tests' fixtures,
     ``readme.json``).
     """
-    model, flags = "unknown CPU", set[str]()
-    try:
-        with open("/proc/cpuinfo", encoding="utf-8") as f:
-            for line in f:
-                key, _, value = line.partition(":")
-                if key.strip() == "model name" and model == "unknown CPU":
-                    model = value.strip()
-                elif key.strip() == "flags" and not flags:
-                    flags = set(value.split())
-    except OSError:
-        pass
+    model, flags = _cpuinfo()
+    model = model or "unknown CPU"
     features = ",".join(f for f in ("fma", "avx2", "avx512f") if f in flags)
     return (
         f"{platform.machine()} {model} [{features}] numpy {np.__version__} "
@@ -181,17 +173,26 @@ def platform_id() -> str:
     )
 
 
-def _cpu_model() -> str:
-    """The CPU's model name (Linux's /proc/cpuinfo), else what the platform module says."""
+def _cpuinfo() -> tuple[str | None, set[str]]:
+    """The first CPU's model name and feature flags from Linux's /proc/cpuinfo (None, {} else)."""
+    model: str | None = None
+    flags: set[str] = set()
     try:
         with open("/proc/cpuinfo", encoding="utf-8") as f:
             for line in f:
                 key, _, value = line.partition(":")
-                if key.strip() == "model name":
-                    return value.strip()
+                if key.strip() == "model name" and model is None:
+                    model = value.strip()
+                elif key.strip() == "flags" and not flags:
+                    flags = set(value.split())
     except OSError:
         pass
-    return platform.processor() or "unknown"
+    return model, flags
+
+
+def _cpu_model() -> str:
+    """The CPU's model name (Linux's /proc/cpuinfo), else what the platform module says."""
+    return _cpuinfo()[0] or platform.processor() or "unknown"
 
 
 def build_manifest(
@@ -436,19 +437,22 @@ def update_file_checksums(
 
     Raises:
         FileNotFoundError: If there is no manifest.
-        ValueError: If it cannot be read or its checksums are malformed.
+        ValueError: If it cannot be read or its checksums are malformed, or a session of another
+            process is writing the folder (its manifest would overwrite the change).
     """
-    manifest = read_manifest(run_folder)
-    where = Path(run_folder) / MANIFEST_NAME
-    recorded = recorded_checksums(manifest, FILE_CHECKSUMS, where) or {}
-    for relative, digest in changes.items():
-        if digest is None:
-            recorded.pop(relative, None)
-        else:
-            recorded[relative] = digest
-    checksums = dict(sorted(recorded.items()))
-    manifest["extra"] = {**manifest.get("extra", {}), FILE_CHECKSUMS: checksums}
-    write_manifest(run_folder, manifest)
+    # A session of another process rewrites the manifest from its own view: wait for it to end.
+    with holding(run_folder):
+        manifest = read_manifest(run_folder)
+        where = Path(run_folder) / MANIFEST_NAME
+        recorded = recorded_checksums(manifest, FILE_CHECKSUMS, where) or {}
+        for relative, digest in changes.items():
+            if digest is None:
+                recorded.pop(relative, None)
+            else:
+                recorded[relative] = digest
+        checksums = dict(sorted(recorded.items()))
+        manifest["extra"] = {**manifest.get("extra", {}), FILE_CHECKSUMS: checksums}
+        write_manifest(run_folder, manifest)
 
 
 def write_manifest(run_folder: str | os.PathLike[str], manifest: Mapping[str, Any]) -> Path:

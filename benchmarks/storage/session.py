@@ -55,6 +55,7 @@ from typing import Any
 import pandas as pd
 
 from benchmarks.storage.atomic import atomic_write_text
+from benchmarks.storage.lock import FolderLock
 from benchmarks.storage.manifest import (
     FILE_CHECKSUMS,
     MANIFEST_NAME,
@@ -240,7 +241,7 @@ class RunSession:
         self._closed = False
         # One session at a time per folder: a second one would redo the work and then fail on
         # the first one's parts. Taken now if the folder exists, else when it is first written.
-        self._lock = _FolderLock(self.out)
+        self._lock = FolderLock(self.out)
         self._lock.acquire_if_present()
         try:
             self._own = frozenset(Path(f).resolve() for f in own_files)
@@ -516,7 +517,8 @@ class RunSession:
     def checkpoint(self) -> None:
         """Rewrite the manifest: times so far, checksums, ``extra``; start the heartbeat."""
         self.store.write_manifest(self.manifest())
-        self._lock.acquire_if_present()
+        if not self._closed:  # a closed session (stopped on an error) leaves the folder free
+            self._lock.acquire_if_present()
         if self._heartbeat is None and not self._closed:
             self._heartbeat = _Heartbeat(
                 self.out / HEARTBEAT,
@@ -526,13 +528,16 @@ class RunSession:
             )
             self._heartbeat.start()
 
-    def finish(self, evaluations: pd.DataFrame | None) -> dict[str, Any]:
+    def finish(
+        self, evaluations: pd.DataFrame | None, *, keep_lock: bool = False
+    ) -> dict[str, Any]:
         """Write the final manifest (end time, summed times) and delete the heartbeat.
 
         The consolidated evaluation table, if the caller wrote one, is recorded in
-        ``file_sha256``.
+        ``file_sha256``. With ``keep_lock`` the folder stays locked against other processes
+        until :meth:`release` (a caller that writes more files after the manifest).
         """
-        self.close()
+        self.close(keep_lock=keep_lock)
         consolidated = self.store.consolidated_path()
         if consolidated is not None:
             self.record_file(consolidated)
@@ -541,86 +546,23 @@ class RunSession:
         (self.out / HEARTBEAT).unlink(missing_ok=True)
         return manifest
 
-    def close(self) -> None:
+    def close(self, *, keep_lock: bool = False) -> None:
         """Stop the heartbeat for good; its file stays, as after a kill.
 
         :meth:`finish` calls this. A caller whose run stops on an error calls it too, so that no
-        thread keeps writing into the folder; the next session then counts this one's time.
+        thread keeps writing into the folder; the next session then counts this one's time. The
+        folder's lock is released too, unless ``keep_lock`` (then :meth:`release` does it).
         """
         self._closed = True
         if self._heartbeat is not None:
             self._heartbeat.stop()
             self._heartbeat = None
-        self._lock.release()
-
-
-#: The folders this process holds the lock of: {resolved folder: (descriptor, owner)}.
-_HELD: dict[Path, tuple[int, object]] = {}
-_HELD_GUARD = threading.Lock()
-
-
-class _FolderLock:
-    """An advisory lock on a run folder, held by the session writing it (``flock``).
-
-    The kernel releases it when the process ends, also on SIGKILL, so a killed run never leaves
-    a stale lock. Within one process a new session takes the folder over from one that was left
-    unclosed (a caller that stopped on an error, or a test that simulates a kill): the lock is
-    against other processes. Where ``fcntl`` is missing (Windows) or the file system refuses
-    locks (some network file systems), nothing is locked: the folder's checksums still refuse a
-    folder that two sessions mixed up, later.
-    """
-
-    def __init__(self, folder: Path) -> None:
-        self._folder = folder
-        self._key: Path | None = None
-
-    def acquire_if_present(self) -> None:
-        """Lock the folder if it exists and this session does not hold it yet.
-
-        Raises:
-            ValueError: A session of another process holds the lock.
-        """
-        if self._key is not None or not self._folder.is_dir():
-            return
-        try:
-            import fcntl
-        except ImportError:  # pragma: no cover - Windows
-            return
-        key = self._folder.resolve()
-        with _HELD_GUARD:
-            held = _HELD.get(key)
-            if held is not None:
-                _HELD[key] = (held[0], self)
-                self._key = key
-                return
-            try:
-                fd = os.open(key, os.O_RDONLY)
-            except OSError:
-                return
-            try:
-                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            except BlockingIOError:
-                os.close(fd)
-                raise ValueError(
-                    f"another process is writing {self._folder} (a run in progress); wait for "
-                    "it to end, or choose another output folder"
-                ) from None
-            except OSError:  # the file system does not lock
-                os.close(fd)
-                return
-            _HELD[key] = (fd, self)
-            self._key = key
+        if not keep_lock:
+            self.release()
 
     def release(self) -> None:
-        """Unlock, unless another session of this process has taken the folder over."""
-        if self._key is None:
-            return
-        with _HELD_GUARD:
-            held = _HELD.get(self._key)
-            if held is not None and held[1] is self:
-                os.close(held[0])  # closing the descriptor releases the flock
-                del _HELD[self._key]
-        self._key = None
+        """Unlock the folder for other processes (:meth:`close` does it unless told not to)."""
+        self._lock.release()
 
 
 class _Heartbeat(threading.Thread):

@@ -46,6 +46,7 @@ from benchmarks.storage import (
     retest_path,
     write_retest,
 )
+from benchmarks.storage.lock import holding
 from benchmarks.suites.config import suite_of_manifest
 from tooldesign_env.schema import METRICS
 
@@ -243,9 +244,12 @@ def retest_suite(
     Raises:
         FileNotFoundError: If the folder has no manifest.
         ValueError: If it is not a suite run folder, or has no finished design, or a design or
-            retest file is malformed or differs from its recorded checksum.
+            retest file is malformed or differs from its recorded checksum, or another process
+            is still writing the folder (retest it when its run has ended).
     """
     folder = Path(run_folder)
+    with holding(folder):  # a run still writing the folder would overwrite the checksums
+        pass
     suite = suite_of_manifest(read_manifest(folder))
     config = config or default_config(suite)
     settings = json.loads(json_text(config.to_json()))  # as stored: tuples become lists
