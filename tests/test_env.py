@@ -464,3 +464,48 @@ def test_masked_values_and_boolean_seeds_are_refused(env):
     with pytest.raises(TypeError, match="seed must be an int"):
         rl.reset(seed=np.bool_(True))
     rl.close()
+
+
+@pytest.mark.parametrize("env_id", ["ToolDesign-v0", "ToolDesignRL-v0"])
+def test_a_refused_reset_leaves_a_made_env_usable(env_id):
+    """Gymnasium's passive checker broke the env for good after one refused reset."""
+    import gymnasium as gym
+
+    env = gym.make(env_id)
+    try:
+        with pytest.raises(ValueError, match="box_mass"):
+            env.reset(options={"box_mass": -1.0})
+        env.reset(seed=0)
+        _, reward, terminated, _, _ = env.step(np.zeros(3, np.float32))
+        assert np.isfinite(reward) and terminated
+    finally:
+        env.close()
+
+
+@pytest.mark.parametrize("name", ["tool", "scene", "plan", "controller", "objective"])
+@pytest.mark.parametrize("value", [3, "x", {"box_mass": 1}])
+def test_a_spec_argument_of_another_type_is_refused_by_name(name, value):
+    with pytest.raises(TypeError, match=rf"^{name} must be a \w+Spec"):
+        ToolDesignEnv(**{name: value})
+
+
+@pytest.mark.parametrize(
+    ("masses", "error"),
+    [
+        (0.5, TypeError),  # a scalar
+        ("0.5", TypeError),
+        ((True,), TypeError),  # simulated as 1 kg before
+        ((0.5, None), TypeError),
+        ((), ValueError),
+        ((1e6,), ValueError),  # above BOX_MASS_MAX, as every box mass
+        ((0.5, float("nan")), ValueError),
+    ],
+)
+def test_robustness_masses_are_checked_like_every_box_mass(masses, error):
+    env = ToolDesignEnv()
+    try:
+        env.reset(seed=0)
+        with pytest.raises(error, match="masses must be a non-empty sequence of finite masses"):
+            env.evaluate_robustness([0.0, 0.0, 0.0], masses=masses)
+    finally:
+        env.close()

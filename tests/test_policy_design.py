@@ -102,7 +102,7 @@ def test_designer_options_are_refused_with_a_policy(
         _design(card, tmp_path / "run", *extra)
     assert excinfo.value.code == 2
     err = capsys.readouterr().err
-    assert named in err and "do not apply" in err and "Traceback" not in err
+    assert named in err and "does not apply" in err and "Traceback" not in err
     assert not (tmp_path / "run").exists()
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import warnings
 
 import gymnasium as gym
@@ -371,3 +372,33 @@ def test_a_goal_range_given_as_an_array_is_taken_like_a_pair_of_points():
     finally:
         as_tuple.close()
         as_array.close()
+
+
+def test_free_energy_reward_at_zero_precision_steps_and_has_no_normalized_reward():
+    """The normalized reward's error recommends this setting: it must work (it divided by 0)."""
+    e = ToolDesignRLEnv(goal_precision=0.0, reward="free-energy")
+    try:
+        e.reset(seed=0)
+        _, reward, _, _, info = e.step(np.zeros(3, np.float32))
+        assert math.isfinite(reward) and reward == -info["free_energy"]
+        assert math.isnan(info["normalized_reward"]) and info["idle_free_energy"] == 0.0
+    finally:
+        e.close()
+
+
+@pytest.mark.parametrize("precision", [1e-3, 1e-12])
+def test_the_normalized_reward_stays_within_its_bounds_at_small_precision(precision):
+    e = ToolDesignRLEnv(goal_precision=precision)
+    try:
+        e.reset(seed=0)
+        _, reward, _, _, info = e.step(np.zeros(3, np.float32))
+        assert -1.0 <= reward <= 1.0
+        if info["free_energy"] <= 0:
+            assert reward == 1.0
+    finally:
+        e.close()
+
+
+def test_the_base_envs_name_for_full_info_is_pointed_to():
+    with pytest.raises(TypeError, match="full_info=True"):
+        ToolDesignRLEnv(info_series=True)

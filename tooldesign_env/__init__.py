@@ -121,10 +121,16 @@ def register_envs() -> None:
             # No max_episode_steps: the env terminates after its one step by itself, and a
             # TimeLimit would also flag that step as truncated.
             entry_point="tooldesign_env.env:ToolDesignEnv",
+            # Gymnasium's passive checker breaks an env for good after one refused reset (it
+            # marks reset as checked before the reset raises); the envs check their own input,
+            # and tests/test_env.py runs Gymnasium's full check_env on them.
+            disable_env_checker=True,
         )
     if RL_ENV_ID not in registry:
         # Imported lazily by Gymnasium: importing the package stays as cheap as before.
-        register(id=RL_ENV_ID, entry_point="tooldesign_env.rl:ToolDesignRLEnv")
+        register(
+            id=RL_ENV_ID, entry_point="tooldesign_env.rl:ToolDesignRLEnv", disable_env_checker=True
+        )
 
 
 register_envs()

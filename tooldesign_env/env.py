@@ -242,6 +242,18 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
                     "render_mode='human' opens a PyBullet window and needs a display, but "
                     "DISPLAY is not set; use render_mode='rgb_array' on a headless machine"
                 )
+        for name, value, kind in (
+            ("tool", tool, ToolSpec),
+            ("scene", scene, SceneSpec),
+            ("plan", plan, PlanSpec),
+            ("controller", controller, ControllerSpec),
+            ("objective", objective, ObjectiveSpec),
+        ):
+            if value is not None and not isinstance(value, kind):
+                raise TypeError(
+                    f"{name} must be a {kind.__name__} (or None for the default), got "
+                    f"{type(value).__name__} {value!r}; e.g. {name}={kind.__name__}(...)"
+                )
         self.tool_spec = tool or ToolSpec()
         scene = scene or SceneSpec()
         if box_mass is not None:

@@ -26,6 +26,7 @@ from tooldesign_env.specs import BOX_MASS_MAX, TaskSpec
 
 __all__ = [
     "MIN_GOAL_DISTANCE",
+    "REWARD_CEILING",
     "REWARD_FLOOR",
     "RL_ENV_ID",
     "ToolDesignRLEnv",
@@ -39,6 +40,10 @@ RL_ENV_ID = "ToolDesignRL-v0"
 #: box more than twice as far off as not touching it (the straight tool at the paper's corner
 #: (0.5, 0.5, 0.1); 20 of the 75,457 usable episodes of the committed rl suite, docs/rl.md).
 REWARD_FLOOR = -1.0
+
+#: Highest normalized reward: a design with F <= 0 (the confidence term outweighs the goal error,
+#: possible only at small p^X) gets it. No episode of the committed rl suite came near it.
+REWARD_CEILING = 1.0
 
 #: Closest a goal may be to the box's starting position (m) under ``reward="normalized"``: the
 #: box's own width. F_idle grows with the squared distance, so at the start it is 0 and
@@ -110,20 +115,22 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
 
     ## Rewards
 
-    With ``reward="normalized"`` (the default) the reward is ``1 - F / F_idle``, clipped below at
-    ``REWARD_FLOOR`` = -1, where F_idle = T * 1/2 p^X |X_start - X^g|^2 is the free energy of
-    leaving the box where it is for the T control steps of the episode, at this goal. 0 means
-    "no better than not touching the box", 1 means "goal error and confidence cancel", and the
-    scale is the same at every goal. Every design with F >= 2 F_idle is at the floor: every
-    unusable design (F = F_idle + 1e5), and a usable one that does more than twice as badly
-    as leaving the box where it is (the straight tool at the paper's corner (0.5, 0.5, 0.1)
-    does; 20 of the 75,457 usable episodes of the committed rl suite did). The reward is thus
-    in [-1, 1] for every goal the env takes: with ``reward="normalized"`` a goal (or a
-    ``goal_range``) closer than ``MIN_GOAL_DISTANCE`` = 0.1 m to the box's starting position
-    is refused (``ValueError``), since F_idle is 0 there.
-    ``reward="free-energy"`` gives -F as ``ToolDesign-v0`` does, at any goal (``info``'s
-    ``normalized_reward`` is then NaN closer than 0.1 m). ``info`` holds ``free_energy``,
-    ``idle_free_energy``, ``normalized_reward`` and the base env's scalar terms
+    With ``reward="normalized"`` (the default) the reward is ``1 - F / F_idle``, clipped to
+    [``REWARD_FLOOR``, ``REWARD_CEILING``] = [-1, 1], where F_idle = T * 1/2 p^X |X_start -
+    X^g|^2 is the free energy of leaving the box where it is for the T control steps of the
+    episode, at this goal. 0 means "no better than not touching the box", 1 means "goal error
+    and confidence cancel", and the scale is the same at every goal. Every design with F >= 2
+    F_idle is at the floor: every unusable design (F = F_idle + 1e5), and a usable one that does
+    more than twice as badly as leaving the box where it is (the straight tool at the paper's
+    corner (0.5, 0.5, 0.1) does; 20 of the 75,457 usable episodes of the committed rl suite
+    did). The reward is thus in [-1, 1] for every goal the env takes: with
+    ``reward="normalized"`` a goal (or a ``goal_range``) closer than ``MIN_GOAL_DISTANCE`` = 0.1
+    m to the box's starting position is refused (``ValueError``), since F_idle is 0 there. At
+    the top, a design with F <= 0 gets 1: the confidence term outweighs the goal error, which
+    happens only at small p^X (with p^X = 1e-3 F_idle is a few units). ``reward="free-energy"``
+    gives -F as ``ToolDesign-v0`` does, at any goal and any p^X (``info``'s
+    ``normalized_reward`` is then NaN closer than 0.1 m, and at p^X = 0). ``info`` holds
+    ``free_energy``, ``idle_free_energy``, ``normalized_reward`` and the base env's scalar terms
     (``goal_error``, ``confidence``, ``penalty``, ``final_distance``, ``valid``, ...), and with
     ``full_info=True`` also its per-step arrays.
 
@@ -183,6 +190,11 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
             )
         if reward not in ("normalized", "free-energy"):
             raise ValueError(f"reward must be 'normalized' or 'free-energy', got {reward!r}")
+        if "info_series" in base_kwargs:
+            raise TypeError(
+                "ToolDesignRL-v0 takes full_info=True for the base env's per-step series in "
+                "info (info_series is ToolDesign-v0's name for it)"
+            )
         for name, flag in (("randomize_goal", randomize_goal), ("full_info", full_info)):
             if not isinstance(flag, (bool, np.bool_)):
                 raise TypeError(f"{name} must be True or False, got {flag!r}")
@@ -291,9 +303,9 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
         self.last_info = base_info
         free = float(base_info["free_energy"])
         idle = self.idle_free_energy()
-        if self.goal_distance(self._goal) >= MIN_GOAL_DISTANCE:
-            normalized = max(1.0 - free / idle, REWARD_FLOOR)
-        else:  # only with reward="free-energy": the normalized reward refuses such goals
+        if idle > 0.0 and self.goal_distance(self._goal) >= MIN_GOAL_DISTANCE:
+            normalized = min(max(1.0 - free / idle, REWARD_FLOOR), REWARD_CEILING)
+        else:  # only with reward="free-energy" (p^X = 0, or a goal at the box): no scale
             normalized = math.nan
         if self.full_info:
             info = dict(base_info)

@@ -16,12 +16,14 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from numbers import Real
 
 import numpy as np
 
 from tooldesign_env.geometry import ToolGeometry
 from tooldesign_env.schema import ROBUSTNESS_MASSES
 from tooldesign_env.simulation import ToolSimulator, Trajectory
+from tooldesign_env.specs import BOX_MASS_MAX
 
 __all__ = ["DEFAULT_MASSES", "RobustnessResult", "evaluate_robustness", "robustness_metrics"]
 
@@ -83,17 +85,24 @@ def evaluate_robustness(
         simulator: the world to use (its scene's box mass is the default nominal mass).
         geometry: the tool.
         goal: X^g (3,), m.
-        masses: the altered masses m_i, kg; each finite and > 0.
+        masses: the altered masses m_i, kg; each finite, > 0 and at most ``BOX_MASS_MAX``
+            (1000 kg), as every box mass.
         nominal_mass: m, kg; the scene's box mass if None.
 
     Raises:
+        TypeError: masses that are not a sequence of real numbers (a scalar, bools).
         ValueError: bad masses, or a design that is not a usable tool (as ``env.step`` reports
             it invalid): one that cannot be built, or that overlaps the box where the sweep
             starts. Its numbers would describe a tool that cannot exist.
     """
+    allowed = f"a non-empty sequence of finite masses > 0 and <= {BOX_MASS_MAX:g} kg"
+    if isinstance(masses, (str, bytes)) or not isinstance(masses, Sequence | np.ndarray):
+        raise TypeError(f"masses must be {allowed}, got {masses!r}")
+    if any(isinstance(m, (bool, np.bool_)) or not isinstance(m, Real) for m in masses):
+        raise TypeError(f"masses must be {allowed}, got {list(masses)!r}")
     masses = tuple(float(m) for m in masses)
-    if not masses or not all(math.isfinite(m) and m > 0 for m in masses):
-        raise ValueError(f"masses must be a non-empty list of finite masses > 0 kg, got {masses}")
+    if not masses or not all(math.isfinite(m) and 0 < m <= BOX_MASS_MAX for m in masses):
+        raise ValueError(f"masses must be {allowed}, got {masses}")
     m0 = simulator.scene.box_mass if nominal_mass is None else float(nominal_mass)
     if not geometry.buildable:
         raise ValueError(

@@ -163,7 +163,8 @@ def _designer(args: argparse.Namespace) -> dict[str, Any]:
     given = [flag for key, flag in _DESIGNER_FLAGS.items() if getattr(args, key) not in (None, [])]
     if given:
         raise ValueError(
-            f"--policy designs one tool with the saved policy: {', '.join(given)} do not apply"
+            f"--policy designs one tool with the saved policy: "
+            f"{', '.join(given)} {'does' if len(given) == 1 else 'do'} not apply"
         )
     # The task is checked before the designer's settings hold its goal and mass: a NaN there
     # is refused as "goal must be finite", as without --policy, not as a bad JSON value.
