@@ -495,3 +495,25 @@ def test_nevergrad_refuses_optimizers_that_would_fail_at_the_first_ask(
         "nevergrad", bounds=BOUNDS, batch_size=4, seed=0, optimizer="Shiwa", budget=40
     )
     run(other, 3)
+
+
+@pytest.mark.parametrize("sigma0", [5.0, 1.5, 1e-7, 0.0, -0.1, float("nan"), np.float64(2.0)])
+def test_optuna_cmaes_limits_sigma0_like_cmaes_with_its_wording(sigma0: float) -> None:
+    needs("optuna")
+    needs("cmaes")
+    with pytest.raises(ValueError) as expected:
+        optimizers.make("cmaes", bounds=BOUNDS, batch_size=4, seed=0, sigma0=sigma0)
+    with pytest.raises(ValueError) as got:
+        optimizers.make("optuna-cmaes", bounds=BOUNDS, batch_size=4, seed=0, sigma0=sigma0)
+    assert str(got.value) == str(expected.value)
+    assert str(got.value).startswith("sigma0 must be in [1e-06, 1] (a fraction of the box)")
+
+
+@pytest.mark.parametrize("sigma0", [np.float32(0.3), np.float64(1.0), np.int64(1), 1e-6])
+def test_optuna_cmaes_takes_numpy_numbers_for_sigma0(sigma0: Any) -> None:
+    needs("optuna")
+    needs("cmaes")
+    optimizer = optimizers.make("optuna-cmaes", bounds=BOUNDS, batch_size=4, seed=0, sigma0=sigma0)
+    sampler = optimizer._study.sampler
+    assert type(sampler._sigma0) is float and sampler._sigma0 == float(sigma0)
+    run(optimizer, 2)
