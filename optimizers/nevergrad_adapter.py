@@ -81,8 +81,9 @@ class NevergradOptimizer(Optimizer):
         meta = ng.optimizers.registry[optimizer]
         if budget is None and isinstance(meta, type) and issubclass(meta, ng.optimizers.NGOptBase):
             raise ValueError(
-                f"optimizer {optimizer!r} is a Nevergrad meta-optimizer and needs a budget (without "
-                f"one it fails an assertion at the first ask): give budget=..., or {_ALTERNATIVES}"
+                f"optimizer {optimizer!r} is a Nevergrad meta-optimizer and needs a budget "
+                "(without one it fails an assertion at the first ask): give budget=..., or "
+                f"{_ALTERNATIVES}"
             )
         parametrization = ng.p.Array(shape=(self.n_dims,), lower=0.0, upper=1.0)
         parametrization.random_state = np.random.RandomState(int(self._rng.integers(2**32)))

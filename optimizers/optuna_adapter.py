@@ -137,8 +137,7 @@ class OptunaCMAES(_OptunaAdapter):
                 raise TypeError(f"sigma0 must be a number or None, got {sigma0!r}")
             if not (math.isfinite(sigma0) and SIGMA0_MIN <= sigma0 <= 1):
                 raise ValueError(
-                    f"sigma0 must be in [{SIGMA0_MIN:g}, 1] (a fraction of the box), "
-                    f"got {sigma0!r}"
+                    f"sigma0 must be in [{SIGMA0_MIN:g}, 1] (a fraction of the box), got {sigma0!r}"
                 )
             sigma0 = float(sigma0)
         self._sigma0 = sigma0

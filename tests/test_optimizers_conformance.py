@@ -246,7 +246,12 @@ class Locked(_Uniform):
 @pytest.mark.parametrize(
     ("cls", "check", "cause", "match"),
     [
-        (OutOfBox, testing.check_asks_inside_bounds, optimizers.PluginError, "outside the unit box"),
+        (
+            OutOfBox,
+            testing.check_asks_inside_bounds,
+            optimizers.PluginError,
+            "outside the unit box",
+        ),
         (NaNAsk, testing.check_asks_inside_bounds, optimizers.PluginError, "non-finite points"),
         (TellRaises, testing.check_asks_inside_bounds, ValueError, "TellRaises._tell raised"),
         (InitCrashes, testing.check_asks_inside_bounds, RuntimeError, "backend down"),
