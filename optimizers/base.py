@@ -579,7 +579,8 @@ class Optimizer(abc.ABC):
             TypeError: path is not a str or os.PathLike.
             ValueError: path is a folder.
             FileNotFoundError: The folder of path does not exist.
-            PluginError: The plugin's ``_backend_versions`` raised or returned no dict of str.
+            PluginError: The plugin's ``_backend_versions`` raised or returned no dict of str,
+                or the plugin cannot be pickled (it holds a lock, an open file, ...).
         """
         target = check_path(path)
         if os.path.isdir(target):
@@ -594,7 +595,7 @@ class Optimizer(abc.ABC):
             "class": f"{cls.__module__}:{cls.__qualname__}",
             "versions": self._versions(),
             # Pickled separately so that a file of an uninstalled plugin still reads its header.
-            "optimizer": pickle.dumps(self, protocol=pickle.HIGHEST_PROTOCOL),
+            "optimizer": self._pickled(),
         }
         data = pickle.dumps(payload, protocol=pickle.HIGHEST_PROTOCOL)
         fd, tmp = tempfile.mkstemp(
@@ -611,6 +612,19 @@ class Optimizer(abc.ABC):
                 os.unlink(tmp)
             raise
         return hashlib.sha256(data).hexdigest()
+
+    def _pickled(self) -> bytes:
+        """The optimizer pickled; a plugin that cannot be is a :class:`PluginError` saying why."""
+        try:
+            return pickle.dumps(self, protocol=pickle.HIGHEST_PROTOCOL)
+        except (TypeError, AttributeError, pickle.PicklingError) as error:
+            cls = type(self)
+            raise PluginError(
+                f"optimizer plugin {cls.__module__}.{cls.__qualname__} cannot be pickled "
+                f"({type(error).__name__}: {error}); give it __getstate__/__setstate__ that leave "
+                "out what cannot be pickled (a lock, an open file, a logger with a stream) and "
+                "rebuild it, as optimizers/pso.py does, so that save_state can write its state"
+            ) from error
 
     @classmethod
     def load_state(cls: type[_O], path: str | os.PathLike[str], *, sha256: str | None = None) -> _O:

@@ -9,7 +9,9 @@ The default is ``TwoPointsDE``, not ``NGOpt``: with nevergrad 1.0.12 on numpy 2,
 NGOptRW) pick for most budgets a meta-model step that raises ``TypeError`` (``float()`` of a
 1-element array), a scipy-based optimizer run in a thread that cannot be pickled, or a meta-model
 limited by a 20 s wall-clock timer (not reproducible); without a budget it fails an assertion.
-``optimizer="NGOpt"`` can still be asked for.
+So ``optimizer="NGOpt"`` and ``"NGOptRW"`` are refused with a ``ValueError``, and so is every
+other meta-optimizer of Nevergrad (a subclass of ``NGOptBase``: ``Wiz``, ``NgIoh``, ``Shiwa``,
+...) without a budget, where each fails that assertion at the first ask.
 """
 
 from __future__ import annotations
@@ -22,6 +24,10 @@ from ._imports import import_optional
 from .base import Optimizer
 
 __all__ = ["NevergradOptimizer"]
+
+#: Optimizers that fail at the first ask whatever the budget (nevergrad 1.0.12 on numpy 2).
+BROKEN = ("NGOpt", "NGOptRW")
+_ALTERNATIVES = "use 'TwoPointsDE' (the default), 'CMA', 'PSO' or 'OnePlusOne'"
 
 
 class NevergradOptimizer(Optimizer):
@@ -39,7 +45,9 @@ class NevergradOptimizer(Optimizer):
     Raises:
         DependencyNotInstalled: Nevergrad is missing (``pip install tooldesign[nevergrad]``).
         TypeError: A setting of the wrong type.
-        ValueError: An unknown optimizer name or a budget < 1.
+        ValueError: An unknown optimizer name, a budget < 1, ``"NGOpt"`` or ``"NGOptRW"``
+            (broken on numpy 2, see above), or another meta-optimizer (``NGOptBase``) without a
+            budget.
     """
 
     def __init__(
@@ -65,6 +73,18 @@ class NevergradOptimizer(Optimizer):
             if budget < 1:
                 raise ValueError(f"budget must be >= 1, got {budget}")
             budget = int(budget)
+        if optimizer in BROKEN:
+            raise ValueError(
+                f"optimizer {optimizer!r} fails on numpy 2 (its meta-model steps raise TypeError, "
+                f"run unpicklable threads or a wall-clock timer); {_ALTERNATIVES}"
+            )
+        meta = ng.optimizers.registry[optimizer]
+        if budget is None and isinstance(meta, type) and issubclass(meta, ng.optimizers.NGOptBase):
+            raise ValueError(
+                f"optimizer {optimizer!r} is a Nevergrad meta-optimizer and needs a budget "
+                "(without one it fails an assertion at the first ask): give budget=..., or "
+                f"{_ALTERNATIVES}"
+            )
         parametrization = ng.p.Array(shape=(self.n_dims,), lower=0.0, upper=1.0)
         parametrization.random_state = np.random.RandomState(int(self._rng.integers(2**32)))
         self._optimizer = ng.optimizers.registry[optimizer](

@@ -9,6 +9,7 @@ Optuna's INFO log lines are silenced during backend calls, and its level restore
 
 from __future__ import annotations
 
+import math
 import warnings
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -18,6 +19,7 @@ import numpy as np
 
 from ._imports import import_optional
 from .base import Optimizer
+from .cmaes import SIGMA0_MIN
 
 __all__ = ["OptunaCMAES", "OptunaTPE"]
 
@@ -113,12 +115,15 @@ class OptunaCMAES(_OptunaAdapter):
 
     Args:
         bounds: (d, 2) [low, high] per dimension in physical units.
-        sigma0: Initial step size in the unit box, > 0; Optuna's default if None.
+        sigma0: Initial step size in the unit box, in [1e-6, 1] like ``cmaes``'s (a fraction of
+            the box; an int, float or numpy real number); Optuna's default if None.
         **kwargs: ``batch_size``, ``seed``, ``failure_policy``, ``low``/``high`` of
             :class:`~optimizers.base.Optimizer`.
 
     Raises:
         DependencyNotInstalled: Optuna or cmaes is missing (``pip install tooldesign[optuna]``).
+        TypeError: sigma0 not a real number or None.
+        ValueError: sigma0 outside [1e-6, 1].
     """
 
     min_batch_size = 2
@@ -126,10 +131,15 @@ class OptunaCMAES(_OptunaAdapter):
 
     def __init__(self, bounds: Any = None, *, sigma0: float | None = None, **kwargs: Any) -> None:
         if sigma0 is not None:
-            if isinstance(sigma0, bool) or not isinstance(sigma0, (int, float)):
+            if isinstance(sigma0, (bool, np.bool_)) or not isinstance(
+                sigma0, (int, float, np.integer, np.floating)
+            ):
                 raise TypeError(f"sigma0 must be a number or None, got {sigma0!r}")
-            if not 0 < sigma0 < float("inf"):
-                raise ValueError(f"sigma0 must be > 0 and finite, got {sigma0!r}")
+            if not (math.isfinite(sigma0) and SIGMA0_MIN <= sigma0 <= 1):
+                raise ValueError(
+                    f"sigma0 must be in [{SIGMA0_MIN:g}, 1] (a fraction of the box), got {sigma0!r}"
+                )
+            sigma0 = float(sigma0)
         self._sigma0 = sigma0
         import_optional("cmaes", purpose="the 'optuna-cmaes' optimizer")
         super().__init__(bounds, **kwargs)

@@ -2,7 +2,9 @@
 
 Every check takes a *factory*: a callable ``factory(bounds=..., batch_size=..., seed=...)``
 returning an :class:`~optimizers.base.Optimizer` (a plugin class is one), and raises
-``AssertionError`` with a message on a violation. Run them all::
+``AssertionError("CHECK_NAME: ...")`` on a violation, also when the plugin itself raises (a
+``PluginError``, the ``ValueError`` of its ``_tell``, the ``TypeError`` of an unpicklable
+state): that exception is then the ``__cause__``. Run them all::
 
     from optimizers.testing import check_optimizer
     check_optimizer(MyOptimizer)
@@ -146,7 +148,12 @@ def declared_skips(factory: Factory) -> frozenset[str]:
 
 
 def _applicable(check: Callable[[Factory], None]) -> Callable[[Factory], None]:
-    """``check``, skipped (``unittest.SkipTest``) for a plugin that declares it inapplicable."""
+    """``check``, skipped (``unittest.SkipTest``) for a plugin that declares it inapplicable.
+
+    Whatever the plugin raises while checked (a ``PluginError`` for points outside the box, the
+    ``ValueError`` of its ``_tell``, the ``TypeError`` of an unpicklable state) fails the check:
+    ``AssertionError("CHECK: ...")`` with the original exception as its ``__cause__``.
+    """
 
     @functools.wraps(check)
     def run(factory: Factory) -> None:
@@ -162,7 +169,16 @@ def _applicable(check: Callable[[Factory], None]) -> Callable[[Factory], None]:
                 f"{check.__name__} does not apply: listed in "
                 f"{cls.__module__}.{cls.__qualname__}.conformance_skip"
             )
-        check(factory)
+        try:
+            check(factory)
+        except unittest.SkipTest:
+            raise
+        except AssertionError as error:
+            raise AssertionError(f"{check.__name__}: {error}") from error
+        except Exception as error:  # a bug of the plugin fails the check, named
+            raise AssertionError(
+                f"{check.__name__}: raised {type(error).__name__}: {error}"
+            ) from error
 
     return run
 
@@ -540,5 +556,3 @@ def check_optimizer(factory: Factory, *, skip: Iterable[str] = ()) -> None:
             check(factory)
         except unittest.SkipTest:  # declared inapplicable by the plugin
             continue
-        except AssertionError as error:
-            raise AssertionError(f"{check.__name__}: {error}") from error

@@ -348,8 +348,9 @@ def test_a_failed_save_keeps_the_old_file_and_leaves_no_temporary(tmp_path) -> N
     before = path.read_bytes()
     optimizer = Recorder(BOUNDS, batch_size=3, seed=4)
     optimizer.unpicklable = lambda: None  # type: ignore[attr-defined]
-    with pytest.raises((pickle.PicklingError, AttributeError, TypeError)):
+    with pytest.raises(PluginError, match="cannot be pickled") as excinfo:
         optimizer.save_state(path)
+    assert isinstance(excinfo.value.__cause__, (pickle.PicklingError, AttributeError, TypeError))
     assert path.read_bytes() == before and os.listdir(tmp_path) == ["state.pkl"]
 
 

@@ -13,6 +13,7 @@ import inspect
 import os
 import subprocess
 import sys
+import threading
 import unittest
 from pathlib import Path
 
@@ -200,3 +201,108 @@ def test_this_suite_skips_what_an_installed_plugin_declares(tmp_path: Path) -> N
     summary = result.stdout.strip().splitlines()[-1]
     assert "failed" not in summary and "12 passed, 1 skipped" in summary, summary
     assert "detcompass.Compass.conformance_skip" in result.stdout
+
+
+# --- a broken plugin fails the check, whatever the plugin raises ----------------------------
+
+
+class _Uniform(optimizers.Optimizer):
+    def _ask(self, ids: tuple[int, ...]) -> np.ndarray:
+        return self._rng.uniform(size=(len(ids), self.n_dims))
+
+    def _tell(self, ids, x, values, failed) -> None:  # type: ignore[no-untyped-def]
+        pass
+
+
+class OutOfBox(_Uniform):
+    def _ask(self, ids: tuple[int, ...]) -> np.ndarray:
+        return super()._ask(ids) * 1.5
+
+
+class NaNAsk(_Uniform):
+    def _ask(self, ids: tuple[int, ...]) -> np.ndarray:
+        points = super()._ask(ids)
+        points[0, 0] = np.nan
+        return points
+
+
+class TellRaises(_Uniform):
+    def _tell(self, ids, x, values, failed) -> None:  # type: ignore[no-untyped-def]
+        raise ValueError("boom")
+
+
+class InitCrashes(_Uniform):
+    def __init__(self, bounds=None, **kwargs):  # type: ignore[no-untyped-def]
+        super().__init__(bounds, **kwargs)
+        raise RuntimeError("backend down")
+
+
+class Locked(_Uniform):
+    def __init__(self, bounds=None, **kwargs):  # type: ignore[no-untyped-def]
+        super().__init__(bounds, **kwargs)
+        self._lock = threading.Lock()
+
+
+@pytest.mark.parametrize(
+    ("cls", "check", "cause", "match"),
+    [
+        (
+            OutOfBox,
+            testing.check_asks_inside_bounds,
+            optimizers.PluginError,
+            "outside the unit box",
+        ),
+        (NaNAsk, testing.check_asks_inside_bounds, optimizers.PluginError, "non-finite points"),
+        (TellRaises, testing.check_asks_inside_bounds, ValueError, "TellRaises._tell raised"),
+        (InitCrashes, testing.check_asks_inside_bounds, RuntimeError, "backend down"),
+        (
+            Locked,
+            testing.check_save_load_continues_identically,
+            optimizers.PluginError,
+            "Locked cannot be pickled",
+        ),
+    ],
+)
+def test_whatever_a_broken_plugin_raises_the_check_fails_naming_itself(  # type: ignore[no-untyped-def]
+    cls, check, cause, match
+) -> None:
+    for factory in (cls, functools.partial(optimizers.make, f"{__name__}:{cls.__name__}")):
+        with pytest.raises(AssertionError, match=f"^{check.__name__}: .*{match}") as excinfo:
+            testing.check_optimizer(factory)
+        assert isinstance(excinfo.value.__cause__, (cause, optimizers.PluginError))
+        with pytest.raises(AssertionError, match=f"^{check.__name__}: .*{match}") as excinfo:
+            check(factory)  # run alone, as a parametrized test runs it
+        assert isinstance(excinfo.value.__cause__, (cause, optimizers.PluginError))
+    with pytest.raises(AssertionError, match=f"^{check.__name__}: ") as excinfo:
+        check(cls)
+    assert isinstance(excinfo.value.__cause__, cause)
+
+
+class GlobalDraws(_Uniform):
+    def _ask(self, ids: tuple[int, ...]) -> np.ndarray:
+        return np.random.random((len(ids), self.n_dims))  # noqa: NPY002 - the global RNG: the bug
+
+
+def test_an_assertion_of_a_check_run_alone_names_the_check() -> None:
+    with pytest.raises(AssertionError, match="^check_same_seed_same_asks: the same seed"):
+        testing.check_same_seed_same_asks(GlobalDraws)
+
+
+def test_the_checks_run_without_pytest_as_the_docs_say() -> None:
+    script = (
+        "import sys, functools\n"
+        "sys.modules['pytest'] = None  # importing pytest now fails\n"
+        "import optimizers\n"
+        "from optimizers.testing import check_optimizer\n"
+        "check_optimizer(functools.partial(optimizers.make, 'random'))\n"
+        "print('passed')\n"
+    )
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    done = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, env=env, check=False
+    )
+    assert done.returncode == 0 and done.stdout.strip() == "passed", done.stderr
+    docs = (ROOT / "docs" / "optimizer-plugins.md").read_text(encoding="utf-8")
+    section = docs.split("### Running the conformance suite on your plugin")[1]
+    assert "they need pytest" not in section
+    assert "They need only numpy" in section and "pytest is needed only to run them" in section

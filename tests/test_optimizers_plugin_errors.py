@@ -12,6 +12,7 @@ import os
 import subprocess
 import sys
 import textwrap
+import threading
 from pathlib import Path
 from typing import Any
 
@@ -174,6 +175,36 @@ def test_backend_versions_that_fail_are_a_plugin_error(cls, match, tmp_path: Pat
     with pytest.raises(PluginError, match=match):
         optimizer.save_state(tmp_path / "state.pkl")
     assert not list(tmp_path.iterdir())
+
+
+class Locked(Centre):
+    def __init__(self, bounds: Any = None, **kwargs: Any) -> None:
+        super().__init__(bounds, **kwargs)
+        self._lock = threading.Lock()
+
+
+class LockedButPicklable(Locked):
+    def __getstate__(self) -> dict[str, Any]:
+        return {**self.__dict__, "_lock": None}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state, _lock=threading.Lock())
+
+
+def test_an_unpicklable_plugin_is_a_plugin_error_naming_it_and_the_cure(tmp_path: Path) -> None:
+    optimizer = optimizers.make(f"{__name__}:Locked", bounds=BOUNDS, batch_size=2, seed=0)
+    with pytest.raises(PluginError) as excinfo:
+        optimizer.save_state(tmp_path / "state.pkl")
+    message = str(excinfo.value)
+    assert message.startswith(f"optimizer plugin {__name__}.Locked cannot be pickled (")
+    assert "_thread.lock" in message and "__getstate__/__setstate__" in message
+    assert isinstance(excinfo.value.__cause__, TypeError)
+    assert not list(tmp_path.iterdir())  # nothing written, no temporary file left
+    # The cure the message names works:
+    cured = LockedButPicklable(BOUNDS, batch_size=2, seed=0)
+    cured.save_state(tmp_path / "state.pkl")
+    restored = Optimizer.load_state(tmp_path / "state.pkl")
+    assert isinstance(restored._lock, type(threading.Lock()))
 
 
 INIT_BOOM = textwrap.dedent(
