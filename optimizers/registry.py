@@ -16,6 +16,7 @@ from __future__ import annotations
 import functools
 import importlib
 import importlib.metadata
+import inspect
 import re
 import warnings
 from collections.abc import Callable
@@ -103,6 +104,10 @@ def _import_target(spec: str, origin: str) -> Any:
         if isinstance(error, DependencyNotInstalled):
             raise
         raise ImportError(f"cannot import module {module_name!r} of {origin}: {error}") from error
+    except Exception as error:  # the plugin's module itself fails: a bug of the plugin
+        raise PluginError(
+            f"importing module {module_name!r} of {origin} raised {type(error).__name__}: {error}"
+        ) from error
     for part in attr.split("."):
         try:
             target = getattr(target, part)
@@ -136,6 +141,11 @@ def _resolve(name: str) -> Any:
             raise ImportError(
                 f"cannot load optimizer {name!r} from entry point {ep.value!r} (group "
                 f"{ENTRY_POINT_GROUP!r}): {error}"
+            ) from error
+        except Exception as error:  # the plugin's module itself fails: a bug of the plugin
+            raise PluginError(
+                f"loading optimizer plugin {name!r} from entry point {ep.value!r} raised "
+                f"{type(error).__name__}: {error}"
             ) from error
     raise ValueError(
         f"unknown optimizer {name!r}; available: {', '.join(available())} (or a 'module:Class' "
@@ -191,7 +201,15 @@ def make(name_or_spec: str, **kwargs: Any) -> Optimizer:
         )
     try:
         optimizer = factory(**kwargs)
-    except (TypeError, ValueError, OverflowError, ImportError, PluginError):
+    except TypeError as error:
+        unknown = re.search(r"unexpected keyword argument '(\w+)'", str(error))
+        if unknown is None or unknown.group(1) not in kwargs:
+            raise
+        raise TypeError(
+            f"optimizer {name_or_spec!r} has no setting {unknown.group(1)!r}; its settings: "
+            f"{', '.join(_settings_of(factory)) or 'none'}"
+        ) from error
+    except (ValueError, OverflowError, ImportError, PluginError):
         # Bad settings (OverflowError: a number too large for the backend) or a missing
         # backend: the plugin's own message says which, and the CLI calls it bad input.
         raise
@@ -205,6 +223,22 @@ def make(name_or_spec: str, **kwargs: Any) -> Optimizer:
             "optimizers.Optimizer"
         )
     return optimizer
+
+
+def _settings_of(factory: Any) -> list[str]:
+    """The keywords ``factory`` takes, the base class's included when it passes ``**kwargs`` on."""
+    names: list[str] = []
+    try:
+        parameters = list(inspect.signature(factory).parameters.values())
+    except (TypeError, ValueError):  # pragma: no cover - a builtin without a signature
+        return names
+    for parameter in parameters:
+        if parameter.kind is parameter.VAR_KEYWORD:
+            if isinstance(factory, type) and issubclass(factory, Optimizer):
+                names += [n for n in _settings_of(Optimizer) if n not in names]
+        elif parameter.kind is not parameter.VAR_POSITIONAL and parameter.name != "self":
+            names.append(parameter.name)
+    return names
 
 
 register("cmaes", "optimizers.cmaes:CMAES", requires=("cma",))

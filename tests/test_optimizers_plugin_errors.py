@@ -148,7 +148,7 @@ def test_bad_settings_given_to_make_keep_the_plugins_own_error() -> None:
     with pytest.raises(ValueError) as excinfo:
         optimizers.make(f"{__name__}:Strict", bounds=BOUNDS, step=-1)
     assert str(excinfo.value) == "step must be > 0, got -1"
-    with pytest.raises(TypeError, match="unexpected keyword argument 'stride'"):
+    with pytest.raises(TypeError, match="has no setting 'stride'; its settings: bounds, step"):
         optimizers.make(f"{__name__}:Strict", bounds=BOUNDS, stride=1)
     with pytest.raises(ValueError, match=r"^bounds"):
         optimizers.make(f"{__name__}:InitBoom", bounds=[[1.0, 0.0]])
@@ -300,3 +300,31 @@ def test_builtin_settings_errors_read_as_before() -> None:
     with pytest.raises(ValueError) as excinfo:
         optimizers.make("random", bounds=BOUNDS, batch_size=0)
     assert str(excinfo.value).startswith("batch_size must be")
+
+
+def test_a_plugin_module_that_fails_to_import_is_a_plugin_error_naming_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Not ImportError: the module itself raises (a NameError at import, a bug of the plugin)."""
+    (tmp_path / "brokenmod.py").write_text("x = undefined_name\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    with pytest.raises(PluginError, match=r"importing module 'brokenmod'.*NameError") as info:
+        optimizers.make("brokenmod:Anything", bounds=[[0.0, 1.0]], batch_size=2, seed=0)
+    assert isinstance(info.value.__cause__, NameError)
+
+
+@pytest.mark.parametrize(
+    ("name", "typo", "known"),
+    [
+        ("cmaes", "sigma", "sigma0"),
+        ("bo", "n_initial", "n_initial_points"),
+        ("random", "x", "seed"),
+    ],
+)
+def test_a_setting_the_optimizer_does_not_take_lists_the_ones_it_does(name, typo, known) -> None:  # type: ignore[no-untyped-def]
+    if name == "bo":
+        pytest.importorskip("skopt")
+    with pytest.raises(
+        TypeError, match=rf"optimizer '{name}' has no setting '{typo}'; its settings: .*\b{known}\b"
+    ):
+        optimizers.make(name, bounds=[[0.0, 1.0]] * 2, batch_size=4, seed=0, **{typo: 1})
