@@ -8,6 +8,7 @@ import json
 import os
 import shutil
 import subprocess
+import sys
 import tempfile
 import zlib
 from pathlib import Path
@@ -595,3 +596,39 @@ def test_manifest_bad_input_is_named(tmp_path: Path) -> None:
 def test_timing_totals_needs_timing_columns() -> None:
     with pytest.raises(ValueError, match="'eval_time'"):
         timing_totals(pd.DataFrame({"opt_time": [1.0]}))
+
+
+def test_an_install_inside_another_projects_repository_records_no_commit(tmp_path: Path) -> None:
+    """The package in a project's ignored .venv must not record that project's commit."""
+    if shutil.which("git") is None:
+        pytest.skip("git is not installed")
+    root = Path(__file__).resolve().parents[1]
+    project = tmp_path / "project"
+    site = project / ".venv" / "site"
+    site.mkdir(parents=True)
+    for name in ("benchmarks", "tooldesign_env", "optimizers"):
+        shutil.copytree(root / name, site / name, ignore=shutil.ignore_patterns("__pycache__"))
+    (project / ".gitignore").write_text(".venv/\n")
+    (project / "main.py").write_text("print('their code')\n")
+    for args in (
+        ["init", "-q"],
+        ["add", "."],
+        ["-c", "user.name=t", "-c", "user.email=t@t", "commit", "-q", "-m", "theirs"],
+    ):
+        subprocess.run(["git", *args], cwd=project, check=True, capture_output=True)
+    (project / "main.py").write_text("print('changed')\n")  # their tree is dirty
+    code = "from benchmarks.storage import git_commit, git_dirty; print(git_commit(), git_dirty())"
+    env = {**os.environ, "PYTHONPATH": str(site), "PYTHONSAFEPATH": "1"}
+    out = subprocess.run(
+        [sys.executable, "-c", code], cwd=tmp_path, env=env, capture_output=True, text=True
+    )
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["None", "None"]
+
+
+@pytest.mark.parametrize("out", ["", "  "])
+def test_an_empty_out_folder_is_refused_not_taken_as_the_current_one(out: str) -> None:
+    from benchmarks.storage import check_out_dir
+
+    with pytest.raises(ValueError, match="--out must name a folder"):
+        check_out_dir(out)

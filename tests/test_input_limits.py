@@ -333,3 +333,18 @@ def test_a_design_config_of_more_coefficients_than_a_tool_can_have_is_refused_at
     DesignConfig(bounds=[[-1.0, 1.0]] * DEGREE_MAX)  # the most a tool can have
     with pytest.raises(ValueError, match=f"at most {DEGREE_MAX} rows"):
         DesignConfig(bounds=[[-1.0, 1.0]] * (DEGREE_MAX + 1))
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["bench", "optimizers", "--size", "smoke"],
+        ["design"],
+        ["evaluate", "--coeffs", "0", "0", "0"],
+        ["dense-search"],
+        ["rl", "suite", "--size", "smoke"],
+    ],
+)
+def test_an_empty_out_is_refused_not_taken_as_the_current_folder(argv, capsys):
+    err = _one_line_exit_2([*argv, "--out", ""], capsys)
+    assert "argument --out: must name a folder, got ''" in err

@@ -391,3 +391,25 @@ def test_consolidating_a_finished_folder_in_the_other_format_keeps_it_readable(
     make_suite_report(run, n_boot=50)
     resume(config_file, run)  # a later session accepts the folder too
     pd.testing.assert_frame_equal(ResultStore(run).read(), before)
+
+
+@pytest.mark.parametrize("fmt", ["csv", "parquet"])
+def test_a_consolidation_interrupted_at_the_manifest_leaves_the_folder_readable(
+    run: Path, fmt: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Ctrl-C between writing the new consolidated file and the manifest (issue 4's audit)."""
+    import benchmarks.storage.table as table
+
+    before = ResultStore(run).read()
+
+    def interrupted(*args: object, **kwargs: object) -> None:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(table, "update_file_checksums", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        ResultStore(run).consolidate(format=fmt)
+    monkeypatch.undo()
+    pd.testing.assert_frame_equal(ResultStore(run).read(), before)
+    make_suite_report(run, n_boot=50)
+    ResultStore(run).consolidate(format=fmt)  # and it can be done again
+    pd.testing.assert_frame_equal(ResultStore(run).read(), before)

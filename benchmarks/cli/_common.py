@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+from pathlib import Path
 from typing import Any
 
 from benchmarks.execution import MAX_RETRIES_MAX, TaskSettings
@@ -93,6 +94,13 @@ def add_scene_argument(parser: argparse.ArgumentParser, what: str) -> None:
         "merge_fixed_links=false, the 13-link arm of the runs made before 2026-11-25 "
         "(docs/benchmarks.md); not box_mass, a setting of its own",
     )
+
+
+def out_path(text: str) -> Path:
+    """An ``--out`` value: a path that is not empty (an unset variable would mean "here")."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError(f"must name a folder, got {text!r}")
+    return Path(text)
 
 
 def add_task_arguments(parser: argparse.ArgumentParser, *, section_default: str = "") -> None:

@@ -18,6 +18,7 @@ from benchmarks.cli._common import (
     SIZES,
     add_max_retries_argument,
     add_scene_argument,
+    out_path,
 )
 from benchmarks.cli.rl_suite import RL_ONLY_OPTIONS, add_rl_suite_arguments, run_rl_command
 from benchmarks.execution import EXECUTORS
@@ -49,7 +50,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         help=f"size of the suite: {' or '.join(SIZES)} (default: full; a suite file may define "
         f"its own; the rl suite: {', '.join(RL_SIZES)})",
     )
-    parser.add_argument("--out", type=Path, required=True, metavar="DIR", help="run folder")
+    parser.add_argument("--out", type=out_path, required=True, metavar="DIR", help="run folder")
     parser.add_argument(
         "--config",
         type=Path,

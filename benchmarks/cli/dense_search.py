@@ -4,10 +4,9 @@ from __future__ import annotations
 
 import argparse
 import time
-from pathlib import Path
 from typing import Any, cast
 
-from benchmarks.cli._common import add_task_arguments
+from benchmarks.cli._common import add_task_arguments, out_path
 from benchmarks.execution import EXECUTORS
 
 
@@ -24,7 +23,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     )
     parser.add_argument(
         "--out",
-        type=Path,
+        type=out_path,
         required=True,
         metavar="DIR",
         help="output folder, new or empty (an earlier search's table is never replaced)",

@@ -11,6 +11,7 @@ from benchmarks.cli._common import (
     DEFAULT_SECTION_SHAPE,
     add_max_retries_argument,
     add_task_arguments,
+    out_path,
 )
 from benchmarks.design import DesignConfig
 from benchmarks.execution import EXECUTORS, TaskSettings
@@ -71,7 +72,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         metavar="K",
         help=f"iterations K (default: {defaults['iterations'].default})",
     )
-    parser.add_argument("--out", type=Path, required=True, metavar="DIR", help="run folder")
+    parser.add_argument("--out", type=out_path, required=True, metavar="DIR", help="run folder")
     parser.add_argument(
         "--batch-size",
         type=int,

@@ -4,10 +4,9 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 from typing import Any
 
-from benchmarks.cli._common import add_task_arguments
+from benchmarks.cli._common import add_task_arguments, out_path
 
 
 def add_parser(subparsers: Any) -> None:
@@ -27,7 +26,9 @@ def add_parser(subparsers: Any) -> None:
         help="coefficients c1 ... cn, highest power first; their count is the polynomial "
         "degree n (the paper's tool has 3; 1 to 20)",
     )
-    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder (created)")
+    p.add_argument(
+        "--out", type=out_path, required=True, metavar="DIR", help="output folder (created)"
+    )
     add_task_arguments(p)
     p.add_argument(
         "--robustness",

@@ -17,9 +17,9 @@ import json
 import math
 import sys
 import warnings
-from pathlib import Path
 from typing import Any, cast
 
+from benchmarks.cli._common import out_path
 from benchmarks.cli.rl_suite import add_rl_suite_arguments, run_rl_command
 from tooldesign_env.schema import DEFAULT_BOX_MASS
 
@@ -44,7 +44,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     suite.add_argument(
         "--size", default=None, help="smoke (default, CI), short (docs/rl.md) or full (the issue's)"
     )
-    suite.add_argument("--out", type=Path, required=True, metavar="DIR", help="run folder")
+    suite.add_argument("--out", type=out_path, required=True, metavar="DIR", help="run folder")
     suite.add_argument(
         "--workers",
         default=None,

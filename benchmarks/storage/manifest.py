@@ -54,6 +54,7 @@ _PACKAGES: tuple[str, ...] = (
     "pyarrow",
     "matplotlib",
     "trimesh",
+    "scikit-learn",  # BO's Gaussian process
     # the optional backends, executors and agents a run may use (recorded when installed)
     "optuna",
     "nevergrad",
@@ -94,7 +95,9 @@ def git_commit(repo_dir: str | os.PathLike[str] | None = None) -> str | None:
     Returns:
         The 40-hex-digit commit or ``None``.
     """
-    folder = Path(repo_dir) if repo_dir is not None else Path(__file__).resolve().parent
+    folder = _code_folder(repo_dir)
+    if folder is None:
+        return None
     try:
         result = subprocess.run(
             ["git", "rev-parse", "HEAD"],
@@ -110,6 +113,28 @@ def git_commit(repo_dir: str | os.PathLike[str] | None = None) -> str | None:
     return commit if re.fullmatch(r"[0-9a-f]{40}", commit) else None
 
 
+def _code_folder(repo_dir: str | os.PathLike[str] | None) -> Path | None:
+    """Where to ask git: ``repo_dir``, or this package's folder if git tracks this file there.
+
+    An installed copy inside another project's work tree (its ``.venv``) is not tracked, and
+    that project's commit would otherwise be recorded as the code's.
+    """
+    if repo_dir is not None:
+        return Path(repo_dir)
+    here = Path(__file__).resolve()
+    try:
+        subprocess.run(
+            ["git", "ls-files", "--error-unmatch", here.name],
+            cwd=here.parent,
+            capture_output=True,
+            timeout=10,
+            check=True,
+        )
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return here.parent
+
+
 def git_dirty(repo_dir: str | os.PathLike[str] | None = None) -> bool | None:
     """Whether the repository's tracked files differ from its commit, or ``None`` without git.
 
@@ -120,7 +145,9 @@ def git_dirty(repo_dir: str | os.PathLike[str] | None = None) -> bool | None:
     Args:
         repo_dir: A folder inside the repository; defaults to the folder of this module.
     """
-    folder = Path(repo_dir) if repo_dir is not None else Path(__file__).resolve().parent
+    folder = _code_folder(repo_dir)
+    if folder is None:
+        return None
     try:
         result = subprocess.run(
             ["git", "status", "--porcelain", "--untracked-files=no"],

@@ -127,10 +127,13 @@ def check_out_dir(out_dir: Any) -> Path:
 
     Raises:
         TypeError: If it is not a ``str`` or ``os.PathLike``.
-        ValueError: If it names an existing file.
+        ValueError: If it names an existing file, or is empty (an unset shell variable would
+            otherwise write the run into the current folder).
     """
     if not isinstance(out_dir, (str, os.PathLike)):
         raise TypeError(f"out_dir must be a path, got {type(out_dir).__name__}")
+    if not os.fspath(out_dir).strip():
+        raise ValueError(f"--out must name a folder for the run, got {os.fspath(out_dir)!r}")
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise ValueError(f"--out {out} is a file; give a folder for the run")

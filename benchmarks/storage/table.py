@@ -520,7 +520,8 @@ class ResultStore:
         file is unrecorded (the one written just before a kill, ahead of its manifest). A
         folder shared without its ``parts/`` (the committed results) is read from its
         consolidated file: the parts are then not checked, the consolidated file is if the
-        manifest records it. A folder without a manifest (a bare store) is not checked, and
+        manifest records it; with parts, the consolidated file (which :meth:`read` then does not
+        read) is not checked. A folder without a manifest (a bare store) is not checked, and
         neither is a file the manifest does not list (e.g. the design files of a folder
         written before their checksums were recorded). Nothing is written.
 
@@ -544,6 +545,13 @@ class ResultStore:
                     f"{unrecorded}; at most one (written just before a kill) may be unrecorded"
                 )
         if files is not None:
+            if on_disk:
+                # The parts are the source of truth and read() reads them: the consolidated
+                # file, a copy rewritten at every session's end, is checked only when it is all
+                # there is (an interrupted consolidation must not lock the folder out).
+                files = {
+                    k: v for k, v in files.items() if k.rpartition(".")[0] != CONSOLIDATED_STEM
+                }
             verify_checksums(self._folder, files)
 
     def read(self, *, verify: bool = True) -> pd.DataFrame:
@@ -646,16 +654,17 @@ class ResultStore:
         else:
             atomic_write_bytes(target, _csv_bytes(frame))
         other = "csv" if chosen == "parquet" else "parquet"
-        # A stale file of the other format would be read instead of the fresh one elsewhere.
-        (self._folder / f"{CONSOLIDATED_STEM}.{other}").unlink(missing_ok=True)
+        stale = self._folder / f"{CONSOLIDATED_STEM}.{other}"
         if self.manifest_path.exists():
-            # Keep the folder readable: the manifest's checksums name the file now there.
+            # The manifest names the new file before the old one goes: an interrupt between the
+            # two leaves an unlisted file, which nothing checks, never a listed one missing.
             manifest = read_manifest(self._folder)
             if recorded_checksums(manifest, FILE_CHECKSUMS, self.manifest_path) is not None:
                 update_file_checksums(
-                    self._folder,
-                    {target.name: file_sha256(target), f"{CONSOLIDATED_STEM}.{other}": None},
+                    self._folder, {target.name: file_sha256(target), stale.name: None}
                 )
+        # A stale file of the other format would be read instead of the fresh one elsewhere.
+        stale.unlink(missing_ok=True)
         return target
 
     # manifest
