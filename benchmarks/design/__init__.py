@@ -18,6 +18,7 @@ from tooldesign_env.lazy import lazy_attribute
 
 if TYPE_CHECKING:
     from benchmarks.design.config import DESIGN_SUITE, DesignConfig
+    from benchmarks.design.evaluate import evaluate_coefficients
     from benchmarks.design.loop import CARD_VERSION, DesignResult, run_design
     from benchmarks.design.stepper import DesignStepper, best_evaluation
 
@@ -31,6 +32,7 @@ _LAZY: dict[str, str] = {
     "DesignResult": "benchmarks.design.loop",
     "DesignStepper": "benchmarks.design.stepper",
     "best_evaluation": "benchmarks.design.stepper",
+    "evaluate_coefficients": "benchmarks.design.evaluate",
     "run_design": "benchmarks.design.loop",
 }
 
@@ -41,6 +43,7 @@ __all__ = [
     "DesignResult",
     "DesignStepper",
     "best_evaluation",
+    "evaluate_coefficients",
     "run_design",
 ]
 
