@@ -54,3 +54,27 @@ def test_the_page_names_the_arm_each_suite_ran_with() -> None:
     assert _arm(SuiteConfig(name="s").to_json()) == "hand merged"
     unmerged = SuiteConfig(name="s", scene={"merge_fixed_links": False})
     assert _arm(unmerged.to_json()) == "13 links"
+
+
+def test_a_results_folder_without_a_needed_suite_is_named(tmp_path, capsys):
+    from benchmarks.cli import main
+
+    (tmp_path / "results").mkdir()
+    out = tmp_path / "page.md"
+    with pytest.raises(SystemExit) as info:
+        main(
+            [
+                "reproduce",
+                "--results",
+                str(tmp_path / "results"),
+                "--out",
+                str(out),
+                "--skip-reports",
+            ]
+        )
+    assert info.value.code == 2
+    err = capsys.readouterr().err
+    assert (
+        "holds no results of the 'optimizers' suite" in err and len(err.strip().splitlines()) == 1
+    )
+    assert not out.exists()

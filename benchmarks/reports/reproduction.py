@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -453,8 +454,29 @@ def _square_section(results: Path) -> list[str]:
     return [*lines, ""]
 
 
-def reproduction_page(results: Path) -> str:
-    """The Markdown of docs/reproduction.md, from the committed results under ``results``."""
+#: The suites each claim is read from (robust-design is optional: claim (c)'s baseline).
+REQUIRED_SUITES = ("optimizers", "robustness")
+
+
+def reproduction_page(results: str | os.PathLike[str]) -> str:
+    """The Markdown of docs/reproduction.md, from the committed results under ``results``.
+
+    Raises:
+        FileNotFoundError: ``results`` lacks a suite folder the claims are read from (its
+            evaluation table), named in the message.
+    """
+    results = Path(results)
+    for suite in REQUIRED_SUITES:
+        folder = results / suite
+        if (
+            not any((folder / f"evaluations.{ext}").is_file() for ext in ("parquet", "csv"))
+            and not (folder / "parts").is_dir()
+        ):
+            raise FileNotFoundError(
+                f"{folder} holds no results of the {suite!r} suite, which the page's claims are "
+                f"read from; run `tooldesign bench {suite} --out {folder}` first, or point "
+                "--results at a folder that has it"
+            )
     floors = {}
     for suite in SUITES:
         path = results / suite / "report" / "noise-floor.json"
