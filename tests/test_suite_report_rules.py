@@ -72,3 +72,27 @@ def test_the_report_of_an_unfinished_run_says_so_on_every_page(
         written = make_suite_report(cut, n_boot=50)
     for page in (p for p in written if p.suffix == ".md"):
         assert page.read_text().startswith("> **Incomplete run.** 2 of 3 runs"), page.name
+
+
+@pytest.mark.slow
+def test_a_report_on_a_partial_retest_says_how_many_designs_it_covers(
+    finished: Path, tmp_path: Path
+) -> None:
+    from benchmarks.execution import SerialExecutor
+    from benchmarks.storage import update_file_checksums
+    from benchmarks.suites.retest import RetestConfig, retest_suite
+
+    folder = tmp_path / "retested"
+    shutil.copytree(finished, folder)
+    small = RetestConfig(nudges=2, repeats=1, masses=(0.5,), frictions=(0.3,))
+    written = retest_suite(folder, small, executor=SerialExecutor())
+    assert len(written) == 2
+    make_suite_report(folder, n_boot=50)  # complete: no notice
+    assert not any("Incomplete" in p.read_text() for p in (folder / "report").glob("*.md"))
+    # as an interrupted retest leaves it: one design's file not written yet
+    gone = written[0]
+    update_file_checksums(folder, {gone.relative_to(folder).as_posix(): None})
+    gone.unlink()
+    with pytest.warns(RuntimeWarning, match="retest covers 1 of the 2 final designs"):
+        pages = make_suite_report(folder, n_boot=50)
+    assert all("retest covers 1 of the 2" in p.read_text() for p in pages if p.suffix == ".md")

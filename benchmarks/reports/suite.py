@@ -831,22 +831,32 @@ def make_suite_report(
 
 
 def _incomplete_notice(folder: Path) -> str | None:
-    """What is missing from a suite folder whose run has not finished, or None."""
+    """What is missing from a suite folder: runs not finished, designs not retested; or None."""
     manifest = read_manifest(folder)
     extra = manifest.get("extra")
     if not isinstance(extra, dict) or extra.get("kind") != SUITE_KIND:
         return None
+    notices = []
     planned = extra.get("runs")
-    done = len(read_designs(folder))
+    designs = read_designs(folder)
+    done = len(designs)
     finished = manifest.get("end_time") is not None
-    if finished and (not isinstance(planned, int) or done >= planned):
-        return None
-    runs = f"{done} of {planned} runs" if isinstance(planned, int) else f"{done} runs"
-    return (
-        f"{runs} finished when this report was made (the run was interrupted or is still "
-        "going), so optimizers and variants may be compared over unequal budgets. Resume the "
-        "run with the command that started it, then run tooldesign report again."
-    )
+    if not finished or (isinstance(planned, int) and done < planned):
+        runs = f"{done} of {planned} runs" if isinstance(planned, int) else f"{done} runs"
+        notices.append(
+            f"{runs} finished when this report was made (the run was interrupted or is still "
+            "going), so optimizers and variants may be compared over unequal budgets. Resume "
+            "the run with the command that started it, then run tooldesign report again."
+        )
+    retests = read_retests(folder)
+    testable = [d for d in designs if d.get("status") == "ok" and d.get("coefficients")]
+    if retests and len(retests) < len(testable):
+        notices.append(
+            f"The retest covers {len(retests)} of the {len(testable)} final designs, so the "
+            "noise floor and the stress test come from those alone. Run tooldesign retest on "
+            "the folder again to complete it (it resumes), then tooldesign report."
+        )
+    return " ".join(notices) or None
 
 
 def _suite_report(folder: Path, target: Path, *, n_boot: int, seed: int) -> list[Path]:
