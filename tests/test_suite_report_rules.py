@@ -96,3 +96,25 @@ def test_a_report_on_a_partial_retest_says_how_many_designs_it_covers(
     with pytest.warns(RuntimeWarning, match="retest covers 1 of the 2 final designs"):
         pages = make_suite_report(folder, n_boot=50)
     assert all("retest covers 1 of the 2" in p.read_text() for p in pages if p.suffix == ".md")
+
+
+@pytest.mark.slow
+def test_no_table_pools_the_designs_of_several_optimizers(finished: Path, tmp_path: Path) -> None:
+    """Table I, the stress tables and robustness-by-precision: a row per optimizer each."""
+    from benchmarks.execution import SerialExecutor
+    from benchmarks.suites.retest import RetestConfig, retest_suite
+
+    folder = tmp_path / "all"
+    shutil.copytree(finished, folder)
+    manifest = json.loads((folder / "manifest.json").read_text())
+    manifest["config"]["figures"] = ["robustness-table", "robustness-scatter"]
+    (folder / "manifest.json").write_text(json.dumps(manifest))
+    small = RetestConfig(nudges=2, repeats=1, masses=(0.5,), frictions=(0.3,))
+    retest_suite(folder, small, executor=SerialExecutor())
+    make_suite_report(folder, n_boot=50)
+    for name in ("table1", "stress", "stress-friction-table", "robustness-by-precision"):
+        rows = (folder / "report" / f"{name}.csv").read_text().splitlines()
+        header = rows[0].split(",")
+        assert "optimizer" in header, name
+        column = header.index("optimizer")
+        assert sorted(r.split(",")[column] for r in rows[1:]) == ["random", "random-b"], name

@@ -89,30 +89,39 @@ def stress_table(
 ) -> pd.DataFrame:
     """Table I over a range of one change (``"mass"`` or ``"friction"``), one row per variant.
 
+    With the retests of several optimizers, one row per variant and optimizer (an ``optimizer``
+    column), since their designs are not repeats of one another.
+
     Returns:
         ``variant``, ``label``, ``goal_precision``, ``designs`` and, per metric m of
         :data:`STRESS_METRICS`: ``m`` (mean over designs), ``m_low``/``m_high`` (95 %
         bootstrap interval over designs), ``m_noise`` (median over designs of the range of
         the design's mean across repeated scenes) and ``m_best``.
     """
-    by_variant: dict[str, list[tuple[Mapping[str, Any], dict[str, Any]]]] = {}
+    # Several optimizers' designs are not repeats of one another: a row per variant and
+    # optimizer then (as Table I), never pooled.
+    split = len({str(r.get("optimizer")) for r in retests}) > 1
+    by_group: dict[tuple[str, str], list[tuple[Mapping[str, Any], dict[str, Any]]]] = {}
     for retest in retests:
         means = _design_means(retest, change)
         if means is not None:
-            by_variant.setdefault(str(retest["variant"]), []).append((retest, means))
+            key = (str(retest["variant"]), str(retest.get("optimizer")) if split else "")
+            by_group.setdefault(key, []).append((retest, means))
     rows = []
-    for variant, items in by_variant.items():
+    for (variant, optimizer), items in by_group.items():
         first = items[0][0]
         row: dict[str, Any] = {
             "variant": variant,
             "label": first.get("label") or "",
+            **({"optimizer": optimizer} if split else {}),
             "goal_precision": float(first["goal_precision"]),
             "designs": len(items),
         }
+        stream = f"{variant}/{optimizer}" if split else variant
         for metric, _, _ in STRESS_METRICS:
             values = np.array([m[metric] for _, m in items])
             ci = bootstrap_ci(
-                values, n_boot=n_boot, level=LEVEL, rng=_rng(seed, change, metric, variant)
+                values, n_boot=n_boot, level=LEVEL, rng=_rng(seed, change, metric, stream)
             )
             row.update(
                 {
@@ -148,11 +157,14 @@ def _stress_markdown(table: pd.DataFrame, change: str, values: Sequence[float]) 
         "in bold.",
         "",
     ]
-    header = ["objective", "p^X", "designs", *[title for _, title, _ in STRESS_METRICS]]
+    split = "optimizer" in table.columns
+    header = ["objective", *(["optimizer"] if split else []), "p^X", "designs"]
+    header += [title for _, title, _ in STRESS_METRICS]
     lines += ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     for _, row in table.iterrows():
         name = str(row["label"] or row["variant"])
-        cells = [name, _fmt(row["goal_precision"]), str(row["designs"])]
+        cells = [name, *([str(row["optimizer"])] if split else [])]
+        cells += [_fmt(row["goal_precision"]), str(row["designs"])]
         for metric, _, _ in STRESS_METRICS:
             mean = _fmt(row[metric])
             mean = f"**{mean}**" if row[f"{metric}_best"] else mean

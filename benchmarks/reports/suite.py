@@ -544,33 +544,43 @@ def robustness_by_precision(
         seed: Root seed of the bootstrap.
 
     Returns:
-        ``(per_precision, correlations)``: one row per variant with ``tasks`` and, for
+        ``(per_precision, correlations)``: one row per variant (per variant and optimizer, with
+        an ``optimizer`` column, when the suite has several) with ``tasks`` and, for
         ``robustness``, ``squared_goal_error``, ``nominal_final_distance``, the mean, ``_low``
         and ``_high``; and one row per metric with the Spearman ``rho`` between p^X and the
         metric over all tested designs, its two-sided ``p`` and ``n``.
     """
     tested = _tested(designs)
     metrics = ("robustness", "squared_goal_error", "nominal_final_distance")
+    # As in Table I: several optimizers' designs are not repeats of one task, never pooled.
+    optimizers = [o.column for o in config.optimizers] if len(config.optimizers) > 1 else [None]
     rows = []
     for variant in config.variants:
-        part = tested[tested["variant"] == variant.name] if len(tested) else tested
-        if not len(part):
-            continue
-        row: dict[str, Any] = {
-            "variant": variant.name,
-            "label": variant.label,
-            "goal_precision": float(part["goal_precision"].iloc[0]),
-            "tasks": int(len(part)),
-        }
-        for metric in metrics:
-            ci = bootstrap_ci(
-                part[metric].to_numpy(dtype=np.float64),
-                n_boot=n_boot,
-                level=LEVEL,
-                rng=_rng(seed, "by-precision", metric, variant.name),
-            )
-            row.update({metric: ci.estimate, f"{metric}_low": ci.low, f"{metric}_high": ci.high})
-        rows.append(row)
+        for optimizer in optimizers:
+            part = tested[tested["variant"] == variant.name] if len(tested) else tested
+            if optimizer is not None and len(part):
+                part = part[part["optimizer"] == optimizer]
+            if not len(part):
+                continue
+            row: dict[str, Any] = {
+                "variant": variant.name,
+                "label": variant.label,
+                **({} if optimizer is None else {"optimizer": optimizer}),
+                "goal_precision": float(part["goal_precision"].iloc[0]),
+                "tasks": int(len(part)),
+            }
+            key = variant.name if optimizer is None else f"{variant.name}/{optimizer}"
+            for metric in metrics:
+                ci = bootstrap_ci(
+                    part[metric].to_numpy(dtype=np.float64),
+                    n_boot=n_boot,
+                    level=LEVEL,
+                    rng=_rng(seed, "by-precision", metric, key),
+                )
+                row.update(
+                    {metric: ci.estimate, f"{metric}_low": ci.low, f"{metric}_high": ci.high}
+                )
+            rows.append(row)
     return pd.DataFrame(rows), _spearman(tested, metrics)
 
 
@@ -583,12 +593,14 @@ def _by_precision_markdown(table: pd.DataFrame, correlations: pd.DataFrame) -> s
         "distance: |X(m, T) - X^g| (m).",
         "",
     ]
-    header = ["p^X", "objective", "tasks", "robustness (m)", "squared goal error (m^2)"]
-    header.append("final distance (m)")
+    split = "optimizer" in table.columns  # several optimizers: a row each, never pooled
+    header = ["p^X", "objective", *(["optimizer"] if split else []), "tasks"]
+    header += ["robustness (m)", "squared goal error (m^2)", "final distance (m)"]
     rows = [
         [
             _fmt(row["goal_precision"]),
             row["label"] or "-",
+            *([row["optimizer"]] if split else []),
             str(row["tasks"]),
             _interval(row["robustness"], row["robustness_low"], row["robustness_high"]),
             _interval(
