@@ -77,7 +77,9 @@ def test_the_docs_run_suite_example_has_the_guard():
     text = (Path(__file__).resolve().parents[1] / "docs" / "benchmarks.md").read_text()
     start = text.index("from benchmarks.suites import OptimizerSpec")
     example = text[start : text.index("```", start)]
-    assert 'if __name__ == "__main__":\n    result = run_suite(' in example
+    guard = example.index('if __name__ == "__main__":')
+    assert example.index("\n    result = run_suite(") > guard
+    assert "\nresult = run_suite(" not in example
 
 
 # --- 3. a missing dask leaves no folder ---------------------------------------------------------
