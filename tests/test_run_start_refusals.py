@@ -131,6 +131,20 @@ def test_report_on_a_design_folder_redraws_its_own_figures(tmp_path, monkeypatch
     assert "design figures" in capsys.readouterr().out
 
 
+def test_report_on_a_real_design_folder_brings_back_its_figures_and_page(tmp_path, capsys):
+    folder = tmp_path / "design"
+    config = DesignConfig(iterations=1, batch_size=2, executor="serial")
+    run_design(config, folder, progress=False)
+    for name in ("figure3.png", "robustness.png", "fig3a_tool_curves.png"):
+        assert not (folder / name).exists()  # run_design draws no figure
+    assert main(["report", str(folder)]) == 0
+    page = (folder / "report.html").read_text(encoding="utf-8")
+    for name in ("figure3.png", "robustness.png", "fig3a_tool_curves.png"):
+        assert (folder / name).is_file()
+    assert "figure3" in page
+    assert "retest` on the folder" not in (folder / "report" / "pairwise.md").read_text()
+
+
 def test_report_on_a_suite_folder_does_not_draw_design_figures(tmp_path, monkeypatch):
     folder = _folder(tmp_path / "suite", "suite")
     monkeypatch.setattr(reports, "make_suite_report", lambda f, out_dir=None: [])
