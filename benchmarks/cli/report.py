@@ -15,9 +15,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         description=(
             "Rebuild every report of a run folder (convergence, summary, pairwise tests and the "
             "suite's own figures and tables, or a design run's Figure 3 and robustness plot) "
-            "from its stored results alone; nothing is simulated. A report.html in the run folder (tooldesign html) is rebuilt too, so it "
-            "shows the new figures (not with --out, whose figures it does not embed). See "
-            "docs/benchmarks.md."
+            "from its stored results alone; nothing is simulated. A report.html in the run "
+            "folder (tooldesign html) is rebuilt too, so it shows the new figures (not with "
+            "--out, whose figures it does not embed). See docs/benchmarks.md."
         ),
     )
     parser.add_argument("run_folder", type=Path, metavar="RUN_FOLDER", help="the run folder")
