@@ -142,7 +142,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         # (whose message names the pip extra): one clear line instead of a traceback.
         parser.exit(2, f"tooldesign {args.command}: error: {exc}\n")
     except KeyboardInterrupt:
-        print("interrupted", file=sys.stderr)
+        # What is stored stays: say how to go on from it.
+        resume = {
+            "design": "; continue with the same command and --resume",
+            "bench": "; run the same command again: it resumes",
+            "retest": "; run the same command again: it resumes",
+        }
+        print(f"interrupted{resume.get(args.command, '')}", file=sys.stderr)
         return 130
     except RuntimeError as exc:
         from benchmarks.design.stepper import NothingEvaluated

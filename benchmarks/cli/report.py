@@ -14,10 +14,10 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         help="rebuild the figures and tables of a run folder from its stored results",
         description=(
             "Rebuild every report of a run folder (convergence, summary, pairwise tests and the "
-            "suite's own figures and tables) from its stored results alone; nothing is "
-            "simulated. A report.html in the run folder (tooldesign html) is rebuilt too, so it "
-            "shows the new figures (not with --out, whose figures it does not embed). See "
-            "docs/benchmarks.md."
+            "suite's own figures and tables, or a design run's Figure 3 and robustness plot) "
+            "from its stored results alone; nothing is simulated. A report.html in the run "
+            "folder (tooldesign html) is rebuilt too, so it shows the new figures (not with "
+            "--out, whose figures it does not embed). See docs/benchmarks.md."
         ),
     )
     parser.add_argument("run_folder", type=Path, metavar="RUN_FOLDER", help="the run folder")
@@ -29,14 +29,37 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from benchmarks.reports import make_suite_report, write_html_report
+    from benchmarks.reports import make_suite_report, write_design_report, write_html_report
     from benchmarks.reports.html import REPORT_FILE
 
     files = make_suite_report(args.run_folder, out_dir=args.out)
     folder = files[0].parent if files else args.run_folder
     print(f"{len(files)} report files written to {folder}")
+    if _is_design_folder(args.run_folder):
+        if args.out is None:
+            # Figure 3 and the robustness plot live in the run folder itself; drawn again, with
+            # report.html embedding them.
+            drawn = write_design_report(args.run_folder)
+            print(f"{len(drawn)} design figures and report.html rebuilt in {args.run_folder}")
+            return 0
+        print(
+            f"the design figures (figure3.png, robustness.png, ...) live in {args.run_folder} "
+            "and were left as they were: run without --out to redraw them"
+        )
     page = Path(args.run_folder) / REPORT_FILE
     if page.is_file() and args.out is None:
         # It embeds the figures just replaced: left as it was, it would show the old ones.
         print(f"{write_html_report(args.run_folder)} rebuilt")
     return 0
+
+
+def _is_design_folder(run_folder: Path) -> bool:
+    """Whether ``run_folder`` holds a ``tooldesign design`` run (its manifest says so)."""
+    from benchmarks.design.config import DESIGN_SUITE
+    from benchmarks.storage import read_manifest
+
+    try:
+        extra = read_manifest(run_folder).get("extra")
+    except (FileNotFoundError, ValueError):
+        return False  # a bare store: make_suite_report read it without a manifest
+    return isinstance(extra, dict) and extra.get("kind") == DESIGN_SUITE

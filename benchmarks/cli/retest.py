@@ -96,11 +96,11 @@ def _check_counts(args: argparse.Namespace) -> int:
 def _run(args: argparse.Namespace) -> int:
     repeats = _check_counts(args)  # before the folder is read: a bad flag is named first
     from benchmarks.reports.retest import noise_floor
-    from benchmarks.storage import RETEST_DIR, read_manifest, read_retests
+    from benchmarks.storage import RETEST_DIR, read_retests
     from benchmarks.suites.config import suite_of_manifest
     from benchmarks.suites.retest import default_config, retest_suite
 
-    suite = suite_of_manifest(read_manifest(args.run_folder))
+    suite = suite_of_manifest(_suite_manifest(args.run_folder))
     base = default_config(suite)
     config = dataclasses.replace(
         base,
@@ -117,3 +117,34 @@ def _run(args: argparse.Namespace) -> int:
         f"({100 * floor['free_energy_relative']:.2f} % median range over {config.nudges} nudges)"
     )
     return 0
+
+
+#: What applies to a run folder of each other kind, for the message refusing it.
+_OTHER_KINDS = {
+    "design": "its figures and report are redrawn by `tooldesign report`",
+    "rl-suite": "its report is rebuilt by `tooldesign report`",
+}
+
+
+def _suite_manifest(folder: Path) -> dict[str, Any]:
+    """The manifest of a suite run folder; ValueError naming the folder and its kind if not."""
+    from benchmarks.storage import read_manifest
+    from benchmarks.suites.config import SUITE_KIND
+
+    if not folder.is_dir():
+        raise FileNotFoundError(f"run folder {folder} does not exist or is not a folder")
+    what = "retest re-evaluates the final designs of a suite run folder (`tooldesign bench`)"
+    try:
+        manifest: dict[str, Any] = read_manifest(folder)
+    except FileNotFoundError:
+        raise ValueError(
+            f"{folder} has no manifest.json, so it is not a suite run folder (a folder of "
+            f"`tooldesign evaluate`, say); {what}"
+        ) from None
+    extra = manifest.get("extra")
+    kind = extra.get("kind") if isinstance(extra, dict) else None
+    if kind != SUITE_KIND:
+        where = f"a {kind} run folder" if isinstance(kind, str) else "not a run folder we know"
+        then = f"; {_OTHER_KINDS[kind]}" if kind in _OTHER_KINDS else ""
+        raise ValueError(f"{folder} is {where}, not a suite run folder: {what}{then}")
+    return manifest

@@ -147,30 +147,31 @@ def run_design(
     """
     if not isinstance(config, DesignConfig):
         raise TypeError(f"config must be a DesignConfig, got {type(config).__name__}")
-    # Before the run folder is made: a script refused here reruns cleanly once fixed.
-    check_main_guard(config.executor, config.scheduler)
-    session = RunSession(
-        out_dir,
-        kind=DESIGN_SUITE,
-        config=config.to_json(),
-        resume=bool(resume),
-        runtime_fields=_RUNTIME_FIELDS,
-        added_fields=ADDED_FIELDS,
-    )
-    out, store = session.out, session.store
-    stepper = DesignStepper(config)
-    logged = _logged_iterations(store, config)
-    session.checkpoint()
-    stepper.replay(logged)
-    best = min((_best_ok(p) for p in logged), default=math.inf)
-    evaluations_done = sum(len(p) for p in logged)
-    task = config.task()
-
-    from tqdm.auto import tqdm
-
+    # Before the run folder is made: a script refused here, a missing dask or a scheduler that
+    # does not answer leaves nothing, so the same call reruns cleanly once that is fixed.
+    check_main_guard(config.executor, config.scheduler, function="run_design")
     with make_executor(
         config.executor, config.workers, config.scheduler, max_retries=config.max_retries
     ) as executor:
+        session = RunSession(
+            out_dir,
+            kind=DESIGN_SUITE,
+            config=config.to_json(),
+            resume=bool(resume),
+            runtime_fields=_RUNTIME_FIELDS,
+            added_fields=ADDED_FIELDS,
+        )
+        out, store = session.out, session.store
+        stepper = DesignStepper(config)
+        logged = _logged_iterations(store, config)
+        session.checkpoint()
+        stepper.replay(logged)
+        best = min((_best_ok(p) for p in logged), default=math.inf)
+        evaluations_done = sum(len(p) for p in logged)
+        task = config.task()
+
+        from tqdm.auto import tqdm
+
         bar = tqdm(
             total=config.iterations,
             initial=len(logged),

@@ -219,13 +219,22 @@ def _process_context() -> Any:
 
 
 _GUARD = "'if __name__ == \"__main__\":' guard"
-_GUARD_EXAMPLE = (
-    'Put the call under that guard, e.g.\n\n    if __name__ == "__main__":\n'
-    "        run_design(...)\n\nor evaluate in this process with executor='serial'."
-)
 
 
-def check_main_guard(kind: str = "process", scheduler: str | None = None) -> None:
+def _guard_example(function: str, serial: str) -> str:
+    return (
+        f'Put the call under that guard, e.g.\n\n    if __name__ == "__main__":\n'
+        f"        {function}(...)\n\nor evaluate in this process with {serial}."
+    )
+
+
+def check_main_guard(
+    kind: str = "process",
+    scheduler: str | None = None,
+    *,
+    function: str = "make_executor",
+    serial: str = "executor='serial'",
+) -> None:
     """Refuse to start worker processes from a script without a ``__main__`` guard.
 
     Worker processes (``forkserver`` or ``spawn``) import the main script again. A call that
@@ -245,12 +254,17 @@ def check_main_guard(kind: str = "process", scheduler: str | None = None) -> Non
         kind: The executor that would start workers (``"serial"`` starts none, nor does
             ``"dask"`` with a ``scheduler``: the check then passes).
         scheduler: Address of a running Dask scheduler, if any.
+        function: The function the script called (``"run_suite"``), named in the example of
+            the message.
+        serial: The argument that runs the work in the calling process instead, named in the
+            message (``"workers=1"`` for :func:`~benchmarks.rl.run_rl_suite`).
 
     Raises:
         RuntimeError: the call is outside the guard; the message says what to do.
     """
     if kind == "serial" or (kind == "dask" and scheduler is not None):
         return
+    example = _guard_example(function, serial)
     if getattr(multiprocessing.current_process(), "_inheriting", False):
         # A worker (or the forkserver) importing the main script: the call is outside the
         # guard. multiprocessing's own check (spawn._check_not_importing_main) reads this flag.
@@ -258,7 +272,7 @@ def check_main_guard(kind: str = "process", scheduler: str | None = None) -> Non
         raise RuntimeError(
             f"this worker process is importing {script} (as __mp_main__) and was asked to "
             f"start worker processes: the script starts them outside its {_GUARD}, so each "
-            f"worker re-runs that call. {_GUARD_EXAMPLE}"
+            f"worker re-runs that call. {example}"
         )
     main = sys.modules.get("__main__")
     path = getattr(main, "__file__", None)
@@ -276,14 +290,14 @@ def check_main_guard(kind: str = "process", scheduler: str | None = None) -> Non
     if not guards:
         raise RuntimeError(
             f"{path} starts worker processes but has no {_GUARD}; each worker would re-run the "
-            f"script. {_GUARD_EXAMPLE}"
+            f"script. {example}"
         )
     if line is not None and not any(
         g.lineno <= line <= (g.end_lineno or g.lineno) for g in guards
     ):
         raise RuntimeError(
             f"{path}, line {line}, starts worker processes outside its {_GUARD}; each worker "
-            f"would re-run that line. {_GUARD_EXAMPLE}"
+            f"would re-run that line. {example}"
         )
 
 
@@ -403,7 +417,13 @@ def _dask_executor(workers: int, scheduler: str | None) -> Iterator[Executor]:
                 f"scheduler must be an address like tcp://host:8786, got {scheduler!r}"
             )
         cluster = None
-        client = Client(scheduler)
+        try:
+            client = Client(scheduler)
+        except OSError as err:  # distributed's "Timed out trying to connect to ..." after 30 s
+            raise OSError(
+                f"no Dask scheduler answers at {scheduler} ({err}); start a scheduler with "
+                "`dask scheduler` or check the address"
+            ) from err
     else:
         # One thread per worker: the env cache is per thread, and PyBullet is CPU bound.
         cluster = LocalCluster(

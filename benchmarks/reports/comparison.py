@@ -504,8 +504,8 @@ def _pairwise_markdown(
         not isinstance(noise_floor, Mapping) and math.isnan(float(noise_floor))
     ):
         floor = (
-            "No noise floor was measured (run `tooldesign retest` on the folder): significance "
-            "rests on the tests alone, and every pair says 'no floor'."
+            "No noise floor was measured (`tooldesign retest` measures it for a suite run "
+            "folder): significance rests on the tests alone, and every pair says 'no floor'."
         )
     else:
         if isinstance(noise_floor, Mapping):

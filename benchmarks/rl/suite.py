@@ -40,7 +40,7 @@ from typing import Any, cast
 import numpy as np
 import pandas as pd
 
-from benchmarks.execution import WORKERS_MAX, make_executor
+from benchmarks.execution import WORKERS_MAX, check_main_guard, make_executor
 from benchmarks.rl.agents import (
     EpisodeRecord,
     Trained,
@@ -832,6 +832,9 @@ def run_rl_suite(
         config = rl_suite_config(config)
     work = _plan(config)
     planned = {key for w in work for key in w.keys()}
+    if config.workers != 1:
+        # Before the run folder is made: a script refused here reruns cleanly once fixed.
+        check_main_guard("process", function="run_rl_suite", serial="workers=1")
     session = RunSession(
         out_dir,
         kind=RL_SUITE_KIND,

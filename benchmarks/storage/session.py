@@ -323,8 +323,10 @@ class RunSession:
             or not isinstance(extra, dict)
             or extra.get("kind") != self.kind
         ):
+            kind = extra.get("kind") if isinstance(extra, dict) else None
             raise ResumeError(
-                f"cannot resume: {out} holds a run of another kind, not a {self.kind} run"
+                f"cannot resume: {out} is {_kind_words(kind)}, not a {self.kind} run folder (a "
+                "run of another kind); choose another folder"
             )
         self._verify_parts(extra)
         old = with_added_fields(old, self._added)
@@ -594,3 +596,18 @@ class _Heartbeat(threading.Thread):
     def stop(self) -> None:
         self._stopped.set()
         self.join()
+
+
+#: The command that makes (and continues) a run folder of each kind, for messages.
+_KIND_COMMANDS = {
+    "design": "tooldesign design --resume",
+    "suite": "tooldesign bench",
+    "rl-suite": "tooldesign bench rl",
+}
+
+
+def _kind_words(kind: object) -> str:
+    """A run folder's kind in words, with the command that continues it."""
+    if kind in _KIND_COMMANDS:
+        return f"a {kind} run folder (continue it with `{_KIND_COMMANDS[str(kind)]}`)"
+    return f"a run folder of kind {kind!r}" if kind is not None else "a run folder of unknown kind"

@@ -56,6 +56,7 @@ from benchmarks.execution import (
     FinalTest,
     Outcome,
     Scheduler,
+    check_main_guard,
     evaluate_item,
     make_executor,
     outcome_row,
@@ -408,60 +409,63 @@ def run_suite(
         raise TypeError(f"config must be a SuiteConfig, got {type(config).__name__}")
     _check_optimizers(config)
     runs = config.runs()
-    session = RunSession(
-        out_dir,
-        kind=SUITE_KIND,
-        config=config.to_json(),
-        resume=bool(resume),
-        runtime_fields=RUNTIME_FIELDS,
-        growable_fields=GROWABLE_FIELDS,
-        added_fields=ADDED_FIELDS,
-        extra={"size": size, "runs": len(runs), "planned_evaluations": config.evaluations()},
-        own_files=own_files,
-    )
-    out, store = session.out, session.store
-    logged = _logged_frames(store, config, runs)
-    pending = _adopt_designs(session, runs)
-    session.checkpoint()
-    done_tests = (len(runs) - len(pending)) * _test_rollouts(config)
-    total = config.evaluations() + len(runs) * _test_rollouts(config)
-    initial = sum(sum(len(f) for f in frames) for frames in logged.values()) + done_tests
-
-    from tqdm.auto import tqdm
-
-    bar = tqdm(
-        total=total,
-        initial=initial,
-        desc=config.name,
-        unit="sim",
-        disable=not progress,
-        file=sys.stderr,
-        dynamic_ncols=True,
-    )
-    finished = len(runs) - len(pending)
-
-    def on_run_done() -> None:
-        nonlocal finished
-        finished += 1
-        bar.set_postfix(runs=f"{finished}/{len(runs)}", refresh=False)
+    # Before the run folder is made: a script refused here, a missing dask or a scheduler that
+    # does not answer leaves nothing, so the same call reruns cleanly once that is fixed.
+    check_main_guard(config.executor, config.scheduler, function="run_suite")
+    with make_executor(
+        config.executor, config.workers, config.scheduler, max_retries=config.max_retries
+    ) as executor:
+        session = RunSession(
+            out_dir,
+            kind=SUITE_KIND,
+            config=config.to_json(),
+            resume=bool(resume),
+            runtime_fields=RUNTIME_FIELDS,
+            growable_fields=GROWABLE_FIELDS,
+            added_fields=ADDED_FIELDS,
+            extra={"size": size, "runs": len(runs), "planned_evaluations": config.evaluations()},
+            own_files=own_files,
+        )
+        out, store = session.out, session.store
+        logged = _logged_frames(store, config, runs)
+        pending = _adopt_designs(session, runs)
         session.checkpoint()
+        done_tests = (len(runs) - len(pending)) * _test_rollouts(config)
+        total = config.evaluations() + len(runs) * _test_rollouts(config)
+        initial = sum(sum(len(f) for f in frames) for frames in logged.values()) + done_tests
 
-    try:
-        if pending:
-            with make_executor(
-                config.executor, config.workers, config.scheduler, max_retries=config.max_retries
-            ) as executor:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(
+            total=total,
+            initial=initial,
+            desc=config.name,
+            unit="sim",
+            disable=not progress,
+            file=sys.stderr,
+            dynamic_ncols=True,
+        )
+        finished = len(runs) - len(pending)
+
+        def on_run_done() -> None:
+            nonlocal finished
+            finished += 1
+            bar.set_postfix(runs=f"{finished}/{len(runs)}", refresh=False)
+            session.checkpoint()
+
+        try:
+            if pending:
                 jobs = [
                     _RunJob(spec, list(logged.get(spec.key, [])), config, session, bar, on_run_done)
                     for spec in pending
                 ]
                 Scheduler(executor, evaluate_item, _max_active(config, executor)).run(jobs)
-    except BaseException:
-        session.close()  # its heartbeat stays: resuming counts this session's time
-        raise
-    finally:
-        bar.close()
-        session.checkpoint()
+        except BaseException:
+            session.close()  # its heartbeat stays: resuming counts this session's time
+            raise
+        finally:
+            bar.close()
+            session.checkpoint()
 
     evaluations = store.read(verify=False)  # written or verified by this session
     store.consolidate()
