@@ -406,3 +406,25 @@ def test_report_regenerates_identical_tables_from_the_stored_results(
     files = make_suite_report(shared)
     rebuilt = {p.name: p.read_bytes() for p in files if p.suffix in (".csv", ".md")}
     assert rebuilt == before
+
+
+def test_a_size_of_the_files_own_works_over_a_base(tmp_path):
+    """[sizes.quick] over base = "optimizers": the base at full size, then the file's quick."""
+    path = tmp_path / "quick.toml"
+    path.write_text('base = "optimizers"\nname = "q"\n[sizes.quick]\nn_seeds = 2\niterations = 2\n')
+    quick = load_suite(path, size="quick")
+    assert (quick.n_seeds, quick.iterations) == (2, 2)
+    assert quick.batch_size == load_suite(path).batch_size  # the rest from the base's full size
+
+
+def test_a_null_setting_cannot_go_to_toml_and_the_message_says_where_and_what_instead(tmp_path):
+    from benchmarks.suites.config import OptimizerSpec
+    from benchmarks.suites.files import save_suite
+
+    suite = builtin_suite("optimizers", "smoke").replace(
+        optimizers=(OptimizerSpec(name="cmaes", settings={"x0": None}),)
+    )
+    with pytest.raises(ValueError, match=r"optimizers\[0\]\.settings\.x0 = null .* as \.json"):
+        save_suite(suite, tmp_path / "s.toml")
+    assert not (tmp_path / "s.toml").exists()
+    assert load_suite(save_suite(suite, tmp_path / "s.json")) == suite

@@ -93,7 +93,9 @@ def load_suite(path: str | os.PathLike[str], *, size: str | None = None) -> Suit
         if not isinstance(base, str):
             raise ValueError(f"{source}: base must be the name of a built-in suite")
         try:
-            fields = builtin_suite(base, size or "full").to_json()
+            # A size of the file's own ([sizes.quick]) starts from the base's full size.
+            known = size if size in SIZES else "full"
+            fields = builtin_suite(base, known).to_json()
         except ValueError as err:
             raise ValueError(f"{source}: base: {err}") from None
     fields.update(data)
@@ -124,7 +126,12 @@ def load_suite(path: str | os.PathLike[str], *, size: str | None = None) -> Suit
     return suite_from_json(fields, where=str(source))
 
 
-def _toml_value(value: Any) -> str:
+def _toml_value(value: Any, where: str = "") -> str:
+    if value is None:
+        raise ValueError(
+            f"cannot write {where or 'a value'} = null to TOML (TOML has no null); save the "
+            "suite as .json instead"
+        )
     if isinstance(value, bool):
         return "true" if value else "false"
     if isinstance(value, int):
@@ -134,11 +141,14 @@ def _toml_value(value: Any) -> str:
     if isinstance(value, str):
         return json.dumps(value)  # a JSON string is a valid TOML basic string
     if isinstance(value, list):
-        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+        return "[" + ", ".join(_toml_value(v, where) for v in value) + "]"
     if isinstance(value, dict):
-        items = ", ".join(f"{json.dumps(k)} = {_toml_value(v)}" for k, v in value.items())
+        items = ", ".join(
+            f"{json.dumps(k)} = {_toml_value(v, f'{where}.{k}' if where else str(k))}"
+            for k, v in value.items()
+        )
         return "{" + items + "}"
-    raise TypeError(f"cannot write {value!r} to TOML")
+    raise TypeError(f"cannot write {where or 'a value'} = {value!r} to TOML")
 
 
 def _toml_text(data: Mapping[str, Any]) -> str:
@@ -148,11 +158,15 @@ def _toml_text(data: Mapping[str, Any]) -> str:
     for key, value in data.items():
         if key in tables or value is None:
             continue
-        lines.append(f"{key} = {_toml_value(value)}")
+        lines.append(f"{key} = {_toml_value(value, key)}")
     for key in tables:
-        for item in data.get(key, []):
+        for index, item in enumerate(data.get(key, [])):
             lines += ["", f"[[{key}]]"]
-            lines += [f"{k} = {_toml_value(v)}" for k, v in item.items() if v is not None]
+            lines += [
+                f"{k} = {_toml_value(v, f'{key}[{index}].{k}')}"
+                for k, v in item.items()
+                if v is not None
+            ]
     return "\n".join(lines) + "\n"
 
 
@@ -167,7 +181,8 @@ def save_suite(config: SuiteConfig, path: str | os.PathLike[str]) -> Path:
         The path written.
 
     Raises:
-        ValueError: If the suffix is neither.
+        ValueError: If the suffix is neither, or a TOML file would need a null (an optimizer
+            setting ``x0 = None``): the message names the field and suggests ``.json``.
     """
     if not isinstance(config, SuiteConfig):
         raise TypeError(f"config must be a SuiteConfig, got {type(config).__name__}")
