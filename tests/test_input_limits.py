@@ -348,3 +348,35 @@ def test_a_design_config_of_more_coefficients_than_a_tool_can_have_is_refused_at
 def test_an_empty_out_is_refused_not_taken_as_the_current_folder(argv, capsys):
     err = _one_line_exit_2([*argv, "--out", ""], capsys)
     assert "argument --out: must name a folder, got ''" in err
+
+
+def _public_calls():
+    from benchmarks.reports.suite import designs_table
+    from benchmarks.storage import (
+        csv_text,
+        file_sha256,
+        part_checksums,
+        status_counts,
+        timing_totals,
+    )
+    from benchmarks.suites import builtin_suite
+
+    return [
+        (lambda: status_counts(None), TypeError, "evaluations must be a pandas DataFrame"),
+        (lambda: timing_totals("log"), TypeError, "evaluations must be a pandas DataFrame"),
+        (lambda: csv_text([1, 2]), TypeError, "frame must be a pandas DataFrame"),
+        (lambda: part_checksums("folder"), TypeError, "store must be a ResultStore"),
+        (lambda: file_sha256(True), TypeError, "path must be a str or os.PathLike"),
+        (lambda: file_sha256(1), TypeError, "path must be a str or os.PathLike"),  # stdout's fd
+        (lambda: designs_table("abc"), TypeError, "designs must be a sequence"),
+        (lambda: designs_table([1, 2]), TypeError, "design records"),
+        (lambda: builtin_suite(["x"]), ValueError, "unknown suite"),
+        (lambda: builtin_suite("optimizers", ["smoke"]), ValueError, "unknown size"),
+    ]
+
+
+@pytest.mark.parametrize("case", range(10))
+def test_public_storage_suite_and_report_functions_name_a_value_of_the_wrong_kind(case):
+    call, error, match = _public_calls()[case]
+    with pytest.raises(error, match=match):
+        call()

@@ -169,7 +169,14 @@ def designs_table(designs: Sequence[Mapping[str, Any]]) -> pd.DataFrame:
 
     Returns:
         The table, in the records' order; missing values are NaN.
+
+    Raises:
+        TypeError: ``designs`` is not a sequence of mappings.
     """
+    if isinstance(designs, (str, bytes, Mapping)) or not isinstance(designs, Sequence):
+        raise TypeError(f"designs must be a sequence of design records, got {designs!r:.80}")
+    if not all(isinstance(record, Mapping) for record in designs):
+        raise TypeError("designs must be a sequence of design records (mappings)")
     rows = []
     for record in designs:
         row: dict[str, Any] = {

@@ -336,6 +336,11 @@ _NO_PYARROW = (
 )
 
 
+def _check_frame(value: Any, name: str) -> None:
+    if not isinstance(value, pd.DataFrame):
+        raise TypeError(f"{name} must be a pandas DataFrame, got {type(value).__name__}")
+
+
 def csv_text(frame: pd.DataFrame) -> str:
     """``frame`` as the CSV text of every table a run or a report keeps (no index).
 
@@ -343,6 +348,7 @@ def csv_text(frame: pd.DataFrame) -> str:
     so they round-trip bit for bit and do not depend on the locale; NaN is an empty field;
     every line ends with a bare line feed, on every platform.
     """
+    _check_frame(frame, "frame")
     return cast(
         "str", frame.to_csv(index=False, lineterminator="\n", float_format=lambda v: repr(float(v)))
     )
@@ -690,6 +696,7 @@ def timing_totals(evaluations: pd.DataFrame) -> dict[str, float]:
     Returns:
         ``{"simulation_time": s, "optimizer_time": s}``.
     """
+    _check_frame(evaluations, "evaluations")
     for name in TIMING_COLUMNS:
         if name not in evaluations.columns:
             raise ValueError(f"evaluations: missing column {name!r}")
@@ -708,6 +715,7 @@ def status_counts(evaluations: pd.DataFrame) -> dict[str, int]:
     Returns:
         ``{"total": n, "ok": n, "invalid": n, "failed": n}``.
     """
+    _check_frame(evaluations, "evaluations")
     counts = evaluations["status"].value_counts() if "status" in evaluations.columns else {}
     return {"total": int(len(evaluations)), **{s: int(counts.get(s, 0)) for s in STATUSES}}
 
@@ -717,6 +725,8 @@ def part_checksums(store: ResultStore, *, hashed: bool = True) -> dict[str, str]
 
     With ``hashed`` false the values are ``""``: the paths alone, without reading the files.
     """
+    if not isinstance(store, ResultStore):
+        raise TypeError(f"store must be a ResultStore, got {type(store).__name__}")
     out: dict[str, str] = {}
     for unit in sorted(store.completed_units(), key=lambda u: str(u.relative_path)):
         path = store.part_path(unit)

@@ -187,12 +187,12 @@ def builtin_suite(name: str, size: str = "full") -> SuiteConfig:
         ValueError: If the name or the size is unknown, or (``optimizer-peers``) no peer
             optimizer is installed.
     """
-    if name not in _BUILDERS:
+    if not isinstance(name, str) or name not in _BUILDERS:
         raise ValueError(
             f"unknown suite {name!r}; built-in suites: {', '.join(BUILTIN_SUITES)} (or give a "
             "suite file with --config)"
         )
-    if size not in SIZES:
+    if not isinstance(size, str) or size not in SIZES:
         raise ValueError(f"unknown size {size!r}; sizes: {', '.join(SIZES)}")
     suite = _BUILDERS[name](size)
     return suite.replace(**_SMOKE) if size == "smoke" else suite
