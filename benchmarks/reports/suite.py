@@ -837,8 +837,9 @@ def make_suite_report(
     if _kind(folder) == RL_SUITE_KIND:
         return make_rl_report(folder, out_dir=out_dir)
     target = folder / REPORT_DIR if out_dir is None else Path(out_dir)
-    written = _suite_report(folder, target, n_boot=n_boot, seed=seed)
-    notice = _incomplete_notice(folder)
+    designs, retests = read_designs(folder), read_retests(folder)
+    written = _suite_report(folder, target, designs, retests, n_boot=n_boot, seed=seed)
+    notice = _incomplete_notice(folder, designs, retests)
     if notice is not None:
         # Every page says so first: its comparisons may cover unequal budgets.
         warnings.warn(notice, RuntimeWarning, stacklevel=2)
@@ -849,7 +850,9 @@ def make_suite_report(
     return written
 
 
-def _incomplete_notice(folder: Path) -> str | None:
+def _incomplete_notice(
+    folder: Path, designs: Sequence[Mapping[str, Any]], retests: Sequence[Mapping[str, Any]]
+) -> str | None:
     """What is missing from a suite folder: runs not finished, designs not retested; or None."""
     manifest = read_manifest(folder)
     extra = manifest.get("extra")
@@ -857,7 +860,6 @@ def _incomplete_notice(folder: Path) -> str | None:
         return None
     notices = []
     planned = extra.get("runs")
-    designs = read_designs(folder)
     done = len(designs)
     finished = manifest.get("end_time") is not None
     if not finished or (isinstance(planned, int) and done < planned):
@@ -867,7 +869,6 @@ def _incomplete_notice(folder: Path) -> str | None:
             "going), so optimizers and variants may be compared over unequal budgets. Resume "
             "the run with the command that started it, then run tooldesign report again."
         )
-    retests = read_retests(folder)
     testable = [d for d in designs if d.get("status") == "ok" and d.get("coefficients")]
     if retests and len(retests) < len(testable):
         notices.append(
@@ -878,9 +879,15 @@ def _incomplete_notice(folder: Path) -> str | None:
     return " ".join(notices) or None
 
 
-def _suite_report(folder: Path, target: Path, *, n_boot: int, seed: int) -> list[Path]:
-    retests = read_retests(folder)
-    designs = read_designs(folder)
+def _suite_report(
+    folder: Path,
+    target: Path,
+    designs: Sequence[Mapping[str, Any]],
+    retests: Sequence[Mapping[str, Any]],
+    *,
+    n_boot: int,
+    seed: int,
+) -> list[Path]:
     floors = {
         str(v): noise_floor([r for r in retests if r.get("variant") == v])["free_energy"]
         for v in {r.get("variant") for r in retests}

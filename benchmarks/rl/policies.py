@@ -26,7 +26,6 @@ import numpy as np
 from benchmarks.rl.agents import ContextualPolicy, EpisodeLog, make_env
 from benchmarks.rl.configs import MethodConfig
 from benchmarks.storage import atomic_write_bytes, atomic_write_text, json_text
-from tooldesign_env.rl import MIN_GOAL_DISTANCE
 from tooldesign_env.schema import DEFAULT_BOX_MASS
 
 __all__ = [
@@ -407,13 +406,10 @@ def design_for_goal(
     if not isinstance(simulate, bool):
         raise TypeError(f"simulate must be True or False, got {simulate!r}")
     policy, card = load_policy(policy_path)
-    env = make_env(**policy_env_kwargs(card))
-    # The normalized reward has no scale at the box's start; the design needs none: a goal that
-    # near is designed and scored by F alone (normalized_reward NaN), as an optimizer would.
-    near = env.goal_distance(goal) < MIN_GOAL_DISTANCE
-    if near:
-        env.close()
-        env = make_env(**policy_env_kwargs(card), reward="free-energy")
+    # reward="free-energy" takes every goal: one within MIN_GOAL_DISTANCE of the box's start,
+    # where the normalized reward has no scale, is designed and scored by F alone. The record's
+    # normalized reward is info's either way (NaN that near).
+    env = make_env(**policy_env_kwargs(card), reward="free-energy")
     logged = EpisodeLog(env)
     try:
         obs, info = logged.reset(options={"goal": goal, "box_mass": box_mass})
@@ -438,7 +434,7 @@ def design_for_goal(
             result = dataclasses.replace(
                 result,
                 free_energy=record.free_energy,
-                normalized_reward=nan if near else record.reward,
+                normalized_reward=record.reward,
                 final_distance=record.final_distance,
                 valid=record.valid,
             )

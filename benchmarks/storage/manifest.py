@@ -96,21 +96,19 @@ def git_commit(repo_dir: str | os.PathLike[str] | None = None) -> str | None:
         The 40-hex-digit commit or ``None``.
     """
     folder = _code_folder(repo_dir)
-    if folder is None:
-        return None
+    commit = None if folder is None else _git(folder, "rev-parse", "HEAD")
+    return commit if commit is not None and re.fullmatch(r"[0-9a-f]{40}", commit) else None
+
+
+def _git(folder: Path, *args: str) -> str | None:
+    """``git ARGS`` run in ``folder``: its stripped output, or None without git or on failure."""
     try:
         result = subprocess.run(
-            ["git", "rev-parse", "HEAD"],
-            cwd=folder,
-            capture_output=True,
-            text=True,
-            timeout=10,
-            check=True,
+            ["git", *args], cwd=folder, capture_output=True, text=True, timeout=10, check=True
         )
     except (OSError, subprocess.SubprocessError):
         return None
-    commit = result.stdout.strip()
-    return commit if re.fullmatch(r"[0-9a-f]{40}", commit) else None
+    return result.stdout.strip()
 
 
 def _code_folder(repo_dir: str | os.PathLike[str] | None) -> Path | None:
@@ -122,17 +120,8 @@ def _code_folder(repo_dir: str | os.PathLike[str] | None) -> Path | None:
     if repo_dir is not None:
         return Path(repo_dir)
     here = Path(__file__).resolve()
-    try:
-        subprocess.run(
-            ["git", "ls-files", "--error-unmatch", here.name],
-            cwd=here.parent,
-            capture_output=True,
-            timeout=10,
-            check=True,
-        )
-    except (OSError, subprocess.SubprocessError):
-        return None
-    return here.parent
+    tracked = _git(here.parent, "ls-files", "--error-unmatch", here.name) is not None
+    return here.parent if tracked else None
 
 
 def git_dirty(repo_dir: str | os.PathLike[str] | None = None) -> bool | None:
@@ -148,18 +137,8 @@ def git_dirty(repo_dir: str | os.PathLike[str] | None = None) -> bool | None:
     folder = _code_folder(repo_dir)
     if folder is None:
         return None
-    try:
-        result = subprocess.run(
-            ["git", "status", "--porcelain", "--untracked-files=no"],
-            cwd=folder,
-            capture_output=True,
-            text=True,
-            timeout=10,
-            check=True,
-        )
-    except (OSError, subprocess.SubprocessError):
-        return None
-    return bool(result.stdout.strip())
+    status = _git(folder, "status", "--porcelain", "--untracked-files=no")
+    return None if status is None else bool(status)
 
 
 def host_info() -> dict[str, Any]:
