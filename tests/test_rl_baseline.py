@@ -11,8 +11,10 @@ import tooldesign_env  # noqa: F401
 
 
 @pytest.mark.slow
-def test_ppo_trains_on_randomized_goals():
+def test_ppo_trains_on_randomized_goals(tmp_path, monkeypatch):
     from stable_baselines3 import PPO
+
+    monkeypatch.setenv("SB3_LOGDIR", str(tmp_path))  # SB3's logger makes a folder per learn()
 
     env = RescaleAction(gym.make("ToolDesign-v0", randomize_goal=True), -1.0, 1.0)
     model = PPO("MlpPolicy", env, n_steps=8, batch_size=8, n_epochs=1, seed=0, device="cpu")

@@ -10,6 +10,7 @@ import dataclasses
 import json
 import subprocess
 import sys
+import tempfile
 
 import numpy as np
 import pytest
@@ -228,6 +229,20 @@ def test_same_seed_same_training(method):
     assert [r.action for r in a.records] == [r.action for r in b.records]
     assert [r.free_energy for r in a.records] == [r.free_energy for r in b.records]
     assert len({r.goal for r in a.records}) == len(a.records)  # random goals, all different
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("method", ["ppo", "sac"])
+def test_training_leaves_no_folder_in_the_temporary_folder(method, tmp_path, monkeypatch):
+    # SB3's default logger makes an empty SB3-<date> folder in tempfile.gettempdir() per learn().
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    monkeypatch.delenv("SB3_LOGDIR", raising=False)
+    if method == "ppo":
+        train_ppo(PPOConfig(n_steps=2, batch_size=2), total_episodes=2, seed=0)
+    else:
+        train_sac(SACConfig(learning_starts=1, batch_size=1), total_episodes=2, seed=0)
+    # (torch may make its own one-per-user cache, torchinductor_<user>, there: not ours.)
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith("SB3-")] == []
 
 
 # ------------------------------------------------------------------ goal and box mass as the task

@@ -170,6 +170,19 @@ def import_sb3() -> Any:
     return stable_baselines3
 
 
+def _quiet_logger(model: Any) -> None:
+    """Give ``model`` a logger that writes nothing.
+
+    Without one, every ``learn()`` makes an empty ``SB3-<date>`` folder in the system's temporary
+    folder (Stable-Baselines3's default logger, even with ``verbose=0``), which a suite of
+    hundreds of trainings leaves behind. The records this module keeps are the episodes
+    (:class:`EpisodeLog`), not SB3's training statistics.
+    """
+    from stable_baselines3.common.logger import Logger
+
+    model.set_logger(Logger(folder=None, output_formats=[]))
+
+
 def _torch_single_thread() -> None:
     import torch
 
@@ -243,6 +256,7 @@ def train_ppo(
         device="cpu",
         verbose=0,
     )
+    _quiet_logger(model)
     model.learn(total_timesteps=total)
     env.close()
     return Trained(model, env.records)
@@ -300,6 +314,7 @@ def train_sac(
         device="cpu",
         verbose=0,
     )
+    _quiet_logger(model)
     model.learn(total_timesteps=total)
     env.close()
     return Trained(model, env.records)
