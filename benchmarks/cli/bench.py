@@ -184,7 +184,7 @@ def _check_optimizer_settings(config: SuiteConfig) -> None:
             if not isinstance(err.__cause__, ImportError):
                 raise
             warnings.warn(
-                f"the settings of optimizer {spec.name!r} are not checked: {err}",
+                f"the settings of optimizer {spec.name!r} are not checked: {err.__cause__}",
                 UserWarning,
                 stacklevel=2,
             )
