@@ -6,12 +6,14 @@ import argparse
 import re
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
 import pandas as pd
 import pytest
 
 from benchmarks.cli import COMMANDS, build_parser, main
+from benchmarks.cli._warnings import warnings_as_lines
 from optimizers import registry
 
 
@@ -162,3 +164,35 @@ def test_design_with_a_policy_names_a_bad_goal_or_mass_as_without(
         err = capsys.readouterr().err
         assert message in err and "optimizer_settings" not in err, err
     assert not (tmp_path / "x").exists()
+
+
+def test_warnings_as_lines_changes_only_the_format_and_only_within_the_block():
+    before = warnings.formatwarning
+    with warnings_as_lines("tooldesign x"):
+        shown = warnings.formatwarning("a bad value", UserWarning, "/src/f.py", 3, "warn(...)")
+        assert shown == "tooldesign x: warning: a bad value\n"
+        # Which warnings are raised, and recording them, are as before.
+        with pytest.warns(UserWarning, match="still a warning"):
+            warnings.warn("still a warning", UserWarning, stacklevel=1)
+    assert warnings.formatwarning is before
+    assert "f.py:3: UserWarning: m" in warnings.formatwarning("m", UserWarning, "f.py", 3, "")
+    with pytest.raises(KeyError), warnings_as_lines("tooldesign x"):
+        raise KeyError("boom")
+    assert warnings.formatwarning is before
+
+
+def test_a_command_writes_a_warning_as_one_line_on_stderr(tmp_path):
+    # A suite whose optimizer is not importable here is dumped with a warning (not in-process:
+    # pytest records warnings instead of writing them).
+    suite = tmp_path / "suite.toml"
+    suite.write_text('name = "x"\n[[optimizers]]\nname = "no_such_module:Optimizer"\n')
+    code = "import sys; from benchmarks.cli import main; sys.exit(main(sys.argv[1:]))"
+    argv = ["bench", "--config", str(suite), "--out", "unused", "--dump-config"]
+    done = subprocess.run(
+        [sys.executable, "-c", code, *argv, str(tmp_path / "x.toml")],
+        capture_output=True,
+        text=True,
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stderr.startswith("tooldesign bench: warning: the settings of optimizer ")
+    assert done.stderr.count("\n") == 1 and "UserWarning" not in done.stderr, done.stderr

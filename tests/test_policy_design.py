@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -82,6 +84,35 @@ def test_a_saved_ppo_policy_designs_from_the_command_line(rl_smoke: Path, tmp_pa
     expected = design_for_goal(card, GOAL)
     log = pd.read_csv(out / "evaluations.csv")
     assert log["free_energy"].iloc[0] == expected.free_energy
+
+
+@pytest.mark.slow
+def test_the_command_shows_the_policys_warnings_as_warning_lines(tmp_path: Path) -> None:
+    # They were Python's "/path/policies.py:358: UserWarning: ..." and a line of source.
+    card = save_policy(
+        ContextualPolicy([(-0.3, 0.8, 0.1), (0.4, 1.3, 0.1)], [(0.3, -0.2, 0.5)] * 2),
+        "contextual",
+        tmp_path / "policy.json",
+        config=dataclasses.replace(ContextualConfig(), n_goals=2),
+        train_episodes=2,
+        goal_range=((-0.5, 0.5, 0.1), (0.5, 1.5, 0.1)),
+        mass_range=(0.1, 0.9),
+    )
+    argv = ["design", "--policy", str(card), "--goal", "0.9", "1.0", "0.1", "--box-mass", "2"]
+    argv += ["--out", str(tmp_path / "run"), "--no-progress", "--no-video"]
+    code = "import sys; from benchmarks.cli import main; sys.exit(main(sys.argv[1:]))"
+    done = subprocess.run([sys.executable, "-c", code, *argv], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert done.stderr.splitlines() == [
+        f"tooldesign design: warning: the goal [0.9, 1.0, 0.1] is outside the goals {card} was "
+        "trained on ([-0.5, 0.5, 0.1] to [0.5, 1.5, 0.1] m): the policy extrapolates",
+        f"tooldesign design: warning: the box mass 2 kg is outside the masses {card} was "
+        "trained on (0.1 to 0.9 kg): the policy extrapolates",
+    ]
+    assert "best design" in done.stdout
+    # A library caller still gets real warnings.
+    with pytest.warns(UserWarning, match="box mass 2 kg is outside"):
+        design_for_goal(card, (0.2, 1.0, 0.1), box_mass=2.0, simulate=False)
 
 
 @pytest.mark.parametrize(

@@ -238,9 +238,9 @@ def test_resume_refuses_other_settings_and_edited_parts(tmp_path: Path) -> None:
     out = tmp_path / "run"
     config = rl_suite_config("smoke", parts=("fixed",), methods=("random",))
     run_rl_suite(config, out)
-    with pytest.raises(ResumeError, match="other settings.*methods"):
+    with pytest.raises(ResumeError, match="(?s)other settings.*methods"):
         run_rl_suite(rl_suite_config("smoke", parts=("fixed",), methods=("cmaes",)), out)
-    with pytest.raises(ResumeError, match="other settings.*mass_range"):
+    with pytest.raises(ResumeError, match="(?s)other settings.*mass_range"):
         run_rl_suite(
             rl_suite_config("smoke", parts=("fixed",), methods=("random",), mass_range=(0.2, 1)),
             out,
@@ -274,8 +274,42 @@ def test_a_folder_made_with_an_older_default_is_not_resumed_with_todays(
     manifest = json.loads((out / "manifest.json").read_text())
     del manifest["config"][field]  # as the folders made before the field existed
     (out / "manifest.json").write_text(json.dumps(manifest))
-    with pytest.raises(ResumeError, match=f"other settings.*{field}"):
+    with pytest.raises(ResumeError, match=f"(?s)other settings.*{field}") as refused:
         run_rl_suite(config, out)
+    # No size and options of this version make the folder's settings: no command to offer.
+    assert "this version cannot continue it" in str(refused.value)
+    assert "tooldesign bench rl" not in str(refused.value)
+
+
+def test_resuming_with_another_size_names_the_differences_in_short_lines(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "run"
+    recorded = rl_suite_config("smoke", parts=("fixed",), methods=("random",))
+    RunSession(
+        out, kind=RL_SUITE_KIND, config=recorded.to_json(), resume=False, extra={}
+    ).checkpoint()
+    argv = ["bench", "rl", "--size", "short", "--seeds", "2", "--out", str(out)]
+    with pytest.raises(SystemExit) as exit_info:
+        main([*argv, "--parts", "fixed", "task", "--methods", "random", "--no-progress"])
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err
+    lines = err.strip().splitlines()
+    # It was one line of thousands of characters: every field of both configs, in full.
+    assert 4 <= len(lines) <= 10 and all(len(line) < 200 for line in lines), err
+    assert str(out) in lines[0] and "other settings" in lines[0]
+    # The fields the options set come first, recorded -> requested; the rest are counted.
+    assert lines[1:4] == [
+        '  size.name: "smoke" -> "short"',
+        "  size.seeds: 1 -> 2",
+        '  parts: ["fixed"] -> ["fixed", "task"]',
+    ]
+    assert re.fullmatch(r"  and \d+ more \(.*\)", lines[-3]), err
+    command = lines[-2].removeprefix("continue it with: ")
+    assert command == f"tooldesign bench rl --size smoke --methods random --parts fixed --out {out}"
+    # ... and that command does continue it.
+    assert main([*command.split()[1:], "--no-progress"]) == 0
+    assert {u.optimizer for u in ResultStore(out).completed_units()} == {"random", "straight"}
 
 
 @pytest.mark.slow

@@ -266,6 +266,52 @@ def test_dump_config_writes_a_file_that_loads_back(tmp_path: Path) -> None:
     assert load_suite(target) == builtin_suite("robustness", "smoke").replace(workers=1)
 
 
+@pytest.mark.parametrize(
+    ("settings", "words"),
+    [
+        ("{ sigmaa0 = 0.3 }", "has no setting 'sigmaa0'; its settings: bounds, sigma0, "),
+        ("{ sigma0 = -1.0 }", "sigma0 must be in [1e-06, 1] (a fraction of the box), got -1.0"),
+    ],
+)
+def test_dump_config_refuses_bad_optimizer_settings_as_the_run_does(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], settings: str, words: str
+) -> None:
+    suite_file = tmp_path / "suite.toml"
+    suite_file.write_text(
+        f'base = "optimizers"\nname = "bad"\n\n[[optimizers]]\nname = "cmaes"\n'
+        f"settings = {settings}\n"
+    )
+    args = ["bench", "--config", str(suite_file), "--size", "smoke", "--workers", "1"]
+    target = tmp_path / "dumped.toml"
+    errors = []
+    for extra in (["--dump-config", str(target)], ["--no-progress"]):
+        with pytest.raises(SystemExit) as exit_info:
+            main([*args, "--out", str(tmp_path / "run"), *extra])
+        assert exit_info.value.code == 2
+        errors.append(capsys.readouterr().err)
+    dumped, run = errors
+    assert dumped == run and words in dumped and dumped.count("\n") == 1, dumped
+    assert not target.exists() and not (tmp_path / "run").exists()
+
+
+def test_dump_config_writes_a_suite_whose_optimizer_cannot_be_imported_here(
+    tmp_path: Path,
+) -> None:
+    # Its settings cannot be checked without it: the file may be meant for another machine.
+    suite_file = tmp_path / "suite.toml"
+    suite_file.write_text(
+        'base = "optimizers"\nname = "elsewhere"\n\n[[optimizers]]\n'
+        'name = "no_such_module:Optimizer"\nsettings = { sigma0 = 0.1 }\n'
+    )
+    target = tmp_path / "dumped.toml"
+    args = ["bench", "--config", str(suite_file), "--size", "smoke", "--out", "unused"]
+    with pytest.warns(UserWarning, match="optimizer 'no_such_module:Optimizer' are not checked"):
+        assert main([*args, "--dump-config", str(target)]) == 0
+    assert load_suite(target).optimizers == (
+        OptimizerSpec(name="no_such_module:Optimizer", settings={"sigma0": 0.1}),
+    )
+
+
 @pytest.mark.parametrize("shape", ["square", "round"])
 def test_bench_section_shape_sets_every_runs_tool(tmp_path: Path, shape: str) -> None:
     target = tmp_path / "optimizers.toml"

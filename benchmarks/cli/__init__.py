@@ -15,6 +15,8 @@ import sys
 from collections.abc import Sequence
 from typing import NoReturn
 
+from benchmarks.cli._warnings import warnings_as_lines
+
 __all__ = ["COMMANDS", "build_parser", "main"]
 
 #: Every subcommand: its module (which defines ``add_parser``) and its one-line help. The help is
@@ -120,9 +122,18 @@ def _command_in(argv: Sequence[str]) -> str | None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the command line; returns the exit code."""
+    """Run the command line; returns the exit code.
+
+    A warning is shown as one ``tooldesign COMMAND: warning: MESSAGE`` line on stderr, not in
+    Python's format (the file, the line number, the category and a line of source).
+    """
     argv = list(sys.argv[1:] if argv is None else argv)
     command = _command_in(argv)
+    with warnings_as_lines(f"tooldesign {command}" if command else "tooldesign"):
+        return _main(argv, command)
+
+
+def _main(argv: list[str], command: str | None) -> int:
     # With no known command, the stubs are enough: argparse prints the help, the version or the
     # "invalid choice" error without importing any subcommand module.
     parser = _parser(set() if command is None else {command})

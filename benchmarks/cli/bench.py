@@ -151,6 +151,7 @@ def _run(args: argparse.Namespace) -> int:
 
     config = config_from_args(args)
     if args.dump_config is not None:
+        _check_optimizer_settings(config)
         print(f"suite written to {save_suite(config, args.dump_config)}")
         return 0
     size = args.size or ("full" if args.config is None else None)
@@ -162,3 +163,28 @@ def _run(args: argparse.Namespace) -> int:
     if report:
         print(f"report: {report[0].parent} ({len(report)} files)")
     return 0
+
+
+def _check_optimizer_settings(config: SuiteConfig) -> None:
+    """Refuse a suite whose optimizers ``run_suite`` would refuse, with the error it would give.
+
+    Each optimizer is made once with its settings, as ``run_suite`` does before it makes a file
+    (no simulation). An optimizer whose backend or plugin cannot be imported here is not
+    refused, as the file may be meant for a machine that has it: a warning says that its
+    settings were not checked.
+    """
+    import warnings
+
+    from benchmarks.suites.runner import _check_optimizers
+
+    for spec in config.optimizers:
+        try:
+            _check_optimizers(config.replace(optimizers=(spec,)))
+        except ValueError as err:
+            if not isinstance(err.__cause__, ImportError):
+                raise
+            warnings.warn(
+                f"the settings of optimizer {spec.name!r} are not checked: {err.__cause__}",
+                UserWarning,
+                stacklevel=2,
+            )

@@ -20,6 +20,7 @@ import warnings
 from typing import Any, cast
 
 from benchmarks.cli._common import out_path
+from benchmarks.cli._warnings import warning_line
 from benchmarks.cli.rl_suite import add_rl_suite_arguments, run_rl_command
 from tooldesign_env.schema import DEFAULT_BOX_MASS
 
@@ -91,7 +92,7 @@ def _run(args: argparse.Namespace) -> int:
             args.policy, args.goal, box_mass=args.box_mass, simulate=not args.no_simulate
         )
     for warning in caught:  # a task outside the policy's training ranges: one line each
-        print(f"tooldesign rl design: warning: {warning.message}", file=sys.stderr)
+        sys.stderr.write(warning_line("tooldesign rl design", warning.message))
     # JSON has no NaN: what was not simulated is null.
     printed = {key: _json_value(value) for key, value in result.__dict__.items()}
     print(json.dumps(printed, indent=2, allow_nan=False))

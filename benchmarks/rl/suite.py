@@ -28,8 +28,10 @@ report is made from the stored files by :func:`benchmarks.reports.make_suite_rep
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 import os
+import shlex
 import time
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import FIRST_COMPLETED, wait
@@ -61,12 +63,16 @@ from benchmarks.rl.configs import (
 )
 from benchmarks.rl.policies import save_policy
 from benchmarks.storage import (
+    MANIFEST_VERSION,
     ResultStore,
     ResumeError,
     RunSession,
     Unit,
+    check_out_dir,
     json_ready,
+    read_manifest,
     validate_evaluations,
+    with_added_fields,
 )
 from tooldesign_env.schema import (
     BEST_SO_FAR,
@@ -802,6 +808,143 @@ def _write(
             )
 
 
+#: Fields named first when a resume is refused: those the options set, then what they decide.
+_OPTION_FIELDS = ("size.name", "size.seeds", "methods", "parts", "mass_range")
+
+#: Differing fields listed one per line when a resume is refused; the rest are only counted.
+_SHOWN_DIFFERENCES = 4
+
+#: Longest value shown whole in that list, in characters.
+_BRIEF = 40
+
+#: A field one of the two configurations does not have.
+_ABSENT = object()
+
+
+def _check_same_settings(config: RLSuiteConfig, out_dir: Path) -> None:
+    """Refuse to resume an rl suite folder made with other settings, in a few short lines.
+
+    :class:`~benchmarks.storage.RunSession` refuses it too, but prints every differing field
+    whole: the held-out tasks and the method configs make that one line of thousands of
+    characters. A folder this cannot read, or of another kind or version, is left to the session.
+
+    Raises:
+        ResumeError: the recorded configuration differs, apart from :data:`RUNTIME_FIELDS`; the
+            message names the folder, the first differing fields (recorded -> requested) and the
+            command that continues it.
+    """
+    try:
+        manifest = read_manifest(out_dir)
+    except (OSError, ValueError):
+        return
+    old, extra = manifest.get("config"), manifest.get("extra")
+    if (
+        manifest.get("format_version") != MANIFEST_VERSION
+        or not isinstance(old, dict)
+        or not isinstance(extra, dict)
+        or extra.get("kind") != RL_SUITE_KIND
+    ):
+        return
+    recorded = with_added_fields(old, ADDED_FIELDS)
+    requested = config.to_json()
+    # The session's own comparison: top-level fields, runtime ones aside.
+    if all(
+        recorded.get(k) == requested.get(k)
+        for k in (recorded.keys() | requested.keys()) - RUNTIME_FIELDS
+    ):
+        return
+    changed = _differences(recorded, requested)
+    order = {name: i for i, name in enumerate(_OPTION_FIELDS)}
+    changed.sort(key=lambda item: (order.get(item[0], len(order)), item[0]))
+    lines = [
+        f"cannot resume: {out_dir} holds an rl suite made with other settings "
+        "(recorded -> requested):"
+    ]
+    for name, before, after in changed[:_SHOWN_DIFFERENCES]:
+        lines.append(f"  {name}: {_change(before, after)}")
+    rest = [name for name, _, _ in changed[_SHOWN_DIFFERENCES:]]
+    if rest:
+        named = ", ".join(rest[:3]) + (", ..." if len(rest) > 3 else "")
+        lines.append(f"  and {len(rest)} more ({named})")
+    flags = _continuing_flags(recorded)
+    if flags is None:
+        lines.append(
+            "this version cannot continue it (its settings are not those of any size and "
+            "options here): run the requested suite in another folder"
+        )
+    else:
+        command = shlex.join(["tooldesign", "bench", "rl", *flags, "--out", str(out_dir)])
+        lines.append(f"continue it with: {command}")
+        lines.append("or run the requested suite in another folder")
+    raise ResumeError("\n".join(lines))
+
+
+def _differences(old: Any, new: Any, name: str = "") -> list[tuple[str, Any, Any]]:
+    """The leaves that differ between two JSON tables, as (dotted name, old, new)."""
+    if isinstance(old, dict) and isinstance(new, dict):
+        found: list[tuple[str, Any, Any]] = []
+        for key in sorted(old.keys() | new.keys()):
+            if name or key not in RUNTIME_FIELDS:
+                dotted = f"{name}.{key}" if name else key
+                found += _differences(old.get(key, _ABSENT), new.get(key, _ABSENT), dotted)
+        return found
+    return [] if old == new else [(name, old, new)]
+
+
+def _change(before: Any, after: Any) -> str:
+    """``before -> after`` in a few words; two lists, one of them long, by their lengths."""
+    if isinstance(before, list) and isinstance(after, list):
+        if max(len(json.dumps(v)) for v in (before, after)) > _BRIEF:
+            if len(before) == len(after):
+                return f"{len(before)} items, other values"
+            return f"[{len(before)} items] -> [{len(after)} items]"
+    return f"{_brief(before)} -> {_brief(after)}"
+
+
+def _brief(value: Any) -> str:
+    """A JSON value in at most :data:`_BRIEF` characters: a long list by its length."""
+    if value is _ABSENT:
+        return "(none)"
+    text = json.dumps(value)
+    if len(text) <= _BRIEF:
+        return text
+    if isinstance(value, list):
+        return f"[{len(value)} items]"
+    return text[: _BRIEF - 3] + "..."
+
+
+def _continuing_flags(recorded: dict[str, Any]) -> list[str] | None:
+    """The ``tooldesign bench rl`` options whose suite is ``recorded``; None if there are none."""
+    try:
+        size = SIZES[recorded["size"]["name"]]
+        seeds: int | None = recorded["size"]["seeds"]
+        if seeds == size.seeds:
+            seeds = None
+        methods = tuple(recorded["methods"])
+        parts = tuple(recorded["parts"])
+        mass_range = tuple(recorded["mass_range"])
+        rebuilt = rl_suite_config(
+            size.name, seeds=seeds, methods=methods, parts=parts, mass_range=mass_range
+        ).to_json()
+    except (KeyError, TypeError, ValueError):
+        return None
+    if any(
+        rebuilt.get(k) != recorded.get(k)
+        for k in (rebuilt.keys() | recorded.keys()) - RUNTIME_FIELDS
+    ):
+        return None
+    flags = ["--size", size.name]
+    if seeds is not None:
+        flags += ["--seeds", str(seeds)]
+    if methods != FIXED_METHODS:
+        flags += ["--methods", *methods]
+    if parts != PARTS:
+        flags += ["--parts", *parts]
+    if mass_range != MASS_RANGE:
+        flags += ["--mass-range", *(repr(float(v)) for v in mass_range)]
+    return flags
+
+
 def run_rl_suite(
     config: RLSuiteConfig | str | SuiteSize,
     out_dir: str | os.PathLike[str],
@@ -835,6 +978,8 @@ def run_rl_suite(
     if config.workers != 1:
         # Before the run folder is made: a script refused here reruns cleanly once fixed.
         check_main_guard("process", function="run_rl_suite", serial="workers=1")
+    if resume:
+        _check_same_settings(config, check_out_dir(out_dir))
     session = RunSession(
         out_dir,
         kind=RL_SUITE_KIND,
