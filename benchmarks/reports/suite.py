@@ -211,14 +211,18 @@ def _designs_markdown(table: pd.DataFrame) -> str:
     lines = [
         "# Designs",
         "",
-        "One row per run: the run's design is its lowest-F valid evaluation. Straightness is the",
-        "tip's distance from the curve start over the arc length (1 = straight); the turning",
-        "angle is the centreline's total absolute turn in degrees. Robustness (m) is",
-        "-sum_i sum_t |X(m_i, t) - X(m, t)| over the altered box masses; the squared goal error",
-        "(m^2) is sum_t |X(m, t) - X^g|^2 at the nominal mass.",
+        "One row per run: the run's design is its lowest-F valid evaluation (status ok); a run",
+        "without one shows its lowest-penalty invalid design (status invalid: F is the env's",
+        "penalty, the design was not tested), or nothing when every evaluation failed (status",
+        "failed). Straightness is the tip's distance from the curve start over the arc length",
+        "(1 = straight); the turning angle is the centreline's total absolute turn in degrees.",
+        "Robustness (m) is -sum_i sum_t |X(m_i, t) - X(m, t)| over the altered box masses; the",
+        "squared goal error (m^2) is sum_t |X(m, t) - X^g|^2 at the nominal mass.",
         "",
     ]
-    header = ["variant", "optimizer", "seed", "C", "F", "final dist. (m)", "straightness"]
+    # The status column is always there: a table of invalid designs alone must say so.
+    header = ["variant", "optimizer", "seed", "status", "C", "F", "final dist. (m)"]
+    header += ["straightness"]
     header += ["turn (deg)", "robustness (m)", "sq. goal error (m^2)"]
     coefficient_columns = [c for c in table.columns if c.startswith("c") and c[1:].isdigit()]
     rows = []
@@ -229,6 +233,7 @@ def _designs_markdown(table: pd.DataFrame) -> str:
                 row["variant"] or "-",
                 row["optimizer"],
                 str(row["seed"]),
+                row["status"],
                 f"({coeffs})",
                 _fmt(row["free_energy"]),
                 _fmt(row["final_distance"], 3),
