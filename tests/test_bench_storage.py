@@ -29,7 +29,9 @@ from benchmarks.storage import (
     git_commit,
     git_dirty,
     package_versions,
+    read_designs,
     read_manifest,
+    read_retests,
     resolve_format,
     timing_totals,
     validate_evaluations,
@@ -377,6 +379,22 @@ def test_reading_a_missing_folder_names_it(tmp_path: Path) -> None:
         ResultStore(tmp_path / "file").read()
     with pytest.raises(TypeError, match="run_folder must be a path"):
         ResultStore(3)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("reader", [read_designs, read_retests])
+def test_design_and_retest_readers_refuse_a_missing_folder_not_read_it_as_empty(
+    reader, tmp_path: Path
+) -> None:
+    # A mistyped run folder used to read as a suite with no finished run ([]).
+    with pytest.raises(FileNotFoundError, match=r"run folder .*nowhere does not exist"):
+        reader(tmp_path / "nowhere")
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(NotADirectoryError, match=r"run folder .*file is not a folder"):
+        reader(tmp_path / "file")
+    with pytest.raises(TypeError, match="run_folder must be a path, got int"):
+        reader(3)
+    # An existing folder where no run has finished (no designs/, no retest/) has none.
+    assert reader(tmp_path) == []
 
 
 def test_reading_an_empty_store_says_so(tmp_path: Path) -> None:

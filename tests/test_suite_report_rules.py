@@ -118,3 +118,49 @@ def test_no_table_pools_the_designs_of_several_optimizers(finished: Path, tmp_pa
         assert "optimizer" in header, name
         column = header.index("optimizer")
         assert sorted(r.split(",")[column] for r in rows[1:]) == ["random", "random-b"], name
+
+
+def _design_record(seed: int, status: str | None) -> dict[str, object]:
+    """A suite's design file: an invalid design scores the env's finite penalty; a run whose
+    every evaluation failed has no design (coefficients and status null)."""
+    designed = status is not None
+    return {
+        "suite": "s",
+        "variant": "p0",
+        "label": "",
+        "optimizer": "cmaes",
+        "seed": seed,
+        "task_index": seed,
+        "goal": [0.5, 0.1, 0.0],
+        "goal_precision": 0.0,
+        "coefficients": [1.0, 2.0, 0.5] if designed else None,
+        "free_energy": 1e5 if designed else None,
+        "goal_error": 0.0 if designed else None,
+        "confidence": -1e5 if designed else None,
+        "final_distance": 0.3 if designed else None,
+        "status": status,
+        "test": {"error": "RuntimeError: the run has no valid design, so it was not tested"},
+    }
+
+
+@pytest.mark.parametrize(
+    ("statuses", "shown"),
+    [
+        (["invalid", None], ["invalid", "failed"]),  # no valid design anywhere
+        (["invalid", "invalid"], ["invalid", "invalid"]),
+        (["ok", "invalid"], ["ok", "invalid"]),
+        (["ok", "ok"], ["ok", "ok"]),  # the column is there whatever the statuses
+    ],
+)
+def test_designs_md_always_has_a_status_column(
+    statuses: list[str | None], shown: list[str]
+) -> None:
+    from benchmarks.reports.suite import _designs_markdown, designs_table
+
+    table = designs_table([_design_record(seed, s) for seed, s in enumerate(statuses)])
+    lines = _designs_markdown(table).splitlines()
+    header = next(line for line in lines if line.startswith("| variant"))
+    cells = [c.strip() for c in header.strip("|").split("|")]
+    assert cells[:5] == ["variant", "optimizer", "seed", "status", "C"]
+    rows = [line for line in lines if line.startswith("| p0 |")]
+    assert [r.strip("|").split("|")[3].strip() for r in rows] == shown

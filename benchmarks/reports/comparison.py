@@ -47,14 +47,18 @@ from benchmarks.storage.table import csv_text
 __all__ = [
     "DPI",
     "FIGSIZE",
+    "MIN_INTERVAL_VALUES",
     "beyond_noise_cell",
     "check_noise_floor",
     "convergence_table",
     "figure_png_bytes",
+    "interval_bounds",
     "make_report",
     "new_figure",
+    "no_interval_note",
     "optimizer_colors",
     "pairwise_table",
+    "percent_cell",
     "plot_convergence",
     "summary_table",
 ]
@@ -443,10 +447,65 @@ def _fmt(value: float, digits: int = 4) -> str:
     return "n/a" if value is None or not np.isfinite(value) else f"{value:.{digits}g}"
 
 
+MIN_INTERVAL_VALUES = 2
+"""Fewest values a Markdown table shows an interval of: one value's bootstrap is a point."""
+
+
+def no_interval_note(what: str = "values") -> str:
+    """The note under a Markdown table that shows an interval as n/a.
+
+    Args:
+        what: What the interval is over, plural: ``"runs"``, ``"designs"``, ``"tasks"``.
+    """
+    return (
+        f"An interval of n/a has fewer than {MIN_INTERVAL_VALUES} {what} with a value behind "
+        "it: a single value has no spread to resample, and the CSV's bounds for it are that "
+        "value itself, not an interval."
+    )
+
+
+def interval_bounds(low: float, high: float, n: int, fmt: Any = None) -> str:
+    """A bootstrap interval as a table cell: ``[low, high]``, or ``[n/a]`` from < 2 values.
+
+    Args:
+        low: Lower bound.
+        high: Upper bound.
+        n: Number of finite values the interval was resampled from.
+        fmt: Formats one bound; the report's own number format by default.
+
+    Returns:
+        The cell text; ``[n/a]`` when ``n`` < :data:`MIN_INTERVAL_VALUES` (the percentile
+        interval of one value is that value twice, which reads as certainty).
+    """
+    fmt = _fmt if fmt is None else fmt
+    return f"[{fmt(low)}, {fmt(high)}]" if n >= MIN_INTERVAL_VALUES else "[n/a]"
+
+
+def percent_cell(fraction: float, digits: int = 2) -> str:
+    """A fraction as a percentage cell, ``"1.23 %"``; ``"n/a"`` if it is NaN or infinite.
+
+    A relative noise is NaN when its base is 0 (every goal-error term is 0 at p^X = 0) or was
+    not measured; it must not print as ``nan %``.
+    """
+    value = float(fraction)
+    return f"{100 * value:.{digits}f} %" if math.isfinite(value) else "n/a"
+
+
 def _interval(row: pd.Series, metric: str) -> str:
-    text = f"{_fmt(row[metric])} [{_fmt(row[f'{metric}_low'])}, {_fmt(row[f'{metric}_high'])}]"
     excluded = int(row[f"{metric}_excluded"])
+    n = int(row["runs"]) - excluded
+    text = f"{_fmt(row[metric])} {interval_bounds(row[f'{metric}_low'], row[f'{metric}_high'], n)}"
     return text + (f" ({excluded} run(s) without a value)" if excluded else "")
+
+
+def _short_of_values(summary: pd.DataFrame) -> bool:
+    """Whether a cell of the summary has fewer values than an interval needs."""
+    if summary.empty:
+        return False
+    return any(
+        ((summary["runs"] - summary[f"{metric}_excluded"]) < MIN_INTERVAL_VALUES).any()
+        for metric in _METRICS
+    )
 
 
 def _markdown(header: Sequence[str], rows: Iterable[Sequence[str]]) -> list[str]:
@@ -489,6 +548,8 @@ def _summary_markdown(summary: pd.DataFrame, level: float) -> str:
         ]
         header = ["optimizer", "runs", "iterations", "final F", "AUC"]
         lines += _markdown(header, rows)
+    if _short_of_values(summary):
+        lines += ["", no_interval_note("runs")]
     return "\n".join(lines) + "\n"
 
 

@@ -25,8 +25,14 @@ import numpy as np
 import pandas as pd
 from scipy import stats as sstats
 
-from benchmarks.reports.comparison import beyond_noise_cell
-from benchmarks.reports.retest import noise_floor, stress_table
+from benchmarks.reports.comparison import (
+    MIN_INTERVAL_VALUES,
+    beyond_noise_cell,
+    interval_bounds,
+    no_interval_note,
+    percent_cell,
+)
+from benchmarks.reports.retest import noise_floor, stress_repeats, stress_table
 from benchmarks.reports.suite import designs_table
 from benchmarks.storage import read_designs, read_retests, with_added_fields
 from benchmarks.suites.config import ADDED_FIELDS
@@ -70,9 +76,17 @@ def _bootstrap_difference(a: np.ndarray, b: np.ndarray, seed: int) -> tuple[floa
     a, b = a[np.isfinite(a)], b[np.isfinite(b)]
     if not len(a) or not len(b):
         return math.nan, math.nan, math.nan
+    if min(len(a), len(b)) < MIN_INTERVAL_VALUES:
+        # One value has no spread: its resamples are itself, and the interval would claim a
+        # certainty about that side that one design cannot give. No interval: it cannot count.
+        return float(a.mean() - b.mean()), math.nan, math.nan
     draws = [rng.choice(a, len(a)).mean() - rng.choice(b, len(b)).mean() for _ in range(10_000)]
     low, high = np.quantile(draws, [0.025, 0.975])
     return float(a.mean() - b.mean()), float(low), float(high)
+
+
+def _finite_count(values: pd.Series) -> int:
+    return int(np.isfinite(values.to_numpy(dtype=np.float64)).sum())
 
 
 def _verdict_difference(low: float, high: float, diff: float, floor: float) -> bool:
@@ -108,18 +122,23 @@ def _claim_a(folder: Path) -> tuple[str, str, list[str]]:
         f"(`docs/results/{_where(folder)}/report/summary.md`, `pairwise.md`, "
         f"`convergence-{folder.name}.png`). Noise floor of F over the {int(floor['designs'])} "
         f"final designs: {_fmt(floor['free_energy'])} "
-        f"({100 * floor['free_energy_relative']:.2f} %, median range over nudged scenes, "
+        f"({percent_cell(floor['free_energy_relative'])}, median range over nudged scenes, "
         "`noise.md`).",
         "",
         "| optimizer | final F [95 % CI] | AUC [95 % CI] |",
         "|---|---|---|",
     ]
+    short = False
     for _, row in summary.iterrows():
-        lines.append(
-            f"| {row['optimizer']} | {_fmt(row['final_free_energy'])} "
-            f"[{_fmt(row['final_free_energy_low'])}, {_fmt(row['final_free_energy_high'])}] | "
-            f"{_fmt(row['auc'])} [{_fmt(row['auc_low'])}, {_fmt(row['auc_high'])}] |"
-        )
+        cells = [str(row["optimizer"])]
+        for metric in ("final_free_energy", "auc"):
+            n = int(row["runs"]) - int(row[f"{metric}_excluded"])
+            short |= n < MIN_INTERVAL_VALUES
+            bounds = interval_bounds(row[f"{metric}_low"], row[f"{metric}_high"], n, _fmt)
+            cells.append(f"{_fmt(row[metric])} {bounds}")
+        lines.append("| " + " | ".join(cells) + " |")
+    if short:
+        lines += ["", no_interval_note("seeds")]
     lines += ["", "| a vs b | metric | mean a - b | beyond noise | p (Holm) | significant |"]
     lines.append("|---|---|---|---|---|---|")
     cmaes_wins: list[str] = []
@@ -201,8 +220,17 @@ def _claim_b(folder: Path) -> tuple[str, str, list[str]]:
 
 
 def _stress_rows(folder: Path) -> tuple[pd.DataFrame, list[dict[str, Any]]]:
+    """Table I over masses of a folder's retests; a noise from one scene is NaN (unmeasured).
+
+    A design's noise is the range of its mean across repeated scenes: the 0 that one scene
+    gives is not a measurement, so the page shows n/a and claim (c) treats it as unmeasured.
+    """
     retests = read_retests(folder)
-    return stress_table(retests, "mass", n_boot=2000), retests
+    table = stress_table(retests, "mass", n_boot=2000)
+    if len(table) and stress_repeats(retests, "mass") < 2:
+        for metric in (*ROBUSTNESS_METRICS, "final_distance"):
+            table[f"{metric}_noise"] = math.nan
+    return table, retests
 
 
 def _design_stress(retests: Sequence[Mapping[str, Any]]) -> pd.DataFrame:
@@ -255,11 +283,21 @@ def _claim_c(folder: Path, baseline: Path | None) -> tuple[str, str, list[str]]:
     for _, row in rows.iterrows():
         cells = [str(row["label"] or row["variant"]), _fmt(row["goal_precision"])]
         for metric in (*ROBUSTNESS_METRICS, "final_distance"):
-            cells.append(
-                f"{_fmt(row[metric])} [{_fmt(row[f'{metric}_low'])}, "
-                f"{_fmt(row[f'{metric}_high'])}] ({_fmt(row[f'{metric}_noise'], 2)})"
+            bounds = interval_bounds(
+                row[f"{metric}_low"], row[f"{metric}_high"], int(row["designs"]), _fmt
             )
+            cells.append(f"{_fmt(row[metric])} {bounds} ({_fmt(row[f'{metric}_noise'], 2)})")
         lines.append("| " + " | ".join(cells) + " |")
+    notes = []
+    if len(rows) and (rows["designs"] < MIN_INTERVAL_VALUES).any():
+        notes.append(no_interval_note("goals"))
+    if len(rows) and rows[[f"{m}_noise" for m in ROBUSTNESS_METRICS]].isna().any(axis=None):
+        notes.append(
+            "A noise of n/a was not measured: the design was rolled out in one scene only "
+            "(`tooldesign retest --repeats 1`), and a range across scenes needs 2."
+        )
+    for note in notes:
+        lines += ["", note]
     # Pure confidence against each other labelled objective, per metric.
     lines += [
         "",
@@ -285,9 +323,12 @@ def _claim_c(folder: Path, baseline: Path | None) -> tuple[str, str, list[str]]:
             )
             counts = _verdict_difference(low, high, diff, noise)
             findings[metric].append(counts and diff * better > 0)
+            n = min(_finite_count(pure[metric]), _finite_count(part[metric]))
+            short = 0 < n < MIN_INTERVAL_VALUES
             lines.append(
-                f"| {metric.replace('_', ' ')} | {other} | {_fmt(diff)} [{_fmt(low)}, "
-                f"{_fmt(high)}] | {'yes' if counts else 'no'}"
+                f"| {metric.replace('_', ' ')} | {other} | {_fmt(diff)} "
+                f"{interval_bounds(low, high, n, _fmt)} | {'yes' if counts else 'no'}"
+                f"{' (no interval: fewer than 2 designs on a side)' if short else ''}"
                 f"{' (pure confidence better)' if counts and diff * better > 0 else ''}"
                 f"{' (pure confidence worse)' if counts and diff * better < 0 else ''}"
                 f"{f' ({unmeasured})' if unmeasured else ''} |"
@@ -391,8 +432,8 @@ def _suite_rows(results: Path) -> list[str]:
 def _floor_row(suite: str, floor: Mapping[str, Any]) -> str:
     return (
         f"| {suite} | {int(floor['designs'])} | {_fmt(floor['free_energy'])} "
-        f"({100 * floor['free_energy_relative']:.2f} %) | {_fmt(floor['goal_error'])} | "
-        f"{_fmt(floor['confidence'])} ({100 * floor['confidence_relative']:.2f} %) | "
+        f"({percent_cell(floor['free_energy_relative'])}) | {_fmt(floor['goal_error'])} | "
+        f"{_fmt(floor['confidence'])} ({percent_cell(floor['confidence_relative'])}) | "
         f"{_fmt(floor['final_distance'])} |"
     )
 

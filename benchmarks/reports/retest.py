@@ -27,11 +27,17 @@ import numpy as np
 import pandas as pd
 
 from benchmarks.reports import plots
+from benchmarks.reports.comparison import (
+    MIN_INTERVAL_VALUES,
+    interval_bounds,
+    no_interval_note,
+    percent_cell,
+)
 from benchmarks.reports.stats import bootstrap_ci
 from benchmarks.storage import atomic_write_text, json_text
 from tooldesign_env.schema import METRICS
 
-__all__ = ["make_retest_report", "noise_table", "stress_table"]
+__all__ = ["make_retest_report", "noise_table", "stress_repeats", "stress_table"]
 
 LEVEL = 0.95
 TERMS = METRICS
@@ -141,7 +147,24 @@ def stress_table(
     return table
 
 
-def _stress_markdown(table: pd.DataFrame, change: str, values: Sequence[float]) -> str:
+def stress_repeats(retests: Sequence[Mapping[str, Any]], change: str) -> int:
+    """Fewest repeated scenes of a retested design's stress rows of ``change`` (0 if none).
+
+    A design's noise is the range of its mean across those scenes: with one scene there is no
+    range to measure, and its 0 in the CSV is not a measurement.
+    """
+    counts = [
+        len({r.get("nudge") for r in rows})
+        for retest in retests
+        for rows in [[r for r in retest.get("stress") or [] if r["change"] == change]]
+        if rows
+    ]
+    return min(counts, default=0)
+
+
+def _stress_markdown(
+    table: pd.DataFrame, change: str, values: Sequence[float], repeats: int
+) -> str:
     unit = "kg" if change == "mass" else ""
     lines = [
         f"# Table I over a range of box {change}",
@@ -168,11 +191,22 @@ def _stress_markdown(table: pd.DataFrame, change: str, values: Sequence[float]) 
         for metric, _, _ in STRESS_METRICS:
             mean = _fmt(row[metric])
             mean = f"**{mean}**" if row[f"{metric}_best"] else mean
-            cells.append(
-                f"{mean} [{_fmt(row[f'{metric}_low'])}, {_fmt(row[f'{metric}_high'])}] "
-                f"({_fmt(row[f'{metric}_noise'], 2)})"
+            bounds = interval_bounds(
+                row[f"{metric}_low"], row[f"{metric}_high"], int(row["designs"]), _fmt
             )
+            noise = _fmt(row[f"{metric}_noise"], 2) if repeats >= 2 else "n/a"
+            cells.append(f"{mean} {bounds} ({noise})")
         lines.append("| " + " | ".join(cells) + " |")
+    notes = []
+    if len(table) and (table["designs"] < MIN_INTERVAL_VALUES).any():
+        notes.append(no_interval_note("designs"))
+    if repeats < 2:
+        notes.append(
+            f"The noise is n/a: each design was rolled out in {repeats} scene(s), and a range "
+            "across scenes needs at least 2 (retest with --repeats 2 or more)."
+        )
+    for note in notes:
+        lines += ["", note]
     return "\n".join(lines) + "\n"
 
 
@@ -221,6 +255,19 @@ def _plot_stress(
     return plots.save_png(figure, target / f"stress-{change}.png")
 
 
+_NO_RELATIVE_NOTE = (
+    " A relative noise of n/a has no base: the term's mean is 0 for every design (as the "
+    "goal-error term at p^X = 0), or no design has 2 scenes."
+)
+
+
+def _relative_missing(floor: Mapping[str, float]) -> bool:
+    return any(
+        not math.isfinite(floor[f"{t}_relative"])
+        for t in ("free_energy", "goal_error", "confidence")
+    )
+
+
 def make_retest_report(
     retests: Sequence[Mapping[str, Any]], target: Path, *, n_boot: int = 10_000, seed: int = 0
 ) -> list[Path]:
@@ -247,11 +294,12 @@ def make_retest_report(
         "= max - min over those scenes. The noise floor is the median range over designs, per "
         "variant (F's scale depends on p^X) in `noise-floor.json`; over all "
         f"{int(floor['designs'])} designs: F {_fmt(floor['free_energy'])} "
-        f"({100 * floor['free_energy_relative']:.2f} %), goal error {_fmt(floor['goal_error'])} "
-        f"({100 * floor['goal_error_relative']:.2f} %), confidence {_fmt(floor['confidence'])} "
-        f"({100 * floor['confidence_relative']:.2f} %), final distance "
-        f"{_fmt(floor['final_distance'])} m. Differences of F below their variant's floor are "
-        "not called significant in this folder's reports.",
+        f"({percent_cell(floor['free_energy_relative'])}), goal error "
+        f"{_fmt(floor['goal_error'])} ({percent_cell(floor['goal_error_relative'])}), "
+        f"confidence {_fmt(floor['confidence'])} ({percent_cell(floor['confidence_relative'])}),"
+        f" final distance {_fmt(floor['final_distance'])} m. Differences of F below their "
+        "variant's floor are not called significant in this folder's reports."
+        + (_NO_RELATIVE_NOTE if _relative_missing(floor) else ""),
         "",
         "| variant | optimizer | seed | F (mean) | F range | goal error range | "
         "confidence range | final distance range (m) |",
@@ -274,9 +322,8 @@ def make_retest_report(
         )
         stem = "stress" if change == "mass" else "stress-friction-table"
         written.append(atomic_write_text(target / f"{stem}.csv", stress.to_csv(index=False)))
-        written.append(
-            atomic_write_text(target / f"{stem}.md", _stress_markdown(stress, change, values))
-        )
+        markdown = _stress_markdown(stress, change, values, stress_repeats(retests, change))
+        written.append(atomic_write_text(target / f"{stem}.md", markdown))
         figure = _plot_stress(retests, change, target, seed)
         if figure is not None:
             written.append(figure)

@@ -40,7 +40,13 @@ import pandas as pd
 from matplotlib import colormaps
 
 from benchmarks.reports import plots
-from benchmarks.reports.comparison import REPORT_DIR, make_report
+from benchmarks.reports.comparison import (
+    MIN_INTERVAL_VALUES,
+    REPORT_DIR,
+    interval_bounds,
+    make_report,
+    no_interval_note,
+)
 from benchmarks.reports.retest import make_retest_report, noise_floor
 from benchmarks.reports.rl import make_rl_report
 from benchmarks.reports.stats import bootstrap_ci
@@ -85,8 +91,15 @@ def _fmt(value: Any, digits: int = 4) -> str:
     return f"{value:.0f}" if abs(value) >= 10 ** (digits - 1) else f"{value:.{digits}g}"
 
 
-def _interval(mean: float, low: float, high: float) -> str:
-    return f"{_fmt(mean)} [{_fmt(low)}, {_fmt(high)}]"
+def _interval(mean: float, low: float, high: float, n: int) -> str:
+    return f"{_fmt(mean)} {interval_bounds(low, high, n, _fmt)}"
+
+
+def _interval_notes(table: pd.DataFrame) -> list[str]:
+    """The note under a table of intervals over tasks when one of them is n/a."""
+    if len(table) and (table["tasks"] < MIN_INTERVAL_VALUES).any():
+        return ["", no_interval_note("tasks")]
+    return []
 
 
 def _markdown(header: Sequence[str], rows: Iterable[Sequence[str]]) -> list[str]:
@@ -211,14 +224,18 @@ def _designs_markdown(table: pd.DataFrame) -> str:
     lines = [
         "# Designs",
         "",
-        "One row per run: the run's design is its lowest-F valid evaluation. Straightness is the",
-        "tip's distance from the curve start over the arc length (1 = straight); the turning",
-        "angle is the centreline's total absolute turn in degrees. Robustness (m) is",
-        "-sum_i sum_t |X(m_i, t) - X(m, t)| over the altered box masses; the squared goal error",
-        "(m^2) is sum_t |X(m, t) - X^g|^2 at the nominal mass.",
+        "One row per run: the run's design is its lowest-F valid evaluation (status ok); a run",
+        "without one shows its lowest-penalty invalid design (status invalid: F is the env's",
+        "penalty, the design was not tested), or nothing when every evaluation failed (status",
+        "failed). Straightness is the tip's distance from the curve start over the arc length",
+        "(1 = straight); the turning angle is the centreline's total absolute turn in degrees.",
+        "Robustness (m) is -sum_i sum_t |X(m_i, t) - X(m, t)| over the altered box masses; the",
+        "squared goal error (m^2) is sum_t |X(m, t) - X^g|^2 at the nominal mass.",
         "",
     ]
-    header = ["variant", "optimizer", "seed", "C", "F", "final dist. (m)", "straightness"]
+    # The status column is always there: a table of invalid designs alone must say so.
+    header = ["variant", "optimizer", "seed", "status", "C", "F", "final dist. (m)"]
+    header += ["straightness"]
     header += ["turn (deg)", "robustness (m)", "sq. goal error (m^2)"]
     coefficient_columns = [c for c in table.columns if c.startswith("c") and c[1:].isdigit()]
     rows = []
@@ -229,6 +246,7 @@ def _designs_markdown(table: pd.DataFrame) -> str:
                 row["variant"] or "-",
                 row["optimizer"],
                 str(row["seed"]),
+                row["status"],
                 f"({coeffs})",
                 _fmt(row["free_energy"]),
                 _fmt(row["final_distance"], 3),
@@ -530,9 +548,12 @@ def _table_one_markdown(table: pd.DataFrame) -> str:
         for metric, _, _ in _TABLE_ONE:
             mean = _fmt(row[metric])
             mean = f"**{mean}**" if row[f"{metric}_best"] else mean
-            cells.append(f"{mean} [{_fmt(row[f'{metric}_low'])}, {_fmt(row[f'{metric}_high'])}]")
+            bounds = interval_bounds(
+                row[f"{metric}_low"], row[f"{metric}_high"], int(row["tasks"]), _fmt
+            )
+            cells.append(f"{mean} {bounds}")
         rows.append(cells)
-    return "\n".join(lines + _markdown(header, rows)) + "\n"
+    return "\n".join(lines + _markdown(header, rows) + _interval_notes(table)) + "\n"
 
 
 def robustness_by_precision(
@@ -609,21 +630,14 @@ def _by_precision_markdown(table: pd.DataFrame, correlations: pd.DataFrame) -> s
             row["label"] or "-",
             *([row["optimizer"]] if split else []),
             str(row["tasks"]),
-            _interval(row["robustness"], row["robustness_low"], row["robustness_high"]),
-            _interval(
-                row["squared_goal_error"],
-                row["squared_goal_error_low"],
-                row["squared_goal_error_high"],
-            ),
-            _interval(
-                row["nominal_final_distance"],
-                row["nominal_final_distance_low"],
-                row["nominal_final_distance_high"],
+            *(
+                _interval(row[m], row[f"{m}_low"], row[f"{m}_high"], int(row["tasks"]))
+                for m in ("robustness", "squared_goal_error", "nominal_final_distance")
             ),
         ]
         for _, row in table.iterrows()
     ]
-    lines += _markdown(header, rows)
+    lines += _markdown(header, rows) + _interval_notes(table)
     lines += [
         "",
         "Spearman rank correlation of p^X with each metric over all tested designs (rho > 0:",

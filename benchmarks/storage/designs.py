@@ -196,6 +196,21 @@ def _check_design(record: Any, path: Path, folder: Path) -> dict[str, Any]:
     return record
 
 
+def _run_folder(run_folder: str | os.PathLike[str]) -> Path:
+    """``run_folder`` as a Path, refused if it is not an existing folder (as ResultStore does).
+
+    A typo'd run folder must not read as a folder without designs or retests.
+    """
+    if not isinstance(run_folder, (str, os.PathLike)):
+        raise TypeError(f"run_folder must be a path, got {type(run_folder).__name__}")
+    root = Path(run_folder)
+    if not root.exists():
+        raise FileNotFoundError(f"run folder {root} does not exist")
+    if not root.is_dir():
+        raise NotADirectoryError(f"run folder {root} is not a folder")
+    return root
+
+
 def read_designs(run_folder: str | os.PathLike[str]) -> list[dict[str, Any]]:
     """The design files of a run folder, in a fixed order (variant, optimizer, seed).
 
@@ -204,15 +219,19 @@ def read_designs(run_folder: str | os.PathLike[str]) -> list[dict[str, Any]]:
 
     Returns:
         One dict per finished run (the JSON of its design file); ``paths`` is added, loaded from
-        its paths file, when there is one. Empty if the folder has no ``designs/``.
+        its paths file, when there is one. Empty if the folder has no ``designs/`` (no run
+        has finished yet).
 
     Raises:
+        TypeError: If ``run_folder`` is not a path.
+        FileNotFoundError: If ``run_folder`` does not exist.
+        NotADirectoryError: If it is a file.
         ValueError: If a design or paths file the manifest records is missing or changed
             (its SHA-256 differs), or a file is not UTF-8 JSON of the expected form (a design
             file: an object whose ``variant``, ``optimizer`` and ``seed`` name its path, with
             its goal and numbers); the message names the file and the field.
     """
-    root = Path(run_folder)
+    root = _run_folder(run_folder)
     folder = root / DESIGNS_DIR
     if not folder.is_dir():
         return []
@@ -299,10 +318,13 @@ def read_retests(run_folder: str | os.PathLike[str]) -> list[dict[str, Any]]:
     """Every retest file of a run folder (empty if it was not retested), in a fixed order.
 
     Raises:
+        TypeError: If ``run_folder`` is not a path.
+        FileNotFoundError: If ``run_folder`` does not exist.
+        NotADirectoryError: If it is a file.
         ValueError: If a retest file the manifest records is missing or changed, or a file
             is not UTF-8 JSON of the expected form; the message names the file.
     """
-    root = Path(run_folder)
+    root = _run_folder(run_folder)
     folder = root / RETEST_DIR
     if not folder.is_dir():
         return []

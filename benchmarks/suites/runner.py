@@ -265,7 +265,8 @@ def _adopt_designs(session: RunSession, runs: Sequence[RunSpec]) -> list[RunSpec
         ResumeError: If a design file is malformed or differs from its recorded checksum.
     """
     try:
-        read_designs(session.out)
+        if session.out.is_dir():  # a new session makes its folder at its first write
+            read_designs(session.out)
     except ValueError as error:
         raise ResumeError(f"cannot resume: {error}") from None
     pending = []
