@@ -175,11 +175,11 @@ def _check_optimizer_settings(config: SuiteConfig) -> None:
     """
     import warnings
 
-    from benchmarks.suites.runner import _check_optimizers
+    from benchmarks.suites import check_optimizers
 
     for spec in config.optimizers:
         try:
-            _check_optimizers(config.replace(optimizers=(spec,)))
+            check_optimizers(config.replace(optimizers=(spec,)))
         except ValueError as err:
             if not isinstance(err.__cause__, ImportError):
                 raise

@@ -38,7 +38,7 @@ from benchmarks.suites.config import (
 )
 from benchmarks.suites.files import load_suite, save_suite
 from benchmarks.suites.retest import RetestConfig, retest_design, retest_suite
-from benchmarks.suites.runner import SuiteResult, run_suite, summary_text
+from benchmarks.suites.runner import SuiteResult, check_optimizers, run_suite, summary_text
 
 __all__ = [
     "BUILTIN_SUITES",
@@ -57,6 +57,7 @@ __all__ = [
     "Task",
     "Variant",
     "builtin_suite",
+    "check_optimizers",
     "load_suite",
     "retest_design",
     "retest_suite",

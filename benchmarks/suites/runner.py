@@ -85,8 +85,18 @@ from tooldesign_env.schema import METRICS, RUN_COLUMNS, STATUSES, coefficient_co
 __all__ = ["SuiteResult", "run_suite", "summary_text"]
 
 
-def _check_optimizers(config: SuiteConfig) -> None:
-    """Make every optimizer once: a bad name, setting or backend stops before any file is made."""
+def check_optimizers(config: SuiteConfig) -> None:
+    """Make every optimizer of ``config`` once, as :func:`run_suite` does before any file.
+
+    No simulation is built: this is the check ``tooldesign bench --dump-config`` makes before
+    writing a suite file, so a file the run would refuse is refused when written.
+
+    Raises:
+        TypeError: an unknown setting, or a setting of the wrong type.
+        ValueError: an unknown optimizer, a bad setting value, or a backend that cannot be
+            imported (then ``__cause__`` is the ``ImportError``); each message names the
+            optimizer.
+    """
     import optimizers
 
     bounds = np.asarray(config.bounds, dtype=np.float64)
@@ -102,9 +112,15 @@ def _check_optimizers(config: SuiteConfig) -> None:
         except ImportError as err:
             raise ValueError(f"optimizer {spec.name!r} cannot be used: {err}") from err
         except (TypeError, ValueError) as err:
-            raise type(err)(f"optimizer {spec.name!r}: {err}") from err
+            raise type(err)(_naming(spec.name, err)) from err
         except OverflowError as err:  # a setting a backend cannot convert
             raise ValueError(f"optimizer {spec.name!r}: a setting is out of range: {err}") from err
+
+
+def _naming(name: str, err: Exception) -> str:
+    """``err``'s message, led by the optimizer's name unless it names it already."""
+    text = str(err)
+    return text if text.startswith(f"optimizer {name!r}") else f"optimizer {name!r}: {text}"
 
 
 def _logged_frames(
@@ -408,7 +424,7 @@ def run_suite(
     """
     if not isinstance(config, SuiteConfig):
         raise TypeError(f"config must be a SuiteConfig, got {type(config).__name__}")
-    _check_optimizers(config)
+    check_optimizers(config)
     runs = config.runs()
     # Before the run folder is made: a script refused here, a missing dask or a scheduler that
     # does not answer leaves nothing, so the same call reruns cleanly once that is fixed.
