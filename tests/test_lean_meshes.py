@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import re
 from pathlib import Path
 from typing import Any
@@ -259,6 +260,57 @@ def test_copies_are_written_once_and_a_changed_copy_is_written_again(tmp_path, m
     monkeypatch.setattr(bullet, "_LEAN_MESHES", {})
     assert lean_collision_meshes(tmp_path) == meshes
     assert copies[0].read_text(encoding="utf-8") != "v 0 0 0\n"
+
+
+def test_a_later_process_reuses_the_copies_through_the_index(tmp_path, monkeypatch):
+    monkeypatch.setattr(bullet, "_LEAN_MESHES", {})
+    meshes = lean_collision_meshes(tmp_path)
+    assert meshes is not None
+    index = tmp_path / "meshes" / f"lean-index-v{bullet.LEAN_MESH_FORMAT}.json"
+    assert sorted(json.loads(index.read_text(encoding="utf-8")).values()) == sorted(
+        Path(p).name for p in meshes.values()
+    )
+
+    def not_again(text):
+        raise AssertionError("a copy was made again although the index and the copy are sound")
+
+    monkeypatch.setattr(bullet, "lean_collision_mesh", not_again)
+    monkeypatch.setattr(bullet, "_LEAN_MESHES", {})  # as a new process
+    assert lean_collision_meshes(tmp_path) == meshes
+
+
+@pytest.mark.parametrize("damage", ["copy", "index", "index-entry", "index-escape"])
+def test_a_damaged_copy_or_index_makes_the_copies_again(tmp_path, monkeypatch, damage):
+    monkeypatch.setattr(bullet, "_LEAN_MESHES", {})
+    meshes = lean_collision_meshes(tmp_path)
+    assert meshes is not None
+    index = tmp_path / "meshes" / f"lean-index-v{bullet.LEAN_MESH_FORMAT}.json"
+    first = Path(next(iter(meshes.values())))
+    entries = json.loads(index.read_text(encoding="utf-8"))
+    if damage == "copy":  # same name, other bytes: the digest in its name no longer matches
+        first.write_text("v 0 0 0\n", encoding="utf-8")
+    elif damage == "index":
+        index.write_text("[not an index", encoding="utf-8")
+    else:
+        key = next(k for k, v in entries.items() if v == first.name)
+        entries[key] = (
+            "panda-link0-0123456789abcdef0123.obj"
+            if damage == "index-entry"
+            else ("../../outside.obj")
+        )
+        index.write_text(json.dumps(entries), encoding="utf-8")
+    made = []
+    real = bullet.lean_collision_mesh
+    monkeypatch.setattr(bullet, "lean_collision_mesh", lambda text: made.append(1) or real(text))
+    monkeypatch.setattr(bullet, "_LEAN_MESHES", {})
+    assert lean_collision_meshes(tmp_path) == meshes
+    assert made  # made again, from the original
+    assert first.read_text(encoding="utf-8") == real(
+        Path(next(iter(meshes))).read_text(encoding="utf-8")
+    )
+    assert {Path(p).name for p in meshes.values()} <= set(
+        json.loads(index.read_text(encoding="utf-8")).values()
+    )  # the index points at the sound copies again
 
 
 def test_without_a_writable_folder_the_originals_are_loaded(tmp_path, monkeypatch):

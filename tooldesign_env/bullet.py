@@ -11,6 +11,7 @@ import contextlib
 import functools
 import hashlib
 import importlib.metadata
+import json
 import os
 import re
 import sys
@@ -411,6 +412,12 @@ def lean_collision_meshes(folder: Path | None) -> dict[str, str] | None:
     text; a copy whose text is not the one made from the original now (left over, corrupt,
     written by another version) is written again, atomically (a temporary file renamed over
     it). Checked once per process and folder.
+
+    Making a copy parses the original and runs Qhull (about 35-50 ms for the eleven meshes), so
+    an index in the same folder (``lean-index-v{LEAN_MESH_FORMAT}.json``) records which copy
+    was made from which original, by a digest of the original's bytes. A process then reads
+    each original and its copy and hashes both (a few ms): an original whose bytes changed, or
+    a copy whose bytes no longer match the digest in its name, is made again.
     """
     if folder is None:
         return None
@@ -420,18 +427,42 @@ def lean_collision_meshes(folder: Path | None) -> dict[str, str] | None:
     return _LEAN_MESHES[key]
 
 
+def _lean_digest(lean: bytes) -> str:
+    """The digest in a lean copy's name: of the format and the copy's bytes."""
+    return hashlib.sha256(f"{LEAN_MESH_FORMAT}\n".encode() + lean).hexdigest()[:20]
+
+
 def _write_lean_meshes(folder: Path) -> dict[str, str] | None:
     urdf = panda_urdf_with_tool(None, visuals=False)
     originals = sorted(set(re.findall(r'<mesh filename="([^"]+\.obj)"', urdf)))
-    copies = {}
+    index_path = folder / f"lean-index-v{LEAN_MESH_FORMAT}.json"
+    try:
+        index = json.loads(index_path.read_text(encoding="utf-8"))
+        if not isinstance(index, dict):
+            index = {}
+    except (OSError, ValueError):
+        index = {}
+    copies, changed = {}, False
     try:
         folder.mkdir(parents=True, exist_ok=True)
         for original in originals:
-            with open(original, encoding="utf-8") as f:
-                lean = lean_collision_mesh(f.read()).encode("utf-8")
-            digest = hashlib.sha256(f"{LEAN_MESH_FORMAT}\n".encode() + lean).hexdigest()[:20]
+            with open(original, "rb") as f:
+                source = f.read()
+            source_digest = hashlib.sha256(source).hexdigest()
             stem = os.path.splitext(os.path.basename(original))[0]
-            path = folder / f"panda-{stem}-{digest}.obj"
+            name = index.get(source_digest)
+            if _is_lean_copy_name(name, stem):
+                path = folder / name
+                try:
+                    if _lean_digest(path.read_bytes()) == name[-24:-4]:
+                        copies[original] = str(path)
+                        continue
+                except OSError:
+                    pass
+            # As open(..., encoding="utf-8") reads it: universal newlines.
+            text = source.decode("utf-8").replace("\r\n", "\n").replace("\r", "\n")
+            lean = lean_collision_mesh(text).encode("utf-8")
+            path = folder / f"panda-{stem}-{_lean_digest(lean)}.obj"
             try:
                 current = path.read_bytes()
             except OSError:
@@ -439,9 +470,24 @@ def _write_lean_meshes(folder: Path) -> dict[str, str] | None:
             if current != lean:
                 write_atomic(path, lean)
             copies[original] = str(path)
+            index[source_digest] = path.name
+            changed = True
     except (OSError, ValueError, UnicodeDecodeError):
         return None  # the originals load too, only slower
+    if changed:
+        try:  # only a shortcut: a lost race or a read-only folder costs the next process time
+            write_atomic(index_path, json.dumps(index, indent=1, sort_keys=True).encode())
+        except OSError:
+            pass
     return copies
+
+
+def _is_lean_copy_name(name: Any, stem: str) -> bool:
+    """Whether ``name`` is a file name :func:`_write_lean_meshes` gives a copy of ``stem``."""
+    return (
+        isinstance(name, str)
+        and re.fullmatch(rf"panda-{re.escape(stem)}-[0-9a-f]{{20}}\.obj", name) is not None
+    )
 
 
 def robot_model_digest() -> str:
