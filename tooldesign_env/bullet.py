@@ -451,7 +451,7 @@ def _write_lean_meshes(folder: Path) -> dict[str, str] | None:
             source_digest = hashlib.sha256(source).hexdigest()
             stem = os.path.splitext(os.path.basename(original))[0]
             name = index.get(source_digest)
-            if _is_lean_copy_name(name, stem):
+            if isinstance(name, str) and _is_lean_copy_name(name, stem):
                 path = folder / name
                 try:
                     if _lean_digest(path.read_bytes()) == name[-24:-4]:
@@ -482,12 +482,9 @@ def _write_lean_meshes(folder: Path) -> dict[str, str] | None:
     return copies
 
 
-def _is_lean_copy_name(name: Any, stem: str) -> bool:
+def _is_lean_copy_name(name: str, stem: str) -> bool:
     """Whether ``name`` is a file name :func:`_write_lean_meshes` gives a copy of ``stem``."""
-    return (
-        isinstance(name, str)
-        and re.fullmatch(rf"panda-{re.escape(stem)}-[0-9a-f]{{20}}\.obj", name) is not None
-    )
+    return re.fullmatch(rf"panda-{re.escape(stem)}-[0-9a-f]{{20}}\.obj", name) is not None
 
 
 def robot_model_digest() -> str:
