@@ -85,7 +85,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         type=int,
         default=None,
         metavar="W",
-        help="worker processes (default: the number of CPUs)",
+        help="worker processes (default: the CPUs this process may use)",
     )
     parser.add_argument(
         "--executor",

@@ -223,7 +223,8 @@ class DesignConfig:
         seed: Seed of the optimizer, >= 0; the simulation has no randomness.
         iterations: K, iterations of ask/evaluate/tell, >= 1.
         batch_size: Designs asked per iteration (the population size), 1 to 10,000.
-        workers: Worker processes, 1 to 1024; ``None`` is ``os.cpu_count()``.
+        workers: Worker processes, 1 to 1024; ``None`` is the CPUs this process may use
+            (:func:`benchmarks.execution.usable_cpus`, its affinity).
         executor: ``"serial"``, ``"process"`` or ``"dask"``.
         scheduler: Address of a Dask scheduler (with ``executor="dask"``); a LocalCluster if
             ``None``.

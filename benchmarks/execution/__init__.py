@@ -37,6 +37,7 @@ from benchmarks.execution.executors import (
     make_executor,
     map_robust,
     run_alone,
+    usable_cpus,
 )
 from benchmarks.execution.scheduler import Job, Scheduler
 
@@ -64,6 +65,7 @@ __all__ = [
     "map_robust",
     "outcome_row",
     "run_alone",
+    "usable_cpus",
     "run_final_test",
     "worker_env",
 ]

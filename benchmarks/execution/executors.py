@@ -35,6 +35,7 @@ import os
 import signal
 import sys
 import time
+import warnings
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Executor, Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
@@ -331,9 +332,24 @@ def _is_main_compare(test: ast.expr) -> bool:
     return has_name and has_main
 
 
+def usable_cpus() -> int:
+    """How many CPUs this process may run on: the default number of workers.
+
+    Its CPU affinity (``taskset``, a container's cpuset), which ``os.cpu_count()`` ignores: under
+    ``taskset -c 0`` on a 2-core machine this is 1. A CPU quota (a container's ``cpu.max``)
+    is not an affinity and is not seen; pass the number of workers explicitly there.
+    """
+    count = getattr(os, "process_cpu_count", None)  # Python >= 3.13
+    if count is not None:
+        return int(count() or 1)
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0)) or 1
+    return os.cpu_count() or 1
+
+
 def _check_workers(workers: int | None) -> int:
     if workers is None:
-        return os.cpu_count() or 1
+        return usable_cpus()
     if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)):
         raise TypeError(f"workers must be an int >= 1 or None, got {type(workers).__name__}")
     if workers < 1:
@@ -341,6 +357,18 @@ def _check_workers(workers: int | None) -> int:
     if workers > WORKERS_MAX:
         raise ValueError(f"workers must be <= {WORKERS_MAX}, got {workers}")
     return int(workers)
+
+
+def _warn_oversubscribed(workers: int) -> None:
+    cpus = usable_cpus()
+    if workers > cpus:
+        warnings.warn(
+            f"{workers} worker processes on the {cpus} CPU(s) this process may use: they take "
+            f"turns, so the run is no faster than with {cpus} and each evaluation's recorded "
+            f"time is longer; pass workers={cpus} (--workers {cpus}) or fewer",
+            UserWarning,
+            stacklevel=4,
+        )
 
 
 @contextlib.contextmanager
@@ -356,7 +384,8 @@ def make_executor(
     Args:
         kind: ``"serial"``, ``"process"`` or ``"dask"``.
         workers: Worker processes (process pool, Dask ``LocalCluster``); default
-            ``os.cpu_count()``. Ignored by ``"serial"`` and with a ``scheduler``.
+            :func:`usable_cpus`. More than that gives a ``UserWarning``. Ignored by
+            ``"serial"`` and with a ``scheduler``.
         scheduler: Address of a running Dask scheduler (``"tcp://host:8786"``); only with
             ``kind="dask"``. Without it a ``LocalCluster`` of ``workers`` single-threaded worker
             processes is started.
@@ -391,6 +420,7 @@ def make_executor(
             serial.shutdown()
     elif kind == "process":
         check_main_guard(kind)
+        _warn_oversubscribed(count)
         pool = _RestartingProcessPool(count, _process_context(), retries)
         try:
             yield pool
@@ -398,6 +428,8 @@ def make_executor(
             pool.shutdown(wait=True, cancel_futures=True)
     else:
         check_main_guard(kind, scheduler)  # a LocalCluster starts worker processes here
+        if scheduler is None:
+            _warn_oversubscribed(count)
         with _dask_executor(count, scheduler) as executor:
             yield executor
 

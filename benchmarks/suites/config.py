@@ -359,7 +359,8 @@ class SuiteConfig:
             mass with ``test_robustness``) for the figures.
         figures: Suite-specific reports (keys of :data:`FIGURES`).
         executor: ``"serial"``, ``"process"`` or ``"dask"``.
-        workers: Worker processes; ``None`` is ``os.cpu_count()``.
+        workers: Worker processes; ``None`` is the CPUs this process may use
+            (:func:`benchmarks.execution.usable_cpus`, its affinity).
         scheduler: Address of a running Dask scheduler (with ``executor="dask"``).
         max_retries: With ``executor="process"``: further evaluations, each alone in a fresh
             pool, of a design whose worker process died while it was evaluated alone, before it

@@ -36,7 +36,7 @@ from typing import Any, cast
 
 import numpy as np
 
-from benchmarks.execution import TaskSettings, make_executor, map_robust, worker_env
+from benchmarks.execution import TaskSettings, make_executor, map_robust, usable_cpus, worker_env
 from benchmarks.storage import (
     DESIGNS_DIR,
     json_text,
@@ -281,7 +281,7 @@ def retest_suite(
     with contextlib.ExitStack() as stack:
         pool = executor or stack.enter_context(make_executor("process", workers=workers))
         # In chunks, so that an interrupted retest keeps what it finished.
-        chunk = 2 * int(getattr(pool, "max_workers", None) or os.cpu_count() or 1)
+        chunk = 2 * int(getattr(pool, "max_workers", None) or usable_cpus())
         for begin in range(0, len(pending), chunk):
             part = pending[begin : begin + chunk]
             outcomes = map_robust(pool, retest_design, [item for _, item, _ in part])

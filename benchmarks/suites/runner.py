@@ -60,6 +60,7 @@ from benchmarks.execution import (
     evaluate_item,
     make_executor,
     outcome_row,
+    usable_cpus,
 )
 from benchmarks.storage import (
     DESIGN_VERSION,
@@ -384,7 +385,7 @@ def _max_active(config: SuiteConfig, executor: object = None) -> int:
         return 1
     # A Dask scheduler's cluster may have far more workers than this machine has CPUs.
     cluster = getattr(executor, "max_workers", None) if config.scheduler is not None else None
-    workers = config.workers or cluster or os.cpu_count() or 1
+    workers = config.workers or cluster or usable_cpus()
     # Enough queued evaluations to keep twice the workers busy, plus one run being told.
     return max(2, math.ceil(2 * workers / config.batch_size) + 1)
 
