@@ -116,3 +116,43 @@ def test_sigkill_of_a_pooled_run_leaves_nothing(tmp_path: Path, kill_point: str)
     assert not survivors, f"{len(survivors)} of {len(helpers)} helpers outlived the kill"
     leaked = _leaked_shm(shm_before)
     assert not leaked, f"left in /dev/shm: {sorted(leaked)}"
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="PR_SET_PDEATHSIG is Linux")
+def test_sigterm_stops_a_pooled_run_as_ctrl_c_does(tmp_path: Path) -> None:
+    out = tmp_path / "run"
+    shm_before = _shm()
+    code = "import sys; from benchmarks.cli import main; sys.exit(main(sys.argv[1:]))"
+    args = ["design", "--iterations", "50", "--batch-size", "2", "--workers", "2"]
+    process = subprocess.Popen(
+        [sys.executable, "-c", code, *args, "--executor", "process", "--out", str(out)],
+        cwd=ROOT,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    main = psutil.Process(process.pid)
+    deadline = time.monotonic() + 300
+    while not ((out / "parts").exists() and list((out / "parts").rglob("*.*"))):
+        assert process.poll() is None, "the run ended before its first part"
+        assert time.monotonic() < deadline, "no part written"
+        time.sleep(0.05)  # polling a folder; the run itself takes seconds
+    helpers = set(main.children(recursive=True))
+    process.send_signal(signal.SIGTERM)
+    _, stderr = process.communicate(timeout=60)
+    assert process.returncode == 143, stderr
+    assert stderr.strip().splitlines()[-1] == (
+        "terminated (SIGTERM); continue with the same command and --resume"
+    )
+    assert "Traceback" not in stderr and "leaked" not in stderr, stderr
+    end = time.monotonic() + GRACE
+    alive = helpers
+    while alive and time.monotonic() < end:
+        alive = {p for p in alive if _alive(p)}
+        time.sleep(0.05)
+    for p in alive:
+        with contextlib.suppress(psutil.Error):
+            p.kill()
+    assert not alive, [_cmdline(p)[:80] for p in alive]
+    assert not _leaked_shm(shm_before)

@@ -9,10 +9,14 @@ seconds, so only the module of the command being run is imported: ``tooldesign -
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
+import os
 import pickle
+import signal
 import sys
-from collections.abc import Sequence
+import threading
+from collections.abc import Iterator, Sequence
 from typing import NoReturn
 
 from benchmarks.cli._warnings import warnings_as_lines
@@ -133,13 +137,47 @@ def main(argv: Sequence[str] | None = None) -> int:
         return _main(argv, command)
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised in the main thread as Ctrl-C is, so that a run stops the same way."""
+
+
+@contextlib.contextmanager
+def _terminate_as_interrupt() -> Iterator[None]:
+    """Within the block, SIGTERM (``kill``, a batch system's time limit) stops as Ctrl-C does.
+
+    The run then shuts its workers down and closes its folder as on Ctrl-C, and the command
+    says how to go on (its exit code is still 143). Without this, SIGTERM ended the process
+    at once, without a word, and left the pool's semaphores to the resource tracker. Only in
+    the main thread of this process, and only where SIGTERM has its default action.
+    """
+    main_thread = threading.current_thread() is threading.main_thread()
+    if not main_thread or signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL:
+        yield
+        return
+    pid = os.getpid()
+
+    def terminate(signum: int, frame: object) -> None:
+        if os.getpid() != pid:  # a child forked while this was set: the default action
+            signal.signal(signal.SIGTERM, signal.SIG_DFL)
+            os.kill(os.getpid(), signal.SIGTERM)
+            return
+        raise Terminated
+
+    signal.signal(signal.SIGTERM, terminate)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
 def _main(argv: list[str], command: str | None) -> int:
     # With no known command, the stubs are enough: argparse prints the help, the version or the
     # "invalid choice" error without importing any subcommand module.
     parser = _parser(set() if command is None else {command})
     args = parser.parse_args(argv)
     try:
-        return int(args.run(args) or 0)
+        with _terminate_as_interrupt():
+            return int(args.run(args) or 0)
     except (
         ValueError,
         TypeError,
@@ -152,15 +190,16 @@ def _main(argv: list[str], command: str | None) -> int:
         # scheduler that does not answer, a corrupted state file or a missing optional backend
         # (whose message names the pip extra): one clear line instead of a traceback.
         parser.exit(2, f"tooldesign {args.command}: error: {exc}\n")
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:
         # What is stored stays: say how to go on from it.
         resume = {
             "design": "; continue with the same command and --resume",
             "bench": "; run the same command again: it resumes",
             "retest": "; run the same command again: it resumes",
         }
-        print(f"interrupted{resume.get(args.command, '')}", file=sys.stderr)
-        return 130
+        stopped = "terminated (SIGTERM)" if isinstance(exc, Terminated) else "interrupted"
+        print(f"{stopped}{resume.get(args.command, '')}", file=sys.stderr)
+        return 128 + signal.SIGTERM if isinstance(exc, Terminated) else 130
     except RuntimeError as exc:
         from benchmarks.design.stepper import NothingEvaluated
         from benchmarks.execution.errors import ClusterMismatch
