@@ -9,6 +9,7 @@ import warnings
 import numpy as np
 import pytest
 
+from tooldesign_env import plan as plan_module
 from tooldesign_env import simulation
 from tooldesign_env.plan import (
     CACHE_ENV,
@@ -103,11 +104,16 @@ def test_a_bad_file_is_a_miss_never_an_error(tmp_path, corrupt):
     assert load_knots(key, SHAPE, tmp_path) is not None
 
 
-def test_an_unwritable_folder_warns_and_keeps_going(tmp_path):
+def test_an_unwritable_folder_warns_once_and_keeps_going(tmp_path, monkeypatch):
+    monkeypatch.setattr(plan_module, "_UNWRITABLE", set())
     blocker = tmp_path / "a-file"
     blocker.write_text("in the way")
-    with pytest.warns(RuntimeWarning, match="cannot be written"):
+    with pytest.warns(RuntimeWarning, match="cannot be written") as caught:
         assert not store_knots(cache_key({"a": 1}), _knots(), blocker / "sub")
+        assert not store_knots(cache_key({"b": 2}), _knots(), blocker / "sub")  # the sweep's
+    assert len(caught) == 1  # one folder, one warning, naming both kinds of file
+    assert "inverse kinematics" in str(caught[0].message)
+    assert "floor guard" in str(caught[0].message)
     assert load_knots(cache_key({"a": 1}), SHAPE, blocker / "sub") is None
 
 
@@ -124,6 +130,9 @@ def test_the_plan_key_changes_with_what_the_ik_depends_on(monkeypatch):
     monkeypatch.undo()
     monkeypatch.setattr(simulation, "IK_ITERATIONS", 201)
     assert plan_cache_key(PlanSpec()) != base
+    monkeypatch.undo()
+    monkeypatch.setattr(simulation.platform, "machine", lambda: "aarch64-or-other")
+    assert plan_cache_key(PlanSpec()) != base  # a home folder shared between architectures
 
 
 @pytest.fixture

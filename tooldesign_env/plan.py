@@ -295,12 +295,17 @@ def load_knots(key: str, shape: tuple[int, int], folder: Path | None = None) -> 
     return q
 
 
+#: Cache folders found unwritable in this process: each is warned about once.
+_UNWRITABLE: set[str] = set()
+
+
 def store_knots(key: str, q: np.ndarray, folder: Path | None = None) -> bool:
     """Write the knot solutions for ``key`` atomically; whether it was written.
 
     The archive is written to a temporary file in the same folder and renamed over the
     target, so a reader sees the old file, the new one, or none: never half a file. A folder
-    that cannot be created or written leaves the cache in memory only (a warning says so).
+    that cannot be created or written leaves the cache in memory only (a warning says so,
+    once per folder and process).
     """
     folder = cache_dir() if folder is None else folder
     if folder is None:
@@ -313,11 +318,14 @@ def store_knots(key: str, q: np.ndarray, folder: Path | None = None) -> bool:
         write_atomic(_cache_path(folder, key), archive.getvalue())
         return True
     except OSError as err:
-        warnings.warn(
-            f"the plan cache folder {str(folder)!r} cannot be written ({err}); the plan's "
-            f"inverse kinematics is cached in memory only (set {CACHE_ENV} to a writable "
-            "folder, or to an empty string to silence this)",
-            RuntimeWarning,
-            stacklevel=2,
-        )
+        if str(folder) not in _UNWRITABLE:  # once per folder and process, for any file
+            _UNWRITABLE.add(str(folder))
+            warnings.warn(
+                f"the plan cache folder {str(folder)!r} cannot be written ({err}); what it "
+                "would keep (the plan's inverse kinematics, the floor guard's sweep of the "
+                f"plan) is cached in memory only (set {CACHE_ENV} to a writable folder, or to "
+                "an empty string to silence this)",
+                RuntimeWarning,
+                stacklevel=2,
+            )
         return False

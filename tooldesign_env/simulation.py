@@ -13,6 +13,7 @@ import dataclasses
 import gc
 import itertools
 import math
+import platform
 import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass, field
@@ -84,7 +85,9 @@ def plan_cache_key(plan: PlanSpec) -> str:
     """The cache key of a plan's IK knot solutions: a digest of everything they depend on.
 
     The plan's every field, the knot spacing, the rest pose and solver settings, the arm's
-    URDF (as loaded for IK), PyBullet's version and NumPy's (which computes the Cartesian path).
+    URDF (as loaded for IK), PyBullet's version and NumPy's (which computes the Cartesian path),
+    and the machine's architecture (the same versions may round otherwise on another one, and
+    a home folder may be shared between them).
     """
     return cache_key(
         {
@@ -95,6 +98,7 @@ def plan_cache_key(plan: PlanSpec) -> str:
             "robot": robot_model_digest(),
             "pybullet": engine_version(),
             "numpy": np.__version__,
+            "machine": platform.machine(),
         }
     )
 
