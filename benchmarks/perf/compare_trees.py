@@ -23,6 +23,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import _args  # this folder: the script's own, on sys.path
+
 SCRIPT = Path(__file__).with_name("evaluation_speed.py")
 
 #: (label, regular expression with one group) of the figures read from the script's output.
@@ -64,23 +66,34 @@ def run(tree: Path, extra: list[str]) -> tuple[dict[str, float], str]:
     return figures, "C" if loop.group(1).strip() == "native" else "Python"
 
 
-def main() -> None:
-    """Measure and print."""
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """The command line, checked: a bad value is an argparse error naming it.
+
+    ``args.extra`` is then the arguments after ``--``, for evaluation_speed.py.
+    """
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("before", type=Path, help="source tree measured as 'before'")
     parser.add_argument("after", type=Path, help="source tree measured as 'after'")
-    parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument(
+        "--rounds", type=_args.count(1), default=3, help="runs of each tree (default: %(default)s)"
+    )
     parser.usage = "%(prog)s before after [--rounds N] [-- arguments of evaluation_speed.py]"
-    argv = sys.argv[1:]
+    argv = sys.argv[1:] if argv is None else argv
     cut = argv.index("--") if "--" in argv else len(argv)
     args = parser.parse_args(argv[:cut])
-    extra = argv[cut + 1 :]
-    if args.rounds < 1:
-        parser.error(f"--rounds must be >= 1, got {args.rounds}")
-    trees = {"before": args.before.resolve(), "after": args.after.resolve()}
-    for name, tree in trees.items():
+    args.extra = argv[cut + 1 :]
+    for name in ("before", "after"):
+        tree = getattr(args, name).resolve()
         if not (tree / "tooldesign_env" / "__init__.py").is_file():
-            raise SystemExit(f"{name} tree {str(tree)!r} has no tooldesign_env package")
+            parser.error(f"{name} tree {str(tree)!r} has no tooldesign_env package")
+    return args
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Measure and print."""
+    args = parse_args(argv)
+    extra = args.extra
+    trees = {"before": args.before.resolve(), "after": args.after.resolve()}
     results: dict[str, list[dict[str, float]]] = {"before": [], "after": []}
     loops: dict[str, set[str]] = {"before": set(), "after": set()}
     for i in range(args.rounds):

@@ -1,7 +1,8 @@
 """How long one evaluation of F takes, next to the floor of simulating the same episode.
 
-Prints, for a fixed set of designs evaluated in one process, each design's evaluation and its
-floor measured back to back (so that load on a shared machine hits both alike):
+Prints, for a fixed set of designs evaluated in one process (``--designs N``: the straight tool,
+the hook, then N - 2 uniform random designs), each design's evaluation and its floor measured
+back to back (so that load on a shared machine hits both alike):
 
 * the median wall time of ``env.step`` with the env's default estimator (``contact``, which
   records the contact manifold during the rollout and computes Jacobians and mass matrices
@@ -41,8 +42,9 @@ import tempfile
 import time
 from typing import Any
 
+import _args  # this folder: the script's own, on sys.path
 import numpy as np
-from physics_options import add_scene_option  # this folder: the script's own, on sys.path
+from physics_options import add_scene_option
 
 from tooldesign_env import ObjectiveSpec, SceneSpec, ToolDesignEnv, make_tool
 from tooldesign_env.geometry import SECTION_SHAPES, ToolSpec
@@ -63,11 +65,15 @@ env.close()
 
 
 def designs(n: int, seed: int) -> list[np.ndarray]:
-    """The straight tool, a hook, and n - 2 uniform random designs in the default bounds."""
+    """The first n of: the straight tool, a hook, then uniform random designs in the default bounds.
+
+    The same n - 2 random designs as before for n >= 2 (older trees' scripts always ran the
+    straight tool and the hook, even for n < 2).
+    """
     rng = np.random.default_rng(seed)
     out = [np.zeros(3), np.array([0.0, 1.5, 0.0])]
     out += list(rng.uniform([-1.5, -1.5, -0.5], [1.5, 1.5, 0.5], size=(max(n - 2, 0), 3)))
-    return out
+    return out[:n]
 
 
 def first_evaluation(cache_dir: str, scene: dict[str, Any]) -> float:
@@ -86,14 +92,36 @@ def first_evaluation(cache_dir: str, scene: dict[str, Any]) -> float:
     return float(out.stdout.strip().splitlines()[-1])
 
 
-def main() -> None:
-    """Measure and print."""
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """The command line, checked: a bad value is an argparse error naming it."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--designs", type=int, default=12)
-    parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--reference", type=int, default=3, help="designs for the reference")
-    parser.add_argument("--first", type=int, default=3, help="fresh processes per cache state")
+    parser.add_argument(
+        "--designs",
+        type=_args.count(1),
+        default=12,
+        help="designs in all: the straight tool, the hook, then N - 2 random ones (N >= 1; "
+        "1 is the straight tool alone; default: %(default)s)",
+    )
+    parser.add_argument(
+        "--repeats",
+        type=_args.count(1),
+        default=3,
+        help="rounds over the designs (default: %(default)s)",
+    )
+    parser.add_argument("--seed", type=_args.seed, default=0, help="the random designs' seed")
+    parser.add_argument(
+        "--reference",
+        type=_args.count(0),
+        default=3,
+        help="designs for the reference estimator, the first N of --designs' list "
+        "(0 skips it; default: %(default)s)",
+    )
+    parser.add_argument(
+        "--first",
+        type=_args.count(0),
+        default=3,
+        help="fresh processes per plan-cache state (0 skips them; default: %(default)s)",
+    )
     parser.add_argument(
         "--section-shape",
         choices=SECTION_SHAPES,
@@ -110,7 +138,17 @@ def main() -> None:
         parser,
         "a SceneSpec field changed from its default, e.g. merge_fixed_links=False",
     )
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
+    try:
+        SceneSpec(**dict(args.scene))
+    except (TypeError, ValueError) as error:
+        parser.error(f"--scene: {error}")
+    return args
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Measure and print."""
+    args = parse_args(argv)
     scene_fields = dict(args.scene)
     if args.loop == "python":
         # tooldesign_env.native.ENV_SWITCH, by name: compare_trees.py also runs this script

@@ -26,6 +26,7 @@ import warnings
 from collections.abc import Callable
 from typing import cast
 
+import _args  # this folder: the script's own, on sys.path
 import numpy as np
 
 import optimizers
@@ -193,13 +194,33 @@ def overhead() -> None:
         )
 
 
-def main() -> None:
-    """Measure and print."""
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """The command line, checked: a bad value is an argparse error naming it."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--time-cap", type=float, default=90.0, help="s per default skopt ask")
-    parser.add_argument("--quality-seeds", type=int, default=3, help="0 skips the comparison")
-    parser.add_argument("--quality-iterations", type=int, default=6)
-    args = parser.parse_args()
+    parser.add_argument(
+        "--time-cap",
+        type=_args.number(0.0, unit="s"),
+        default=90.0,
+        help="s per default skopt ask (default: %(default)s)",
+    )
+    parser.add_argument(
+        "--quality-seeds",
+        type=_args.count(0),
+        default=3,
+        help="seeds of the quality comparison (0 skips it; default: %(default)s)",
+    )
+    parser.add_argument(
+        "--quality-iterations",
+        type=_args.count(1),
+        default=6,
+        help="batches of 8 per optimizer in the quality comparison (default: %(default)s)",
+    )
+    return parser.parse_args(argv)
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Measure and print."""
+    args = parse_args(argv)
     load = os.getloadavg() if hasattr(os, "getloadavg") else (float("nan"),) * 3
     print(f"cpus: {os.cpu_count()}, load average: {load[0]:.2f} {load[1]:.2f} {load[2]:.2f}")
     print(f"available: {', '.join(optimizers.available())}")
