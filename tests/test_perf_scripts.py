@@ -8,6 +8,9 @@ the argument and the value, never a traceback or a quietly wrong run.
 from __future__ import annotations
 
 import importlib
+import os
+import subprocess
+import sys
 from pathlib import Path
 from types import ModuleType
 
@@ -192,3 +195,21 @@ def test_designs_n_is_n_designs_the_straight_tool_and_the_hook_first(
     np.testing.assert_array_equal(np.stack(twelve[:2]), np.stack(two))
     expected = np.random.default_rng(0).uniform([-1.5, -1.5, -0.5], [1.5, 1.5, 0.5], (10, 3))
     np.testing.assert_array_equal(np.stack(twelve[2:]), expected)
+
+
+def test_compare_trees_shows_the_scripts_error_and_exits_with_its_code() -> None:
+    out = subprocess.run(
+        [sys.executable, str(PERF / "compare_trees.py"), str(ROOT), str(ROOT), "--", "--bogus"],
+        capture_output=True,
+        text=True,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+        cwd=ROOT,
+        timeout=300,
+        check=False,
+    )
+    assert out.returncode == 2, out.stderr
+    assert "Traceback" not in out.stderr
+    # The child's own argparse message, then one line saying which run failed.
+    assert "evaluation_speed.py: error: unrecognized arguments: --bogus" in out.stderr
+    last = out.stderr.strip().splitlines()[-1]
+    assert last.startswith("compare_trees.py: evaluation_speed.py --bogus failed (exit code 2)")

@@ -6,7 +6,9 @@ shared machine; the table shows the median of each figure over the rounds. The s
 is always this one, so both trees are measured the same way (the floor, the parts, the ratio).
 It prints the control loop each tree ran and warns when they differ: a worktree made with
 ``git worktree add`` has no compiled C loop, and silently runs the slower Python one (copy
-``tooldesign_env/native/_control_loop*.so`` into it when the C source is the same).
+``tooldesign_env/native/_control_loop*.so`` into it when the C source is the same). A run
+that fails stops the script with the run's error output, one line naming the run, and the run's
+exit code.
 
 Run, e.g. main against this worktree, one core:
 ``taskset -c 0 python benchmarks/perf/compare_trees.py /work/main . --rounds 3 -- --designs 12
@@ -49,11 +51,29 @@ LOOP = re.compile(r"control loop: ([^;\n]*)")
 
 
 def run(tree: Path, extra: list[str]) -> tuple[dict[str, float], str]:
-    """One run of evaluation_speed.py with ``tree`` first on PYTHONPATH: figures, loop run."""
+    """One run of evaluation_speed.py with ``tree`` first on PYTHONPATH: figures, loop run.
+
+    A run that fails ends this script: its error output is shown, then one line naming the run,
+    and the exit code is the run's (1 for a run killed by a signal).
+    """
     env = dict(os.environ, PYTHONPATH=str(tree))
-    out = subprocess.run(
-        [sys.executable, str(SCRIPT), *extra], env=env, check=True, capture_output=True, text=True
-    ).stdout
+    done = subprocess.run(
+        [sys.executable, str(SCRIPT), *extra], env=env, check=False, capture_output=True, text=True
+    )
+    if done.returncode != 0:
+        sys.stderr.write(done.stderr)
+        how = (
+            f"exit code {done.returncode}"
+            if done.returncode > 0
+            else f"killed by signal {-done.returncode}"
+        )
+        print(
+            f"{Path(__file__).name}: {SCRIPT.name} {' '.join(extra)} failed ({how}) with "
+            f"PYTHONPATH={tree}",
+            file=sys.stderr,
+        )
+        raise SystemExit(done.returncode if done.returncode > 0 else 1)
+    out = done.stdout
     figures = {}
     for label, pattern in FIGURES:
         match = re.search(pattern, out)
