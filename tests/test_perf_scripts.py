@@ -7,15 +7,23 @@ the argument and the value, never a traceback or a quietly wrong run.
 
 from __future__ import annotations
 
+import ast
 import importlib
+import json
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
 from types import ModuleType
+from typing import Any
 
 import numpy as np
 import pytest
+
+import tooldesign_env
+from tooldesign_env import SceneSpec
+from tooldesign_env.geometry import ToolSpec
 
 ROOT = Path(__file__).resolve().parents[1]
 PERF = ROOT / "benchmarks" / "perf"
@@ -213,3 +221,110 @@ def test_compare_trees_shows_the_scripts_error_and_exits_with_its_code() -> None
     assert "evaluation_speed.py: error: unrecognized arguments: --bogus" in out.stderr
     last = out.stderr.strip().splitlines()[-1]
     assert last.startswith("compare_trees.py: evaluation_speed.py --bogus failed (exit code 2)")
+
+
+class _FakeEnv:
+    """Stands for ToolDesignEnv in the first-evaluation child: records how it was made."""
+
+    made: list[dict[str, object]] = []
+
+    def __init__(self, **kwargs: object) -> None:
+        _FakeEnv.made.append(kwargs)
+        self.simulator = type("Simulator", (), {"native_status": "native"})()
+
+    def reset(self, seed: int | None = None) -> None:
+        pass
+
+    def step(self, action: object) -> None:
+        pass
+
+    def close(self) -> None:
+        pass
+
+
+def test_the_first_evaluation_child_makes_the_parents_tool_and_scene(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    speed = _script("evaluation_speed", monkeypatch)
+    options = {"tool": {"section_shape": "square"}, "scene": {"box_position": (0.1, 1.0)}}
+    monkeypatch.setattr(tooldesign_env, "ToolDesignEnv", _FakeEnv)
+    monkeypatch.setattr(sys, "argv", ["-c", repr(options)])
+    _FakeEnv.made.clear()
+    exec(speed._FIRST_EVALUATION, {"__name__": "__main__"})
+    # Before: ToolDesignEnv(scene=...) with no tool, the round tool whatever --section-shape.
+    assert _FakeEnv.made == [
+        {
+            "tool": ToolSpec(section_shape="square"),
+            "scene": SceneSpec(box_position=(0.1, 1.0)),
+        }
+    ]
+    printed = json.loads(capsys.readouterr().out)
+    assert set(printed) == {"construction", "step", "loop"} and printed["loop"] == "native"
+    # Without --scene the env is made as older trees make it: no scene argument.
+    _FakeEnv.made.clear()
+    monkeypatch.setattr(
+        sys, "argv", ["-c", repr({"tool": {"section_shape": "round"}, "scene": {}})]
+    )
+    exec(speed._FIRST_EVALUATION, {"__name__": "__main__"})
+    assert _FakeEnv.made == [{"tool": ToolSpec(section_shape="round")}]
+
+
+@pytest.mark.parametrize("child_loop", ["the parent's", "another"])
+def test_the_first_evaluation_figure_is_construction_plus_first_step(
+    child_loop: str, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The parent passes its tool and scene to the child and counts construction + first step."""
+    speed = _script("evaluation_speed", monkeypatch)
+    envs: list[Any] = []
+
+    class Recorded(speed.ToolDesignEnv):
+        def __init__(self, **kwargs: object) -> None:
+            super().__init__(**kwargs)
+            envs.append(self)
+
+    monkeypatch.setattr(speed, "ToolDesignEnv", Recorded)
+    calls: list[list[str]] = []
+
+    def run(argv: list[str], **kwargs: object) -> subprocess.CompletedProcess[str]:
+        calls.append(argv)
+        parent = envs[0].simulator.native_status
+        loop = parent if child_loop == "the parent's" else "Python loop: elsewhere"
+        out = {"construction": 0.05, "step": 0.10, "loop": loop}
+        return subprocess.CompletedProcess(argv, 0, stdout=json.dumps(out) + "\n")
+
+    monkeypatch.setattr(speed.subprocess, "run", run)
+    speed.main(
+        ["--designs", "1", "--repeats", "1", "--reference", "0", "--first", "1"]
+        + ["--section-shape", "square", "--scene", "tool_friction=0.5"]
+    )
+    assert len(calls) == 3  # one cold, one to fill the cache, one warm
+    for argv in calls:
+        assert ast.literal_eval(argv[-1]) == {
+            "tool": {"section_shape": "square"},
+            "scene": {"tool_friction": 0.5},
+        }
+    out = capsys.readouterr().out
+    median = float(re.search(r"evaluation of F \(env.step\):\s+median ([0-9.]+) s", out)[1])
+    for label in ("empty plan cache:", "plan cache on disk:"):
+        line = next(line for line in out.splitlines() if line.strip().startswith(label))
+        assert "construction + first step median 0.150 s" in line
+        assert f"({0.15 / median:.1f} medians)" in line
+        assert "construction median 0.050 s, first step median 0.100 s" in line
+    if child_loop == "another":
+        assert "WARNING: the fresh processes ran the control loop ['Python loop: elsewhere']" in out
+        return
+    assert "WARNING" not in out
+    # compare_trees.py reads every figure of this output, the new ones included.
+    compare = _script("compare_trees", monkeypatch)
+    figures = {
+        label: float(match[1])
+        for label, pattern in compare.FIGURES
+        if (match := re.search(pattern, out)) is not None
+    }
+    assert set(figures) == {label for label, _ in compare.FIGURES}
+    for cache in ("empty cache", "cache on disk"):
+        assert figures[f"first evaluation, {cache}, s"] == 0.15
+        assert figures[f"first evaluation, {cache}, medians"] == round(0.15 / median, 1)
+        assert figures[f"  construction, {cache}, s"] == 0.05
+        assert figures[f"  first step, {cache}, s"] == 0.1
+    assert compare.LOOP.search(out) is not None
