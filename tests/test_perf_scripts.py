@@ -328,3 +328,45 @@ def test_the_first_evaluation_figure_is_construction_plus_first_step(
         assert figures[f"  construction, {cache}, s"] == 0.05
         assert figures[f"  first step, {cache}, s"] == 0.1
     assert compare.LOOP.search(out) is not None
+
+
+@pytest.mark.parametrize(
+    ("time_cap", "measured", "lines"),
+    [
+        # The audit's run: --time-cap 2 and a 23.8 s ask at 50 observations. That first ask has
+        # nothing to be projected from and is measured; the larger ones are skipped.
+        (
+            2.0,
+            [50],
+            [
+                "100 0.30 0.40 skipped: projected 52.4 s > --time-cap 2 s",
+                "200 0.30 0.40 skipped: projected 115.2 s > --time-cap 2 s",
+            ],
+        ),
+        (0.0, [], ["50 0.30 0.40 skipped: --time-cap 0", "200 0.30 0.40 skipped: --time-cap 0"]),
+        (60.0, [50, 100], ["200 0.30 0.40 skipped: projected 104.7 s > --time-cap 60 s"]),
+        (400.0, [50, 100, 200], []),
+    ],
+)
+def test_the_time_cap_bounds_projected_skopt_asks(
+    time_cap: float,
+    measured: list[int],
+    lines: list[str],
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    overhead = _script("optimizers_overhead", monkeypatch)
+    asks: list[int] = []
+
+    def default_skopt_ask(n: int) -> tuple[float, float]:
+        asks.append(n)
+        return 1.0, 23.8 * n / 50  # (tell, ask): linear in n
+
+    monkeypatch.setattr(overhead, "fast_bo_asks", lambda n: (0.3, 0.4))
+    monkeypatch.setattr(overhead, "default_skopt_ask", default_skopt_ask)
+    overhead.bo_timing(time_cap)
+    assert asks == measured
+    out = [" ".join(line.split()) for line in capsys.readouterr().out.splitlines()]
+    for line in lines:
+        assert line in out
+    assert sum("skipped" in line for line in out) == 3 - len(measured)
