@@ -475,6 +475,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         SceneSpec(**dict(args.scene))
     except (TypeError, ValueError) as error:
         parser.error(f"--scene: {error}")
+    placements = [(x, y) for x in args.xs for y in args.ys]
+    for position in placements + ([tuple(args.pick)] if args.pick is not None else []):
+        try:
+            SceneSpec(box_position=position, **dict(args.scene))
+        except ValueError as error:
+            parser.error(f"--xs / --ys / --pick: {error}")
     if not args.claims and args.no_grid and args.pick is None:
         parser.error("--no-grid needs --pick X Y")
     return args
