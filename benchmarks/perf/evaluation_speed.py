@@ -15,14 +15,14 @@ back to back (so that load on a shared machine hits both alike):
   of the medians, and the median of per-design ratios of process CPU time (less sensitive to
   other jobs on a shared machine than wall time);
 * the cost of the first evaluation in a fresh process, what a user's first ``env.step`` costs:
-  the env's construction (``ToolDesignEnv(...)``, which loads the meshes and the plan, and
-  ``reset``) plus its first ``env.step`` (which may need the plan's inverse kinematics), timed
-  after the child's imports, in a child process with an empty plan cache (cold), then in
-  another child that finds the cache on disk (warm). Printed: the median of construction + first
-  step, in seconds and in units of the median evaluation (the "medians" of the target "first
-  evaluation at most 3 medians"), and the median of each part. The child makes the env with the
-  same tool (``--section-shape``) and scene (``--scene``) as the evaluations above, and runs the
-  same control loop (``--loop``; a warning says so when the loops differ);
+  the env's construction (``ToolDesignEnv(...)``, which starts PyBullet and checks the cached
+  mesh copies, and ``reset``) plus its first ``env.step`` (which may need the plan's inverse
+  kinematics), timed after the child's imports, in a child process with an empty plan cache
+  (cold), then in another child that finds the cache on disk (warm). Printed: the median of
+  construction + first step, in seconds and in units of the median evaluation (the "medians" of
+  the target "first evaluation at most 3 medians"), and the median of each part. The child makes
+  the env with the same tool (``--section-shape``) and scene (``--scene``) as the evaluations
+  above, and runs the same control loop (``--loop``; a warning says so when the loops differ);
 * the cost of the reference (re-simulation) estimator.
 
 Both the evaluation and the floor run in the simulator's control loop, C (the default, inside
@@ -107,10 +107,13 @@ def first_evaluation(cache_dir: str, options: dict[str, Any]) -> dict[str, Any]:
         # `python -c` puts the working folder first on sys.path: run it where there is no
         # package, so PYTHONPATH decides which tooldesign_env is measured.
         cwd=cache_dir,
-        check=True,
+        check=False,
         capture_output=True,
         text=True,
     )
+    if out.returncode != 0:
+        sys.stderr.write(out.stderr)
+        raise SystemExit(f"the first evaluation's fresh process failed (exit {out.returncode})")
     result: dict[str, Any] = json.loads(out.stdout.strip().splitlines()[-1])
     return result
 
@@ -226,6 +229,10 @@ def main(argv: list[str] | None = None) -> None:
                 control_dt=sim.control_dt,
             )
             objective_t.append(time.perf_counter() - t0)
+    if not step_t:
+        raise SystemExit(
+            f"none of the {args.designs} designs is valid in this scene: there is nothing to time"
+        )
 
     med = statistics.median
     n_total = len(sim.reference.times)

@@ -90,7 +90,7 @@ def parse_option(text: str) -> dict[str, dict[str, Any]]:
 
 
 def option(text: str) -> dict[str, dict[str, Any]]:
-    """:func:`parse_option` as an argparse type (the type of ``--option`` and ``--base``)."""
+    """:func:`parse_option` as an argparse type (the type of ``--base``)."""
     try:
         return parse_option(text)
     except ValueError as error:
