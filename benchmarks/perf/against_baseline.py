@@ -25,6 +25,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import _args  # this folder: the script's own, on sys.path
+
 HERE = Path(__file__).resolve().parents[2]
 SCRIPT = Path("benchmarks") / "perf" / "evaluation_speed.py"
 EVALUATION = re.compile(r"evaluation of F[^\n]*?median ([0-9.]+) s")
@@ -49,13 +51,28 @@ def _median_evaluation(tree: Path, args: list[str]) -> float:
     return float(match.group(1))
 
 
-def main() -> None:
-    """Measure and print."""
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """The command line, checked: a bad value is an argparse error naming it."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("baseline", type=Path, help="the older source tree (a git worktree)")
-    parser.add_argument("--rounds", type=int, default=6)
-    parser.add_argument("--designs", type=int, default=12)
-    parser.add_argument("--repeats", type=int, default=2)
+    parser.add_argument(
+        "--rounds", type=_args.count(1), default=6, help="rounds (default: %(default)s)"
+    )
+    parser.add_argument(
+        "--designs",
+        type=_args.count(
+            2, why=" (the baseline's script always runs the straight tool and the hook)"
+        ),
+        default=12,
+        help="--designs of both scripts: the straight tool, the hook, then N - 2 random designs "
+        "(N >= 2; default: %(default)s)",
+    )
+    parser.add_argument(
+        "--repeats",
+        type=_args.count(1),
+        default=2,
+        help="--repeats of both scripts (default: %(default)s)",
+    )
     parser.add_argument(
         "--baseline-args",
         default="--reference 1",
@@ -72,12 +89,27 @@ def main() -> None:
         help='arguments added to this tree\'s script, e.g. "--scene merge_fixed_links=False" '
         '(repeatable; default: one variant, "")',
     )
-    args = parser.parse_args()
-    if args.rounds < 1 or args.designs < 1 or args.repeats < 1:
-        parser.error("--rounds, --designs and --repeats must be >= 1")
+    args = parser.parse_args(argv)
+    for name, texts in (
+        ("--baseline-args", [args.baseline_args]),
+        ("--this-args", [args.this_args]),
+        ("--variant", args.variant or []),
+    ):
+        for text in texts:
+            try:
+                shlex.split(text)
+            except ValueError as error:
+                parser.error(f"{name} {text!r}: {error} (the arguments are split as a shell does)")
     baseline = args.baseline.resolve()
     if not (baseline / SCRIPT).is_file():
         parser.error(f"{baseline} has no {SCRIPT}: give the root of a source tree")
+    return args
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Measure and print."""
+    args = parse_args(argv)
+    baseline = args.baseline.resolve()
     variants = args.variant or [""]
     common = ["--designs", str(args.designs), "--repeats", str(args.repeats)]
     times: dict[str, list[float]] = {"baseline": []} | {v: [] for v in variants}

@@ -49,9 +49,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import _args  # this folder: the script's own, on sys.path
 import numpy as np
 import pandas as pd
-from physics_options import add_scene_option  # this folder: the script's own, on sys.path
+from physics_options import add_scene_option
 from scipy import stats as sstats
 
 from benchmarks.reports.stats import bootstrap_ci
@@ -62,6 +63,7 @@ from tooldesign_env import PlanSpec, SceneSpec, ToolSimulator, default_bounds, m
 from tooldesign_env.geometry import SECTION_SHAPES, ToolSpec
 from tooldesign_env.schema import DEFAULT_GOAL
 from tooldesign_env.simulation import PHASES, Trajectory
+from tooldesign_env.specs import BOX_MASS_MAX
 
 #: The designs every placement is measured with: (c1, c2, c3), highest power first.
 NAMED: dict[str, tuple[float, float, float]] = {
@@ -395,35 +397,52 @@ def _tool(args: argparse.Namespace) -> ToolSpec:
     return ToolSpec(section_shape=args.section_shape)
 
 
-def main(argv: list[str] | None = None) -> None:
-    """Measure the grid and, with ``--pick``, one placement in detail."""
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """The command line, checked: a bad value is an argparse error naming it."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--xs", type=float, nargs="+", default=[-0.2, -0.3, -0.4, -0.5, -0.6])
-    parser.add_argument("--ys", type=float, nargs="+", default=[1.0, 1.1, 1.2, 1.3])
-    parser.add_argument("--random", type=int, default=6, help="random valid designs")
-    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument(
+        "--xs",
+        type=_args.number(unit="m"),
+        nargs="+",
+        default=[-0.2, -0.3, -0.4, -0.5, -0.6],
+        help="the grid's box x positions, m",
+    )
+    parser.add_argument(
+        "--ys",
+        type=_args.number(unit="m"),
+        nargs="+",
+        default=[1.0, 1.1, 1.2, 1.3],
+        help="the grid's box y positions, m",
+    )
+    parser.add_argument("--random", type=_args.count(0), default=6, help="random valid designs")
+    parser.add_argument("--seed", type=_args.seed, default=1)
     parser.add_argument(
         "--pick",
-        type=float,
+        type=_args.number(unit="m"),
         nargs=2,
         metavar=("X", "Y"),
         help="detail this placement (default: the grid's pick)",
     )
     parser.add_argument(
         "--goal",
-        type=float,
+        type=_args.number(unit="m"),
         nargs=2,
         metavar=("X", "Y"),
         default=[-0.5, 0.95],
         help="goal of the final distances in the cage scene, m",
     )
-    parser.add_argument("--masses", type=float, nargs="*", default=[])
+    parser.add_argument(
+        "--masses",
+        type=_args.number(0.0, BOX_MASS_MAX, above=True, unit="kg"),
+        nargs="*",
+        default=[],
+        help="box masses of the --pick detail, kg",
+    )
     parser.add_argument(
         "--section-shape",
         choices=SECTION_SHAPES,
         default=ToolSpec().section_shape,
-        help="the tool's section (docs/results/cage was placed with square) "
-        "(default: %(default)s)",
+        help="the tool's section (docs/results/cage was placed with square) (default: %(default)s)",
     )
     add_scene_option(
         parser,
@@ -439,18 +458,37 @@ def main(argv: list[str] | None = None) -> None:
         help="instead: claims (c) and (d) on retested robustness suite folders (no simulation)",
     )
     parser.add_argument(
-        "--precisions", type=float, nargs="+", help="with --claims: keep only these p^X values"
+        "--precisions",
+        type=_args.number(0.0),
+        nargs="+",
+        help="with --claims: keep only these p^X values",
     )
     parser.add_argument(
-        "--seeds", type=int, help="with --claims: keep only each suite's first SEEDS goals"
+        "--seeds",
+        type=_args.count(1),
+        help="with --claims: keep only each suite's first SEEDS goals",
     )
     args = parser.parse_args(argv)
     if "box_position" in dict(args.scene):
         parser.error("--scene box_position=...: the placements are the grid's (--xs, --ys, --pick)")
-    if args.random < 0:
-        parser.error(f"--random must be >= 0, got {args.random}")
-    if any(not (math.isfinite(m) and m > 0) for m in args.masses):
-        parser.error(f"--masses must be masses > 0 kg, got {args.masses}")
+    try:
+        SceneSpec(**dict(args.scene))
+    except (TypeError, ValueError) as error:
+        parser.error(f"--scene: {error}")
+    placements = [(x, y) for x in args.xs for y in args.ys]
+    for position in placements + ([tuple(args.pick)] if args.pick is not None else []):
+        try:
+            SceneSpec(box_position=position, **dict(args.scene))
+        except ValueError as error:
+            parser.error(f"--xs / --ys / --pick: {error}")
+    if not args.claims and args.no_grid and args.pick is None:
+        parser.error("--no-grid needs --pick X Y")
+    return args
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Measure the grid and, with ``--pick``, one placement in detail."""
+    args = parse_args(argv)
     if args.claims:
         for folder in args.claims:
             print_claims(folder, args.precisions, args.seeds)
@@ -458,8 +496,6 @@ def main(argv: list[str] | None = None) -> None:
     start = time.perf_counter()
     designs = {**NAMED, **random_designs(args.random, args.seed, _tool(args))}
     print(f"designs: {len(NAMED)} named + {args.random} random (seed {args.seed})")
-    if args.no_grid and args.pick is None:
-        parser.error("--no-grid needs --pick X Y")
     pick = None if args.no_grid else print_grid(args, designs)
     if args.pick is not None:
         pick = (args.pick[0], args.pick[1])

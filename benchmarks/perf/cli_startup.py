@@ -15,6 +15,8 @@ import subprocess
 import sys
 import time
 
+import _args  # this folder: the script's own, on sys.path
+
 HEAVY = ("pybullet", "matplotlib", "pandas", "scipy", "torch")
 
 CODE = (
@@ -24,13 +26,23 @@ CODE = (
 )
 
 
-def main() -> None:
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """The command line, checked: a bad value is an argparse error naming it."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument(
+        "--repeat",
+        type=_args.count(1),
+        default=5,
+        help="fresh processes per command (default: %(default)s)",
+    )
+    return parser.parse_args(argv)
+
+
+def main(argv: list[str] | None = None) -> None:
     """Time the top-level help and version and every subcommand's help; one line each."""
     from benchmarks.cli import COMMANDS
 
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--repeat", type=int, default=5)
-    args = parser.parse_args()
+    args = parse_args(argv)
     for argv in (["--help"], ["--version"], *([name, "--help"] for name in COMMANDS)):
         times = []
         heavy = ""

@@ -6,7 +6,9 @@ shared machine; the table shows the median of each figure over the rounds. The s
 is always this one, so both trees are measured the same way (the floor, the parts, the ratio).
 It prints the control loop each tree ran and warns when they differ: a worktree made with
 ``git worktree add`` has no compiled C loop, and silently runs the slower Python one (copy
-``tooldesign_env/native/_control_loop*.so`` into it when the C source is the same).
+``tooldesign_env/native/_control_loop*.so`` into it when the C source is the same). A run
+that fails stops the script with the run's error output, one line naming the run, and the run's
+exit code.
 
 Run, e.g. main against this worktree, one core:
 ``taskset -c 0 python benchmarks/perf/compare_trees.py /work/main . --rounds 3 -- --designs 12
@@ -23,7 +25,14 @@ import subprocess
 import sys
 from pathlib import Path
 
+import _args  # this folder: the script's own, on sys.path
+
 SCRIPT = Path(__file__).with_name("evaluation_speed.py")
+
+#: The lines of the first evaluation of a fresh process, and its figure in medians.
+_COLD = r"empty plan cache:\s+"
+_WARM = r"plan cache on disk:\s+"
+_MEDIANS = r"construction \+ first step median [0-9.]+ s \(([0-9.]+) medians"
 
 #: (label, regular expression with one group) of the figures read from the script's output.
 FIGURES = (
@@ -36,10 +45,18 @@ FIGURES = (
     ("ratio: median of per-design ratios", r"median of per-design ratios ([0-9.]+);"),
     ("ratio of medians", r"ratio of medians ([0-9.]+)"),
     ("ratio: median per-design CPU ratio", r"CPU-time ratios ([0-9.]+)"),
-    ("first evaluation, empty cache, s", r"empty plan cache median ([0-9.]+) s"),
-    ("first evaluation, empty cache, medians", r"empty plan cache median [0-9.]+ s \(([0-9.]+)"),
-    ("first evaluation, cache on disk, s", r"plan cache on disk median ([0-9.]+) s"),
-    ("first evaluation, cache on disk, medians", r"on disk median [0-9.]+ s \(([0-9.]+)"),
+    # The first evaluation of a fresh process: the env's construction + its first env.step.
+    ("first evaluation, empty cache, s", _COLD + r"construction \+ first step median ([0-9.]+) s"),
+    ("first evaluation, empty cache, medians", _COLD + _MEDIANS),
+    ("  construction, empty cache, s", _COLD + r".*construction median ([0-9.]+) s"),
+    ("  first step, empty cache, s", _COLD + r".*first step median ([0-9.]+) s"),
+    (
+        "first evaluation, cache on disk, s",
+        _WARM + r"construction \+ first step median ([0-9.]+) s",
+    ),
+    ("first evaluation, cache on disk, medians", _WARM + _MEDIANS),
+    ("  construction, cache on disk, s", _WARM + r".*construction median ([0-9.]+) s"),
+    ("  first step, cache on disk, s", _WARM + r".*first step median ([0-9.]+) s"),
 )
 
 
@@ -47,11 +64,29 @@ LOOP = re.compile(r"control loop: ([^;\n]*)")
 
 
 def run(tree: Path, extra: list[str]) -> tuple[dict[str, float], str]:
-    """One run of evaluation_speed.py with ``tree`` first on PYTHONPATH: figures, loop run."""
+    """One run of evaluation_speed.py with ``tree`` first on PYTHONPATH: figures, loop run.
+
+    A run that fails ends this script: its error output is shown, then one line naming the run,
+    and the exit code is the run's (1 for a run killed by a signal).
+    """
     env = dict(os.environ, PYTHONPATH=str(tree))
-    out = subprocess.run(
-        [sys.executable, str(SCRIPT), *extra], env=env, check=True, capture_output=True, text=True
-    ).stdout
+    done = subprocess.run(
+        [sys.executable, str(SCRIPT), *extra], env=env, check=False, capture_output=True, text=True
+    )
+    if done.returncode != 0:
+        sys.stderr.write(done.stderr)
+        how = (
+            f"exit code {done.returncode}"
+            if done.returncode > 0
+            else f"killed by signal {-done.returncode}"
+        )
+        print(
+            f"{Path(__file__).name}: {SCRIPT.name} {' '.join(extra)} failed ({how}) with "
+            f"PYTHONPATH={tree}",
+            file=sys.stderr,
+        )
+        raise SystemExit(done.returncode if done.returncode > 0 else 1)
+    out = done.stdout
     figures = {}
     for label, pattern in FIGURES:
         match = re.search(pattern, out)
@@ -64,23 +99,34 @@ def run(tree: Path, extra: list[str]) -> tuple[dict[str, float], str]:
     return figures, "C" if loop.group(1).strip() == "native" else "Python"
 
 
-def main() -> None:
-    """Measure and print."""
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """The command line, checked: a bad value is an argparse error naming it.
+
+    ``args.extra`` is then the arguments after ``--``, for evaluation_speed.py.
+    """
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("before", type=Path, help="source tree measured as 'before'")
     parser.add_argument("after", type=Path, help="source tree measured as 'after'")
-    parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument(
+        "--rounds", type=_args.count(1), default=3, help="runs of each tree (default: %(default)s)"
+    )
     parser.usage = "%(prog)s before after [--rounds N] [-- arguments of evaluation_speed.py]"
-    argv = sys.argv[1:]
+    argv = sys.argv[1:] if argv is None else argv
     cut = argv.index("--") if "--" in argv else len(argv)
     args = parser.parse_args(argv[:cut])
-    extra = argv[cut + 1 :]
-    if args.rounds < 1:
-        parser.error(f"--rounds must be >= 1, got {args.rounds}")
-    trees = {"before": args.before.resolve(), "after": args.after.resolve()}
-    for name, tree in trees.items():
+    args.extra = argv[cut + 1 :]
+    for name in ("before", "after"):
+        tree = getattr(args, name).resolve()
         if not (tree / "tooldesign_env" / "__init__.py").is_file():
-            raise SystemExit(f"{name} tree {str(tree)!r} has no tooldesign_env package")
+            parser.error(f"{name} tree {str(tree)!r} has no tooldesign_env package")
+    return args
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Measure and print."""
+    args = parse_args(argv)
+    extra = args.extra
+    trees = {"before": args.before.resolve(), "after": args.after.resolve()}
     results: dict[str, list[dict[str, float]]] = {"before": [], "after": []}
     loops: dict[str, set[str]] = {"before": set(), "after": set()}
     for i in range(args.rounds):

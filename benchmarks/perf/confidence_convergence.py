@@ -50,6 +50,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
+import _args  # this folder: the script's own, on sys.path
 import numpy as np
 from confidence_noise import nudged_scenes, score, spread, valid_designs
 from matplotlib.axes import Axes
@@ -361,10 +362,13 @@ def plot(
     atomic_write_bytes(path, figure_png_bytes(figure))
 
 
-def main(argv: list[str] | None = None) -> None:
-    """Measure, print and plot."""
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """The command line, checked: a bad value is an argparse error naming it.
+
+    ``args.scene_spec`` is then the ``SceneSpec`` of ``--scene``.
+    """
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seed", type=int, default=1, help="random designs and nudges")
+    parser.add_argument("--seed", type=_args.seed, default=1, help="random designs and nudges")
     parser.add_argument(
         "--figure",
         type=Path,
@@ -387,9 +391,19 @@ def main(argv: list[str] | None = None) -> None:
     if "time_step" in fields:
         parser.error("--scene time_step=...: the time steps are the study's (RESOLUTIONS)")
     try:
-        scene = SceneSpec(**fields)
+        args.scene_spec = SceneSpec(**fields)
     except (TypeError, ValueError) as error:
         parser.error(f"--scene: {error}")
+    if args.figure is not None and not args.figure.resolve().parent.is_dir():
+        parser.error(f"--figure {str(args.figure)!r}: its folder does not exist")
+    return args
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Measure, print and plot."""
+    args = parse_args(argv)
+    fields = dict(args.scene)
+    scene = args.scene_spec
     figure = default_figure(args.section_shape, fields) if args.figure is None else args.figure
 
     goal = np.asarray(TaskSpec().goal, dtype=float)

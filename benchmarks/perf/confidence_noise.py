@@ -41,9 +41,9 @@ import argparse
 import math
 import statistics
 import time
-from collections.abc import Callable
 from dataclasses import replace
 
+import _args  # this folder: the script's own, on sys.path
 import numpy as np
 from physics_options import add_scene_option  # this folder: the script's own, on sys.path
 
@@ -129,61 +129,29 @@ def spread(values: list[float]) -> float:
     return (max(values) - min(values)) / abs(statistics.fmean(values))
 
 
-def _count(low: int, why: str = "") -> Callable[[str], int]:
-    """An argparse type: an int >= ``low``, or an error naming the value."""
-
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(
-                f"must be an int >= {low}{why}, got {text!r}"
-            ) from None
-        if value < low:
-            raise argparse.ArgumentTypeError(f"must be an int >= {low}{why}, got {value}")
-        return value
-
-    return parse
-
-
-def _size(unit: str) -> Callable[[str], float]:
-    """An argparse type: a finite number >= 0, or an error naming the value."""
-
-    def parse(text: str) -> float:
-        try:
-            value = float(text)
-        except ValueError:
-            value = math.nan
-        if not (math.isfinite(value) and value >= 0):
-            raise argparse.ArgumentTypeError(f"must be a finite number >= 0 {unit}, got {text!r}")
-        return value
-
-    return parse
-
-
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     """The command line, checked: every bad value is an argparse error naming it."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--designs", type=_count(1), default=12)
+    parser.add_argument("--designs", type=_args.count(1), default=12)
     parser.add_argument(
         "--nudges",
-        type=_count(2, " (a spread needs two scenes)"),
+        type=_args.count(2, why=" (a spread needs two scenes)"),
         default=6,
         help="scenes per design, base included (>= 2)",
     )
     parser.add_argument(
         "--shift",
-        type=_size("m"),
+        type=_args.number(0.0, unit="m"),
         default=1e-4,
         help="largest box shift, m (the targets of issue 8 are stated for <= 1e-4)",
     )
     parser.add_argument(
         "--turn",
-        type=_size("rad"),
+        type=_args.number(0.0, unit="rad"),
         default=1e-4,
         help="largest box turn, rad (the targets of issue 8 are stated for <= 1e-4)",
     )
-    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--seed", type=_args.seed, default=1)
     parser.add_argument("--goal-precision", type=float, default=20.0)
     parser.add_argument("--goal", type=float, nargs=3, default=(0.0, 1.5, 0.1))
     parser.add_argument(
@@ -202,7 +170,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     )
     parser.add_argument(
         "--scene-samples",
-        type=int,
+        type=_args.count(1),
         nargs="*",
         default=[],
         help="also score F averaged over K scenes, for each K given (contact estimator)",
@@ -213,8 +181,6 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "the scene that is nudged",
     )
     args = parser.parse_args(argv)
-    if any(k < 1 for k in args.scene_samples):
-        parser.error(f"--scene-samples must be ints >= 1, got {args.scene_samples}")
     try:
         TaskSettings(goal=tuple(args.goal), goal_precision=args.goal_precision)
     except (TypeError, ValueError) as error:

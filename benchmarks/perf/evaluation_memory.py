@@ -14,6 +14,7 @@ import os
 import tempfile
 import time
 
+import _args  # this folder: the script's own, on sys.path
 import gymnasium as gym
 import numpy as np
 
@@ -29,12 +30,27 @@ def rss_mb() -> float:
     raise RuntimeError("VmRSS not found")
 
 
-def main() -> int:
-    """Measure and print."""
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """The command line, checked: a bad value is an argparse error naming it."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--evaluations", type=int, default=1000)
-    parser.add_argument("--warmup", type=int, default=20)
-    args = parser.parse_args()
+    parser.add_argument(
+        "--evaluations",
+        type=_args.count(1),
+        default=1000,
+        help="evaluations measured (default: %(default)s)",
+    )
+    parser.add_argument(
+        "--warmup",
+        type=_args.count(0),
+        default=20,
+        help="evaluations before the first reading of the memory (default: %(default)s)",
+    )
+    return parser.parse_args(argv)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Measure and print."""
+    args = parse_args(argv)
     # A private temporary folder: whatever is left in it at the end was left by this run, not
     # by other programs on the machine.
     tmp = tempfile.mkdtemp(prefix="tooldesign-memory-")

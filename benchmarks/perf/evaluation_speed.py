@@ -1,7 +1,8 @@
 """How long one evaluation of F takes, next to the floor of simulating the same episode.
 
-Prints, for a fixed set of designs evaluated in one process, each design's evaluation and its
-floor measured back to back (so that load on a shared machine hits both alike):
+Prints, for a fixed set of designs evaluated in one process (``--designs N``: the straight tool,
+the hook, then N - 2 uniform random designs), each design's evaluation and its floor measured
+back to back (so that load on a shared machine hits both alike):
 
 * the median wall time of ``env.step`` with the env's default estimator (``contact``, which
   records the contact manifold during the rollout and computes Jacobians and mass matrices
@@ -13,9 +14,15 @@ floor measured back to back (so that load on a shared machine hits both alike):
 * the ratio evaluation / floor: the median over designs of each design's own ratio, the ratio
   of the medians, and the median of per-design ratios of process CPU time (less sensitive to
   other jobs on a shared machine than wall time);
-* the cost of the first evaluation in a fresh process, which needs the plan's inverse
-  kinematics: in a child process with an empty plan cache (cold), then in another child that
-  finds the cache on disk (warm), in units of the median evaluation;
+* the cost of the first evaluation in a fresh process, what a user's first ``env.step`` costs:
+  the env's construction (``ToolDesignEnv(...)``, which starts PyBullet and checks the cached
+  mesh copies, and ``reset``) plus its first ``env.step`` (which may need the plan's inverse
+  kinematics), timed after the child's imports, in a child process with an empty plan cache
+  (cold), then in another child that finds the cache on disk (warm). Printed: the median of
+  construction + first step, in seconds and in units of the median evaluation (the "medians" of
+  the target "first evaluation at most 3 medians"), and the median of each part. The child makes
+  the env with the same tool (``--section-shape``) and scene (``--scene``) as the evaluations
+  above, and runs the same control loop (``--loop``; a warning says so when the loops differ);
 * the cost of the reference (re-simulation) estimator.
 
 Both the evaluation and the floor run in the simulator's control loop, C (the default, inside
@@ -41,59 +48,106 @@ import tempfile
 import time
 from typing import Any
 
+import _args  # this folder: the script's own, on sys.path
 import numpy as np
-from physics_options import add_scene_option  # this folder: the script's own, on sys.path
+from physics_options import add_scene_option
 
 from tooldesign_env import ObjectiveSpec, SceneSpec, ToolDesignEnv, make_tool
 from tooldesign_env.geometry import SECTION_SHAPES, ToolSpec
 from tooldesign_env.objective import free_energy
 
-#: Run in a child process: the wall time of the first env.step of a fresh process, after imports.
+#: Run in a child process, after its imports: the wall time of making the env as the parent made
+#: it (the same tool and scene; the control loop is the parent's environment's) and resetting it,
+#: then of its first env.step; printed as JSON, with the control loop that ran.
 _FIRST_EVALUATION = """
-import json, sys, time
+import ast, json, sys, time
 import numpy as np
 from tooldesign_env import SceneSpec, ToolDesignEnv
-env = ToolDesignEnv(scene=SceneSpec(**json.loads(sys.argv[1])))
-env.reset(seed=0)
+from tooldesign_env.geometry import ToolSpec
+options = ast.literal_eval(sys.argv[1])
+kwargs = {"tool": ToolSpec(**options["tool"])}
+if options["scene"]:
+    kwargs["scene"] = SceneSpec(**options["scene"])
 t0 = time.perf_counter()
+env = ToolDesignEnv(**kwargs)
+env.reset(seed=0)
+t1 = time.perf_counter()
 env.step(np.zeros(3))
-print(time.perf_counter() - t0)
+t2 = time.perf_counter()
+loop = getattr(env.simulator, "native_status", "Python")
+print(json.dumps({"construction": t1 - t0, "step": t2 - t1, "loop": loop}))
 env.close()
 """
 
 
 def designs(n: int, seed: int) -> list[np.ndarray]:
-    """The straight tool, a hook, and n - 2 uniform random designs in the default bounds."""
+    """The first n of: the straight tool, a hook, then uniform random designs in the default bounds.
+
+    The same n - 2 random designs as before for n >= 2 (older trees' scripts always ran the
+    straight tool and the hook, even for n < 2).
+    """
     rng = np.random.default_rng(seed)
     out = [np.zeros(3), np.array([0.0, 1.5, 0.0])]
     out += list(rng.uniform([-1.5, -1.5, -0.5], [1.5, 1.5, 0.5], size=(max(n - 2, 0), 3)))
-    return out
+    return out[:n]
 
 
-def first_evaluation(cache_dir: str, scene: dict[str, Any]) -> float:
-    """Seconds of the first ``env.step`` in a fresh process whose plan cache is ``cache_dir``."""
+def first_evaluation(cache_dir: str, options: dict[str, Any]) -> dict[str, Any]:
+    """The first evaluation of a fresh process whose plan cache is ``cache_dir``.
+
+    ``options`` are the env's as this process made it: ``{"tool": ToolSpec fields, "scene":
+    SceneSpec fields changed}`` (Python literals). Returns the seconds of ``"construction"``
+    (``ToolDesignEnv(...)`` and ``reset``) and of the first ``"step"``, and the control ``"loop"``
+    that ran (the child inherits this process's environment, TOOLDESIGN_NATIVE_LOOP included).
+    """
     env = dict(os.environ, TOOLDESIGN_CACHE_DIR=cache_dir)
     out = subprocess.run(
-        [sys.executable, "-c", _FIRST_EVALUATION, json.dumps(scene)],
+        [sys.executable, "-c", _FIRST_EVALUATION, repr(options)],
         env=env,
         # `python -c` puts the working folder first on sys.path: run it where there is no
         # package, so PYTHONPATH decides which tooldesign_env is measured.
         cwd=cache_dir,
-        check=True,
+        check=False,
         capture_output=True,
         text=True,
     )
-    return float(out.stdout.strip().splitlines()[-1])
+    if out.returncode != 0:
+        sys.stderr.write(out.stderr)
+        raise SystemExit(f"the first evaluation's fresh process failed (exit {out.returncode})")
+    result: dict[str, Any] = json.loads(out.stdout.strip().splitlines()[-1])
+    return result
 
 
-def main() -> None:
-    """Measure and print."""
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """The command line, checked: a bad value is an argparse error naming it."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--designs", type=int, default=12)
-    parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--reference", type=int, default=3, help="designs for the reference")
-    parser.add_argument("--first", type=int, default=3, help="fresh processes per cache state")
+    parser.add_argument(
+        "--designs",
+        type=_args.count(1),
+        default=12,
+        help="designs in all: the straight tool, the hook, then N - 2 random ones (N >= 1; "
+        "1 is the straight tool alone; default: %(default)s)",
+    )
+    parser.add_argument(
+        "--repeats",
+        type=_args.count(1),
+        default=3,
+        help="rounds over the designs (default: %(default)s)",
+    )
+    parser.add_argument("--seed", type=_args.seed, default=0, help="the random designs' seed")
+    parser.add_argument(
+        "--reference",
+        type=_args.count(0),
+        default=3,
+        help="designs for the reference estimator, the first N of --designs' list "
+        "(0 skips it; default: %(default)s)",
+    )
+    parser.add_argument(
+        "--first",
+        type=_args.count(0),
+        default=3,
+        help="fresh processes per plan-cache state (0 skips them; default: %(default)s)",
+    )
     parser.add_argument(
         "--section-shape",
         choices=SECTION_SHAPES,
@@ -110,7 +164,17 @@ def main() -> None:
         parser,
         "a SceneSpec field changed from its default, e.g. merge_fixed_links=False",
     )
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
+    try:
+        SceneSpec(**dict(args.scene))
+    except (TypeError, ValueError) as error:
+        parser.error(f"--scene: {error}")
+    return args
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Measure and print."""
+    args = parse_args(argv)
     scene_fields = dict(args.scene)
     if args.loop == "python":
         # tooldesign_env.native.ENV_SWITCH, by name: compare_trees.py also runs this script
@@ -165,6 +229,10 @@ def main() -> None:
                 control_dt=sim.control_dt,
             )
             objective_t.append(time.perf_counter() - t0)
+    if not step_t:
+        raise SystemExit(
+            f"none of the {args.designs} designs is valid in this scene: there is nothing to time"
+        )
 
     med = statistics.median
     n_total = len(sim.reference.times)
@@ -198,19 +266,36 @@ def main() -> None:
     )
 
     if args.first > 0:
+        # The child makes the env as this process did: the same tool and scene; the control
+        # loop comes with the environment (TOOLDESIGN_NATIVE_LOOP), and the child says which ran.
+        options = {"tool": {"section_shape": args.section_shape}, "scene": scene_fields}
         with tempfile.TemporaryDirectory(prefix="tooldesign-cache-") as cache:
             cold = [
-                first_evaluation(tempfile.mkdtemp(dir=cache), scene_fields)
-                for _ in range(args.first)
+                first_evaluation(tempfile.mkdtemp(dir=cache), options) for _ in range(args.first)
             ]
             warm_dir = tempfile.mkdtemp(dir=cache)
-            first_evaluation(warm_dir, scene_fields)  # fills it
-            warm = [first_evaluation(warm_dir, scene_fields) for _ in range(args.first)]
+            first_evaluation(warm_dir, options)  # fills it
+            warm = [first_evaluation(warm_dir, options) for _ in range(args.first)]
         print(
-            f"first evaluation in a fresh process: empty plan cache median {med(cold):.3f} s "
-            f"({med(cold) / med(step_t):.1f} medians); plan cache on disk median "
-            f"{med(warm):.3f} s ({med(warm) / med(step_t):.1f} medians)"
+            "first evaluation in a fresh process, after its imports: the env's construction "
+            "(ToolDesignEnv() and reset) + its first env.step; medians: of the median evaluation "
+            "above"
         )
+        for label, runs in (("empty plan cache:  ", cold), ("plan cache on disk:", warm)):
+            total = med(r["construction"] + r["step"] for r in runs)
+            construction = med(r["construction"] for r in runs)
+            first_step = med(r["step"] for r in runs)
+            print(
+                f"  {label} construction + first step median {total:.3f} s "
+                f"({total / med(step_t):.1f} medians); construction median {construction:.3f} s, "
+                f"first step median {first_step:.3f} s ({first_step / med(step_t):.1f} medians)"
+            )
+        loops = {r["loop"] for r in cold + warm}
+        if loops != {getattr(sim, "native_status", "Python")}:
+            print(
+                f"  WARNING: the fresh processes ran the control loop {sorted(loops)}, this one "
+                f"{getattr(sim, 'native_status', 'Python')!r}: their times do not compare"
+            )
 
     if args.reference > 0:
         ref = ToolDesignEnv(tool=tool, objective=ObjectiveSpec(estimator="resimulation"), **scene)

@@ -17,31 +17,51 @@ import argparse
 import warnings
 from typing import cast
 
+import _args  # this folder: the script's own, on sys.path
 import numpy as np
 from gymnasium.spaces import Box
 
 import tooldesign_env.simulation as simulation
 from tooldesign_env import ToolDesignEnv
+from tooldesign_env.specs import BOX_MASS_MAX
 
 
-def _count(value: str) -> int:
-    number = int(value)
-    if number < 0:
-        raise argparse.ArgumentTypeError(f"must be an int >= 0, got {value!r}")
-    return number
-
-
-def main() -> None:
-    """Run the designs and tasks and print the bound's figures."""
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """The command line, checked: a bad value is an argparse error naming it."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--designs", type=_count, default=30, help="random designs, default task")
-    parser.add_argument("--tasks", type=_count, default=40, help="random designs at random tasks")
-    parser.add_argument("--mass-range", type=float, nargs=2, default=(0.1, 0.9), metavar="KG")
-    parser.add_argument("--seed", type=_count, default=0)
-    args = parser.parse_args()
+    parser.add_argument(
+        "--designs",
+        type=_args.count(0),
+        default=30,
+        help="random designs at the default task, besides the straight tool and the hook "
+        "(default: %(default)s)",
+    )
+    parser.add_argument(
+        "--tasks",
+        type=_args.count(0),
+        default=40,
+        help="random designs at random tasks (default: %(default)s)",
+    )
+    parser.add_argument(
+        "--mass-range",
+        type=_args.number(0.0, BOX_MASS_MAX, above=True, unit="kg"),
+        nargs=2,
+        default=(0.1, 0.9),
+        metavar="KG",
+        help="LOW HIGH: the box masses of the random tasks (default: 0.1 0.9)",
+    )
+    parser.add_argument("--seed", type=_args.seed, default=0)
+    args = parser.parse_args(argv)
     low_mass, high_mass = args.mass_range
-    if not 0.0 < low_mass <= high_mass:
-        parser.error(f"--mass-range must be 0 < LOW <= HIGH kg, got {low_mass} {high_mass}")
+    if low_mass > high_mass:
+        parser.error(f"--mass-range must be LOW <= HIGH kg, got {low_mass:g} {high_mass:g}")
+    return args
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Run the designs and tasks and print the bound's figures."""
+    args = parse_args(argv)
+    low_mass, high_mass = args.mass_range
 
     bounds: list[float] = []
     real = simulation.floor_clearance_bound

@@ -44,6 +44,7 @@ import tempfile
 from collections.abc import Callable, Iterator
 from typing import Any
 
+import _args  # this folder: the script's own, on sys.path
 import numpy as np
 
 NASTY: list[Any] = [
@@ -663,21 +664,36 @@ def fuzz_steps(tally: Tally, n: int, rng: np.random.Generator) -> None:
     env.close()
 
 
-def main() -> int:
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """The command line, checked: a bad value is an argparse error naming it."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument(
+        "--random", type=_args.count(0), default=200, help="random values on top of the list"
+    )
+    parser.add_argument("--seed", type=_args.seed, default=0)
+    parser.add_argument("--steps", type=_args.count(0), default=0, help="simulated random actions")
+    parser.add_argument(
+        "--timeout",
+        type=_args.number(0.0, above=True, unit="s"),
+        default=20.0,
+        help="s before a call is a hang",
+    )
+    parser.add_argument(
+        "--edits", type=_args.count(0), default=300, help="random edits of the text of a suite file"
+    )
+    parser.add_argument(
+        "--cli-files",
+        type=_args.count(0),
+        default=400,
+        help="bad suite files also run through the CLI",
+    )
+    return parser.parse_args(argv)
+
+
+def main(argv: list[str] | None = None) -> int:
     """Fuzz and print the counts; exit code 1 if anything failed badly."""
     global TIMEOUT
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--random", type=int, default=200, help="random values on top of the list")
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--steps", type=int, default=0, help="simulated random actions")
-    parser.add_argument("--timeout", type=float, default=20.0, help="s before a call is a hang")
-    parser.add_argument(
-        "--edits", type=int, default=300, help="random edits of the text of a suite file"
-    )
-    parser.add_argument(
-        "--cli-files", type=int, default=400, help="bad suite files also run through the CLI"
-    )
-    args = parser.parse_args()
+    args = parse_args(argv)
     TIMEOUT = args.timeout
     os.environ.setdefault("PYTHONWARNINGS", "ignore")
     rng = np.random.default_rng(args.seed)

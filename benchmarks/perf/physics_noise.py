@@ -27,9 +27,11 @@ import time
 from dataclasses import replace
 from typing import Any
 
+import _args  # this folder: the script's own, on sys.path
 import numpy as np
 from confidence_noise import nudged_scenes, score, spread, valid_designs
 
+from benchmarks.execution import TaskSettings
 from tooldesign_env import ObjectiveSpec, SceneSpec, ToolSimulator, make_tool
 from tooldesign_env.geometry import SECTION_SHAPES, ToolSpec
 
@@ -107,22 +109,37 @@ def measure(name: str, args: argparse.Namespace) -> tuple[float, float, float, f
     )
 
 
-def main() -> None:
-    """Measure and print."""
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """The command line, checked: a bad value is an argparse error naming it."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--designs", type=int, default=12)
-    parser.add_argument("--nudges", type=int, default=6, help="scenes per design, base included")
-    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--designs", type=_args.count(1), default=12, help="random valid designs")
+    parser.add_argument(
+        "--nudges",
+        type=_args.count(2, why=" (a spread needs two scenes)"),
+        default=6,
+        help="scenes per design, base included (>= 2)",
+    )
+    parser.add_argument("--seed", type=_args.seed, default=1)
     parser.add_argument("--goal-precision", type=float, default=20.0)
     parser.add_argument("--goal", type=float, nargs=3, default=(0.0, 1.5, 0.1))
-    parser.add_argument("--settings", nargs="*", default=list(SETTINGS), choices=list(SETTINGS))
+    parser.add_argument("--settings", nargs="+", default=list(SETTINGS), choices=list(SETTINGS))
     parser.add_argument(
         "--section-shape",
         choices=SECTION_SHAPES,
         default=ToolSpec().section_shape,
         help="the tool every setting starts from (default: %(default)s)",
     )
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
+    try:
+        TaskSettings(goal=tuple(args.goal), goal_precision=args.goal_precision)
+    except (TypeError, ValueError) as error:
+        parser.error(f"--goal / --goal-precision: {error}")
+    return args
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Measure and print."""
+    args = parse_args(argv)
     print(
         f"{args.designs} random valid designs (seed {args.seed}, {args.section_shape} section), "
         f"{args.nudges} scenes each "

@@ -32,6 +32,7 @@ import statistics
 import time
 from typing import Any
 
+import _args  # this folder: the script's own, on sys.path
 import numpy as np
 
 from tooldesign_env import (
@@ -50,11 +51,14 @@ NOISE_FLOOR = {"round": "0.3-0.4 %", "square": "1-1.5 %"}
 
 
 def designs(n: int, seed: int) -> list[np.ndarray]:
-    """The straight tool, a hook, and n - 2 uniform random designs in the default bounds."""
+    """The first n of: the straight tool, a hook, then uniform random designs in the default bounds.
+
+    The same n - 2 random designs as before for n >= 2.
+    """
     rng = np.random.default_rng(seed)
     out = [np.zeros(3), np.array([0.0, 1.5, 0.0])]
     out += list(rng.uniform([-1.5, -1.5, -0.5], [1.5, 1.5, 0.5], size=(max(n - 2, 0), 3)))
-    return out
+    return out[:n]
 
 
 def parse_option(text: str) -> dict[str, dict[str, Any]]:
@@ -83,6 +87,14 @@ def parse_option(text: str) -> dict[str, dict[str, Any]]:
             raise ValueError(f"option {part!r}: {raw!r} is not a Python literal") from None
         changes.setdefault(spec, {})[name] = value
     return changes
+
+
+def option(text: str) -> dict[str, dict[str, Any]]:
+    """:func:`parse_option` as an argparse type (the type of ``--base``)."""
+    try:
+        return parse_option(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
 
 
 def scene_field(text: str) -> tuple[str, Any]:
@@ -141,26 +153,68 @@ def relative(after: float, before: float) -> float:
     return abs(after - before) / max(abs(before), 1e-300)
 
 
-def main() -> None:
-    """Measure and print."""
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """The command line, checked: a bad value is an argparse error naming it.
+
+    ``args.option`` is then a list of (text, changes), the changes merged with ``--base``'s, and
+    ``args.base`` the changes of ``--base``.
+    """
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--designs", type=int, default=32)
-    parser.add_argument("--repeats", type=int, default=3, help="timed evaluations per design")
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--option", action="append", default=[], help="spec.field=value[+...]")
+    parser.add_argument(
+        "--designs",
+        type=_args.count(1),
+        default=32,
+        help="designs in all: the straight tool, the hook, then N - 2 random ones (N >= 1; "
+        "default: %(default)s)",
+    )
+    parser.add_argument(
+        "--repeats", type=_args.count(1), default=3, help="timed evaluations per design"
+    )
+    parser.add_argument("--seed", type=_args.seed, default=0, help="the random designs' seed")
+    parser.add_argument(
+        "--option",
+        action="append",
+        default=[],
+        type=str,
+        help="spec.field=value[+...], spec one of " + ", ".join(SPECS) + " (repeatable)",
+    )
     parser.add_argument(
         "--base",
-        default="",
+        type=option,
+        default={},
         help="spec.field=value[+...] applied to the defaults and to every option, e.g. "
         "\"tool.section_shape='square'\" to measure against the paper's square tool",
     )
     parser.add_argument("--quiet", action="store_true", help="summary only")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     if not args.option:
         parser.error("give at least one --option, e.g. --option scene.arm_floor_contacts=False")
-    common = parse_option(args.base) if args.base else {}
-    options = [(text, _merged(common, parse_option(text))) for text in args.option]
+    try:  # the values, not only the names: a spec refuses a bad value when it is made
+        for spec, values in args.base.items():
+            SPECS[spec](**values)
+    except (TypeError, ValueError) as error:
+        parser.error(f"--base: {error}")
+    options = []
+    for text in args.option:
+        try:
+            changes = _merged(args.base, parse_option(text))
+        except ValueError as error:
+            parser.error(f"--option: {error}")
+        try:
+            for spec, values in changes.items():
+                SPECS[spec](**values)
+        except (TypeError, ValueError) as error:
+            parser.error(f"--option {text!r}: {error}")
+        options.append((text, changes))
+    args.option = options
+    return args
 
+
+def main(argv: list[str] | None = None) -> None:
+    """Measure and print."""
+    args = parse_args(argv)
+    common = args.base
+    options = args.option
     base = make_env(common)
     tool_shape = base.tool_spec.section_shape
     envs = [make_env(changes) for _, changes in options]

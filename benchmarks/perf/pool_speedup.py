@@ -24,6 +24,7 @@ import statistics
 import time
 from typing import Any
 
+import _args  # this folder: the script's own, on sys.path
 import numpy as np
 
 from benchmarks.execution import TaskSettings, evaluate_batch, make_executor
@@ -72,14 +73,28 @@ def strip(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     return [{k: v for k, v in r.items() if k != "eval_time"} for r in rows]
 
 
-def main() -> None:
-    """Measure and print."""
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """The command line, checked: a bad value is an argparse error naming it."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--designs", type=int, default=16)
-    parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--repeats", type=int, default=1, help="warm repeats (median is shown)")
-    parser.add_argument("--seed", type=int, default=0)
-    args = parser.parse_args()
+    parser.add_argument(
+        "--designs", type=_args.count(1), default=16, help="random designs (default: %(default)s)"
+    )
+    parser.add_argument(
+        "--workers", type=_args.count(1), default=2, help="pool processes (default: %(default)s)"
+    )
+    parser.add_argument(
+        "--repeats",
+        type=_args.count(1),
+        default=1,
+        help="warm repeats (the median is shown; default: %(default)s)",
+    )
+    parser.add_argument("--seed", type=_args.seed, default=0, help="the random designs' seed")
+    return parser.parse_args(argv)
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Measure and print."""
+    args = parse_args(argv)
     batch = designs(args.designs, args.seed)
     task = TaskSettings()
 

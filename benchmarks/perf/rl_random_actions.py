@@ -12,29 +12,29 @@ from __future__ import annotations
 
 import argparse
 
+import _args  # this folder: the script's own, on sys.path
+
 from tooldesign_env.rl import ToolDesignRLEnv
 
 
-def _count(text: str) -> int:
-    value = int(text)
-    if not 1 <= value <= 100_000:
-        raise argparse.ArgumentTypeError(f"must be an int from 1 to 100000, got {text}")
-    return value
-
-
-def _seed(text: str) -> int:
-    value = int(text)
-    if not 0 <= value < 2**32:
-        raise argparse.ArgumentTypeError(f"must be an int from 0 to 2**32 - 1, got {text}")
-    return value
-
-
-def main() -> None:
-    """Run the episodes and print the rewards."""
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """The command line, checked: a bad value is an argparse error naming it."""
     parser = argparse.ArgumentParser(description=(__doc__ or "").split("\n")[0])
-    parser.add_argument("--episodes", type=_count, default=40, help="episodes (default: 40)")
-    parser.add_argument("--seed", type=_seed, default=0, help="the actions' seed (default: 0)")
-    args = parser.parse_args()
+    parser.add_argument(
+        "--episodes", type=_args.count(1, 100_000), default=40, help="episodes (default: 40)"
+    )
+    parser.add_argument(
+        "--seed",
+        type=_args.count(0, 2**32 - 1),
+        default=0,
+        help="the actions' seed (default: 0)",
+    )
+    return parser.parse_args(argv)
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Run the episodes and print the rewards."""
+    args = parse_args(argv)
     env = ToolDesignRLEnv(randomize_goal=True)
     env.action_space.seed(args.seed)
     usable: list[float] = []

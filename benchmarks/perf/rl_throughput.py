@@ -17,16 +17,10 @@ import argparse
 import os
 import time
 
+import _args  # this folder: the script's own, on sys.path
 import numpy as np
 
 from tooldesign_env.rl import ToolDesignRLEnv, make_rl_vector_env
-
-
-def _count(value: str) -> int:
-    number = int(value)
-    if number < 1:
-        raise argparse.ArgumentTypeError(f"must be an int >= 1, got {value!r}")
-    return number
 
 
 def single_env_rate(episodes: int, seed: int) -> float:
@@ -58,13 +52,27 @@ def vector_env_rate(mode: str, num_envs: int, episodes: int, seed: int) -> float
     return steps * num_envs / elapsed
 
 
-def main() -> None:
-    """Measure and print the rates."""
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """The command line, checked: a bad value is an argparse error naming it."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--episodes", type=_count, default=64, help="episodes per measurement")
-    parser.add_argument("--num-envs", type=_count, nargs="+", default=[1, 2], metavar="N")
-    parser.add_argument("--seed", type=int, default=0)
-    args = parser.parse_args()
+    parser.add_argument(
+        "--episodes", type=_args.count(1), default=64, help="episodes per measurement"
+    )
+    parser.add_argument(
+        "--num-envs",
+        type=_args.count(1),
+        nargs="+",
+        default=[1, 2],
+        metavar="N",
+        help="envs of each vector env measured (default: 1 2)",
+    )
+    parser.add_argument("--seed", type=_args.seed, default=0)
+    return parser.parse_args(argv)
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Measure and print the rates."""
+    args = parse_args(argv)
     print(
         f"cores: {os.cpu_count()}, load average: {', '.join(f'{v:.2f}' for v in os.getloadavg())}"
     )

@@ -26,6 +26,7 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+import _args  # this folder: the script's own, on sys.path
 import numpy as np
 
 import tooldesign_env.bullet as bullet
@@ -85,21 +86,29 @@ def timed_jacobian_calls(seconds: dict[str, float]) -> Callable[..., Any]:
     return jacobian_calls
 
 
-def main() -> None:
-    """Measure and print."""
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """The command line, checked: a bad value is an argparse error naming it."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--designs", type=int, default=8)
-    parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument(
+        "--designs",
+        type=_args.count(1),
+        default=8,
+        help="designs in all: the straight tool, then random buildable ones (default: %(default)s)",
+    )
+    parser.add_argument("--repeats", type=_args.count(1), default=3)
+    parser.add_argument("--seed", type=_args.seed, default=1, help="the random designs' seed")
     parser.add_argument(
         "--section-shape",
         choices=SECTION_SHAPES,
         default=ToolSpec().section_shape,
         help="the tool's section (default: %(default)s)",
     )
-    args = parser.parse_args()
-    if args.designs < 1 or args.repeats < 1:
-        parser.error("--designs and --repeats must be >= 1")
+    return parser.parse_args(argv)
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Measure and print."""
+    args = parse_args(argv)
 
     tool = ToolSpec(section_shape=args.section_shape)
     # The env's simulator runs the Python loop: it looks for the C loop at its first rollout,

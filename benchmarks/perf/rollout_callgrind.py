@@ -21,19 +21,25 @@ from __future__ import annotations
 
 import argparse
 
+import _args  # this folder: the script's own, on sys.path
 import numpy as np
 
 from tooldesign_env import ToolGeometry, ToolSimulator, default_bounds, make_tool
 
 
-def main() -> None:
-    """Simulate and exit; the counting is valgrind's."""
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """The command line, checked: a bad value is an argparse error naming it."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--designs", type=int, default=3)
-    parser.add_argument("--seed", type=int, default=3)
-    args = parser.parse_args()
-    if args.designs < 1:
-        parser.error(f"--designs must be >= 1, got {args.designs}")
+    parser.add_argument(
+        "--designs", type=_args.count(1), default=3, help="random buildable designs"
+    )
+    parser.add_argument("--seed", type=_args.seed, default=3, help="the random designs' seed")
+    return parser.parse_args(argv)
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Simulate and exit; the counting is valgrind's."""
+    args = parse_args(argv)
     sim = ToolSimulator()
     rng = np.random.default_rng(args.seed)
     bounds = default_bounds(3)

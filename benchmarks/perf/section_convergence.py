@@ -15,21 +15,39 @@ from __future__ import annotations
 import argparse
 import statistics
 
+import _args  # this folder: the script's own, on sys.path
 from confidence_noise import valid_designs
 
 from tooldesign_env import ToolDesignEnv, ToolSimulator, ToolSpec
 from tooldesign_env.geometry import SECTION_SHAPES
 
 
-def main() -> None:
-    """Measure and print."""
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """The command line, checked: a bad value is an argparse error naming it."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--designs", type=int, default=16)
-    parser.add_argument("--seed", type=int, default=11)
-    parser.add_argument("--segments", type=int, nargs="+", default=[15, 30, 60, 120])
-    args = parser.parse_args()
-    if len(args.segments) < 2 or min(args.segments) < 1:
-        parser.error(f"--segments needs two or more counts >= 1, got {args.segments}")
+    parser.add_argument("--designs", type=_args.count(1), default=16, help="random valid designs")
+    parser.add_argument("--seed", type=_args.seed, default=11, help="the random designs' seed")
+    parser.add_argument(
+        "--segments",
+        type=_args.count(1),
+        nargs="+",
+        default=[15, 30, 60, 120],
+        help="numbers of segments, two different ones or more (default: 15 30 60 120)",
+    )
+    args = parser.parse_args(argv)
+    if len(set(args.segments)) < 2:
+        parser.error(f"--segments needs two different counts or more, got {args.segments}")
+    for n in args.segments:
+        try:
+            ToolSpec(n_segments=n)
+        except ValueError as error:
+            parser.error(f"--segments: {error}")
+    return args
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Measure and print."""
+    args = parse_args(argv)
     segments = sorted(set(args.segments))
     finest = segments[-1]
     # Chosen by the square section's rules, as when docs/model.md's figures were measured; a

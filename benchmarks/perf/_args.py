@@ -1,0 +1,69 @@
+"""Argument types shared by the perf scripts: a bad value is an argparse error that names it.
+
+A script imports them from this folder (``from _args import count``), as it imports its
+siblings: ``python benchmarks/perf/SCRIPT.py`` puts the folder first on ``sys.path``. Each
+returns a function for ``add_argument(type=...)`` that raises ``argparse.ArgumentTypeError``, so
+argparse prints ``SCRIPT.py: error: argument --NAME: must be ..., got 'VALUE'`` and exits with
+code 2 before anything is measured.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from collections.abc import Callable
+
+
+def count(low: int = 1, high: int | None = None, why: str = "") -> Callable[[str], int]:
+    """An argparse type: an int from ``low`` to ``high`` (no upper bound for None).
+
+    ``why`` is added to the message, e.g. ``" (a spread needs two scenes)"``.
+    """
+    allowed = f"an int >= {low}" if high is None else f"an int from {low} to {high}"
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be {allowed}{why}, got {text!r}") from None
+        if value < low or (high is not None and value > high):
+            raise argparse.ArgumentTypeError(f"must be {allowed}{why}, got {text!r}")
+        return value
+
+    return parse
+
+
+#: An argparse type for a seed of NumPy's generators and of ``env.reset``: an int >= 0.
+seed = count(0)
+
+
+def number(
+    low: float = -math.inf,
+    high: float = math.inf,
+    *,
+    above: bool = False,
+    unit: str = "",
+) -> Callable[[str], float]:
+    """An argparse type: a finite number from ``low`` to ``high``, in ``unit``.
+
+    With ``above``, ``low`` itself is refused (a number > ``low``). NaN and infinities are
+    always refused.
+    """
+    bounds: list[str] = []
+    if not math.isinf(low):
+        bounds.append(f"{'>' if above else '>='} {low:g}")
+    if not math.isinf(high):
+        bounds.append(f"<= {high:g}")
+    allowed = " ".join(part for part in ("a finite number", " and ".join(bounds), unit) if part)
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        inside = low < value if above else low <= value
+        if not (math.isfinite(value) and inside and value <= high):
+            raise argparse.ArgumentTypeError(f"must be {allowed}, got {text!r}")
+        return value
+
+    return parse
