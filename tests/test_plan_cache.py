@@ -144,15 +144,18 @@ def fresh_memory(monkeypatch):
 
 def _solved_references(sim: ToolSimulator) -> list[bytes]:
     ref = sim.reference
-    return [a.tobytes() for a in (ref.times, ref.q, ref.qd, ref.qdd, ref.q0, ref.ee_position)]
+    arrays = (ref.times, ref.q, ref.qd, ref.qdd, ref.q0, ref.ee_position, ref.yaw)
+    assert all(a.flags.c_contiguous for a in arrays)  # the C loop reads them as flat buffers
+    return [a.tobytes() for a in arrays]
 
 
 @pytest.mark.slow
 def test_a_new_process_finds_the_plan_on_disk(monkeypatch, tmp_path, fresh_memory):
     monkeypatch.setenv(CACHE_ENV, str(tmp_path))
     sim = ToolSimulator()
-    solved = _solved_references(sim)  # miss: solves and writes the file
-    path = _only_file(tmp_path)
+    solved = _solved_references(sim)  # miss: solves, splines and writes both files
+    path = plan_module._cache_path(tmp_path, plan_cache_key(PlanSpec()))
+    assert len([f for f in os.listdir(tmp_path) if f.endswith(".npz")]) == 2  # knots, references
     sim.close()
 
     # A "new process": nothing in memory, and solving is not allowed.
@@ -162,7 +165,11 @@ def test_a_new_process_finds_the_plan_on_disk(monkeypatch, tmp_path, fresh_memor
     def refuse(self):
         raise AssertionError("the inverse kinematics ran although the cache holds the plan")
 
+    def refuse_spline(*args, **kwargs):
+        raise AssertionError("the references were splined although the cache holds them")
+
     monkeypatch.setattr(ToolSimulator, "_inverse_kinematics", refuse)
+    monkeypatch.setattr(simulation, "reference_from_knots", refuse_spline)
     sim = ToolSimulator()
     assert _solved_references(sim) == solved  # hit: the same bits
     sim.close()
@@ -182,6 +189,28 @@ def test_a_new_process_finds_the_plan_on_disk(monkeypatch, tmp_path, fresh_memor
     sim.close()
     shape = (knot_times(PlanSpec()).size, 7)
     assert load_knots(plan_cache_key(PlanSpec()), shape, tmp_path) is not None
+
+
+@pytest.mark.slow
+def test_the_merged_hands_dynamics_are_cached_and_give_the_same_hand(monkeypatch, tmp_path):
+    from tooldesign_env import bullet
+
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path))
+    bullet._merged_panda.cache_clear()
+    try:
+        loaded = bullet.merged_hand_inertia(visuals=False)  # loads the arm, writes the file
+        urdf = bullet.panda_urdf_with_tool(None, visuals=False, merge_hand=True)
+        assert len(os.listdir(tmp_path)) == 1
+        bullet._merged_panda.cache_clear()  # as a new process
+
+        def refuse(*args, **kwargs):
+            raise AssertionError("the arm was loaded although the cache holds its hand")
+
+        monkeypatch.setattr(bullet, "BulletWorld", refuse)
+        assert bullet.merged_hand_inertia(visuals=False) == loaded  # the same floats
+        assert bullet.panda_urdf_with_tool(None, visuals=False, merge_hand=True) == urdf
+    finally:
+        bullet._merged_panda.cache_clear()
 
 
 def test_the_disk_cache_can_be_switched_off(monkeypatch, tmp_path, fresh_memory):
@@ -206,7 +235,7 @@ def test_the_floor_guards_sweep_of_the_plan_is_cached_beside_its_knots(
     sim.build(tool)
     swept = sim._arm_floor
     sim.close()
-    assert len([f for f in os.listdir(tmp_path) if f.endswith(".npz")]) == 2  # knots, sweep
+    assert len([f for f in os.listdir(tmp_path) if f.endswith(".npz")]) == 4  # knots, sweep, references, hand
     assert swept is not None and 0.05 < swept[1].min() < 0.5  # (levers, plan floor, fixed)
 
     # A "new process": nothing in memory; the plan must come from the disk, unswept.

@@ -13,6 +13,7 @@ import hashlib
 import importlib.metadata
 import json
 import os
+import platform
 import re
 import sys
 import tempfile
@@ -226,20 +227,11 @@ def _merged_panda(
     that no world sees an extra body), and summed exactly (:mod:`tooldesign_env.rigid_groups`).
     """
     text = _with_collision_meshes(_panda_urdf(visuals), meshes)
-    world = BulletWorld(renderer=False)
-    try:
-        robot = world.load_robot(text)
-        links = world.indices(robot.body)
-        parts = {}
-        for name in (HAND_ROOT, *HAND_LINKS):
-            info = world.client.getDynamicsInfo(robot.body, links[name])
-            mass, diagonal, center, orientation = info[0], info[2], info[3], info[4]
-            turn = rotation_matrices(orientation)
-            parts[name] = Inertial(
-                float(mass), np.asarray(center, dtype=float), turn @ np.diag(diagonal) @ turn.T
-            )
-    finally:
-        world.close()
+    parts = {}
+    for name, row in zip((HAND_ROOT, *HAND_LINKS), _hand_dynamics(text), strict=True):
+        mass, diagonal, center, orientation = row[0], row[1:4], row[4:7], row[7:11]
+        turn = rotation_matrices(orientation)
+        parts[name] = Inertial(float(mass), center.copy(), turn @ np.diag(diagonal) @ turn.T)
     frames = fixed_subtree(text, HAND_ROOT)
     whole = combine_inertials(parts_in_root(frames, parts))
     moments, _ = principal_axes(whole.tensor)
@@ -487,6 +479,52 @@ def _is_lean_copy_name(name: str, stem: str) -> bool:
     return re.fullmatch(rf"panda-{re.escape(stem)}-[0-9a-f]{{20}}\.obj", name) is not None
 
 
+#: Bumped whenever :func:`_hand_dynamics` stores something else.
+HAND_DYNAMICS_FORMAT = 1
+
+
+def _hand_dynamics(text: str) -> np.ndarray:
+    """PyBullet's dynamics of ``HAND_ROOT`` and ``HAND_LINKS`` in the robot of URDF ``text``.
+
+    One row per link: mass, principal moments (3), inertial frame's position (3) and
+    orientation (4), as ``getDynamicsInfo`` gives them. Reading them means loading the robot in
+    a server of its own (about 30 ms, once per process), so they are kept in the plan cache's
+    folder (:func:`tooldesign_env.plan.cache_dir`), keyed by the URDF text (whose mesh paths
+    name the lean copies by their content), PyBullet's version and the machine's architecture.
+    The file holds the float64 values exactly, so a process that reads it builds the same
+    merged hand, bit for bit, as one that loaded the robot.
+    """
+    from tooldesign_env.plan import cache_key, load_knots, store_knots
+
+    key = cache_key(
+        {
+            "hand_dynamics": HAND_DYNAMICS_FORMAT,
+            "urdf": hashlib.sha256(text.encode("utf-8")).hexdigest(),
+            "links": [HAND_ROOT, *HAND_LINKS],
+            "pybullet": engine_version(),
+            "machine": platform.machine(),
+        }
+    )
+    shape = (1 + len(HAND_LINKS), 11)
+    stored = load_knots(key, shape)
+    if stored is not None:
+        return stored
+    world = BulletWorld(renderer=False)
+    try:
+        robot = world.load_robot(text)
+        links = world.indices(robot.body)
+        rows = []
+        for name in (HAND_ROOT, *HAND_LINKS):
+            info = world.client.getDynamicsInfo(robot.body, links[name])
+            rows.append([info[0], *info[2], *info[3], *info[4]])
+    finally:
+        world.close()
+    dynamics = np.asarray(rows, dtype=np.float64)
+    store_knots(key, dynamics)
+    return dynamics
+
+
+@functools.cache
 def robot_model_digest() -> str:
     """SHA-256 of the arm's URDF as loaded for inverse kinematics (no tool, no visuals).
 
@@ -497,6 +535,7 @@ def robot_model_digest() -> str:
     return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
 
+@functools.cache
 def engine_version() -> str:
     """PyBullet's package version and API version, e.g. ``"3.2.7 api 202010061"``."""
     try:

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 from typing import Any, cast
 
 import numpy as np
+import scipy
 from numpy.typing import ArrayLike
 
 from tooldesign_env.bullet import (
@@ -79,6 +80,10 @@ BREAKING_THRESHOLD = 0.02
 #: Settings of PyBullet's inverse-kinematics solver for the plan's knots.
 IK_ITERATIONS = 200
 IK_THRESHOLD = 1e-6
+
+
+#: Bumped whenever what :meth:`ToolSimulator._stored_reference` stores changes meaning.
+REFERENCE_FORMAT = 1
 
 
 def plan_cache_key(plan: PlanSpec) -> str:
@@ -423,8 +428,47 @@ class ToolSimulator:
     def _solve_reference(self) -> JointReference:
         key = (self.plan, self.control_dt)
         if key not in _REFERENCES:
-            _REFERENCES[key] = reference_from_knots(self.plan, self.control_dt, self._knots())
+            _REFERENCES[key] = self._stored_reference()
         return _REFERENCES[key]
+
+    def _stored_reference(self) -> JointReference:
+        """The references from the disk cache, else splined from the knots and stored.
+
+        Splining and the Cartesian path take about 15-20 ms, once per process and plan; the
+        file (beside the knots', keyed by them, the control period and SciPy's and NumPy's
+        versions) holds the float64 values exactly, so the references are the same bit for bit.
+        """
+        knots = self._knots()
+        steps = int(round(self.plan.duration / self.control_dt))
+        key = cache_key(
+            {
+                "reference": REFERENCE_FORMAT,
+                "knots": plan_cache_key(self.plan),
+                "control_dt": self.control_dt,
+                "scipy": scipy.__version__,
+                "numpy": np.__version__,
+            }
+        )
+        # Columns: time, q (7), qd (7), qdd (7), the grasp point (3), the yaw.
+        stored = load_knots(key, (steps, 26))
+        if stored is not None:
+            times, q, qd, qdd, ee, yaw = np.split(stored, [1, 8, 15, 22, 25], axis=1)
+            return JointReference(
+                times=np.ascontiguousarray(times[:, 0]),
+                q=np.ascontiguousarray(q),
+                qd=np.ascontiguousarray(qd),
+                qdd=np.ascontiguousarray(qdd),
+                q0=knots[0].copy(),
+                ee_position=np.ascontiguousarray(ee),
+                yaw=np.ascontiguousarray(yaw[:, 0]),
+            )
+        ref = reference_from_knots(self.plan, self.control_dt, knots)
+        if ref.times.shape == (steps,):
+            store_knots(
+                key,
+                np.column_stack([ref.times, ref.q, ref.qd, ref.qdd, ref.ee_position, ref.yaw]),
+            )
+        return ref
 
     def _targets(self) -> list[tuple[list[float], list[float], list[float]]]:
         """(qdd_ref, q_ref, qd_ref) per control step as plain floats, made once per reference."""
