@@ -11,28 +11,42 @@ from __future__ import annotations
 
 import json
 import math
+import os
+import shutil
 import subprocess
 import sys
+import time
 from concurrent.futures import Future
 from pathlib import Path
 from types import SimpleNamespace
+from typing import Any
 
 import numpy as np
 import pytest
 
 pytest.importorskip("distributed", reason="needs dask.distributed: pip install 'tooldesign[dask]'")
 
+import benchmarks
 from benchmarks.execution import Scheduler
 from benchmarks.execution.dask_client import (
+    PLUGIN_NAME,
+    WORKER_CODE,
     ClusterLost,
     IdentityCheck,
     _forward,
+    check_workers,
     code_identity,
     differences,
+    forget_check,
+    tree_digest,
 )
+from benchmarks.execution.errors import ClusterMismatch
 from benchmarks.perf import dask_cluster
 from benchmarks.suites import builtin_suite
 from benchmarks.suites.runner import _max_active
+
+#: The folder this test imported the project from (a checkout).
+ROOT = Path(benchmarks.__file__).resolve().parents[1]
 
 SCRIPT = Path(dask_cluster.__file__)
 
@@ -115,12 +129,189 @@ def test_a_worker_with_other_code_refuses_and_closes_itself():
 
 def test_the_identity_names_the_sources_and_libraries():
     identity = code_identity()
-    for key in ("python", "machine", "numpy", "pybullet", "source:tooldesign_env"):
+    keys = ("python", "machine", "numpy", "pybullet", "source:tooldesign_env")
+    for key in (*keys, "source:benchmarks.execution"):
         assert identity[key] not in ("", "not installed", "not importable"), key
+    # The client's own code (CLI, reports, optimizers) is not the workers' business.
+    assert not {"source:benchmarks", "source:optimizers"} & set(identity)
     assert differences(identity, dict(identity)) == []
     assert differences(identity, {**identity, "numpy": "1.0"}) == [
         f"numpy: client {identity['numpy']!r}, worker '1.0'"
     ]
+
+
+def _copy_tree(target: Path) -> Path:
+    """A copy of the project's packages, as a worker with another checkout would import them."""
+    ignore = shutil.ignore_patterns("__pycache__", "*.so")
+    for package in ("benchmarks", "tooldesign_env", "optimizers"):
+        shutil.copytree(ROOT / package, target / package, ignore=ignore)
+    return target
+
+
+def _append(path: Path, line: str) -> None:
+    path.write_text(path.read_text() + line)
+
+
+def test_the_identity_is_the_code_a_worker_runs_not_the_clients_own(tmp_path):
+    # An audit: a comment in the CLI changed the digest of all of benchmarks/, and the client
+    # was refused by (and shut down) a cluster that ran the same evaluation code.
+    tree = _copy_tree(tmp_path)
+    identity = code_identity()
+    digests = {p: tree_digest(tree, p) for p in WORKER_CODE}
+    assert digests == {p: identity[f"source:{p}"] for p in WORKER_CODE}  # as imported here
+    for client_only in (
+        "benchmarks/cli/bench.py",
+        "benchmarks/reports/suite.py",
+        "benchmarks/suites/runner.py",
+        "benchmarks/perf/dask_cluster.py",
+        "optimizers/__init__.py",
+    ):
+        _append(tree / client_only, "# a comment\n")
+    assert {p: tree_digest(tree, p) for p in WORKER_CODE} == digests
+    # What a worker runs: the evaluator, the C control loop, the env, and benchmarks/__init__.py
+    # (importing benchmarks.execution runs it).
+    for worker_code, package in (
+        ("benchmarks/execution/evaluator.py", "benchmarks.execution"),
+        ("benchmarks/__init__.py", "benchmarks.execution"),
+        ("tooldesign_env/native/control_loop.c", "tooldesign_env"),
+        ("tooldesign_env/geometry/tool.py", "tooldesign_env"),
+    ):
+        before = tree_digest(tree, package)
+        _append(tree / worker_code, "\n// a comment\n" if worker_code.endswith(".c") else "#\n")
+        assert tree_digest(tree, package) != before, worker_code
+
+
+_WORKER_IMPORTS = """
+import json, sys
+import benchmarks.execution.dask_client  # the plugin's module, unpickled on every worker
+from benchmarks.execution import TaskSettings, evaluate_item
+from benchmarks.execution.evaluator import EvaluationRequest, FinalTest
+task = TaskSettings()
+assert evaluate_item(EvaluationRequest(coeffs=(0.0, 0.0, 0.0), task=task))["status"] == "ok"
+evaluate_item(FinalTest(coeffs=(0.0, 0.0, 0.0), task=task, masses=(0.5,), keep_paths=True))
+print(json.dumps(sorted(sys.modules)))
+"""
+
+
+@pytest.mark.slow
+def test_a_worker_imports_no_project_code_outside_the_identity():
+    # A worker's tasks: a design (evaluate_item), a final test with masses; and the plugin.
+    env = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]),
+    }
+    result = subprocess.run(
+        [sys.executable, "-c", _WORKER_IMPORTS],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=300,
+    )
+    assert result.returncode == 0, result.stderr
+    modules = json.loads(result.stdout.splitlines()[-1])
+    project = [
+        m for m in modules if m.split(".")[0] in ("benchmarks", "optimizers", "tooldesign_env")
+    ]
+    parents = {".".join(p.split(".")[:i]) for p in WORKER_CODE for i in range(1, p.count(".") + 1)}
+    outside = [
+        m
+        for m in project
+        if m not in parents and not any(m == p or m.startswith(p + ".") for p in WORKER_CODE)
+    ]
+    assert outside == [], "a worker imports code that code_identity does not cover"
+    assert "tooldesign_env.simulation" in project  # it did simulate
+
+
+class _FakeClient:
+    """What check_workers and forget_check use of a Client, with the workers' answers given."""
+
+    def __init__(self, reports: dict[str, Any]) -> None:
+        self.id = f"client-{id(self)}"
+        self.status = "running"
+        self.reports = reports
+        self.registered: list[str] = []
+        self.unregistered: list[str] = []
+
+    def run(self, function: Any, on_error: str) -> dict[str, Any]:
+        assert function is code_identity and on_error == "return"
+        return self.reports
+
+    def register_plugin(self, plugin: Any, name: str) -> None:
+        assert isinstance(plugin, IdentityCheck) and plugin.expected == code_identity()
+        self.registered.append(name)
+
+    def unregister_worker_plugin(self, name: str) -> None:
+        self.unregistered.append(name)
+
+
+def test_a_client_with_other_code_is_refused_and_the_cluster_is_left_alone():
+    same = dict(code_identity())
+    other = {**same, "source:benchmarks.execution": "0" * 16}
+    client = _FakeClient(
+        {
+            "tcp://a:1": same,
+            "tcp://b:1": other,
+            "tcp://c:1": other,
+            "tcp://d:1": ModuleNotFoundError("No module named 'benchmarks'"),
+            "tcp://e:1": OSError("the worker died while asked"),  # gone: checked if it returns
+        }
+    )
+    with pytest.raises(ClusterMismatch) as error:
+        check_workers(client)  # type: ignore[arg-type]
+    message = str(error.value)
+    assert message.startswith("3 of the 5 workers of the Dask cluster run other code")
+    assert "the cluster is left as it is" in message
+    digest = same["source:benchmarks.execution"]
+    assert (
+        f"tcp://b:1, tcp://c:1: source:benchmarks.execution: client {digest!r}, "
+        "worker '0000000000000000'"
+    ) in message
+    assert "tcp://d:1: cannot report its code (ModuleNotFoundError" in message
+    assert "tcp://a:1" not in message and "tcp://e:1" not in message
+    assert client.registered == []  # nothing was sent to the workers: none shuts down
+    forget_check(client)  # type: ignore[arg-type]
+    assert client.unregistered == []  # nor is another run's check removed
+
+
+def test_a_cluster_of_the_same_code_gets_the_check_for_workers_that_join():
+    client = _FakeClient({"tcp://a:1": dict(code_identity()), "tcp://b:1": dict(code_identity())})
+    check_workers(client)  # type: ignore[arg-type]
+    assert client.registered == [PLUGIN_NAME]
+    forget_check(client)  # type: ignore[arg-type]
+    assert client.unregistered == [PLUGIN_NAME]
+
+
+def _write_identity_probe(tree: Path) -> None:
+    """Change a comment of the evaluator: the copy's worker code differs from this process's."""
+    _append(tree / "benchmarks" / "execution" / "evaluator.py", "# another commit\n")
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="process groups and /proc")
+def test_dask_workers_of_other_code_refuse_the_client_and_keep_running(tmp_path, monkeypatch):
+    # The audit's case: a client whose code differed shut down every `dask worker` command.
+    from distributed import Client
+
+    tree = _copy_tree(tmp_path / "tree")
+    _write_identity_probe(tree)
+    native = ROOT / "tooldesign_env" / "native"
+    for library in native.glob("*.so"):
+        shutil.copy2(library, tree / "tooldesign_env" / "native")
+    env = {**os.environ, "PYTHONPATH": str(tree)}
+    monkeypatch.setattr(dask_cluster, "cluster_env", lambda: env)
+    with dask_cluster.DaskCluster(workers=2, logs=tmp_path / "cluster") as cluster:
+        cluster.wait_for_workers(120)
+        with Client(cluster.address, timeout=60) as client:
+            with pytest.raises(
+                ClusterMismatch, match=r"2 of the 2 workers.*source:benchmarks\.execution"
+            ):
+                check_workers(client)
+            forget_check(client)
+            time.sleep(2)  # a worker that shuts itself down takes well under this
+            assert len(client.nthreads()) == 2
+        cluster._check_alive()  # every `dask worker` command still runs
+        logs = [(cluster.logs / f"worker-{i}.log").read_text() for i in range(2)]
+        assert not any(PLUGIN_NAME in log for log in logs)
 
 
 def test_runs_in_flight_follow_the_clusters_workers_not_this_machines_cpus():
