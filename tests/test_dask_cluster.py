@@ -9,7 +9,9 @@ kept in flight on a cluster.
 
 from __future__ import annotations
 
+import asyncio
 import json
+import logging
 import math
 import os
 import shutil
@@ -27,7 +29,7 @@ import pytest
 pytest.importorskip("distributed", reason="needs dask.distributed: pip install 'tooldesign[dask]'")
 
 import benchmarks
-from benchmarks.execution import Scheduler
+from benchmarks.execution import Scheduler, dask_client
 from benchmarks.execution.dask_client import (
     PLUGIN_NAME,
     WORKER_CODE,
@@ -363,3 +365,60 @@ def test_the_scheduler_stops_on_a_lost_cluster_and_tells_the_job_nothing():
     with pytest.raises(ClusterLost):
         Scheduler(Lost(), str, max_active=1).run([job])  # type: ignore[arg-type]
     assert job.told == []
+
+
+def _record(error: BaseException | None) -> logging.LogRecord:
+    exc_info = None if error is None else (type(error), error, None)
+    return logging.LogRecord("distributed.client", logging.ERROR, __file__, 1, "", None, exc_info)
+
+
+def test_the_clients_tracebacks_of_a_lost_scheduler_are_left_out_during_a_run():
+    # An audit: ClusterLost's line came after ~50 lines of Dask's tracebacks of the lost comm.
+    from distributed.comm.core import CommClosedError
+
+    lost = [CommClosedError("in <TCP (closed) ConnectionPool.gather>"), asyncio.CancelledError()]
+    client = _FakeClient({})
+    check_workers(client)  # type: ignore[arg-type]
+    try:
+        for name in dask_client._CLIENT_LOGGERS:
+            logger = logging.getLogger(name)
+            assert not any(logger.filter(_record(error)) for error in lost), name
+            assert logger.filter(_record(ValueError("not a lost connection")))
+            assert logger.filter(_record(None))  # "Failed to reconnect to scheduler after 30 s"
+    finally:
+        forget_check(client)  # type: ignore[arg-type]
+    assert logging.getLogger("tornado.application").filter(_record(lost[0]))  # the run is over
+    # After a lost scheduler Dask's thread may still be logging as the run stops: kept quiet.
+    client = _FakeClient({})
+    check_workers(client)  # type: ignore[arg-type]
+    client.status = "closing"
+    forget_check(client)  # type: ignore[arg-type]
+    try:
+        assert not logging.getLogger("distributed.client").filter(_record(lost[1]))
+    finally:
+        dask_client._quiet_lost_connections(False)
+
+
+def test_a_lost_cluster_says_once_that_nothing_of_the_unfinished_batches_was_stored(
+    monkeypatch, capsys
+):
+    # An audit: the command's line said it twice, once from ClusterLost and once of its own.
+    import benchmarks.cli.evaluate as evaluate
+    from benchmarks.cli import main
+
+    cancelled: Future[object] = Future()
+    cancelled.cancel()
+    lost = _forwarded(cancelled).exception()
+    assert isinstance(lost, ClusterLost)
+
+    def fail(args: object) -> None:
+        raise lost
+
+    monkeypatch.setattr(evaluate, "_run", fail)
+    with pytest.raises(SystemExit) as exit_info:
+        main(["evaluate", "--coeffs", "0", "0", "0", "--out", "unused"])
+    assert exit_info.value.code == 1
+    err = capsys.readouterr().err
+    assert "scheduler stopped or could not be reached" in err
+    assert err.count("nothing of the unfinished batches") == 1
+    assert err.count("resume") == 1

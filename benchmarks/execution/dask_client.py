@@ -16,6 +16,8 @@
   would be told to the optimizer and kept on resume, and the run would differ from an
   uninterrupted one. :class:`DaskExecutor` turns the cancellation into :class:`ClusterLost`,
   which ends the run with nothing of the unfinished batches logged; the same command resumes it.
+  From the check on, the client's tracebacks of the lost connection (Dask logs one per call in
+  flight) are left out of the log: :class:`ClusterLost` says what happened.
 
 This module needs ``dask.distributed`` (``pip install 'tooldesign[dask]'``); the executor
 imports it only for ``--executor dask``.
@@ -23,10 +25,12 @@ imports it only for ``--executor dask``.
 
 from __future__ import annotations
 
+import asyncio
 import functools
 import hashlib
 import importlib.metadata
 import importlib.util
+import logging
 import platform
 from collections.abc import Callable
 from concurrent.futures import Executor, Future
@@ -236,6 +240,7 @@ def check_workers(client: Client) -> None:
     if found:
         raise ClusterMismatch(_refusal(len(reports), found))
     _REGISTERED.add(str(client.id))
+    _quiet_lost_connections(True)
     try:
         client.register_plugin(IdentityCheck(expected), name=PLUGIN_NAME)
     except OSError:
@@ -254,6 +259,10 @@ def forget_check(client: Client) -> None:
 
     The next run registers its own; a refused client leaves the check of another run alone.
     """
+    if client.status == "running":
+        _quiet_lost_connections(False)
+    # else the scheduler was lost: Dask's event loop thread may still be logging the calls it
+    # cancels while this thread stops the run, so the filter stays for the rest of the process.
     if str(client.id) not in _REGISTERED:
         return
     _REGISTERED.discard(str(client.id))
@@ -261,6 +270,41 @@ def forget_check(client: Client) -> None:
         client.unregister_worker_plugin(PLUGIN_NAME)
     except Exception:  # the scheduler may be gone already; nothing is left to undo then
         pass
+
+
+class _LostConnection(logging.Filter):
+    """Drops the client's tracebacks of a lost connection to the scheduler.
+
+    Dask logs one for each call in flight when the scheduler goes away (a closed comm, a
+    cancelled coroutine); the run then stops with :class:`ClusterLost`, which says what
+    happened. Records without such a traceback, e.g. "Failed to reconnect to scheduler after
+    30.00 seconds, closing client", are kept.
+    """
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        error = record.exc_info[1] if record.exc_info else None
+        return not isinstance(error, (OSError, asyncio.CancelledError))
+
+
+_FILTER = _LostConnection()
+
+#: Where Dask logs them: its client, its comms, and tornado's errors of the client's event
+#: loop (``distributed.cfexecutor`` runs each call's result there).
+_CLIENT_LOGGERS: tuple[str, ...] = (
+    "distributed.client",
+    "distributed.core",
+    "distributed.utils",
+    "tornado.application",
+)
+
+
+def _quiet_lost_connections(on: bool) -> None:
+    for name in _CLIENT_LOGGERS:
+        logger = logging.getLogger(name)
+        if on:
+            logger.addFilter(_FILTER)
+        else:
+            logger.removeFilter(_FILTER)
 
 
 class DaskExecutor(Executor):
@@ -296,10 +340,11 @@ def _forward(future: Future[Any], task: Future[Any]) -> None:
     """Give ``future`` the outcome of the cluster's ``task``."""
     if task.cancelled():
         future.set_exception(
+            # Only what happened: the caller says what it means for the run (the command line:
+            # nothing of the unfinished batches stored, rerun to resume).
             ClusterLost(
-                "the Dask cluster was lost while designs were being evaluated (its scheduler "
-                "stopped or could not be reached): nothing of the unfinished batches was "
-                "logged; run the same command again to resume"
+                "the Dask scheduler stopped or could not be reached while designs were being "
+                "evaluated"
             )
         )
     elif (exc := task.exception()) is not None:
