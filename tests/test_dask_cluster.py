@@ -24,6 +24,7 @@ from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
+import pandas as pd
 import pytest
 
 pytest.importorskip("distributed", reason="needs dask.distributed: pip install 'tooldesign[dask]'")
@@ -45,7 +46,7 @@ from benchmarks.execution.dask_client import (
 from benchmarks.execution.errors import ClusterMismatch
 from benchmarks.perf import dask_cluster
 from benchmarks.suites import builtin_suite
-from benchmarks.suites.runner import _max_active
+from benchmarks.suites.runner import SuiteResult, _max_active, summary_text
 
 #: The folder this test imported the project from (a checkout).
 ROOT = Path(benchmarks.__file__).resolve().parents[1]
@@ -422,3 +423,30 @@ def test_a_lost_cluster_says_once_that_nothing_of_the_unfinished_batches_was_sto
     assert "scheduler stopped or could not be reached" in err
     assert err.count("nothing of the unfinished batches") == 1
     assert err.count("resume") == 1
+
+
+def _suite_result(config: Any) -> SuiteResult:
+    return SuiteResult(
+        out_dir=Path("run"),
+        config=config,
+        evaluations=pd.DataFrame({"status": ["ok", "ok", "failed"]}),
+        designs=[],
+        wall_time=10.0,
+        session_time=10.0,
+        simulation_time=15.0,
+        test_time=0.0,
+        optimizer_time=0.1,
+    )
+
+
+def test_the_summary_names_the_cluster_not_this_machines_cpus():
+    # An audit: a 1-worker cluster was summed up as "executor dask with 2 worker(s)", the CPUs
+    # of the client's machine.
+    config = builtin_suite("optimizers", "smoke").replace(
+        executor="dask", scheduler="tcp://head:8786"
+    )
+    text = summary_text(_suite_result(config))
+    assert "executor dask on the Dask cluster at tcp://head:8786" in text
+    assert "worker(s)" not in text
+    local = config.replace(scheduler=None, workers=3)  # a LocalCluster of 3 workers
+    assert "executor dask with 3 worker(s)" in summary_text(_suite_result(local))
