@@ -96,19 +96,39 @@ def test_a_cluster_of_dask_commands_stores_the_serial_numbers_bit_for_bit(tmp_pa
     assert all("Registered to" in log for log in logs)
 
 
-def _write_run(folder: Path, free_energy: float, eval_time: float) -> None:
+def _write_run(
+    folder: Path,
+    free_energy: float,
+    eval_time: float,
+    *,
+    commit: str = "aaaa",
+    scene: dict[str, float] | None = None,
+) -> None:
     (folder / "designs").mkdir(parents=True)
     record = {"free_energy": free_energy, "test_time": eval_time, "coefficients": [0.1, 0.2]}
     (folder / "designs" / "seed=1.json").write_text(json.dumps(record))
-    (folder / "log.csv").write_text(f"free_energy,eval_time\n{free_energy!r},{eval_time!r}\n")
-    manifest = {"config": {"executor": folder.name, "iterations": 2}, "wall_time": eval_time}
+    (folder / "log.csv").write_text(
+        f"free_energy,eval_time,opt_time\n{free_energy!r},{eval_time!r},{eval_time / 10!r}\n"
+    )
+    (folder / "report").mkdir()
+    # The report's Markdown is the CSV's table for reading: not compared.
+    (folder / "report" / "summary.md").write_text(f"made in {eval_time} s\n")
+    config = {"executor": folder.name, "workers": 2, "iterations": 2, "scene": scene or {}}
+    manifest = {
+        "config": config,
+        "wall_time": eval_time,
+        "git_commit": commit,
+        "git_dirty": False,
+        "host": {"cpu_count": 2},
+        "extra": {"evaluation_counts": {"ok": 1}, "sessions": [{"wall_time": eval_time}]},
+    }
     (folder / "manifest.json").write_text(json.dumps(manifest))
 
 
 def test_the_comparison_ignores_timings_and_where_it_ran_but_sees_one_ulp(tmp_path):
     value = 8999.691150647544
     _write_run(tmp_path / "serial", value, 1.5)
-    _write_run(tmp_path / "dask", value, 2.5)
+    _write_run(tmp_path / "dask", value, 2.5, commit="bbbb")  # a commit landed between the runs
     _write_run(tmp_path / "other", float(np.nextafter(value, math.inf)), 1.5)
     serial, dask, other = (
         dask_cluster.stored_numbers(tmp_path / name) for name in ("serial", "dask", "other")
@@ -116,6 +136,22 @@ def test_the_comparison_ignores_timings_and_where_it_ran_but_sees_one_ulp(tmp_pa
     assert dask_cluster.differences(serial, dask) == []
     found = dask_cluster.differences(serial, other)
     assert sorted(line.split(":")[0] for line in found) == ["designs/seed=1.json", "log.csv"]
+    # The commit is a note, not a difference (an audit: a commit between the runs gave exit 1).
+    notes = dask_cluster.provenance_notes(tmp_path / "serial", tmp_path / "dask")
+    assert notes == ["git_commit: aaaa != bbbb"]
+
+
+def test_the_comparison_drops_runtime_fields_by_name_not_every_key_with_time_in_it(tmp_path):
+    # An audit: every key containing "time" was dropped, config fields such as the scene's
+    # time_step and box_settle_time too; a change of them went unseen.
+    for field in ("time_step", "box_settle_time"):
+        _write_run(tmp_path / f"a-{field}", 1.0, 1.5, scene={field: 0.004})
+        _write_run(tmp_path / f"b-{field}", 1.0, 1.5, scene={field: 0.002})
+        found = dask_cluster.differences(
+            dask_cluster.stored_numbers(tmp_path / f"a-{field}"),
+            dask_cluster.stored_numbers(tmp_path / f"b-{field}"),
+        )
+        assert found == [f"manifest.json: .config.scene.{field}: 0.004 != 0.002"]
 
 
 def test_a_worker_with_other_code_refuses_and_closes_itself():
