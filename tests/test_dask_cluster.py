@@ -154,6 +154,40 @@ def test_the_comparison_drops_runtime_fields_by_name_not_every_key_with_time_in_
         assert found == [f"manifest.json: .config.scene.{field}: 0.004 != 0.002"]
 
 
+BAD_ARGUMENTS = [
+    # Each was a traceback, a failure inside distributed or a quietly different port.
+    (["--seeds", "0"], "argument --seeds: must be an int >= 1, got '0'"),
+    (["--iterations", "-1"], "argument --iterations: must be an int >= 1, got '-1'"),
+    (["--batch-size", "0"], "argument --batch-size: must be an int >= 1, got '0'"),
+    (["--batch-size", "1"], "optimizer 'cmaes': batch_size must be >= 2"),
+    (["--seeds", "100000"], "n_seeds must be from 1 to 10000, got 100000"),
+    (["--workers", "0"], "argument --workers: must be an int from 1 to 1024, got '0'"),
+    (["--timeout", "-1"], "argument --timeout: must be a finite number > 0"),
+    (["--timeout", "nan"], "argument --timeout: must be a finite number > 0"),
+    (["--port", "70000"], "argument --port: must be an int from 0 to 65535, got '70000'"),
+    (["--port", "-1"], "argument --port: must be an int from 0 to 65535, got '-1'"),
+]
+
+
+@pytest.mark.parametrize(("argv", "message"), BAD_ARGUMENTS)
+def test_bad_arguments_are_refused_before_the_cluster_starts(argv, message, capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        dask_cluster.parse_args(argv)
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
+
+
+def test_good_arguments_make_the_suite_and_an_out_folder_must_be_new(tmp_path, capsys):
+    args = dask_cluster.parse_args(["--size", "smoke", "--seeds", "3", "--port", "0"])
+    assert (args.config.n_seeds, args.config.iterations, args.port) == (3, 2, 0)
+    (tmp_path / "old").mkdir()
+    (tmp_path / "old" / "run").mkdir()
+    with pytest.raises(SystemExit):
+        dask_cluster.parse_args(["--out", str(tmp_path / "old")])
+    assert "is not an empty folder" in capsys.readouterr().err
+
+
 def test_a_worker_with_other_code_refuses_and_closes_itself():
     closed = []
     loop = SimpleNamespace(add_callback=lambda fn, **kw: closed.append((fn, kw)))

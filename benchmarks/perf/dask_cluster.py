@@ -36,8 +36,13 @@ Run (a few minutes; ``--size full`` is the paper's suite, about 4,800 evaluation
         [--iterations N] [--batch-size N] [--workers 2] [--local serial [--local process]]
         [--out DIR] [--port P] [--timeout S]
 
-Exit code: 0 if every run stored the same numbers, 1 if they differ, 2 if a run or the cluster
-failed or a process of the cluster was left behind. Linux only (process groups, ``/proc``).
+Every argument is checked before anything starts (a bad one is an argparse error naming it,
+exit code 2), including the suite it makes: its seeds, iterations and batch size must be ones
+``tooldesign bench`` accepts for each optimizer.
+
+Exit code: 0 if every run stored the same numbers, 1 if they differ, 2 if an argument is bad, a
+run or the cluster failed or a process of the cluster was left behind. Linux only (process
+groups, ``/proc``).
 """
 
 from __future__ import annotations
@@ -61,8 +66,16 @@ from typing import IO, Any
 import pandas as pd
 
 import benchmarks
+from benchmarks.execution import WORKERS_MAX
 from benchmarks.execution._parent_death import die_with_parent
-from benchmarks.suites import RUNTIME_FIELDS, SuiteConfig, builtin_suite, save_suite
+from benchmarks.perf import _args  # this folder: imported as a script or by the tests
+from benchmarks.suites import (
+    RUNTIME_FIELDS,
+    SuiteConfig,
+    builtin_suite,
+    check_optimizers,
+    save_suite,
+)
 
 #: Sizes of the optimizers suite: ``reduced`` (default) takes a few minutes on 2 cores.
 SIZES: dict[str, dict[str, int]] = {
@@ -527,15 +540,24 @@ def _print_table(runs: list[Run], cluster_start: float, workers: int) -> None:
     )
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Measure, compare and print; the exit code says whether the runs agree."""
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """The command line, checked before a process is started.
+
+    A bad value, or a suite that ``tooldesign bench`` would refuse, is an argparse error that
+    names it (exit code 2).
+    """
     doc = __doc__ or ""
     parser = argparse.ArgumentParser(description=doc.splitlines()[0])
     parser.add_argument("--size", choices=tuple(SIZES), default="reduced")
-    parser.add_argument("--seeds", type=int, default=None, help="seeds (overrides --size)")
-    parser.add_argument("--iterations", type=int, default=None, help="overrides --size")
-    parser.add_argument("--batch-size", type=int, default=None, help="overrides --size")
-    parser.add_argument("--workers", type=int, default=2, help="dask worker commands (default 2)")
+    parser.add_argument("--seeds", type=_args.count(1), default=None, help="overrides --size")
+    parser.add_argument("--iterations", type=_args.count(1), default=None, help="overrides --size")
+    parser.add_argument("--batch-size", type=_args.count(1), default=None, help="overrides --size")
+    parser.add_argument(
+        "--workers",
+        type=_args.count(1, WORKERS_MAX),
+        default=2,
+        help="dask worker commands (default 2)",
+    )
     parser.add_argument(
         "--local",
         action="append",
@@ -544,19 +566,40 @@ def main(argv: list[str] | None = None) -> int:
         help="local executor(s) to compare with (default serial; process uses --workers)",
     )
     parser.add_argument("--out", type=Path, default=None, help="folder of the runs (new)")
-    parser.add_argument("--port", type=int, default=0, help="scheduler port (default: any free)")
-    parser.add_argument("--timeout", type=float, default=120.0, help="s to wait for the workers")
+    parser.add_argument(
+        "--port",
+        type=_args.count(0, 65535),
+        default=0,
+        help="scheduler port on 127.0.0.1 (default 0: any free one)",
+    )
+    parser.add_argument(
+        "--timeout",
+        type=_args.number(0.0, 86400.0, above=True, unit="s"),
+        default=120.0,
+        help="s to wait for the workers (default 120)",
+    )
     args = parser.parse_args(argv)
-    if args.workers < 1:
-        parser.error("--workers must be >= 1")
+    try:
+        args.config = suite_config(args)
+        check_optimizers(args.config)  # e.g. CMA-ES needs a batch of 2 or more
+    except (TypeError, ValueError) as err:
+        parser.error(f"the suite of --size {args.size}, --seeds, --iterations, --batch-size: {err}")
+    if args.out is not None:
+        out = args.out.resolve()
+        if out.exists() and (not out.is_dir() or any(out.iterdir())):
+            parser.error(f"--out {out} is not an empty folder; the runs need new folders")
+    return args
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Measure, compare and print; the exit code says whether the runs agree."""
+    args = parse_args(argv)
     if importlib.util.find_spec("distributed") is None:
         print("error: this needs dask.distributed: pip install 'tooldesign[dask]'", file=sys.stderr)
         return 2
-    config = suite_config(args)
+    config: SuiteConfig = args.config
     local = args.local or ["serial"]
     out = (args.out or Path(tempfile.mkdtemp(prefix="tooldesign-dask-"))).resolve()
-    if out.exists() and any(out.iterdir()):
-        parser.error(f"--out {out} is not empty; the runs need new folders")
     out.mkdir(parents=True, exist_ok=True)
     suite_file = save_suite(config, out / "suite.toml")
     signal.signal(signal.SIGTERM, _stop_on_sigterm)
