@@ -9,30 +9,47 @@ kept in flight on a cluster.
 
 from __future__ import annotations
 
+import asyncio
 import json
+import logging
 import math
+import os
+import shutil
 import subprocess
 import sys
+import time
 from concurrent.futures import Future
 from pathlib import Path
 from types import SimpleNamespace
+from typing import Any
 
 import numpy as np
+import pandas as pd
 import pytest
 
 pytest.importorskip("distributed", reason="needs dask.distributed: pip install 'tooldesign[dask]'")
 
-from benchmarks.execution import Scheduler
+import benchmarks
+from benchmarks.execution import Scheduler, dask_client
 from benchmarks.execution.dask_client import (
+    PLUGIN_NAME,
+    WORKER_CODE,
     ClusterLost,
     IdentityCheck,
     _forward,
+    check_workers,
     code_identity,
     differences,
+    forget_check,
+    tree_digest,
 )
+from benchmarks.execution.errors import ClusterMismatch
 from benchmarks.perf import dask_cluster
 from benchmarks.suites import builtin_suite
-from benchmarks.suites.runner import _max_active
+from benchmarks.suites.runner import SuiteResult, _max_active, summary_text
+
+#: The folder this test imported the project from (a checkout).
+ROOT = Path(benchmarks.__file__).resolve().parents[1]
 
 SCRIPT = Path(dask_cluster.__file__)
 
@@ -79,19 +96,39 @@ def test_a_cluster_of_dask_commands_stores_the_serial_numbers_bit_for_bit(tmp_pa
     assert all("Registered to" in log for log in logs)
 
 
-def _write_run(folder: Path, free_energy: float, eval_time: float) -> None:
+def _write_run(
+    folder: Path,
+    free_energy: float,
+    eval_time: float,
+    *,
+    commit: str = "aaaa",
+    scene: dict[str, float] | None = None,
+) -> None:
     (folder / "designs").mkdir(parents=True)
     record = {"free_energy": free_energy, "test_time": eval_time, "coefficients": [0.1, 0.2]}
     (folder / "designs" / "seed=1.json").write_text(json.dumps(record))
-    (folder / "log.csv").write_text(f"free_energy,eval_time\n{free_energy!r},{eval_time!r}\n")
-    manifest = {"config": {"executor": folder.name, "iterations": 2}, "wall_time": eval_time}
+    (folder / "log.csv").write_text(
+        f"free_energy,eval_time,opt_time\n{free_energy!r},{eval_time!r},{eval_time / 10!r}\n"
+    )
+    (folder / "report").mkdir()
+    # The report's Markdown is the CSV's table for reading: not compared.
+    (folder / "report" / "summary.md").write_text(f"made in {eval_time} s\n")
+    config = {"executor": folder.name, "workers": 2, "iterations": 2, "scene": scene or {}}
+    manifest = {
+        "config": config,
+        "wall_time": eval_time,
+        "git_commit": commit,
+        "git_dirty": False,
+        "host": {"cpu_count": 2},
+        "extra": {"evaluation_counts": {"ok": 1}, "sessions": [{"wall_time": eval_time}]},
+    }
     (folder / "manifest.json").write_text(json.dumps(manifest))
 
 
 def test_the_comparison_ignores_timings_and_where_it_ran_but_sees_one_ulp(tmp_path):
     value = 8999.691150647544
     _write_run(tmp_path / "serial", value, 1.5)
-    _write_run(tmp_path / "dask", value, 2.5)
+    _write_run(tmp_path / "dask", value, 2.5, commit="bbbb")  # a commit landed between the runs
     _write_run(tmp_path / "other", float(np.nextafter(value, math.inf)), 1.5)
     serial, dask, other = (
         dask_cluster.stored_numbers(tmp_path / name) for name in ("serial", "dask", "other")
@@ -99,6 +136,56 @@ def test_the_comparison_ignores_timings_and_where_it_ran_but_sees_one_ulp(tmp_pa
     assert dask_cluster.differences(serial, dask) == []
     found = dask_cluster.differences(serial, other)
     assert sorted(line.split(":")[0] for line in found) == ["designs/seed=1.json", "log.csv"]
+    # The commit is a note, not a difference (an audit: a commit between the runs gave exit 1).
+    notes = dask_cluster.provenance_notes(tmp_path / "serial", tmp_path / "dask")
+    assert notes == ["git_commit: aaaa != bbbb"]
+
+
+def test_the_comparison_drops_runtime_fields_by_name_not_every_key_with_time_in_it(tmp_path):
+    # An audit: every key containing "time" was dropped, config fields such as the scene's
+    # time_step and box_settle_time too; a change of them went unseen.
+    for field in ("time_step", "box_settle_time"):
+        _write_run(tmp_path / f"a-{field}", 1.0, 1.5, scene={field: 0.004})
+        _write_run(tmp_path / f"b-{field}", 1.0, 1.5, scene={field: 0.002})
+        found = dask_cluster.differences(
+            dask_cluster.stored_numbers(tmp_path / f"a-{field}"),
+            dask_cluster.stored_numbers(tmp_path / f"b-{field}"),
+        )
+        assert found == [f"manifest.json: .config.scene.{field}: 0.004 != 0.002"]
+
+
+BAD_ARGUMENTS = [
+    # Each was a traceback, a failure inside distributed or a quietly different port.
+    (["--seeds", "0"], "argument --seeds: must be an int >= 1, got '0'"),
+    (["--iterations", "-1"], "argument --iterations: must be an int >= 1, got '-1'"),
+    (["--batch-size", "0"], "argument --batch-size: must be an int >= 1, got '0'"),
+    (["--batch-size", "1"], "optimizer 'cmaes': batch_size must be >= 2"),
+    (["--seeds", "100000"], "n_seeds must be from 1 to 10000, got 100000"),
+    (["--workers", "0"], "argument --workers: must be an int from 1 to 1024, got '0'"),
+    (["--timeout", "-1"], "argument --timeout: must be a finite number > 0"),
+    (["--timeout", "nan"], "argument --timeout: must be a finite number > 0"),
+    (["--port", "70000"], "argument --port: must be an int from 0 to 65535, got '70000'"),
+    (["--port", "-1"], "argument --port: must be an int from 0 to 65535, got '-1'"),
+]
+
+
+@pytest.mark.parametrize(("argv", "message"), BAD_ARGUMENTS)
+def test_bad_arguments_are_refused_before_the_cluster_starts(argv, message, capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        dask_cluster.parse_args(argv)
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
+
+
+def test_good_arguments_make_the_suite_and_an_out_folder_must_be_new(tmp_path, capsys):
+    args = dask_cluster.parse_args(["--size", "smoke", "--seeds", "3", "--port", "0"])
+    assert (args.config.n_seeds, args.config.iterations, args.port) == (3, 2, 0)
+    (tmp_path / "old").mkdir()
+    (tmp_path / "old" / "run").mkdir()
+    with pytest.raises(SystemExit):
+        dask_cluster.parse_args(["--out", str(tmp_path / "old")])
+    assert "is not an empty folder" in capsys.readouterr().err
 
 
 def test_a_worker_with_other_code_refuses_and_closes_itself():
@@ -115,12 +202,189 @@ def test_a_worker_with_other_code_refuses_and_closes_itself():
 
 def test_the_identity_names_the_sources_and_libraries():
     identity = code_identity()
-    for key in ("python", "machine", "numpy", "pybullet", "source:tooldesign_env"):
+    keys = ("python", "machine", "numpy", "pybullet", "source:tooldesign_env")
+    for key in (*keys, "source:benchmarks.execution"):
         assert identity[key] not in ("", "not installed", "not importable"), key
+    # The client's own code (CLI, reports, optimizers) is not the workers' business.
+    assert not {"source:benchmarks", "source:optimizers"} & set(identity)
     assert differences(identity, dict(identity)) == []
     assert differences(identity, {**identity, "numpy": "1.0"}) == [
         f"numpy: client {identity['numpy']!r}, worker '1.0'"
     ]
+
+
+def _copy_tree(target: Path) -> Path:
+    """A copy of the project's packages, as a worker with another checkout would import them."""
+    ignore = shutil.ignore_patterns("__pycache__", "*.so")
+    for package in ("benchmarks", "tooldesign_env", "optimizers"):
+        shutil.copytree(ROOT / package, target / package, ignore=ignore)
+    return target
+
+
+def _append(path: Path, line: str) -> None:
+    path.write_text(path.read_text() + line)
+
+
+def test_the_identity_is_the_code_a_worker_runs_not_the_clients_own(tmp_path):
+    # An audit: a comment in the CLI changed the digest of all of benchmarks/, and the client
+    # was refused by (and shut down) a cluster that ran the same evaluation code.
+    tree = _copy_tree(tmp_path)
+    identity = code_identity()
+    digests = {p: tree_digest(tree, p) for p in WORKER_CODE}
+    assert digests == {p: identity[f"source:{p}"] for p in WORKER_CODE}  # as imported here
+    for client_only in (
+        "benchmarks/cli/bench.py",
+        "benchmarks/reports/suite.py",
+        "benchmarks/suites/runner.py",
+        "benchmarks/perf/dask_cluster.py",
+        "optimizers/__init__.py",
+    ):
+        _append(tree / client_only, "# a comment\n")
+    assert {p: tree_digest(tree, p) for p in WORKER_CODE} == digests
+    # What a worker runs: the evaluator, the C control loop, the env, and benchmarks/__init__.py
+    # (importing benchmarks.execution runs it).
+    for worker_code, package in (
+        ("benchmarks/execution/evaluator.py", "benchmarks.execution"),
+        ("benchmarks/__init__.py", "benchmarks.execution"),
+        ("tooldesign_env/native/control_loop.c", "tooldesign_env"),
+        ("tooldesign_env/geometry/tool.py", "tooldesign_env"),
+    ):
+        before = tree_digest(tree, package)
+        _append(tree / worker_code, "\n// a comment\n" if worker_code.endswith(".c") else "#\n")
+        assert tree_digest(tree, package) != before, worker_code
+
+
+_WORKER_IMPORTS = """
+import json, sys
+import benchmarks.execution.dask_client  # the plugin's module, unpickled on every worker
+from benchmarks.execution import TaskSettings, evaluate_item
+from benchmarks.execution.evaluator import EvaluationRequest, FinalTest
+task = TaskSettings()
+assert evaluate_item(EvaluationRequest(coeffs=(0.0, 0.0, 0.0), task=task))["status"] == "ok"
+evaluate_item(FinalTest(coeffs=(0.0, 0.0, 0.0), task=task, masses=(0.5,), keep_paths=True))
+print(json.dumps(sorted(sys.modules)))
+"""
+
+
+@pytest.mark.slow
+def test_a_worker_imports_no_project_code_outside_the_identity():
+    # A worker's tasks: a design (evaluate_item), a final test with masses; and the plugin.
+    env = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]),
+    }
+    result = subprocess.run(
+        [sys.executable, "-c", _WORKER_IMPORTS],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=300,
+    )
+    assert result.returncode == 0, result.stderr
+    modules = json.loads(result.stdout.splitlines()[-1])
+    project = [
+        m for m in modules if m.split(".")[0] in ("benchmarks", "optimizers", "tooldesign_env")
+    ]
+    parents = {".".join(p.split(".")[:i]) for p in WORKER_CODE for i in range(1, p.count(".") + 1)}
+    outside = [
+        m
+        for m in project
+        if m not in parents and not any(m == p or m.startswith(p + ".") for p in WORKER_CODE)
+    ]
+    assert outside == [], "a worker imports code that code_identity does not cover"
+    assert "tooldesign_env.simulation" in project  # it did simulate
+
+
+class _FakeClient:
+    """What check_workers and forget_check use of a Client, with the workers' answers given."""
+
+    def __init__(self, reports: dict[str, Any]) -> None:
+        self.id = f"client-{id(self)}"
+        self.status = "running"
+        self.reports = reports
+        self.registered: list[str] = []
+        self.unregistered: list[str] = []
+
+    def run(self, function: Any, on_error: str) -> dict[str, Any]:
+        assert function is code_identity and on_error == "return"
+        return self.reports
+
+    def register_plugin(self, plugin: Any, name: str) -> None:
+        assert isinstance(plugin, IdentityCheck) and plugin.expected == code_identity()
+        self.registered.append(name)
+
+    def unregister_worker_plugin(self, name: str) -> None:
+        self.unregistered.append(name)
+
+
+def test_a_client_with_other_code_is_refused_and_the_cluster_is_left_alone():
+    same = dict(code_identity())
+    other = {**same, "source:benchmarks.execution": "0" * 16}
+    client = _FakeClient(
+        {
+            "tcp://a:1": same,
+            "tcp://b:1": other,
+            "tcp://c:1": other,
+            "tcp://d:1": ModuleNotFoundError("No module named 'benchmarks'"),
+            "tcp://e:1": OSError("the worker died while asked"),  # gone: checked if it returns
+        }
+    )
+    with pytest.raises(ClusterMismatch) as error:
+        check_workers(client)  # type: ignore[arg-type]
+    message = str(error.value)
+    assert message.startswith("3 of the 5 workers of the Dask cluster run other code")
+    assert "the cluster is left as it is" in message
+    digest = same["source:benchmarks.execution"]
+    assert (
+        f"tcp://b:1, tcp://c:1: source:benchmarks.execution: client {digest!r}, "
+        "worker '0000000000000000'"
+    ) in message
+    assert "tcp://d:1: cannot report its code (ModuleNotFoundError" in message
+    assert "tcp://a:1" not in message and "tcp://e:1" not in message
+    assert client.registered == []  # nothing was sent to the workers: none shuts down
+    forget_check(client)  # type: ignore[arg-type]
+    assert client.unregistered == []  # nor is another run's check removed
+
+
+def test_a_cluster_of_the_same_code_gets_the_check_for_workers_that_join():
+    client = _FakeClient({"tcp://a:1": dict(code_identity()), "tcp://b:1": dict(code_identity())})
+    check_workers(client)  # type: ignore[arg-type]
+    assert client.registered == [PLUGIN_NAME]
+    forget_check(client)  # type: ignore[arg-type]
+    assert client.unregistered == [PLUGIN_NAME]
+
+
+def _write_identity_probe(tree: Path) -> None:
+    """Change a comment of the evaluator: the copy's worker code differs from this process's."""
+    _append(tree / "benchmarks" / "execution" / "evaluator.py", "# another commit\n")
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="process groups and /proc")
+def test_dask_workers_of_other_code_refuse_the_client_and_keep_running(tmp_path, monkeypatch):
+    # The audit's case: a client whose code differed shut down every `dask worker` command.
+    from distributed import Client
+
+    tree = _copy_tree(tmp_path / "tree")
+    _write_identity_probe(tree)
+    native = ROOT / "tooldesign_env" / "native"
+    for library in native.glob("*.so"):
+        shutil.copy2(library, tree / "tooldesign_env" / "native")
+    env = {**os.environ, "PYTHONPATH": str(tree)}
+    monkeypatch.setattr(dask_cluster, "cluster_env", lambda: env)
+    with dask_cluster.DaskCluster(workers=2, logs=tmp_path / "cluster") as cluster:
+        cluster.wait_for_workers(120)
+        with Client(cluster.address, timeout=60) as client:
+            with pytest.raises(
+                ClusterMismatch, match=r"2 of the 2 workers.*source:benchmarks\.execution"
+            ):
+                check_workers(client)
+            forget_check(client)
+            time.sleep(2)  # a worker that shuts itself down takes well under this
+            assert len(client.nthreads()) == 2
+        cluster._check_alive()  # every `dask worker` command still runs
+        logs = [(cluster.logs / f"worker-{i}.log").read_text() for i in range(2)]
+        assert not any(PLUGIN_NAME in log for log in logs)
 
 
 def test_runs_in_flight_follow_the_clusters_workers_not_this_machines_cpus():
@@ -172,3 +436,87 @@ def test_the_scheduler_stops_on_a_lost_cluster_and_tells_the_job_nothing():
     with pytest.raises(ClusterLost):
         Scheduler(Lost(), str, max_active=1).run([job])  # type: ignore[arg-type]
     assert job.told == []
+
+
+def _record(error: BaseException | None) -> logging.LogRecord:
+    exc_info = None if error is None else (type(error), error, None)
+    return logging.LogRecord("distributed.client", logging.ERROR, __file__, 1, "", None, exc_info)
+
+
+def test_the_clients_tracebacks_of_a_lost_scheduler_are_left_out_during_a_run():
+    # An audit: ClusterLost's line came after ~50 lines of Dask's tracebacks of the lost comm.
+    from distributed.comm.core import CommClosedError
+
+    lost = [CommClosedError("in <TCP (closed) ConnectionPool.gather>"), asyncio.CancelledError()]
+    client = _FakeClient({})
+    check_workers(client)  # type: ignore[arg-type]
+    try:
+        for name in dask_client._CLIENT_LOGGERS:
+            logger = logging.getLogger(name)
+            assert not any(logger.filter(_record(error)) for error in lost), name
+            assert logger.filter(_record(ValueError("not a lost connection")))
+            assert logger.filter(_record(None))  # "Failed to reconnect to scheduler after 30 s"
+    finally:
+        forget_check(client)  # type: ignore[arg-type]
+    assert logging.getLogger("tornado.application").filter(_record(lost[0]))  # the run is over
+    # After a lost scheduler Dask's thread may still be logging as the run stops: kept quiet.
+    client = _FakeClient({})
+    check_workers(client)  # type: ignore[arg-type]
+    client.status = "closing"
+    forget_check(client)  # type: ignore[arg-type]
+    try:
+        assert not logging.getLogger("distributed.client").filter(_record(lost[1]))
+    finally:
+        dask_client._quiet_lost_connections(False)
+
+
+def test_a_lost_cluster_says_once_that_nothing_of_the_unfinished_batches_was_stored(
+    monkeypatch, capsys
+):
+    # An audit: the command's line said it twice, once from ClusterLost and once of its own.
+    import benchmarks.cli.evaluate as evaluate
+    from benchmarks.cli import main
+
+    cancelled: Future[object] = Future()
+    cancelled.cancel()
+    lost = _forwarded(cancelled).exception()
+    assert isinstance(lost, ClusterLost)
+
+    def fail(args: object) -> None:
+        raise lost
+
+    monkeypatch.setattr(evaluate, "_run", fail)
+    with pytest.raises(SystemExit) as exit_info:
+        main(["evaluate", "--coeffs", "0", "0", "0", "--out", "unused"])
+    assert exit_info.value.code == 1
+    err = capsys.readouterr().err
+    assert "scheduler stopped or could not be reached" in err
+    assert err.count("nothing of the unfinished batches") == 1
+    assert err.count("resume") == 1
+
+
+def _suite_result(config: Any) -> SuiteResult:
+    return SuiteResult(
+        out_dir=Path("run"),
+        config=config,
+        evaluations=pd.DataFrame({"status": ["ok", "ok", "failed"]}),
+        designs=[],
+        wall_time=10.0,
+        session_time=10.0,
+        simulation_time=15.0,
+        test_time=0.0,
+        optimizer_time=0.1,
+    )
+
+
+def test_the_summary_names_the_cluster_not_this_machines_cpus():
+    # An audit: a 1-worker cluster was summed up as "executor dask with 2 worker(s)", the CPUs
+    # of the client's machine.
+    config = builtin_suite("optimizers", "smoke").replace(
+        executor="dask", scheduler="tcp://head:8786"
+    )
+    text = summary_text(_suite_result(config))
+    assert "executor dask on the Dask cluster at tcp://head:8786" in text
+    assert "worker(s)" not in text
+    local = config.replace(scheduler=None, workers=3)  # a LocalCluster of 3 workers
+    assert "executor dask with 3 worker(s)" in summary_text(_suite_result(local))

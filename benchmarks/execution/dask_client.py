@@ -1,20 +1,23 @@
 """What the Dask executor adds to a client so that results do not depend on where they ran.
 
 - **The same code on every worker.** A suite's results do not depend on where a design was
-  evaluated only if every worker simulates it with the same code: the same
-  ``tooldesign_env``/``optimizers``/``benchmarks`` sources, the same NumPy, SciPy, PyBullet,
-  Gymnasium and trimesh, the same Python and machine type. On a cluster nothing enforces that:
-  a worker may have another release installed, or an editable install of another checkout.
-  :class:`IdentityCheck` is a worker plugin that compares the worker's :func:`code_identity`
-  with the client's; :func:`check_workers` registers it when the executor connects. A worker
-  that differs makes the run fail at once with a message that names it and what differs, and
-  shuts itself down (its log says why), also when it joins while a run is going on, so it never
-  evaluates a design.
+  evaluated only if every worker simulates it with the same code: the same worker code
+  (:data:`WORKER_CODE`: ``tooldesign_env`` and ``benchmarks.execution``, all a worker imports
+  to evaluate a design), the same NumPy, SciPy, PyBullet, Gymnasium and trimesh, the same Python
+  and machine type. On a cluster nothing enforces that: a worker may have another release
+  installed, or an editable install of another checkout. :func:`check_workers` asks every
+  connected worker for its :func:`code_identity` when the executor connects: if one differs,
+  the client is refused with :class:`ClusterMismatch` (naming the workers and what differs) and
+  the cluster is left as it is, since the workers may be right and the client wrong. Otherwise
+  it registers :class:`IdentityCheck`, a worker plugin for the workers that join during the run:
+  one that differs shuts itself down (its log says why) before it evaluates a design.
 - **A lost cluster stops the run.** When the scheduler goes away, Dask cancels every task in
   flight. A cancelled task is not an outcome of its design: logged as a failed evaluation, it
   would be told to the optimizer and kept on resume, and the run would differ from an
   uninterrupted one. :class:`DaskExecutor` turns the cancellation into :class:`ClusterLost`,
   which ends the run with nothing of the unfinished batches logged; the same command resumes it.
+  From the check on, the client's tracebacks of the lost connection (Dask logs one per call in
+  flight) are left out of the log: :class:`ClusterLost` says what happened.
 
 This module needs ``dask.distributed`` (``pip install 'tooldesign[dask]'``); the executor
 imports it only for ``--executor dask``.
@@ -22,10 +25,12 @@ imports it only for ``--executor dask``.
 
 from __future__ import annotations
 
+import asyncio
 import functools
 import hashlib
 import importlib.metadata
 import importlib.util
+import logging
 import platform
 from collections.abc import Callable
 from concurrent.futures import Executor, Future
@@ -38,6 +43,7 @@ from benchmarks.execution.errors import ClusterLost, ClusterMismatch
 
 __all__ = [
     "PLUGIN_NAME",
+    "WORKER_CODE",
     "ClusterLost",
     "DaskExecutor",
     "IdentityCheck",
@@ -45,16 +51,31 @@ __all__ = [
     "code_identity",
     "differences",
     "forget_check",
+    "tree_digest",
 ]
 
-#: The project's packages whose sources a worker must share with the client.
-PACKAGES: tuple[str, ...] = ("tooldesign_env", "optimizers", "benchmarks")
+#: The project's code a worker runs to evaluate a design: the packages its tasks import
+#: (``tests/test_dask_cluster.py`` checks that a worker imports nothing else of the project).
+#: ``optimizers`` and the rest of ``benchmarks`` (command line, reports, suites, RL) run in the
+#: client only, so a change there does not make a worker's results differ.
+WORKER_CODE: tuple[str, ...] = ("tooldesign_env", "benchmarks.execution")
+
+#: The files of :data:`WORKER_CODE` that are code: Python modules and the C control loop's
+#: source (both are in a wheel, so a wheel and a checkout of one commit give the same digest).
+SOURCE_SUFFIXES: tuple[str, ...] = (".py", ".c")
 
 #: The libraries a worker's evaluation runs on (distribution names).
 LIBRARIES: tuple[str, ...] = ("numpy", "scipy", "pybullet", "gymnasium", "trimesh")
 
 #: Name of the plugin on the scheduler; registering again replaces it.
 PLUGIN_NAME = "tooldesign-code-identity"
+
+#: Workers named in full in a refusal; the rest are counted.
+_NAMED_WORKERS = 3
+
+# Ids of the clients whose check is registered: only they remove it (a refused client must not
+# remove the check of another client's run on the same cluster).
+_REGISTERED: set[str] = set()
 
 
 def _version(distribution: str) -> str:
@@ -65,26 +86,43 @@ def _version(distribution: str) -> str:
 
 
 def _source_digest(package: str) -> str:
-    """SHA-256 of a package's modules: every ``.py`` file of its regular (sub)packages.
-
-    Folders without ``__init__.py`` (scripts such as ``benchmarks/perf``) are not part of an
-    installed wheel, so they are left out: a wheel and an editable install of the same commit
-    give the same digest.
-    """
+    """:func:`tree_digest` of ``package`` where this process imports it from."""
     spec = importlib.util.find_spec(package)
     if spec is None or not spec.submodule_search_locations:
         return "not importable"
     root = Path(next(iter(spec.submodule_search_locations)))
-    digest = hashlib.sha256()
-    for path in sorted(root.rglob("*.py")):
+    return tree_digest(root.parents[package.count(".")], package)
+
+
+def tree_digest(top: Path, package: str) -> str:
+    """SHA-256 (first 16 hex digits) of a package's code in the folder ``top``.
+
+    The code is every file of :data:`SOURCE_SUFFIXES` in the package's regular (sub)packages,
+    and the ``__init__.py`` of each package it is part of (importing it runs them), each named by
+    its path from ``top``. Folders without ``__init__.py`` are not part of an installed wheel, so
+    they are left out: a wheel and a checkout of the same commit give the same digest.
+
+    Args:
+        top: The folder that holds the top package (a checkout, or ``site-packages``).
+        package: Dotted name, e.g. ``"benchmarks.execution"``.
+    """
+    names = package.split(".")
+    root = top.joinpath(*names)
+    files = [top.joinpath(*names[:i], "__init__.py") for i in range(1, len(names))]
+    for path in root.rglob("*"):
         relative = path.relative_to(root)
         folders = [root.joinpath(*relative.parts[:i]) for i in range(len(relative.parts))]
-        if "__pycache__" in relative.parts or not all(
-            (folder / "__init__.py").is_file() for folder in folders
+        if (
+            path.suffix in SOURCE_SUFFIXES
+            and path.is_file()
+            and "__pycache__" not in relative.parts
+            and all((folder / "__init__.py").is_file() for folder in folders)
         ):
-            continue
-        digest.update(relative.as_posix().encode() + b"\0" + path.read_bytes() + b"\0")
-    return digest.hexdigest()
+            files.append(path)
+    digest = hashlib.sha256()
+    for name, path in sorted((path.relative_to(top).as_posix(), path) for path in files):
+        digest.update(name.encode() + b"\0" + path.read_bytes() + b"\0")
+    return digest.hexdigest()[:16]
 
 
 @functools.cache
@@ -93,8 +131,8 @@ def code_identity() -> dict[str, str]:
 
     Returns:
         ``python`` (major.minor), ``machine`` (e.g. ``x86_64``), the installed ``tooldesign``
-        version, the version of each of :data:`LIBRARIES`, and ``source:<package>``: a SHA-256
-        of each of :data:`PACKAGES` as imported here.
+        version, the version of each of :data:`LIBRARIES`, and ``source:<package>``: a digest
+        of the code of each of :data:`WORKER_CODE` as imported here.
     """
     identity = {
         "python": ".".join(platform.python_version_tuple()[:2]),
@@ -102,12 +140,12 @@ def code_identity() -> dict[str, str]:
         "tooldesign": _version("tooldesign"),
     }
     identity.update({name: _version(name) for name in LIBRARIES})
-    identity.update({f"source:{p}": _source_digest(p) for p in PACKAGES})
+    identity.update({f"source:{p}": _source_digest(p) for p in WORKER_CODE})
     return identity
 
 
 def differences(expected: dict[str, str], found: dict[str, str]) -> list[str]:
-    """``"name: expected X, found Y"`` for every entry that differs."""
+    """``"name: client X, worker Y"`` for every entry that differs."""
     keys = sorted(set(expected) | set(found))
     return [
         f"{key}: client {expected.get(key)!r}, worker {found.get(key)!r}"
@@ -117,7 +155,10 @@ def differences(expected: dict[str, str], found: dict[str, str]) -> list[str]:
 
 
 class IdentityCheck(WorkerPlugin):
-    """A worker plugin: the worker's :func:`code_identity` must equal the client's.
+    """A worker plugin: a worker that joins a run must have the client's :func:`code_identity`.
+
+    Registered by :func:`check_workers` once every connected worker has been found equal to the
+    client, so it acts on the workers that join during the run.
 
     Args:
         expected: The client's :func:`code_identity`.
@@ -129,9 +170,8 @@ class IdentityCheck(WorkerPlugin):
     def setup(self, worker: Any) -> None:
         """Raise, and close the worker, if it runs other code or libraries than the client.
 
-        A worker that joins while a run is going on is not seen by the client; Dask only logs
-        the plugin's error and would go on to give it designs to evaluate, so the worker closes
-        itself (and its nanny, so that it is not restarted).
+        Dask only logs a plugin's error and would go on to give the worker designs to evaluate,
+        so the worker closes itself (and its nanny, so that it is not restarted).
 
         Raises:
             RuntimeError: Naming the worker and every difference.
@@ -140,40 +180,131 @@ class IdentityCheck(WorkerPlugin):
         if found:
             worker.loop.add_callback(worker.close, nanny=True, reason=PLUGIN_NAME)
             raise RuntimeError(
-                f"Dask worker {getattr(worker, 'address', '?')} runs other code than the client, "
-                f"so its results could differ; it is shut down: {'; '.join(found)}. Install the "
-                "same tooldesign release and libraries on every worker (see docs/performance.md)"
+                f"Dask worker {getattr(worker, 'address', '?')} runs other code than the run "
+                f"it joined, so its results could differ; it shuts down: {'; '.join(found)}. "
+                "Install the run's commit and libraries on it (see 'Running on a Dask "
+                "cluster' in docs/performance.md)"
             )
 
 
+def _refusal(workers: int, found: dict[str, list[str]]) -> str:
+    """The message that refuses a client: which workers differ, and how."""
+    groups: dict[tuple[str, ...], list[str]] = {}
+    for address, lines in found.items():
+        groups.setdefault(tuple(lines), []).append(address)
+    parts = []
+    for same, addresses in groups.items():
+        named = ", ".join(addresses[:_NAMED_WORKERS])
+        if len(addresses) > _NAMED_WORKERS:
+            named += f" and {len(addresses) - _NAMED_WORKERS} more"
+        parts.append(f"{named}: {'; '.join(same)}")
+    return (
+        f"{len(found)} of the {workers} workers of the Dask cluster run other code or "
+        "libraries than this process, so where a design ran could change its result; this "
+        f"run is refused and the cluster is left as it is. {' | '.join(parts)}. Run tooldesign "
+        "from the workers' commit, with their Python and libraries, or install this commit on "
+        "every worker (see 'Running on a Dask cluster' in docs/performance.md)"
+    )
+
+
 def check_workers(client: Client) -> None:
-    """Make every worker of ``client``'s cluster, present and future, run the client's code.
+    """Refuse a cluster whose workers run other code; check the workers that join later.
+
+    Every connected worker reports its :func:`code_identity`. If one differs from this
+    process's, nothing is changed on the cluster and the client is refused; otherwise
+    :class:`IdentityCheck` is registered, so that a worker that joins during the run and
+    differs shuts itself down before it evaluates anything.
 
     Args:
         client: A connected client.
 
     Raises:
-        ClusterMismatch: A connected worker differs (or cannot import this project at all).
+        ClusterMismatch: A connected worker differs (or cannot import this project at all);
+            every worker keeps running.
     """
+    expected = code_identity()
+    reports = client.run(code_identity, on_error="return")
+    found: dict[str, list[str]] = {}
+    for address, report in sorted(reports.items()):
+        if isinstance(report, OSError):
+            # It died while asked (CommClosedError is an OSError); the scheduler keeps the
+            # plugin registered below, so it is checked when it comes back.
+            continue
+        if isinstance(report, BaseException):
+            found[address] = [
+                f"cannot report its code ({type(report).__name__}: {report}); is this project "
+                "installed there?"
+            ]
+        elif lines := differences(expected, dict(report)):
+            found[address] = lines
+    if found:
+        raise ClusterMismatch(_refusal(len(reports), found))
+    _REGISTERED.add(str(client.id))
+    _quiet_lost_connections(True)
     try:
-        client.register_plugin(IdentityCheck(code_identity()), name=PLUGIN_NAME)
+        client.register_plugin(IdentityCheck(expected), name=PLUGIN_NAME)
     except OSError:
         # A worker died while the check was sent to it (CommClosedError is an OSError). The
         # scheduler keeps the plugin, so a restarted worker is checked when it registers.
         pass
-    except Exception as err:  # the worker's error, sent back by the scheduler
+    except Exception as err:  # a worker that joined since it was asked, and differs
         raise ClusterMismatch(
-            f"a worker of the Dask cluster cannot evaluate designs for this process: {err} "
-            "(every worker needs the same tooldesign and libraries as this machine)"
+            f"a worker joined the Dask cluster while it was checked and runs other code than "
+            f"this process: {err}"
         ) from err
 
 
 def forget_check(client: Client) -> None:
-    """Remove the check from the cluster (the next client registers its own)."""
+    """Remove ``client``'s check from the cluster, if it registered one.
+
+    The next run registers its own; a refused client leaves the check of another run alone.
+    """
+    if client.status == "running":
+        _quiet_lost_connections(False)
+    # else the scheduler was lost: Dask's event loop thread may still be logging the calls it
+    # cancels while this thread stops the run, so the filter stays for the rest of the process.
+    if str(client.id) not in _REGISTERED:
+        return
+    _REGISTERED.discard(str(client.id))
     try:
         client.unregister_worker_plugin(PLUGIN_NAME)
     except Exception:  # the scheduler may be gone already; nothing is left to undo then
         pass
+
+
+class _LostConnection(logging.Filter):
+    """Drops the client's tracebacks of a lost connection to the scheduler.
+
+    Dask logs one for each call in flight when the scheduler goes away (a closed comm, a
+    cancelled coroutine); the run then stops with :class:`ClusterLost`, which says what
+    happened. Records without such a traceback, e.g. "Failed to reconnect to scheduler after
+    30.00 seconds, closing client", are kept.
+    """
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        error = record.exc_info[1] if record.exc_info else None
+        return not isinstance(error, (OSError, asyncio.CancelledError))
+
+
+_FILTER = _LostConnection()
+
+#: Where Dask logs them: its client, its comms, and tornado's errors of the client's event
+#: loop (``distributed.cfexecutor`` runs each call's result there).
+_CLIENT_LOGGERS: tuple[str, ...] = (
+    "distributed.client",
+    "distributed.core",
+    "distributed.utils",
+    "tornado.application",
+)
+
+
+def _quiet_lost_connections(on: bool) -> None:
+    for name in _CLIENT_LOGGERS:
+        logger = logging.getLogger(name)
+        if on:
+            logger.addFilter(_FILTER)
+        else:
+            logger.removeFilter(_FILTER)
 
 
 class DaskExecutor(Executor):
@@ -209,10 +340,11 @@ def _forward(future: Future[Any], task: Future[Any]) -> None:
     """Give ``future`` the outcome of the cluster's ``task``."""
     if task.cancelled():
         future.set_exception(
+            # Only what happened: the caller says what it means for the run (the command line:
+            # nothing of the unfinished batches stored, rerun to resume).
             ClusterLost(
-                "the Dask cluster was lost while designs were being evaluated (its scheduler "
-                "stopped or could not be reached): nothing of the unfinished batches was "
-                "logged; run the same command again to resume"
+                "the Dask scheduler stopped or could not be reached while designs were being "
+                "evaluated"
             )
         )
     elif (exc := task.exception()) is not None:

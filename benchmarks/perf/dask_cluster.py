@@ -9,8 +9,12 @@ In one run, this script:
 2. runs the ``optimizers`` suite with ``tooldesign bench`` (as ``python -m benchmarks``) once
    with each local executor of ``--local`` (default ``serial``) and once with ``--executor dask
    --scheduler tcp://127.0.0.1:P``, each into its own run folder under ``--out``;
-3. compares every number the runs stored (the evaluation log, the parts, the design files, the
-   report's tables, the manifest's counts and settings), timings aside, to the last bit;
+3. compares what the runs stored to the last bit: the rows of the evaluation log and of its
+   parts, the design files, the report's tables (CSV) and the manifest's config and counts,
+   leaving out only the fields that record times, checksums of files that hold times, the
+   machine and the code's provenance, each by its exact name (:data:`ROW_TIMES`,
+   :data:`MANIFEST_RUNTIME`, :data:`EXTRA_RUNTIME` and the suite's ``RUNTIME_FIELDS``); a
+   difference in the git commit, the packages or the host is printed as a note, not counted;
 4. prints the wall times side by side with the load average before and after each run, and the
    speed-up of the cluster over the first local run; and, before and after everything, how
    much parallelism the machine gives ``--workers`` CPU-bound processes (a busy machine is not
@@ -32,8 +36,13 @@ Run (a few minutes; ``--size full`` is the paper's suite, about 4,800 evaluation
         [--iterations N] [--batch-size N] [--workers 2] [--local serial [--local process]]
         [--out DIR] [--port P] [--timeout S]
 
-Exit code: 0 if every run stored the same numbers, 1 if they differ, 2 if a run or the cluster
-failed or a process of the cluster was left behind. Linux only (process groups, ``/proc``).
+Every argument is checked before anything starts (a bad one is an argparse error naming it,
+exit code 2), including the suite it makes: its seeds, iterations and batch size must be ones
+``tooldesign bench`` accepts for each optimizer.
+
+Exit code: 0 if every run stored the same numbers, 1 if they differ, 2 if an argument is bad, a
+run or the cluster failed or a process of the cluster was left behind. Linux only (process
+groups, ``/proc``).
 """
 
 from __future__ import annotations
@@ -57,8 +66,16 @@ from typing import IO, Any
 import pandas as pd
 
 import benchmarks
+from benchmarks.execution import WORKERS_MAX
 from benchmarks.execution._parent_death import die_with_parent
-from benchmarks.suites import RUNTIME_FIELDS, SuiteConfig, builtin_suite, save_suite
+from benchmarks.perf import _args  # this folder: imported as a script or by the tests
+from benchmarks.suites import (
+    RUNTIME_FIELDS,
+    SuiteConfig,
+    builtin_suite,
+    check_optimizers,
+    save_suite,
+)
 
 #: Sizes of the optimizers suite: ``reduced`` (default) takes a few minutes on 2 cores.
 SIZES: dict[str, dict[str, int]] = {
@@ -67,9 +84,35 @@ SIZES: dict[str, dict[str, int]] = {
     "full": {"n_seeds": 10, "iterations": 15, "batch_size": 8},
 }
 
-# Keys and columns that hold wall or CPU times, checksums of files that hold times, the machine's
-# load, and how the run was executed: they may differ between executors; nothing else may.
-_VOLATILE = {"part_sha256", "file_sha256", "sessions", "load_average_at_end"}
+#: Columns of the evaluation log, its parts and the report's tables, and keys of a design file,
+#: that hold times (s): the only values of the results that may differ between executors.
+ROW_TIMES: frozenset[str] = frozenset({"eval_time", "opt_time", "test_time"})
+
+#: Top-level keys of ``manifest.json`` that say when, where and from which code the run was made,
+#: not what it found: its times, the host, the packages' versions and the git commit (a commit
+#: may land between two runs of this script).
+MANIFEST_RUNTIME: frozenset[str] = frozenset(
+    {
+        "start_time",
+        "end_time",
+        "wall_time",
+        "simulation_time",
+        "optimizer_time",
+        "host",
+        "packages",
+        "git_commit",
+        "git_dirty",
+    }
+)
+
+#: Keys of the manifest's ``extra`` of the same kind: checksums of files that hold times, the
+#: sessions' times, the final tests' time and the machine's load.
+EXTRA_RUNTIME: frozenset[str] = frozenset(
+    {"file_sha256", "part_sha256", "sessions", "test_time", "load_average_at_end"}
+)
+
+#: Manifest keys whose difference is printed as a note: the runs should come from one code.
+PROVENANCE: tuple[str, ...] = ("git_commit", "git_dirty", "packages")
 
 
 _DASK = [sys.executable, "-m", "dask"]
@@ -358,32 +401,43 @@ def parallelism(processes: int) -> float:
 # --- the comparison ----------------------------------------------------------------------------
 
 
-def _volatile(key: str) -> bool:
-    return "time" in key or key in _VOLATILE
-
-
-def _exact(value: Any) -> Any:
-    """Floats as their ``repr`` (bit for bit), containers recursively, volatile keys dropped."""
+def _exact(value: Any, drop: frozenset[str] = frozenset()) -> Any:
+    """Floats as their ``repr`` (bit for bit), containers recursively, keys in ``drop`` left out."""
     if isinstance(value, float):
         return repr(value)
     if isinstance(value, dict):
-        return {k: _exact(v) for k, v in sorted(value.items()) if not _volatile(str(k))}
+        return {k: _exact(v, drop) for k, v in sorted(value.items()) if str(k) not in drop}
     if isinstance(value, list | tuple):
-        return [_exact(v) for v in value]
+        return [_exact(v, drop) for v in value]
     return value
 
 
 def _frame(frame: pd.DataFrame) -> list[dict[str, Any]]:
-    frame = frame[[c for c in frame.columns if not _volatile(str(c))]]
+    frame = frame[[c for c in frame.columns if str(c) not in ROW_TIMES]]
     rows = [_exact(row) for row in frame.to_dict("records")]
     return sorted(rows, key=lambda r: json.dumps(r, sort_keys=True, default=str))
 
 
-def stored_numbers(folder: Path) -> dict[str, Any]:
-    """Every number a run folder stores, by file, with timings and run settings left out.
+def _manifest(data: dict[str, Any]) -> dict[str, Any]:
+    """The manifest without the fields of how, when and where the run was made.
 
-    CSV and Markdown files are read as text (the digits as written), Parquet and JSON files with
-    floats as their ``repr``. Images and logs are not compared.
+    Those are :data:`MANIFEST_RUNTIME`, :data:`EXTRA_RUNTIME` and the config's
+    ``RUNTIME_FIELDS`` (executor, workers, scheduler, retries), each by its exact name and place.
+    """
+    kept = {k: v for k, v in data.items() if k not in MANIFEST_RUNTIME}
+    if isinstance(kept.get("config"), dict):
+        kept["config"] = {k: v for k, v in kept["config"].items() if k not in RUNTIME_FIELDS}
+    if isinstance(kept.get("extra"), dict):
+        kept["extra"] = {k: v for k, v in kept["extra"].items() if k not in EXTRA_RUNTIME}
+    return dict(_exact(kept))
+
+
+def stored_numbers(folder: Path) -> dict[str, Any]:
+    """What a run folder stores of its results, by file, with its times and run settings left out.
+
+    CSV files are read as text (the digits as written), Parquet and JSON files with floats as
+    their ``repr``. The report's Markdown holds the same tables as its CSV files, written for
+    reading, and is not compared; nor are images and logs.
     """
     out: dict[str, Any] = {}
     for path in sorted(folder.rglob("*")):
@@ -392,15 +446,26 @@ def stored_numbers(folder: Path) -> dict[str, Any]:
             out[name] = _frame(pd.read_csv(path, dtype=str, keep_default_na=False))
         elif path.suffix == ".parquet":
             out[name] = _frame(pd.read_parquet(path))
-        elif path.suffix == ".md":
-            out[name] = path.read_text().splitlines()
         elif path.suffix == ".json":
             data = json.loads(path.read_text())
-            if path.name == "manifest.json":  # where it ran is allowed to differ
-                for key in RUNTIME_FIELDS:
-                    data.get("config", {}).pop(key, None)
-            out[name] = _exact(data)
+            if path.name == "manifest.json" and isinstance(data, dict):
+                out[name] = _manifest(data)
+            else:
+                out[name] = _exact(data, ROW_TIMES)
     return out
+
+
+def provenance_notes(a: Path, b: Path) -> list[str]:
+    """Where the manifests of two run folders differ in :data:`PROVENANCE`.
+
+    Not a difference of results (a commit may land between the runs), but worth a line.
+    """
+    manifests = [json.loads((folder / "manifest.json").read_text()) for folder in (a, b)]
+    return [
+        f"{key}: {str(manifests[0].get(key))[:80]} != {str(manifests[1].get(key))[:80]}"
+        for key in PROVENANCE
+        if manifests[0].get(key) != manifests[1].get(key)
+    ]
 
 
 def count_values(value: Any) -> int:
@@ -475,15 +540,24 @@ def _print_table(runs: list[Run], cluster_start: float, workers: int) -> None:
     )
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Measure, compare and print; the exit code says whether the runs agree."""
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """The command line, checked before a process is started.
+
+    A bad value, or a suite that ``tooldesign bench`` would refuse, is an argparse error that
+    names it (exit code 2).
+    """
     doc = __doc__ or ""
     parser = argparse.ArgumentParser(description=doc.splitlines()[0])
     parser.add_argument("--size", choices=tuple(SIZES), default="reduced")
-    parser.add_argument("--seeds", type=int, default=None, help="seeds (overrides --size)")
-    parser.add_argument("--iterations", type=int, default=None, help="overrides --size")
-    parser.add_argument("--batch-size", type=int, default=None, help="overrides --size")
-    parser.add_argument("--workers", type=int, default=2, help="dask worker commands (default 2)")
+    parser.add_argument("--seeds", type=_args.count(1), default=None, help="overrides --size")
+    parser.add_argument("--iterations", type=_args.count(1), default=None, help="overrides --size")
+    parser.add_argument("--batch-size", type=_args.count(1), default=None, help="overrides --size")
+    parser.add_argument(
+        "--workers",
+        type=_args.count(1, WORKERS_MAX),
+        default=2,
+        help="dask worker commands (default 2)",
+    )
     parser.add_argument(
         "--local",
         action="append",
@@ -492,19 +566,40 @@ def main(argv: list[str] | None = None) -> int:
         help="local executor(s) to compare with (default serial; process uses --workers)",
     )
     parser.add_argument("--out", type=Path, default=None, help="folder of the runs (new)")
-    parser.add_argument("--port", type=int, default=0, help="scheduler port (default: any free)")
-    parser.add_argument("--timeout", type=float, default=120.0, help="s to wait for the workers")
+    parser.add_argument(
+        "--port",
+        type=_args.count(0, 65535),
+        default=0,
+        help="scheduler port on 127.0.0.1 (default 0: any free one)",
+    )
+    parser.add_argument(
+        "--timeout",
+        type=_args.number(0.0, 86400.0, above=True, unit="s"),
+        default=120.0,
+        help="s to wait for the workers (default 120)",
+    )
     args = parser.parse_args(argv)
-    if args.workers < 1:
-        parser.error("--workers must be >= 1")
+    try:
+        args.config = suite_config(args)
+        check_optimizers(args.config)  # e.g. CMA-ES needs a batch of 2 or more
+    except (TypeError, ValueError) as err:
+        parser.error(f"the suite of --size {args.size}, --seeds, --iterations, --batch-size: {err}")
+    if args.out is not None:
+        out = args.out.resolve()
+        if out.exists() and (not out.is_dir() or any(out.iterdir())):
+            parser.error(f"--out {out} is not an empty folder; the runs need new folders")
+    return args
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Measure, compare and print; the exit code says whether the runs agree."""
+    args = parse_args(argv)
     if importlib.util.find_spec("distributed") is None:
         print("error: this needs dask.distributed: pip install 'tooldesign[dask]'", file=sys.stderr)
         return 2
-    config = suite_config(args)
+    config: SuiteConfig = args.config
     local = args.local or ["serial"]
     out = (args.out or Path(tempfile.mkdtemp(prefix="tooldesign-dask-"))).resolve()
-    if out.exists() and any(out.iterdir()):
-        parser.error(f"--out {out} is not empty; the runs need new folders")
     out.mkdir(parents=True, exist_ok=True)
     suite_file = save_suite(config, out / "suite.toml")
     signal.signal(signal.SIGTERM, _stop_on_sigterm)
@@ -550,8 +645,10 @@ def main(argv: list[str] | None = None) -> int:
         else:
             print(
                 f"\n{run.label} vs {base}: identical, {count} stored values in "
-                f"{len(stored[base])} files (timings aside), bit for bit"
+                f"{len(stored[base])} files (times and provenance aside), bit for bit"
             )
+        for note in provenance_notes(runs[0].folder, run.folder):
+            print(f"note: {run.label} vs {base}: the runs' {note} (not compared)")
     _print_table(runs, started, args.workers)
     _print_machine("after", args.workers)
     return 1 if different else 0

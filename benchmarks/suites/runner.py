@@ -517,14 +517,20 @@ def summary_text(result: SuiteResult) -> str:
     """What a finished suite prints: counts, total time and its split."""
     log = result.evaluations
     counts = log["status"].value_counts()
-    workers = 1 if result.config.executor == "serial" else result.config.workers or os.cpu_count()
+    config = result.config
+    if config.scheduler is not None:
+        # Its workers may come and go during a run; how many threads it had is not stored.
+        executor = f"executor dask on the Dask cluster at {config.scheduler}"
+    else:
+        workers = 1 if config.executor == "serial" else config.workers or usable_cpus()
+        executor = f"executor {config.executor} with {workers} worker(s)"
     busy = (result.simulation_time + result.test_time) / max(result.wall_time, 1e-9)
     lines = [
         f"suite {result.config.name}: {len(result.designs)} runs, {len(log)} evaluations "
         f"({int(counts.get('ok', 0))} ok, {int(counts.get('invalid', 0))} invalid, "
         f"{int(counts.get('failed', 0))} failed)",
         f"total time: {result.wall_time:.1f} s wall (this session {result.session_time:.1f} s), "
-        f"executor {result.config.executor} with {workers} worker(s)",
+        f"{executor}",
         f"simulation: {result.simulation_time + result.test_time:.1f} s of worker time "
         f"(evaluations {result.simulation_time:.1f} s + final tests {result.test_time:.1f} s; "
         f"{busy:.2f} workers busy on average)",
