@@ -235,7 +235,8 @@ def test_the_floor_guards_sweep_of_the_plan_is_cached_beside_its_knots(
     sim.build(tool)
     swept = sim._arm_floor
     sim.close()
-    assert len([f for f in os.listdir(tmp_path) if f.endswith(".npz")]) == 4  # knots, sweep, refs, hand
+    files = [f for f in os.listdir(tmp_path) if f.endswith(".npz")]
+    assert len(files) == 4  # the knots, the sweep, the references, the hand's dynamics
     assert swept is not None and 0.05 < swept[1].min() < 0.5  # (levers, plan floor, fixed)
 
     # A "new process": nothing in memory; the plan must come from the disk, unswept.
