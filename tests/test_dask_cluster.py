@@ -349,9 +349,15 @@ def test_a_client_with_other_code_is_refused_and_the_cluster_is_left_alone():
 def test_a_cluster_of_the_same_code_gets_the_check_for_workers_that_join():
     client = _FakeClient({"tcp://a:1": dict(code_identity()), "tcp://b:1": dict(code_identity())})
     check_workers(client)  # type: ignore[arg-type]
-    assert client.registered == [PLUGIN_NAME]
+    assert client.registered == [f"{PLUGIN_NAME}-{client.id}"]  # its own: another run keeps its
+    other = _FakeClient({"tcp://a:1": dict(code_identity())})
+    check_workers(other)  # type: ignore[arg-type]
     forget_check(client)  # type: ignore[arg-type]
-    assert client.unregistered == [PLUGIN_NAME]
+    assert client.unregistered == [f"{PLUGIN_NAME}-{client.id}"]
+    forget_check(other)  # type: ignore[arg-type]
+    assert other.unregistered == [f"{PLUGIN_NAME}-{other.id}"]
+    for each in (client, other):
+        dask_client.end_quiet(each)  # type: ignore[arg-type]
 
 
 def _write_identity_probe(tree: Path) -> None:
@@ -450,24 +456,24 @@ def test_the_clients_tracebacks_of_a_lost_scheduler_are_left_out_during_a_run():
     lost = [CommClosedError("in <TCP (closed) ConnectionPool.gather>"), asyncio.CancelledError()]
     client = _FakeClient({})
     check_workers(client)  # type: ignore[arg-type]
+    other = _FakeClient({})  # a second run in this process, refused: adds no filter
+    other.reports = {"tcp://x:1": ModuleNotFoundError("No module named 'benchmarks'")}
+    with pytest.raises(ClusterMismatch):
+        check_workers(other)  # type: ignore[arg-type]
+    dask_client.end_quiet(other)  # type: ignore[arg-type]
     try:
         for name in dask_client._CLIENT_LOGGERS:
             logger = logging.getLogger(name)
             assert not any(logger.filter(_record(error)) for error in lost), name
             assert logger.filter(_record(ValueError("not a lost connection")))
             assert logger.filter(_record(None))  # "Failed to reconnect to scheduler after 30 s"
-    finally:
         forget_check(client)  # type: ignore[arg-type]
-    assert logging.getLogger("tornado.application").filter(_record(lost[0]))  # the run is over
-    # After a lost scheduler Dask's thread may still be logging as the run stops: kept quiet.
-    client = _FakeClient({})
-    check_workers(client)  # type: ignore[arg-type]
-    client.status = "closing"
-    forget_check(client)  # type: ignore[arg-type]
-    try:
+        # Until the client is closed, Dask's thread may still be logging as the run stops.
         assert not logging.getLogger("distributed.client").filter(_record(lost[1]))
     finally:
-        dask_client._quiet_lost_connections(False)
+        dask_client.end_quiet(client)  # type: ignore[arg-type]
+    for name in dask_client._CLIENT_LOGGERS:  # the run is over: nothing is left out any more
+        assert logging.getLogger(name).filter(_record(lost[0])), name
 
 
 def test_a_lost_cluster_says_once_that_nothing_of_the_unfinished_batches_was_stored(

@@ -50,7 +50,10 @@ __all__ = [
     "check_workers",
     "code_identity",
     "differences",
+    "end_quiet",
     "forget_check",
+    "plugin_name",
+    "quiet_lost_connections",
     "tree_digest",
 ]
 
@@ -240,9 +243,9 @@ def check_workers(client: Client) -> None:
     if found:
         raise ClusterMismatch(_refusal(len(reports), found))
     _REGISTERED.add(str(client.id))
-    _quiet_lost_connections(True)
+    quiet_lost_connections(client)
     try:
-        client.register_plugin(IdentityCheck(expected), name=PLUGIN_NAME)
+        client.register_plugin(IdentityCheck(expected), name=plugin_name(client))
     except OSError:
         # A worker died while the check was sent to it (CommClosedError is an OSError). The
         # scheduler keeps the plugin, so a restarted worker is checked when it registers.
@@ -254,20 +257,21 @@ def check_workers(client: Client) -> None:
         ) from err
 
 
+def plugin_name(client: Client) -> str:
+    """The name of ``client``'s check on the cluster: two runs on one cluster have two."""
+    return f"{PLUGIN_NAME}-{client.id}"
+
+
 def forget_check(client: Client) -> None:
     """Remove ``client``'s check from the cluster, if it registered one.
 
     The next run registers its own; a refused client leaves the check of another run alone.
     """
-    if client.status == "running":
-        _quiet_lost_connections(False)
-    # else the scheduler was lost: Dask's event loop thread may still be logging the calls it
-    # cancels while this thread stops the run, so the filter stays for the rest of the process.
     if str(client.id) not in _REGISTERED:
         return
     _REGISTERED.discard(str(client.id))
     try:
-        client.unregister_worker_plugin(PLUGIN_NAME)
+        client.unregister_worker_plugin(plugin_name(client))
     except Exception:  # the scheduler may be gone already; nothing is left to undo then
         pass
 
@@ -298,13 +302,31 @@ _CLIENT_LOGGERS: tuple[str, ...] = (
 )
 
 
-def _quiet_lost_connections(on: bool) -> None:
-    for name in _CLIENT_LOGGERS:
-        logger = logging.getLogger(name)
-        if on:
-            logger.addFilter(_FILTER)
-        else:
-            logger.removeFilter(_FILTER)
+#: The clients whose runs keep Dask's tracebacks of a lost connection out; the filter is on
+#: while this holds any.
+_QUIETED: set[str] = set()
+
+
+def quiet_lost_connections(client: Client) -> None:
+    """Leave out Dask's tracebacks of a lost connection while ``client`` runs.
+
+    Undone by :func:`end_quiet`, after the client is closed: while the run stops after a lost
+    scheduler, Dask's event-loop thread may still be logging the calls it cancels.
+    """
+    if not _QUIETED:
+        for name in _CLIENT_LOGGERS:
+            logging.getLogger(name).addFilter(_FILTER)
+    _QUIETED.add(str(client.id))
+
+
+def end_quiet(client: Client) -> None:
+    """Undo :func:`quiet_lost_connections` for ``client``; the filter goes with the last one."""
+    if str(client.id) not in _QUIETED:
+        return
+    _QUIETED.discard(str(client.id))
+    if not _QUIETED:
+        for name in _CLIENT_LOGGERS:
+            logging.getLogger(name).removeFilter(_FILTER)
 
 
 class DaskExecutor(Executor):

@@ -293,9 +293,7 @@ def check_main_guard(
             f"{path} starts worker processes but has no {_GUARD}; each worker would re-run the "
             f"script. {example}"
         )
-    if line is not None and not any(
-        g.lineno <= line <= (g.end_lineno or g.lineno) for g in guards
-    ):
+    if line is not None and not any(g.lineno <= line <= (g.end_lineno or g.lineno) for g in guards):
         raise RuntimeError(
             f"{path}, line {line}, starts worker processes outside its {_GUARD}; each worker "
             f"would re-run that line. {example}"
@@ -443,6 +441,13 @@ def _dask_executor(workers: int, scheduler: str | None) -> Iterator[Executor]:
             f"the dask executor needs dask.distributed, which is not installed; "
             f"install it with `{_DASK_EXTRA}` or use --executor process"
         ) from err
+    from benchmarks.execution.dask_client import (
+        DaskExecutor,
+        check_workers,
+        end_quiet,
+        forget_check,
+    )
+
     if scheduler is not None:
         if not isinstance(scheduler, str) or not scheduler:
             raise ValueError(
@@ -467,8 +472,6 @@ def _dask_executor(workers: int, scheduler: str | None) -> Iterator[Executor]:
         )
         client = Client(cluster)
     try:
-        from benchmarks.execution.dask_client import DaskExecutor, check_workers, forget_check
-
         try:
             # Every worker, present or joining later, must run this process's code and
             # libraries: otherwise where a design ran could change its result.
@@ -480,6 +483,7 @@ def _dask_executor(workers: int, scheduler: str | None) -> Iterator[Executor]:
         client.close()
         if cluster is not None:
             cluster.close()
+        end_quiet(client)  # Dask's thread of this client has stopped logging by now
 
 
 def map_robust(executor: Executor, fn: Callable[[Any], Any], items: Sequence[Any]) -> list[Outcome]:
