@@ -526,3 +526,23 @@ def test_the_summary_names_the_cluster_not_this_machines_cpus():
     assert "worker(s)" not in text
     local = config.replace(scheduler=None, workers=3)  # a LocalCluster of 3 workers
     assert "executor dask with 3 worker(s)" in summary_text(_suite_result(local))
+
+
+def test_a_run_removes_the_checks_of_clients_that_are_gone():
+    # A client killed outright leaves its check on the scheduler; the next run removes it.
+    from distributed import Client, LocalCluster
+
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False) as cluster:
+        with Client(cluster) as client:
+            stale = f"{PLUGIN_NAME}-Client-gone"
+            client.register_plugin(IdentityCheck(code_identity()), name=stale)
+            assert stale in cluster.scheduler.worker_plugins
+            check_workers(client)
+            try:
+                names = set(cluster.scheduler.worker_plugins)
+                assert stale not in names
+                assert dask_client.plugin_name(client) in names  # its own
+            finally:
+                forget_check(client)
+                dask_client.end_quiet(client)
+            assert dask_client.plugin_name(client) not in cluster.scheduler.worker_plugins

@@ -242,6 +242,7 @@ def check_workers(client: Client) -> None:
             found[address] = lines
     if found:
         raise ClusterMismatch(_refusal(len(reports), found))
+    _forget_stale_checks(client)
     _REGISTERED.add(str(client.id))
     quiet_lost_connections(client)
     try:
@@ -260,6 +261,29 @@ def check_workers(client: Client) -> None:
 def plugin_name(client: Client) -> str:
     """The name of ``client``'s check on the cluster: two runs on one cluster have two."""
     return f"{PLUGIN_NAME}-{client.id}"
+
+
+def _forget_stale_checks(client: Client) -> None:
+    """Remove the checks of runs whose client is gone (killed outright, a lost machine).
+
+    Best effort: a scheduler that cannot be asked keeps them (they shut down a joining worker
+    of other code, which is safe).
+    """
+    prefix = f"{PLUGIN_NAME}-"
+
+    def stale(dask_scheduler: Any) -> list[str]:  # runs on the scheduler, sent by value
+        clients = set(dask_scheduler.clients)
+        return [
+            name
+            for name in dask_scheduler.worker_plugins
+            if name.startswith(prefix) and name[len(prefix) :] not in clients
+        ]
+
+    try:
+        for name in client.run_on_scheduler(stale):
+            client.unregister_worker_plugin(name)
+    except Exception:  # noqa: BLE001 - only a cleanup of other runs' leftovers
+        pass
 
 
 def forget_check(client: Client) -> None:
