@@ -137,6 +137,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         return _main(argv, command)
 
 
+#: How to go on with a command that was stopped, after what it stored.
+_RESUME = {
+    "design": "; continue with the same command and --resume",
+    "bench": "; run the same command again: it resumes",
+    "retest": "; run the same command again: it resumes",
+}
+
+
 class Terminated(KeyboardInterrupt):
     """SIGTERM, raised in the main thread as Ctrl-C is, so that a run stops the same way."""
 
@@ -192,11 +200,7 @@ def _main(argv: list[str], command: str | None) -> int:
         parser.exit(2, f"tooldesign {args.command}: error: {exc}\n")
     except KeyboardInterrupt as exc:
         # What is stored stays: say how to go on from it.
-        resume = {
-            "design": "; continue with the same command and --resume",
-            "bench": "; run the same command again: it resumes",
-            "retest": "; run the same command again: it resumes",
-        }
+        resume = _RESUME
         stopped = "terminated (SIGTERM)" if isinstance(exc, Terminated) else "interrupted"
         print(f"{stopped}{resume.get(args.command, '')}", file=sys.stderr)
         return 128 + signal.SIGTERM if isinstance(exc, Terminated) else 130
@@ -216,9 +220,12 @@ def _main(argv: list[str], command: str | None) -> int:
 
         if not isinstance(exc, ClusterLost):
             raise
+        stored = (
+            f"nothing of the unfinished batches was stored{_RESUME[args.command]} on a working "
+            "cluster"
+            if args.command in _RESUME
+            else "nothing was stored: run the command again on a working cluster"
+        )
         parser.exit(
-            1,
-            f"tooldesign {args.command}: error: the Dask cluster went away ({exc}); nothing of "
-            "the unfinished batches was stored: rerun the same command on a working cluster to "
-            "resume\n",
+            1, f"tooldesign {args.command}: error: the Dask cluster went away ({exc}); {stored}\n"
         )
