@@ -263,10 +263,15 @@ def test_copies_are_written_once_and_a_changed_copy_is_written_again(tmp_path, m
 
 
 def test_a_later_process_reuses_the_copies_through_the_index(tmp_path, monkeypatch):
+    real = bullet.lean_collision_mesh
     monkeypatch.setattr(bullet, "_LEAN_MESHES", {})
     meshes = lean_collision_meshes(tmp_path)
     assert meshes is not None
-    index = tmp_path / "meshes" / f"lean-index-v{bullet.LEAN_MESH_FORMAT}.json"
+    index = (
+        tmp_path
+        / "meshes"
+        / f"lean-index-v{bullet.LEAN_MESH_FORMAT}-{bullet._lean_index_tag()}.json"
+    )
     assert sorted(json.loads(index.read_text(encoding="utf-8")).values()) == sorted(
         Path(p).name for p in meshes.values()
     )
@@ -278,13 +283,25 @@ def test_a_later_process_reuses_the_copies_through_the_index(tmp_path, monkeypat
     monkeypatch.setattr(bullet, "_LEAN_MESHES", {})  # as a new process
     assert lean_collision_meshes(tmp_path) == meshes
 
+    # Another version of this code, of Qhull or another machine: the copies are made again.
+    made = []
+    monkeypatch.setattr(bullet, "lean_collision_mesh", lambda text: made.append(1) or real(text))
+    monkeypatch.setattr(bullet, "_lean_index_tag", lambda: "another-tag")
+    monkeypatch.setattr(bullet, "_LEAN_MESHES", {})
+    assert lean_collision_meshes(tmp_path) == meshes  # the same text, so the same names
+    assert len(made) == len(meshes)
+
 
 @pytest.mark.parametrize("damage", ["copy", "index", "index-entry", "index-escape"])
 def test_a_damaged_copy_or_index_makes_the_copies_again(tmp_path, monkeypatch, damage):
     monkeypatch.setattr(bullet, "_LEAN_MESHES", {})
     meshes = lean_collision_meshes(tmp_path)
     assert meshes is not None
-    index = tmp_path / "meshes" / f"lean-index-v{bullet.LEAN_MESH_FORMAT}.json"
+    index = (
+        tmp_path
+        / "meshes"
+        / f"lean-index-v{bullet.LEAN_MESH_FORMAT}-{bullet._lean_index_tag()}.json"
+    )
     first = Path(next(iter(meshes.values())))
     entries = json.loads(index.read_text(encoding="utf-8"))
     if damage == "copy":  # same name, other bytes: the digest in its name no longer matches

@@ -174,6 +174,19 @@ def test_a_new_process_finds_the_plan_on_disk(monkeypatch, tmp_path, fresh_memor
     assert _solved_references(sim) == solved  # hit: the same bits
     sim.close()
 
+    # Another version of the code that splines them: the references are splined again.
+    splined = []
+    monkeypatch.setattr(
+        simulation,
+        "reference_from_knots",
+        lambda *args: splined.append(1) or plan_module.reference_from_knots(*args),
+    )
+    monkeypatch.setattr(simulation, "source_digest", lambda module: f"edited {module}")
+    monkeypatch.setattr(simulation, "_REFERENCES", {})
+    sim = ToolSimulator()
+    assert _solved_references(sim) == solved and splined == [1]
+    sim.close()
+
     # A corrupt file is ignored, solved again and rewritten; the result is the same.
     monkeypatch.undo()
     monkeypatch.setenv(CACHE_ENV, str(tmp_path))

@@ -406,7 +406,8 @@ def lean_collision_meshes(folder: Path | None) -> dict[str, str] | None:
     it). Checked once per process and folder.
 
     Making a copy parses the original and runs Qhull (about 35-50 ms for the eleven meshes), so
-    an index in the same folder (``lean-index-v{LEAN_MESH_FORMAT}.json``) records which copy
+    an index in the same folder (``lean-index-v{LEAN_MESH_FORMAT}-{tag}.json``, the tag a digest
+    of this module's source, SciPy's and NumPy's versions and the machine) records which copy
     was made from which original, by a digest of the original's bytes. A process then reads
     each original and its copy and hashes both (a few ms): an original whose bytes changed, or
     a copy whose bytes no longer match the digest in its name, is made again.
@@ -419,6 +420,20 @@ def lean_collision_meshes(folder: Path | None) -> dict[str, str] | None:
     return _LEAN_MESHES[key]
 
 
+def _lean_index_tag() -> str:
+    """What makes a copy from an original besides the original: this code, Qhull, the CPU.
+
+    An index of another tag is not read (its copies are made again, and the copy of the
+    same text keeps its name), so a change of these never reuses a copy made otherwise.
+    """
+    import scipy
+
+    from tooldesign_env.plan import source_digest
+
+    material = [source_digest(__name__), scipy.__version__, np.__version__, platform.machine()]
+    return hashlib.sha256(json.dumps(material).encode()).hexdigest()[:12]
+
+
 def _lean_digest(lean: bytes) -> str:
     """The digest in a lean copy's name: of the format and the copy's bytes."""
     return hashlib.sha256(f"{LEAN_MESH_FORMAT}\n".encode() + lean).hexdigest()[:20]
@@ -427,7 +442,7 @@ def _lean_digest(lean: bytes) -> str:
 def _write_lean_meshes(folder: Path) -> dict[str, str] | None:
     urdf = panda_urdf_with_tool(None, visuals=False)
     originals = sorted(set(re.findall(r'<mesh filename="([^"]+\.obj)"', urdf)))
-    index_path = folder / f"lean-index-v{LEAN_MESH_FORMAT}.json"
+    index_path = folder / f"lean-index-v{LEAN_MESH_FORMAT}-{_lean_index_tag()}.json"
     try:
         index = json.loads(index_path.read_text(encoding="utf-8"))
         if not isinstance(index, dict):
@@ -494,11 +509,12 @@ def _hand_dynamics(text: str) -> np.ndarray:
     The file holds the float64 values exactly, so a process that reads it builds the same
     merged hand, bit for bit, as one that loaded the robot.
     """
-    from tooldesign_env.plan import cache_key, load_knots, store_knots
+    from tooldesign_env.plan import cache_key, load_knots, source_digest, store_knots
 
     key = cache_key(
         {
             "hand_dynamics": HAND_DYNAMICS_FORMAT,
+            "source": source_digest(__name__),  # how the robot is loaded (flags, inertia)
             "urdf": hashlib.sha256(text.encode("utf-8")).hexdigest(),
             "links": [HAND_ROOT, *HAND_LINKS],
             "pybullet": engine_version(),

@@ -8,7 +8,9 @@ memory, and on disk (:func:`cache_dir`) keyed by everything the solution depends
 
 from __future__ import annotations
 
+import functools
 import hashlib
+import importlib.util
 import io
 import json
 import math
@@ -254,6 +256,22 @@ def cache_dir() -> Path | None:
         return Path(value).expanduser() if value.strip() else None
     base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
     return Path(base) / "tooldesign"
+
+
+@functools.cache
+def source_digest(module: str) -> str:
+    """A digest (16 hex) of the source file of ``module``, for the keys of cached results.
+
+    A result kept across processes must be computed again when the code that computes it
+    changes, whether or not a format number was bumped; any edit of the file (a comment too)
+    costs one recomputation. ``"unknown"`` if the module has no readable source file.
+    """
+    spec = importlib.util.find_spec(module)
+    try:
+        with open(str(spec.origin if spec else None), "rb") as f:
+            return hashlib.sha256(f.read()).hexdigest()[:16]
+    except OSError:
+        return "unknown"
 
 
 def cache_key(material: dict[str, Any]) -> str:

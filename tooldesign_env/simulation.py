@@ -47,6 +47,7 @@ from tooldesign_env.plan import (
     phases,
     reference_from_knots,
     solve_knots,
+    source_digest,
     store_knots,
 )
 from tooldesign_env.specs import ControllerSpec, PlanSpec, SceneSpec, spec_to_dict
@@ -443,6 +444,7 @@ class ToolSimulator:
         key = cache_key(
             {
                 "reference": REFERENCE_FORMAT,
+                "source": source_digest("tooldesign_env.plan"),
                 "knots": plan_cache_key(self.plan),
                 "control_dt": self.control_dt,
                 "scipy": scipy.__version__,
@@ -696,6 +698,9 @@ class ToolSimulator:
                 "links": [first, last],
                 "knots": plan_cache_key(self.plan),
                 "control_dt": self.control_dt,
+                # The references it sweeps (SciPy's splines, the plan's code) and its own code.
+                "scipy": scipy.__version__,
+                "source": [source_digest(m) for m in ("tooldesign_env.plan", __name__)],
             }
         )
         if key in _ARM_FLOOR:

@@ -72,7 +72,7 @@ def dense_search(
         points: Grid points per coefficient, 2 to 50.
         task: The task (default: the paper's goal and p^X).
         executor: ``"serial"``, ``"process"`` or ``"dask"``.
-        workers: Worker processes, 1 to 1024; ``None`` is the number of CPUs.
+        workers: Worker processes, 1 to 1024; ``None`` is the CPUs this process may use.
         batch: Designs per submitted batch, 1 to 10,000.
         progress: Called with (designs done, designs in all) after each batch.
 
