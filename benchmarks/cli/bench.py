@@ -63,7 +63,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         type=int,
         default=None,
         metavar="N",
-        help="worker processes (default: the CPUs this process may use; the rl suite: 1, this process)",
+        help="worker processes (default: the CPUs this process may use; the rl suite: 1)",
     )
     parser.add_argument(
         "--executor", choices=EXECUTORS, default=None, help="where designs are evaluated"
