@@ -153,10 +153,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "a SceneSpec field changed from its default, e.g. merge_fixed_links=False",
     )
     args = parser.parse_args(argv)
-    try:
-        SceneSpec(**dict(args.scene))
-    except (TypeError, ValueError) as error:
-        parser.error(f"--scene: {error}")
+    _args.check_scene(parser, args)
     return args
 
 
