@@ -181,6 +181,33 @@ def test_warnings_as_lines_changes_only_the_format_and_only_within_the_block():
     assert warnings.formatwarning is before
 
 
+_WORKER_WARNS = """\
+import functools, sys, warnings
+from benchmarks.cli._warnings import warnings_as_lines
+from benchmarks.execution import make_executor, map_robust
+
+if __name__ == "__main__":
+    warn = functools.partial(warnings.warn, "from a worker", RuntimeWarning)
+    with warnings_as_lines("tooldesign x"), make_executor("process", workers=1) as pool:
+        assert map_robust(pool, warn, [1])[0].error is None
+    print("--", file=sys.stderr, flush=True)
+    with make_executor("process", workers=1) as pool:  # no one-line format in the parent
+        assert map_robust(pool, warn, [1])[0].error is None
+"""
+
+
+def test_process_pool_workers_write_a_warning_as_the_parents_one_line(tmp_path):
+    # The workers (forkserver or spawn) do not inherit warnings.formatwarning: the pool hands
+    # them the prefix. The worker's stderr is the test process's, so it runs in a subprocess.
+    script = tmp_path / "worker_warns.py"
+    script.write_text(_WORKER_WARNS)
+    done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    in_block, _, outside = done.stderr.partition("--\n")
+    assert in_block == "tooldesign x: warning: from a worker\n", done.stderr
+    assert "RuntimeWarning: from a worker" in outside and "tooldesign" not in outside, outside
+
+
 def test_a_command_writes_a_warning_as_one_line_on_stderr(tmp_path):
     # A suite whose optimizer is not importable here is dumped with a warning (not in-process:
     # pytest records warnings instead of writing them).

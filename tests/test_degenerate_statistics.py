@@ -135,6 +135,45 @@ def test_table_one_and_robustness_by_precision_say_na_for_one_task() -> None:
     assert "fewer than 2 tasks with a value" in text
 
 
+def test_an_interval_is_na_when_fewer_than_two_tasks_have_a_value_not_fewer_rows() -> None:
+    # Two tasks, but the final test of one kept no accuracy (and no goal error): one value.
+    config = SuiteConfig(
+        name="s", variants=(Variant(name="p0", label="pure confidence", goal_precision=0.0),)
+    )
+    designs = [_design("p0", 0.0, 0, -1.0), _design("p0", 0.0, 1, -3.0)]
+    designs[1]["test"]["accuracy"] = None
+    designs[1]["test"]["squared_goal_error"] = None
+    table = table_one(designs, config, n_boot=N_BOOT)
+    assert table.loc[0, "tasks"] == 2 and table.loc[0, "robustness_n"] == 2
+    assert table.loc[0, "accuracy_n"] == 1
+    text = _table_one_markdown(table)
+    (row,) = _table_rows(text, "pure confidence")
+    assert row[3] == "**-2** [-3, -1]" and row[4] == "**-2** [n/a]", row
+    assert "[-2, -2]" not in text and "fewer than 2 tasks with a value" in text
+
+    per_precision, correlations = robustness_by_precision(designs, config, n_boot=N_BOOT)
+    assert list(per_precision.loc[0, ["robustness_n", "squared_goal_error_n"]]) == [2, 1]
+    text = _by_precision_markdown(per_precision, correlations)
+    (row,) = _table_rows(text, "0 ")
+    assert row[3] == "-2 [-3, -1]" and row[4] == "4 [n/a]", row
+    assert "fewer than 2 tasks with a value" in text
+
+
+# numpy's range of a design's all-NaN accuracy over scenes warns; the noise is NaN as it should be.
+@pytest.mark.filterwarnings("ignore:invalid value encountered in reduce:RuntimeWarning")
+def test_a_stress_interval_is_na_when_fewer_than_two_designs_have_a_value(tmp_path: Path) -> None:
+    retests = [_retest(0, repeats=2), _retest(1, repeats=2)]
+    for row in retests[1]["stress"]:
+        row["accuracy"] = None  # one design without an accuracy: one value behind its interval
+    make_retest_report(retests, tmp_path, n_boot=N_BOOT)
+    text = (tmp_path / "stress.md").read_text(encoding="utf-8")
+    (row,) = _table_rows(text, "p0")
+    assert "[n/a]" not in row[3] and row[4].startswith("**-2.05** [n/a]"), row
+    assert "fewer than 2 designs with a value" in text
+    stress = pd.read_csv(tmp_path / "stress.csv")
+    assert list(stress.loc[0, ["designs", "robustness_n", "accuracy_n"]]) == [2, 2, 1]
+
+
 # --- the noise of one repeated scene, and a percentage of a zero base ---------------------------
 
 

@@ -24,12 +24,19 @@ something outside, such as the kernel's out-of-memory killer, killed it), then i
 :class:`WorkerDied` error and the run goes on. ``max_retries`` is set where the executor is made
 (:func:`make_executor`) and applies to the local process pool only: a Dask scheduler retries a
 task whose worker died by itself (its ``distributed.scheduler.allowed-failures`` setting).
+
+A worker of the process pool does not inherit how its parent writes warnings
+(:data:`warnings.formatwarning`). If the parent's format has a string ``line_prefix`` attribute
+when the pool is made (the command line's one-line format, ``PREFIX: warning: MESSAGE``, has),
+each worker writes its warnings as that same line; otherwise in Python's format. Dask workers
+keep Python's format.
 """
 
 from __future__ import annotations
 
 import ast
 import contextlib
+import functools
 import multiprocessing
 import os
 import signal
@@ -141,17 +148,29 @@ class _RestartingProcessPool(Executor):
         context: The multiprocessing context (forkserver or spawn).
         max_retries: Further runs of an item whose worker died while it ran alone (see
             :func:`run_alone`).
+        warning_prefix: Workers write each warning as one ``PREFIX: warning: MESSAGE`` line;
+            ``None``: in Python's format.
     """
 
-    def __init__(self, workers: int, context: Any, max_retries: int = 0) -> None:
+    def __init__(
+        self,
+        workers: int,
+        context: Any,
+        max_retries: int = 0,
+        warning_prefix: str | None = None,
+    ) -> None:
         self._workers = workers
         self._context = context
         self.max_retries = check_max_retries(max_retries)
+        self._warning_prefix = warning_prefix
         self._pool = self._new_pool()
 
     def _new_pool(self) -> ProcessPoolExecutor:
         return ProcessPoolExecutor(
-            max_workers=self._workers, mp_context=self._context, initializer=_init_worker
+            max_workers=self._workers,
+            mp_context=self._context,
+            initializer=_init_worker,
+            initargs=(self._warning_prefix,),
         )
 
     @property
@@ -202,9 +221,33 @@ def _ignore_sigint() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
-def _init_worker() -> None:
+def _init_worker(warning_prefix: str | None = None) -> None:
     _ignore_sigint()
     die_with_parent()
+    if warning_prefix is not None:
+        warnings.formatwarning = functools.partial(_warning_line, warning_prefix)
+
+
+def _parent_warning_prefix() -> str | None:
+    """The ``line_prefix`` of this process's warning format, or None if it has none.
+
+    Read by attribute, so that this module imports nothing of the command line (whose
+    ``warnings_as_lines`` installs such a format).
+    """
+    prefix = getattr(warnings.formatwarning, "line_prefix", None)
+    return prefix if isinstance(prefix, str) else None
+
+
+def _warning_line(
+    prefix: str,
+    message: Warning | str,
+    category: type[Warning],
+    filename: str,
+    lineno: int,
+    line: str | None = None,
+) -> str:
+    """A worker's warning as one line, as the command line writes it in the parent."""
+    return f"{prefix}: warning: {message}\n"
 
 
 def _process_context() -> Any:
@@ -392,6 +435,9 @@ def make_executor(
             :class:`WorkerDied` error (see :func:`run_alone`); an int from 0 to 100. The
             ``"serial"`` executor has no worker to lose, and Dask retries by itself.
 
+    The workers of ``"process"`` write warnings as this process does when its warning format
+    is the command line's one line (see the module's docstring).
+
     Yields:
         A :class:`concurrent.futures.Executor`.
 
@@ -419,7 +465,9 @@ def make_executor(
     elif kind == "process":
         check_main_guard(kind)
         _warn_oversubscribed(count)
-        pool = _RestartingProcessPool(count, _process_context(), retries)
+        pool = _RestartingProcessPool(
+            count, _process_context(), retries, warning_prefix=_parent_warning_prefix()
+        )
         try:
             yield pool
         finally:

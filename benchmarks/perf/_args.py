@@ -1,17 +1,22 @@
-"""Argument types shared by the perf scripts: a bad value is an argparse error that names it.
+"""Argument types and checks shared by the perf scripts: a bad value is an argparse error naming it.
 
 A script imports them from this folder (``from _args import count``), as it imports its
-siblings: ``python benchmarks/perf/SCRIPT.py`` puts the folder first on ``sys.path``. Each
+siblings: ``python benchmarks/perf/SCRIPT.py`` puts the folder first on ``sys.path``. Each type
 returns a function for ``add_argument(type=...)`` that raises ``argparse.ArgumentTypeError``, so
 argparse prints ``SCRIPT.py: error: argument --NAME: must be ..., got 'VALUE'`` and exits with
-code 2 before anything is measured.
+code 2 before anything is measured. :func:`check_scene` checks ``--scene``'s fields together,
+after parsing, the same way.
 """
 
 from __future__ import annotations
 
 import argparse
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from tooldesign_env import SceneSpec
 
 
 def count(low: int = 1, high: int | None = None, why: str = "") -> Callable[[str], int]:
@@ -67,3 +72,26 @@ def number(
         return value
 
     return parse
+
+
+def check_scene(
+    parser: argparse.ArgumentParser,
+    args: argparse.Namespace,
+    fixed: Mapping[str, str] | None = None,
+) -> SceneSpec:
+    """The ``SceneSpec`` of ``--scene`` (``physics_options.add_scene_option``), checked.
+
+    Exits through ``parser.error`` (code 2) with ``--scene FIELD=...: WHY`` for a field of
+    ``fixed`` (a field the script sets itself, mapped to why), and with ``--scene: ERROR`` when
+    ``SceneSpec`` refuses the values.
+    """
+    from tooldesign_env import SceneSpec  # not at import: the argument types load no simulator
+
+    fields = dict(args.scene)
+    for name, why in (fixed or {}).items():
+        if name in fields:
+            parser.error(f"--scene {name}=...: {why}")
+    try:
+        return SceneSpec(**fields)
+    except (TypeError, ValueError) as error:
+        parser.error(f"--scene: {error}")

@@ -469,12 +469,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         help="with --claims: keep only each suite's first SEEDS goals",
     )
     args = parser.parse_args(argv)
-    if "box_position" in dict(args.scene):
-        parser.error("--scene box_position=...: the placements are the grid's (--xs, --ys, --pick)")
-    try:
-        SceneSpec(**dict(args.scene))
-    except (TypeError, ValueError) as error:
-        parser.error(f"--scene: {error}")
+    _args.check_scene(
+        parser, args, {"box_position": "the placements are the grid's (--xs, --ys, --pick)"}
+    )
     placements = [(x, y) for x in args.xs for y in args.ys]
     for position in placements + ([tuple(args.pick)] if args.pick is not None else []):
         try:

@@ -387,13 +387,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "every time step is run in (its time_step is the study's)",
     )
     args = parser.parse_args(argv)
-    fields = dict(args.scene)
-    if "time_step" in fields:
-        parser.error("--scene time_step=...: the time steps are the study's (RESOLUTIONS)")
-    try:
-        args.scene_spec = SceneSpec(**fields)
-    except (TypeError, ValueError) as error:
-        parser.error(f"--scene: {error}")
+    args.scene_spec = _args.check_scene(
+        parser, args, {"time_step": "the time steps are the study's (RESOLUTIONS)"}
+    )
     if args.figure is not None and not args.figure.resolve().parent.is_dir():
         parser.error(f"--figure {str(args.figure)!r}: its folder does not exist")
     return args

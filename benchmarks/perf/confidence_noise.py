@@ -185,10 +185,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         TaskSettings(goal=tuple(args.goal), goal_precision=args.goal_precision)
     except (TypeError, ValueError) as error:
         parser.error(f"--goal / --goal-precision: {error}")
-    try:
-        args.scene_spec = SceneSpec(**dict(args.scene))
-    except (TypeError, ValueError) as error:
-        parser.error(f"--scene: {error}")
+    args.scene_spec = _args.check_scene(parser, args)
     return args
 
 

@@ -50,7 +50,7 @@ from typing import Any
 
 import _args  # this folder: the script's own, on sys.path
 import numpy as np
-from physics_options import add_scene_option
+from physics_options import add_scene_option, designs
 
 from tooldesign_env import ObjectiveSpec, SceneSpec, ToolDesignEnv, make_tool
 from tooldesign_env.geometry import SECTION_SHAPES, ToolSpec
@@ -78,18 +78,6 @@ loop = getattr(env.simulator, "native_status", "Python")
 print(json.dumps({"construction": t1 - t0, "step": t2 - t1, "loop": loop}))
 env.close()
 """
-
-
-def designs(n: int, seed: int) -> list[np.ndarray]:
-    """The first n of: the straight tool, a hook, then uniform random designs in the default bounds.
-
-    The same n - 2 random designs as before for n >= 2 (older trees' scripts always ran the
-    straight tool and the hook, even for n < 2).
-    """
-    rng = np.random.default_rng(seed)
-    out = [np.zeros(3), np.array([0.0, 1.5, 0.0])]
-    out += list(rng.uniform([-1.5, -1.5, -0.5], [1.5, 1.5, 0.5], size=(max(n - 2, 0), 3)))
-    return out[:n]
 
 
 def first_evaluation(cache_dir: str, options: dict[str, Any]) -> dict[str, Any]:
@@ -165,10 +153,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "a SceneSpec field changed from its default, e.g. merge_fixed_links=False",
     )
     args = parser.parse_args(argv)
-    try:
-        SceneSpec(**dict(args.scene))
-    except (TypeError, ValueError) as error:
-        parser.error(f"--scene: {error}")
+    _args.check_scene(parser, args)
     return args
 
 

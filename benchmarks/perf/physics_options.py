@@ -53,7 +53,8 @@ NOISE_FLOOR = {"round": "0.3-0.4 %", "square": "1-1.5 %"}
 def designs(n: int, seed: int) -> list[np.ndarray]:
     """The first n of: the straight tool, a hook, then uniform random designs in the default bounds.
 
-    The same n - 2 random designs as before for n >= 2.
+    The same n - 2 random designs as before for n >= 2 (older trees' scripts always ran the
+    straight tool and the hook, even for n < 2). ``evaluation_speed.py`` uses it too.
     """
     rng = np.random.default_rng(seed)
     out = [np.zeros(3), np.array([0.0, 1.5, 0.0])]

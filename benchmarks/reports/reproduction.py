@@ -32,7 +32,7 @@ from benchmarks.reports.comparison import (
     no_interval_note,
     percent_cell,
 )
-from benchmarks.reports.retest import noise_floor, stress_repeats, stress_table
+from benchmarks.reports.retest import noise_floor, short_intervals, stress_repeats, stress_table
 from benchmarks.reports.suite import designs_table
 from benchmarks.storage import read_designs, read_retests, with_added_fields
 from benchmarks.suites.config import ADDED_FIELDS
@@ -284,12 +284,12 @@ def _claim_c(folder: Path, baseline: Path | None) -> tuple[str, str, list[str]]:
         cells = [str(row["label"] or row["variant"]), _fmt(row["goal_precision"])]
         for metric in (*ROBUSTNESS_METRICS, "final_distance"):
             bounds = interval_bounds(
-                row[f"{metric}_low"], row[f"{metric}_high"], int(row["designs"]), _fmt
+                row[f"{metric}_low"], row[f"{metric}_high"], int(row[f"{metric}_n"]), _fmt
             )
             cells.append(f"{_fmt(row[metric])} {bounds} ({_fmt(row[f'{metric}_noise'], 2)})")
         lines.append("| " + " | ".join(cells) + " |")
     notes = []
-    if len(rows) and (rows["designs"] < MIN_INTERVAL_VALUES).any():
+    if len(rows) and short_intervals(rows):
         notes.append(no_interval_note("goals"))
     if len(rows) and rows[[f"{m}_noise" for m in ROBUSTNESS_METRICS]].isna().any(axis=None):
         notes.append(

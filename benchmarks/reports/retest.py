@@ -37,7 +37,7 @@ from benchmarks.reports.stats import bootstrap_ci
 from benchmarks.storage import atomic_write_text, json_text
 from tooldesign_env.schema import METRICS
 
-__all__ = ["make_retest_report", "noise_table", "stress_repeats", "stress_table"]
+__all__ = ["make_retest_report", "noise_table", "short_intervals", "stress_repeats", "stress_table"]
 
 LEVEL = 0.95
 TERMS = METRICS
@@ -101,8 +101,9 @@ def stress_table(
     Returns:
         ``variant``, ``label``, ``goal_precision``, ``designs`` and, per metric m of
         :data:`STRESS_METRICS`: ``m`` (mean over designs), ``m_low``/``m_high`` (95 %
-        bootstrap interval over designs), ``m_noise`` (median over designs of the range of
-        the design's mean across repeated scenes) and ``m_best``.
+        bootstrap interval over designs), ``m_n`` (the designs with a finite value, which the
+        mean and interval are of), ``m_noise`` (median over designs of the range of the
+        design's mean across repeated scenes) and ``m_best``.
     """
     # Several optimizers' designs are not repeats of one another: a row per variant and
     # optimizer then (as Table I), never pooled.
@@ -134,6 +135,7 @@ def stress_table(
                     metric: ci.estimate,
                     f"{metric}_low": ci.low,
                     f"{metric}_high": ci.high,
+                    f"{metric}_n": ci.n,
                     f"{metric}_noise": float(np.median([m[f"{metric}_noise"] for _, m in items])),
                 }
             )
@@ -145,6 +147,11 @@ def stress_table(
             pick = table[metric].max() if better == "higher" else table[metric].min()
             table[f"{metric}_best"] = table[metric] == pick
     return table
+
+
+def short_intervals(table: pd.DataFrame) -> bool:
+    """Whether an interval of a :func:`stress_table` has fewer than 2 designs with a value."""
+    return any((table[f"{m}_n"] < MIN_INTERVAL_VALUES).any() for m, _, _ in STRESS_METRICS)
 
 
 def stress_repeats(retests: Sequence[Mapping[str, Any]], change: str) -> int:
@@ -192,13 +199,13 @@ def _stress_markdown(
             mean = _fmt(row[metric])
             mean = f"**{mean}**" if row[f"{metric}_best"] else mean
             bounds = interval_bounds(
-                row[f"{metric}_low"], row[f"{metric}_high"], int(row["designs"]), _fmt
+                row[f"{metric}_low"], row[f"{metric}_high"], int(row[f"{metric}_n"]), _fmt
             )
             noise = _fmt(row[f"{metric}_noise"], 2) if repeats >= 2 else "n/a"
             cells.append(f"{mean} {bounds} ({noise})")
         lines.append("| " + " | ".join(cells) + " |")
     notes = []
-    if len(table) and (table["designs"] < MIN_INTERVAL_VALUES).any():
+    if len(table) and short_intervals(table):
         notes.append(no_interval_note("designs"))
     if repeats < 2:
         notes.append(

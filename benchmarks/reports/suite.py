@@ -49,7 +49,7 @@ from benchmarks.reports.comparison import (
 )
 from benchmarks.reports.retest import make_retest_report, noise_floor
 from benchmarks.reports.rl import make_rl_report
-from benchmarks.reports.stats import bootstrap_ci
+from benchmarks.reports.stats import BootstrapCI, bootstrap_ci
 from benchmarks.rl.suite import RL_SUITE_KIND
 from benchmarks.storage import (
     ResultStore,
@@ -95,9 +95,13 @@ def _interval(mean: float, low: float, high: float, n: int) -> str:
     return f"{_fmt(mean)} {interval_bounds(low, high, n, _fmt)}"
 
 
-def _interval_notes(table: pd.DataFrame) -> list[str]:
-    """The note under a table of intervals over tasks when one of them is n/a."""
-    if len(table) and (table["tasks"] < MIN_INTERVAL_VALUES).any():
+def _interval_notes(table: pd.DataFrame, metrics: Iterable[str]) -> list[str]:
+    """The note under a table of intervals over tasks when one of them is n/a.
+
+    An interval is n/a when fewer than 2 of its tasks have a value (the ``m_n`` column), not
+    when the row has fewer than 2 tasks: a task's metric can be missing.
+    """
+    if len(table) and any((table[f"{m}_n"] < MIN_INTERVAL_VALUES).any() for m in metrics):
         return ["", no_interval_note("tasks")]
     return []
 
@@ -459,6 +463,16 @@ _TABLE_ONE = (
 )
 
 
+def _ci_columns(metric: str, ci: BootstrapCI) -> dict[str, Any]:
+    """A metric's mean, interval and count of finite values, as a table row's columns."""
+    return {
+        metric: ci.estimate,
+        f"{metric}_low": ci.low,
+        f"{metric}_high": ci.high,
+        f"{metric}_n": ci.n,
+    }
+
+
 def _tested(designs: Sequence[Mapping[str, Any]]) -> pd.DataFrame:
     table = designs_table(designs)
     if not len(table):
@@ -488,8 +502,9 @@ def table_one(
         One row per variant (per variant and optimizer, with an ``optimizer`` column, when the
         suite has several optimizers: their designs are not pooled): ``variant``, ``label``,
         ``goal_precision``, ``tasks`` and, per metric m, ``m`` (mean over tasks), ``m_low``,
-        ``m_high`` and ``m_best`` (whether the mean is the best of the table: highest robustness
-        and accuracy, lowest control deviation).
+        ``m_high``, ``m_n`` (the tasks with a finite value, which the mean and interval are of)
+        and ``m_best`` (whether the mean is the best of the table: highest robustness and
+        accuracy, lowest control deviation).
     """
     tested = _tested(designs)
     variants = [v for v in config.variants if v.label] or list(config.variants)
@@ -515,9 +530,7 @@ def table_one(
                 values = part[metric].to_numpy(dtype=np.float64) if len(part) else np.array([])
                 key = variant.name if optimizer is None else f"{variant.name}/{optimizer}"
                 ci = bootstrap_ci(values, n_boot=n_boot, level=LEVEL, rng=_rng(seed, metric, key))
-                row.update(
-                    {metric: ci.estimate, f"{metric}_low": ci.low, f"{metric}_high": ci.high}
-                )
+                row.update(_ci_columns(metric, ci))
             rows.append(row)
     table = pd.DataFrame(rows)
     for metric, _, pick in _TABLE_ONE:
@@ -549,11 +562,15 @@ def _table_one_markdown(table: pd.DataFrame) -> str:
             mean = _fmt(row[metric])
             mean = f"**{mean}**" if row[f"{metric}_best"] else mean
             bounds = interval_bounds(
-                row[f"{metric}_low"], row[f"{metric}_high"], int(row["tasks"]), _fmt
+                row[f"{metric}_low"], row[f"{metric}_high"], int(row[f"{metric}_n"]), _fmt
             )
             cells.append(f"{mean} {bounds}")
         rows.append(cells)
-    return "\n".join(lines + _markdown(header, rows) + _interval_notes(table)) + "\n"
+    notes = _interval_notes(table, [metric for metric, _, _ in _TABLE_ONE])
+    return "\n".join(lines + _markdown(header, rows) + notes) + "\n"
+
+
+_BY_PRECISION = ("robustness", "squared_goal_error", "nominal_final_distance")
 
 
 def robustness_by_precision(
@@ -574,12 +591,13 @@ def robustness_by_precision(
     Returns:
         ``(per_precision, correlations)``: one row per variant (per variant and optimizer, with
         an ``optimizer`` column, when the suite has several) with ``tasks`` and, for
-        ``robustness``, ``squared_goal_error``, ``nominal_final_distance``, the mean, ``_low``
-        and ``_high``; and one row per metric with the Spearman ``rho`` between p^X and the
-        metric over all tested designs, its two-sided ``p`` and ``n``.
+        ``robustness``, ``squared_goal_error``, ``nominal_final_distance``, the mean, ``_low``,
+        ``_high`` and ``_n`` (the tasks with a finite value); and one row per metric with the
+        Spearman ``rho`` between p^X and the metric over all tested designs, its two-sided
+        ``p`` and ``n``.
     """
     tested = _tested(designs)
-    metrics = ("robustness", "squared_goal_error", "nominal_final_distance")
+    metrics = _BY_PRECISION
     # As in Table I: several optimizers' designs are not repeats of one task, never pooled.
     optimizers = [o.column for o in config.optimizers] if len(config.optimizers) > 1 else [None]
     rows = []
@@ -605,9 +623,7 @@ def robustness_by_precision(
                     level=LEVEL,
                     rng=_rng(seed, "by-precision", metric, key),
                 )
-                row.update(
-                    {metric: ci.estimate, f"{metric}_low": ci.low, f"{metric}_high": ci.high}
-                )
+                row.update(_ci_columns(metric, ci))
             rows.append(row)
     return pd.DataFrame(rows), _spearman(tested, metrics)
 
@@ -631,13 +647,13 @@ def _by_precision_markdown(table: pd.DataFrame, correlations: pd.DataFrame) -> s
             *([row["optimizer"]] if split else []),
             str(row["tasks"]),
             *(
-                _interval(row[m], row[f"{m}_low"], row[f"{m}_high"], int(row["tasks"]))
-                for m in ("robustness", "squared_goal_error", "nominal_final_distance")
+                _interval(row[m], row[f"{m}_low"], row[f"{m}_high"], int(row[f"{m}_n"]))
+                for m in _BY_PRECISION
             ),
         ]
         for _, row in table.iterrows()
     ]
-    lines += _markdown(header, rows) + _interval_notes(table)
+    lines += _markdown(header, rows) + _interval_notes(table, _BY_PRECISION)
     lines += [
         "",
         "Spearman rank correlation of p^X with each metric over all tested designs (rho > 0:",
