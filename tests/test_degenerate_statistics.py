@@ -160,7 +160,6 @@ def test_an_interval_is_na_when_fewer_than_two_tasks_have_a_value_not_fewer_rows
 
 
 # numpy's range of a design's all-NaN accuracy over scenes warns; the noise is NaN as it should be.
-@pytest.mark.filterwarnings("ignore:invalid value encountered in reduce:RuntimeWarning")
 def test_a_stress_interval_is_na_when_fewer_than_two_designs_have_a_value(tmp_path: Path) -> None:
     retests = [_retest(0, repeats=2), _retest(1, repeats=2)]
     for row in retests[1]["stress"]:
