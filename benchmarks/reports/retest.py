@@ -86,7 +86,7 @@ def _design_means(retest: Mapping[str, Any], change: str) -> dict[str, Any] | No
     out: dict[str, Any] = {}
     for metric, _, _ in STRESS_METRICS:
         out[metric] = float(per_repeat[metric].mean())
-        values = per_repeat[metric].to_numpy()
+        values = per_repeat[metric].to_numpy(dtype=float, na_value=math.nan)
         # A metric missing in every scene has no range: NaN, without NumPy's warning of it.
         out[f"{metric}_noise"] = float(np.ptp(values)) if np.isfinite(values).all() else math.nan
     return out
