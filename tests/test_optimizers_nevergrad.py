@@ -1,9 +1,13 @@
-"""The ``nevergrad`` adapter: its replayed backends, its budget, its own np.random stream."""
+"""The ``nevergrad`` adapter: its replayed backends, its budget, its own np.random stream.
+
+Also the classification of ``tests/nevergrad_survey.py``, the survey of Nevergrad's registry.
+"""
 
 from __future__ import annotations
 
 import gc
 import importlib.util
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -11,10 +15,14 @@ import numpy as np
 import pytest
 
 import optimizers
+from optimizers import nevergrad_adapter
 from optimizers.testing import BOUNDS, shifted_sphere
 
 if importlib.util.find_spec("nevergrad") is None:
     pytest.skip("nevergrad is not installed", allow_module_level=True)
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import nevergrad_survey  # noqa: E402
 
 ALTERNATIVES = ("'TwoPointsDE'", "'CMA'", "'PSO'", "'OnePlusOne'")
 
@@ -95,9 +103,53 @@ def test_a_backend_drawing_from_np_random_draws_from_its_own_stream() -> None:
 
 # Nevergrad's scipy-based optimizers refuse num_workers > 1 in __init__; their __del__ then trips
 # over an attribute __init__ never set.
-@pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
+nevergrads_del = pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
+
+
+@nevergrads_del
 def test_a_name_nevergrad_cannot_build_is_a_value_error_naming_it() -> None:
     message = refusal("Powell", 40, 4)
     assert "could not be made with budget=40, batch_size=4" in message
     assert "does not support parallelization" in message
     gc.collect()  # that __del__ runs now, under the filter
+
+
+def test_the_survey_classifies_failures_by_the_settings_they_happen_in() -> None:
+    def result(*failing: tuple[int | None, int]) -> dict[str, Any]:
+        settings = {}
+        for budget in nevergrad_survey.BUDGETS:
+            for batch_size in nevergrad_survey.BATCH_SIZES:
+                key = nevergrad_survey._key(budget, batch_size)
+                settings[key] = {"ok": True}
+                if (budget, batch_size) in failing:
+                    settings[key] = {"ok": False, "stage": "run", "error": "E: x", "where": "f:1"}
+        return {"settings": settings}
+
+    numpy2 = "TypeError: only 0-dimensional arrays can be converted to Python scalars"
+    assert nevergrad_survey.classify(result()) == ("ok", None)
+    assert nevergrad_survey.classify(result((None, 1), (None, 8)))[0] == "needs budget"
+    assert nevergrad_survey.classify(result((20, 4), (200, 8)))[0] == "sequential"
+    assert nevergrad_survey.classify(result((None, 1), (60, 4)))[0] == "both"
+    failed = result((None, 1), (200, 1))
+    failed["settings"]["budget=200,batch=1"]["error"] = numpy2
+    rule, why = nevergrad_survey.classify(failed)
+    assert rule == "fails" and why is not None and why.startswith("raises TypeError on numpy 2")
+    assert "budget=200, batch_size=1" in why
+    rule, why = nevergrad_survey.classify({"timeout": 90.0})
+    assert rule == "fails" and why is not None
+    assert why.startswith("is too slow to be checked: its runs in the survey timed out after 90 s")
+
+
+@nevergrads_del
+def test_the_survey_probes_a_setting_in_this_process(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(nevergrad_adapter, "_refusal", lambda *args: None)  # as the survey does
+    state = str(tmp_path / "state.pkl")
+    good = nevergrad_survey.probe_setting("TwoPointsDE", 20, 4, state)
+    assert good["ok"] and good["digest"] != good["tail"]
+    assert nevergrad_survey.recheck_setting("TwoPointsDE", 20, 4, state, good) == good
+    bad = nevergrad_survey.probe_setting("Powell", 20, 4, state)
+    assert not bad["ok"] and bad["stage"] == "construct"
+    assert "does not support parallelization" in bad["error"]
+    gc.collect()  # Nevergrad's __del__ of the object it could not build runs now, filtered
