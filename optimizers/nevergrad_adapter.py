@@ -15,13 +15,32 @@ work than a plain wrapper would:
   in a thread) is saved as its seeds and the log of asks and tells, and rebuilt on loading by
   replaying them, each replayed point checked against the logged one.
 
-Some names still fail. With nevergrad 1.0.12 on numpy 2, NGOpt (and NGOptRW) pick for most
-budgets a meta-model step that raises ``TypeError`` (``float()`` of a 1-element array) or one
-limited by a 20 s wall-clock timer (not reproducible); without a budget it fails an assertion.
-So ``optimizer="NGOpt"`` and ``"NGOptRW"`` are refused with a ``ValueError``, and so is every
-other meta-optimizer of Nevergrad (a subclass of ``NGOptBase``: ``Wiz``, ``NgIoh``, ``Shiwa``,
-...) without a budget, where each fails that assertion at the first ask. A name Nevergrad
-itself cannot build with the settings given is a ``ValueError`` too.
+Which names it takes is measured, not guessed. ``tests/nevergrad_survey.py`` ran the 542 names
+of the registry of nevergrad 1.0.12 (numpy 2.4.6, scipy 1.17.1, scikit-learn 1.9.1) through the
+adapter in 3 dimensions, batch sizes 1, 4 and 8, without a budget and with budgets 20, 60 and
+200, and required each to ask and tell up to its budget, ask the same points again under the
+same seed and in another process, and continue with the same points after ``save_state`` and
+``load_state``; ``optimizers/_nevergrad_support.py`` holds what failed. The rule:
+
+1. ``FAILS`` (169 names) are refused whatever the settings, with the reason measured: 119 raise
+   ``TypeError`` on numpy 2 (``float()`` of a 1-element array in a meta-model step; among them
+   41 of the 52 meta-optimizers, ``NGOpt``, ``NGOptRW``, ``Wiz`` and ``NgIoh`` too, which pick
+   such a step for some budget), 27 need a package that is not installed (``nlopt``,
+   ``bayes_optim``, ``fcmaes``, ``pymoo``, ``ax``, ...), 16 are not reproducible (in the same
+   process, across processes as they depend on Python's hash seed, or after loading in another
+   process; ``CmaFmin2`` and what chains it reseed from the clock) and 7 are too slow to be
+   checked (``BO``, ``BOSplit``, ``NGOptF``, ...: over 90 s for the survey's runs).
+2. ``NEEDS_BUDGET`` (71 names) without a budget, and any other meta-optimizer (a subclass of
+   ``NGOptBase``, for names of another Nevergrad version) without a budget.
+3. ``SEQUENTIAL`` (32 names, e.g. ``Powell``, ``Cobyla``, ``NGOpt16``) with ``batch_size > 1``.
+
+Each refusal is a ``ValueError`` naming the optimizer, why, and what to use instead. The other
+275 names passed in every setting; among the meta-optimizers ``Shiwa``, ``NGO``, ``NgIohRW2``,
+``NGOptBase`` and ``NGOptDSBase`` with a budget, ``NGOpt16`` and ``NGOpt36`` with a budget and
+``batch_size=1``. A meta-optimizer picks its sub-optimizer from the dimension, budget and batch
+size, so settings far from the survey's may meet a step it did not. A name Nevergrad itself
+cannot build is a ``ValueError`` too. After upgrading Nevergrad, run the survey again
+(``--table`` rewrites the table).
 """
 
 from __future__ import annotations
@@ -31,14 +50,13 @@ from typing import Any
 
 import numpy as np
 
+from . import _nevergrad_support as _support
 from ._imports import import_optional
 from ._rng import GlobalRandomState
 from .base import Optimizer
 
 __all__ = ["NevergradOptimizer"]
 
-#: Optimizers that fail at the first ask whatever the budget (nevergrad 1.0.12 on numpy 2).
-BROKEN = ("NGOpt", "NGOptRW")
 _ALTERNATIVES = "use 'TwoPointsDE' (the default), 'CMA', 'PSO' or 'OnePlusOne'"
 
 
@@ -48,7 +66,7 @@ class NevergradOptimizer(Optimizer):
     Args:
         bounds: (d, 2) [low, high] per dimension in physical units.
         optimizer: Name in ``nevergrad.optimizers.registry``, e.g. ``"TwoPointsDE"``, ``"CMA"``,
-            ``"PSO"``, ``"OnePlusOne"``; names known not to work are refused (see above).
+            ``"PSO"``, ``"OnePlusOne"``; names measured not to work are refused (see above).
         budget: Total evaluations the run will make (some Nevergrad optimizers adapt to it,
             some need it), rounded up to whole batches; or None.
         **kwargs: ``batch_size``, ``seed``, ``failure_policy``, ``low``/``high`` of
@@ -200,16 +218,21 @@ class NevergradOptimizer(Optimizer):
 
 
 def _refusal(ng: Any, name: str, budget: int | None, batch_size: int) -> str | None:
-    """Why ``name`` cannot work with these settings and what to do instead, or None."""
-    if name in BROKEN:
-        return (
-            "fails on numpy 2 (its meta-model steps raise TypeError or run a wall-clock timer); "
-            + _ALTERNATIVES
-        )
+    """Why ``name`` cannot work with these settings and what to do instead, or None.
+
+    The rule of the module docstring: the measured table first, then, for names it does not
+    know (another Nevergrad version), the class rule for meta-optimizers.
+    """
+    measured = f"measured on nevergrad {_support.MEASURED_ON['nevergrad']}"
+    if name in _support.FAILS:
+        return f"{_support.FAILS[name]} ({measured}); {_ALTERNATIVES}"
     cls = ng.optimizers.registry[name]
-    if budget is None and isinstance(cls, type) and issubclass(cls, ng.optimizers.NGOptBase):
+    meta = isinstance(cls, type) and issubclass(cls, ng.optimizers.NGOptBase)
+    if budget is None and (name in _support.NEEDS_BUDGET or meta):
+        return f"fails without a budget ({measured}); give budget=..., or {_ALTERNATIVES}"
+    if batch_size > 1 and name in _support.SEQUENTIAL:
         return (
-            "is a Nevergrad meta-optimizer and needs a budget (without one it fails an assertion "
-            f"at the first ask): give budget=..., or {_ALTERNATIVES}"
+            f"proposes one point at a time and fails with batch_size={batch_size} ({measured}); "
+            f"give batch_size=1, or {_ALTERNATIVES}"
         )
     return None

@@ -1,12 +1,15 @@
-"""The ``nevergrad`` adapter: its replayed backends, its budget, its own np.random stream.
+"""The ``nevergrad`` adapter: its measured refusal rule, its replayed backends, its np.random.
 
-Also the classification of ``tests/nevergrad_survey.py``, the survey of Nevergrad's registry.
+The rule comes from ``optimizers/_nevergrad_support.py``, which ``tests/nevergrad_survey.py``
+measured; these tests check that the adapter applies it, that what it accepts works (a sample),
+and the survey's own classification.
 """
 
 from __future__ import annotations
 
 import gc
 import importlib.util
+import pickle
 import sys
 from pathlib import Path
 from typing import Any
@@ -15,16 +18,23 @@ import numpy as np
 import pytest
 
 import optimizers
+from optimizers import _nevergrad_support as support
 from optimizers import nevergrad_adapter
 from optimizers.testing import BOUNDS, shifted_sphere
 
 if importlib.util.find_spec("nevergrad") is None:
     pytest.skip("nevergrad is not installed", allow_module_level=True)
 
+import nevergrad as ng
+
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import nevergrad_survey  # noqa: E402
 
 ALTERNATIVES = ("'TwoPointsDE'", "'CMA'", "'PSO'", "'OnePlusOne'")
+SAME_VERSION = ng.__version__ == support.MEASURED_ON["nevergrad"]
+needs_measured_version = pytest.mark.skipif(
+    not SAME_VERSION, reason=f"the table was measured on nevergrad {support.MEASURED_ON}"
+)
 
 
 def make(name: str, budget: int | None = None, batch_size: int = 4, seed: int = 0) -> Any:
@@ -49,6 +59,71 @@ def refusal(name: str, budget: int | None, batch_size: int) -> str:
     assert message.startswith(f"optimizer {name!r} "), message
     assert all(alternative in message for alternative in ALTERNATIVES), message
     return message
+
+
+def test_the_table_is_consistent_and_recommends_only_names_it_accepts() -> None:
+    assert not support.FAILS.keys() & (support.NEEDS_BUDGET | support.SEQUENTIAL)
+    for alternative in ALTERNATIVES:
+        name = alternative.strip("'")
+        assert name not in support.FAILS.keys() | support.NEEDS_BUDGET | support.SEQUENTIAL
+    if SAME_VERSION:
+        registry = set(ng.optimizers.registry)
+        assert support.FAILS.keys() | support.NEEDS_BUDGET | support.SEQUENTIAL <= registry
+
+
+@needs_measured_version
+@pytest.mark.parametrize(
+    ("name", "why"),
+    [
+        ("NGOpt", "TypeError on numpy 2"),
+        ("NGOptRW", "TypeError on numpy 2"),
+        ("Wiz", "TypeError on numpy 2"),
+        ("NgIoh", "TypeError on numpy 2"),
+        ("CSEC", "TypeError on numpy 2"),
+        ("CmaFmin2", "is not reproducible"),
+        ("NGOptF2", "is not reproducible across processes"),
+        ("BO", "is too slow to be checked"),
+        ("AX", "needs the package 'ax'"),
+    ],
+)
+def test_names_that_fail_with_a_budget_are_refused_saying_why(name: str, why: str) -> None:
+    for budget, batch_size in [(20, 1), (200, 8), (None, 4)]:
+        message = refusal(name, budget, batch_size)
+        assert why in message and "measured on nevergrad" in message
+
+
+def test_every_name_of_the_table_is_refused_with_its_reason() -> None:
+    known = set(ng.optimizers.registry)
+    for name, why in support.FAILS.items():
+        if name in known:
+            assert why in refusal(name, 200, 1)
+    for name in support.NEEDS_BUDGET & known:
+        assert "fails without a budget" in refusal(name, None, 1)
+        assert "give budget=..." in refusal(name, None, 1)
+    for name in support.SEQUENTIAL & known:
+        message = refusal(name, 200, 4)
+        assert "fails with batch_size=4" in message and "give batch_size=1" in message
+
+
+@needs_measured_version
+@pytest.mark.filterwarnings("ignore:COBYLA. Invalid RHOEND:UserWarning")  # NGOpt16's Cobyla
+@pytest.mark.parametrize("name", ["Shiwa", "NGO", "NgIohRW2", "NGOpt16"])
+def test_sampled_meta_optimizers_with_a_budget_run_reproducibly(name: str) -> None:
+    assert issubclass(ng.optimizers.registry[name], ng.optimizers.NGOptBase)
+    assert "fails without a budget" in refusal(name, None, 4)
+    batch_size = 1 if name in support.SEQUENTIAL else 4
+    first = make(name, budget=40, batch_size=batch_size, seed=5)
+    asked = rounds(first, 3)
+    assert asked == rounds(make(name, budget=40, batch_size=batch_size, seed=5), 3)
+    restored = pickle.loads(pickle.dumps(first))
+    assert rounds(restored, 2) == rounds(first, 2)
+
+
+@needs_measured_version
+def test_a_sequential_name_is_refused_with_batches_and_taken_without() -> None:
+    assert "Powell" in support.SEQUENTIAL
+    refusal("Powell", 40, 4)
+    rounds(make("Powell", budget=40, batch_size=1), 3)
 
 
 def test_a_backend_run_in_a_thread_is_replayed_after_loading(tmp_path: Path) -> None:
@@ -107,7 +182,13 @@ nevergrads_del = pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExce
 
 
 @nevergrads_del
-def test_a_name_nevergrad_cannot_build_is_a_value_error_naming_it() -> None:
+def test_names_the_table_does_not_know_fall_back_to_the_class_rule_and_nevergrads_errors(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # As with another Nevergrad version, whose names the table may not list.
+    monkeypatch.setattr(support, "NEEDS_BUDGET", frozenset())
+    monkeypatch.setattr(support, "SEQUENTIAL", frozenset())
+    assert "fails without a budget" in refusal("Shiwa", None, 4)  # a subclass of NGOptBase
     message = refusal("Powell", 40, 4)
     assert "could not be made with budget=40, batch_size=4" in message
     assert "does not support parallelization" in message
@@ -153,3 +234,8 @@ def test_the_survey_probes_a_setting_in_this_process(
     assert not bad["ok"] and bad["stage"] == "construct"
     assert "does not support parallelization" in bad["error"]
     gc.collect()  # Nevergrad's __del__ of the object it could not build runs now, filtered
+
+
+def test_the_adapter_module_names_the_version_its_rule_was_measured_on() -> None:
+    doc = nevergrad_adapter.__doc__ or ""
+    assert f"nevergrad {support.MEASURED_ON['nevergrad']}" in doc
