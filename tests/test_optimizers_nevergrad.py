@@ -239,3 +239,15 @@ def test_the_survey_probes_a_setting_in_this_process(
 def test_the_adapter_module_names_the_version_its_rule_was_measured_on() -> None:
     doc = nevergrad_adapter.__doc__ or ""
     assert f"nevergrad {support.MEASURED_ON['nevergrad']}" in doc
+
+
+def test_a_state_of_the_adapter_before_replays_still_loads_and_continues() -> None:
+    # Saved before the adapter kept seeds and a log: its pickle held the backend itself.
+    optimizer = make("TwoPointsDE", seed=4)
+    rounds(optimizer, 2)
+    old = {k: v for k, v in optimizer.__dict__.items() if k not in ("_spec", "_log", "_global")}
+    expected = rounds(pickle.loads(pickle.dumps(optimizer)), 2)
+    restored = nevergrad_adapter.NevergradOptimizer.__new__(nevergrad_adapter.NevergradOptimizer)
+    restored.__setstate__(pickle.loads(pickle.dumps(old)))
+    assert rounds(restored, 2) == expected
+    assert pickle.loads(pickle.dumps(restored)).n_told == restored.n_told  # saves again
