@@ -471,32 +471,6 @@ def test_nevergrad_is_told_finite_values_and_takes_other_optimizers(
     assert type(other._optimizer).__name__ != type(optimizer._optimizer).__name__
 
 
-@pytest.mark.parametrize(
-    ("optimizer", "budget", "match"),
-    [
-        ("NGOpt", None, "NGOpt' fails"),
-        ("NGOpt", 40, "NGOpt' fails"),
-        ("NGOptRW", 1000, "NGOptRW' fails"),
-        ("Wiz", None, "needs a budget"),
-        ("Shiwa", None, "needs a budget"),
-    ],
-)
-def test_nevergrad_refuses_optimizers_that_would_fail_at_the_first_ask(
-    optimizer: str, budget: int | None, match: str
-) -> None:
-    needs("nevergrad")
-    with pytest.raises(ValueError, match=match) as excinfo:
-        optimizers.make(
-            "nevergrad", bounds=BOUNDS, batch_size=4, seed=0, optimizer=optimizer, budget=budget
-        )
-    assert "'TwoPointsDE'" in str(excinfo.value) and "'CMA'" in str(excinfo.value)
-    # With a budget, a meta-optimizer that works is still taken.
-    other = optimizers.make(
-        "nevergrad", bounds=BOUNDS, batch_size=4, seed=0, optimizer="Shiwa", budget=40
-    )
-    run(other, 3)
-
-
 @pytest.mark.parametrize("sigma0", [5.0, 1.5, 1e-7, 0.0, -0.1, float("nan"), np.float64(2.0)])
 def test_optuna_cmaes_limits_sigma0_like_cmaes_with_its_wording(sigma0: float) -> None:
     needs("optuna")
