@@ -106,6 +106,9 @@ BAD = [
     ("rollout_breakdown", ["--designs", "0"], "argument --designs: must be an int >= 1"),
     ("rollout_breakdown", ["--repeats", "0"], "argument --repeats: must be an int >= 1"),
     ("rollout_breakdown", ["--seed", "-1"], "argument --seed: must be an int >= 0"),
+    ("ratio_bound", ["--designs", "0"], "argument --designs: must be an int >= 1, got '0'"),
+    ("ratio_bound", ["--repeats", "0"], "argument --repeats: must be an int >= 1, got '0'"),
+    ("ratio_bound", ["--seed", "-1"], "argument --seed: must be an int >= 0, got '-1'"),
     ("rollout_callgrind", ["--designs", "0"], "argument --designs: must be an int >= 1"),
     ("rollout_callgrind", ["--seed", "-1"], "argument --seed: must be an int >= 0"),
     ("section_convergence", ["--designs", "0"], "argument --designs: must be an int >= 1"),
@@ -374,3 +377,30 @@ def test_the_time_cap_bounds_projected_skopt_asks(
     for line in lines:
         assert line in out
     assert sum("skipped" in line for line in out) == 3 - len(measured)
+
+
+@pytest.mark.slow
+def test_ratio_bound_times_each_part_and_puts_the_originals_back(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Every part the bound counts is timed (non-zero) and no wrapper outlives the measurement."""
+    bound = _script("ratio_bound", monkeypatch)
+    originals = {name: getattr(np.linalg, name) for name in bound.LAPACK}
+    arm_matrices = bound.ToolSimulator._arm_matrices
+    mass = bound.tool_module._mesh_mass_properties
+    env = bound.ToolDesignEnv()
+    env.reset(seed=0)
+    try:
+        parts = bound.measure(env, np.zeros(3))
+    finally:
+        env.close()
+    assert parts is not None
+    assert set(parts) == {
+        "evaluation", "floor", "requests", "arm_matrices", "mass_properties", "lapack"
+    }
+    # The straight tool touches the box: its contact log has Jacobians and Pi_U eigenvalues.
+    for name in ("arm_matrices", "mass_properties", "lapack", "floor", "evaluation"):
+        assert parts[name] > 0.0, name
+    assert {name: getattr(np.linalg, name) for name in bound.LAPACK} == originals
+    assert bound.ToolSimulator._arm_matrices is arm_matrices
+    assert bound.tool_module._mesh_mass_properties is mass
