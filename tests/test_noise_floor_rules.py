@@ -9,6 +9,8 @@ one row does not decide the comparison by the order of ``max``'s arguments.
 from __future__ import annotations
 
 import math
+import warnings
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -129,3 +131,76 @@ def test_one_run_without_a_valid_design_does_not_hide_a_difference_beyond_the_fl
     auc = table[table["metric"] == "auc"].iloc[0]
     assert np.isfinite(auc["mean_difference"]) and abs(auc["mean_difference"]) > 50
     assert bool(auc["beyond_noise"]) and bool(auc["significant"])
+
+
+def _stress_retests(missing: bool, repeats: int = 2) -> list[dict[str, object]]:
+    """Three designs of two objectives, each in ``repeats`` scenes; with ``missing``, one
+    free-energy design has no robustness in its second scene."""
+
+    def rows(values: list[float | None]) -> list[dict[str, object]]:
+        return [
+            {
+                "change": "mass",
+                "nudge": k,
+                "value": 1.0,
+                "robustness": v,
+                "accuracy": 1.0,
+                "control_deviation": 1.0 + 0.1 * k,
+                "final_distance": 0.1,
+            }
+            for k, v in enumerate(values)
+        ]
+
+    retests = []
+    for label, precision in (("pure confidence", 0.0), ("free energy", 1.0)):
+        for seed in range(3):
+            values: list[float | None] = [-0.1 * seed - 0.1 - 0.02 * k for k in range(repeats)]
+            if missing and label == "free energy" and seed == 0:
+                values[1] = None
+            retests.append(
+                {
+                    "variant": label.replace(" ", "-"),
+                    "label": label,
+                    "optimizer": "cmaes",
+                    "seed": seed,
+                    "goal_precision": precision,
+                    "settings": {"masses": [1.0], "repeats": repeats},
+                    "stress": rows(values),
+                }
+            )
+    return retests
+
+
+def test_a_metric_missing_in_one_scene_of_one_design_keeps_the_others_noise() -> None:
+    """The row's noise is the median over the designs whose range was measured, not NaN."""
+    from benchmarks.reports.retest import stress_table
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # nor a NumPy warning of a NaN median
+        table = stress_table(_stress_retests(missing=True), "mass", n_boot=200)
+    row = table.set_index("label").loc["free energy"]
+    # The two designs with both scenes each have a range of 0.02.
+    assert row["robustness_noise"] == pytest.approx(0.02)
+    assert row["robustness_n"] == 3  # the design's mean over the scene it has still counts
+
+
+def test_claim_c_says_why_a_noise_is_not_measured(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Two scenes per design: an n/a noise is a metric missing, never '--repeats 1'."""
+    import benchmarks.reports.reproduction as reproduction
+    from benchmarks.reports.retest import MISSING_METRIC_NOTE
+
+    retests = _stress_retests(missing=True)
+    for retest in retests:  # no design of free energy has robustness in its second scene
+        if retest["label"] == "free energy":
+            retest["stress"][1]["robustness"] = None  # type: ignore[index]
+    monkeypatch.setattr(reproduction, "read_retests", lambda folder: retests)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        lines = reproduction._claim_c(Path("unused"), None)[2]
+    text = "\n".join(lines)
+    assert MISSING_METRIC_NOTE in text
+    assert "--repeats 1" not in text
+    # One scene per design: the note says so.
+    monkeypatch.setattr(reproduction, "read_retests", lambda folder: _stress_retests(False, 1))
+    lines = reproduction._claim_c(Path("unused"), None)[2]
+    assert "rolled out in one scene only" in "\n".join(lines)

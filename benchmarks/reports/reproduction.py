@@ -32,7 +32,14 @@ from benchmarks.reports.comparison import (
     no_interval_note,
     percent_cell,
 )
-from benchmarks.reports.retest import noise_floor, short_intervals, stress_repeats, stress_table
+from benchmarks.reports.retest import (
+    MISSING_METRIC_NOTE,
+    noise_floor,
+    short_intervals,
+    stress_repeats,
+    stress_table,
+    unmeasured_noise,
+)
 from benchmarks.reports.suite import designs_table
 from benchmarks.storage import read_designs, read_retests, with_added_fields
 from benchmarks.suites.config import ADDED_FIELDS
@@ -247,11 +254,10 @@ def _design_stress(retests: Sequence[Mapping[str, Any]]) -> pd.DataFrame:
                     **{m: float(frame[m].mean()) for m in ("robustness", "accuracy")},
                     "control_deviation": float(frame["control_deviation"].mean()),
                     "final_distance": float(frame["final_distance"].mean()),
-                    "noise": float(np.ptp(frame.groupby("nudge")["robustness"].mean().to_numpy())),
                 }
             )
     columns = ["variant", "label", "goal_precision", "robustness", "accuracy"]
-    columns += ["control_deviation", "final_distance", "noise"]
+    columns += ["control_deviation", "final_distance"]
     return pd.DataFrame(rows, columns=columns)
 
 
@@ -274,8 +280,10 @@ def _claim_c(folder: Path, baseline: Path | None) -> tuple[str, str, list[str]]:
         "|---|---|---|---|---|---|",
     ]
     rows = table[table["label"] != ""] if len(table) else pd.DataFrame(columns=["label"])
+    scenes = stress_repeats(retests, "mass")
     if baseline is not None:
         base_table, base_retests = _stress_rows(baseline)
+        scenes = min(scenes, stress_repeats(base_retests, "mass"))
         rows = pd.concat([rows, base_table], ignore_index=True)
         per_design = pd.concat([labelled, _design_stress(base_retests)], ignore_index=True)
     else:
@@ -291,10 +299,12 @@ def _claim_c(folder: Path, baseline: Path | None) -> tuple[str, str, list[str]]:
     notes = []
     if len(rows) and short_intervals(rows):
         notes.append(no_interval_note("goals"))
-    if len(rows) and rows[[f"{m}_noise" for m in ROBUSTNESS_METRICS]].isna().any(axis=None):
+    if len(rows) and unmeasured_noise(rows, ROBUSTNESS_METRICS):
         notes.append(
             "A noise of n/a was not measured: the design was rolled out in one scene only "
             "(`tooldesign retest --repeats 1`), and a range across scenes needs 2."
+            if scenes < 2
+            else MISSING_METRIC_NOTE
         )
     for note in notes:
         lines += ["", note]

@@ -37,7 +37,15 @@ from benchmarks.reports.stats import bootstrap_ci
 from benchmarks.storage import atomic_write_text, json_text
 from tooldesign_env.schema import METRICS
 
-__all__ = ["make_retest_report", "noise_table", "short_intervals", "stress_repeats", "stress_table"]
+__all__ = [
+    "MISSING_METRIC_NOTE",
+    "make_retest_report",
+    "noise_table",
+    "short_intervals",
+    "stress_repeats",
+    "stress_table",
+    "unmeasured_noise",
+]
 
 LEVEL = 0.95
 TERMS = METRICS
@@ -104,8 +112,9 @@ def stress_table(
         ``variant``, ``label``, ``goal_precision``, ``designs`` and, per metric m of
         :data:`STRESS_METRICS`: ``m`` (mean over designs), ``m_low``/``m_high`` (95 %
         bootstrap interval over designs), ``m_n`` (the designs with a finite value, which the
-        mean and interval are of), ``m_noise`` (median over designs of the range of the
-        design's mean across repeated scenes) and ``m_best``.
+        mean and interval are of), ``m_noise`` (median, over the designs
+        that have the metric in every repeated scene, of the range of the design's mean across
+        those scenes; NaN when no design has) and ``m_best``.
     """
     # Several optimizers' designs are not repeats of one another: a row per variant and
     # optimizer then (as Table I), never pooled.
@@ -129,6 +138,9 @@ def stress_table(
         stream = f"{variant}/{optimizer}" if split else variant
         for metric, _, _ in STRESS_METRICS:
             values = np.array([m[metric] for _, m in items])
+            # A design missing the metric in a scene has no range; the others' still count.
+            noises = np.array([m[f"{metric}_noise"] for _, m in items], dtype=np.float64)
+            noises = noises[np.isfinite(noises)]
             ci = bootstrap_ci(
                 values, n_boot=n_boot, level=LEVEL, rng=_rng(seed, change, metric, stream)
             )
@@ -138,7 +150,7 @@ def stress_table(
                     f"{metric}_low": ci.low,
                     f"{metric}_high": ci.high,
                     f"{metric}_n": ci.n,
-                    f"{metric}_noise": float(np.median([m[f"{metric}_noise"] for _, m in items])),
+                    f"{metric}_noise": float(np.median(noises)) if len(noises) else math.nan,
                 }
             )
         rows.append(row)
@@ -154,6 +166,18 @@ def stress_table(
 def short_intervals(table: pd.DataFrame) -> bool:
     """Whether an interval of a :func:`stress_table` has fewer than 2 designs with a value."""
     return any((table[f"{m}_n"] < MIN_INTERVAL_VALUES).any() for m, _, _ in STRESS_METRICS)
+
+
+#: Why a noise is n/a although every design was rolled out in two scenes or more.
+MISSING_METRIC_NOTE = (
+    "A noise of n/a was not measured: every design lacked that metric in at least one of its "
+    "scenes (a rollout that gave no value), so no design's range across scenes could be taken."
+)
+
+
+def unmeasured_noise(table: pd.DataFrame, metrics: Sequence[str]) -> bool:
+    """Whether a :func:`stress_table` row has a NaN noise for one of ``metrics``."""
+    return bool(table[[f"{m}_noise" for m in metrics]].isna().any(axis=None))
 
 
 def stress_repeats(retests: Sequence[Mapping[str, Any]], change: str) -> int:
@@ -214,6 +238,8 @@ def _stress_markdown(
             f"The noise is n/a: each design was rolled out in {repeats} scene(s), and a range "
             "across scenes needs at least 2 (retest with --repeats 2 or more)."
         )
+    elif len(table) and unmeasured_noise(table, [m for m, _, _ in STRESS_METRICS]):
+        notes.append(MISSING_METRIC_NOTE)
     for note in notes:
         lines += ["", note]
     return "\n".join(lines) + "\n"
