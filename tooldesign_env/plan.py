@@ -340,9 +340,10 @@ def store_knots(key: str, q: np.ndarray, folder: Path | None = None) -> bool:
             _UNWRITABLE.add(str(folder))
             warnings.warn(
                 f"the plan cache folder {str(folder)!r} cannot be written ({err}); what it "
-                "would keep (the plan's inverse kinematics, the floor guard's sweep of the "
-                f"plan) is cached in memory only (set {CACHE_ENV} to a writable folder, or to "
-                "an empty string to silence this)",
+                "would keep (the plan's inverse kinematics, its joint references splined to "
+                "the control steps, the merged hand's mass properties, the floor guard's sweep "
+                f"of the plan) is cached in memory only (set {CACHE_ENV} to a writable folder, "
+                "or to an empty string to silence this)",
                 RuntimeWarning,
                 stacklevel=2,
             )
