@@ -22,7 +22,7 @@ from benchmarks.reports.comparison import (
     percent_cell,
     summary_table,
 )
-from benchmarks.reports.reproduction import _bootstrap_difference, _floor_row
+from benchmarks.reports.reproduction import _floor_row, _paired_difference
 from benchmarks.reports.retest import make_retest_report, stress_repeats
 from benchmarks.reports.suite import (
     _by_precision_markdown,
@@ -254,8 +254,31 @@ def test_percent_cell_and_the_reproduction_floor_row() -> None:
     assert "nan" not in row and "0.2 (n/a)" in row and "(5.00 %)" in row
 
 
-def test_a_difference_with_one_design_on_a_side_has_no_interval() -> None:
-    diff, low, high = _bootstrap_difference(np.array([1.0]), np.array([0.0, 0.5, 1.0]), seed=1)
-    assert diff == pytest.approx(0.5) and math.isnan(low) and math.isnan(high)
-    diff, low, high = _bootstrap_difference(np.array([1.0, 2.0]), np.array([0.0, 0.5]), seed=1)
-    assert low < diff < high
+def _by_goal(values: dict[int, float]) -> pd.DataFrame:
+    return pd.DataFrame({"goal_key": list(values), "robustness": list(values.values())})
+
+
+def test_a_difference_with_one_shared_goal_has_no_interval() -> None:
+    diff, low, high, n = _paired_difference(
+        _by_goal({1: 1.0}), _by_goal({1: 0.5, 2: 0.0, 3: 1.0}), "robustness"
+    )
+    assert (diff, n) == (pytest.approx(0.5), 1) and math.isnan(low) and math.isnan(high)
+    diff, low, high, n = _paired_difference(
+        _by_goal({1: 1.0, 2: 2.0}), _by_goal({1: 0.0, 2: 0.5}), "robustness"
+    )
+    assert n == 2 and low < diff < high
+
+
+def test_the_difference_is_paired_by_goal() -> None:
+    """Hard goals drag both objectives down alike: pairing removes that spread, and a goal
+    that only one side has is left out of both (the audit's case: 10 goals against 9)."""
+    goals = range(10)
+    hard = {g: -10.0 * g for g in goals}  # a spread across goals far larger than the effect
+    a = _by_goal({g: hard[g] + 1.0 + 0.01 * (g % 3) for g in goals})
+    b = _by_goal({g: hard[g] for g in goals if g != 9})  # goal 9 (the hardest) failed in b
+    diff, low, high, n = _paired_difference(a, b, "robustness")
+    assert n == 9
+    assert diff == pytest.approx(1.01, abs=0.01)
+    assert 0.9 < low < diff < high < 1.1  # unpaired, the interval would span about +-60
+    with pytest.raises(pd.errors.MergeError):  # a goal twice on a side is not a pairing
+        _paired_difference(pd.concat([a, a]), b, "robustness")

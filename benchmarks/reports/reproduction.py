@@ -17,7 +17,7 @@ from __future__ import annotations
 import json
 import math
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -34,6 +34,8 @@ from benchmarks.reports.comparison import (
 )
 from benchmarks.reports.retest import (
     MISSING_METRIC_NOTE,
+    STRESS_METRICS,
+    design_means,
     noise_floor,
     short_intervals,
     stress_repeats,
@@ -77,23 +79,30 @@ def _spearman(x: Any, y: Any) -> tuple[float, float, int]:
     return float(result.statistic), float(result.pvalue), int(keep.sum())
 
 
-def _bootstrap_difference(a: np.ndarray, b: np.ndarray, seed: int) -> tuple[float, float, float]:
-    """Mean of a minus mean of b, with a 95 % percentile bootstrap interval."""
-    rng = np.random.default_rng(seed)
-    a, b = a[np.isfinite(a)], b[np.isfinite(b)]
-    if not len(a) or not len(b):
-        return math.nan, math.nan, math.nan
-    if min(len(a), len(b)) < MIN_INTERVAL_VALUES:
-        # One value has no spread: its resamples are itself, and the interval would claim a
-        # certainty about that side that one design cannot give. No interval: it cannot count.
-        return float(a.mean() - b.mean()), math.nan, math.nan
-    draws = [rng.choice(a, len(a)).mean() - rng.choice(b, len(b)).mean() for _ in range(10_000)]
-    low, high = np.quantile(draws, [0.025, 0.975])
-    return float(a.mean() - b.mean()), float(low), float(high)
+def _paired_difference(
+    a: pd.DataFrame, b: pd.DataFrame, metric: str
+) -> tuple[float, float, float, int]:
+    """Mean over shared goals of a's metric minus b's, with a 95 % paired t interval.
 
-
-def _finite_count(values: pd.Series) -> int:
-    return int(np.isfinite(values.to_numpy(dtype=np.float64)).sum())
+    The objectives of the robustness suite are run on the same goals, so each goal gives one
+    paired difference; a goal that either side lacks (a design that failed its retest, a
+    missing metric) is left out of both. Returns ``(mean, low, high, n)`` with n the goals
+    paired; fewer than 2 give no interval (NaN bounds), no spread gives a zero-width one.
+    """
+    pairs = a[["goal_key", metric]].merge(
+        b[["goal_key", metric]], on="goal_key", suffixes=("_a", "_b"), validate="one_to_one"
+    )
+    d = (pairs[f"{metric}_a"] - pairs[f"{metric}_b"]).to_numpy(dtype=np.float64)
+    d = d[np.isfinite(d)]
+    n = int(d.size)
+    if n == 0:
+        return math.nan, math.nan, math.nan, 0
+    mean = float(d.mean())
+    if n < MIN_INTERVAL_VALUES:
+        # One pair has no spread: an interval would claim a certainty that one goal cannot give.
+        return mean, math.nan, math.nan, n
+    half = float(sstats.t.ppf(0.975, n - 1) * d.std(ddof=1) / math.sqrt(n))
+    return mean, mean - half, mean + half, n
 
 
 def _verdict_difference(low: float, high: float, diff: float, floor: float) -> bool:
@@ -162,7 +171,8 @@ def _claim_a(folder: Path) -> tuple[str, str, list[str]]:
                 row["b"] if row["a"] == "cmaes" else row["a"]
             )
     others = sorted(set(summary["optimizer"]) - {"cmaes"})
-    best_auc = summary.loc[summary["auc"].idxmin(), "optimizer"] if len(summary) else "n/a"
+    aucs = summary["auc"] if len(summary) else pd.Series(dtype=np.float64)
+    best_auc = summary.loc[aucs.idxmin(), "optimizer"] if aucs.notna().any() else "n/a"
     if cmaes_losses:
         verdict = f"**does not hold**: {', '.join(cmaes_losses)} lower F significantly sooner"
     elif set(cmaes_wins) == set(others):
@@ -233,31 +243,36 @@ def _stress_rows(folder: Path) -> tuple[pd.DataFrame, list[dict[str, Any]]]:
     gives is not a measurement, so the page shows n/a and claim (c) treats it as unmeasured.
     """
     retests = read_retests(folder)
-    table = stress_table(retests, "mass", n_boot=2000)
+    table = stress_table(retests, "mass")  # as stress.md, which the page cites
     if len(table) and stress_repeats(retests, "mass") < 2:
         for metric in (*ROBUSTNESS_METRICS, "final_distance"):
             table[f"{metric}_noise"] = math.nan
     return table, retests
 
 
+#: The per-design stress metrics, in the stress tables' order.
+STRESS_COLUMNS = tuple(metric for metric, _, _ in STRESS_METRICS)
+
+
 def _design_stress(retests: Sequence[Mapping[str, Any]]) -> pd.DataFrame:
+    """Per retested design: its stress metrics over masses, as the stress tables take them.
+
+    ``goal_key`` names the design's goal, which pairs designs of different objectives.
+    """
     rows = []
     for retest in retests:
-        stress = [r for r in retest.get("stress") or [] if r["change"] == "mass"]
-        if stress:
-            frame = pd.DataFrame(stress)
+        means = design_means(retest, "mass")
+        if means is not None:
             rows.append(
                 {
                     "variant": retest["variant"],
                     "label": retest.get("label") or "",
                     "goal_precision": float(retest["goal_precision"]),
-                    **{m: float(frame[m].mean()) for m in ("robustness", "accuracy")},
-                    "control_deviation": float(frame["control_deviation"].mean()),
-                    "final_distance": float(frame["final_distance"].mean()),
+                    "goal_key": tuple(round(float(v), 9) for v in retest["goal"]),
+                    **{m: means[m] for m in STRESS_COLUMNS},
                 }
             )
-    columns = ["variant", "label", "goal_precision", "robustness", "accuracy"]
-    columns += ["control_deviation", "final_distance"]
+    columns = ["variant", "label", "goal_precision", "goal_key", *STRESS_COLUMNS]
     return pd.DataFrame(rows, columns=columns)
 
 
@@ -311,21 +326,20 @@ def _claim_c(folder: Path, baseline: Path | None) -> tuple[str, str, list[str]]:
     # Pure confidence against each other labelled objective, per metric.
     lines += [
         "",
-        "Pure confidence minus the other objective, per metric (95 % bootstrap interval of the "
-        "difference of means; it counts when the interval excludes 0 and the difference exceeds "
-        "the larger of the two rows' noise):",
+        "Pure confidence minus the other objective, per metric, paired by goal (the mean "
+        "difference over the goals both have a design for, n, with a 95 % paired t interval; "
+        "it counts when the interval excludes 0 and the difference exceeds the larger of the "
+        "two rows' noise):",
         "",
-        "| metric | vs | difference [95 % CI] | counts |",
-        "|---|---|---|---|",
+        "| metric | vs | difference [95 % CI] | n | counts |",
+        "|---|---|---|---|---|",
     ]
     pure = per_design[per_design["label"] == "pure confidence"]
     findings: dict[str, list[bool]] = {"robustness": [], "control_deviation": []}
     for other in [lab for lab in per_design["label"].unique() if lab != "pure confidence"]:
         part = per_design[per_design["label"] == other]
         for metric, better in (("robustness", 1), ("control_deviation", -1)):
-            diff, low, high = _bootstrap_difference(
-                pure[metric].to_numpy(), part[metric].to_numpy(), seed=len(other)
-            )
+            diff, low, high, n = _paired_difference(pure, part, metric)
             noise, unmeasured = _comparison_noise(
                 float(rows.loc[rows["label"] == "pure confidence", f"{metric}_noise"].max()),
                 float(rows.loc[rows["label"] == other, f"{metric}_noise"].max()),
@@ -333,12 +347,11 @@ def _claim_c(folder: Path, baseline: Path | None) -> tuple[str, str, list[str]]:
             )
             counts = _verdict_difference(low, high, diff, noise)
             findings[metric].append(counts and diff * better > 0)
-            n = min(_finite_count(pure[metric]), _finite_count(part[metric]))
             short = 0 < n < MIN_INTERVAL_VALUES
             lines.append(
                 f"| {metric.replace('_', ' ')} | {other} | {_fmt(diff)} "
-                f"{interval_bounds(low, high, n, _fmt)} | {'yes' if counts else 'no'}"
-                f"{' (no interval: fewer than 2 designs on a side)' if short else ''}"
+                f"{interval_bounds(low, high, n, _fmt)} | {n} | {'yes' if counts else 'no'}"
+                f"{' (no interval: fewer than 2 shared goals)' if short else ''}"
                 f"{' (pure confidence better)' if counts and diff * better > 0 else ''}"
                 f"{' (pure confidence worse)' if counts and diff * better < 0 else ''}"
                 f"{f' ({unmeasured})' if unmeasured else ''} |"
@@ -439,13 +452,37 @@ def _suite_rows(results: Path) -> list[str]:
     return rows
 
 
+def _nudges(floors: Iterable[Mapping[str, Any]]) -> str:
+    """The scenes each suite's designs were retested in, as the page says it."""
+    counts = sorted({int(f["nudges"]) for f in floors if f.get("nudges")})
+    return " or ".join(map(str, counts)) if counts else "its"
+
+
 def _floor_row(suite: str, floor: Mapping[str, Any]) -> str:
+    # Designs invalid in a nudged scene count as a range above every measured one.
+    unmeasured = int(floor.get("unmeasured") or 0)
+    designs = f"{int(floor['designs'])}" + (f" ({unmeasured} unmeasured)" if unmeasured else "")
     return (
-        f"| {suite} | {int(floor['designs'])} | {_fmt(floor['free_energy'])} "
+        f"| {suite} | {designs} | {_fmt(floor['free_energy'])} "
         f"({percent_cell(floor['free_energy_relative'])}) | {_fmt(floor['goal_error'])} | "
         f"{_fmt(floor['confidence'])} ({percent_cell(floor['confidence_relative'])}) | "
         f"{_fmt(floor['final_distance'])} |"
     )
+
+
+def _section_noise(results: Path) -> str:
+    """F's relative noise floor with the square section against the round one's, per suite."""
+    parts = []
+    for suite in SUITES:
+        floors = []
+        for folder in (results / SQUARE / suite, results / suite):
+            path = folder / "report" / "noise-floor.json"
+            if path.is_file():
+                floors.append(json.loads(path.read_text(encoding="utf-8"))["all"])
+        if len(floors) == 2:
+            square, round_ = (percent_cell(f["free_energy_relative"]) for f in floors)
+            parts.append(f"{suite} {square} against {round_}")
+    return ", ".join(parts) or "n/a (no suite has both)"
 
 
 def _square_section(results: Path) -> list[str]:
@@ -475,10 +512,11 @@ def _square_section(results: Path) -> list[str]:
     lines = [
         "## With the paper's square section",
         "",
-        "The paper's tool has a square section. Pushing with it is chaotic: under 0.1 mm nudges "
-        "F moves by about 1.4 % (median over random designs), against about 0.5 % with the round "
-        "section of the suites above ([The model](model.md#the-tools-section-where-the-chaos-came-"
-        "from)). These suites ran with the square section, the default until the round one "
+        "The paper's tool has a square section. Pushing with it is chaotic ([The model]"
+        "(model.md#the-tools-section-where-the-chaos-came-from) measures it on random designs); "
+        "on the suites' final designs, the median relative range of F under 0.1 mm nudges is, "
+        f"square against round: {_section_noise(results)} (the tables of noise floors). These "
+        "suites ran with the square section, the default until the round one "
         f"replaced it, with everything else as above (`docs/results/{SQUARE}/`); they are judged "
         "by the same rules:",
         "",
@@ -571,8 +609,10 @@ def reproduction_page(results: str | os.PathLike[str]) -> str:
         "",
         "## Noise floors",
         "",
-        "Median over each suite's final designs of the range over 5 nudged scenes "
-        "(`docs/results/SUITE/report/noise.md`):",
+        "Median over each suite's final designs of the range over "
+        f"{_nudges(floors.values())} nudged scenes (`docs/results/SUITE/report/noise.md`; a "
+        "design invalid in a nudged scene is unmeasured and counts as a range above every "
+        "measured one):",
         "",
         "| suite | designs | F | goal error | confidence | final distance (m) |",
         "|---|---|---|---|---|---|",

@@ -39,6 +39,8 @@ from tooldesign_env.schema import METRICS
 
 __all__ = [
     "MISSING_METRIC_NOTE",
+    "STRESS_METRICS",
+    "design_means",
     "make_retest_report",
     "noise_table",
     "short_intervals",
@@ -85,7 +87,12 @@ def noise_table(retests: Sequence[Mapping[str, Any]]) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def _design_means(retest: Mapping[str, Any], change: str) -> dict[str, Any] | None:
+def design_means(retest: Mapping[str, Any], change: str) -> dict[str, Any] | None:
+    """A retested design's stress metrics under ``change``; None if it has no row of ``change``.
+
+    Per metric m: ``m``, the mean over its repeated scenes of each scene's mean, and
+    ``m_noise``, the range of those means (NaN when the metric is missing in a scene).
+    """
     rows = [r for r in retest.get("stress") or [] if r["change"] == change]
     if not rows:
         return None
@@ -121,7 +128,7 @@ def stress_table(
     split = len({str(r.get("optimizer")) for r in retests}) > 1
     by_group: dict[tuple[str, str], list[tuple[Mapping[str, Any], dict[str, Any]]]] = {}
     for retest in retests:
-        means = _design_means(retest, change)
+        means = design_means(retest, change)
         if means is not None:
             key = (str(retest["variant"]), str(retest.get("optimizer")) if split else "")
             by_group.setdefault(key, []).append((retest, means))
@@ -334,7 +341,8 @@ def make_retest_report(
         f"confidence {_fmt(floor['confidence'])} ({percent_cell(floor['confidence_relative'])}),"
         f" final distance {_fmt(floor['final_distance'])} m. Differences of F below their "
         "variant's floor are not called significant in this folder's reports."
-        + (_NO_RELATIVE_NOTE if _relative_missing(floor) else ""),
+        + (_NO_RELATIVE_NOTE if _relative_missing(floor) else "")
+        + (_unmeasured_note(retests, int(floor["unmeasured"])) if floor["unmeasured"] else ""),
         "",
         "| variant | optimizer | seed | F (mean) | F range | goal error range | "
         "confidence range | final distance range (m) |",
@@ -368,29 +376,69 @@ def make_retest_report(
 def noise_floor(retests: Sequence[Mapping[str, Any]]) -> dict[str, float]:
     """The suite's noise floor of each term: the median over designs of its range over nudges.
 
+    A design whose retest failed (it was invalid in a nudged scene) or that has a nudge without
+    a finite value has no range to measure: its outcome changed by more than any range, so it
+    counts as an infinite range, above every measured one, rather than being left out (which
+    would lower the floor by dropping the noisiest designs). A median that lands on such a
+    design (half of the designs or more) is NaN: not measured.
+
     Returns:
         ``{term: median of (max - min)}`` and ``{term + "_relative": median of (max - min) /
-        |mean|}`` for F, goal error, confidence and final distance, and ``designs``; NaN
-        values when no design was retested.
+        |mean|}`` for F, goal error, confidence and final distance; ``designs``, the designs
+        counted, ``unmeasured``, those of them without a measurable range, and ``nudges``, the
+        most scenes a design was evaluated in. NaN values when no design was retested.
     """
     terms = METRICS
     ranges: dict[str, list[float]] = {t: [] for t in terms}
     relative: dict[str, list[float]] = {t: [] for t in terms}
+    unmeasured = nudges = 0
     for retest in retests:
         rows = retest.get("noise") or []
-        if len(rows) < 2:
+        nudges = max(nudges, len(rows))
+        failed = bool(retest.get("error"))
+        if len(rows) < 2 and not failed:
+            continue  # retested in fewer than 2 scenes: no range, and nothing went wrong
+        table = {t: np.array([r[t] for r in rows], dtype=np.float64) for t in terms}
+        if failed or not all(np.isfinite(v).all() for v in table.values()):
+            unmeasured += 1
+            for t in terms:
+                ranges[t].append(math.inf)
+                relative[t].append(math.inf)
             continue
-        for t in terms:
-            values = np.array([r[t] for r in rows], dtype=np.float64)
+        for t, values in table.items():
             ranges[t].append(float(np.ptp(values)))
             mean = abs(float(values.mean()))
             relative[t].append(float(np.ptp(values)) / mean if mean > 0 else math.nan)
-    out: dict[str, float] = {"designs": float(len(ranges["free_energy"]))}
+    out: dict[str, float] = {
+        "designs": float(len(ranges["free_energy"])),
+        "unmeasured": float(unmeasured),
+        "nudges": float(nudges),
+    }
     for t in terms:
-        out[t] = float(np.median(ranges[t])) if ranges[t] else math.nan
-        finite = [v for v in relative[t] if math.isfinite(v)]
-        out[f"{t}_relative"] = float(np.median(finite)) if finite else math.nan
+        out[t] = _finite_median(ranges[t])
+        out[f"{t}_relative"] = _finite_median([v for v in relative[t] if not math.isnan(v)])
     return out
+
+
+def _unmeasured_note(retests: Sequence[Mapping[str, Any]], count: int) -> str:
+    where = "; ".join(
+        f"{r.get('variant') or '-'} / {r.get('optimizer')} / seed {r.get('seed')}: {r['error']}"
+        for r in retests
+        if r.get("error")
+    )
+    return (
+        f" {count} design(s) had no measurable range (n/a below) and count as a range above "
+        "every measured one, not left out: leaving them out would lower the floor by dropping "
+        "the noisiest designs" + (f" ({where})." if where else ".")
+    )
+
+
+def _finite_median(values: Sequence[float]) -> float:
+    """The median (infinities rank above every number); NaN when empty or when it is infinite."""
+    if not values:
+        return math.nan
+    median = float(np.median(values))
+    return median if math.isfinite(median) else math.nan
 
 
 # --- command line ------------------------------------------------------------------------------

@@ -417,15 +417,34 @@ def run_metrics(curves: pd.DataFrame) -> pd.DataFrame:
         One row per run with its key columns, ``iterations`` (T), ``final_free_energy`` (the
         best F after the run's last stored iteration) and ``auc`` (:func:`area_under_curve`
         over the iteration index).
+
+    A run whose first iterations had no valid design has no best F there yet: for its AUC
+    those iterations count as the worst best-so-far F of any run of its suite and variant (the
+    highest point of their curves), so that a slow start costs the run rather than dropping
+    it from the comparison. A run with no valid design at all has NaN for both.
     """
     _check_columns(curves, ("optimizer", "seed", "iteration", "best_so_far"), "curves")
     keys = [c for c in RUN_COLUMNS if c in curves.columns]
+    groups = [k for k in ("suite", "variant") if k in keys]  # runs that compare
+    heights = curves["best_so_far"].astype(np.float64)
+    finite = curves[np.isfinite(heights)]
+    worst: dict[Any, float] = (
+        finite.groupby(groups)["best_so_far"].max().to_dict()
+        if groups
+        else {(): float(finite["best_so_far"].max()) if len(finite) else np.nan}
+    )
     rows = []
     for key, run in curves.sort_values(keys + ["iteration"]).groupby(keys, sort=True):
         values = run["best_so_far"].to_numpy(dtype=np.float64)
+        run_key = dict(zip(keys, key, strict=True))
+        group = tuple(run_key[k] for k in groups)
+        ceiling = worst.get(group[0] if len(group) == 1 else group, np.nan)
+        started = np.isfinite(values)
+        if started.any():  # only leading iterations can lack a best F (it never rises again)
+            values = np.where(started, values, ceiling)
         rows.append(
             {
-                **dict(zip(keys, key, strict=True)),
+                **run_key,
                 "iterations": int(values.size),
                 "final_free_energy": float(values[-1]),
                 "auc": area_under_curve(values, run["iteration"].to_numpy(dtype=np.float64)),
