@@ -293,3 +293,13 @@ def test_joint_reference_is_the_splined_knot_solutions():
     for field in ("times", "q", "qd", "qdd", "q0", "ee_position", "yaw"):
         np.testing.assert_array_equal(getattr(reference, field), getattr(expected, field))
     np.testing.assert_array_equal(reference.q0, knots[0])
+
+
+def test_source_digest_of_a_module_without_a_file_is_unknown(tmp_path, monkeypatch):
+    from tooldesign_env.plan import source_digest
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "None").write_text("a file that happens to be called None")
+    assert source_digest("tooldesign_env_no_such_module") == "unknown"
+    assert source_digest("sys") == "unknown"  # built in: no source file
+    assert len(source_digest("tooldesign_env.plan")) == 16

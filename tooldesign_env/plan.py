@@ -267,8 +267,10 @@ def source_digest(module: str) -> str:
     costs one recomputation. ``"unknown"`` if the module has no readable source file.
     """
     spec = importlib.util.find_spec(module)
+    if spec is None or not spec.origin:
+        return "unknown"  # not a file named "None" in the working folder
     try:
-        with open(str(spec.origin if spec else None), "rb") as f:
+        with open(spec.origin, "rb") as f:
             return hashlib.sha256(f.read()).hexdigest()[:16]
     except OSError:
         return "unknown"
