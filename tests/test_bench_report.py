@@ -114,9 +114,24 @@ def test_same_store_gives_same_bytes(tmp_path: Path) -> None:
     first = {p.name: p.read_bytes() for p in make_report(run, n_boot=N_BOOT)}
     second = {p.name: p.read_bytes() for p in make_report(run, n_boot=N_BOOT)}
     assert first == second  # CSV, Markdown and, with one matplotlib, the PNG too
-    other = make_report(run, out_dir=tmp_path / "seed1", n_boot=N_BOOT, seed=1)
-    assert (tmp_path / "seed1" / "summary.csv").read_bytes() != first["summary.csv"]
-    assert len(other) == len(first)
+    # The default t interval draws nothing: the seed does not change it.
+    make_report(run, out_dir=tmp_path / "t1", n_boot=N_BOOT, seed=1)
+    assert (tmp_path / "t1" / "summary.csv").read_bytes() == first["summary.csv"]
+    # The bootstrap's seed decides its bounds, and the same seed gives the same bytes.
+    boot = {
+        seed: make_report(
+            run, out_dir=tmp_path / f"boot{seed}", n_boot=N_BOOT, seed=seed, interval="bootstrap"
+        )
+        for seed in (0, 1)
+    }
+    summary = {seed: (tmp_path / f"boot{seed}" / "summary.csv").read_bytes() for seed in (0, 1)}
+    assert summary[0] != summary[1] and summary[0] != first["summary.csv"]
+    assert len(boot[1]) == len(first)
+    again = make_report(run, out_dir=tmp_path / "again", n_boot=N_BOOT, interval="bootstrap")
+    assert again[0].parent.joinpath("summary.csv").read_bytes() == summary[0]
+    with pytest.raises(ValueError, match="interval must be one of"):
+        make_report(run, out_dir=tmp_path / "bad", interval="percentile")
+    assert not (tmp_path / "bad").exists()  # refused before anything was written
 
 
 def test_report_has_one_figure_per_suite(tmp_path: Path) -> None:

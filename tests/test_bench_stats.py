@@ -12,15 +12,50 @@ from scipy.stats import mannwhitneyu
 from benchmarks.reports.stats import (
     PAIRWISE_COLUMNS,
     BootstrapCI,
+    Interval,
     area_under_curve,
     best_so_far_curves,
     bootstrap_ci,
     finite_values,
     holm_bonferroni,
     mann_whitney_holm,
+    mean_interval,
     run_metrics,
+    t_interval,
     vargha_delaney_a12,
 )
+
+# --- the t interval of a mean --------------------------------------------------------------------
+
+
+def test_t_interval_by_hand() -> None:
+    # 1, 2, 3, 4: mean 2.5, s = sqrt(5/3), t(0.975, 3) = 3.182446305284263.
+    ci = t_interval([1.0, 2.0, 3.0, 4.0, np.nan])
+    half = 3.182446305284263 * np.sqrt(5.0 / 3.0) / 2.0
+    assert (ci.estimate, ci.n, ci.n_excluded) == (2.5, 4, 1)
+    assert ci.low == pytest.approx(2.5 - half) and ci.high == pytest.approx(2.5 + half)
+    assert isinstance(ci, Interval) and BootstrapCI is Interval  # the former name still works
+
+
+def test_t_interval_edge_cases() -> None:
+    assert tuple(t_interval([7.0])) == (7.0, 7.0, 7.0)  # one value: a point, as the bootstrap
+    assert all(np.isnan(v) for v in t_interval([np.nan]))
+    assert tuple(t_interval([3.0, 3.0, 3.0])) == (3.0, 3.0, 3.0)  # no spread
+    with pytest.raises(ValueError, match="level must be in"):
+        t_interval([1.0, 2.0], level=1.0)
+
+
+def test_mean_interval_picks_the_interval_and_names_a_bad_one() -> None:
+    values = [1.0, 2.0, 4.0]
+    assert mean_interval(values) == t_interval(values)
+    boot = mean_interval(values, interval="bootstrap", n_boot=500, rng=3)
+    assert boot == bootstrap_ci(values, n_boot=500, rng=3)
+    # Three values: the bootstrap cannot reach past them, the t interval does.
+    assert 1.0 <= boot.low and boot.high <= 4.0
+    assert t_interval(values).low < 1.0 and t_interval(values).high > 4.0
+    with pytest.raises(ValueError, match=r"interval must be one of \('t', 'bootstrap'\), got 'z'"):
+        mean_interval(values, interval="z")
+
 
 # --- Vargha-Delaney A12 -------------------------------------------------------------------------
 

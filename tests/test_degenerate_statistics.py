@@ -12,7 +12,6 @@ import math
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import pandas as pd
 import pytest
 
@@ -148,14 +147,15 @@ def test_an_interval_is_na_when_fewer_than_two_tasks_have_a_value_not_fewer_rows
     assert table.loc[0, "accuracy_n"] == 1
     text = _table_one_markdown(table)
     (row,) = _table_rows(text, "pure confidence")
-    assert row[3] == "**-2** [-3, -1]" and row[4] == "**-2** [n/a]", row
+    # -3 and -1: mean -2 +- t(0.975, 1) s / sqrt(2) = -2 +- 12.71 (the t interval of two values).
+    assert row[3] == "**-2** [-14.71, 10.71]" and row[4] == "**-2** [n/a]", row
     assert "[-2, -2]" not in text and "fewer than 2 tasks with a value" in text
 
     per_precision, correlations = robustness_by_precision(designs, config, n_boot=N_BOOT)
     assert list(per_precision.loc[0, ["robustness_n", "squared_goal_error_n"]]) == [2, 1]
     text = _by_precision_markdown(per_precision, correlations)
     (row,) = _table_rows(text, "0 ")
-    assert row[3] == "-2 [-3, -1]" and row[4] == "4 [n/a]", row
+    assert row[3] == "-2 [-14.71, 10.71]" and row[4] == "4 [n/a]", row  # the t interval, as above
     assert "fewer than 2 tasks with a value" in text
 
 

@@ -216,7 +216,7 @@ def _noise_retest(variant: str, seed: int, free_energy: list[float], error: str 
 
 
 def test_a_design_invalid_in_a_nudged_scene_counts_as_the_largest_range_not_as_none() -> None:
-    """Dropping it lowered the floor by dropping the noisiest design (the audit: p20 26.2 -> 26.9)."""
+    """Dropping it lowered the floor by dropping the noisiest design (audit: p20 26.2 -> 26.9)."""
     from benchmarks.reports.retest import noise_floor
 
     measured = [_noise_retest("p20", s, [100.0, 100.0 + r]) for s, r in enumerate((1, 2, 3, 4))]

@@ -1,6 +1,7 @@
 """Reports: tables, figures and pages made from stored results alone (nothing is simulated).
 
-- :mod:`~benchmarks.reports.stats`: bootstrap intervals, tests and effect sizes (no files).
+- :mod:`~benchmarks.reports.stats`: intervals of means (Student t, percentile bootstrap), tests
+  and effect sizes (no files).
 - :mod:`~benchmarks.reports.plots`: the shared figure helpers (tool shapes, box paths, PNG bytes).
 - :mod:`~benchmarks.reports.comparison`: the optimizer comparison of any run folder
   (convergence, summary, pairwise tests with the noise floor).

@@ -4,7 +4,7 @@
 and writes, under ``run_folder/report/``:
 
 - ``convergence-<suite>[-<variant>].png``: mean best-so-far F per iteration per optimizer with
-  a shaded 95% bootstrap interval of the mean across seeds (the paper's optimizer comparison);
+  a shaded 95% interval of the mean across seeds (the paper's optimizer comparison);
 - ``summary.csv`` / ``summary.md``: final F and normalised AUC per optimizer with intervals;
 - ``pairwise.csv`` / ``pairwise.md``: pairwise Mann-Whitney U tests, Holm-corrected, with A12.
 
@@ -36,9 +36,11 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
 from benchmarks.reports.stats import (
+    INTERVAL_NAMES,
     best_so_far_curves,
-    bootstrap_ci,
+    check_interval,
     mann_whitney_holm,
+    mean_interval,
     run_metrics,
 )
 from benchmarks.storage import ResultStore, atomic_write_bytes, atomic_write_text
@@ -147,14 +149,16 @@ def convergence_table(
     level: float = 0.95,
     n_boot: int = 10_000,
     seed: int = 0,
+    interval: str = "t",
 ) -> pd.DataFrame:
-    """Mean best-so-far F across seeds per iteration per optimizer, with bootstrap intervals.
+    """Mean best-so-far F across seeds per iteration per optimizer, with its interval.
 
     Args:
         evaluations: The evaluation log (see ``docs/results-format.md``).
         level: Coverage of the interval.
-        n_boot: Bootstrap resamples per cell.
-        seed: Root seed of the bootstrap.
+        n_boot: Bootstrap resamples per cell (``interval="bootstrap"``).
+        seed: Root seed of the bootstrap (``interval="bootstrap"``).
+        interval: The interval of a mean, one of :data:`~benchmarks.reports.stats.INTERVALS`.
 
     Returns:
         One row per (suite, variant, optimizer, iteration) with ``evaluations`` (mean over
@@ -165,8 +169,12 @@ def convergence_table(
     keys = [k for k in (*GROUP_KEYS, "optimizer") if k in curves.columns]
     rows = []
     for key, cell in curves.groupby(keys + ["iteration"], sort=True):
-        ci = bootstrap_ci(
-            cell["best_so_far"], n_boot=n_boot, level=level, rng=_rng(seed, "convergence", *key)
+        ci = mean_interval(
+            cell["best_so_far"],
+            interval=interval,
+            level=level,
+            n_boot=n_boot,
+            rng=_rng(seed, "convergence", *key),
         )
         rows.append(
             {
@@ -188,14 +196,16 @@ def summary_table(
     level: float = 0.95,
     n_boot: int = 10_000,
     seed: int = 0,
+    interval: str = "t",
 ) -> pd.DataFrame:
-    """Final best F and normalised AUC per optimizer, mean over seeds with bootstrap intervals.
+    """Final best F and normalised AUC per optimizer, mean over seeds with its interval.
 
     Args:
         evaluations: The evaluation log.
         level: Coverage of the intervals.
-        n_boot: Bootstrap resamples per interval.
-        seed: Root seed of the bootstrap.
+        n_boot: Bootstrap resamples per interval (``interval="bootstrap"``).
+        seed: Root seed of the bootstrap (``interval="bootstrap"``).
+        interval: The interval of a mean, one of :data:`~benchmarks.reports.stats.INTERVALS`.
 
     Returns:
         One row per (suite, variant, optimizer) in report order with ``runs``,
@@ -214,10 +224,11 @@ def summary_table(
             row["iterations_min"] = int(runs["iterations"].min())
             row["iterations_max"] = int(runs["iterations"].max())
             for metric in _METRICS:
-                ci = bootstrap_ci(
+                ci = mean_interval(
                     runs[metric],
-                    n_boot=n_boot,
+                    interval=interval,
                     level=level,
+                    n_boot=n_boot,
                     rng=_rng(seed, "summary", *group_key, name, metric),
                 )
                 row.update(
@@ -378,18 +389,20 @@ def plot_convergence(
     level: float = 0.95,
     n_boot: int = 10_000,
     seed: int = 0,
+    interval: str = "t",
     title: str | None = None,
     noise_floor: float | None = None,
 ) -> Axes:
-    """Plot mean best-so-far F per optimizer with a shaded bootstrap interval across seeds.
+    """Plot mean best-so-far F per optimizer with its shaded interval across seeds.
 
     Args:
         evaluations: The evaluation log of one (suite, variant).
         ax: Axes to draw on; a new :func:`new_figure` if ``None``.
         x: ``"iteration"`` or ``"evaluations"`` (mean evaluations so far across seeds).
         level: Coverage of the shaded interval of the mean.
-        n_boot: Bootstrap resamples per point.
-        seed: Root seed of the bootstrap.
+        n_boot: Bootstrap resamples per point (``interval="bootstrap"``).
+        seed: Root seed of the bootstrap (``interval="bootstrap"``).
+        interval: The interval of a mean, one of :data:`~benchmarks.reports.stats.INTERVALS`.
         title: Axes title; the suite (and variant) if ``None``.
         noise_floor: If given, a grey band of that height above the lowest final mean: final
             values inside it cannot be told apart from the best.
@@ -409,7 +422,9 @@ def plot_convergence(
             f"plot_convergence draws one (suite, variant); the rows hold {len(groups)}: "
             f"{labels}; select one first"
         )
-    table = convergence_table(evaluations, level=level, n_boot=n_boot, seed=seed)
+    table = convergence_table(
+        evaluations, level=level, n_boot=n_boot, seed=seed, interval=interval
+    )
     if ax is None:
         _, ax = new_figure()
     colors = optimizer_colors(table["optimizer"])
@@ -436,7 +451,8 @@ def plot_convergence(
     ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     ax.set_ylabel("best free energy F so far")
     ax.grid(True, alpha=0.3)
-    ax.legend(frameon=False, title=f"mean, {level:.0%} bootstrap CI")
+    kind = "t" if interval == "t" else "bootstrap"
+    ax.legend(frameon=False, title=f"mean, {level:.0%} {kind} CI")
     return ax
 
 
@@ -448,7 +464,7 @@ def _fmt(value: float, digits: int = 4) -> str:
 
 
 MIN_INTERVAL_VALUES = 2
-"""Fewest values a Markdown table shows an interval of: one value's bootstrap is a point."""
+"""Fewest values a Markdown table shows an interval of: one value's interval is a point."""
 
 
 def no_interval_note(what: str = "values") -> str:
@@ -465,7 +481,7 @@ def no_interval_note(what: str = "values") -> str:
 
 
 def interval_bounds(low: float, high: float, n: int, fmt: Any = None) -> str:
-    """A bootstrap interval as a table cell: ``[low, high]``, or ``[n/a]`` from < 2 values.
+    """An interval as a table cell: ``[low, high]``, or ``[n/a]`` from < 2 values.
 
     Args:
         low: Lower bound.
@@ -523,11 +539,11 @@ def _heading(frame: pd.DataFrame) -> str:
     return " / ".join(p for p in parts if p) or "results"
 
 
-def _summary_markdown(summary: pd.DataFrame, level: float) -> str:
+def _summary_markdown(summary: pd.DataFrame, level: float, interval: str = "t") -> str:
     lines = [
         "# Optimizer comparison",
         "",
-        f"Mean over runs (seeds) with a {level:.0%} percentile bootstrap interval of the mean.",
+        f"Mean over runs (seeds) with a {level:.0%} {INTERVAL_NAMES[interval]} of the mean.",
         "Final F: best finite free energy after the last stored iteration of a run.",
         "AUC: mean height of the best-so-far curve over iterations (trapezoid, divided by the",
         "number of iteration steps), in units of F; lower means F dropped sooner.",
@@ -644,6 +660,7 @@ def make_report(
     level: float = 0.95,
     n_boot: int = 10_000,
     seed: int = 0,
+    interval: str = "t",
     alpha: float = 0.05,
     noise_floor: float | Mapping[str, float] | None = None,
 ) -> list[Path]:
@@ -652,9 +669,11 @@ def make_report(
     Args:
         run_folder: A run folder written by :class:`benchmarks.storage.ResultStore`.
         out_dir: Where to write; ``run_folder/report`` if ``None``.
-        level: Coverage of the bootstrap intervals.
-        n_boot: Bootstrap resamples per interval.
+        level: Coverage of the intervals.
+        n_boot: Bootstrap resamples per interval (``interval="bootstrap"``).
         seed: Root seed of the bootstrap; the same seed and data give the same bytes.
+        interval: The interval of a mean: ``"t"`` (Student t, the default) or ``"bootstrap"``
+            (percentile bootstrap, which covers less than ``level`` with few seeds).
         alpha: Family-wise error rate of the pairwise tests.
         noise_floor: The noise floor of F, one number or one per variant (see
             :func:`pairwise_table`), drawn as a band on the convergence figures; None if it was
@@ -676,6 +695,7 @@ def make_report(
     if not 0.0 < alpha < 1.0:
         raise ValueError(f"alpha must be in (0, 1), got {alpha!r}")
     noise_floor = check_noise_floor(noise_floor)
+    interval = check_interval(interval)
     evaluations = ResultStore(run_folder).read()
     target = Path(run_folder) / REPORT_DIR if out_dir is None else Path(out_dir)
     written = []
@@ -683,13 +703,25 @@ def make_report(
         figure, ax = new_figure()
         variant = group["variant"].iloc[0] if "variant" in group.columns else ""
         floor = _floor_of(noise_floor, variant)
-        plot_convergence(group, ax, level=level, n_boot=n_boot, seed=seed, noise_floor=floor)
+        plot_convergence(
+            group,
+            ax,
+            level=level,
+            n_boot=n_boot,
+            seed=seed,
+            interval=interval,
+            noise_floor=floor,
+        )
         png = target / f"convergence-{_slug(*map(str, key))}.png"
         written.append(atomic_write_bytes(png, figure_png_bytes(figure)))
 
-    summary = summary_table(evaluations, level=level, n_boot=n_boot, seed=seed)
+    summary = summary_table(
+        evaluations, level=level, n_boot=n_boot, seed=seed, interval=interval
+    )
     written.append(atomic_write_text(target / "summary.csv", csv_text(summary)))
-    written.append(atomic_write_text(target / "summary.md", _summary_markdown(summary, level)))
+    written.append(
+        atomic_write_text(target / "summary.md", _summary_markdown(summary, level, interval))
+    )
     pairwise = pairwise_table(evaluations, alpha=alpha, noise_floor=noise_floor)
     written.append(atomic_write_text(target / "pairwise.csv", csv_text(pairwise)))
     written.append(

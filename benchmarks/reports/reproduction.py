@@ -287,7 +287,7 @@ def _claim_c(folder: Path, baseline: Path | None) -> tuple[str, str, list[str]]:
         "",
         f"Table I over a range of box masses ({masses} kg, each in {settings['repeats']} nudged "
         "scenes, every altered rollout compared with the nominal one in the same scene; "
-        f"`docs/results/{_where(folder)}/report/stress.md`). Mean over goals [95 % bootstrap "
+        f"`docs/results/{_where(folder)}/report/stress.md`). Mean over goals [95 % t "
         "interval over goals] (median noise of a design's mean across scenes):",
         "",
         "| objective | p^X | robustness (m) | accuracy (m) | control deviation (N m) | "

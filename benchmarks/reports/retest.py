@@ -10,7 +10,7 @@ simulated.
   the noise floor of F is not called significant.
 - with stress rows: ``stress.csv/md``, Table I over ranges: per variant, robustness, accuracy,
   control deviation and final distance, each the mean over designs of the design's mean over
-  repeats and altered conditions, with a 95 % bootstrap interval over designs and the median
+  repeats and altered conditions, with a 95 % interval over designs and the median
   over designs of the range of the design's mean across repeated scenes (its noise);
   ``stress-mass.png`` and ``stress-friction.png``: final distance against the box mass (or
   friction) per variant, mean over designs with the interval as a band.
@@ -33,7 +33,7 @@ from benchmarks.reports.comparison import (
     no_interval_note,
     percent_cell,
 )
-from benchmarks.reports.stats import bootstrap_ci
+from benchmarks.reports.stats import INTERVAL_NAMES, check_interval, mean_interval
 from benchmarks.storage import atomic_write_text, json_text
 from tooldesign_env.schema import METRICS
 
@@ -108,17 +108,24 @@ def design_means(retest: Mapping[str, Any], change: str) -> dict[str, Any] | Non
 
 
 def stress_table(
-    retests: Sequence[Mapping[str, Any]], change: str, *, n_boot: int = 10_000, seed: int = 0
+    retests: Sequence[Mapping[str, Any]],
+    change: str,
+    *,
+    n_boot: int = 10_000,
+    seed: int = 0,
+    interval: str = "t",
 ) -> pd.DataFrame:
     """Table I over a range of one change (``"mass"`` or ``"friction"``), one row per variant.
 
     With the retests of several optimizers, one row per variant and optimizer (an ``optimizer``
-    column), since their designs are not repeats of one another.
+    column), since their designs are not repeats of one another. ``interval`` is the interval
+    of a mean (:data:`~benchmarks.reports.stats.INTERVALS`); ``n_boot`` and ``seed`` are the
+    bootstrap's.
 
     Returns:
         ``variant``, ``label``, ``goal_precision``, ``designs`` and, per metric m of
-        :data:`STRESS_METRICS`: ``m`` (mean over designs), ``m_low``/``m_high`` (95 %
-        bootstrap interval over designs), ``m_n`` (the designs with a finite value, which the
+        :data:`STRESS_METRICS`: ``m`` (mean over designs), ``m_low``/``m_high`` (its 95 %
+        interval over designs), ``m_n`` (the designs with a finite value, which the
         mean and interval are of), ``m_noise`` (median, over the designs
         that have the metric in every repeated scene, of the range of the design's mean across
         those scenes; NaN when no design has) and ``m_best``.
@@ -148,8 +155,12 @@ def stress_table(
             # A design missing the metric in a scene has no range; the others' still count.
             noises = np.array([m[f"{metric}_noise"] for _, m in items], dtype=np.float64)
             noises = noises[np.isfinite(noises)]
-            ci = bootstrap_ci(
-                values, n_boot=n_boot, level=LEVEL, rng=_rng(seed, change, metric, stream)
+            ci = mean_interval(
+                values,
+                interval=interval,
+                level=LEVEL,
+                n_boot=n_boot,
+                rng=_rng(seed, change, metric, stream),
             )
             row.update(
                 {
@@ -203,7 +214,7 @@ def stress_repeats(retests: Sequence[Mapping[str, Any]], change: str) -> int:
 
 
 def _stress_markdown(
-    table: pd.DataFrame, change: str, values: Sequence[float], repeats: int
+    table: pd.DataFrame, change: str, values: Sequence[float], repeats: int, interval: str = "t"
 ) -> str:
     unit = "kg" if change == "mass" else ""
     lines = [
@@ -213,7 +224,7 @@ def _stress_markdown(
         f"{', '.join(f'{v:g}' for v in values)} {unit} in several nudged scenes, and each "
         "altered rollout was compared with the nominal one in the same scene. Per design: the "
         "mean over scenes and altered conditions; here: the mean over designs with a "
-        f"{LEVEL:.0%} bootstrap interval over designs, and in parentheses the median over "
+        f"{LEVEL:.0%} {INTERVAL_NAMES[interval]} over designs, and in parentheses the median over "
         "designs of the range of that mean across the repeated scenes (its noise). Robustness "
         "= -sum_t |X - X_0| (m, per altered condition), accuracy = -sum_t |X - X^g| (m), "
         "control deviation = sum_t |U - U_0| (N m), final distance |X_T - X^g| (m). Best mean "
@@ -253,7 +264,7 @@ def _stress_markdown(
 
 
 def _plot_stress(
-    retests: Sequence[Mapping[str, Any]], change: str, target: Path, seed: int
+    retests: Sequence[Mapping[str, Any]], change: str, target: Path, seed: int, interval: str
 ) -> Path | None:
     frames = []
     for retest in retests:
@@ -274,10 +285,11 @@ def _plot_stress(
         part = data[data["variant"] == variant["variant"]]
         xs, means, lows, highs = [], [], [], []
         for value, cell in part.groupby("value"):
-            ci = bootstrap_ci(
+            ci = mean_interval(
                 cell["final_distance"],
-                n_boot=2000,
+                interval=interval,
                 level=LEVEL,
+                n_boot=2000,
                 rng=_rng(seed, "stress-plot", change, variant["variant"], value),
             )
             xs.append(value)
@@ -311,9 +323,19 @@ def _relative_missing(floor: Mapping[str, float]) -> bool:
 
 
 def make_retest_report(
-    retests: Sequence[Mapping[str, Any]], target: Path, *, n_boot: int = 10_000, seed: int = 0
+    retests: Sequence[Mapping[str, Any]],
+    target: Path,
+    *,
+    n_boot: int = 10_000,
+    seed: int = 0,
+    interval: str = "t",
 ) -> list[Path]:
-    """Write the noise-floor and stress reports of retested designs into ``target``."""
+    """Write the noise-floor and stress reports of retested designs into ``target``.
+
+    ``interval`` is the interval of a mean (:data:`~benchmarks.reports.stats.INTERVALS`);
+    ``n_boot`` and ``seed`` are the bootstrap's.
+    """
+    interval = check_interval(interval)
     if not retests:
         return []
     floor = noise_floor(retests)
@@ -357,7 +379,7 @@ def make_retest_report(
         )
     written.append(atomic_write_text(target / "noise.md", "\n".join(lines) + "\n"))
     for change in ("mass", "friction"):
-        stress = stress_table(retests, change, n_boot=n_boot, seed=seed)
+        stress = stress_table(retests, change, n_boot=n_boot, seed=seed, interval=interval)
         if not len(stress):
             continue
         values = sorted(
@@ -365,9 +387,10 @@ def make_retest_report(
         )
         stem = "stress" if change == "mass" else "stress-friction-table"
         written.append(atomic_write_text(target / f"{stem}.csv", stress.to_csv(index=False)))
-        markdown = _stress_markdown(stress, change, values, stress_repeats(retests, change))
+        repeats = stress_repeats(retests, change)
+        markdown = _stress_markdown(stress, change, values, repeats, interval)
         written.append(atomic_write_text(target / f"{stem}.md", markdown))
-        figure = _plot_stress(retests, change, target, seed)
+        figure = _plot_stress(retests, change, target, seed, interval)
         if figure is not None:
             written.append(figure)
     return written

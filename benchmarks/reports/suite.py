@@ -4,8 +4,8 @@
 
 - what :func:`benchmarks.reports.comparison.make_report` writes for every run folder: a
   convergence figure
-  per (suite, variant), ``summary.csv/md`` (final F and AUC per optimizer with 95% bootstrap
-  intervals) and ``pairwise.csv/md`` (Mann-Whitney U, Holm, A12);
+  per (suite, variant), ``summary.csv/md`` (final F and AUC per optimizer with 95% intervals
+  of the mean, Student t by default) and ``pairwise.csv/md`` (Mann-Whitney U, Holm, A12);
 - ``designs.csv`` / ``designs.md``: one row per run: its design, F and its terms, the shape of
   the tool (straightness, turning angle, tip offset) and its final test;
 - the figures the suite asks for (``SuiteConfig.figures``):
@@ -13,7 +13,7 @@
   - ``tool-shapes``: ``tool-shapes.png`` (per variant, the lowest-F design's tool above its box
     path, side by side), ``tool-shapes-overlay.png``, ``tool-shapes.csv/md``;
   - ``robustness-table``: ``table1.csv/md``, the paper's Table I: robustness, accuracy and
-    control deviation per labelled variant, mean over tasks with a 95% bootstrap interval, best
+    control deviation per labelled variant, mean over tasks with a 95% interval, best
     in bold;
   - ``robustness-scatter``: ``robustness-scatter.png`` (robustness against squared goal error,
     one colour per p^X) and ``robustness-by-precision.csv/md`` (per p^X means with intervals and
@@ -49,7 +49,7 @@ from benchmarks.reports.comparison import (
 )
 from benchmarks.reports.retest import make_retest_report, noise_floor
 from benchmarks.reports.rl import make_rl_report
-from benchmarks.reports.stats import BootstrapCI, bootstrap_ci
+from benchmarks.reports.stats import INTERVAL_NAMES, Interval, check_interval, mean_interval
 from benchmarks.rl.suite import RL_SUITE_KIND
 from benchmarks.storage import (
     ResultStore,
@@ -71,7 +71,7 @@ __all__ = [
 ]
 
 LEVEL = 0.95
-"""Coverage of every bootstrap interval of the suite reports."""
+"""Coverage of every interval of the suite reports."""
 
 
 # --- helpers -----------------------------------------------------------------------------------
@@ -290,7 +290,11 @@ def _has_nominal_path(record: Mapping[str, Any]) -> bool:
 
 
 def _tool_shapes(
-    designs: Sequence[Mapping[str, Any]], config: SuiteConfig, target: Path, seed: int
+    designs: Sequence[Mapping[str, Any]],
+    config: SuiteConfig,
+    target: Path,
+    seed: int,
+    interval: str,
 ) -> list[Path]:
     from tooldesign_env import make_tool
 
@@ -463,7 +467,7 @@ _TABLE_ONE = (
 )
 
 
-def _ci_columns(metric: str, ci: BootstrapCI) -> dict[str, Any]:
+def _ci_columns(metric: str, ci: Interval) -> dict[str, Any]:
     """A metric's mean, interval and count of finite values, as a table row's columns."""
     return {
         metric: ci.estimate,
@@ -486,6 +490,7 @@ def table_one(
     *,
     n_boot: int = 10_000,
     seed: int = 0,
+    interval: str = "t",
 ) -> pd.DataFrame:
     """The paper's Table I: per labelled variant, the three metrics over tasks.
 
@@ -495,8 +500,9 @@ def table_one(
     Args:
         designs: Design records with robustness tests.
         config: The suite (its variants give the rows and their order).
-        n_boot: Bootstrap resamples per interval.
-        seed: Root seed of the bootstrap.
+        n_boot: Bootstrap resamples per interval (``interval="bootstrap"``).
+        seed: Root seed of the bootstrap (``interval="bootstrap"``).
+        interval: The interval of a mean, one of :data:`~benchmarks.reports.stats.INTERVALS`.
 
     Returns:
         One row per variant (per variant and optimizer, with an ``optimizer`` column, when the
@@ -529,7 +535,13 @@ def table_one(
             for metric, _, _ in _TABLE_ONE:
                 values = part[metric].to_numpy(dtype=np.float64) if len(part) else np.array([])
                 key = variant.name if optimizer is None else f"{variant.name}/{optimizer}"
-                ci = bootstrap_ci(values, n_boot=n_boot, level=LEVEL, rng=_rng(seed, metric, key))
+                ci = mean_interval(
+                    values,
+                    interval=interval,
+                    level=LEVEL,
+                    n_boot=n_boot,
+                    rng=_rng(seed, metric, key),
+                )
                 row.update(_ci_columns(metric, ci))
             rows.append(row)
     table = pd.DataFrame(rows)
@@ -540,11 +552,11 @@ def table_one(
     return table
 
 
-def _table_one_markdown(table: pd.DataFrame) -> str:
+def _table_one_markdown(table: pd.DataFrame, interval: str = "t") -> str:
     lines = [
         "# Table I: robustness, accuracy and control deviation under box-mass changes",
         "",
-        f"Mean over tasks (random goals) with a {LEVEL:.0%} percentile bootstrap interval of the",
+        f"Mean over tasks (random goals) with a {LEVEL:.0%} {INTERVAL_NAMES[interval]} of the",
         "mean; the best mean of each column is in bold. Robustness = -sum_i sum_t",
         "|X(m_i, t) - X(m, t)| (m), accuracy = -sum_i sum_t |X(m_i, t) - X^g| (m), control",
         "deviation = sum_i sum_t |U(m_i, t) - U(m, t)| (N m), over the altered masses m_i and",
@@ -579,14 +591,16 @@ def robustness_by_precision(
     *,
     n_boot: int = 10_000,
     seed: int = 0,
+    interval: str = "t",
 ) -> tuple[pd.DataFrame, pd.DataFrame]:
     """Per p^X: robustness and goal error over tasks; and their rank correlations with p^X.
 
     Args:
         designs: Design records with robustness tests.
         config: The suite (its variants give the rows).
-        n_boot: Bootstrap resamples per interval.
-        seed: Root seed of the bootstrap.
+        n_boot: Bootstrap resamples per interval (``interval="bootstrap"``).
+        seed: Root seed of the bootstrap (``interval="bootstrap"``).
+        interval: The interval of a mean, one of :data:`~benchmarks.reports.stats.INTERVALS`.
 
     Returns:
         ``(per_precision, correlations)``: one row per variant (per variant and optimizer, with
@@ -617,10 +631,11 @@ def robustness_by_precision(
             }
             key = variant.name if optimizer is None else f"{variant.name}/{optimizer}"
             for metric in metrics:
-                ci = bootstrap_ci(
+                ci = mean_interval(
                     part[metric].to_numpy(dtype=np.float64),
-                    n_boot=n_boot,
+                    interval=interval,
                     level=LEVEL,
+                    n_boot=n_boot,
                     rng=_rng(seed, "by-precision", metric, key),
                 )
                 row.update(_ci_columns(metric, ci))
@@ -628,11 +643,13 @@ def robustness_by_precision(
     return pd.DataFrame(rows), _spearman(tested, metrics)
 
 
-def _by_precision_markdown(table: pd.DataFrame, correlations: pd.DataFrame) -> str:
+def _by_precision_markdown(
+    table: pd.DataFrame, correlations: pd.DataFrame, interval: str = "t"
+) -> str:
     lines = [
         "# Robustness and goal error by goal precision",
         "",
-        f"Mean over tasks with a {LEVEL:.0%} percentile bootstrap interval. Squared goal error:",
+        f"Mean over tasks with a {LEVEL:.0%} {INTERVAL_NAMES[interval]}. Squared goal error:",
         "sum_t |X(m, t) - X^g|^2 at the nominal mass (m^2, summed over control steps); final",
         "distance: |X(m, T) - X^g| (m).",
         "",
@@ -669,14 +686,22 @@ def _by_precision_markdown(table: pd.DataFrame, correlations: pd.DataFrame) -> s
 
 
 def _robustness_table(
-    designs: Sequence[Mapping[str, Any]], config: SuiteConfig, target: Path, seed: int
+    designs: Sequence[Mapping[str, Any]],
+    config: SuiteConfig,
+    target: Path,
+    seed: int,
+    interval: str,
 ) -> list[Path]:
-    table = table_one(designs, config, seed=seed)
-    return _write_table(target, "table1", table, _table_one_markdown(table))
+    table = table_one(designs, config, seed=seed, interval=interval)
+    return _write_table(target, "table1", table, _table_one_markdown(table, interval))
 
 
 def _robustness_scatter(
-    designs: Sequence[Mapping[str, Any]], config: SuiteConfig, target: Path, seed: int
+    designs: Sequence[Mapping[str, Any]],
+    config: SuiteConfig,
+    target: Path,
+    seed: int,
+    interval: str,
 ) -> list[Path]:
     tested = _tested(designs)
     figure, ax = plots.new_figure(figsize=(6.4, 4.4))
@@ -705,10 +730,9 @@ def _robustness_scatter(
     if variants:
         ax.legend(frameon=False, fontsize="small")
     written = [plots.save_png(figure, target / "robustness-scatter.png")]
-    table, correlations = robustness_by_precision(designs, config, seed=seed)
-    written += _write_table(
-        target, "robustness-by-precision", table, _by_precision_markdown(table, correlations)
-    )
+    table, correlations = robustness_by_precision(designs, config, seed=seed, interval=interval)
+    markdown = _by_precision_markdown(table, correlations, interval)
+    written += _write_table(target, "robustness-by-precision", table, markdown)
     return written
 
 
@@ -721,7 +745,11 @@ def _has_mass_paths(record: Mapping[str, Any]) -> bool:
 
 
 def _mass_paths(
-    designs: Sequence[Mapping[str, Any]], config: SuiteConfig, target: Path, seed: int
+    designs: Sequence[Mapping[str, Any]],
+    config: SuiteConfig,
+    target: Path,
+    seed: int,
+    interval: str,
 ) -> list[Path]:
     written = []
     chosen = _chosen(designs, config, _has_mass_paths)
@@ -831,6 +859,7 @@ def make_suite_report(
     out_dir: str | os.PathLike[str] | None = None,
     n_boot: int = 10_000,
     seed: int = 0,
+    interval: str = "t",
 ) -> list[Path]:
     """Rebuild every report of a run folder from its stored results alone.
 
@@ -842,8 +871,10 @@ def make_suite_report(
             :func:`benchmarks.rl.run_rl_suite`); a design run folder or a bare store gets the
             generic report of :func:`make_report` only.
         out_dir: Where to write; ``run_folder/report`` if ``None``.
-        n_boot: Bootstrap resamples per interval.
+        n_boot: Bootstrap resamples per interval (``interval="bootstrap"``).
         seed: Root seed of the bootstraps; the same results and seed give the same bytes.
+        interval: The interval of a mean: ``"t"`` (Student t, the default) or ``"bootstrap"``
+            (percentile bootstrap, which covers less than 95 % with few seeds).
 
     Returns:
         The files written.
@@ -856,6 +887,7 @@ def make_suite_report(
             records for it (:meth:`benchmarks.storage.ResultStore.verify`); then nothing is
             written.
     """
+    interval = check_interval(interval)
     folder = Path(run_folder)
     if not folder.exists():
         raise FileNotFoundError(f"run folder {folder} does not exist")
@@ -868,7 +900,9 @@ def make_suite_report(
         return make_rl_report(folder, out_dir=out_dir)
     target = folder / REPORT_DIR if out_dir is None else Path(out_dir)
     designs, retests = read_designs(folder), read_retests(folder)
-    written = _suite_report(folder, target, designs, retests, n_boot=n_boot, seed=seed)
+    written = _suite_report(
+        folder, target, designs, retests, n_boot=n_boot, seed=seed, interval=interval
+    )
     notice = _incomplete_notice(folder, designs, retests)
     if notice is not None:
         # Every page says so first: its comparisons may cover unequal budgets.
@@ -917,15 +951,21 @@ def _suite_report(
     *,
     n_boot: int,
     seed: int,
+    interval: str,
 ) -> list[Path]:
     floors = {
         str(v): noise_floor([r for r in retests if r.get("variant") == v])["free_energy"]
         for v in {r.get("variant") for r in retests}
     }
     written = make_report(
-        folder, out_dir=target, n_boot=n_boot, seed=seed, noise_floor=floors or None
+        folder,
+        out_dir=target,
+        n_boot=n_boot,
+        seed=seed,
+        interval=interval,
+        noise_floor=floors or None,
     )
-    written += make_retest_report(retests, target, n_boot=n_boot, seed=seed)
+    written += make_retest_report(retests, target, n_boot=n_boot, seed=seed, interval=interval)
     try:
         config = suite_of_manifest(read_manifest(folder))
     except (FileNotFoundError, ValueError, TypeError):
@@ -935,5 +975,5 @@ def _suite_report(
     table = designs_table(designs)
     written += _write_table(target, "designs", table, _designs_markdown(table))
     for figure in config.figures:
-        written += _FIGURES[figure](designs, config, target, seed)
+        written += _FIGURES[figure](designs, config, target, seed, interval)
     return written
