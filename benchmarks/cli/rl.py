@@ -43,7 +43,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         "its report: the same as tooldesign bench rl, with the default size smoke.",
     )
     suite.add_argument(
-        "--size", default=None, help="smoke (default, CI), short (docs/rl.md) or full (the issue's)"
+        "--size",
+        default=None,
+        help="smoke (default, CI), short (docs/rl.md) or full (docs/rl.md's committed results)",
     )
     suite.add_argument("--out", type=out_path, required=True, metavar="DIR", help="run folder")
     suite.add_argument(

@@ -244,7 +244,7 @@ SIZES: dict[str, SuiteSize] = {
         budgets=(50, 100, 200),
     ),
 }
-"""The sizes of the suite: ``smoke`` (CI), ``short`` (docs/rl.md), ``full`` (the issue's)."""
+"""The sizes of the suite: ``smoke`` (CI), ``short``, ``full`` (docs/rl.md's results)."""
 
 
 def held_out_budgets(size: SuiteSize) -> tuple[int, ...]:
@@ -443,7 +443,7 @@ def rl_suite_config(
     """The configuration of a run of the rl suite, checked.
 
     Args:
-        size: ``"smoke"`` (CI), ``"short"`` (docs/rl.md), ``"full"`` (the issue's), or a
+        size: ``"smoke"`` (CI), ``"short"`` (docs/rl.md), ``"full"`` (docs/rl.md's results), or a
             :class:`SuiteSize`.
         seeds: seeds of the fixed-goal part instead of the size's, 1 to 10,000 (as a suite's
             ``n_seeds``).
