@@ -254,8 +254,10 @@ def test_percent_cell_and_the_reproduction_floor_row() -> None:
     assert "nan" not in row and "0.2 (n/a)" in row and "(5.00 %)" in row
 
 
-def _by_goal(values: dict[int, float]) -> pd.DataFrame:
-    return pd.DataFrame({"goal_key": list(values), "robustness": list(values.values())})
+def _by_goal(values: dict[int, float], optimizer: str = "cmaes") -> pd.DataFrame:
+    return pd.DataFrame(
+        {"goal_key": list(values), "optimizer": optimizer, "robustness": list(values.values())}
+    )
 
 
 def test_a_difference_with_one_shared_goal_has_no_interval() -> None:
@@ -282,3 +284,8 @@ def test_the_difference_is_paired_by_goal() -> None:
     assert 0.9 < low < diff < high < 1.1  # unpaired, the interval would span about +-60
     with pytest.raises(pd.errors.MergeError):  # a goal twice on a side is not a pairing
         _paired_difference(pd.concat([a, a]), b, "robustness")
+    # Two optimizers on the same goals: each design is paired with its own optimizer's.
+    both_a = pd.concat([a, _by_goal({g: hard[g] + 3.0 for g in goals}, "pso")])
+    both_b = pd.concat([b, _by_goal({g: hard[g] for g in goals}, "pso")])
+    diff, low, high, n = _paired_difference(both_a, both_b, "robustness")
+    assert n == 19 and diff == pytest.approx((9 * 1.01 + 10 * 3.0) / 19, abs=0.01)

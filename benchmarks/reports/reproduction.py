@@ -85,12 +85,14 @@ def _paired_difference(
     """Mean over shared goals of a's metric minus b's, with a 95 % paired t interval.
 
     The objectives of the robustness suite are run on the same goals, so each goal gives one
-    paired difference; a goal that either side lacks (a design that failed its retest, a
-    missing metric) is left out of both. Returns ``(mean, low, high, n)`` with n the goals
-    paired; fewer than 2 give no interval (NaN bounds), no spread gives a zero-width one.
+    paired difference (per optimizer, when a suite has several: their designs are not repeats
+    of one another); a goal that either side lacks (a design that failed its retest, a missing
+    metric) is left out of both. Returns ``(mean, low, high, n)`` with n the pairs; fewer than
+    2 give no interval (NaN bounds), no spread gives a zero-width one.
     """
-    pairs = a[["goal_key", metric]].merge(
-        b[["goal_key", metric]], on="goal_key", suffixes=("_a", "_b"), validate="one_to_one"
+    keys = ["goal_key", "optimizer"]
+    pairs = a[[*keys, metric]].merge(
+        b[[*keys, metric]], on=keys, suffixes=("_a", "_b"), validate="one_to_one"
     )
     d = (pairs[f"{metric}_a"] - pairs[f"{metric}_b"]).to_numpy(dtype=np.float64)
     d = d[np.isfinite(d)]
@@ -269,10 +271,11 @@ def _design_stress(retests: Sequence[Mapping[str, Any]]) -> pd.DataFrame:
                     "label": retest.get("label") or "",
                     "goal_precision": float(retest["goal_precision"]),
                     "goal_key": tuple(round(float(v), 9) for v in retest["goal"]),
+                    "optimizer": str(retest.get("optimizer")),
                     **{m: means[m] for m in STRESS_COLUMNS},
                 }
             )
-    columns = ["variant", "label", "goal_precision", "goal_key", *STRESS_COLUMNS]
+    columns = ["variant", "label", "goal_precision", "goal_key", "optimizer", *STRESS_COLUMNS]
     return pd.DataFrame(rows, columns=columns)
 
 
