@@ -32,7 +32,7 @@ from benchmarks.storage import (
     retest_path,
     write_retest,
 )
-from benchmarks.storage.session import HEARTBEAT
+from benchmarks.storage.session import HEARTBEAT, RunSession
 from benchmarks.suites import load_suite
 from benchmarks.suites.runner import run_suite
 
@@ -298,6 +298,10 @@ def _set_session(field: str, value: object) -> Callable[[dict], None]:
         (_set_session("start_time", "x"), r"'extra.sessions\[0\].start_time'"),
         (lambda m: m["extra"].update({FILE_CHECKSUMS: [1]}), "'extra.file_sha256'"),
         (lambda m: m["extra"].update({FILE_CHECKSUMS: {"a": "0"}}), "'extra.file_sha256'"),
+        (lambda m: m.update(config=None), "'config'"),
+        (lambda m: m.update(config=[1, 2]), "'config'"),
+        (lambda m: m.pop("config"), "'config'"),
+        (lambda m: m.update(extra=5), "'extra'"),
     ],
     ids=[
         "start-missing",
@@ -311,6 +315,10 @@ def _set_session(field: str, value: object) -> Callable[[dict], None]:
         "session-start",
         "files-list",
         "files-bad-digest",
+        "config-null",
+        "config-list",
+        "config-missing",
+        "extra-int",
     ],
 )
 def test_a_malformed_manifest_is_refused_naming_the_field(
@@ -321,6 +329,23 @@ def test_a_malformed_manifest_is_refused_naming_the_field(
     with pytest.raises(ResumeError, match=f"manifest.json: field {field} (must be|holds)"):
         resume(config_file, run)
     assert snapshot(run) == before
+
+
+def test_a_design_folder_without_a_config_is_not_called_a_folder_of_another_kind(
+    tmp_path: Path,
+) -> None:
+    """Audit item 8: "X is a design run folder (...), not a design run folder"."""
+    out = tmp_path / "run"
+    RunSession(out, kind="design", config={"seed": 0}, resume=False).finish(None)
+    edit_manifest(out, lambda m: m.update(config=None))
+    before = snapshot(out)
+    with pytest.raises(ResumeError) as caught:
+        RunSession(out, kind="design", config={"seed": 0}, resume=True)
+    message = str(caught.value)
+    assert "manifest.json: field 'config' must be a JSON object" in message
+    assert "got null" in message
+    assert "not a design run folder" not in message
+    assert snapshot(out) == before
 
 
 def test_a_manifest_that_is_not_utf8_is_refused_naming_it(config_file: Path, run: Path) -> None:

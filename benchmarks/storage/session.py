@@ -318,15 +318,27 @@ class RunSession:
                 f"{MANIFEST_VERSION}); start a new run folder"
             )
         old, extra = manifest.get("config"), manifest.get("extra")
-        if (
-            not isinstance(old, dict)
-            or not isinstance(extra, dict)
-            or extra.get("kind") != self.kind
-        ):
+        where = out / MANIFEST_NAME
+        if "extra" in manifest and not isinstance(extra, dict):
+            raise ResumeError(
+                f"cannot resume: {where}: field 'extra' must be a JSON object (the run's kind, "
+                f"sessions and checksums), got {_json_kind(extra)}; the manifest was edited or "
+                "damaged: restore it or start a new run folder"
+            )
+        if not isinstance(extra, dict) or extra.get("kind") != self.kind:
             kind = extra.get("kind") if isinstance(extra, dict) else None
             raise ResumeError(
                 f"cannot resume: {out} is {_kind_words(kind)}, not a {self.kind} run folder (a "
                 "run of another kind); choose another folder"
+            )
+        # Checked apart from the kind: a folder of the right kind whose config was edited away
+        # must not be called a folder of another kind (it would name its own kind twice).
+        if not isinstance(old, dict):
+            got = _json_kind(old) if "config" in manifest else "nothing"
+            raise ResumeError(
+                f"cannot resume: {where}: field 'config' must be a JSON object of the run's "
+                f"settings, got {got}; the manifest was edited or damaged: restore it or start "
+                "a new run folder"
             )
         self._verify_parts(extra)
         old = with_added_fields(old, self._added)
@@ -611,3 +623,11 @@ def _kind_words(kind: object) -> str:
     if kind in _KIND_COMMANDS:
         return f"a {kind} run folder (continue it with `{_KIND_COMMANDS[str(kind)]}`)"
     return f"a run folder of kind {kind!r}" if kind is not None else "a run folder of unknown kind"
+
+
+def _json_kind(value: object) -> str:
+    """What a JSON value is, in the words of a message: ``null``, ``a list``, ``an int``, ..."""
+    if value is None:
+        return "null"
+    name = type(value).__name__
+    return f"{'an' if name[0] in 'aeiou' else 'a'} {name} ({value!r:.40})"
