@@ -251,6 +251,11 @@ def _folder_bytes(folder: Path) -> dict[str, bytes]:
         ("extra parts", "does not record"),
         ("no checksums", "records no part checksums"),
         ("old version", "incompatible version"),
+        # Shared without parts/: the consolidated table is then the only copy of the log, so
+        # it is original data, not rebuilt (the parts the manifest lists are missing, or, with
+        # their record removed too, the table itself is named).
+        ("table without parts", "iteration=000000.csv is listed in the manifest but missing"),
+        ("table without recorded parts", "evaluations.csv has changed since it was written"),
     ],
 )
 def test_resume_refuses_a_tampered_folder_and_changes_nothing(
@@ -276,6 +281,12 @@ def test_resume_refuses_a_tampered_folder_and_changes_nothing(
             other.write_bytes(part.read_bytes())
     elif tamper == "no checksums":
         del manifest["extra"][PART_CHECKSUMS]
+    elif tamper.startswith("table without"):
+        shutil.rmtree(store.parts_dir)
+        table = out / FILES["evaluations"]
+        table.write_bytes(table.read_bytes()[:100])
+        if tamper == "table without recorded parts":
+            manifest["extra"][PART_CHECKSUMS] = {}
     else:
         manifest["format_version"] = 0
     (out / "manifest.json").write_text(json.dumps(manifest))
@@ -283,6 +294,31 @@ def test_resume_refuses_a_tampered_folder_and_changes_nothing(
     with pytest.raises(ResumeError, match=match):
         run_design(CONFIG, out, resume=True, progress=False)
     assert _folder_bytes(out) == before
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("damage", ["truncate", "delete"])
+def test_resume_rebuilds_a_damaged_table_from_intact_parts(
+    reference, tmp_path: Path, damage: str
+) -> None:
+    """Audit item 3: evaluations.csv is derived from the checksummed parts; it must not block."""
+    ref, _ = reference
+    out = tmp_path / "damaged"
+    shutil.copytree(ref, out)
+    table = out / FILES["evaluations"]
+    if damage == "truncate":
+        table.write_bytes(table.read_bytes()[:100])
+    else:
+        table.unlink()
+    parts = {k: v for k, v in _folder_bytes(out).items() if k.startswith("parts")}
+    message = "had changed since it was written" if damage == "truncate" else "was missing"
+    with pytest.warns(RuntimeWarning, match=f"evaluations.csv {message}; rebuilt as "):
+        run_design(CONFIG, out, resume=True, progress=False)
+    assert table.read_bytes() == (ref / FILES["evaluations"]).read_bytes()
+    assert {k: v for k, v in _folder_bytes(out).items() if k.startswith("parts")} == parts
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["extra"]["file_sha256"]["evaluations.csv"] == file_sha256(table)
+    _compare_runs(ref, out)
 
 
 def test_resume_refuses_other_settings_and_foreign_folders(tmp_path: Path) -> None:

@@ -6,12 +6,28 @@ import matplotlib
 
 matplotlib.use("Agg")
 
+import json
+import shutil
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
+import pytest
 from matplotlib.colors import to_rgba
 
+from benchmarks.cli import main
+from benchmarks.design import DesignConfig, run_design
+from benchmarks.design import loop as design_loop
 from benchmarks.reports import plots
-from benchmarks.reports.design_figures import _panel_curves, _panel_free_energy, _panel_paths
+from benchmarks.reports.design_figures import (
+    _panel_curves,
+    _panel_free_energy,
+    _panel_paths,
+    read_design_run,
+    write_design_report,
+)
+from benchmarks.storage import DESIGN_RUN_FILES
 from tooldesign_env import ToolSpec
 
 RED = to_rgba("red")
@@ -66,3 +82,152 @@ def test_free_energy_axis_shows_every_evaluation_even_an_outlier():
     low, high = ax.get_ylim()
     assert low <= evaluations["free_energy"].min() and high >= 20000.0
     assert ax.get_yscale() == "symlog"
+
+
+# --- a damaged design run folder: one error naming the file and the field, nothing written ------
+
+PATH = np.linspace([1.2, 0.7, 0.1], [0.0, 1.2, 0.1], 5)
+
+
+def _fake_rows(executor, designs, task, **kwargs):
+    """A fake evaluator (F = |C|^2 - 1): the report needs stored files, not the physics."""
+    rows = []
+    for coeffs in np.asarray(designs, dtype=float):
+        energy = float(np.sum(coeffs**2)) - 1.0
+        rows.append(
+            {
+                "free_energy": energy,
+                "goal_error": energy + 1.0,
+                "confidence": 1.0,
+                "final_distance": 0.5,
+                "eval_time": 0.001,
+                "message": "",
+                "status": "ok",
+                **({"box_trajectory": PATH} if kwargs.get("keep_trajectory") else {}),
+            }
+        )
+    return rows
+
+
+def _fake_robustness(executor, fn, requests):
+    masses = list(requests[0].masses)
+    result = {"robustness": -1.0, "accuracy": -2.0, "control_deviation": 3.0}
+    result.update(nominal_mass=0.1, masses=masses, nominal_box_trajectory=PATH)
+    return [({**result, "box_trajectories": [PATH] * len(masses)}, None, 0.0)]
+
+
+@pytest.fixture(scope="module")
+def design_run(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
+    out = tmp_path_factory.mktemp("design-report") / "run"
+    config = DesignConfig(optimizer="random", seed=0, iterations=2, batch_size=3, executor="serial")
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(design_loop, "evaluate_batch", _fake_rows)
+        patch.setattr(design_loop, "map_robust", _fake_robustness)
+        run_design(config, out, progress=False)
+    yield out
+
+
+def _edit_json(name: str, edit: Callable[[dict], None]) -> Callable[[Path], None]:
+    def apply(folder: Path) -> None:
+        path = folder / name
+        data = json.loads(path.read_text(encoding="utf-8"))
+        edit(data)
+        path.write_text(json.dumps(data), encoding="utf-8")
+
+    return apply
+
+
+def _write(name: str, content: bytes) -> Callable[[Path], None]:
+    return lambda folder: (folder / name).write_bytes(content)
+
+
+def _truncate(name: str) -> Callable[[Path], None]:
+    return lambda folder: (folder / name).write_bytes((folder / name).read_bytes()[:50])
+
+
+def _config(edit: Callable[[dict], None]) -> Callable[[dict], None]:
+    return lambda manifest: edit(manifest["config"])
+
+
+DAMAGES = {
+    "card-empty": (_write("design.json", b"{}"), r"design\.json: field 'coefficients'"),
+    "card-truncated": (_truncate("design.json"), r"design\.json: not a valid design card"),
+    "card-not-utf8": (_write("design.json", b"\xff\xfe{}"), r"design\.json: .*not UTF-8"),
+    "card-nan": (
+        _write("design.json", b'{"coefficients": [NaN, 0, 0], "free_energy": 1}'),
+        r"design\.json: .*NaN",
+    ),
+    "card-degree": (
+        _edit_json("design.json", lambda d: d.update(coefficients=[0.1, 0.2])),
+        r"design\.json: field 'coefficients' must hold 3 numbers",
+    ),
+    "paths-empty": (_write("box_paths.json", b"{}"), r"box_paths\.json: field 'iterations'"),
+    "paths-short": (
+        _edit_json("box_paths.json", lambda d: d["iteration_bests"].pop()),
+        r"box_paths\.json: field 'iteration_bests' must hold one path per iteration",
+    ),
+    "paths-point": (
+        _edit_json("box_paths.json", lambda d: d["nominal"].append([1, "x"])),
+        r"box_paths\.json: field 'nominal\[5\]' must be a point",
+    ),
+    "robustness-empty": (
+        _write("robustness.json", b"{}"),
+        r"robustness\.json: field 'robustness' must be a finite number, got nothing",
+    ),
+    "robustness-list": (
+        _write("robustness.json", b"[]"),
+        r"robustness\.json: not a valid robustness file: it must hold a JSON object, got list",
+    ),
+    "config-goal-int": (
+        _edit_json("manifest.json", _config(lambda c: c.update(goal=5))),
+        r"manifest\.json: field 'config\.goal' must be a list of 3 finite numbers",
+    ),
+    "config-goal-nan": (
+        _edit_json("manifest.json", _config(lambda c: c.update(goal=[float("nan"), 1.5, 0.1]))),
+        r"manifest\.json: field 'config\.goal'",
+    ),
+    "config-null": (
+        _edit_json("manifest.json", lambda m: m.update(config=None)),
+        r"manifest\.json: field 'config' must be a JSON object .*, got null",
+    ),
+    "config-bounds": (
+        _edit_json("manifest.json", _config(lambda c: c.update(bounds=[[0, "a"]]))),
+        r"manifest\.json: field 'config\.bounds'",
+    ),
+}
+
+
+def _snapshot(folder: Path) -> dict[Path, bytes]:
+    return {p: p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def test_an_intact_design_run_is_reported(design_run: Path, tmp_path: Path) -> None:
+    folder = tmp_path / "run"
+    shutil.copytree(design_run, folder)
+    assert main(["report", str(folder)]) == 0
+    assert (folder / DESIGN_RUN_FILES["fig3"]).is_file()
+    assert read_design_run(folder).spec.degree == 3
+
+
+@pytest.mark.parametrize(("damage", "message"), DAMAGES.values(), ids=DAMAGES.keys())
+def test_a_damaged_design_run_is_refused_naming_the_file_and_field_before_any_write(
+    design_run: Path,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    damage: Callable[[Path], None],
+    message: str,
+) -> None:
+    """Audit item 4: no KeyError traceback, no error without a file, no half-written report."""
+    folder = tmp_path / "run"
+    shutil.copytree(design_run, folder)
+    damage(folder)
+    before = _snapshot(folder)
+    with pytest.raises(ValueError, match=message):
+        write_design_report(folder)
+    capsys.readouterr()
+    with pytest.raises(SystemExit) as caught:
+        main(["report", str(folder)])
+    assert caught.value.code == 2
+    err = capsys.readouterr().err
+    assert err.startswith("tooldesign report: error: ") and err.count("\n") == 1, err
+    assert _snapshot(folder) == before  # not even the generic report/ was written

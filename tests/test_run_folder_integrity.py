@@ -32,7 +32,7 @@ from benchmarks.storage import (
     retest_path,
     write_retest,
 )
-from benchmarks.storage.session import HEARTBEAT
+from benchmarks.storage.session import HEARTBEAT, RunSession
 from benchmarks.suites import load_suite
 from benchmarks.suites.runner import run_suite
 
@@ -249,6 +249,52 @@ def test_an_edited_consolidated_file_is_refused_without_parts(run: Path) -> None
     assert snapshot(run) == before
 
 
+@pytest.mark.parametrize("damage", ["truncate", "delete"])
+def test_resume_rebuilds_a_damaged_consolidated_file_from_intact_parts(
+    config_file: Path, run: Path, damage: str
+) -> None:
+    """Audit item 3: the table is derived from the checksummed parts; it must not block."""
+    path = run / "evaluations.parquet"
+    before = ResultStore(run).read()
+    if damage == "truncate":
+        path.write_bytes(path.read_bytes()[:100])
+    else:
+        path.unlink()
+    designs = {p: p.read_bytes() for p in (run / DESIGNS_DIR).rglob("*.json")}
+    with pytest.warns(RuntimeWarning, match=r"evaluations\.parquet .*; rebuilt as .* part files"):
+        resume(config_file, run)
+    pd.testing.assert_frame_equal(pd.read_parquet(path), before)
+    assert read_manifest(run)["extra"][FILE_CHECKSUMS]["evaluations.parquet"] == file_sha256(path)
+    assert {p: p.read_bytes() for p in designs} == designs  # original data left as it was
+
+
+def test_resume_refuses_a_damaged_consolidated_file_that_is_the_only_copy(
+    config_file: Path, run: Path
+) -> None:
+    """Without parts (a folder shared without them), the table is original data: refused."""
+    shutil.rmtree(run / "parts")
+    edit_manifest(run, lambda m: m["extra"].update({PART_CHECKSUMS: {}}))
+    path = run / "evaluations.parquet"
+    path.write_bytes(path.read_bytes()[:100])
+    before = snapshot(run)
+    with pytest.raises(ResumeError, match="evaluations.parquet has changed since it was written"):
+        resume(config_file, run)
+    assert snapshot(run) == before
+
+
+def test_resume_refuses_a_damaged_design_file_although_the_table_is_rebuilt(
+    config_file: Path, run: Path
+) -> None:
+    """A suite's design files are original data (a finished run is not run again)."""
+    (run / "evaluations.parquet").unlink()
+    design = design_file(run)
+    design.write_bytes(design.read_bytes()[:-5])
+    before = snapshot(run)
+    with pytest.raises(ResumeError, match=f"{design.name} has changed"):
+        resume(config_file, run)
+    assert snapshot(run) == before
+
+
 def test_two_unrecorded_parts_are_refused_by_report(run: Path) -> None:
     edit_manifest(run, lambda m: m["extra"].update({PART_CHECKSUMS: {}}))
     with pytest.raises(ValueError, match="does not record"):
@@ -298,6 +344,10 @@ def _set_session(field: str, value: object) -> Callable[[dict], None]:
         (_set_session("start_time", "x"), r"'extra.sessions\[0\].start_time'"),
         (lambda m: m["extra"].update({FILE_CHECKSUMS: [1]}), "'extra.file_sha256'"),
         (lambda m: m["extra"].update({FILE_CHECKSUMS: {"a": "0"}}), "'extra.file_sha256'"),
+        (lambda m: m.update(config=None), "'config'"),
+        (lambda m: m.update(config=[1, 2]), "'config'"),
+        (lambda m: m.pop("config"), "'config'"),
+        (lambda m: m.update(extra=5), "'extra'"),
     ],
     ids=[
         "start-missing",
@@ -311,6 +361,10 @@ def _set_session(field: str, value: object) -> Callable[[dict], None]:
         "session-start",
         "files-list",
         "files-bad-digest",
+        "config-null",
+        "config-list",
+        "config-missing",
+        "extra-int",
     ],
 )
 def test_a_malformed_manifest_is_refused_naming_the_field(
@@ -321,6 +375,23 @@ def test_a_malformed_manifest_is_refused_naming_the_field(
     with pytest.raises(ResumeError, match=f"manifest.json: field {field} (must be|holds)"):
         resume(config_file, run)
     assert snapshot(run) == before
+
+
+def test_a_design_folder_without_a_config_is_not_called_a_folder_of_another_kind(
+    tmp_path: Path,
+) -> None:
+    """Audit item 8: "X is a design run folder (...), not a design run folder"."""
+    out = tmp_path / "run"
+    RunSession(out, kind="design", config={"seed": 0}, resume=False).finish(None)
+    edit_manifest(out, lambda m: m.update(config=None))
+    before = snapshot(out)
+    with pytest.raises(ResumeError) as caught:
+        RunSession(out, kind="design", config={"seed": 0}, resume=True)
+    message = str(caught.value)
+    assert "manifest.json: field 'config' must be a JSON object" in message
+    assert "got null" in message
+    assert "not a design run folder" not in message
+    assert snapshot(out) == before
 
 
 def test_a_manifest_that_is_not_utf8_is_refused_naming_it(config_file: Path, run: Path) -> None:

@@ -30,12 +30,19 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 def _run(args: argparse.Namespace) -> int:
     from benchmarks.reports import make_suite_report, write_design_report, write_html_report
+    from benchmarks.reports.design_figures import read_design_run
     from benchmarks.reports.html import REPORT_FILE
 
+    design = _is_design_folder(args.run_folder)
+    if design and args.out is None:
+        # Every file the design figures read is checked before the first report file is
+        # written: a damaged design.json must not leave the generic report rebuilt and the
+        # figures stale beside it.
+        read_design_run(args.run_folder)
     files = make_suite_report(args.run_folder, out_dir=args.out)
     folder = files[0].parent if files else args.run_folder
     print(f"{len(files)} report files written to {folder}")
-    if _is_design_folder(args.run_folder):
+    if design:
         if args.out is None:
             # Figure 3 and the robustness plot live in the run folder itself; drawn again, with
             # report.html embedding them.

@@ -8,7 +8,7 @@ panels of the paper's Figure 3 (``fig3a``-``fig3d`` and ``figure3.png``), ``robu
 
 from __future__ import annotations
 
-import json
+import dataclasses
 import math
 import os
 from collections.abc import Callable, Sequence
@@ -21,10 +21,16 @@ import pandas as pd
 from benchmarks.design.stepper import iteration_bests
 from benchmarks.reports import plots
 from benchmarks.reports.html import write_html_report
-from benchmarks.storage import DESIGN_RUN_FILES, ResultStore, read_manifest
+from benchmarks.storage import (
+    DESIGN_RUN_FILES,
+    MANIFEST_NAME,
+    ResultStore,
+    read_design_run_files,
+    read_manifest,
+)
 from tooldesign_env.schema import coefficient_columns
 
-__all__ = ["write_design_report"]
+__all__ = ["DesignRun", "read_design_run", "write_design_report"]
 
 
 def _iteration_colorbar(ax: Any, iterations: Sequence[int]) -> None:
@@ -119,7 +125,7 @@ def _panel_paths(
     ax.set_title("c) box paths of the best tools (top view)")
 
 
-def _panel_tool(ax: Any, coeffs: np.ndarray, free_energy: float, spec: Any) -> None:
+def _panel_tool(ax: Any, coeffs: np.ndarray, free_energy: float | None, spec: Any) -> None:
     from matplotlib.patches import Circle, Polygon
 
     from tooldesign_env import make_tool
@@ -141,11 +147,132 @@ def _panel_tool(ax: Any, coeffs: np.ndarray, free_energy: float, spec: Any) -> N
             ax.add_patch(Circle(tuple(end), capsule.radius, **style))
     plots.plot_tool_shapes(ax, [coeffs], colors=["black"], linewidth=0.8, spec=spec)
     text = ", ".join(f"{v:.3g}" for v in coeffs)
-    ax.set_title(f"d) final tool: C = ({text}), F = {float(free_energy):.4g}")
+    energy = "n/a" if free_energy is None else f"{float(free_energy):.4g}"
+    ax.set_title(f"d) final tool: C = ({text}), F = {energy}")
+
+
+@dataclasses.dataclass(frozen=True)
+class DesignRun:
+    """What the report of a design run draws, read from its folder and checked.
+
+    Attributes:
+        folder: The run folder.
+        goal: X^g in m, from the manifest's config.
+        spec: The tool's ``ToolSpec`` (degree and section), from the manifest's config.
+        evaluations: The evaluation log (``ResultStore.read``).
+        card: ``design.json``.
+        robustness: ``robustness.json``.
+        box_paths: ``box_paths.json``.
+    """
+
+    folder: Path
+    goal: tuple[float, float, float]
+    spec: Any
+    evaluations: pd.DataFrame
+    card: dict[str, Any]
+    robustness: dict[str, Any]
+    box_paths: dict[str, Any]
+
+
+def _finite(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def _config_fields(folder: Path) -> tuple[tuple[float, float, float], Any]:
+    """The goal and the ``ToolSpec`` a design run's manifest records; ValueError naming a field."""
+    from benchmarks.design.config import check_section_shape
+    from tooldesign_env import ToolSpec
+
+    where = folder / MANIFEST_NAME
+    manifest = read_manifest(folder)
+
+    def bad(field: str, allowed: str, value: Any, present: bool = True) -> ValueError:
+        got = ("null" if value is None else repr(value)) if present else "nothing"
+        got = got if len(got) <= 80 else got[:77] + "..."
+        return ValueError(f"{where}: field {field!r} must be {allowed}, got {got}")
+
+    config = manifest.get("config")
+    if not isinstance(config, dict):
+        raise bad("config", "a JSON object of the run's settings", config, "config" in manifest)
+    goal = config.get("goal")
+    if not (isinstance(goal, list) and len(goal) == 3 and all(_finite(v) for v in goal)):
+        raise bad("config.goal", "a list of 3 finite numbers (m)", goal, "goal" in config)
+    bounds = config.get("bounds")
+    if not (
+        isinstance(bounds, list)
+        and bounds
+        and all(isinstance(b, list) and len(b) == 2 and all(_finite(v) for v in b) for b in bounds)
+    ):
+        raise bad(
+            "config.bounds",
+            "a list of [low, high] pairs of finite numbers, one per coefficient",
+            bounds,
+            "bounds" in config,
+        )
+    # Runs stored before the section could be chosen have a square one.
+    shape = config.get("section_shape", "square")
+    try:
+        check_section_shape(shape)
+    except ValueError as error:
+        raise ValueError(f"{where}: field 'config.section_shape': {error}") from None
+    try:
+        spec = ToolSpec(degree=len(bounds), section_shape=shape)
+    except (TypeError, ValueError) as error:  # more coefficients than a tool can have
+        raise ValueError(f"{where}: field 'config.bounds': {error}") from None
+    return (float(goal[0]), float(goal[1]), float(goal[2])), spec
+
+
+def read_design_run(run_folder: str | os.PathLike[str]) -> DesignRun:
+    """Read and check everything :func:`write_design_report` draws, writing nothing.
+
+    ``tooldesign report`` calls it before it writes any report file, so a damaged folder is
+    refused whole rather than half redrawn.
+
+    Args:
+        run_folder: A finished ``tooldesign design`` run folder.
+
+    Returns:
+        The checked contents.
+
+    Raises:
+        FileNotFoundError: If a file the figures need is missing (the run is not finished).
+        ValueError: If the manifest's config, the evaluation log, ``design.json``,
+            ``robustness.json`` or ``box_paths.json`` is damaged, differs from its recorded
+            checksum or does not fit the others; the message names the file and the field.
+    """
+    out = Path(run_folder)
+    files = read_design_run_files(out)  # first: a missing file says the run is not finished
+    goal, spec = _config_fields(out)
+    evaluations = ResultStore(out).read()
+    card, robustness, box_paths = files["card"], files["robustness"], files["box_paths"]
+    if len(card["coefficients"]) != spec.degree:
+        raise ValueError(
+            f"{out / DESIGN_RUN_FILES['card']}: field 'coefficients' must hold {spec.degree} "
+            f"numbers (the degree of the manifest's config.bounds), got "
+            f"{len(card['coefficients'])}"
+        )
+    iterations = [int(i) for i in iteration_bests(evaluations)["iteration"]]
+    if box_paths["iterations"] != iterations:
+        raise ValueError(
+            f"{out / DESIGN_RUN_FILES['box_paths']}: field 'iterations' must be the iterations "
+            f"of the evaluation log that have a best design, {iterations}, got "
+            f"{box_paths['iterations']}"
+        )
+    return DesignRun(
+        folder=out,
+        goal=goal,
+        spec=spec,
+        evaluations=evaluations,
+        card=card,
+        robustness=robustness,
+        box_paths=box_paths,
+    )
 
 
 def write_design_report(run_folder: str | os.PathLike[str]) -> list[Path]:
     """Draw the figures and ``report.html`` of a design run folder from its stored files.
+
+    Everything is read and checked (:func:`read_design_run`) before the first file is written.
 
     Args:
         run_folder: A finished ``tooldesign design`` run folder.
@@ -155,26 +282,13 @@ def write_design_report(run_folder: str | os.PathLike[str]) -> list[Path]:
 
     Raises:
         FileNotFoundError: If a file the figures need is missing (the run is not finished).
+        ValueError: If a file is damaged; the message names the file and the field.
     """
-    from tooldesign_env import ToolSpec
-
-    out = Path(run_folder)
-    for key in ("card", "robustness", "box_paths"):
-        if not (out / DESIGN_RUN_FILES[key]).is_file():
-            raise FileNotFoundError(
-                f"{out / DESIGN_RUN_FILES[key]} is missing: {out} is not a finished design run"
-            )
-    config = read_manifest(out)["config"]
-    goal = tuple(float(v) for v in config["goal"])
-    degree = len(config["bounds"])
-    # Runs stored before the section could be chosen have a square one.
-    spec = ToolSpec(degree=degree, section_shape=config.get("section_shape", "square"))
-    evaluations = ResultStore(out).read()
-    card = json.loads((out / DESIGN_RUN_FILES["card"]).read_text(encoding="utf-8"))
-    robustness = json.loads((out / DESIGN_RUN_FILES["robustness"]).read_text(encoding="utf-8"))
-    stored = json.loads((out / DESIGN_RUN_FILES["box_paths"]).read_text(encoding="utf-8"))
+    run = read_design_run(run_folder)
+    out, goal, spec, evaluations = run.folder, run.goal, run.spec, run.evaluations
+    card, robustness, stored = run.card, run.robustness, run.box_paths
     bests = iteration_bests(evaluations)
-    columns = coefficient_columns(degree)
+    columns = coefficient_columns(spec.degree)
     designs = [row[columns].to_numpy(dtype=np.float64) for _, row in bests.iterrows()]
     paths = [np.asarray(x, dtype=np.float64).reshape(-1, 3) for x in stored["iteration_bests"]]
     coeffs = np.asarray(card["coefficients"], dtype=np.float64)
@@ -206,7 +320,10 @@ def write_design_report(run_folder: str | os.PathLike[str]) -> list[Path]:
         colors = ["black", *plots.sequential_colors(len(masses), "plasma")]
         names = [f"m = {stored['nominal_mass']:g} kg (nominal)"]
         names += [f"m = {m:g} kg" for m in masses]
-        trajectories = [np.asarray(x) for x in [stored["nominal"], *stored["perturbed"]]]
+        trajectories = [
+            np.asarray(x, dtype=np.float64).reshape(-1, 3)
+            for x in [stored["nominal"], *stored["perturbed"]]
+        ]
         plots.plot_box_paths(ax, trajectories, goal, names, colors=colors)
         ax.set_title(
             f"robustness {robustness['robustness']:.4g} under box-mass changes\n"

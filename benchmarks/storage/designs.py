@@ -21,7 +21,7 @@ import json
 import math
 import os
 import urllib.parse
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -47,6 +47,7 @@ __all__ = [
     "DESIGN_VERSION",
     "design_path",
     "paths_path",
+    "read_design_run_files",
     "read_designs",
 ]
 
@@ -106,16 +107,24 @@ def paths_path(design_file: str | os.PathLike[str]) -> Path:
 
 
 class _Files:
-    """The checksums the manifest of a run folder records for the files below ``under``."""
+    """The checksums the manifest of a run folder records for some of its files.
 
-    def __init__(self, run_folder: Path, under: str) -> None:
+    Args:
+        run_folder: The run folder.
+        under: A folder (the files below it) or the names of files directly in the run folder.
+    """
+
+    def __init__(self, run_folder: Path, under: str | Collection[str]) -> None:
         self.folder = run_folder
         self.recorded: dict[str, str] = {}
         manifest = run_folder / MANIFEST_NAME
         if manifest.is_file():
             listed = recorded_checksums(read_manifest(run_folder), FILE_CHECKSUMS, manifest)
-            prefix = under + "/"
-            self.recorded = {k: v for k, v in (listed or {}).items() if k.startswith(prefix)}
+            if isinstance(under, str):
+                prefix = under + "/"
+                self.recorded = {k: v for k, v in (listed or {}).items() if k.startswith(prefix)}
+            else:
+                self.recorded = {k: v for k, v in (listed or {}).items() if k in under}
         # Missing and moved files first: a file the manifest lists must be there.
         verify_checksums(run_folder, self.recorded)
 
@@ -253,6 +262,144 @@ def read_designs(run_folder: str | os.PathLike[str]) -> list[dict[str, Any]]:
         records.append(record)
     records.sort(key=lambda r: (r["variant"], r["optimizer"], r["seed"]))
     return records
+
+
+def _kind_of(value: Any) -> str:
+    return "null" if value is None else type(value).__name__
+
+
+def _shown(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
+class _Form:
+    """Checks of one JSON file's fields; each error names the file and the field."""
+
+    def __init__(self, path: Path, record: Any, what: str) -> None:
+        if not isinstance(record, dict):
+            raise ValueError(
+                f"{path}: not a valid {what}: it must hold a JSON object, got {_kind_of(record)}"
+            )
+        self.path, self.record = path, record
+
+    def bad(self, field: str, allowed: str, value: Any) -> ValueError:
+        got = "nothing" if field.split(".")[-1].split("[")[0] not in self.record else _shown(value)
+        return ValueError(f"{self.path}: field {field!r} must be {allowed}, got {got}")
+
+    def number(self, field: str, *, null: bool = False) -> None:
+        value = self.record.get(field)
+        if not (_is_number(value) or (null and value is None and field in self.record)):
+            raise self.bad(field, "a finite number" + (" or null" if null else ""), value)
+
+    def numbers(self, field: str) -> None:
+        value = self.record.get(field)
+        if not (isinstance(value, list) and all(_is_number(v) for v in value)):
+            raise self.bad(field, "a list of finite numbers", value)
+
+    def paths(self, field: str, *, one: bool = False) -> None:
+        """A box path ((T, 3) positions in m, null where not finite), or a list of them."""
+        value = self.record.get(field)
+        items = [value] if one else value
+        allowed = "a box path" if one else "a list of box paths"
+        allowed += " ([[x, y, z], ...] in m)"
+        if not isinstance(items, list):
+            raise self.bad(field, allowed, value)
+        for i, path in enumerate(items):
+            where = field if one else f"{field}[{i}]"
+            if not isinstance(path, list):
+                raise self.bad(where, "a box path ([[x, y, z], ...] in m)", path)
+            for t, point in enumerate(path):
+                if not (
+                    isinstance(point, list)
+                    and len(point) == 3
+                    and all(v is None or _is_number(v) for v in point)
+                ):
+                    raise ValueError(
+                        f"{self.path}: field '{where}[{t}]' must be a point [x, y, z] of finite "
+                        f"numbers (m) or null, got {_shown(point)}"
+                    )
+
+
+def _check_card(form: _Form) -> None:
+    form.numbers("coefficients")
+    if not form.record["coefficients"]:
+        raise form.bad("coefficients", "a non-empty list of finite numbers", [])
+    form.number("free_energy", null=True)
+
+
+def _check_robustness(form: _Form) -> None:
+    error = form.record.get("error", "")
+    if not isinstance(error, str):
+        raise form.bad("error", 'a string ("" if the tool was tested)', error)
+    if not error:
+        form.number("robustness")
+
+
+def _check_box_paths(form: _Form, tested: bool) -> None:
+    iterations = form.record.get("iterations")
+    if not (
+        isinstance(iterations, list)
+        and all(isinstance(i, int) and not isinstance(i, bool) and i >= 0 for i in iterations)
+    ):
+        raise form.bad("iterations", "a list of iterations (integers >= 0)", iterations)
+    form.paths("iteration_bests")
+    if len(form.record["iteration_bests"]) != len(iterations):
+        raise ValueError(
+            f"{form.path}: field 'iteration_bests' must hold one path per iteration of field "
+            f"'iterations' ({len(iterations)}), got {len(form.record['iteration_bests'])}"
+        )
+    if not tested:  # the figures draw the robustness test's paths only when it was run
+        return
+    form.number("nominal_mass")
+    form.numbers("masses")
+    form.paths("nominal", one=True)
+    form.paths("perturbed")
+    if len(form.record["perturbed"]) != len(form.record["masses"]):
+        raise ValueError(
+            f"{form.path}: field 'perturbed' must hold one path per mass of field 'masses' "
+            f"({len(form.record['masses'])}), got {len(form.record['perturbed'])}"
+        )
+
+
+def read_design_run_files(run_folder: str | os.PathLike[str]) -> dict[str, dict[str, Any]]:
+    """``design.json``, ``robustness.json`` and ``box_paths.json`` of a design run, checked.
+
+    Each file is read as the suite's design files are: its SHA-256 is compared with the one
+    the manifest records for it, if any, and it must be UTF-8 JSON (no ``NaN`` literal) of the
+    form the report draws.
+
+    Args:
+        run_folder: A finished ``tooldesign design`` run folder.
+
+    Returns:
+        ``{"card": ..., "robustness": ..., "box_paths": ...}``, the files' JSON objects.
+
+    Raises:
+        TypeError: If ``run_folder`` is not a path.
+        FileNotFoundError: If the folder, or one of the files (the run is not finished), is
+            missing.
+        NotADirectoryError: If ``run_folder`` is a file.
+        ValueError: If a file differs from its recorded checksum, is not UTF-8 JSON, or a field
+            the report reads has the wrong form; the message names the file and the field.
+    """
+    root = _run_folder(run_folder)
+    keys = ("card", "robustness", "box_paths")
+    for key in keys:
+        if not (root / DESIGN_RUN_FILES[key]).is_file():
+            raise FileNotFoundError(
+                f"{root / DESIGN_RUN_FILES[key]} is missing: {root} is not a finished design run"
+            )
+    files = _Files(root, [DESIGN_RUN_FILES[key] for key in keys])
+    what = {"card": "design card", "robustness": "robustness file", "box_paths": "box-path file"}
+    forms = {}
+    for key in keys:
+        path = root / DESIGN_RUN_FILES[key]
+        forms[key] = _Form(path, files.load(path, what[key]), what[key])
+    _check_card(forms["card"])
+    _check_robustness(forms["robustness"])
+    _check_box_paths(forms["box_paths"], tested=not forms["robustness"].record.get("error"))
+    return {key: form.record for key, form in forms.items()}
 
 
 RETEST_DIR = "retest"

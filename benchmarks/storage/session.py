@@ -28,7 +28,11 @@ manifest's own fields the session uses (``start_time``, ``extra.sessions``) must
 code writes; otherwise :class:`ResumeError` names the file and the field. A folder written
 before ``file_sha256`` existed has none: its files are taken as they are, and the writer records
 them from then on. The consolidated table is rewritten at the end of every session, so its
-checksum is dropped when a session starts and recorded again when it finishes.
+checksum is dropped when a session starts and recorded again when it finishes. It is derived
+from the part files: when every part the manifest records is on disk with its checksum, a
+table that is missing or differs is rebuilt from them, with a warning, once every other check
+has passed. Without recorded parts (a folder shared without ``parts/``) it is the only copy of
+the log and is refused like the parts and the design files are.
 
 **Killed sessions keep their time.** The manifest is rewritten after each part, so a session that
 is killed would lose the time since its last part (an interrupted iteration can take minutes).
@@ -73,6 +77,7 @@ from benchmarks.storage.table import (
     ResultStore,
     Unit,
     part_checksums,
+    resolve_format,
     status_counts,
     timing_totals,
 )
@@ -257,6 +262,7 @@ class RunSession:
             self._clock = time.perf_counter()
             self._session: dict[str, Any] = {"start_time": _now().isoformat(), "wall_time": 0.0}
             self._extra: dict[str, Any] = dict(extra or {})
+            self._damaged_tables: list[str] = []  # found by _verify_parts
             previous = self._previous(bool(resume))
             self.resumed = previous is not None
             if previous is None:
@@ -271,12 +277,9 @@ class RunSession:
                 self._checksums = part_checksums(self.store)  # verified in _previous
                 # Verified in _previous too. The consolidated table is rewritten by finish().
                 files = recorded_checksums(previous, FILE_CHECKSUMS, self.out / MANIFEST_NAME)
-                self._files = {
-                    k: v
-                    for k, v in (files or {}).items()
-                    if k.rpartition(".")[0] != CONSOLIDATED_STEM
-                }
+                self._files = {k: v for k, v in (files or {}).items() if not _is_table(k)}
                 self.store.remove_stale_temp_files()  # only this process writes here
+                self._rebuild_tables()
             # The parts of the manifest that do not change within a session (packages, commit,
             # host) are collected once: a manifest is rewritten after every part.
             self._base = build_manifest(config=self.config, start_time=self.start_time)
@@ -318,15 +321,27 @@ class RunSession:
                 f"{MANIFEST_VERSION}); start a new run folder"
             )
         old, extra = manifest.get("config"), manifest.get("extra")
-        if (
-            not isinstance(old, dict)
-            or not isinstance(extra, dict)
-            or extra.get("kind") != self.kind
-        ):
+        where = out / MANIFEST_NAME
+        if "extra" in manifest and not isinstance(extra, dict):
+            raise ResumeError(
+                f"cannot resume: {where}: field 'extra' must be a JSON object (the run's kind, "
+                f"sessions and checksums), got {_json_kind(extra)}; the manifest was edited or "
+                "damaged: restore it or start a new run folder"
+            )
+        if not isinstance(extra, dict) or extra.get("kind") != self.kind:
             kind = extra.get("kind") if isinstance(extra, dict) else None
             raise ResumeError(
                 f"cannot resume: {out} is {_kind_words(kind)}, not a {self.kind} run folder (a "
                 "run of another kind); choose another folder"
+            )
+        # Checked apart from the kind: a folder of the right kind whose config was edited away
+        # must not be called a folder of another kind (it would name its own kind twice).
+        if not isinstance(old, dict):
+            got = _json_kind(old) if "config" in manifest else "nothing"
+            raise ResumeError(
+                f"cannot resume: {where}: field 'config' must be a JSON object of the run's "
+                f"settings, got {got}; the manifest was edited or damaged: restore it or start "
+                "a new run folder"
             )
         self._verify_parts(extra)
         old = with_added_fields(old, self._added)
@@ -431,9 +446,22 @@ class RunSession:
                 f"cannot resume: {manifest} records no part checksums ({PART_CHECKSUMS!r}): it "
                 "was written by an incompatible version or edited"
             )
+        files = dict(files or {})
         try:
             verify_checksums(self.out, recorded)
-            verify_checksums(self.out, files or {})
+            if recorded:
+                # The consolidated table is derived: every part it was made from is on disk with
+                # its recorded checksum (just verified), so a damaged or deleted table is made
+                # again from them (_rebuild_tables) rather than blocking the resume. Without
+                # recorded parts (a folder shared without parts/) the table is the only copy of
+                # the log, and is checked as original data.
+                for relative in [k for k in files if _is_table(k)]:
+                    if (self.out / relative).is_dir():
+                        continue  # not a table to replace: refused below
+                    digest = files.pop(relative)
+                    if not _intact(self.out / relative, digest):
+                        self._damaged_tables.append(relative)
+            verify_checksums(self.out, files)
         except ValueError as error:
             raise ResumeError(f"cannot resume: {error}") from None
         unrecorded = sorted(set(part_checksums(self.store)) - set(recorded))
@@ -442,6 +470,26 @@ class RunSession:
                 f"cannot resume: {self.out} holds part files the manifest does not record: "
                 f"{unrecorded}"
             )
+
+    def _rebuild_tables(self) -> None:
+        """Make the damaged or missing consolidated tables again from the verified part files.
+
+        Called once every check of the folder has passed, so a refused resume still leaves the
+        folder as it was. The table is written in its recorded format (CSV where Parquet is
+        recorded but pyarrow is missing) and the manifest records its new checksum.
+        """
+        for relative in self._damaged_tables:
+            path = self.out / relative
+            what = "was missing" if not path.exists() else "had changed since it was written"
+            parquet = relative.endswith(".parquet") and resolve_format() == "parquet"
+            target = self.store.consolidate(format="parquet" if parquet else "csv")
+            warnings.warn(
+                f"{path} {what}; rebuilt as {target.name} from the part files, whose checksums "
+                "match the manifest",
+                RuntimeWarning,
+                stacklevel=4,
+            )
+        self._damaged_tables = []
 
     # --- writing -------------------------------------------------------------------------------
 
@@ -611,3 +659,21 @@ def _kind_words(kind: object) -> str:
     if kind in _KIND_COMMANDS:
         return f"a {kind} run folder (continue it with `{_KIND_COMMANDS[str(kind)]}`)"
     return f"a run folder of kind {kind!r}" if kind is not None else "a run folder of unknown kind"
+
+
+def _json_kind(value: object) -> str:
+    """What a JSON value is, in the words of a message: ``null``, ``a list``, ``an int``, ..."""
+    if value is None:
+        return "null"
+    name = type(value).__name__
+    return f"{'an' if name[0] in 'aeiou' else 'a'} {name} ({value!r:.40})"
+
+
+def _is_table(relative: str) -> bool:
+    """Whether a path recorded in ``file_sha256`` is the consolidated evaluation table."""
+    return relative.rpartition(".")[0] == CONSOLIDATED_STEM
+
+
+def _intact(path: Path, digest: str) -> bool:
+    """Whether ``path`` is a file whose SHA-256 is ``digest``."""
+    return path.is_file() and file_sha256(path) == digest
