@@ -7,10 +7,13 @@ the rerunnable version over many more inputs.
 
 from __future__ import annotations
 
+import dataclasses
+import fractions
 import json
 import math
 from pathlib import Path
 
+import gymnasium as gym
 import numpy as np
 import pytest
 from hypothesis import assume, given, settings
@@ -29,7 +32,17 @@ from benchmarks.suites import (
 from benchmarks.suites.config import N_SEEDS_MAX
 from optimizers import BATCH_SIZE_MAX, BOUND_MAX, VALUE_MAX
 from tooldesign_env import ToolDesignEnv
-from tooldesign_env.specs import BOX_MASS_MAX, GOAL_PRECISION_MAX, ObjectiveSpec
+from tooldesign_env.geometry import ToolSpec
+from tooldesign_env.specs import (
+    BOX_MASS_MAX,
+    GOAL_PRECISION_MAX,
+    ControllerSpec,
+    ObjectiveSpec,
+    PlanSpec,
+    SceneSpec,
+    TaskSpec,
+    spec_to_dict,
+)
 
 ANY = st.one_of(
     st.booleans(),
@@ -96,6 +109,87 @@ def test_goal_precision_maximum_keeps_free_energy_finite():
     # The worst goal error: 10 m from the goal for 10^4 control steps at the largest p^X.
     spec = ObjectiveSpec(goal_precision=GOAL_PRECISION_MAX)
     assert math.isfinite(1e4 * 0.5 * spec.goal_precision * 10.0**2)
+
+
+# Every vector field of the specs, with a valid value of it.
+SPEC_VECTORS = [
+    (SceneSpec, "box_size", (0.2, 0.1, 0.15)),
+    (SceneSpec, "box_position", (1.0, 0.5)),
+    (ControllerSpec, "torque_limits", (80.0, 80.0, 80.0, 80.0, 10.0, 10.0, 10.0)),
+    (TaskSpec, "goal", (1.0, 0.5, 0.1)),
+    (ObjectiveSpec, "scene_jitter", (0.002, 0.02)),
+    (ObjectiveSpec, "expected_masses", (0.5, 2.0, 1.0)),
+]
+
+
+@pytest.mark.parametrize(
+    "make_goal", [set, frozenset, dict.fromkeys, lambda v: dict.fromkeys(v).keys()]
+)
+def test_a_goal_without_order_is_refused_not_reordered(make_goal):
+    goal = make_goal([1.0, 0.5, 0.1])  # a set iterates as 0.5, 1.0, 0.1
+    with pytest.raises(TypeError, match=r"goal must be 3 numbers \(x, y, z\) in m, in order"):
+        ToolDesignEnv(goal=goal)
+    with pytest.raises(TypeError, match="in order"):
+        gym.make("ToolDesign-v0", goal=goal)
+
+
+@pytest.mark.parametrize(("spec", "field", "value"), SPEC_VECTORS)
+@pytest.mark.parametrize("unordered", [set, lambda v: dict.fromkeys(v), lambda v: {0: v}.values()])
+def test_spec_vectors_without_order_are_refused_naming_the_field(spec, field, value, unordered):
+    with pytest.raises(TypeError, match=rf"{spec.__name__}\.{field} must be .*in order"):
+        spec(**{field: unordered(value)})
+
+
+@pytest.mark.parametrize(("spec", "field", "value"), SPEC_VECTORS)
+@pytest.mark.parametrize(
+    "convert", [np.array, list, lambda v: np.array(v, dtype=np.float32).astype(np.float64)]
+)
+def test_spec_vectors_are_stored_as_tuples_of_floats(spec, field, value, convert):
+    made = spec(**{field: convert(value)})
+    stored = getattr(made, field)
+    assert type(stored) is tuple and all(type(v) is float for v in stored)
+    assert made == spec(**{field: tuple(float(v) for v in convert(value))})
+    hash(made)
+    json.dumps(spec_to_dict(made))
+
+
+def _real_fields(spec):
+    defaults = spec()
+    return [
+        f.name
+        for f in dataclasses.fields(spec)
+        if type(getattr(defaults, f.name)) is float  # not the ints, bools and strings
+    ]
+
+
+@pytest.mark.parametrize("spec", [SceneSpec, PlanSpec, ControllerSpec, ObjectiveSpec, ToolSpec])
+@pytest.mark.parametrize("kind", [fractions.Fraction, np.float64])
+def test_real_spec_fields_are_stored_as_floats(spec, kind):
+    names = _real_fields(spec)
+    assert names
+    for name in names:
+        made = spec(**{name: kind(getattr(spec(), name))})  # the default, exactly
+        assert type(getattr(made, name)) is float, name
+        json.dumps(spec_to_dict(made))
+
+
+def test_goal_precision_given_as_a_fraction_reaches_info_as_a_float():
+    spec = ObjectiveSpec(goal_precision=fractions.Fraction(20))
+    assert type(spec.goal_precision) is float
+    env = ToolDesignEnv(goal_precision=fractions.Fraction(20))
+    try:
+        assert type(env.objective.goal_precision) is float
+    finally:
+        env.close()
+
+
+def test_numpy_flags_and_counts_of_specs_are_stored_as_python_values():
+    scene = SceneSpec(fast_forward_rest=np.True_, merge_fixed_links=np.False_)
+    assert scene.fast_forward_rest is True and scene.merge_fixed_links is False
+    objective = ObjectiveSpec(scene_samples=np.int64(2), scene_seed=np.uint32(7))
+    assert type(objective.scene_samples) is int and type(objective.scene_seed) is int
+    json.dumps(spec_to_dict(scene))
+    json.dumps(spec_to_dict(objective))
 
 
 @settings(max_examples=60, deadline=None)

@@ -33,6 +33,7 @@ from tooldesign_env.specs import (
     PlanSpec,
     SceneSpec,
     TaskSpec,
+    is_unordered,
 )
 
 __all__ = [
@@ -268,9 +269,12 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
         if scene_samples is not None:
             objective = replace(objective, scene_samples=scene_samples)
         self.objective = objective
-        if isinstance(goal, (str, bytes)) or not hasattr(goal, "__len__"):
-            raise TypeError(f"goal must be 3 numbers (x, y, z) in m, got {goal!r}")
-        self.task = TaskSpec(goal=tuple(goal))  # type: ignore[arg-type]
+        if isinstance(goal, (str, bytes)) or is_unordered(goal) or not hasattr(goal, "__len__"):
+            raise TypeError(
+                "goal must be 3 numbers (x, y, z) in m, in order (a list, tuple or 1-D array), "
+                f"got {type(goal).__name__} {goal!r}"
+            )
+        self.task = TaskSpec(goal=goal)  # type: ignore[arg-type]
         if not isinstance(randomize_goal, (bool, np.bool_)):
             # bool("no") is True: a string or number here is a mistake, not a choice.
             raise TypeError(f"randomize_goal must be True or False, got {randomize_goal!r}")
