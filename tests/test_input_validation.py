@@ -23,6 +23,7 @@ import optimizers
 from benchmarks.cli import main
 from benchmarks.design import DesignConfig
 from benchmarks.suites import (
+    OptimizerSpec,
     SuiteConfig,
     builtin_suite,
     load_suite,
@@ -307,6 +308,49 @@ def test_cli_errors_are_one_line_exit_2(argv, tmp_path, capsys):
     assert len(err) == 1 and "error" in err[0] and "Traceback" not in err[0]
     if argv[-1] == "0":  # only --out is wrong: the message says what it is and what is wanted
         assert f"{existing} is a file; give a folder" in err[0]
+
+
+@pytest.mark.parametrize(
+    ("key", "value", "flag"),
+    [
+        ("seed", "5", "--seed"),
+        ("batch_size", "4", "--batch-size"),
+        ("bounds", "[[0,1],[0,1],[0,1]]", "coefficient bounds"),
+        ("low", "[0,0,0]", "coefficient bounds"),
+        ("high", "[1,1,1]", "coefficient bounds"),
+    ],
+)
+def test_an_option_the_design_sets_itself_is_refused_naming_its_flag(
+    key, value, flag, tmp_path, capsys
+):
+    # It reached optimizers.make twice: "got multiple values for keyword argument 'seed'".
+    out = tmp_path / "run"
+    with pytest.raises(SystemExit) as stop:
+        main(["design", "--optimizer", "random", "--option", f"{key}={value}", "--out", str(out)])
+    assert stop.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"--option {key}=...: " in err[0] and flag in err[0], err
+    assert not out.exists()
+    with pytest.raises(ValueError, match=f"optimizer_settings must not set '{key}'"):
+        DesignConfig(optimizer="random", optimizer_settings={key: json.loads(value)})
+
+
+@pytest.mark.parametrize(
+    ("key", "field"), [("seed", "seeds"), ("batch_size", "batch_size"), ("low", "bounds")]
+)
+def test_a_suite_optimizer_setting_the_suite_sets_itself_is_refused(key, field, tmp_path, capsys):
+    with pytest.raises(ValueError, match=f"settings of random must not set '{key}': .*{field}"):
+        OptimizerSpec(name="random", settings={key: 1})
+    data = json.loads(json.dumps(builtin_suite("optimizers").to_json()))
+    data["optimizers"][0]["settings"][key] = 1
+    path = tmp_path / "suite.json"
+    path.write_text(json.dumps(data))
+    out = tmp_path / "out"
+    with pytest.raises(SystemExit) as stop:
+        main(["bench", "--config", str(path), "--out", str(out), "--no-progress"])
+    assert stop.value.code == 2
+    assert f"must not set '{key}'" in capsys.readouterr().err
+    assert not out.exists()
 
 
 def test_report_of_an_existing_file_exits_2(tmp_path: Path, capsys):

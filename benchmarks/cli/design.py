@@ -14,6 +14,7 @@ from benchmarks.cli._common import (
     out_path,
 )
 from benchmarks.design import DesignConfig
+from benchmarks.design.config import HARNESS_SETTINGS
 from benchmarks.execution import EXECUTORS, TaskSettings
 
 
@@ -127,6 +128,13 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 
 _DEFAULTS: dict[str, Any] = {"optimizer": "cmaes", "seed": 0}
+# Why a field of HARNESS_SETTINGS is no --option: the command gives the optimizer its own.
+_HARNESS_FLAGS = {
+    "seed": "the optimizer's seed is set by --seed",
+    "batch_size": "the optimizer's batch size is set by --batch-size",
+    "bounds": "the optimizer searches the run's coefficient bounds (on the command line the "
+    "default ones), not an option's",
+}
 _DESIGNER_FLAGS = {
     "optimizer": "--optimizer",
     "option": "--option",
@@ -142,6 +150,9 @@ def _designer(args: argparse.Namespace) -> dict[str, Any]:
         settings = dict(args.option)
         if len(settings) != len(args.option):
             raise ValueError("--option: a KEY is given twice")
+        for key in settings:
+            if key in HARNESS_SETTINGS:
+                raise ValueError(f"--option {key}=...: {_HARNESS_FLAGS[HARNESS_SETTINGS[key]]}")
         if args.optimizer is not None and not args.optimizer.strip():
             # An empty name is a mistake (an unset variable in a script), not the default.
             raise ValueError(
