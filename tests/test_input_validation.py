@@ -242,6 +242,12 @@ def test_optimizers_refuse_found_cases(name):
     batch = opt.ask()
     with pytest.raises(ValueError, match="fit a float64|within"):
         opt.tell(batch.ids, [10**400, 1.0, 1.0, 1.0])
+    # A longdouble beyond float64 became inf, a failed evaluation, where the int was refused.
+    huge = np.longdouble(10) ** 4000
+    with pytest.raises(ValueError, match=r"fit a float64.*entry 0"):
+        opt.tell(batch.ids, [huge, 1.0, 1.0, 1.0])
+    with pytest.raises(ValueError, match=r"fit a float64.*entry 2"):
+        opt.tell(batch.ids, np.array([1.0, 1.0, huge, 1.0], dtype=np.longdouble))
     with pytest.raises(ValueError, match="values must lie within"):
         opt.tell(batch.ids, [1e308, 1.0, 1.0, 1.0])
     opt.tell(batch.ids, [1.0, 2.0, 3.0, 4.0])  # a refused tell leaves the batch pending
