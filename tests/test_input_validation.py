@@ -106,6 +106,33 @@ def test_reset_refuses_found_cases(env, options, error):
         env.reset(options=options)
 
 
+@pytest.mark.parametrize("options", ["", 0, False, [], "goal"])
+def test_reset_options_must_be_none_or_a_mapping(env, options):
+    # "", 0 and False were read as no options by `options or {}`.
+    with pytest.raises(TypeError, match="options must be None or a mapping"):
+        env.reset(options=options)
+
+
+@pytest.mark.parametrize("seed", [np.int64(3), np.uint16(3)])
+def test_a_numpy_integer_seed_is_taken_as_the_int(seed):
+    # gymnasium refused it: "Seed must be a python integer".
+    made = ToolDesignEnv(randomize_goal=True)
+    try:
+        drawn = made.reset(seed=seed)[0]
+        np.testing.assert_array_equal(drawn, made.reset(seed=3)[0])
+    finally:
+        made.close()
+
+
+@pytest.mark.parametrize(
+    ("seed", "error"),
+    [(True, TypeError), (np.bool_(False), TypeError), (3.0, TypeError), (-1, ValueError)],
+)
+def test_a_seed_that_is_not_an_int_is_refused_naming_it(env, seed, error):
+    with pytest.raises(error, match="seed must be an int >= 0 or None"):
+        env.reset(seed=seed)
+
+
 def test_goal_precision_maximum_keeps_free_energy_finite():
     # The worst goal error: 10 m from the goal for 10^4 control steps at the largest p^X.
     spec = ObjectiveSpec(goal_precision=GOAL_PRECISION_MAX)
