@@ -12,6 +12,7 @@ from benchmarks.cli._common import (
     add_max_retries_argument,
     add_task_arguments,
     out_path,
+    unique_pairs,
 )
 from benchmarks.design import DesignConfig
 from benchmarks.design.config import HARNESS_SETTINGS
@@ -147,9 +148,7 @@ _DESIGNER_FLAGS = {
 def _designer(args: argparse.Namespace) -> dict[str, Any]:
     """The designer's fields of the config: an optimizer's, or a saved policy's one design."""
     if args.policy is None:
-        settings = dict(args.option)
-        if len(settings) != len(args.option):
-            raise ValueError("--option: a KEY is given twice")
+        settings = unique_pairs(args.option, "--option")
         for key in settings:
             if key in HARNESS_SETTINGS:
                 raise ValueError(f"--option {key}=...: {_HARNESS_FLAGS[HARNESS_SETTINGS[key]]}")
@@ -202,7 +201,7 @@ def _designer(args: argparse.Namespace) -> dict[str, Any]:
 
 def _tool_and_arm(args: argparse.Namespace) -> tuple[str, dict[str, Any]]:
     """The section and the scene: as given; with --policy, the policy's where not given."""
-    section, scene = args.section_shape, dict(args.scene)
+    section, scene = args.section_shape, unique_pairs(args.scene, "--scene")
     if args.policy is not None:
         from benchmarks.rl.policies import read_policy_card
 
