@@ -29,7 +29,7 @@ from tooldesign_env.env import (
 )
 from tooldesign_env.geometry.validation import validate_coefficients
 from tooldesign_env.schema import METRICS
-from tooldesign_env.specs import BOX_MASS_MAX, TaskSpec
+from tooldesign_env.specs import BOX_MASS_MAX, MASS_RANGE_MIN, TaskSpec
 
 __all__ = [
     "MIN_GOAL_DISTANCE",
@@ -240,7 +240,7 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
         self.mass_range = (
             None
             if mass_range is None
-            else _check_range(mass_range, "mass_range", 1e-6, BOX_MASS_MAX, "kg")
+            else _check_range(mass_range, "mass_range", MASS_RANGE_MIN, BOX_MASS_MAX, "kg")
         )
         self.render_mode = render_mode
         if self.reward_kind == "normalized":

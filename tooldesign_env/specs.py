@@ -28,6 +28,7 @@ from tooldesign_env.schema import (
 __all__ = [
     "BOX_MASS_MAX",
     "GOAL_PRECISION_MAX",
+    "MASS_RANGE_MIN",
     "PLAN_DURATION_MAX",
     "PLAN_DURATION_MIN",
     "ControllerSpec",
@@ -49,6 +50,11 @@ GOAL_PRECISION_MAX = 1e6
 #: Largest box mass accepted, kg (the Panda's payload is 3 kg; PyBullet's solver is not
 #: meaningful for a box a thousand times heavier than the arm's links).
 BOX_MASS_MAX = 1e3
+
+#: Lightest low end of ToolDesignRL-v0's ``mass_range``, kg (a milligram). The rl suite checks
+#: its ``--mass-range`` against this same number, so a range the env would refuse is refused
+#: before a run folder is made.
+MASS_RANGE_MIN = 1e-6
 
 #: Regularizer eps of log|Pi_U| accepted, (m/N m)^2: six orders of magnitude either side of the
 #: default 10^-6; 10^-320 made log(1 + lambda / eps) overflow (F = -inf).
