@@ -5,6 +5,7 @@ Each error names the argument, what was wrong and what is allowed.
 
 from __future__ import annotations
 
+import math
 import numbers
 import os
 from collections.abc import Sequence
@@ -212,12 +213,24 @@ def check_values(values: Any, n: int) -> tuple[np.ndarray, np.ndarray]:
 
     Raises:
         TypeError: Not a 1-D sequence of numbers or None.
-        ValueError: Not n of them, or a finite value beyond +-``VALUE_MAX``.
+        ValueError: Not n of them, a finite value beyond +-``VALUE_MAX``, or a finite value
+            too large for float64 (an int, a Fraction or a longdouble; converted it would be
+            inf, a failure).
     """
     what = "a 1-D sequence of numbers (None, nan or inf mark a failed evaluation)"
     if isinstance(values, np.ndarray):
         if values.dtype.kind in "iuf":
-            array = values.astype(np.float64)
+            # A longdouble beyond float64 turns into inf, which would be told as a failure; it
+            # is refused below, so numpy's overflow warning would only repeat the error.
+            with np.errstate(over="ignore"):
+                array = values.astype(np.float64)
+            overflow = np.flatnonzero((np.isfinite(values) & ~np.isfinite(array)).ravel())
+            if overflow.size:
+                k = int(overflow[0])
+                raise ValueError(
+                    f"values must fit a float64 (|v| < 1.8e308); entry {k} is "
+                    f"{values.ravel()[k]!r}"
+                )
         elif values.dtype.kind == "O":
             array = _object_values(list(values.ravel()), what).reshape(values.shape)
         else:
@@ -249,9 +262,12 @@ def _object_values(items: list[Any], what: str) -> np.ndarray:
             try:
                 out[k] = float(v)
             except OverflowError:
-                raise ValueError(
-                    f"values must fit a float64 (|v| < 1.8e308); entry {k} is {v!r}"
-                ) from None
+                out[k] = math.inf
+            # Ints and Fractions raise OverflowError above, a longdouble silently becomes inf:
+            # both are results too large for float64, not failed evaluations.
+            given_finite = not isinstance(v, (float, np.floating)) or bool(np.isfinite(v))
+            if given_finite and not math.isfinite(out[k]):
+                raise ValueError(f"values must fit a float64 (|v| < 1.8e308); entry {k} is {v!r}")
         elif isinstance(v, (Sequence, np.ndarray)) and not isinstance(v, (str, bytes)):
             raise ValueError(f"values must be 1-D, one number per id; entry {k} is {v!r}")
         else:

@@ -577,7 +577,8 @@ class Optimizer(abc.ABC):
 
         Raises:
             TypeError: path is not a str or os.PathLike.
-            ValueError: path is a folder.
+            ValueError: path is a folder, or names one (it is empty or ends in a separator,
+                ``.`` or ``..``).
             FileNotFoundError: The folder of path does not exist.
             PluginError: The plugin's ``_backend_versions`` raised or returned no dict of str,
                 or the plugin cannot be pickled (it holds a lock, an open file, ...).
@@ -585,6 +586,13 @@ class Optimizer(abc.ABC):
         target = check_path(path)
         if os.path.isdir(target):
             raise ValueError(f"path must be a file, {target!r} is a folder")
+        if os.path.basename(target) in ("", ".", ".."):
+            # "dir/" names a folder even when none exists: os.replace would fail with
+            # NotADirectoryError, after the folder check below had looked at dir's parent.
+            raise ValueError(
+                f"path must be a file, {target!r} names a folder (it is empty or ends in a "
+                "separator, '.' or '..'); give a file name, e.g. state.pkl"
+            )
         folder = os.path.dirname(os.path.abspath(target))
         if not os.path.isdir(folder):
             raise FileNotFoundError(f"cannot save the state to {target!r}: no folder {folder!r}")

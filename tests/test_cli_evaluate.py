@@ -95,6 +95,22 @@ def test_the_api_refuses_a_design_outside_the_bounds_as_env_step_does(tmp_path):
     assert not (tmp_path / "x").exists()
 
 
+@pytest.mark.parametrize(
+    ("coeffs", "name"), [(["1e300", "0", "0"], "c1"), (["0", "-2000", "0"], "c2")]
+)
+def test_outside_bounds_names_the_coefficient_beyond_the_largest(tmp_path, capsys, coeffs, name):
+    # It said "bounds must lie within +-1000 ..., got [[-1.5, 1e+300], ...]": bounds the user
+    # never gave (those widened to the design).
+    out = tmp_path / "ev"
+    with pytest.raises(SystemExit) as stop:
+        main(["evaluate", "--coeffs", *coeffs, "--outside-bounds", "--out", str(out)])
+    assert stop.value.code == 2
+    err = capsys.readouterr().err
+    assert f"coefficient {name} = {float(coeffs[int(name[1]) - 1])!r}" in err, err
+    assert "is beyond +-1000" in err and "bounds must lie within" not in err, err
+    assert not out.exists()
+
+
 def test_a_folder_that_is_not_empty_is_refused_and_left_as_it_was(tmp_path, capsys):
     # Evaluating into a design run's folder replaced its tool.stl, tool.obj, tool.urdf and
     # report.html without a word (an audit of issue 10); into an earlier evaluation's, it mixed

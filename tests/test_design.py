@@ -426,6 +426,7 @@ def test_executors_give_identical_rows() -> None:
         ({"optimizer": ""}, ValueError, "optimizer must be a non-empty name"),
         ({"optimizer_settings": {"sigma0": object()}}, TypeError, "JSON value"),
         ({"robustness_masses": (0.3, -1.0)}, ValueError, "masses"),
+        ({"robustness_masses": {0.3, 0.5}}, TypeError, "robustness_masses: .* in order"),
     ],
 )
 def test_bad_config_is_a_clear_error(changes: dict, error: type, match: str) -> None:

@@ -7,10 +7,13 @@ the rerunnable version over many more inputs.
 
 from __future__ import annotations
 
+import dataclasses
+import fractions
 import json
 import math
 from pathlib import Path
 
+import gymnasium as gym
 import numpy as np
 import pytest
 from hypothesis import assume, given, settings
@@ -20,6 +23,7 @@ import optimizers
 from benchmarks.cli import main
 from benchmarks.design import DesignConfig
 from benchmarks.suites import (
+    OptimizerSpec,
     SuiteConfig,
     builtin_suite,
     load_suite,
@@ -29,7 +33,17 @@ from benchmarks.suites import (
 from benchmarks.suites.config import N_SEEDS_MAX
 from optimizers import BATCH_SIZE_MAX, BOUND_MAX, VALUE_MAX
 from tooldesign_env import ToolDesignEnv
-from tooldesign_env.specs import BOX_MASS_MAX, GOAL_PRECISION_MAX, ObjectiveSpec
+from tooldesign_env.geometry import ToolSpec
+from tooldesign_env.specs import (
+    BOX_MASS_MAX,
+    GOAL_PRECISION_MAX,
+    ControllerSpec,
+    ObjectiveSpec,
+    PlanSpec,
+    SceneSpec,
+    TaskSpec,
+    spec_to_dict,
+)
 
 ANY = st.one_of(
     st.booleans(),
@@ -92,10 +106,118 @@ def test_reset_refuses_found_cases(env, options, error):
         env.reset(options=options)
 
 
+@pytest.mark.parametrize("options", ["", 0, False, [], "goal"])
+def test_reset_options_must_be_none_or_a_mapping(env, options):
+    # "", 0 and False were read as no options by `options or {}`.
+    with pytest.raises(TypeError, match="options must be None or a mapping"):
+        env.reset(options=options)
+
+
+@pytest.mark.parametrize("seed", [np.int64(3), np.uint16(3)])
+def test_a_numpy_integer_seed_is_taken_as_the_int(seed):
+    # gymnasium refused it: "Seed must be a python integer".
+    made = ToolDesignEnv(randomize_goal=True)
+    try:
+        drawn = made.reset(seed=seed)[0]
+        np.testing.assert_array_equal(drawn, made.reset(seed=3)[0])
+    finally:
+        made.close()
+
+
+@pytest.mark.parametrize(
+    ("seed", "error"),
+    [(True, TypeError), (np.bool_(False), TypeError), (3.0, TypeError), (-1, ValueError)],
+)
+def test_a_seed_that_is_not_an_int_is_refused_naming_it(env, seed, error):
+    with pytest.raises(error, match="seed must be an int >= 0 or None"):
+        env.reset(seed=seed)
+
+
 def test_goal_precision_maximum_keeps_free_energy_finite():
     # The worst goal error: 10 m from the goal for 10^4 control steps at the largest p^X.
     spec = ObjectiveSpec(goal_precision=GOAL_PRECISION_MAX)
     assert math.isfinite(1e4 * 0.5 * spec.goal_precision * 10.0**2)
+
+
+# Every vector field of the specs, with a valid value of it.
+SPEC_VECTORS = [
+    (SceneSpec, "box_size", (0.2, 0.1, 0.15)),
+    (SceneSpec, "box_position", (1.0, 0.5)),
+    (ControllerSpec, "torque_limits", (80.0, 80.0, 80.0, 80.0, 10.0, 10.0, 10.0)),
+    (TaskSpec, "goal", (1.0, 0.5, 0.1)),
+    (ObjectiveSpec, "scene_jitter", (0.002, 0.02)),
+    (ObjectiveSpec, "expected_masses", (0.5, 2.0, 1.0)),
+]
+
+
+@pytest.mark.parametrize(
+    "make_goal", [set, frozenset, dict.fromkeys, lambda v: dict.fromkeys(v).keys()]
+)
+def test_a_goal_without_order_is_refused_not_reordered(make_goal):
+    goal = make_goal([1.0, 0.5, 0.1])  # a set iterates as 0.5, 1.0, 0.1
+    with pytest.raises(TypeError, match=r"goal must be 3 numbers \(x, y, z\) in m, in order"):
+        ToolDesignEnv(goal=goal)
+    with pytest.raises(TypeError, match="in order"):
+        gym.make("ToolDesign-v0", goal=goal)
+
+
+@pytest.mark.parametrize(("spec", "field", "value"), SPEC_VECTORS)
+@pytest.mark.parametrize("unordered", [set, lambda v: dict.fromkeys(v), lambda v: {0: v}.values()])
+def test_spec_vectors_without_order_are_refused_naming_the_field(spec, field, value, unordered):
+    with pytest.raises(TypeError, match=rf"{spec.__name__}\.{field} must be .*in order"):
+        spec(**{field: unordered(value)})
+
+
+@pytest.mark.parametrize(("spec", "field", "value"), SPEC_VECTORS)
+@pytest.mark.parametrize(
+    "convert", [np.array, list, lambda v: np.array(v, dtype=np.float32).astype(np.float64)]
+)
+def test_spec_vectors_are_stored_as_tuples_of_floats(spec, field, value, convert):
+    made = spec(**{field: convert(value)})
+    stored = getattr(made, field)
+    assert type(stored) is tuple and all(type(v) is float for v in stored)
+    assert made == spec(**{field: tuple(float(v) for v in convert(value))})
+    hash(made)
+    json.dumps(spec_to_dict(made))
+
+
+def _real_fields(spec):
+    defaults = spec()
+    return [
+        f.name
+        for f in dataclasses.fields(spec)
+        if type(getattr(defaults, f.name)) is float  # not the ints, bools and strings
+    ]
+
+
+@pytest.mark.parametrize("spec", [SceneSpec, PlanSpec, ControllerSpec, ObjectiveSpec, ToolSpec])
+@pytest.mark.parametrize("kind", [fractions.Fraction, np.float64])
+def test_real_spec_fields_are_stored_as_floats(spec, kind):
+    names = _real_fields(spec)
+    assert names
+    for name in names:
+        made = spec(**{name: kind(getattr(spec(), name))})  # the default, exactly
+        assert type(getattr(made, name)) is float, name
+        json.dumps(spec_to_dict(made))
+
+
+def test_goal_precision_given_as_a_fraction_reaches_info_as_a_float():
+    spec = ObjectiveSpec(goal_precision=fractions.Fraction(20))
+    assert type(spec.goal_precision) is float
+    env = ToolDesignEnv(goal_precision=fractions.Fraction(20))
+    try:
+        assert type(env.objective.goal_precision) is float
+    finally:
+        env.close()
+
+
+def test_numpy_flags_and_counts_of_specs_are_stored_as_python_values():
+    scene = SceneSpec(fast_forward_rest=np.True_, merge_fixed_links=np.False_)
+    assert scene.fast_forward_rest is True and scene.merge_fixed_links is False
+    objective = ObjectiveSpec(scene_samples=np.int64(2), scene_seed=np.uint32(7))
+    assert type(objective.scene_samples) is int and type(objective.scene_seed) is int
+    json.dumps(spec_to_dict(scene))
+    json.dumps(spec_to_dict(objective))
 
 
 @settings(max_examples=60, deadline=None)
@@ -147,6 +269,12 @@ def test_optimizers_refuse_found_cases(name):
     batch = opt.ask()
     with pytest.raises(ValueError, match="fit a float64|within"):
         opt.tell(batch.ids, [10**400, 1.0, 1.0, 1.0])
+    # A longdouble beyond float64 became inf, a failed evaluation, where the int was refused.
+    huge = np.longdouble(10) ** 4000
+    with pytest.raises(ValueError, match=r"fit a float64.*entry 0"):
+        opt.tell(batch.ids, [huge, 1.0, 1.0, 1.0])
+    with pytest.raises(ValueError, match=r"fit a float64.*entry 2"):
+        opt.tell(batch.ids, np.array([1.0, 1.0, huge, 1.0], dtype=np.longdouble))
     with pytest.raises(ValueError, match="values must lie within"):
         opt.tell(batch.ids, [1e308, 1.0, 1.0, 1.0])
     opt.tell(batch.ids, [1.0, 2.0, 3.0, 4.0])  # a refused tell leaves the batch pending
@@ -213,6 +341,49 @@ def test_cli_errors_are_one_line_exit_2(argv, tmp_path, capsys):
     assert len(err) == 1 and "error" in err[0] and "Traceback" not in err[0]
     if argv[-1] == "0":  # only --out is wrong: the message says what it is and what is wanted
         assert f"{existing} is a file; give a folder" in err[0]
+
+
+@pytest.mark.parametrize(
+    ("key", "value", "flag"),
+    [
+        ("seed", "5", "--seed"),
+        ("batch_size", "4", "--batch-size"),
+        ("bounds", "[[0,1],[0,1],[0,1]]", "coefficient bounds"),
+        ("low", "[0,0,0]", "coefficient bounds"),
+        ("high", "[1,1,1]", "coefficient bounds"),
+    ],
+)
+def test_an_option_the_design_sets_itself_is_refused_naming_its_flag(
+    key, value, flag, tmp_path, capsys
+):
+    # It reached optimizers.make twice: "got multiple values for keyword argument 'seed'".
+    out = tmp_path / "run"
+    with pytest.raises(SystemExit) as stop:
+        main(["design", "--optimizer", "random", "--option", f"{key}={value}", "--out", str(out)])
+    assert stop.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"--option {key}=...: " in err[0] and flag in err[0], err
+    assert not out.exists()
+    with pytest.raises(ValueError, match=f"optimizer_settings must not set '{key}'"):
+        DesignConfig(optimizer="random", optimizer_settings={key: json.loads(value)})
+
+
+@pytest.mark.parametrize(
+    ("key", "field"), [("seed", "seeds"), ("batch_size", "batch_size"), ("low", "bounds")]
+)
+def test_a_suite_optimizer_setting_the_suite_sets_itself_is_refused(key, field, tmp_path, capsys):
+    with pytest.raises(ValueError, match=f"settings of random must not set '{key}': .*{field}"):
+        OptimizerSpec(name="random", settings={key: 1})
+    data = json.loads(json.dumps(builtin_suite("optimizers").to_json()))
+    data["optimizers"][0]["settings"][key] = 1
+    path = tmp_path / "suite.json"
+    path.write_text(json.dumps(data))
+    out = tmp_path / "out"
+    with pytest.raises(SystemExit) as stop:
+        main(["bench", "--config", str(path), "--out", str(out), "--no-progress"])
+    assert stop.value.code == 2
+    assert f"must not set '{key}'" in capsys.readouterr().err
+    assert not out.exists()
 
 
 def test_report_of_an_existing_file_exits_2(tmp_path: Path, capsys):

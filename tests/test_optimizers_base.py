@@ -421,6 +421,17 @@ def test_save_state_into_a_folder_or_a_missing_folder_fails_clearly(tmp_path) ->
         Optimizer.load_state(tmp_path / "absent.pkl")
 
 
+@pytest.mark.parametrize("name", ["missing/", "missing/.", "missing/..", "."])
+def test_save_state_to_a_path_that_names_a_folder_is_a_value_error(tmp_path, name) -> None:  # type: ignore[no-untyped-def]
+    # "missing/" reached os.replace, which raised a raw NotADirectoryError.
+    optimizer = Recorder(BOUNDS, seed=0)
+    with pytest.raises(ValueError, match="path must be a file, .* names a folder|is a folder"):
+        optimizer.save_state(f"{tmp_path}/{name}")
+    with pytest.raises(ValueError, match="names a folder"):
+        optimizer.save_state("")
+    assert sorted(p.name for p in tmp_path.iterdir()) == []  # no temporary file left behind
+
+
 def test_repr_names_the_class_and_counts() -> None:
     text = repr(Recorder(BOUNDS, batch_size=3, seed=0))
     assert text.startswith("Recorder(") and "batch_size=3" in text and "n_told=0" in text

@@ -234,6 +234,39 @@ def test_bad_reset_options_raise_clear_errors(env, options, error):
         env.reset(options=options)
 
 
+@pytest.mark.parametrize("options", ["", 0, False, [], [("goal", (0.3, 1.0, 0.1))]])
+def test_reset_options_must_be_none_or_a_mapping(env, options):
+    # "", 0 and False were read as no options by `options or {}`.
+    with pytest.raises(TypeError, match="options must be None or a mapping"):
+        env.reset(options=options)
+
+
+@pytest.mark.parametrize("seed", [np.int64(3), np.uint8(3), np.int32(3)])
+def test_a_numpy_integer_seed_seeds_like_the_int(seed):
+    # gymnasium refused it: "Seed must be a python integer".
+    a, b = ToolDesignRLEnv(randomize_goal=True), ToolDesignRLEnv(randomize_goal=True)
+    try:
+        np.testing.assert_array_equal(a.reset(seed=seed)[0], b.reset(seed=3)[0])
+    finally:
+        a.close()
+        b.close()
+
+
+@pytest.mark.parametrize(
+    ("seed", "error"),
+    [
+        (True, TypeError),
+        (np.True_, TypeError),
+        (3.0, TypeError),
+        ("3", TypeError),
+        (-1, ValueError),
+    ],
+)
+def test_a_seed_that_is_not_an_int_is_refused_naming_it(env, seed, error):
+    with pytest.raises(error, match="seed must be an int >= 0 or None"):
+        env.reset(seed=seed)
+
+
 @pytest.mark.parametrize(
     ("args", "kwargs", "error"),
     [

@@ -385,7 +385,7 @@ def test_the_sizes_are_the_documented_ones() -> None:
         ({"parts": ()}, ValueError, "parts"),
         ({"parts": ("all",)}, ValueError, "fixed, task, mass"),
         ({"mass_range": (0.9, 0.1)}, ValueError, "low <= high"),
-        ({"mass_range": (0.0, 0.5)}, ValueError, "0 < low"),
+        ({"mass_range": (0.0, 0.5)}, ValueError, "1e-06 <= low"),
         ({"mass_range": "light"}, TypeError, "mass_range"),
         ({"workers": 0}, ValueError, "workers"),
     ],
@@ -393,6 +393,30 @@ def test_the_sizes_are_the_documented_ones() -> None:
 def test_bad_suite_settings_raise(kwargs: dict, error: type, words: str) -> None:
     with pytest.raises(error, match=re.escape(words)):
         rl_suite_config(**kwargs)
+
+
+def test_the_suite_mass_range_has_the_env_floor(tmp_path: Path, capsys) -> None:
+    # 1e-9 passed the suite's `0 < low`, wrote manifest.json and a part file, then the env
+    # refused it: the folder could be neither resumed nor reused.
+    from benchmarks.cli import main
+    from tooldesign_env.rl import ToolDesignRLEnv
+    from tooldesign_env.specs import MASS_RANGE_MIN
+
+    rl_suite_config(parts=("mass",), mass_range=(MASS_RANGE_MIN, MASS_RANGE_MIN))
+    ToolDesignRLEnv(mass_range=(MASS_RANGE_MIN, MASS_RANGE_MIN)).close()
+    low = MASS_RANGE_MIN / 2
+    with pytest.raises(ValueError, match="mass_range"):
+        ToolDesignRLEnv(mass_range=(low, low))
+    with pytest.raises(ValueError, match=re.escape(f"{MASS_RANGE_MIN:g} <= low")):
+        rl_suite_config(parts=("mass",), mass_range=(low, low))
+    out = tmp_path / "rl"
+    argv = ["bench", "rl", "--size", "smoke", "--out", str(out), "--parts", "mass"]
+    argv += ["--methods", "random", "--no-progress", "--mass-range", "1e-9", "1e-9"]
+    with pytest.raises(SystemExit) as stop:
+        main(argv)
+    assert stop.value.code == 2
+    assert "mass_range must satisfy 1e-06 <= low" in capsys.readouterr().err
+    assert not out.exists()
 
 
 @pytest.mark.parametrize(

@@ -267,15 +267,44 @@ def test_the_command_line_scene_reaches_the_configs():
     config = design_config(args)
     assert dict(config.scene) == {"merge_fixed_links": False}
     assert dict(config.task().env_kwargs)["scene"] == SceneSpec(merge_fixed_links=False)
-    assert dict(design_config(parse(["design", "--out", "x"])).scene) == {
-        "merge_fixed_links": True
-    }
-    # bench: over the suite's own scene, later flags win.
+    assert dict(design_config(parse(["design", "--out", "x"])).scene) == {"merge_fixed_links": True}
+    # bench: over the suite's own scene.
     args = parse(
-        ["bench", "optimizers", "--out", "x", "--scene", "box_yaw=0.1"]
-        + ["--scene", "merge_fixed_links=false", "--scene", "box_yaw=0.2"]
+        ["bench", "optimizers", "--out", "x", "--scene", "box_yaw=0.2"]
+        + ["--scene", "merge_fixed_links=false"]
     )
     assert dict(suite_config(args).scene) == {"box_yaw": 0.2, "merge_fixed_links": False}
+
+
+@pytest.mark.parametrize("command", ["design", "evaluate", "dense-search", "bench"])
+def test_a_scene_field_given_twice_is_refused_by_every_command(command, tmp_path, capsys):
+    # The last one won silently, while a KEY given twice to --option was refused.
+    from benchmarks.cli import main
+
+    args = {
+        "design": ["design", "--iterations", "1", "--no-video"],
+        "evaluate": ["evaluate", "--coeffs", "0", "0", "0"],
+        "dense-search": ["dense-search", "--points", "2"],
+        "bench": ["bench", "optimizers", "--size", "smoke"],
+    }[command]
+    twice = ["--scene", "box_yaw=0.1", "--scene", "merge_fixed_links=false"]
+    twice += ["--scene", "box_yaw=0.2"]
+    with pytest.raises(SystemExit) as exit_info:
+        main([*args, "--out", str(tmp_path / "out"), *twice])
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err
+    assert "--scene: box_yaw is given twice (box_yaw=0.1 and box_yaw=0.2)" in err, err
+    assert not (tmp_path / "out").exists()
+
+
+def test_an_option_given_twice_names_the_key_and_both_values(tmp_path, capsys):
+    from benchmarks.cli import main
+
+    with pytest.raises(SystemExit) as exit_info:
+        argv = ["design", "--out", str(tmp_path / "out")]
+        main([*argv, "--option", "sigma0=0.1", "--option", "sigma0=0.2"])
+    assert exit_info.value.code == 2
+    assert "--option: sigma0 is given twice (sigma0=0.1 and sigma0=0.2)" in capsys.readouterr().err
 
 
 def test_the_rl_suite_takes_no_scene(tmp_path, capsys):

@@ -215,6 +215,9 @@ def test_bad_suite_files_are_clear_errors(
         load_suite(path)
     with pytest.raises(FileNotFoundError, match="does not exist"):
         load_suite(tmp_path / "missing.toml")
+    # A folder was said "not to exist".
+    with pytest.raises(IsADirectoryError, match="is a folder; give a .toml or .json file"):
+        load_suite(tmp_path)
 
 
 @pytest.mark.parametrize(
@@ -224,6 +227,7 @@ def test_bad_suite_files_are_clear_errors(
         (["bench", "optimizers", "--size", "tiny", "--out", "{out}"], "unknown size 'tiny'"),
         (["bench", "--out", "{out}"], "give a SUITE"),
         (["bench", "--config", "{missing}", "--out", "{out}"], "does not exist"),
+        (["bench", "--config", "{empty}", "--out", "{out}"], r"suite file \S+ is a folder"),
         (["bench", "--config", "{bad}", "--out", "{out}"], "not valid TOML"),
         (["bench", "optimizers", "--workers", "0", "--out", "{out}"], "workers must be >= 1"),
         (["report", "{missing}"], "does not exist"),

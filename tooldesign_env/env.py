@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 import os
 import sys
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import replace
 from typing import Any
 
@@ -33,6 +33,7 @@ from tooldesign_env.specs import (
     PlanSpec,
     SceneSpec,
     TaskSpec,
+    is_unordered,
 )
 
 __all__ = [
@@ -122,6 +123,42 @@ def default_bounds(degree: int) -> np.ndarray:
     bounds = np.tile([-1.5, 1.5], (degree, 1))
     bounds[-1] = (-0.5, 0.5)
     return bounds
+
+
+def check_reset_arguments(seed: Any, options: Any) -> tuple[int | None, dict[str, Any]]:
+    """``reset``'s seed as a Python int (or None) and its options as a new dict.
+
+    Gymnasium takes only a Python int for the seed, and ``options or {}`` would read ``""``,
+    ``0`` and ``False`` as no options at all.
+
+    Args:
+        seed: None or an int >= 0; a NumPy integer is converted.
+        options: None or a mapping.
+
+    Returns:
+        (seed, options).
+
+    Raises:
+        TypeError: ``seed`` is a bool or not an int, or ``options`` is not a mapping.
+        ValueError: ``seed`` is negative.
+    """
+    if seed is not None:
+        # numpy would take True for the seed 1.
+        if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)):
+            raise TypeError(
+                f"seed must be an int >= 0 or None, got {seed!r} ({type(seed).__name__})"
+            )
+        if seed < 0:
+            raise ValueError(f"seed must be an int >= 0 or None, got {seed!r}")
+        seed = int(seed)
+    if options is None:
+        return seed, {}
+    if not isinstance(options, Mapping):
+        raise TypeError(
+            "options must be None or a mapping such as {'goal': (x, y, z), 'box_mass': kg}, "
+            f"got {options!r} ({type(options).__name__})"
+        )
+    return seed, dict(options)
 
 
 class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
@@ -268,9 +305,12 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
         if scene_samples is not None:
             objective = replace(objective, scene_samples=scene_samples)
         self.objective = objective
-        if isinstance(goal, (str, bytes)) or not hasattr(goal, "__len__"):
-            raise TypeError(f"goal must be 3 numbers (x, y, z) in m, got {goal!r}")
-        self.task = TaskSpec(goal=tuple(goal))  # type: ignore[arg-type]
+        if isinstance(goal, (str, bytes)) or is_unordered(goal) or not hasattr(goal, "__len__"):
+            raise TypeError(
+                "goal must be 3 numbers (x, y, z) in m, in order (a list, tuple or 1-D array), "
+                f"got {type(goal).__name__} {goal!r}"
+            )
+        self.task = TaskSpec(goal=goal)  # type: ignore[arg-type]
         if not isinstance(randomize_goal, (bool, np.bool_)):
             # bool("no") is True: a string or number here is a mistake, not a choice.
             raise TypeError(f"randomize_goal must be True or False, got {randomize_goal!r}")
@@ -317,13 +357,18 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
         """Start an episode: set the task and return it as the observation.
 
         Args:
-            seed: seeds ``self.np_random`` (used for goal randomization).
-            options: ``{"goal": (x, y, z)}`` and/or ``{"box_mass": kg}`` for this episode.
+            seed: seeds ``self.np_random`` (used for goal randomization): an int >= 0 (a
+                NumPy integer too) or None.
+            options: ``{"goal": (x, y, z)}`` and/or ``{"box_mass": kg}`` for this episode, or
+                None.
+
+        Raises:
+            TypeError: ``seed`` is not an int (a bool neither) or None, ``options`` not a
+                mapping or None, or an option not a number.
+            ValueError: a negative seed, an unknown option, or an option out of range.
         """
-        if isinstance(seed, (bool, np.bool_)):  # numpy would take True for the seed 1
-            raise TypeError(f"seed must be an int >= 0 or None, got {seed!r}")
+        seed, options = check_reset_arguments(seed, options)
         super().reset(seed=seed)
-        options = dict(options or {})
         unknown = set(options) - {"goal", "box_mass"}
         if unknown:
             raise ValueError(f"unknown reset options {sorted(unknown)}; allowed: goal, box_mass")

@@ -19,10 +19,17 @@ from gymnasium import spaces
 from gymnasium.vector import VectorEnv
 
 from tooldesign_env.bullet import not_copyable
-from tooldesign_env.env import GOAL_HIGH, GOAL_LOW, WORKSPACE_HIGH, WORKSPACE_LOW, ToolDesignEnv
+from tooldesign_env.env import (
+    GOAL_HIGH,
+    GOAL_LOW,
+    WORKSPACE_HIGH,
+    WORKSPACE_LOW,
+    ToolDesignEnv,
+    check_reset_arguments,
+)
 from tooldesign_env.geometry.validation import validate_coefficients
 from tooldesign_env.schema import METRICS
-from tooldesign_env.specs import BOX_MASS_MAX, TaskSpec
+from tooldesign_env.specs import BOX_MASS_MAX, MASS_RANGE_MIN, TaskSpec
 
 __all__ = [
     "MIN_GOAL_DISTANCE",
@@ -233,7 +240,7 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
         self.mass_range = (
             None
             if mass_range is None
-            else _check_range(mass_range, "mass_range", 1e-6, BOX_MASS_MAX, "kg")
+            else _check_range(mass_range, "mass_range", MASS_RANGE_MIN, BOX_MASS_MAX, "kg")
         )
         self.render_mode = render_mode
         if self.reward_kind == "normalized":
@@ -263,16 +270,21 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
         """Draw (or set) the task and return it as the observation.
 
         Args:
-            seed: seeds ``self.np_random``, which draws the randomized goal and box mass.
-            options: ``{"goal": (x, y, z)}`` (m) and/or ``{"box_mass": kg}`` for this episode.
+            seed: seeds ``self.np_random``, which draws the randomized goal and box mass: an
+                int >= 0 (a NumPy integer too) or None.
+            options: ``{"goal": (x, y, z)}`` (m) and/or ``{"box_mass": kg}`` for this episode,
+                or None.
 
         Returns:
             The observation (x, y, z, box mass) as float32 and ``{"goal", "box_mass"}``.
+
+        Raises:
+            TypeError: ``seed`` is not an int (a bool neither) or None, ``options`` not a
+                mapping or None, or an option not a number.
+            ValueError: a negative seed, an unknown option, or an option out of range.
         """
-        if isinstance(seed, (bool, np.bool_)):  # numpy would take True for the seed 1
-            raise TypeError(f"seed must be an int >= 0 or None, got {seed!r}")
+        seed, options = check_reset_arguments(seed, options)
         super().reset(seed=seed)
-        options = dict(options or {})
         unknown = set(options) - {"goal", "box_mass"}
         if unknown:
             raise ValueError(f"unknown reset options {sorted(unknown)}; allowed: goal, box_mass")

@@ -11,7 +11,8 @@ from __future__ import annotations
 
 import math
 import numbers
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping, MappingView, Sequence
+from collections.abc import Set as AbstractSet
 from dataclasses import dataclass, fields
 from typing import Any, Literal
 
@@ -27,6 +28,7 @@ from tooldesign_env.schema import (
 __all__ = [
     "BOX_MASS_MAX",
     "GOAL_PRECISION_MAX",
+    "MASS_RANGE_MIN",
     "PLAN_DURATION_MAX",
     "PLAN_DURATION_MIN",
     "ControllerSpec",
@@ -35,6 +37,7 @@ __all__ = [
     "SceneSpec",
     "TaskSpec",
     "check_real",
+    "is_unordered",
     "spec_to_dict",
 ]
 
@@ -47,6 +50,11 @@ GOAL_PRECISION_MAX = 1e6
 #: Largest box mass accepted, kg (the Panda's payload is 3 kg; PyBullet's solver is not
 #: meaningful for a box a thousand times heavier than the arm's links).
 BOX_MASS_MAX = 1e3
+
+#: Lightest low end of ToolDesignRL-v0's ``mass_range``, kg (a milligram). The rl suite checks
+#: its ``--mass-range`` against this same number, so a range the env would refuse is refused
+#: before a run folder is made.
+MASS_RANGE_MIN = 1e-6
 
 #: Regularizer eps of log|Pi_U| accepted, (m/N m)^2: six orders of magnitude either side of the
 #: default 10^-6; 10^-320 made log(1 + lambda / eps) overflow (F = -inf).
@@ -153,6 +161,15 @@ def check_real(value: Any, label: str) -> float:
     return result
 
 
+def is_unordered(value: object) -> bool:
+    """Whether ``value`` is a container whose order is not the caller's: a set or a mapping.
+
+    ``tuple({1.0, 0.5, 0.1})`` is ``(0.5, 1.0, 0.1)``: a set given for (x, y, z) would be read
+    in hash order, and a mapping (or one of its views) names its items by key, not by place.
+    """
+    return isinstance(value, (AbstractSet, Mapping, MappingView))
+
+
 def _check_positive(obj: object, *names: str, allow_zero: bool = False) -> None:
     for name in names:
         value = getattr(obj, name)
@@ -161,12 +178,14 @@ def _check_positive(obj: object, *names: str, allow_zero: bool = False) -> None:
         if not (number >= 0 if allow_zero else number > 0):
             bound = ">= 0" if allow_zero else "> 0"
             raise ValueError(f"{label} must be a finite number {bound}, got {value!r}")
+        # A Fraction, Decimal or NumPy scalar stored as given would reach info dicts and JSON.
+        object.__setattr__(obj, name, number)
 
 
 def _check_range(
     obj: object, name: str, low: float, high: float, unit: str, *, open_low: bool = False
 ) -> float:
-    """``obj.name`` as a finite float in [low, high] (in (low, high] with ``open_low``)."""
+    """``obj.name`` as a finite float in [low, high] (in (low, high] with ``open_low``), stored."""
     value = getattr(obj, name)
     label = f"{type(obj).__name__}.{name}"
     number = check_real(value, label)
@@ -174,16 +193,37 @@ def _check_range(
         interval = f"{'(' if open_low else '['}{low:g}, {high:g}]"
         unit = f" {unit}" if unit else ""
         raise ValueError(f"{label} must be a number in {interval}{unit}, got {value!r}")
+    object.__setattr__(obj, name, number)
     return number
 
 
-def _check_vector(obj: object, name: str, length: int) -> None:
+def _check_vector(obj: object, name: str, length: int) -> tuple[float, ...]:
+    """``obj.name`` as a tuple of ``length`` floats, stored, or an error naming the field.
+
+    Raises:
+        TypeError: a set or a mapping (no order of their own), or an item that is not a number.
+        ValueError: not a sequence of ``length`` items (a string, a scalar, a 2-D array).
+    """
     value = getattr(obj, name)
     label = f"{type(obj).__name__}.{name}"
-    if isinstance(value, (str, bytes)) or not hasattr(value, "__len__") or len(value) != length:
-        raise ValueError(f"{label} must be {length} finite numbers, got {value!r}")
-    for v in value:
-        check_real(v, label)
+    allowed = f"{length} finite numbers in order (a list, tuple or 1-D array)"
+    if is_unordered(value):
+        raise TypeError(
+            f"{label} must be {allowed}, got a {type(value).__name__}, which has no order: "
+            f"{value!r}"
+        )
+    if (
+        isinstance(value, (str, bytes))
+        or not isinstance(value, (Sequence, np.ndarray))
+        or (isinstance(value, np.ndarray) and value.ndim != 1)
+        or len(value) != length
+    ):
+        raise ValueError(f"{label} must be {allowed}, got {value!r}")
+    # A tuple of floats, not the array or list given: a frozen spec must compare, hash and
+    # serialize, which an ndarray field does not.
+    items = tuple(check_real(v, label) for v in value)
+    object.__setattr__(obj, name, items)
+    return items
 
 
 def _check_int(obj: object, name: str, low: int, high: int) -> None:
@@ -195,6 +235,7 @@ def _check_int(obj: object, name: str, low: int, high: int) -> None:
         )
     if not low <= value <= high:
         raise ValueError(f"{type(obj).__name__}.{name} must be from {low} to {high}, got {value!r}")
+    object.__setattr__(obj, name, int(value))
 
 
 def _check_bool(obj: object, name: str, also: str = "") -> None:
@@ -204,6 +245,8 @@ def _check_bool(obj: object, name: str, also: str = "") -> None:
         raise TypeError(
             f"{type(obj).__name__}.{name} must be {allowed}, got {value!r} ({type(value).__name__})"
         )
+    # np.True_ is not True, and JSON has no encoding for it.
+    object.__setattr__(obj, name, bool(value))
 
 
 #: The phases' durations of :class:`PlanSpec`, in order.
@@ -486,7 +529,6 @@ class TaskSpec:
 
     def __post_init__(self) -> None:
         _check_vector(self, "goal", 3)
-        object.__setattr__(self, "goal", tuple(float(v) for v in self.goal))
 
 
 ESTIMATORS = ("contact", "trajectory", "resimulation")
@@ -593,6 +635,12 @@ class ObjectiveSpec:
                 f"design 0; got {self.goal_precision!r}"
             )
         masses_given = self.expected_masses
+        if is_unordered(masses_given):
+            raise TypeError(
+                f"ObjectiveSpec.expected_masses must be 1 to {EXPECTED_MASSES_MAX} masses in order "
+                f"(a list, tuple or 1-D array), got a {type(masses_given).__name__}, which has no "
+                f"order: {masses_given!r}"
+            )
         masses = (
             tuple(masses_given)
             if isinstance(masses_given, Iterable) and not isinstance(masses_given, (str, bytes))

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -80,6 +81,32 @@ def scene_item(text: str) -> tuple[str, Any]:
     except ValueError:
         parsed = value
     return name.strip(), parsed
+
+
+def unique_pairs(pairs: Sequence[tuple[str, Any]], flag: str) -> dict[str, Any]:
+    """The ``NAME=VALUE`` pairs of a repeatable flag as a dict, refusing a NAME given twice.
+
+    ``dict(pairs)`` keeps the last value silently; which of two was meant is the user's to say.
+
+    Args:
+        pairs: The parsed ``(name, value)`` pairs, in the order given.
+        flag: The flag, for the message, e.g. ``"--scene"``.
+
+    Returns:
+        ``{name: value}``.
+
+    Raises:
+        ValueError: a name is given twice; the message names it and both values.
+    """
+    out: dict[str, Any] = {}
+    for name, value in pairs:
+        if name in out:
+            raise ValueError(
+                f"{flag}: {name} is given twice ({name}={json.dumps(out[name], default=str)} "
+                f"and {name}={json.dumps(value, default=str)}); give each once"
+            )
+        out[name] = value
+    return out
 
 
 def add_scene_argument(parser: argparse.ArgumentParser, what: str) -> None:

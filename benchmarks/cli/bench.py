@@ -19,6 +19,7 @@ from benchmarks.cli._common import (
     add_max_retries_argument,
     add_scene_argument,
     out_path,
+    unique_pairs,
 )
 from benchmarks.cli.rl_suite import RL_ONLY_OPTIONS, add_rl_suite_arguments, run_rl_command
 from benchmarks.execution import EXECUTORS
@@ -126,7 +127,7 @@ def config_from_args(args: argparse.Namespace) -> SuiteConfig:
     if args.section_shape is not None:
         changes["section_shape"] = args.section_shape
     if args.scene:
-        changes["scene"] = {**dict(config.scene), **dict(args.scene)}
+        changes["scene"] = {**dict(config.scene), **unique_pairs(args.scene, "--scene")}
     return config.replace(**changes) if changes else config
 
 

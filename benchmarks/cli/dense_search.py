@@ -6,7 +6,7 @@ import argparse
 import time
 from typing import Any, cast
 
-from benchmarks.cli._common import add_task_arguments, out_path
+from benchmarks.cli._common import add_task_arguments, out_path, unique_pairs
 from benchmarks.execution import EXECUTORS
 
 
@@ -53,7 +53,7 @@ def _run(args: argparse.Namespace) -> int:
         objective=args.objective,
         scene_samples=args.scene_samples,
         section_shape=args.section_shape,
-        scene=dict(args.scene),
+        scene=unique_pairs(args.scene, "--scene"),
     ).task()
     start = time.perf_counter()
 

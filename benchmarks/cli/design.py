@@ -12,8 +12,10 @@ from benchmarks.cli._common import (
     add_max_retries_argument,
     add_task_arguments,
     out_path,
+    unique_pairs,
 )
 from benchmarks.design import DesignConfig
+from benchmarks.design.config import HARNESS_SETTINGS
 from benchmarks.execution import EXECUTORS, TaskSettings
 
 
@@ -127,6 +129,13 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 
 _DEFAULTS: dict[str, Any] = {"optimizer": "cmaes", "seed": 0}
+# Why a field of HARNESS_SETTINGS is no --option: the command gives the optimizer its own.
+_HARNESS_FLAGS = {
+    "seed": "the optimizer's seed is set by --seed",
+    "batch_size": "the optimizer's batch size is set by --batch-size",
+    "bounds": "the optimizer searches the run's coefficient bounds (on the command line the "
+    "default ones), not an option's",
+}
 _DESIGNER_FLAGS = {
     "optimizer": "--optimizer",
     "option": "--option",
@@ -139,9 +148,10 @@ _DESIGNER_FLAGS = {
 def _designer(args: argparse.Namespace) -> dict[str, Any]:
     """The designer's fields of the config: an optimizer's, or a saved policy's one design."""
     if args.policy is None:
-        settings = dict(args.option)
-        if len(settings) != len(args.option):
-            raise ValueError("--option: a KEY is given twice")
+        settings = unique_pairs(args.option, "--option")
+        for key in settings:
+            if key in HARNESS_SETTINGS:
+                raise ValueError(f"--option {key}=...: {_HARNESS_FLAGS[HARNESS_SETTINGS[key]]}")
         if args.optimizer is not None and not args.optimizer.strip():
             # An empty name is a mistake (an unset variable in a script), not the default.
             raise ValueError(
@@ -191,7 +201,7 @@ def _designer(args: argparse.Namespace) -> dict[str, Any]:
 
 def _tool_and_arm(args: argparse.Namespace) -> tuple[str, dict[str, Any]]:
     """The section and the scene: as given; with --policy, the policy's where not given."""
-    section, scene = args.section_shape, dict(args.scene)
+    section, scene = args.section_shape, unique_pairs(args.scene, "--scene")
     if args.policy is not None:
         from benchmarks.rl.policies import read_policy_card
 

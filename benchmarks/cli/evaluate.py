@@ -6,7 +6,7 @@ import argparse
 import sys
 from typing import Any
 
-from benchmarks.cli._common import add_task_arguments, out_path
+from benchmarks.cli._common import add_task_arguments, out_path, unique_pairs
 
 
 def add_parser(subparsers: Any) -> None:
@@ -66,7 +66,7 @@ def _run(args: argparse.Namespace) -> int:
         objective=args.objective,
         scene_samples=args.scene_samples,
         section_shape=args.section_shape,
-        scene=dict(args.scene),
+        scene=unique_pairs(args.scene, "--scene"),
         robustness=args.robustness,
         outside_bounds=args.outside_bounds,
         video=args.video,

@@ -76,6 +76,19 @@ def _int(name: str, value: Any, minimum: int, maximum: int = 2**63 - 1) -> int:
     return int(value)
 
 
+#: Keywords the harness gives every optimizer itself (:mod:`benchmarks.design.stepper`), with
+#: the field that sets each: a setting of the same name would reach ``optimizers.make`` twice
+#: ("got multiple values for keyword argument"). ``low`` and ``high`` are the other spelling of
+#: ``bounds``, which the optimizers refuse next to it.
+HARNESS_SETTINGS = {
+    "seed": "seed",
+    "batch_size": "batch_size",
+    "bounds": "bounds",
+    "low": "bounds",
+    "high": "bounds",
+}
+
+
 def _settings(value: Any) -> tuple[tuple[str, Any], ...]:
     if isinstance(value, Mapping):
         value = tuple(value.items())
@@ -90,6 +103,11 @@ def _settings(value: Any) -> tuple[tuple[str, Any], ...]:
     for key, item in pairs:
         if not isinstance(key, str) or not key.isidentifier():
             raise ValueError(f"optimizer_settings keys must be identifiers, got {key!r}")
+        if key in HARNESS_SETTINGS:
+            raise ValueError(
+                f"optimizer_settings must not set {key!r}: the run gives the optimizer its "
+                f"{HARNESS_SETTINGS[key]} (DesignConfig.{HARNESS_SETTINGS[key]}); set that instead"
+            )
         try:
             json.dumps(item, allow_nan=False)
         except (TypeError, ValueError):
@@ -219,7 +237,8 @@ class DesignConfig:
         optimizer: Name in the :mod:`optimizers` registry (``cmaes``, ``bo``, ``pso``,
             ``random``) or a ``"module:Class"`` string.
         optimizer_settings: Keyword arguments of the optimizer (a mapping; stored as sorted
-            pairs), JSON values only.
+            pairs), JSON values only; not ``seed``, ``batch_size``, ``bounds``, ``low`` or
+            ``high``, which the run gives it from its own fields (:data:`HARNESS_SETTINGS`).
         seed: Seed of the optimizer, >= 0; the simulation has no randomness.
         iterations: K, iterations of ask/evaluate/tell, >= 1.
         batch_size: Designs asked per iteration (the population size), 1 to 10,000.

@@ -43,6 +43,7 @@ from tooldesign_env import (
     past_bounds,
     tool_urdf,
 )
+from tooldesign_env.env import COEFFICIENT_MAX
 from tooldesign_env.geometry import validate_coefficients
 from tooldesign_env.schema import (
     DEFAULT_BOX_MASS,
@@ -125,8 +126,9 @@ def evaluate_coefficients(
         The env's step ``info``.
 
     Raises:
-        ValueError: the design is malformed, or outside the bounds without ``outside_bounds``,
-            or ``out`` is an existing file or a folder that is not empty.
+        ValueError: the design is malformed, outside the bounds without ``outside_bounds``, a
+            coefficient beyond +-1000 (``COEFFICIENT_MAX``) even with it, or ``out`` is an
+            existing file or a folder that is not empty.
         TypeError: ``out`` is not a path.
     """
     out = check_out_dir(out)  # before the simulation: a file named like the folder is refused
@@ -151,6 +153,17 @@ def evaluate_coefficients(
             f"design {c.tolist()} is outside the default bounds {bounds.tolist()} (as env.step "
             "refuses it); pass --outside-bounds (API: outside_bounds=True) to evaluate it anyway"
         )
+    else:
+        # The bounds are widened to the design below; past COEFFICIENT_MAX the env would refuse
+        # those widened bounds, which the user never gave, instead of the coefficient.
+        beyond = np.flatnonzero(np.abs(c) > COEFFICIENT_MAX)
+        if beyond.size:
+            k = int(beyond[0])
+            raise ValueError(
+                f"coefficient c{k + 1} = {float(c[k])!r} of design {c.tolist()} is beyond "
+                f"+-{COEFFICIENT_MAX:g}, the largest any coefficient may be (of a 1.1 m tool), "
+                "even with --outside-bounds (API: outside_bounds=True)"
+            )
     bounds = np.stack([np.minimum(bounds[:, 0], c), np.maximum(bounds[:, 1], c)], axis=1)
     settings: dict[str, Any] = {
         "goal": goal,

@@ -186,8 +186,14 @@ class RobustnessRequest:
         object.__setattr__(self, "coeffs", _as_coeffs(self.coeffs))
         if not isinstance(self.task, TaskSettings):
             raise TypeError(f"task must be a TaskSettings, got {type(self.task).__name__}")
-        from tooldesign_env.specs import BOX_MASS_MAX
+        from tooldesign_env.specs import BOX_MASS_MAX, is_unordered
 
+        if is_unordered(self.masses):
+            # A set would be tested, and reported, in hash order.
+            raise TypeError(
+                f"masses must be masses in kg in order (a list or tuple), got a "
+                f"{type(self.masses).__name__}: {self.masses!r}"
+            )
         masses = tuple(_finite("masses", m) for m in self.masses)
         if not masses or min(masses) <= 0 or max(masses) > BOX_MASS_MAX:
             raise ValueError(

@@ -83,7 +83,7 @@ from tooldesign_env.schema import (
     TIMING_COLUMNS,
     coefficient_columns,
 )
-from tooldesign_env.specs import BOX_MASS_MAX
+from tooldesign_env.specs import BOX_MASS_MAX, MASS_RANGE_MIN
 
 #: Most seeds of the fixed-goal part: a suite's n_seeds limit (benchmarks.suites.config,
 #: which the rl layer does not import).
@@ -423,10 +423,14 @@ def _check_mass_range(value: Any) -> tuple[float, float]:
     ):
         raise TypeError(f"mass_range must be two numbers (low, high) in kg, got {value!r}")
     low, high = float(value[0]), float(value[1])
-    if not (math.isfinite(low) and math.isfinite(high) and 0 < low <= high <= BOX_MASS_MAX):
+    # The env's own floor: a lower range passed here and failed in the first env, after the run
+    # folder was written, which could then be neither resumed nor reused.
+    if not (
+        math.isfinite(low) and math.isfinite(high) and MASS_RANGE_MIN <= low <= high <= BOX_MASS_MAX
+    ):
         raise ValueError(
-            f"mass_range must satisfy 0 < low <= high <= {BOX_MASS_MAX:g} (kg), got "
-            f"{low:g} {high:g}"
+            f"mass_range must satisfy {MASS_RANGE_MIN:g} <= low <= high <= {BOX_MASS_MAX:g} "
+            f"(kg), got {low:g} {high:g}"
         )
     return low, high
 
@@ -449,7 +453,8 @@ def rl_suite_config(
             ``n_seeds``).
         methods: fixed-goal methods, a subset of random, cmaes, ppo, sac.
         parts: a subset of fixed, task, mass.
-        mass_range: (low, high) box masses of the ``mass`` part in kg, 0 < low <= high.
+        mass_range: (low, high) box masses of the ``mass`` part in kg, 1e-6 <= low <= high
+            <= 1000 (``tooldesign_env.specs.MASS_RANGE_MIN`` and ``BOX_MASS_MAX``).
         workers: processes that run units of work at once (1: in this process), 1 to 1024.
 
     Returns:

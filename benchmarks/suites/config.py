@@ -37,7 +37,7 @@ import numpy as np
 
 from benchmarks.design import DesignConfig
 from benchmarks.design.config import ADDED_FIELDS as DESIGN_ADDED_FIELDS
-from benchmarks.design.config import check_section_shape, recorded_scene
+from benchmarks.design.config import HARNESS_SETTINGS, check_section_shape, recorded_scene
 from benchmarks.execution import TaskSettings
 from benchmarks.storage import with_added_fields
 from optimizers import BATCH_SIZE_MAX
@@ -217,6 +217,14 @@ def _from_mapping(cls: type, data: Any, where: str) -> Any:
     return cls(**data)
 
 
+# Where a suite sets each keyword of HARNESS_SETTINGS, which its runs give every optimizer.
+_SUITE_FIELDS = {
+    "seed": "each run's seed is one of the suite's n_seeds seeds",
+    "batch_size": "the suite's batch_size is every optimizer's",
+    "bounds": "every optimizer searches the suite's bounds",
+}
+
+
 @dataclasses.dataclass(frozen=True, kw_only=True)
 class OptimizerSpec:
     """One optimizer of a suite.
@@ -224,7 +232,8 @@ class OptimizerSpec:
     Attributes:
         name: Name in the :mod:`optimizers` registry (``cmaes``, ``bo``, ``pso``, ``random``,
             ``optuna-tpe``, ...) or a ``"module:Class"`` string.
-        settings: Keyword arguments of the optimizer, JSON values (stored as sorted pairs).
+        settings: Keyword arguments of the optimizer, JSON values (stored as sorted pairs); not
+            ``seed``, ``batch_size``, ``bounds``, ``low`` or ``high``, which the suite sets.
         label: Name in the evaluation log's ``optimizer`` column; ``name`` if empty. Two specs
             of one optimizer with different settings need different labels.
     """
@@ -235,9 +244,14 @@ class OptimizerSpec:
 
     def __post_init__(self) -> None:
         _name("optimizer name", self.name)
-        object.__setattr__(
-            self, "settings", _json_settings(f"settings of {self.name}", self.settings)
-        )
+        settings = _json_settings(f"settings of {self.name}", self.settings)
+        object.__setattr__(self, "settings", settings)
+        for key, _ in settings:
+            if key in HARNESS_SETTINGS:
+                raise ValueError(
+                    f"settings of {self.name} must not set {key!r}: "
+                    f"{_SUITE_FIELDS[HARNESS_SETTINGS[key]]}"
+                )
         _name("optimizer label", self.label, allow_empty=True)
 
     @property

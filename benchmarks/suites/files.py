@@ -33,8 +33,12 @@ def _toml_module() -> Any:
 
 
 def _read_file(path: Path) -> dict[str, Any]:
-    if not path.is_file():
+    if path.is_dir():
+        raise IsADirectoryError(f"suite file {path} is a folder; give a .toml or .json file")
+    if not path.exists():
         raise FileNotFoundError(f"suite file {path} does not exist")
+    if not path.is_file():
+        raise ValueError(f"suite file {path} is not a regular file; give a .toml or .json file")
     if path.suffix not in (".toml", ".json"):
         raise ValueError(f"suite file {path} must end in .toml or .json")
     try:
@@ -78,8 +82,9 @@ def load_suite(path: str | os.PathLike[str], *, size: str | None = None) -> Suit
 
     Raises:
         FileNotFoundError: If the file does not exist.
-        ValueError: If it cannot be parsed, names an unknown field, base or size, or a value is
-            invalid (the message names the file and the field).
+        IsADirectoryError: If it is a folder.
+        ValueError: If it is not a regular file, cannot be parsed, names an unknown field, base
+            or size, or a value is invalid (the message names the file and the field).
         TypeError: If a value has the wrong type.
     """
     source = Path(path)
