@@ -132,6 +132,31 @@ def test_an_unusable_design_gets_the_floor_not_a_huge_penalty():
     e.close()
 
 
+@pytest.mark.parametrize(
+    ("kwargs", "goal"),
+    [({"goal_precision": 50.0}, (-0.5, 1.5, 0.1)), ({}, (-2.0, 2.0, 0.1))],
+)
+def test_an_unusable_design_is_at_the_floor_at_far_goals_too(kwargs, goal):
+    """F_idle above the invalid penalty: F = F_idle + 1e5 < 2 F_idle, yet the floor (audit)."""
+    e = ToolDesignRLEnv(goal=goal, **kwargs)
+    e.reset()
+    _, reward, *_, info = e.step(np.ones(3, dtype=np.float32))  # overlaps the box at the start
+    assert info["valid"] is False and info["idle_free_energy"] > 1e5
+    assert info["free_energy"] < 2 * info["idle_free_energy"]  # the clip alone would not floor it
+    assert reward == REWARD_FLOOR and info["normalized_reward"] == REWARD_FLOOR
+    e.close()
+
+
+def test_the_scalar_info_has_the_base_envs_scalar_terms():
+    e = ToolDesignRLEnv(scene_samples=2)
+    e.reset(seed=0)
+    info = e.step(e.to_action(STRAIGHT))[4]
+    for key in ("free_energy_std", "fast_forward_from", "estimator", "goal_precision"):
+        assert key in info, key
+    assert np.isfinite(info["free_energy_std"]) and info["goal_precision"] == 20.0
+    e.close()
+
+
 def test_rgb_array_renders_headless():
     e = gym.make(RL_ENV_ID, render_mode="rgb_array")
     e.reset(seed=0)

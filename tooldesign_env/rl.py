@@ -42,10 +42,12 @@ __all__ = [
 
 RL_ENV_ID = "ToolDesignRL-v0"
 
-#: Lowest normalized reward: 1 - F / F_idle is clipped here, so every design with F >= 2 F_idle
-#: gets it: every unusable design (scored F_idle + 1e5), and the rare usable one that leaves the
-#: box more than twice as far off as not touching it (the straight tool at the paper's corner
-#: (0.5, 0.5, 0.1); 20 of the 75,457 usable episodes of the committed rl suite, docs/rl.md).
+#: Lowest normalized reward: every unusable design gets it, whatever the goal (its F, F_idle plus
+#: the invalid penalty, would fall short of 2 F_idle at a goal whose F_idle exceeds the penalty),
+#: and 1 - F / F_idle is clipped here, so does the rare usable design with F >= 2 F_idle, which
+#: leaves the box more than twice as far off as not touching it (the straight tool at the
+#: paper's corner (0.5, 0.5, 0.1); 20 of the 75,457 usable episodes of the committed rl suite,
+#: docs/rl.md).
 REWARD_FLOOR = -1.0
 
 #: Highest normalized reward: a design with F <= 0 (the confidence term outweighs the goal error,
@@ -63,6 +65,10 @@ MIN_GOAL_DISTANCE = 0.1
 _SCALAR_INFO = (
     *METRICS,
     "penalty",
+    "free_energy_std",
+    "fast_forward_from",
+    "estimator",
+    "goal_precision",
     "valid",
     "invalid_reason",
     "coefficients",
@@ -126,8 +132,8 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
     [``REWARD_FLOOR``, ``REWARD_CEILING``] = [-1, 1], where F_idle = T * 1/2 p^X |X_start -
     X^g|^2 is the free energy of leaving the box where it is for the T control steps of the
     episode, at this goal. 0 means "no better than not touching the box", 1 means "goal error
-    and confidence cancel", and the scale is the same at every goal. Every design with F >= 2
-    F_idle is at the floor: every unusable design (F = F_idle + 1e5), and a usable one that does
+    and confidence cancel", and the scale is the same at every goal. Every unusable design is at
+    the floor, at every goal, and so is every design with F >= 2 F_idle: a usable one that does
     more than twice as badly as leaving the box where it is (the straight tool at the paper's
     corner (0.5, 0.5, 0.1) does; 20 of the 75,457 usable episodes of the committed rl suite
     did). The reward is thus in [-1, 1] for every goal the env takes: with
@@ -316,7 +322,14 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
         free = float(base_info["free_energy"])
         idle = self.idle_free_energy()
         if idle > 0.0 and self.goal_distance(self._goal) >= MIN_GOAL_DISTANCE:
-            normalized = min(max(1.0 - free / idle, REWARD_FLOOR), REWARD_CEILING)
+            # An unusable design scores F_idle + the invalid penalty, which reaches the floor
+            # only while F_idle <= the penalty (goals within about 2.4 m at p^X = 20, 1.5 m at
+            # 50): beyond, it would outrank usable designs that do worse than that.
+            normalized = (
+                min(max(1.0 - free / idle, REWARD_FLOOR), REWARD_CEILING)
+                if base_info["valid"]
+                else REWARD_FLOOR
+            )
         else:  # only with reward="free-energy" (p^X = 0, or a goal at the box): no scale
             normalized = math.nan
         if self.full_info:
@@ -364,6 +377,11 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
 
     def to_action(self, coefficients: Any) -> np.ndarray:
         """The [-1, 1] float32 action of physical coefficients inside the bounds.
+
+        float32, as the action space: ``to_coefficients(to_action(C))`` is C to about 1e-8 of
+        the bounds, not bit for bit, and the pushes are chaotic enough for that to move F
+        (0.4 % for the README's designed tool). Score a design found elsewhere with
+        ``ToolDesign-v0`` at C itself.
 
         Raises:
             ValueError: wrong shape, not finite, or outside the coefficient bounds.
