@@ -25,7 +25,7 @@ pull then drags it toward the base. This script measures that, with a seeded set
 
 3. **Claims** (``--claims RUN_FOLDER ...``, no simulation): claims (c) and (d) of the paper on
    retested robustness suite folders (``tooldesign retest``): per p^X the mean robustness,
-   control deviation and final distance over the mass range with bootstrap intervals and their
+   control deviation and final distance over the mass range with t intervals and their
    noise, Spearman rho with p^X, the lowest p^X minus each other paired by goal, and the noise
    floor of F. ``--precisions`` and ``--seeds`` pick a comparable subset of a larger suite.
 
@@ -55,7 +55,7 @@ import pandas as pd
 from physics_options import add_scene_option
 from scipy import stats as sstats
 
-from benchmarks.reports.stats import bootstrap_ci
+from benchmarks.reports.stats import t_interval
 from benchmarks.reports.suite import designs_table
 from benchmarks.storage import read_designs, read_manifest, read_retests
 from benchmarks.suites.config import suite_of_manifest
@@ -352,7 +352,7 @@ def print_claims(folder: Path, precisions: list[float] | None, seeds: int | None
         f"{[f'{v:g}' for v in values]}, {table['seed'].nunique()} goals"
     )
     print(
-        "mean over goals [95 % bootstrap interval] (median noise: a design's range across the "
+        "mean over goals [95 % t interval] (median noise: a design's range across the "
         "retest's repeated scenes)"
     )
     print(f"{'p^X':>4s}  " + "  ".join(f"{m:>34s}" for m in STRESS))
@@ -360,7 +360,7 @@ def print_claims(folder: Path, precisions: list[float] | None, seeds: int | None
         part = table[table["goal_precision"] == value]
         cells = []
         for metric in STRESS:
-            ci = bootstrap_ci(part[metric].to_numpy(), n_boot=4000, rng=int(value) + len(metric))
+            ci = t_interval(part[metric].to_numpy())
             noise = float(part[f"{metric}_noise"].median())
             cells.append(f"{ci.estimate:9.4g} [{ci.low:9.4g}, {ci.high:9.4g}] ({noise:6.3g})")
         print(f"{value:4g}  " + "  ".join(f"{c:>34s}" for c in cells))
@@ -370,15 +370,13 @@ def print_claims(folder: Path, precisions: list[float] | None, seeds: int | None
         print(f"  {metric:20s} rho {result.statistic:+.3f}  p {result.pvalue:.3g}  n {len(table)}")
     low = values[0]
     base = table[table["goal_precision"] == low].set_index("seed")
-    print(f"p^X = {low:g} minus each other p^X, paired by goal (95 % bootstrap over goals):")
-    rng = np.random.default_rng(0)
+    print(f"p^X = {low:g} minus each other p^X, paired by goal (95 % paired t interval):")
     for value in values[1:]:
         other = table[table["goal_precision"] == value].set_index("seed")
         common = base.index.intersection(other.index)
         for metric in ("robustness", "control_deviation"):
             diff = (base.loc[common, metric] - other.loc[common, metric]).to_numpy()
-            draws = rng.choice(diff, (4000, len(diff))).mean(axis=1)
-            lo, hi = np.quantile(draws, [0.025, 0.975])
+            _, lo, hi = t_interval(diff)
             floor = max(
                 float(base[f"{metric}_noise"].median()), float(other[f"{metric}_noise"].median())
             )
