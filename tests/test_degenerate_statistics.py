@@ -282,8 +282,10 @@ def test_the_difference_is_paired_by_goal() -> None:
     assert n == 9
     assert diff == pytest.approx(1.01, abs=0.01)
     assert 0.9 < low < diff < high < 1.1  # unpaired, the interval would span about +-60
-    with pytest.raises(pd.errors.MergeError):  # a goal twice on a side is not a pairing
-        _paired_difference(pd.concat([a, a]), b, "robustness")
+    # A goal twice on a side (two variants with one label) enters with the mean of its designs.
+    twice = pd.concat([a, _by_goal({g: hard[g] + 3.0 for g in goals})])
+    diff, _, _, n = _paired_difference(twice, b, "robustness")
+    assert n == 9 and diff == pytest.approx((1.01 + 3.0) / 2, abs=0.01)
     # Two optimizers on the same goals: each design is paired with its own optimizer's.
     both_a = pd.concat([a, _by_goal({g: hard[g] + 3.0 for g in goals}, "pso")])
     both_b = pd.concat([b, _by_goal({g: hard[g] for g in goals}, "pso")])

@@ -600,3 +600,28 @@ def test_suite_files_found_by_fuzzing_exit_2_with_one_line(tmp_path, capsys, nam
     assert stop.value.code == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and str(path) in err[0] and "Traceback" not in err[0], err
+
+
+def test_an_ordered_array_like_goal_is_taken_in_its_order():
+    """A pandas Series (or any 1-D ordered array-like) was accepted before the set check."""
+    pd = pytest.importorskip("pandas")
+    from tooldesign_env import ToolDesignEnv
+
+    env = ToolDesignEnv(goal=pd.Series([0.0, 1.4, 0.1]))
+    try:
+        assert env.task.goal == (0.0, 1.4, 0.1)
+        assert all(type(v) is float for v in env.task.goal)
+    finally:
+        env.close()
+    with pytest.raises(ValueError, match="TaskSpec.goal must be 3 finite numbers in order"):
+        ToolDesignEnv(goal=np.zeros((1, 3)))
+
+
+def test_retest_masses_and_frictions_without_order_are_refused():
+    from benchmarks.suites.retest import RetestConfig
+
+    with pytest.raises(TypeError, match=r"RetestConfig.masses must be numbers in order"):
+        RetestConfig(masses={0.9, 0.3, 0.5})
+    with pytest.raises(TypeError, match=r"RetestConfig.frictions must be numbers in order"):
+        RetestConfig(frictions={0.2: 1, 0.6: 2})
+    assert RetestConfig(masses=[0.9, 0.3]).masses == (0.9, 0.3)  # the order given

@@ -175,7 +175,12 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
 
     ## Version History
 
-    * v0: the initial version.
+    * v0: the initial version. On 2026-11-26 an unusable design was put at the reward floor at
+      every goal, as this docstring always said; before, at goals whose F_idle exceeded the
+      invalid penalty (beyond about 2.4 m from the box at p^X = 20) it got -1e5 / F_idle. The
+      id stayed v0: the documented reward did not change, and every committed rl result ran
+      at p^X = 20, where no goal of the paper's range is that far (at p^X = 50 its corner
+      (-0.5, 1.5, 0.1) is: there an unusable design had scored -0.68, now -1).
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 4}

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 import numbers
-from collections.abc import Iterable, Mapping, MappingView, Sequence
+from collections.abc import Iterable, Mapping, MappingView
 from collections.abc import Set as AbstractSet
 from dataclasses import dataclass, fields
 from typing import Any, Literal
@@ -212,16 +212,14 @@ def _check_vector(obj: object, name: str, length: int) -> tuple[float, ...]:
             f"{label} must be {allowed}, got a {type(value).__name__}, which has no order: "
             f"{value!r}"
         )
-    if (
-        isinstance(value, (str, bytes))
-        or not isinstance(value, (Sequence, np.ndarray))
-        or (isinstance(value, np.ndarray) and value.ndim != 1)
-        or len(value) != length
-    ):
+    # Any ordered 1-D container of numbers (a list, tuple, array or pandas Series) reads in
+    # its own order; a string or a scalar is refused, as is an array of another shape.
+    array = None if isinstance(value, (str, bytes)) else np.asarray(value, dtype=object)
+    if array is None or array.ndim != 1 or len(array) != length:
         raise ValueError(f"{label} must be {allowed}, got {value!r}")
     # A tuple of floats, not the array or list given: a frozen spec must compare, hash and
     # serialize, which an ndarray field does not.
-    items = tuple(check_real(v, label) for v in value)
+    items = tuple(check_real(v, label) for v in array)
     object.__setattr__(obj, name, items)
     return items
 
@@ -497,13 +495,11 @@ class SceneSpec:
         _check_range(self, "box_yaw", -YAW_MAX, YAW_MAX, "rad")
         _check_bool(self, "fast_forward_rest")
         _check_bool(self, "merge_fixed_links")
-        object.__setattr__(self, "merge_fixed_links", bool(self.merge_fixed_links))
         if isinstance(self.arm_floor_contacts, str) and self.arm_floor_contacts == "auto":
             object.__setattr__(self, "arm_floor_contacts", "auto")
         else:
+            # Stored as a bool: np.True_ is not True, and the simulator tests `is True`.
             _check_bool(self, "arm_floor_contacts", also="'auto'")
-            # np.True_ is not True: the simulator tests `is True`.
-            object.__setattr__(self, "arm_floor_contacts", bool(self.arm_floor_contacts))
         clearance = check_real(self.floor_clearance, "SceneSpec.floor_clearance")
         if not FLOOR_CONTACT_THRESHOLD < clearance <= 1.0:
             raise ValueError(

@@ -34,11 +34,12 @@ def _run(args: argparse.Namespace) -> int:
     from benchmarks.reports.html import REPORT_FILE
 
     design = _is_design_folder(args.run_folder)
+    checked = None
     if design and args.out is None:
         # Every file the design figures read is checked before the first report file is
         # written: a damaged design.json must not leave the generic report rebuilt and the
         # figures stale beside it.
-        read_design_run(args.run_folder)
+        checked = read_design_run(args.run_folder)
     files = make_suite_report(args.run_folder, out_dir=args.out)
     folder = files[0].parent if files else args.run_folder
     print(f"{len(files)} report files written to {folder}")
@@ -46,7 +47,7 @@ def _run(args: argparse.Namespace) -> int:
         if args.out is None:
             # Figure 3 and the robustness plot live in the run folder itself; drawn again, with
             # report.html embedding them.
-            drawn = write_design_report(args.run_folder)
+            drawn = write_design_report(args.run_folder, checked=checked)
             print(f"{len(drawn)} design figures and report.html rebuilt in {args.run_folder}")
             return 0
         print(

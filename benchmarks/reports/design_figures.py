@@ -269,13 +269,17 @@ def read_design_run(run_folder: str | os.PathLike[str]) -> DesignRun:
     )
 
 
-def write_design_report(run_folder: str | os.PathLike[str]) -> list[Path]:
+def write_design_report(
+    run_folder: str | os.PathLike[str], *, checked: DesignRun | None = None
+) -> list[Path]:
     """Draw the figures and ``report.html`` of a design run folder from its stored files.
 
     Everything is read and checked (:func:`read_design_run`) before the first file is written.
 
     Args:
         run_folder: A finished ``tooldesign design`` run folder.
+        checked: What :func:`read_design_run` returned for it, if the caller read it already
+            (``tooldesign report`` does, before it writes anything); read here if None.
 
     Returns:
         The files written.
@@ -284,7 +288,7 @@ def write_design_report(run_folder: str | os.PathLike[str]) -> list[Path]:
         FileNotFoundError: If a file the figures need is missing (the run is not finished).
         ValueError: If a file is damaged; the message names the file and the field.
     """
-    run = read_design_run(run_folder)
+    run = read_design_run(run_folder) if checked is None else checked
     out, goal, spec, evaluations = run.folder, run.goal, run.spec, run.evaluations
     card, robustness, stored = run.card, run.robustness, run.box_paths
     bests = iteration_bests(evaluations)

@@ -42,6 +42,7 @@ from benchmarks.reports.retest import (
     stress_table,
     unmeasured_noise,
 )
+from benchmarks.reports.stats import t_interval
 from benchmarks.reports.suite import designs_table
 from benchmarks.storage import read_designs, read_retests, with_added_fields
 from benchmarks.suites.config import ADDED_FIELDS
@@ -87,24 +88,18 @@ def _paired_difference(
     The objectives of the robustness suite are run on the same goals, so each goal gives one
     paired difference (per optimizer, when a suite has several: their designs are not repeats
     of one another); a goal that either side lacks (a design that failed its retest, a missing
-    metric) is left out of both. Returns ``(mean, low, high, n)`` with n the pairs; fewer than
-    2 give no interval (NaN bounds), no spread gives a zero-width one.
+    metric) is left out of both, and a side with several designs for one goal (variants that
+    share a label) enters with their mean. Returns ``(mean, low, high, n)`` with n the pairs;
+    fewer than 2 give no interval (NaN bounds), no spread gives a zero-width one.
     """
     keys = ["goal_key", "optimizer"]
-    pairs = a[[*keys, metric]].merge(
-        b[[*keys, metric]], on=keys, suffixes=("_a", "_b"), validate="one_to_one"
-    )
-    d = (pairs[f"{metric}_a"] - pairs[f"{metric}_b"]).to_numpy(dtype=np.float64)
-    d = d[np.isfinite(d)]
-    n = int(d.size)
-    if n == 0:
-        return math.nan, math.nan, math.nan, 0
-    mean = float(d.mean())
-    if n < MIN_INTERVAL_VALUES:
+    sides = [side.groupby(keys, as_index=False)[metric].mean() for side in (a, b)]
+    pairs = sides[0].merge(sides[1], on=keys, suffixes=("_a", "_b"))
+    ci = t_interval((pairs[f"{metric}_a"] - pairs[f"{metric}_b"]).to_numpy(dtype=np.float64))
+    if ci.n < MIN_INTERVAL_VALUES:
         # One pair has no spread: an interval would claim a certainty that one goal cannot give.
-        return mean, math.nan, math.nan, n
-    half = float(sstats.t.ppf(0.975, n - 1) * d.std(ddof=1) / math.sqrt(n))
-    return mean, mean - half, mean + half, n
+        return ci.estimate, math.nan, math.nan, ci.n
+    return ci.estimate, ci.low, ci.high, ci.n
 
 
 def _verdict_difference(low: float, high: float, diff: float, floor: float) -> bool:

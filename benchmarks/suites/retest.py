@@ -49,6 +49,7 @@ from benchmarks.storage import (
 from benchmarks.storage.lock import holding
 from benchmarks.suites.config import suite_of_manifest
 from tooldesign_env.schema import METRICS
+from tooldesign_env.specs import is_unordered
 
 __all__ = [
     "RetestConfig",
@@ -99,6 +100,11 @@ class RetestConfig:
             if not (math.isfinite(value) and 0 <= value <= 0.01):
                 raise ValueError(f"RetestConfig.{name} must be in [0, 0.01], got {value!r}")
         for name, low, high in (("masses", 0.0, 100.0), ("frictions", 0.0, 10.0)):
+            if is_unordered(getattr(self, name)):  # a set would be tested in hash order
+                raise TypeError(
+                    f"RetestConfig.{name} must be numbers in order (a list or tuple), got "
+                    f"{getattr(self, name)!r}"
+                )
             values = tuple(float(v) for v in getattr(self, name))
             if not all(math.isfinite(v) and low < v <= high for v in values):
                 raise ValueError(f"RetestConfig.{name} must lie in ({low}, {high}], got {values}")
