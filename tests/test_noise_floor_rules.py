@@ -220,7 +220,9 @@ def test_a_design_invalid_in_a_nudged_scene_counts_as_the_largest_range_not_as_n
     from benchmarks.reports.retest import noise_floor
 
     measured = [_noise_retest("p20", s, [100.0, 100.0 + r]) for s, r in enumerate((1, 2, 3, 4))]
-    failed = _noise_retest("p20", 9, [], error="ValueError: invalid in a nudged scene")
+    from benchmarks.storage import INVALID_IN_SCENE
+
+    failed = _noise_retest("p20", 9, [], error=f"ValueError: {INVALID_IN_SCENE}: overlaps the box")
     assert noise_floor(measured)["free_energy"] == pytest.approx(2.5)
     floor = noise_floor([*measured, failed])
     assert floor["free_energy"] == pytest.approx(3.0)  # the median of 1, 2, 3, 4 and inf
@@ -277,3 +279,13 @@ def test_claim_a_without_any_auc_says_na(tmp_path: Path, monkeypatch: pytest.Mon
     monkeypatch.setattr(reproduction, "read_retests", lambda folder: [])
     cell = reproduction._claim_a(tmp_path)[0]  # raised "Encountered all NA values"
     assert "n/a" in cell
+
+
+def test_a_retest_that_broke_says_nothing_of_the_design_and_is_left_out() -> None:
+    from benchmarks.reports.retest import noise_floor
+
+    measured = [_noise_retest("p20", s, [100.0, 100.0 + r]) for s, r in enumerate((1, 2, 3, 4))]
+    died = _noise_retest("p20", 9, [], error="WorkerDied: the worker running it died 2 times")
+    floor = noise_floor([*measured, died])
+    assert floor["free_energy"] == pytest.approx(2.5)  # as without it, not raised to 3
+    assert (floor["designs"], floor["unmeasured"], floor["failed"]) == (4, 0, 1)

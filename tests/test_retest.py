@@ -141,3 +141,24 @@ def test_retest_command_refuses_a_folder_that_is_not_a_suite(tmp_path: Path) -> 
     with pytest.raises(SystemExit) as exit_info:
         main(["retest", str(tmp_path), "--masses", "a,b"])
     assert exit_info.value.code == 2
+
+
+@pytest.mark.slow
+def test_a_retest_that_broke_is_tried_again_and_an_invalid_design_is_kept(
+    suite_folder: Path,
+) -> None:
+    from benchmarks.storage import INVALID_IN_SCENE, retest_outcome, write_retest
+
+    retest_suite(suite_folder, SMALL, executor=SerialExecutor())
+    target = sorted((suite_folder / "retest").rglob("seed=*.json"))[0]
+    record = json.loads(target.read_text(encoding="utf-8"))
+    for error, redone in (
+        ("WorkerDied: the worker running it died 2 times", 1),  # no outcome of the design
+        (f"ValueError: {INVALID_IN_SCENE}: overlaps the box", 0),  # an outcome: kept
+    ):
+        broken = {**record, "error": error, "noise": [], "stress": []}
+        write_retest(suite_folder, target, json.dumps(broken))
+        assert len(retest_suite(suite_folder, SMALL, executor=SerialExecutor())) == redone
+        again = json.loads(target.read_text(encoding="utf-8"))
+        assert retest_outcome(again) == ("ok" if redone else "invalid")
+    write_retest(suite_folder, target, json.dumps(record))

@@ -458,8 +458,10 @@ def _nudges(floors: Iterable[Mapping[str, Any]]) -> str:
 
 def _floor_row(suite: str, floor: Mapping[str, Any]) -> str:
     # Designs invalid in a nudged scene count as a range above every measured one.
-    unmeasured = int(floor.get("unmeasured") or 0)
-    designs = f"{int(floor['designs'])}" + (f" ({unmeasured} unmeasured)" if unmeasured else "")
+    unmeasured, failed = (int(floor.get(key) or 0) for key in ("unmeasured", "failed"))
+    notes = [f"{unmeasured} unmeasured"] * bool(unmeasured)
+    notes += [f"{failed} retests failed, left out"] * bool(failed)
+    designs = f"{int(floor['designs'])}" + (f" ({', '.join(notes)})" if notes else "")
     return (
         f"| {suite} | {designs} | {_fmt(floor['free_energy'])} "
         f"({percent_cell(floor['free_energy_relative'])}) | {_fmt(floor['goal_error'])} | "

@@ -34,7 +34,7 @@ from benchmarks.reports.comparison import (
     percent_cell,
 )
 from benchmarks.reports.stats import INTERVAL_NAMES, check_interval, mean_interval
-from benchmarks.storage import atomic_write_text, json_text
+from benchmarks.storage import atomic_write_text, json_text, retest_outcome
 from tooldesign_env.schema import METRICS
 
 __all__ = [
@@ -364,7 +364,7 @@ def make_retest_report(
         f" final distance {_fmt(floor['final_distance'])} m. Differences of F below their "
         "variant's floor are not called significant in this folder's reports."
         + (_NO_RELATIVE_NOTE if _relative_missing(floor) else "")
-        + (_unmeasured_note(retests, int(floor["unmeasured"])) if floor["unmeasured"] else ""),
+        + _retest_notes(retests, floor),
         "",
         "| variant | optimizer | seed | F (mean) | F range | goal error range | "
         "confidence range | final distance range (m) |",
@@ -399,30 +399,36 @@ def make_retest_report(
 def noise_floor(retests: Sequence[Mapping[str, Any]]) -> dict[str, float]:
     """The suite's noise floor of each term: the median over designs of its range over nudges.
 
-    A design whose retest failed (it was invalid in a nudged scene) or that has a nudge without
-    a finite value has no range to measure: its outcome changed by more than any range, so it
-    counts as an infinite range, above every measured one, rather than being left out (which
-    would lower the floor by dropping the noisiest designs). A median that lands on such a
-    design (half of the designs or more) is NaN: not measured.
+    A design that was invalid in a nudged scene, or that has a nudge without a finite value, has
+    no range to measure: its outcome changed by more than any range, so it counts as an
+    infinite range, above every measured one, rather than being left out (which would lower the
+    floor by dropping the noisiest designs). A median that lands on such a design (half of the
+    designs or more) is NaN: not measured. A retest that broke for another reason (a worker
+    that died: :func:`benchmarks.storage.retest_outcome` ``"failed"``) says nothing about the
+    design and is left out (``tooldesign retest`` tries it again).
 
     Returns:
         ``{term: median of (max - min)}`` and ``{term + "_relative": median of (max - min) /
         |mean|}`` for F, goal error, confidence and final distance; ``designs``, the designs
-        counted, ``unmeasured``, those of them without a measurable range, and ``nudges``, the
-        most scenes a design was evaluated in. NaN values when no design was retested.
+        counted, ``unmeasured``, those of them without a measurable range, ``failed``, the
+        retests left out, and ``nudges``, the most scenes a design was evaluated in. NaN values
+        when no design was retested.
     """
     terms = METRICS
     ranges: dict[str, list[float]] = {t: [] for t in terms}
     relative: dict[str, list[float]] = {t: [] for t in terms}
-    unmeasured = nudges = 0
+    unmeasured = nudges = failed = 0
     for retest in retests:
         rows = retest.get("noise") or []
         nudges = max(nudges, len(rows))
-        failed = bool(retest.get("error"))
-        if len(rows) < 2 and not failed:
+        outcome = retest_outcome(retest)
+        if outcome == "failed":
+            failed += 1
+            continue
+        if len(rows) < 2 and outcome == "ok":
             continue  # retested in fewer than 2 scenes: no range, and nothing went wrong
         table = {t: np.array([r[t] for r in rows], dtype=np.float64) for t in terms}
-        if failed or not all(np.isfinite(v).all() for v in table.values()):
+        if outcome == "invalid" or not all(np.isfinite(v).all() for v in table.values()):
             unmeasured += 1
             for t in terms:
                 ranges[t].append(math.inf)
@@ -435,6 +441,7 @@ def noise_floor(retests: Sequence[Mapping[str, Any]]) -> dict[str, float]:
     out: dict[str, float] = {
         "designs": float(len(ranges["free_energy"])),
         "unmeasured": float(unmeasured),
+        "failed": float(failed),
         "nudges": float(nudges),
     }
     for t in terms:
@@ -443,17 +450,30 @@ def noise_floor(retests: Sequence[Mapping[str, Any]]) -> dict[str, float]:
     return out
 
 
-def _unmeasured_note(retests: Sequence[Mapping[str, Any]], count: int) -> str:
-    where = "; ".join(
-        f"{r.get('variant') or '-'} / {r.get('optimizer')} / seed {r.get('seed')}: {r['error']}"
-        for r in retests
-        if r.get("error")
-    )
-    return (
-        f" {count} design(s) had no measurable range (n/a below) and count as a range above "
-        "every measured one, not left out: leaving them out would lower the floor by dropping "
-        "the noisiest designs" + (f" ({where})." if where else ".")
-    )
+def _retest_notes(retests: Sequence[Mapping[str, Any]], floor: Mapping[str, float]) -> str:
+    def where(outcome: str) -> str:
+        return "; ".join(
+            f"{r.get('variant') or '-'} / {r.get('optimizer')} / seed {r.get('seed')}: "
+            f"{r['error']}"
+            for r in retests
+            if retest_outcome(r) == outcome
+        )
+
+    notes = ""
+    if floor["unmeasured"]:
+        invalid = where("invalid")
+        notes += (
+            f" {int(floor['unmeasured'])} design(s) had no measurable range (n/a below) and "
+            "count as a range above every measured one, not left out: leaving them out would "
+            "lower the floor by dropping the noisiest designs"
+            + (f" ({invalid})." if invalid else ".")
+        )
+    if floor.get("failed"):
+        notes += (
+            f" {int(floor['failed'])} retest(s) broke for a reason of their own and are left "
+            f"out; run tooldesign retest on the folder again to redo them ({where('failed')})."
+        )
+    return notes
 
 
 def _finite_median(values: Sequence[float]) -> float:

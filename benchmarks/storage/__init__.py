@@ -25,12 +25,14 @@ from benchmarks.storage.designs import (
     DESIGN_RUN_FILES,
     DESIGN_VERSION,
     DESIGNS_DIR,
+    INVALID_IN_SCENE,
     RETEST_DIR,
     design_path,
     paths_path,
     read_design_run_files,
     read_designs,
     read_retests,
+    retest_outcome,
     retest_path,
     write_retest,
 )
@@ -77,8 +79,10 @@ from benchmarks.storage.table import (
 
 __all__ = [
     "FILE_CHECKSUMS",
+    "INVALID_IN_SCENE",
     "RETEST_DIR",
     "read_retests",
+    "retest_outcome",
     "recorded_checksums",
     "retest_path",
     "update_file_checksums",

@@ -38,8 +38,10 @@ from benchmarks.storage.manifest import (
 from tooldesign_env.schema import METRICS
 
 __all__ = [
+    "INVALID_IN_SCENE",
     "RETEST_DIR",
     "read_retests",
+    "retest_outcome",
     "retest_path",
     "write_retest",
     "DESIGN_RUN_FILES",
@@ -404,6 +406,24 @@ def read_design_run_files(run_folder: str | os.PathLike[str]) -> dict[str, dict[
 
 RETEST_DIR = "retest"
 """Folder of the retest files in a run folder."""
+
+INVALID_IN_SCENE = "the design is invalid in a nudged scene"
+"""How a retest's ``error`` begins (after the exception's type) when the design itself failed:
+it cannot be built or overlaps the box in one of the nudged scenes."""
+
+
+def retest_outcome(record: Mapping[str, Any]) -> str:
+    """What a retest file says happened: ``"ok"``, ``"invalid"`` or ``"failed"``.
+
+    ``"invalid"``: the design was invalid in a nudged scene (:data:`INVALID_IN_SCENE`), an
+    outcome of the design, the largest change a nudge can make. ``"failed"``: the retest broke
+    for another reason (a worker that died, an error of the code): no outcome of the design,
+    and ``tooldesign retest`` tries it again.
+    """
+    error = str(record.get("error") or "")
+    if not error:
+        return "ok"
+    return "invalid" if INVALID_IN_SCENE in error else "failed"
 
 
 def retest_path(run_folder: Path, design_file: Path) -> Path:

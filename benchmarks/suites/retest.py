@@ -39,10 +39,12 @@ import numpy as np
 from benchmarks.execution import TaskSettings, make_executor, map_robust, usable_cpus, worker_env
 from benchmarks.storage import (
     DESIGNS_DIR,
+    INVALID_IN_SCENE,
     json_text,
     read_designs,
     read_manifest,
     read_retests,
+    retest_outcome,
     retest_path,
     write_retest,
 )
@@ -150,7 +152,7 @@ def _rollout(
     env = worker_env(settings, series=True)
     info = env.step(np.asarray(coeffs, dtype=np.float64))[4]
     if not info["valid"]:
-        raise ValueError(f"the design is invalid in a nudged scene: {info['invalid_reason']}")
+        raise ValueError(f"{INVALID_IN_SCENE}: {info['invalid_reason']}")
     return cast("dict[Any, Any]", info)
 
 
@@ -276,7 +278,9 @@ def retest_suite(
                 done = json.loads(target.read_text(encoding="utf-8"))
             except ValueError:
                 done = {}
-            if done.get("settings") == settings:
+            # A retest that broke for a reason of its own (a worker that died) is tried again;
+            # a design invalid in a nudged scene is an outcome, kept.
+            if done.get("settings") == settings and retest_outcome(done) != "failed":
                 continue
         task = retest_task(suite, record)
         item = RetestItem(coeffs=tuple(record["coefficients"]), task=task, config=config)
