@@ -120,14 +120,20 @@ def _folder(path: Path, kind: str) -> Path:
 
 
 def test_report_on_a_design_folder_redraws_its_own_figures(tmp_path, monkeypatch, capsys):
+    import benchmarks.reports.design_figures as design_figures
+
     folder = _folder(tmp_path / "design", DESIGN_SUITE)
     calls = []
+    checked = object()  # what the report checked first, handed on to the figures
+    monkeypatch.setattr(design_figures, "read_design_run", lambda f: checked)
     monkeypatch.setattr(reports, "make_suite_report", lambda f, out_dir=None: [])
     monkeypatch.setattr(
-        reports, "write_design_report", lambda f: calls.append(Path(f)) or [Path(f) / "x.png"]
+        reports,
+        "write_design_report",
+        lambda f, checked=None: calls.append((Path(f), checked)) or [Path(f) / "x.png"],
     )
     assert main(["report", str(folder)]) == 0
-    assert calls == [folder]
+    assert calls == [(folder, checked)]
     assert "design figures" in capsys.readouterr().out
 
 
