@@ -560,3 +560,32 @@ def test_every_optimizer_resumes_to_the_uninterrupted_run(
     assert not np.array_equal(
         other.evaluations[["c1", "c2", "c3"]], whole.evaluations[["c1", "c2", "c3"]]
     )
+
+
+@pytest.mark.slow
+def test_the_manifest_records_the_cards_and_tests_checksums(reference, tmp_path: Path) -> None:
+    """design.json, robustness.json and box_paths.json are recorded; an edit is refused."""
+    from benchmarks.cli import main
+
+    ref, _ = reference
+    recorded = json.loads((ref / "manifest.json").read_text())["extra"]["file_sha256"]
+    for key in ("card", "robustness", "box_paths"):
+        assert recorded[FILES[key]] == file_sha256(ref / FILES[key]), key
+    out = tmp_path / "edited"
+    shutil.copytree(ref, out)
+    # A change that keeps the file's form: only the checksum can tell.
+    robustness = json.loads((out / FILES["robustness"]).read_text())
+    robustness["robustness"] = float(robustness["robustness"]) + 1.0
+    (out / FILES["robustness"]).write_text(json.dumps(robustness))
+    with pytest.raises(SystemExit) as exit_:
+        main(["report", str(out)])
+    assert exit_.value.code == 2
+    with pytest.raises(ResumeError, match="robustness.json"):
+        run_design(CONFIG, out, resume=True, progress=False)
+    # A resumed session that writes them again records their new checksums.
+    longer = tmp_path / "longer"
+    shutil.copytree(ref, longer)
+    run_design(dataclasses.replace(CONFIG, iterations=3), longer, resume=True, progress=False)
+    recorded = json.loads((longer / "manifest.json").read_text())["extra"]["file_sha256"]
+    for key in ("card", "robustness", "box_paths"):
+        assert recorded[FILES[key]] == file_sha256(longer / FILES[key]), key

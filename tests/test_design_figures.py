@@ -197,6 +197,30 @@ DAMAGES = {
 }
 
 
+def _unrecord(folder: Path, *keys: str) -> None:
+    """Remove files' checksums from the manifest, as in a folder written before they existed."""
+    path = folder / "manifest.json"
+    manifest = json.loads(path.read_text(encoding="utf-8"))
+    for key in keys:
+        del manifest["extra"]["file_sha256"][DESIGN_RUN_FILES[key]]
+    path.write_text(json.dumps(manifest), encoding="utf-8")
+
+
+@pytest.mark.parametrize("key", ["card", "robustness", "box_paths"])
+def test_an_edit_that_keeps_the_form_is_caught_by_the_recorded_checksum(
+    design_run: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], key: str
+) -> None:
+    folder = tmp_path / "run"
+    shutil.copytree(design_run, folder)
+    path = folder / DESIGN_RUN_FILES[key]
+    path.write_text(json.dumps(json.loads(path.read_text(encoding="utf-8"))) + " ")
+    with pytest.raises(SystemExit) as caught:
+        main(["report", str(folder)])
+    assert caught.value.code == 2
+    err = capsys.readouterr().err
+    assert f"{DESIGN_RUN_FILES[key]} has changed since it was written" in err, err
+
+
 def _snapshot(folder: Path) -> dict[Path, bytes]:
     return {p: p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
 
@@ -217,9 +241,14 @@ def test_a_damaged_design_run_is_refused_naming_the_file_and_field_before_any_wr
     damage: Callable[[Path], None],
     message: str,
 ) -> None:
-    """Audit item 4: no KeyError traceback, no error without a file, no half-written report."""
+    """Audit item 4: no KeyError traceback, no error without a file, no half-written report.
+
+    The folder's manifest is made as a folder written before the card and the tests were
+    checksummed (2026-11-26): their fields are what is checked then.
+    """
     folder = tmp_path / "run"
     shutil.copytree(design_run, folder)
+    _unrecord(folder, "card", "robustness", "box_paths")
     damage(folder)
     before = _snapshot(folder)
     with pytest.raises(ValueError, match=message):

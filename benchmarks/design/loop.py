@@ -48,6 +48,7 @@ from benchmarks.storage import (
     RunSession,
     atomic_write_text,
     json_text,
+    write_recorded,
 )
 from tooldesign_env.schema import ROBUSTNESS_METRICS, STATUSES, coefficient_columns, rounded_path
 
@@ -56,6 +57,10 @@ __all__ = ["CARD_VERSION", "DesignResult", "run_design"]
 CARD_VERSION = 1
 
 """``format_version`` of ``design.json``."""
+
+#: The files of :data:`DESIGN_RUN_FILES` that every session writes again at its end and whose
+#: SHA-256 the manifest records (``tooldesign report`` and a resume refuse them changed).
+REWRITTEN_FILES = ("card", "robustness", "box_paths")
 
 
 """The best design's rollout (``run_design(video=True)``, ``tooldesign design`` by default)."""
@@ -164,6 +169,11 @@ def run_design(
         out, store = session.out, session.store
         stepper = DesignStepper(config)
         logged = _logged_iterations(store, config)
+        # Every session writes these again at its end: their records go before the first
+        # checkpoint, so a session killed after rewriting one leaves it unrecorded (read
+        # unchecked), never recorded with the checksum of the file it replaced.
+        for name in REWRITTEN_FILES:
+            session.forget_file(out / DESIGN_RUN_FILES[name])
         session.checkpoint()
         stepper.replay(logged)
         best = min((_best_ok(p) for p in logged), default=math.inf)
@@ -200,10 +210,13 @@ def run_design(
             bar.close()
         evaluations = store.read(verify=False)  # written or verified by this session
         result = _finish(config, out, store, evaluations, executor)
+        for name in ("robustness", "box_paths"):
+            session.record_file(out / DESIGN_RUN_FILES[name])  # in the manifest of finish()
     manifest = session.finish(evaluations, keep_lock=True)  # the card and the GIF come after
     try:
         card = _card(config, result, evaluations, manifest)
-        atomic_write_text(out / DESIGN_RUN_FILES["card"], json_text(card))
+        # The session has written its last manifest: the card's checksum is added to it.
+        write_recorded(out, out / DESIGN_RUN_FILES["card"], json_text(card))
         if video and result.status == "ok":
             _video(config, result.coefficients, out / DESIGN_RUN_FILES["video"])
     finally:

@@ -34,6 +34,7 @@ from benchmarks.storage.designs import (
     read_retests,
     retest_outcome,
     retest_path,
+    write_recorded,
     write_retest,
 )
 from benchmarks.storage.manifest import (
@@ -86,6 +87,7 @@ __all__ = [
     "recorded_checksums",
     "retest_path",
     "update_file_checksums",
+    "write_recorded",
     "write_retest",
     "DESIGN_RUN_FILES",
     "CONSOLIDATED_STEM",

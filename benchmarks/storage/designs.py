@@ -43,6 +43,7 @@ __all__ = [
     "read_retests",
     "retest_outcome",
     "retest_path",
+    "write_recorded",
     "write_retest",
     "DESIGN_RUN_FILES",
     "DESIGNS_DIR",
@@ -434,13 +435,29 @@ def retest_path(run_folder: Path, design_file: Path) -> Path:
 def write_retest(run_folder: str | os.PathLike[str], target: Path, text: str) -> Path:
     """Write a retest file atomically and record its SHA-256 in the run folder's manifest.
 
-    The old record is removed first, so a kill between the writes leaves the file unrecorded
-    (read unchecked), never recorded with the checksum of the file it replaced.
-
     Args:
         run_folder: The suite run folder (it holds ``manifest.json``).
         target: The retest file, from :func:`retest_path`.
         text: Its JSON text.
+
+    Returns:
+        ``target``.
+    """
+    return write_recorded(run_folder, target, text)
+
+
+def write_recorded(run_folder: str | os.PathLike[str], target: Path, text: str) -> Path:
+    """Write a file of a run folder atomically and record its SHA-256 in the manifest.
+
+    For a folder no session is writing (a session keeps its own records: use
+    ``RunSession.record_file``). The old record is removed first, so a kill between the writes
+    leaves the file unrecorded (read unchecked), never recorded with the checksum of the file
+    it replaced.
+
+    Args:
+        run_folder: The run folder (it holds ``manifest.json``).
+        target: The file, inside ``run_folder``.
+        text: Its text, written as UTF-8.
 
     Returns:
         ``target``.
