@@ -231,6 +231,15 @@ def test_a_scene_item_without_a_field_or_a_value_is_refused(text):
         scene_item(text)
 
 
+#: Each command that takes --scene, with the arguments of a quick run.
+COMMAND_ARGS = {
+    "design": ["design", "--iterations", "1", "--no-video"],
+    "evaluate": ["evaluate", "--coeffs", "0", "0", "0"],
+    "dense-search": ["dense-search", "--points", "2"],
+    "bench": ["bench", "optimizers", "--size", "smoke"],
+}
+
+
 @pytest.mark.parametrize("command", ["design", "evaluate", "dense-search", "bench"])
 @pytest.mark.parametrize(
     ("value", "match"),
@@ -244,12 +253,7 @@ def test_a_scene_item_without_a_field_or_a_value_is_refused(text):
 def test_bad_scene_values_are_refused_by_every_command(command, value, match, tmp_path, capsys):
     from benchmarks.cli import main
 
-    args = {
-        "design": ["design", "--iterations", "1", "--no-video"],
-        "evaluate": ["evaluate", "--coeffs", "0", "0", "0"],
-        "dense-search": ["dense-search", "--points", "2"],
-        "bench": ["bench", "optimizers", "--size", "smoke"],
-    }[command]
+    args = COMMAND_ARGS[command]
     with pytest.raises(SystemExit) as exit_info:
         main([*args, "--out", str(tmp_path / "out"), "--scene", value])
     assert exit_info.value.code == 2
@@ -281,12 +285,7 @@ def test_a_scene_field_given_twice_is_refused_by_every_command(command, tmp_path
     # The last one won silently, while a KEY given twice to --option was refused.
     from benchmarks.cli import main
 
-    args = {
-        "design": ["design", "--iterations", "1", "--no-video"],
-        "evaluate": ["evaluate", "--coeffs", "0", "0", "0"],
-        "dense-search": ["dense-search", "--points", "2"],
-        "bench": ["bench", "optimizers", "--size", "smoke"],
-    }[command]
+    args = COMMAND_ARGS[command]
     twice = ["--scene", "box_yaw=0.1", "--scene", "merge_fixed_links=false"]
     twice += ["--scene", "box_yaw=0.2"]
     with pytest.raises(SystemExit) as exit_info:

@@ -676,14 +676,12 @@ class ObjectiveSpec:
                 )
         _check_int(self, "scene_samples", 1, SCENE_SAMPLES_MAX)
         _check_int(self, "scene_seed", 0, 2**32 - 1)
-        _check_vector(self, "scene_jitter", 2)
-        shift, turn = (float(v) for v in self.scene_jitter)
+        shift, turn = _check_vector(self, "scene_jitter", 2)
         if not (0 <= shift <= SCENE_SHIFT_MAX and 0 <= turn <= SCENE_TURN_MAX):
             raise ValueError(
                 f"ObjectiveSpec.scene_jitter must be (position 0 to {SCENE_SHIFT_MAX:g} m, yaw 0 "
                 f"to {SCENE_TURN_MAX:g} rad), got {self.scene_jitter!r}"
             )
-        object.__setattr__(self, "scene_jitter", (shift, turn))
 
 
 def spec_to_dict(spec: Any) -> dict[str, Any]:

@@ -25,8 +25,10 @@ from benchmarks.storage import (
     DESIGN_RUN_FILES,
     MANIFEST_NAME,
     ResultStore,
+    finite_number,
     read_design_run_files,
     read_manifest,
+    short_repr,
 )
 from tooldesign_env.schema import coefficient_columns
 
@@ -174,10 +176,6 @@ class DesignRun:
     box_paths: dict[str, Any]
 
 
-def _finite(value: Any) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-
-
 def _config_fields(folder: Path) -> tuple[tuple[float, float, float], Any]:
     """The goal and the ``ToolSpec`` a design run's manifest records; ValueError naming a field."""
     from benchmarks.design.config import check_section_shape
@@ -187,21 +185,23 @@ def _config_fields(folder: Path) -> tuple[tuple[float, float, float], Any]:
     manifest = read_manifest(folder)
 
     def bad(field: str, allowed: str, value: Any, present: bool = True) -> ValueError:
-        got = ("null" if value is None else repr(value)) if present else "nothing"
-        got = got if len(got) <= 80 else got[:77] + "..."
+        got = ("null" if value is None else short_repr(value)) if present else "nothing"
         return ValueError(f"{where}: field {field!r} must be {allowed}, got {got}")
 
     config = manifest.get("config")
     if not isinstance(config, dict):
         raise bad("config", "a JSON object of the run's settings", config, "config" in manifest)
     goal = config.get("goal")
-    if not (isinstance(goal, list) and len(goal) == 3 and all(_finite(v) for v in goal)):
+    if not (isinstance(goal, list) and len(goal) == 3 and all(finite_number(v) for v in goal)):
         raise bad("config.goal", "a list of 3 finite numbers (m)", goal, "goal" in config)
     bounds = config.get("bounds")
     if not (
         isinstance(bounds, list)
         and bounds
-        and all(isinstance(b, list) and len(b) == 2 and all(_finite(v) for v in b) for b in bounds)
+        and all(
+            isinstance(b, list) and len(b) == 2 and all(finite_number(v) for v in b)
+            for b in bounds
+        )
     ):
         raise bad(
             "config.bounds",

@@ -43,12 +43,14 @@ __all__ = [
     "read_retests",
     "retest_outcome",
     "retest_path",
+    "short_repr",
     "write_recorded",
     "write_retest",
     "DESIGN_RUN_FILES",
     "DESIGNS_DIR",
     "DESIGN_VERSION",
     "design_path",
+    "finite_number",
     "paths_path",
     "read_design_run_files",
     "read_designs",
@@ -154,7 +156,8 @@ def _refuse_constant(name: str) -> Any:
     raise ValueError(f"it holds {name}, which JSON has not (a value that is not finite is null)")
 
 
-def _is_number(value: Any) -> bool:
+def finite_number(value: Any) -> bool:
+    """Whether a JSON value is a finite number (a bool is not)."""
     return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
@@ -162,9 +165,7 @@ def _check_design(record: Any, path: Path, folder: Path) -> dict[str, Any]:
     """``record`` if it is a design file of the run its path names; ValueError otherwise."""
 
     def bad(field: str, allowed: str, value: Any) -> ValueError:
-        got = "nothing" if value is None and field not in record else repr(value)
-        if len(got) > 80:
-            got = got[:77] + "..."
+        got = "nothing" if value is None and field not in record else short_repr(value)
         return ValueError(f"{path}: field {field!r} must be {allowed}, got {got}")
 
     if not isinstance(record, dict):
@@ -188,18 +189,18 @@ def _check_design(record: Any, path: Path, folder: Path) -> dict[str, Any]:
             f"{record['optimizer']!r}, seed {seed}, which belongs in {expected}"
         )
     goal = record.get("goal")
-    if not (isinstance(goal, list) and len(goal) == 3 and all(_is_number(v) for v in goal)):
+    if not (isinstance(goal, list) and len(goal) == 3 and all(finite_number(v) for v in goal)):
         raise bad("goal", "a list of 3 finite numbers (m)", goal)
-    if not _is_number(record.get("goal_precision")):
+    if not finite_number(record.get("goal_precision")):
         raise bad("goal_precision", "a finite number", record.get("goal_precision"))
     coefficients = record.get("coefficients")
     if coefficients is not None and not (
-        isinstance(coefficients, list) and all(_is_number(v) for v in coefficients)
+        isinstance(coefficients, list) and all(finite_number(v) for v in coefficients)
     ):
         raise bad("coefficients", "a list of finite numbers or null", coefficients)
     for field in (*METRICS, "test_time"):
         value = record.get(field)
-        if value is not None and not _is_number(value):
+        if value is not None and not finite_number(value):
             raise bad(field, "a finite number or null", value)
     if record.get("status") is not None and not isinstance(record["status"], str):
         raise bad("status", "a string or null", record["status"])
@@ -271,7 +272,8 @@ def _kind_of(value: Any) -> str:
     return "null" if value is None else type(value).__name__
 
 
-def _shown(value: Any) -> str:
+def short_repr(value: Any) -> str:
+    """``repr(value)`` cut to 80 characters, for an error message."""
     text = repr(value)
     return text if len(text) <= 80 else text[:77] + "..."
 
@@ -287,17 +289,18 @@ class _Form:
         self.path, self.record = path, record
 
     def bad(self, field: str, allowed: str, value: Any) -> ValueError:
-        got = "nothing" if field.split(".")[-1].split("[")[0] not in self.record else _shown(value)
+        name = field.split(".")[-1].split("[")[0]
+        got = "nothing" if name not in self.record else short_repr(value)
         return ValueError(f"{self.path}: field {field!r} must be {allowed}, got {got}")
 
     def number(self, field: str, *, null: bool = False) -> None:
         value = self.record.get(field)
-        if not (_is_number(value) or (null and value is None and field in self.record)):
+        if not (finite_number(value) or (null and value is None and field in self.record)):
             raise self.bad(field, "a finite number" + (" or null" if null else ""), value)
 
     def numbers(self, field: str) -> None:
         value = self.record.get(field)
-        if not (isinstance(value, list) and all(_is_number(v) for v in value)):
+        if not (isinstance(value, list) and all(finite_number(v) for v in value)):
             raise self.bad(field, "a list of finite numbers", value)
 
     def paths(self, field: str, *, one: bool = False) -> None:
@@ -316,11 +319,11 @@ class _Form:
                 if not (
                     isinstance(point, list)
                     and len(point) == 3
-                    and all(v is None or _is_number(v) for v in point)
+                    and all(v is None or finite_number(v) for v in point)
                 ):
                     raise ValueError(
                         f"{self.path}: field '{where}[{t}]' must be a point [x, y, z] of finite "
-                        f"numbers (m) or null, got {_shown(point)}"
+                        f"numbers (m) or null, got {short_repr(point)}"
                     )
 
 
@@ -490,7 +493,7 @@ def _check_retest(record: Any, path: Path) -> dict[str, Any]:
             if field == "stress" and not isinstance(row["change"], str):
                 raise ValueError(f"{path}: field 'stress[{i}].change' must be a string")
             for key, value in row.items():
-                if key != "change" and not (value is None or _is_number(value)):
+                if key != "change" and not (value is None or finite_number(value)):
                     raise ValueError(
                         f"{path}: field '{field}[{i}].{key}' must be a finite number or null, "
                         f"got {value!r}"
