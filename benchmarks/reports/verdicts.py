@@ -18,6 +18,7 @@ Command: ``tooldesign equivalence verdicts BEFORE AFTER``.
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 from collections.abc import Mapping, Sequence
@@ -38,6 +39,11 @@ def _number(value: Any) -> float:
         return float(value)
     except (TypeError, ValueError):
         return math.nan
+
+
+def _sort_key(metric: str, row: Mapping[str, Any]) -> tuple[bool, float]:
+    number = _number(row.get(metric))
+    return math.isnan(number), number
 
 
 def _group(row: Mapping[str, Any]) -> str:
@@ -61,12 +67,12 @@ def verdicts(tables: Mapping[str, Table]) -> dict[str, dict[str, str]]:
     """
     by_name = {_name(k): v for k, v in tables.items() if _name(k).endswith(".csv")}
     out: dict[str, dict[str, str]] = {"pairwise": {}, "ranking": {}, "best": {}, "shown": {}}
-    for row in by_name.get("pairwise.csv", ()):
+    for row in by_name.get("pairwise.csv", []):
         key = f"{row.get('variant') or '-'} {row.get('metric')}: {row.get('a')} vs {row.get('b')}"
         out["pairwise"][key] = (
             f"significant={row.get('significant', '')} beyond_noise={row.get('beyond_noise', '')}"
         )
-    summary = by_name.get("summary.csv", ())
+    summary = by_name.get("summary.csv", [])
     variants: dict[str, list[Mapping[str, Any]]] = {}
     for row in summary:
         variants.setdefault(str(row.get("variant") or "-"), []).append(row)
@@ -75,19 +81,16 @@ def verdicts(tables: Mapping[str, Table]) -> dict[str, dict[str, str]]:
             continue
         for metric in ("final_free_energy", "auc"):
             # NaN (no value) last; ties keep the table's order.
-            ordered = sorted(
-                rows,
-                key=lambda r, m=metric: (math.isnan(_number(r.get(m))), _number(r.get(m))),
-            )
+            ordered = sorted(rows, key=functools.partial(_sort_key, metric))
             out["ranking"][f"{variant} {metric}"] = " < ".join(str(r["optimizer"]) for r in ordered)
-    for name, rows in sorted(by_name.items()):
-        for row in rows:
+    for name, table in sorted(by_name.items()):
+        for row in table:
             for column, value in row.items():
                 if str(column).endswith("_best"):
                     out["best"][f"{name} {_group(row)} {column}"] = str(value)
-    for row in by_name.get("tool-shapes.csv", ()):
+    for row in by_name.get("tool-shapes.csv", []):
         out["shown"][f"tool-shapes.csv {row.get('variant') or '-'}"] = str(row.get("seed"))
-    for row in by_name.get("mass-perturbation.csv", ()):
+    for row in by_name.get("mass-perturbation.csv", []):
         if str(row.get("shown")) == "True":
             out["shown"][f"mass-perturbation.csv {row.get('variant') or '-'}"] = str(
                 row.get("seed")

@@ -130,7 +130,9 @@ class EquivalenceTask:
 
     def to_json(self) -> dict[str, Any]:
         """The task as plain JSON types."""
-        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        out = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        out["goal"] = list(self.goal)
+        return out
 
 
 #: The tasks the rule knows, by name.
@@ -460,6 +462,7 @@ def record(
         "spec": spec.to_json(),
         "tasks": {name: TASKS[name].to_json() for name in spec.tasks},
         "median_relative_floor": _median_floor(floors),
+        "median_floor": _median_floor([d["floor"] for d in designs]),
         "median_relative_floor_5": _median_floor(
             [_floor(r[:5])[1] for r in rows] if config.nudges >= 5 else floors
         ),
@@ -591,9 +594,7 @@ def _t_interval(values: np.ndarray, level: float) -> tuple[float, float, float]:
     return mean, mean - half, mean + half
 
 
-def compare(
-    reference: Mapping[str, Any], current: Sequence[Mapping[str, Any]]
-) -> Comparison:
+def compare(reference: Mapping[str, Any], current: Sequence[Mapping[str, Any]]) -> Comparison:
     """Tests 1 and 2 of the rule: the current nominal results against the reference's.
 
     Args:
