@@ -110,6 +110,20 @@ def test_the_median_floor_counts_an_unbounded_floor_above_every_other():
     assert eq._median_floor([0.1, 0.2, 0.3, 0.4]) == pytest.approx(0.25)
 
 
+def test_calibration_holds_each_nudge_out_against_the_range_of_the_others():
+    reference = _reference()
+    for d in reference["designs"]:
+        d["scene_free_energy"] = [0.0, 1.0, 2.0, 3.0]  # 3 is outside the range 0-2 of the others
+    reference["designs"][0]["floor"] = None  # unbounded: within, every time
+    figures = eq.calibration(reference)
+    assert figures["held_out_within"] == pytest.approx((63 * 2 + 3) / (64 * 3))
+    # 58 of 64 designs must be within; each is with p = 0.672: a rule this would fail.
+    assert figures["pass_probability"] < 0.01
+    for d in reference["designs"]:
+        d["scene_free_energy"] = [1.5, 0.0, 1.0, 2.0, 3.0, 1.4, 1.6, 0.5, 2.5]  # nominal central
+    assert eq.calibration(reference) == {"held_out_within": 1.0, "pass_probability": 1.0}
+
+
 def test_compare_refuses_results_of_another_length():
     with pytest.raises(ValueError, match="one row per reference design \\(64\\), got 3"):
         eq.compare(_reference(), _rows([1.0, 2.0, 3.0]))

@@ -120,7 +120,12 @@ def _record(args: argparse.Namespace) -> int:
         raise IsADirectoryError(f"--out {args.out} is a folder; give the reference file's path")
     if not args.out.parent.is_dir():
         raise FileNotFoundError(f"--out {args.out}: its folder {args.out.parent} does not exist")
-    from benchmarks.suites.equivalence import DesignSetSpec, record, write_reference
+    from benchmarks.suites.equivalence import (
+        DesignSetSpec,
+        calibration,
+        record,
+        write_reference,
+    )
 
     reference = record(DesignSetSpec(scenes=args.scenes), workers=args.workers, note=args.note)
     write_reference(reference, args.out)
@@ -130,12 +135,18 @@ def _record(args: argparse.Namespace) -> int:
         f"{len(reference['designs'])} designs in {args.scenes} scenes each; median relative "
         f"noise floor of F {shown}; reference written to {args.out}"
     )
+    print(_calibration_line(reference, calibration(reference)))
     return 0
 
 
 def _check(args: argparse.Namespace) -> int:
     _check_workers(args.workers)
-    from benchmarks.suites.equivalence import check, format_comparison, read_reference
+    from benchmarks.suites.equivalence import (
+        calibration,
+        check,
+        format_comparison,
+        read_reference,
+    )
 
     reference = read_reference(args.reference)  # a bad file is named before anything runs
     result = check(reference, workers=args.workers)
@@ -143,8 +154,19 @@ def _check(args: argparse.Namespace) -> int:
         f"reference {args.reference}: {reference.get('note') or '(no note)'}; recorded on "
         f"{reference.get('platform')} at commit {reference.get('git_commit')}"
     )
+    print(_calibration_line(reference, calibration(reference)))
     print(format_comparison(result, rows=args.rows))
     return 0 if result.accepted else 1
+
+
+def _calibration_line(reference: dict[str, Any], figures: dict[str, float]) -> str:
+    scenes = reference.get("spec", {}).get("scenes")
+    return (
+        f"{len(reference['designs'])} designs, {scenes} scenes each: a held-out nudge lies within "
+        f"the floor of the other scenes for {100 * figures['held_out_within']:.1f} % of "
+        f"(design, nudge) pairs, so a change of nudge size passes test 1 with probability "
+        f"{figures['pass_probability']:.3f}"
+    )
 
 
 def _runs(folder: Path) -> dict[str, Path]:

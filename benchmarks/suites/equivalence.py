@@ -75,6 +75,7 @@ __all__ = [
     "Comparison",
     "DesignSetSpec",
     "EquivalenceTask",
+    "calibration",
     "check",
     "compare",
     "evaluate",
@@ -685,6 +686,42 @@ def check(
     """
     rows = evaluate(reference["designs"], changes=changes, executor=executor, workers=workers)
     return compare(reference, [r[0] for r in rows])
+
+
+def calibration(reference: Mapping[str, Any]) -> dict[str, float]:
+    """How often the rule's test 1 passes a change of nudge size, from the reference alone.
+
+    Each nudged scene k >= 1 of a design is held out in turn, as a change would be: it is within
+    the floor when ``|F_k - F_0|`` is at most the range of F over the other scenes (one fewer
+    than the rule's, so this is slightly pessimistic). A design with an unbounded floor is
+    within, as in :func:`compare`.
+
+    Returns:
+        ``held_out_within``: the fraction of (design, held-out scene) pairs within the floor;
+        ``pass_probability``: the chance that at least 90 % of the reference's designs are
+        within, for independent designs each within with that fraction (binomial).
+    """
+    from scipy import stats
+
+    hits = total = 0
+    for design in reference["designs"]:
+        values = design.get("scene_free_energy") or []
+        for k in range(1, len(values)):
+            total += 1
+            if design["floor"] is None:
+                hits += 1
+                continue
+            others = np.delete(np.asarray(values, dtype=np.float64), k)
+            hits += abs(values[k] - values[0]) <= float(np.ptp(others))
+    if not total:
+        return {"held_out_within": math.nan, "pass_probability": math.nan}
+    fraction = hits / total
+    n = len(reference["designs"])
+    need = math.ceil(WITHIN_FRACTION * n - 1e-9)
+    return {
+        "held_out_within": fraction,
+        "pass_probability": float(stats.binom.sf(need - 1, n, fraction)),
+    }
 
 
 def _cell(value: float | None, digits: int = 4) -> str:
