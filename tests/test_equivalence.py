@@ -403,6 +403,8 @@ def test_a_box_five_percent_more_slippery_is_rejected(reference):
     scene = SceneSpec(box_friction=1.05 * SceneSpec().box_friction)
     result = eq.check(reference, changes={"scene": scene}, workers=2)
     assert not result.accepted, eq.format_comparison(result)
+    # Measured at 062b3a0: 55 of 72 within, mean -0.51 % [-0.81, -0.22] %: both tests fail.
+    assert len(result.reasons) == 2, eq.format_comparison(result)
 
 
 @pytest.mark.slow
