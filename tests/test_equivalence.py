@@ -146,6 +146,7 @@ def test_format_comparison_refuses_an_unknown_rows_choice():
         ("scenes", 1, "nudges must be in \\[2, 100\\]"),
         ("random_designs", ((0, 5),), "random_designs must be"),
         ("random_designs", ((3, -1),), "random_designs must be"),
+        ("random_designs", (3, 20), "random_designs must be"),
         ("tasks", ("pull",), "tasks must be one or more of \\['push'\\]"),
         ("tasks", (), "tasks must be one or more of"),
         ("shift", 0.5, "shift must be in \\[0, 0.01\\]"),

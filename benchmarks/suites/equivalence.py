@@ -175,7 +175,10 @@ class DesignSetSpec:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 0:
                 raise ValueError(f"DesignSetSpec.{name} must be an int >= 0, got {value!r}")
-        pairs = tuple(tuple(p) for p in self.random_designs)
+        try:
+            pairs = tuple(tuple(p) for p in self.random_designs)
+        except TypeError:
+            pairs = ((),)  # not pairs: refused below, naming the field
         for pair in pairs:
             ok = len(pair) == 2 and all(
                 isinstance(v, int) and not isinstance(v, bool) for v in pair
@@ -484,9 +487,9 @@ def _median_floor(floors: Sequence[float | None]) -> float | None:
 
 def write_reference(reference: Mapping[str, Any], path: str | os.PathLike[str]) -> Path:
     """Write a reference atomically, as sorted, indented JSON (checked as it is read)."""
-    _check_reference(json.loads(json_text(reference)), Path(path))
-    text = json.dumps(json.loads(json_text(reference)), indent=1, sort_keys=True) + "\n"
-    return atomic_write_text(path, text)
+    data = json.loads(json_text(reference))
+    _check_reference(data, Path(path))
+    return atomic_write_text(path, json.dumps(data, indent=1, sort_keys=True) + "\n")
 
 
 def read_reference(path: str | os.PathLike[str] = REFERENCE) -> dict[str, Any]:
