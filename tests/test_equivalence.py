@@ -392,6 +392,31 @@ def reference():
 
 
 @pytest.mark.slow
+def test_record_draws_the_committed_designs_and_measures_them_within_their_floors(
+    reference, monkeypatch
+):
+    # A small set (the rule's minimum lowered for the test): the 5 named designs and the first
+    # 2 cubics, in 3 scenes. Same seed, same designs as the committed reference; their F in
+    # each scene is within the committed floor of the nominal F (bits depend on the CPU).
+    monkeypatch.setattr(eq, "DESIGNS_MIN", 7)
+    spec = eq.DesignSetSpec(random_designs=((3, 2),), scenes=3)
+    small = eq.record(spec, executor=SerialExecutor(), note="test")
+    committed = {d["label"]: d for d in reference["designs"]}
+    assert [d["label"] for d in small["designs"]] == [n for n, _ in eq.NAMED_DESIGNS] + [
+        "d3-00",
+        "d3-01",
+    ]
+    for design in small["designs"]:
+        old = committed[design["label"]]
+        assert design["coefficients"] == old["coefficients"]
+        assert len(design["scene_free_energy"]) == 3
+        assert design["floor"] == pytest.approx(float(np.ptp(design["scene_free_energy"])))
+        for value in design["scene_free_energy"]:
+            assert abs(value - old["free_energy"]) <= old["floor"], design["label"]
+    assert small["note"] == "test" and small["spec"] == spec.to_json()
+
+
+@pytest.mark.slow
 def test_the_code_as_it_is_passes_the_check_against_the_committed_reference(reference):
     result = eq.check(reference, workers=2)
     assert result.accepted, eq.format_comparison(result)

@@ -424,20 +424,29 @@ def record(
         for task in spec.tasks:
             wanted = {d: c for d, c in spec.random_designs}
             for design, (row,) in zip(candidates, nominal, strict=True):
-                if design["task"] != task:
+                # A design invalid in the nominal scene says nothing of the physics: left out
+                # (a random one is replaced by the next draw of its degree).
+                if design["task"] != task or not row["valid"]:
                     continue
                 if design["kind"] == "random":
-                    if not row["valid"] or wanted[design["degree"]] == 0:
+                    if wanted[design["degree"]] == 0:
                         continue
                     wanted[design["degree"]] -= 1
-                kept.append(design)
+                kept.append({**design, "nominal": row})
             short = {d: c for d, c in wanted.items() if c}
             if short:
                 raise ValueError(
                     f"too few valid random designs of task {task!r} (missing per degree: "
                     f"{short}); raise the spare draws or change the seed"
                 )
-        rows = evaluate(kept, scenes=range(config.nudges), config=config, executor=pool)
+        if len(kept) < DESIGNS_MIN:
+            raise ValueError(
+                f"only {len(kept)} designs are valid in the nominal scene; the set must hold at "
+                f"least {DESIGNS_MIN}"
+            )
+        # The nominal scene is the first of the nudges' list: evaluated once, above.
+        nudged = evaluate(kept, scenes=range(1, config.nudges), config=config, executor=pool)
+    rows = [[design.pop("nominal"), *others] for design, others in zip(kept, nudged, strict=True)]
     designs = []
     for design, scenes in zip(kept, rows, strict=True):
         spread, relative = _floor(scenes)
