@@ -444,3 +444,25 @@ def test_a_change_of_nudge_size_is_accepted(reference):
     result = eq.check(reference, changes={"scene": scene}, workers=2)
     assert result.accepted, eq.format_comparison(result)
     assert sum(r["dF"] != 0.0 for r in result.rows) > len(result.rows) / 2  # a real change
+
+
+@pytest.mark.parametrize(
+    ("shift", "code", "verdict"), [(0.0, 0, "ACCEPTED"), (50.0, 1, "REJECTED")]
+)
+def test_check_command_prints_the_verdict_and_exits_with_it(
+    tmp_path, capsys, monkeypatch, shift, code, verdict
+):
+    # The simulation is stood in for (the slow tests run it): the command's own part is read,
+    # compare, print and exit code.
+    reference = _reference()
+    path = eq.write_reference(reference, tmp_path / "ref.json")
+
+    def check(ref, **kwargs):
+        return eq.compare(ref, _rows([10_000.0 + shift] * 64))
+
+    monkeypatch.setattr(eq, "check", check)
+    assert main(["equivalence", "check", "--reference", str(path), "--rows", "all"]) == code
+    out = capsys.readouterr().out
+    assert f"verdict:                  {verdict}" in out
+    assert out.count("d3-") == 64
+    assert "not calibrated" in out  # the hand-made reference keeps no F per scene

@@ -156,11 +156,19 @@ def _check(args: argparse.Namespace) -> int:
     )
     print(_calibration_line(reference, calibration(reference)))
     print(format_comparison(result, rows=args.rows))
+    if result.accepted:
+        print(
+            "test 3: run the smoke suites before and after the change and compare them with "
+            "`tooldesign equivalence verdicts BEFORE AFTER` (tests/test_smoke_reproduction.py "
+            "compares them with the committed sets)"
+        )
     return 0 if result.accepted else 1
 
 
 def _calibration_line(reference: dict[str, Any], figures: dict[str, float]) -> str:
     scenes = reference.get("spec", {}).get("scenes")
+    if figures["held_out_within"] != figures["held_out_within"]:  # NaN: no scene values
+        return f"{len(reference['designs'])} designs; no F per scene recorded: not calibrated"
     return (
         f"{len(reference['designs'])} designs, {scenes} scenes each: a held-out nudge lies within "
         f"the floor of the other scenes for {100 * figures['held_out_within']:.1f} % of "
