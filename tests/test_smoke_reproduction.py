@@ -2,7 +2,10 @@
 
 This is the guard of every refactoring that claims to leave behaviour unchanged: the four paper
 suites at size ``smoke`` and a small ``tooldesign design`` run must store exactly the numbers
-committed in ``tests/fixtures/smoke-results.json.gz``, to the last bit of every float.
+committed in ``tests/fixtures/smoke-results.json.gz``, to the last bit of every float. That
+holds on one platform only; on every platform, and across a change of the physics accepted by the
+equivalence rule (docs/performance.md), the suites' verdicts and rankings must equal those of
+every recorded set (test 3 of the rule, ``benchmarks.reports.verdicts``).
 """
 
 from __future__ import annotations
@@ -33,6 +36,18 @@ def test_smoke_results_are_reproduced_bit_for_bit(fresh, name):
     assert sorted(got) == sorted(expected), "the run folder stores other files"
     for key in expected:
         assert got[key] == expected[key], f"{name}: {key} differs from the committed results"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", SUITES)
+def test_smoke_verdicts_and_rankings_equal_every_recorded_sets(fresh, name):
+    from benchmarks.reports.verdicts import compare_verdicts, verdicts
+
+    got = verdicts(fresh[name])
+    assert any(got.values()), f"{name}: no verdict or ranking found in the fresh run"
+    for platform, recorded in sorted(read_variants().items()):
+        lines = compare_verdicts(verdicts(recorded[name]), got)
+        assert not lines, f"{name}, against the results of {platform}: " + "; ".join(lines)
 
 
 @pytest.mark.parametrize("platform", sorted(read_variants()))

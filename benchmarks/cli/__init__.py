@@ -62,6 +62,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "benchmarks.cli.rl",
         "RL baselines on ToolDesignRL-v0: the rl suite, tuning probes, saved policies",
     ),
+    "equivalence": (
+        "benchmarks.cli.equivalence",
+        "accept or reject a change to the simulation or F by the equivalence rule",
+    ),
     "readme": (
         "benchmarks.cli.readme",
         "regenerate the README's pictures and numbers (a design run of minutes)",
