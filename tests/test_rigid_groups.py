@@ -15,7 +15,8 @@ import numpy as np
 import pytest
 
 from tooldesign_env import SceneSpec, ToolDesignEnv, make_tool
-from tooldesign_env.bullet import HAND_LINKS, HAND_ROOT, BulletWorld, panda_urdf_with_tool
+from tooldesign_env.bullet import BulletWorld
+from tooldesign_env.robot_model import HAND_LINKS, HAND_ROOT, panda_urdf_with_tool
 from tooldesign_env.rigid_groups import (
     Inertial,
     combine_inertials,

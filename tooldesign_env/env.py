@@ -517,8 +517,9 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
         goal = self._goal
         if not geometry.buildable:
             return self._invalid_info(geometry, f"cannot be built: {geometry.why_not_buildable}")
-        if self.simulator.build(geometry, box_mass=self._box_mass):
-            return self._invalid_info(geometry, "overlaps the box at the start of the sweep")
+        built = self.simulator.build(geometry, box_mass=self._box_mass)
+        if not built.usable:
+            return self._invalid_info(geometry, built.reason)
         if self.objective.kind == "expected-goal-error":
             return self._expected_goal_error(geometry)
         # The nominal scene is built; the others of ObjectiveSpec.scene_samples move the box.
