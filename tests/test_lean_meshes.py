@@ -282,7 +282,9 @@ def test_a_later_process_reuses_the_copies_through_the_index(tmp_path, monkeypat
 
     # Another version of this code, of Qhull or another machine: the copies are made again.
     made = []
-    monkeypatch.setattr(lean_meshes, "lean_collision_mesh", lambda text: made.append(1) or real(text))
+    monkeypatch.setattr(
+        lean_meshes, "lean_collision_mesh", lambda text: made.append(1) or real(text)
+    )
     monkeypatch.setattr(lean_meshes, "_lean_index_tag", lambda: "another-tag")
     monkeypatch.setattr(lean_meshes, "_LEAN_MESHES", {})
     assert lean_collision_meshes(tmp_path) == meshes  # the same text, so the same names
@@ -315,7 +317,9 @@ def test_a_damaged_copy_or_index_makes_the_copies_again(tmp_path, monkeypatch, d
         index.write_text(json.dumps(entries), encoding="utf-8")
     made = []
     real = lean_meshes.lean_collision_mesh
-    monkeypatch.setattr(lean_meshes, "lean_collision_mesh", lambda text: made.append(1) or real(text))
+    monkeypatch.setattr(
+        lean_meshes, "lean_collision_mesh", lambda text: made.append(1) or real(text)
+    )
     monkeypatch.setattr(lean_meshes, "_LEAN_MESHES", {})
     assert lean_collision_meshes(tmp_path) == meshes
     assert made  # made again, from the original

@@ -423,8 +423,8 @@ def test_without_rendering_no_visual_shape_is_loaded(shape):
     # Visuals only cost load time (a round tool's capsules are tessellated at load); physics
     # never reads them, which the fixture above checks bit for bit for both sections.
     from tooldesign_env import ToolSpec, make_tool
-    from tooldesign_env.robot_model import panda_urdf_with_tool
     from tooldesign_env.geometry import tool_link_xml
+    from tooldesign_env.robot_model import panda_urdf_with_tool
 
     link = tool_link_xml(make_tool((0.3, -0.7, 0.2), ToolSpec(section_shape=shape)))
     assert "<visual" in link

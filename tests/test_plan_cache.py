@@ -9,8 +9,8 @@ import warnings
 import numpy as np
 import pytest
 
-from tooldesign_env import plan as plan_module
 from tooldesign_env import floor_guard, reference, simulation
+from tooldesign_env import plan as plan_module
 from tooldesign_env.plan import (
     CACHE_ENV,
     cache_dir,
