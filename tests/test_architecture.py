@@ -69,6 +69,63 @@ def test_optimizers_never_import_pybullet():
     assert out.stdout.strip() == "[]", out.stdout
 
 
+#: PyBullet's packages: only the client wrapper imports them (docs/architecture.md).
+_PYBULLET = {"pybullet", "pybullet_data", "pybullet_utils", "pybullet_envs"}
+
+
+def _imported_roots(tree: ast.AST) -> set[str]:
+    """The top-level names of every module a module imports, at any depth of its code."""
+    roots: set[str] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            roots.update(alias.name.split(".")[0] for alias in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            roots.add(node.module.split(".")[0])
+    return roots
+
+
+def test_only_the_client_wrapper_imports_pybullet():
+    """One module owns PyBullet (as panda-gym's pybullet.py does); the rest ask it.
+
+    The robot model, the asset caches, the plan's references, the floor guard and the control
+    loops reach PyBullet through :class:`tooldesign_env.bullet.BulletWorld` only.
+    """
+    importers = sorted(
+        name
+        for name, path in modules().items()
+        if _imported_roots(ast.parse(path.read_text(encoding="utf-8"))) & _PYBULLET
+    )
+    assert importers == ["tooldesign_env.bullet"]
+
+
+def test_the_pybullet_check_sees_every_way_in():
+    for source in (
+        "import pybullet",
+        "from pybullet_utils.bullet_client import X",
+        "import pybullet_data as d",
+    ):
+        assert _imported_roots(ast.parse(source)) & _PYBULLET
+    assert not _imported_roots(ast.parse("from . import pybullet_like")) & _PYBULLET
+
+
+#: A module of tooldesign_env/ longer than this says in its docstring why.
+_LONG_MODULE = 600
+
+
+def test_a_long_module_of_the_problem_says_why():
+    for name, path in modules().items():
+        if layer_of(name) != "tooldesign_env":
+            continue
+        text = path.read_text(encoding="utf-8")
+        if text.count("\n") <= _LONG_MODULE:
+            continue
+        doc = ast.get_docstring(ast.parse(text)) or ""
+        assert "Longer than 600 lines" in doc, (
+            f"{name} has {text.count(chr(10))} lines: split it, or say in its docstring why "
+            "it is longer than 600 lines"
+        )
+
+
 #: Modules that read a command line; only the command line's layer may use them.
 _PARSERS = {"argparse", "optparse", "getopt", "click", "typer", "docopt", "fire"}
 

@@ -6,9 +6,9 @@ else in the library asks it (``tests/test_architecture.py`` checks that no other
 ``pybullet``, ``pybullet_data`` or ``pybullet_utils``). The robot model and its asset caches are
 :mod:`tooldesign_env.robot_model` and :mod:`tooldesign_env.lean_meshes`.
 
-Longer than the library's other modules (about 800 lines) for that reason: every PyBullet call of
-the library is one short method of :class:`BulletWorld` here, and splitting the class would only
-spread the one connection it owns over several files.
+Longer than 600 lines for that reason: every PyBullet call of the library is one short method of
+:class:`BulletWorld` here, and splitting the class would only spread the one connection it owns
+over several files.
 """
 
 from __future__ import annotations
