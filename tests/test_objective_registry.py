@@ -211,3 +211,19 @@ def test_an_estimator_that_does_not_declare_its_needs_is_refused():
             make_estimator(ObjectiveSpec(estimator="silent"))
     finally:
         unregister_estimator("silent")
+
+
+def test_an_objective_without_the_three_methods_is_refused():
+    class Half:
+        name = "half"
+        recording = Recording()
+
+        def score(self, rollout: Rollout, goal: np.ndarray) -> ObjectiveTerms:  # pragma: no cover
+            raise AssertionError
+
+    register_objective("half", lambda spec: Half())
+    try:
+        with pytest.raises(TypeError, match=r"the objective 'half' has no method scenes\(\)"):
+            make_objective(ObjectiveSpec(kind="half"))
+    finally:
+        unregister_objective("half")

@@ -232,8 +232,9 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
     ``objective_kind`` and ``box_mass`` are shortcuts for the fields of ``objective`` and
     ``scene``; ``objective_kind=
     "expected-goal-error"`` scores the robust-design baseline instead of F (see
-    ``ObjectiveSpec.kind``). ``reset(options={"goal": (x, y, z),
-    "box_mass": m})`` changes the task of one episode.
+    ``ObjectiveSpec.kind``). Both take any name registered with
+    ``tooldesign_env.objective.register_estimator`` / ``register_objective``.
+    ``reset(options={"goal": (x, y, z), "box_mass": m})`` changes the task of one episode.
 
     ``render_mode="rgb_array"`` renders headless (PyBullet's software renderer, no display):
     ``render()`` returns a (360, 480, 3) uint8 frame of the scene with the goal as a green sphere,
