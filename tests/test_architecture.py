@@ -226,3 +226,37 @@ def test_a_lazy_package_still_reaches_its_submodules_as_attributes(package, attr
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "True"
+
+
+@pytest.mark.parametrize(
+    ("old", "names", "new"),
+    [
+        (
+            "tooldesign_env.bullet",
+            ("panda_urdf_with_tool", "merged_hand_inertia", "robot_model_digest", "HAND_ROOT"),
+            "tooldesign_env.robot_model",
+        ),
+        (
+            "tooldesign_env.bullet",
+            ("lean_collision_mesh", "lean_collision_meshes"),
+            "tooldesign_env.lean_meshes",
+        ),
+        ("tooldesign_env.simulation", ("Trajectory",), "tooldesign_env.rollout"),
+        ("tooldesign_env.simulation", ("contact_mobility",), "tooldesign_env.mobility"),
+        ("tooldesign_env.simulation", ("floor_clearance_bound",), "tooldesign_env.floor_guard"),
+        ("tooldesign_env.simulation", ("plan_cache_key",), "tooldesign_env.reference"),
+        ("tooldesign_env.simulation", ("principal_inertia",), "tooldesign_env.robot_model"),
+        ("tooldesign_env.objective", ("ContactEstimator",), "tooldesign_env.objective.contact"),
+        ("tooldesign_env.objective", ("free_energy",), "tooldesign_env.objective.energy"),
+    ],
+)
+def test_the_old_import_paths_of_moved_names_still_work(old, names, new):
+    """The physics split and the objective package moved names (issue 30); users' imports hold."""
+    import importlib
+
+    for name in names:
+        assert getattr(importlib.import_module(old), name) is getattr(
+            importlib.import_module(new), name
+        ), name
+    with pytest.raises(AttributeError, match="no attribute 'not_a_name'"):
+        _ = importlib.import_module(old).not_a_name
