@@ -69,6 +69,63 @@ def test_optimizers_never_import_pybullet():
     assert out.stdout.strip() == "[]", out.stdout
 
 
+#: PyBullet's packages: only the client wrapper imports them (docs/architecture.md).
+_PYBULLET = {"pybullet", "pybullet_data", "pybullet_utils", "pybullet_envs"}
+
+
+def _imported_roots(tree: ast.AST) -> set[str]:
+    """The top-level names of every module a module imports, at any depth of its code."""
+    roots: set[str] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            roots.update(alias.name.split(".")[0] for alias in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            roots.add(node.module.split(".")[0])
+    return roots
+
+
+def test_only_the_client_wrapper_imports_pybullet():
+    """One module owns PyBullet (as panda-gym's pybullet.py does); the rest ask it.
+
+    The robot model, the asset caches, the plan's references, the floor guard and the control
+    loops reach PyBullet through :class:`tooldesign_env.bullet.BulletWorld` only.
+    """
+    importers = sorted(
+        name
+        for name, path in modules().items()
+        if _imported_roots(ast.parse(path.read_text(encoding="utf-8"))) & _PYBULLET
+    )
+    assert importers == ["tooldesign_env.bullet"]
+
+
+def test_the_pybullet_check_sees_every_way_in():
+    for source in (
+        "import pybullet",
+        "from pybullet_utils.bullet_client import X",
+        "import pybullet_data as d",
+    ):
+        assert _imported_roots(ast.parse(source)) & _PYBULLET
+    assert not _imported_roots(ast.parse("from . import pybullet_like")) & _PYBULLET
+
+
+#: A module of tooldesign_env/ longer than this says in its docstring why.
+_LONG_MODULE = 600
+
+
+def test_a_long_module_of_the_problem_says_why():
+    for name, path in modules().items():
+        if layer_of(name) != "tooldesign_env":
+            continue
+        text = path.read_text(encoding="utf-8")
+        if text.count("\n") <= _LONG_MODULE:
+            continue
+        doc = ast.get_docstring(ast.parse(text)) or ""
+        assert "Longer than 600 lines" in doc, (
+            f"{name} has {text.count(chr(10))} lines: split it, or say in its docstring why "
+            "it is longer than 600 lines"
+        )
+
+
 #: Modules that read a command line; only the command line's layer may use them.
 _PARSERS = {"argparse", "optparse", "getopt", "click", "typer", "docopt", "fire"}
 
@@ -169,3 +226,37 @@ def test_a_lazy_package_still_reaches_its_submodules_as_attributes(package, attr
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "True"
+
+
+@pytest.mark.parametrize(
+    ("old", "names", "new"),
+    [
+        (
+            "tooldesign_env.bullet",
+            ("panda_urdf_with_tool", "merged_hand_inertia", "robot_model_digest", "HAND_ROOT"),
+            "tooldesign_env.robot_model",
+        ),
+        (
+            "tooldesign_env.bullet",
+            ("lean_collision_mesh", "lean_collision_meshes"),
+            "tooldesign_env.lean_meshes",
+        ),
+        ("tooldesign_env.simulation", ("Trajectory",), "tooldesign_env.rollout"),
+        ("tooldesign_env.simulation", ("contact_mobility",), "tooldesign_env.mobility"),
+        ("tooldesign_env.simulation", ("floor_clearance_bound",), "tooldesign_env.floor_guard"),
+        ("tooldesign_env.simulation", ("plan_cache_key",), "tooldesign_env.reference"),
+        ("tooldesign_env.simulation", ("principal_inertia",), "tooldesign_env.robot_model"),
+        ("tooldesign_env.objective", ("ContactEstimator",), "tooldesign_env.objective.contact"),
+        ("tooldesign_env.objective", ("free_energy",), "tooldesign_env.objective.energy"),
+    ],
+)
+def test_the_old_import_paths_of_moved_names_still_work(old, names, new):
+    """The physics split and the objective package moved names (issue 30); users' imports hold."""
+    import importlib
+
+    for name in names:
+        assert getattr(importlib.import_module(old), name) is getattr(
+            importlib.import_module(new), name
+        ), name
+    with pytest.raises(AttributeError, match="no attribute 'not_a_name'"):
+        _ = importlib.import_module(old).not_a_name

@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from tooldesign_env.objective import ContactEstimator, control_confidence, free_energy
-from tooldesign_env.simulation import contact_mobility
+from tooldesign_env.mobility import contact_mobility
+from tooldesign_env.objective import ContactEstimator, Rollout, control_confidence, free_energy
 from tooldesign_env.specs import ObjectiveSpec
 
 BOX = (0.1, 0.1, 0.2)
@@ -73,6 +73,10 @@ def test_rotation_of_the_tool_moves_an_offset_contact_point():
     assert a[0, 0] == pytest.approx(-1.0 / (0.5 + 1.0), rel=1e-12)
 
 
+def _rollout(x, u, *, mobility, control_dt):
+    return Rollout(box_position=x, torques=u, contact_mobility=mobility, control_dt=control_dt)
+
+
 def moving_box(n, speed=0.2, dt=1 / 120):
     x = np.zeros((n, 3))
     x[:, 0] = speed * dt * np.arange(n)
@@ -84,7 +88,9 @@ def test_constant_mobility_gives_half_tau_squared():
     a = np.zeros((n, 3, 7))
     a[:, 0, 0] = 2.0
     est = ContactEstimator(response_time=0.05)
-    jac = est.estimate(moving_box(n), np.zeros((n, 7)), mobility=a, control_dt=dt).jacobian
+    jac = est.estimate(
+        _rollout(moving_box(n), np.zeros((n, 7)), mobility=a, control_dt=dt)
+    ).jacobian
     # (Step 0 has no speed yet: the box is not sliding there.)
     np.testing.assert_allclose(jac[1 : n - 6, 0, 0], 0.5 * 0.05**2 * 2.0, rtol=1e-12)
     # The window is cut by the end of the episode.
@@ -96,7 +102,9 @@ def test_window_weights_sum_to_half_tau_squared_for_any_tau():
     a = np.ones((n, 3, 7))
     for tau in (0.004, 0.05, 0.0731, 0.2):
         est = ContactEstimator(response_time=tau)
-        jac = est.estimate(moving_box(n), np.zeros((n, 7)), mobility=a, control_dt=dt).jacobian
+        jac = est.estimate(
+            _rollout(moving_box(n), np.zeros((n, 7)), mobility=a, control_dt=dt)
+        ).jacobian
         assert jac[1, 0, 0] == pytest.approx(0.5 * tau**2, rel=1e-12)
 
 
@@ -104,10 +112,14 @@ def test_a_box_at_rest_is_held_by_friction():
     n, dt = 30, 1 / 120
     a = np.ones((n, 3, 7))
     est = ContactEstimator(response_time=0.05, slip_speed=0.01)
-    still = est.estimate(np.zeros((n, 3)), np.zeros((n, 7)), mobility=a, control_dt=dt)
+    still = est.estimate(_rollout(np.zeros((n, 3)), np.zeros((n, 7)), mobility=a, control_dt=dt))
     assert np.all(still.jacobian == 0.0)
-    slow = est.estimate(moving_box(n, speed=0.005), np.zeros((n, 7)), mobility=a, control_dt=dt)
-    fast = est.estimate(moving_box(n, speed=0.05), np.zeros((n, 7)), mobility=a, control_dt=dt)
+    slow = est.estimate(
+        _rollout(moving_box(n, speed=0.005), np.zeros((n, 7)), mobility=a, control_dt=dt)
+    )
+    fast = est.estimate(
+        _rollout(moving_box(n, speed=0.05), np.zeros((n, 7)), mobility=a, control_dt=dt)
+    )
     # Half the slip speed: half the response (away from the first step, which has no speed).
     np.testing.assert_allclose(slow.jacobian[5:20], 0.5 * fast.jacobian[5:20], rtol=1e-9)
 
@@ -131,7 +143,7 @@ def test_confidence_of_a_known_push_by_hand():
     a = np.zeros((n, 3, 7))
     a[:, 0, 0] = 3.0  # one direction: rank 1
     est = ContactEstimator(response_time=tau)
-    sens = est.estimate(moving_box(n), np.zeros((n, 7)), mobility=a, control_dt=dt)
+    sens = est.estimate(_rollout(moving_box(n), np.zeros((n, 7)), mobility=a, control_dt=dt))
     c = control_confidence(sens, moving_box(n), np.zeros(3), eps=eps, form="clamped")
     j = 0.5 * tau**2 * 3.0
     assert c[1] == pytest.approx(0.5 * math.log(1 + j * j / eps), rel=1e-12)
@@ -148,7 +160,7 @@ def test_confidence_of_a_known_push_by_hand():
 )
 def test_contact_estimator_rejects_bad_input(kwargs, match):
     with pytest.raises(ValueError, match=match):
-        ContactEstimator().estimate(np.zeros((4, 3)), np.zeros((4, 7)), **kwargs)
+        ContactEstimator().estimate(_rollout(np.zeros((4, 3)), np.zeros((4, 7)), **kwargs))
 
 
 @pytest.mark.parametrize(

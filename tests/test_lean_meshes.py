@@ -11,13 +11,10 @@ import numpy as np
 import pybullet
 import pytest
 
-import tooldesign_env.bullet as bullet
-from tooldesign_env.bullet import (
-    BulletWorld,
-    lean_collision_mesh,
-    lean_collision_meshes,
-    panda_urdf_with_tool,
-)
+import tooldesign_env.lean_meshes as lean_meshes
+from tooldesign_env.bullet import BulletWorld
+from tooldesign_env.lean_meshes import lean_collision_mesh, lean_collision_meshes
+from tooldesign_env.robot_model import panda_urdf_with_tool
 
 # Two groups, a quad (cut into triangles by position), corners with texture coordinates and
 # normals, a negative (relative) index, a repeated vertex, a point inside the second group's
@@ -245,7 +242,7 @@ def test_a_mesh_of_two_groups_and_a_quad_gives_the_same_hulls(tmp_path):
 
 
 def test_copies_are_written_once_and_a_changed_copy_is_written_again(tmp_path, monkeypatch):
-    monkeypatch.setattr(bullet, "_LEAN_MESHES", {})
+    monkeypatch.setattr(lean_meshes, "_LEAN_MESHES", {})
     meshes = lean_collision_meshes(tmp_path)
     assert meshes is not None
     copies = [Path(p) for p in meshes.values()]
@@ -257,20 +254,20 @@ def test_copies_are_written_once_and_a_changed_copy_is_written_again(tmp_path, m
             Path(original).read_text(encoding="utf-8")
         )
     copies[0].write_text("v 0 0 0\n", encoding="utf-8")  # damaged, or left by something else
-    monkeypatch.setattr(bullet, "_LEAN_MESHES", {})
+    monkeypatch.setattr(lean_meshes, "_LEAN_MESHES", {})
     assert lean_collision_meshes(tmp_path) == meshes
     assert copies[0].read_text(encoding="utf-8") != "v 0 0 0\n"
 
 
 def test_a_later_process_reuses_the_copies_through_the_index(tmp_path, monkeypatch):
-    real = bullet.lean_collision_mesh
-    monkeypatch.setattr(bullet, "_LEAN_MESHES", {})
+    real = lean_meshes.lean_collision_mesh
+    monkeypatch.setattr(lean_meshes, "_LEAN_MESHES", {})
     meshes = lean_collision_meshes(tmp_path)
     assert meshes is not None
     index = (
         tmp_path
         / "meshes"
-        / f"lean-index-v{bullet.LEAN_MESH_FORMAT}-{bullet._lean_index_tag()}.json"
+        / f"lean-index-v{lean_meshes.LEAN_MESH_FORMAT}-{lean_meshes._lean_index_tag()}.json"
     )
     assert sorted(json.loads(index.read_text(encoding="utf-8")).values()) == sorted(
         Path(p).name for p in meshes.values()
@@ -279,28 +276,30 @@ def test_a_later_process_reuses_the_copies_through_the_index(tmp_path, monkeypat
     def not_again(text):
         raise AssertionError("a copy was made again although the index and the copy are sound")
 
-    monkeypatch.setattr(bullet, "lean_collision_mesh", not_again)
-    monkeypatch.setattr(bullet, "_LEAN_MESHES", {})  # as a new process
+    monkeypatch.setattr(lean_meshes, "lean_collision_mesh", not_again)
+    monkeypatch.setattr(lean_meshes, "_LEAN_MESHES", {})  # as a new process
     assert lean_collision_meshes(tmp_path) == meshes
 
     # Another version of this code, of Qhull or another machine: the copies are made again.
     made = []
-    monkeypatch.setattr(bullet, "lean_collision_mesh", lambda text: made.append(1) or real(text))
-    monkeypatch.setattr(bullet, "_lean_index_tag", lambda: "another-tag")
-    monkeypatch.setattr(bullet, "_LEAN_MESHES", {})
+    monkeypatch.setattr(
+        lean_meshes, "lean_collision_mesh", lambda text: made.append(1) or real(text)
+    )
+    monkeypatch.setattr(lean_meshes, "_lean_index_tag", lambda: "another-tag")
+    monkeypatch.setattr(lean_meshes, "_LEAN_MESHES", {})
     assert lean_collision_meshes(tmp_path) == meshes  # the same text, so the same names
     assert len(made) == len(meshes)
 
 
 @pytest.mark.parametrize("damage", ["copy", "index", "index-entry", "index-escape"])
 def test_a_damaged_copy_or_index_makes_the_copies_again(tmp_path, monkeypatch, damage):
-    monkeypatch.setattr(bullet, "_LEAN_MESHES", {})
+    monkeypatch.setattr(lean_meshes, "_LEAN_MESHES", {})
     meshes = lean_collision_meshes(tmp_path)
     assert meshes is not None
     index = (
         tmp_path
         / "meshes"
-        / f"lean-index-v{bullet.LEAN_MESH_FORMAT}-{bullet._lean_index_tag()}.json"
+        / f"lean-index-v{lean_meshes.LEAN_MESH_FORMAT}-{lean_meshes._lean_index_tag()}.json"
     )
     first = Path(next(iter(meshes.values())))
     entries = json.loads(index.read_text(encoding="utf-8"))
@@ -317,9 +316,11 @@ def test_a_damaged_copy_or_index_makes_the_copies_again(tmp_path, monkeypatch, d
         )
         index.write_text(json.dumps(entries), encoding="utf-8")
     made = []
-    real = bullet.lean_collision_mesh
-    monkeypatch.setattr(bullet, "lean_collision_mesh", lambda text: made.append(1) or real(text))
-    monkeypatch.setattr(bullet, "_LEAN_MESHES", {})
+    real = lean_meshes.lean_collision_mesh
+    monkeypatch.setattr(
+        lean_meshes, "lean_collision_mesh", lambda text: made.append(1) or real(text)
+    )
+    monkeypatch.setattr(lean_meshes, "_LEAN_MESHES", {})
     assert lean_collision_meshes(tmp_path) == meshes
     assert made  # made again, from the original
     assert first.read_text(encoding="utf-8") == real(
@@ -331,7 +332,7 @@ def test_a_damaged_copy_or_index_makes_the_copies_again(tmp_path, monkeypatch, d
 
 
 def test_without_a_writable_folder_the_originals_are_loaded(tmp_path, monkeypatch):
-    monkeypatch.setattr(bullet, "_LEAN_MESHES", {})
+    monkeypatch.setattr(lean_meshes, "_LEAN_MESHES", {})
     assert lean_collision_meshes(None) is None
     blocker = tmp_path / "a-file"
     blocker.write_text("", encoding="utf-8")

@@ -8,7 +8,9 @@ import numpy as np
 import pytest
 
 from tooldesign_env.objective import (
+    Recording,
     ResimulationEstimator,
+    Rollout,
     Sensitivities,
     TrajectoryEstimator,
     control_confidence,
@@ -17,6 +19,10 @@ from tooldesign_env.objective import (
     make_estimator,
 )
 from tooldesign_env.specs import ObjectiveSpec
+
+
+def _rollout(x: np.ndarray, u: np.ndarray, replay=None) -> Rollout:
+    return Rollout(box_position=x, torques=u, replay=replay)
 
 
 def test_goal_error_by_hand():
@@ -80,14 +86,14 @@ def test_trajectory_estimator_recovers_a_linear_system():
     u = np.cumsum(du, axis=0)
     x = np.cumsum(du @ true_j.T, axis=0)
     est = TrajectoryEstimator(window=40, ridge=1e-9, second_order=False)
-    sens = est.estimate(x, u, None)
+    sens = est.estimate(_rollout(x, u))
     np.testing.assert_allclose(sens.jacobian[200], true_j, atol=1e-9)
     assert sens.hessian is None
 
 
 def test_trajectory_estimator_gives_zero_when_torques_are_constant():
     x = np.cumsum(np.ones((50, 3)), axis=0)
-    sens = TrajectoryEstimator().estimate(x, np.ones((50, 7)), None)
+    sens = TrajectoryEstimator().estimate(_rollout(x, np.ones((50, 7))))
     np.testing.assert_array_equal(sens.jacobian, 0.0)
 
 
@@ -96,12 +102,13 @@ def test_resimulation_estimator_recovers_gradient_and_curvature():
     j0 = rng.normal(size=(3, 7))
     h_diag = rng.normal(size=(3, 7))
 
-    def replay(k: int, offsets: np.ndarray) -> np.ndarray:
+    def replay(k: int, horizon: int, offsets: np.ndarray) -> np.ndarray:
+        assert horizon == 4  # the estimator's own
         # A quadratic response x(du) = J du + 1/2 diag(H) du^2, plus a state-dependent offset.
         return offsets @ j0.T + 0.5 * (offsets**2) @ h_diag.T + k
 
     est = ResimulationEstimator(horizon=4, perturbation=0.5)
-    sens = est.estimate(np.zeros((10, 3)), np.zeros((10, 7)), replay)
+    sens = est.estimate(_rollout(np.zeros((10, 3)), np.zeros((10, 7)), replay))
     np.testing.assert_allclose(sens.jacobian[3], j0, rtol=1e-12)
     for i in range(3):
         np.testing.assert_allclose(np.diag(sens.hessian[7, i]), h_diag[i], rtol=1e-9)
@@ -109,7 +116,7 @@ def test_resimulation_estimator_recovers_gradient_and_curvature():
 
 def test_resimulation_needs_a_simulator():
     with pytest.raises(ValueError, match="replay"):
-        ResimulationEstimator().estimate(np.zeros((4, 3)), np.zeros((4, 7)), None)
+        ResimulationEstimator().estimate(_rollout(np.zeros((4, 3)), np.zeros((4, 7))))
 
 
 def test_free_energy_terms_add_up_and_pure_confidence_is_defined():
@@ -123,9 +130,7 @@ def test_free_energy_terms_add_up_and_pure_confidence_is_defined():
             spec = ObjectiveSpec(goal_precision=p, estimator=estimator)
             terms = free_energy(x, u, goal, spec, mobility=mobility, control_dt=1 / 120)
             assert terms.free_energy == pytest.approx(terms.goal_error - terms.confidence)
-            np.testing.assert_allclose(
-                terms.free_energy_t, terms.goal_error_t - terms.confidence_t
-            )
+            np.testing.assert_allclose(terms.free_energy_t, terms.goal_error_t - terms.confidence_t)
             assert np.all(np.isfinite(terms.free_energy_t))
             assert terms.confidence > 0
     spec = ObjectiveSpec(goal_precision=0.0, estimator="trajectory")
@@ -166,3 +171,31 @@ def test_make_estimator_follows_the_spec():
     assert make_estimator(ObjectiveSpec(estimator="trajectory")).name == "trajectory"
     assert make_estimator(ObjectiveSpec(response_time=0.2)).response_time == 0.2
     assert make_estimator(ObjectiveSpec(estimator="resimulation", horizon=8)).horizon == 8
+
+
+def test_each_estimator_declares_what_it_needs_recorded():
+    assert make_estimator(ObjectiveSpec()).recording == Recording(contact_mobility=True)
+    assert make_estimator(ObjectiveSpec(estimator="trajectory")).recording == Recording()
+    resim = make_estimator(ObjectiveSpec(estimator="resimulation", horizon=8))
+    assert resim.recording == Recording(snapshot_every=8)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "match"),
+    [
+        ({"contact_mobility": "yes"}, TypeError, "contact_mobility must be True or False"),
+        ({"snapshot_every": 0}, ValueError, "snapshot_every must be None or an int >= 1"),
+        ({"snapshot_every": 2.5}, ValueError, "snapshot_every must be None or an int >= 1"),
+        ({"snapshot_every": True}, ValueError, "snapshot_every must be None or an int >= 1"),
+    ],
+)
+def test_a_recording_refuses_bad_needs(kwargs, error, match):
+    with pytest.raises(error, match=match):
+        Recording(**kwargs)
+
+
+def test_two_recordings_combine_into_one_that_serves_both():
+    both = Recording(contact_mobility=True).union(Recording(snapshot_every=6))
+    assert both == Recording(contact_mobility=True, snapshot_every=6)
+    assert Recording(snapshot_every=6).union(Recording(snapshot_every=4)).snapshot_every == 2
+    assert Recording().union(Recording()) == Recording()

@@ -291,10 +291,10 @@ def test_the_guard_raises_its_limit_for_a_tool_whose_contact_threshold_is_larger
     # PyBullet keeps contact points within 0.02 m times a shape's angular-motion disc: for a
     # long tool that exceeds floor_clearance, and the guard must use it instead.
     from tooldesign_env import ToolSpec, make_tool
-    from tooldesign_env.simulation import _breaking_threshold
+    from tooldesign_env.floor_guard import breaking_threshold
 
-    straight = _breaking_threshold(make_tool(np.zeros(3)))
-    long = _breaking_threshold(make_tool(np.zeros(3), ToolSpec(arc_length=3.0)))
+    straight = breaking_threshold(make_tool(np.zeros(3)))
+    long = breaking_threshold(make_tool(np.zeros(3), ToolSpec(arc_length=3.0)))
     assert 0.02 < straight < 0.03 < long
     assert long > 2.0 * straight
 
@@ -308,11 +308,11 @@ def test_the_levers_bound_the_arm_and_the_base_joint_has_none():
     try:
         sim.build(make_tool(np.zeros(3)))
         robot, world = sim._robot, sim.world
-        levers, plan_floor, fixed = sim._arm_floor
+        levers, plan_floor, fixed = sim._guard.arm_floor
         last = robot.joints[-1]
         assert levers[0] == 0.0 and levers[-1] == 0.0 and np.all(levers[1:-1] > 0.1)
         # Between records every joint but the first moves the tool's group too.
-        substep = sim._substep_levers
+        substep = sim._guard.substep_levers
         assert substep[0] == 0.0 and np.all(substep[1:] >= levers[1:]) and substep[-1] > 1.0
         assert plan_floor.shape == sim.reference.times.shape and 0.1 < fixed < plan_floor.min()
         q0 = np.array(sim.reference.q[900])
@@ -423,8 +423,8 @@ def test_without_rendering_no_visual_shape_is_loaded(shape):
     # Visuals only cost load time (a round tool's capsules are tessellated at load); physics
     # never reads them, which the fixture above checks bit for bit for both sections.
     from tooldesign_env import ToolSpec, make_tool
-    from tooldesign_env.bullet import panda_urdf_with_tool
     from tooldesign_env.geometry import tool_link_xml
+    from tooldesign_env.robot_model import panda_urdf_with_tool
 
     link = tool_link_xml(make_tool((0.3, -0.7, 0.2), ToolSpec(section_shape=shape)))
     assert "<visual" in link
@@ -472,7 +472,8 @@ def test_a_world_without_its_renderer_refuses_to_render_and_stays_without_it(mon
 
     import pybullet
 
-    from tooldesign_env.bullet import BulletWorld, panda_urdf_with_tool
+    from tooldesign_env.bullet import BulletWorld
+    from tooldesign_env.robot_model import panda_urdf_with_tool
 
     # The refused world is collected cleanly: its __del__ must not raise (it once did, on an
     # attribute the refusal had not set yet).

@@ -390,7 +390,7 @@ def test_ratio_bound_times_each_part_and_puts_the_originals_back(
     """Every part the bound counts is timed (non-zero) and no wrapper outlives the measurement."""
     bound = _script("ratio_bound", monkeypatch)
     originals = {name: getattr(np.linalg, name) for name in bound.LAPACK}
-    arm_matrices = bound.ToolSimulator._arm_matrices
+    arm_matrices = bound.ControlLoops.arm_matrices
     mass = bound.tool_module._mesh_mass_properties
     env = bound.ToolDesignEnv()
     env.reset(seed=0)
@@ -406,5 +406,5 @@ def test_ratio_bound_times_each_part_and_puts_the_originals_back(
     for name in ("arm_matrices", "mass_properties", "lapack", "floor", "evaluation"):
         assert parts[name] > 0.0, name
     assert {name: getattr(np.linalg, name) for name in bound.LAPACK} == originals
-    assert bound.ToolSimulator._arm_matrices is arm_matrices
+    assert bound.ControlLoops.arm_matrices is arm_matrices
     assert bound.tool_module._mesh_mass_properties is mass

@@ -9,8 +9,8 @@ import warnings
 import numpy as np
 import pytest
 
+from tooldesign_env import floor_guard, reference, simulation
 from tooldesign_env import plan as plan_module
-from tooldesign_env import simulation
 from tooldesign_env.plan import (
     CACHE_ENV,
     cache_dir,
@@ -123,24 +123,24 @@ def test_the_plan_key_changes_with_what_the_ik_depends_on(monkeypatch):
     assert plan_cache_key(PlanSpec()) == base
     assert plan_cache_key(dataclasses.replace(PlanSpec(), reach=0.7000001)) != base
     assert plan_cache_key(dataclasses.replace(PlanSpec(), hold_duration=1.0)) != base
-    monkeypatch.setattr(simulation, "engine_version", lambda: "9.9.9 api 0")
+    monkeypatch.setattr(reference, "engine_version", lambda: "9.9.9 api 0")
     assert plan_cache_key(PlanSpec()) != base
     monkeypatch.undo()
-    monkeypatch.setattr(simulation, "robot_model_digest", lambda: "0" * 64)
+    monkeypatch.setattr(reference, "robot_model_digest", lambda: "0" * 64)
     assert plan_cache_key(PlanSpec()) != base
     monkeypatch.undo()
-    monkeypatch.setattr(simulation, "IK_ITERATIONS", 201)
+    monkeypatch.setattr(reference, "IK_ITERATIONS", 201)
     assert plan_cache_key(PlanSpec()) != base
     monkeypatch.undo()
-    monkeypatch.setattr(simulation.platform, "machine", lambda: "aarch64-or-other")
+    monkeypatch.setattr(reference.platform, "machine", lambda: "aarch64-or-other")
     assert plan_cache_key(PlanSpec()) != base  # a home folder shared between architectures
 
 
 @pytest.fixture
 def fresh_memory(monkeypatch):
     """Empty the in-process caches, so only the disk can answer."""
-    monkeypatch.setattr(simulation, "_KNOTS", {})
-    monkeypatch.setattr(simulation, "_REFERENCES", {})
+    monkeypatch.setattr(reference, "_KNOTS", {})
+    monkeypatch.setattr(reference, "_REFERENCES", {})
 
 
 def _solved_references(sim: ToolSimulator) -> list[bytes]:
@@ -160,17 +160,17 @@ def test_a_new_process_finds_the_plan_on_disk(monkeypatch, tmp_path, fresh_memor
     sim.close()
 
     # A "new process": nothing in memory, and solving is not allowed.
-    monkeypatch.setattr(simulation, "_KNOTS", {})
-    monkeypatch.setattr(simulation, "_REFERENCES", {})
+    monkeypatch.setattr(reference, "_KNOTS", {})
+    monkeypatch.setattr(reference, "_REFERENCES", {})
 
-    def refuse(self):
+    def refuse(*args):
         raise AssertionError("the inverse kinematics ran although the cache holds the plan")
 
     def refuse_spline(*args, **kwargs):
         raise AssertionError("the references were splined although the cache holds them")
 
-    monkeypatch.setattr(ToolSimulator, "_inverse_kinematics", refuse)
-    monkeypatch.setattr(simulation, "reference_from_knots", refuse_spline)
+    monkeypatch.setattr(reference, "_inverse_kinematics", refuse)
+    monkeypatch.setattr(reference, "reference_from_knots", refuse_spline)
     sim = ToolSimulator()
     assert _solved_references(sim) == solved  # hit: the same bits
     sim.close()
@@ -178,12 +178,12 @@ def test_a_new_process_finds_the_plan_on_disk(monkeypatch, tmp_path, fresh_memor
     # Another version of the code that splines them: the references are splined again.
     splined = []
     monkeypatch.setattr(
-        simulation,
+        reference,
         "reference_from_knots",
         lambda *args: splined.append(1) or plan_module.reference_from_knots(*args),
     )
-    monkeypatch.setattr(simulation, "source_digest", lambda module: f"edited {module}")
-    monkeypatch.setattr(simulation, "_REFERENCES", {})
+    monkeypatch.setattr(reference, "source_digest", lambda module: f"edited {module}")
+    monkeypatch.setattr(reference, "_REFERENCES", {})
     sim = ToolSimulator()
     assert _solved_references(sim) == solved and splined == [1]
     sim.close()
@@ -191,8 +191,8 @@ def test_a_new_process_finds_the_plan_on_disk(monkeypatch, tmp_path, fresh_memor
     # A corrupt file is ignored, solved again and rewritten; the result is the same.
     monkeypatch.undo()
     monkeypatch.setenv(CACHE_ENV, str(tmp_path))
-    monkeypatch.setattr(simulation, "_KNOTS", {})
-    monkeypatch.setattr(simulation, "_REFERENCES", {})
+    monkeypatch.setattr(reference, "_KNOTS", {})
+    monkeypatch.setattr(reference, "_REFERENCES", {})
     with open(path, "r+b") as f:
         f.seek(100)
         f.write(b"\x00" * 64)
@@ -207,7 +207,7 @@ def test_a_new_process_finds_the_plan_on_disk(monkeypatch, tmp_path, fresh_memor
 
 @pytest.mark.slow
 def test_the_merged_hands_dynamics_are_cached_and_give_the_same_hand(monkeypatch, tmp_path):
-    from tooldesign_env import bullet
+    from tooldesign_env import robot_model as bullet  # the robot model moved out of bullet.py
 
     monkeypatch.setenv(CACHE_ENV, str(tmp_path))
     bullet._merged_panda.cache_clear()
@@ -243,23 +243,21 @@ def test_the_floor_guards_sweep_of_the_plan_is_cached_beside_its_knots(
     from tooldesign_env import make_tool
 
     monkeypatch.setenv(CACHE_ENV, str(tmp_path))
-    monkeypatch.setattr(simulation, "_ARM_FLOOR", {})
+    monkeypatch.setattr(floor_guard, "_ARM_FLOOR", {})
     tool = make_tool(np.zeros(3))
     sim = ToolSimulator()
     sim.build(tool)
-    swept = sim._arm_floor
+    swept = sim._guard.arm_floor
     sim.close()
     files = [f for f in os.listdir(tmp_path) if f.endswith(".npz")]
     assert len(files) == 4  # the knots, the sweep, the references, the hand's dynamics
     assert swept is not None and 0.05 < swept[1].min() < 0.5  # (levers, plan floor, fixed)
 
     # A "new process": nothing in memory; the plan must come from the disk, unswept.
-    monkeypatch.setattr(simulation, "_ARM_FLOOR", {})
-    monkeypatch.setattr(simulation, "_KNOTS", {})
-    monkeypatch.setattr(simulation, "_REFERENCES", {})
-    monkeypatch.setattr(
-        ToolSimulator, "_inverse_kinematics", lambda self: pytest.fail("solved again")
-    )
+    monkeypatch.setattr(floor_guard, "_ARM_FLOOR", {})
+    monkeypatch.setattr(reference, "_KNOTS", {})
+    monkeypatch.setattr(reference, "_REFERENCES", {})
+    monkeypatch.setattr(reference, "_inverse_kinematics", lambda *a: pytest.fail("solved again"))
     calls = []
     real = simulation.BulletWorld.link_boxes
     monkeypatch.setattr(
@@ -270,7 +268,7 @@ def test_the_floor_guards_sweep_of_the_plan_is_cached_beside_its_knots(
     again = ToolSimulator()
     try:
         again.build(tool)
-        np.testing.assert_array_equal(again._arm_floor[1], swept[1])
+        np.testing.assert_array_equal(again._guard.arm_floor[1], swept[1])
         # The tool's group and the levers at q(0), not the plan's 1,710 steps.
         assert len(calls) == 2
     finally:

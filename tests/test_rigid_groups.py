@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from tooldesign_env import SceneSpec, ToolDesignEnv, make_tool
-from tooldesign_env.bullet import HAND_LINKS, HAND_ROOT, BulletWorld, panda_urdf_with_tool
+from tooldesign_env.bullet import BulletWorld
 from tooldesign_env.rigid_groups import (
     Inertial,
     combine_inertials,
@@ -25,6 +25,7 @@ from tooldesign_env.rigid_groups import (
     principal_axes,
     rpy_matrix,
 )
+from tooldesign_env.robot_model import HAND_LINKS, HAND_ROOT, panda_urdf_with_tool
 from tooldesign_env.simulation import ToolSimulator
 
 
@@ -127,7 +128,9 @@ def test_the_merged_arm_has_the_same_dynamics_to_rounding():
         assert counts[False] - counts[True] == len(HAND_LINKS)
         rng = np.random.default_rng(0)
         q = rng.uniform(-1.0, 1.0, (6, 7))
-        (jac_a, mass_a), (jac_b, mass_b) = (sims[m]._arm_matrices(q) for m in (False, True))
+        (jac_a, mass_a), (jac_b, mass_b) = (
+            sims[m]._loops.arm_matrices(sims[m].world, sims[m]._robot, q) for m in (False, True)
+        )
         np.testing.assert_allclose(mass_b, mass_a, rtol=0, atol=1e-14 * np.abs(mass_a).max())
         # The tool's centre-of-mass Jacobians: the tool is a link of its own in both models.
         np.testing.assert_allclose(jac_b, jac_a, rtol=0, atol=1e-13)

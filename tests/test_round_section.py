@@ -144,7 +144,7 @@ def test_pybullet_builds_the_capsules_where_the_geometry_puts_them():
     sim = ToolSimulator()
     try:
         tool = make_tool((1.5, -1.5, 0.5), ROUND)
-        assert sim.build(tool) is False
+        assert sim.build(tool).overlaps_box is False
         client, robot = sim.world.client, sim._robot
         assert robot is not None
         shapes = client.getCollisionShapeData(robot.body, robot.tool_link)
@@ -183,7 +183,7 @@ def test_a_round_tool_pushes_the_box_and_its_outcome_is_stable_under_nudges():
         for scene in scenes:
             sim = ToolSimulator(scene=scene)
             try:
-                assert sim.build(tool) is False
+                assert sim.build(tool).overlaps_box is False
                 trajectory = sim.run()
             finally:
                 sim.close()

@@ -1,26 +1,28 @@
-"""The one module that imports PyBullet.
+"""The one module that imports PyBullet: the client wrapper.
 
 It owns a physics client per instance (never PyBullet's global connection), builds the bodies of the
 scene, saves and restores state, and exposes the few fast calls the control loop needs. Everything
-else in the library asks it.
+else in the library asks it (``tests/test_architecture.py`` checks that no other module imports
+``pybullet``, ``pybullet_data`` or ``pybullet_utils``). The robot model and its asset caches are
+:mod:`tooldesign_env.robot_model` and :mod:`tooldesign_env.lean_meshes`.
+
+Longer than 600 lines for that reason: every PyBullet call of the library is one short method of
+:class:`BulletWorld` here, and splitting the class would only spread the one connection it owns
+over several files.
 """
 
 from __future__ import annotations
 
 import contextlib
 import functools
-import hashlib
 import importlib.metadata
-import json
 import os
-import platform
 import re
 import sys
 import tempfile
 import uuid
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
-from pathlib import Path
 from typing import IO, Any, NamedTuple, cast
 
 import numpy as np
@@ -90,30 +92,45 @@ with _quiet_pybullet():
 import pybullet_data  # noqa: E402
 from pybullet_utils.bullet_client import BulletClient  # noqa: E402
 
-from tooldesign_env.files import write_atomic  # noqa: E402
-from tooldesign_env.rigid_groups import (  # noqa: E402
-    Inertial,
-    combine_inertials,
-    fixed_subtree,
-    merge_fixed_links,
-    parts_in_root,
-    principal_axes,
-)
-
 __all__ = [
-    "HAND_LINKS",
-    "HAND_ROOT",
     "BulletWorld",
     "ControlCalls",
     "RobotHandles",
     "engine_library",
     "engine_version",
-    "lean_collision_mesh",
-    "lean_collision_meshes",
-    "merged_hand_inertia",
-    "panda_urdf_with_tool",
-    "robot_model_digest",
+    "not_copyable",
+    "rotation_matrices",
 ]
+
+#: Names that lived here before the asset pipeline moved out (issue 30), and where they live now.
+#: ``from tooldesign_env.bullet import panda_urdf_with_tool`` keeps working: the module is imported
+#: on first use, not here, because those modules import this one.
+_MOVED = {
+    **dict.fromkeys(
+        (
+            "HAND_LINKS",
+            "HAND_ROOT",
+            "merged_hand_inertia",
+            "panda_urdf_with_tool",
+            "robot_model_digest",
+        ),
+        "tooldesign_env.robot_model",
+    ),
+    **dict.fromkeys(
+        ("LEAN_MESH_FORMAT", "lean_collision_mesh", "lean_collision_meshes"),
+        "tooldesign_env.lean_meshes",
+    ),
+}
+
+
+def __getattr__(name: str) -> Any:
+    module = _MOVED.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    import importlib
+
+    return getattr(importlib.import_module(module), name)
+
 
 PANDA_DIR = os.path.join(pybullet_data.getDataPath(), "franka_panda")
 ARM_JOINTS = tuple(f"panda_joint{i}" for i in range(1, 8))
@@ -130,425 +147,6 @@ _ARM_GROUP = 4  # the arm's links and its tool, when they are kept off the floor
 _ALL = -1
 
 _RENDERER_PLUGIN = "tinyRendererPlugin"  # the name PyBullet registers its software renderer by
-
-
-def panda_urdf_with_tool(
-    tool_link_xml: str | None,
-    *,
-    visuals: bool,
-    meshes: Mapping[str, str] | None = None,
-    merge_hand: bool = False,
-) -> str:
-    """The Panda URDF from ``pybullet_data`` with a tool rigidly attached to the grasp target.
-
-    The fingers become fixed joints: they hold nothing (the tool is a link of the arm), and a
-    7-degree-of-freedom body lets the inverse dynamics run on exactly the 7 arm joints. The tool
-    link hangs rotated by Rx(pi) from ``panda_grasptarget`` so that its z axis points up while the
-    gripper points down.
-
-    Args:
-        tool_link_xml: a ``<link name="tool">`` element, or None for the arm alone.
-        visuals: keep the visual shapes, the Panda's meshes and the tool's (needed to render;
-            slower to load).
-        meshes: mesh files to load in place of the Panda's, {original path: replacement path}
-            (:func:`lean_collision_meshes`).
-        merge_hand: fold the links that no joint moves below the last arm joint (the flange
-            ``panda_link8``, the hand and the fingers) into ``panda_link7``
-            (``SceneSpec.merge_fixed_links``): load it with :func:`merged_hand_inertia` given
-            to :meth:`BulletWorld.load_robot`.
-
-    Returns:
-        The URDF text, with mesh paths made absolute.
-    """
-    if merge_hand:
-        text = _merged_panda(visuals, tuple(sorted((meshes or {}).items())))[0]
-        meshes = None  # already in place
-    else:
-        text = _panda_urdf(visuals)
-    if tool_link_xml is not None:
-        if not visuals:
-            tool_link_xml = _without_visuals(tool_link_xml)
-        joint = (
-            f'<joint name="tool_joint" type="fixed"><parent link="{EE_LINK}"/>'
-            f'<child link="{TOOL_LINK}"/><origin rpy="3.141592653589793 0 0" xyz="0 0 0"/>'
-            "</joint>"
-        )
-        text = text.replace("</robot>", f"{tool_link_xml}\n{joint}\n</robot>")
-    return _with_collision_meshes(text, tuple((meshes or {}).items()))
-
-
-def _with_collision_meshes(text: str, meshes: Sequence[tuple[str, str]]) -> str:
-    """``text`` with each (original, replacement) mesh path swapped inside ``<collision>``.
-
-    Only there: link0's and link7's visuals load the same files, and the lean copies are no
-    longer meshes to draw (:func:`lean_collision_mesh`).
-    """
-    if not meshes:
-        return text
-
-    def swap(block: re.Match[str]) -> str:
-        part = block.group(0)
-        for original, replacement in meshes:
-            part = part.replace(f'"{original}"', f'"{replacement}"')
-        return part
-
-    return re.sub(r"<collision\b.*?</collision>", swap, text, flags=re.S)
-
-
-#: The links that :func:`panda_urdf_with_tool` folds into ``HAND_ROOT`` with ``merge_hand``:
-#: the grasp target stays a link (the rollout reads its pose), as does the tool (the contact
-#: estimator reads its contacts, its friction and its shape's contact threshold are its own).
-HAND_ROOT = "panda_link7"
-HAND_LINKS = ("panda_link8", "panda_hand", "panda_leftfinger", "panda_rightfinger")
-
-
-def merged_hand_inertia(
-    *, visuals: bool, meshes: Mapping[str, str] | None = None
-) -> dict[str, tuple[float, tuple[float, float, float]]]:
-    """The merged hand's mass properties, for :meth:`BulletWorld.load_robot`.
-
-    Returns:
-        {``HAND_ROOT``: (mass kg, principal moments kg m^2)}, its ``link_inertias`` for the
-        URDF of ``panda_urdf_with_tool(..., merge_hand=True)``.
-    """
-    _, mass, moments = _merged_panda(visuals, tuple(sorted((meshes or {}).items())))
-    return {HAND_ROOT: (mass, moments)}
-
-
-@functools.cache
-def _merged_panda(
-    visuals: bool, meshes: tuple[tuple[str, str], ...]
-) -> tuple[str, float, tuple[float, float, float]]:
-    """The Panda's URDF with ``HAND_LINKS`` folded into ``HAND_ROOT``; its mass and moments.
-
-    The parts' mass properties are PyBullet's own: it takes each link's mass and inertial
-    frame from the URDF but its principal moments from the bounding box of its collision
-    shapes, so they are read off the unmerged model, loaded once in a server of its own (so
-    that no world sees an extra body), and summed exactly (:mod:`tooldesign_env.rigid_groups`).
-    """
-    text = _with_collision_meshes(_panda_urdf(visuals), meshes)
-    parts = {}
-    for name, row in zip((HAND_ROOT, *HAND_LINKS), _hand_dynamics(text), strict=True):
-        mass, diagonal, center, orientation = row[0], row[1:4], row[4:7], row[7:11]
-        turn = rotation_matrices(orientation)
-        parts[name] = Inertial(float(mass), center.copy(), turn @ np.diag(diagonal) @ turn.T)
-    frames = fixed_subtree(text, HAND_ROOT)
-    whole = combine_inertials(parts_in_root(frames, parts))
-    moments, _ = principal_axes(whole.tensor)
-    return merge_fixed_links(text, HAND_ROOT, HAND_LINKS, whole), whole.mass, moments
-
-
-@functools.cache
-def _panda_urdf(visuals: bool) -> str:
-    """The Panda's URDF as :func:`panda_urdf_with_tool` starts from it (read once a process)."""
-    with open(os.path.join(PANDA_DIR, "panda.urdf"), encoding="utf-8") as f:
-        text = f.read()
-    text = text.replace("package://meshes/", os.path.join(PANDA_DIR, "meshes") + "/")
-    text = re.sub(r'(<joint name="panda_finger_joint\d" )type="prismatic"', r'\1type="fixed"', text)
-    text = re.sub(r"\s*<mimic[^>]*/>", "", text)
-    return text if visuals else _without_visuals(text)
-
-
-def _without_visuals(text: str) -> str:
-    # The tool's too: PyBullet tessellates a capsule's visual into a convex hull at load, which
-    # cost a round tool about 9 ms of a 37 ms build. Physics never reads visuals.
-    return re.sub(r"<visual\b[^>]*>.*?</visual>", "", text, flags=re.S)
-
-
-# ------------------------------------------------------ lean copies of the collision meshes
-#: Bumped whenever :func:`lean_collision_mesh` writes something else.
-LEAN_MESH_FORMAT = 3
-
-#: A point farther inside its shape's convex hull than this fraction of the shape's largest
-#: extent is dropped by :func:`lean_collision_mesh`. Bullet's hull builder
-#: (``btConvexHullInternal::compute``) first truncates every point to a grid of 1/10216 of
-#: each axis's extent (about 1e-4), so a point inside the hull by less than a cell or two may
-#: land on it and become a vertex; ten cells keeps every such point.
-_INTERIOR_TOLERANCE = 1e-3
-
-# What Bullet's OBJ reader (tiny_obj_loader) reads as PyBullet builds it: a keyword then
-# fields separated by spaces or tabs, numbers read by atof. The lean copy is made only from
-# files in which every line read is plain: anything else raises ValueError, and
-# lean_collision_meshes then loads the original.
-_PLAIN_LINE = re.compile(r"[ -~\t]*")  # printable ASCII and tabs
-_LONGEST_LINE = 999  # Bullet reads lines with fgets into 1,024 bytes and cuts them at "\r"
-_NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
-_CORNER = re.compile(r"(-?\d+)(?:/\d*(?:/\d*)?)?")
-
-_LEAN_MESHES: dict[str, dict[str, str] | None] = {}  # per folder, once per process
-
-
-def lean_collision_mesh(text: str) -> str:
-    """An OBJ text from which PyBullet makes collision shapes of the same vertices, faster.
-
-    PyBullet makes a mesh's collision shape from OBJ text in three steps (Bullet's
-    ``tiny_obj_loader`` and ``BulletURDFImporter``): it reads the vertex positions (as floats,
-    ``(float)atof``) and the faces, splitting shapes at ``g`` and ``o`` lines; it adds, for
-    every corner of every face (polygons cut into triangles by their positions), that corner's
-    position to a point list; and it replaces each shape's point list by the vertices of its
-    convex hull (``btConvexHullShape::optimizeConvexHull``), which is all it keeps.
-
-    So this keeps, per shape, only the points that can be vertices of that hull, each once:
-    the positions of its faces' corners, less those inside their convex hull by more than
-    ``_INTERIOR_TOLERANCE`` of the shape's extent (by Qhull), written with their numbers' text
-    unchanged (so each parses to the same float) and named by triangles ``f i j k`` that exist
-    for nothing else, with the shapes' ``g``/``o`` lines. Normals, texture coordinates,
-    materials, lines, comments, repeated corners and interior points, which the collision
-    shape never holds, go. The copy is no mesh to draw: use it for collision shapes only. The
-    Panda's collision meshes shrink from 430 KB to 52 KB and the arm loads in about 2.2 ms
-    instead of 4.6 ms.
-
-    PyBullet then holds the same hull vertices, bit for bit, but not in the same order: the
-    order its hull builder lists them in depends on the points it was given. Nothing the
-    simulation computes without a contact depends on that order (bounding boxes and inertia
-    take the extreme coordinate, whichever vertex has it); in a contact of an arm link the
-    order decides only between vertices tied exactly for the farthest along a direction.
-    ``tests/test_lean_meshes.py`` compares PyBullet's vertices, bounding boxes and dynamics
-    link by link, and whole episodes.
-
-    Raises:
-        ValueError: a face refers to a vertex that does not exist, or a line that PyBullet
-            reads (``v``, ``f``, ``g``, ``o``) is not plain: characters other than printable
-            ASCII and tabs, a vertex without three plain decimal numbers or not finite as a
-            float, a face with fewer than three corners or a corner that is not an index; or
-            any line is 1,000 characters or longer or holds a carriage return (Bullet would
-            split it).
-    """
-    positions: list[str] = []  # the text "x y z" of every vertex, in file order
-    groups: list[tuple[str | None, list[int]]] = [(None, [])]  # (g/o line, corner vertices)
-    for number, raw in enumerate(text.split("\n"), start=1):
-        if len(raw) > _LONGEST_LINE or "\r" in raw:
-            raise ValueError(f"line {number}: longer than {_LONGEST_LINE} characters, or a \\r")
-        fields = raw.split()
-        if not fields or fields[0] not in ("v", "f", "g", "o"):
-            continue  # comments, normals, materials...: the collision import skips them
-        if not _PLAIN_LINE.fullmatch(raw):
-            raise ValueError(f"line {number}: not a plain line of printable ASCII: {raw[:80]!r}")
-        kind = fields[0]
-        if kind == "v":
-            coordinates = fields[1:4]
-            if len(coordinates) < 3 or not all(_NUMBER.fullmatch(c) for c in coordinates):
-                raise ValueError(f"line {number}: a vertex needs three decimal numbers: {raw!r}")
-            positions.append(" ".join(coordinates))
-        elif kind == "f":
-            if len(fields) < 4:
-                raise ValueError(f"line {number}: a face needs three corners or more: {raw!r}")
-            corners = groups[-1][1]
-            for corner in fields[1:]:
-                match = _CORNER.fullmatch(corner)
-                if match is None:
-                    raise ValueError(f"line {number}: face corner {corner!r} is not an index")
-                i = int(match.group(1))
-                i = i - 1 if i > 0 else len(positions) + i  # OBJ counts from 1, or from the end
-                if not 0 <= i < len(positions):
-                    raise ValueError(
-                        f"line {number}: face corner {corner!r} refers to vertex {i + 1}, "
-                        f"but {len(positions)} are defined so far"
-                    )
-                corners.append(i)
-        else:
-            groups.append((raw.strip(), []))
-    out: list[str] = []
-    index: dict[str, int] = {}  # position text -> its 1-based index in the copy
-    for line, corners in groups:
-        if line is not None:
-            out.append(line)
-        # Each distinct position once, in the order of first use.
-        kept = _hull_candidates(list(dict.fromkeys(positions[i] for i in corners)))
-        for position in kept:
-            if position not in index:
-                index[position] = len(index) + 1
-                out.append(f"v {position}")
-        numbers = [str(index[p]) for p in kept]
-        while len(numbers) % 3:
-            numbers.append(numbers[-1])  # a repeated point changes no hull
-        out += [f"f {' '.join(numbers[k : k + 3])}" for k in range(0, len(numbers), 3)]
-    return "\n".join(out) + "\n"
-
-
-def _hull_candidates(texts: list[str]) -> list[str]:
-    """The positions of ``texts`` not inside their convex hull by more than the tolerance.
-
-    In their order; all of them if they span less than three dimensions (Qhull has no hull to
-    offer).
-
-    Raises:
-        ValueError: a position is not finite as a float.
-    """
-    from scipy.spatial import ConvexHull, QhullError  # once per process: lean_collision_meshes
-
-    # As PyBullet reads them: (float)atof, a double rounded to a float.
-    doubles = np.array([[float(v) for v in t.split()] for t in texts], dtype=np.float64)
-    if not (np.abs(doubles) <= np.finfo(np.float32).max).all():
-        raise ValueError("a vertex position is not finite as a float")
-    points = doubles.astype(np.float32).astype(np.float64)
-    if len(texts) < 5:
-        return texts
-    extent = float(np.ptp(points, axis=0).max())
-    try:
-        hull = ConvexHull(points)
-    except QhullError:
-        return texts  # flat or degenerate: every point may be on the surface
-    # Signed distance to the farthest facet plane: <= 0 inside, about 0 on the surface.
-    outside = (points @ hull.equations[:, :3].T + hull.equations[:, 3]).max(axis=1)
-    keep = outside >= -_INTERIOR_TOLERANCE * extent
-    return [t for t, k in zip(texts, keep, strict=True) if k]
-
-
-def lean_collision_meshes(folder: Path | None) -> dict[str, str] | None:
-    """Lean copies (:func:`lean_collision_mesh`) of the Panda's collision meshes in ``folder``.
-
-    Returns {original path: copy path}, for :func:`panda_urdf_with_tool`'s ``meshes``; None if
-    ``folder`` is None or cannot be written, in which case the original meshes are loaded
-    (slower, the same shapes). The copies are in ``folder/meshes``, named by a digest of their
-    text; a copy whose text is not the one made from the original now (left over, corrupt,
-    written by another version) is written again, atomically (a temporary file renamed over
-    it). Checked once per process and folder.
-
-    Making a copy parses the original and runs Qhull (about 35-50 ms for the eleven meshes), so
-    an index in the same folder (``lean-index-v{LEAN_MESH_FORMAT}-{tag}.json``, the tag a digest
-    of this module's source, SciPy's and NumPy's versions and the machine) records which copy
-    was made from which original, by a digest of the original's bytes. A process then reads
-    each original and its copy and hashes both (a few ms): an original whose bytes changed, or
-    a copy whose bytes no longer match the digest in its name, is made again.
-    """
-    if folder is None:
-        return None
-    key = str(folder)
-    if key not in _LEAN_MESHES:
-        _LEAN_MESHES[key] = _write_lean_meshes(folder / "meshes")
-    return _LEAN_MESHES[key]
-
-
-def _lean_index_tag() -> str:
-    """What makes a copy from an original besides the original: this code, Qhull, the CPU.
-
-    An index of another tag is not read (its copies are made again, and the copy of the
-    same text keeps its name), so a change of these never reuses a copy made otherwise.
-    """
-    import scipy
-
-    from tooldesign_env.plan import source_digest
-
-    material = [source_digest(__name__), scipy.__version__, np.__version__, platform.machine()]
-    return hashlib.sha256(json.dumps(material).encode()).hexdigest()[:12]
-
-
-def _lean_digest(lean: bytes) -> str:
-    """The digest in a lean copy's name: of the format and the copy's bytes."""
-    return hashlib.sha256(f"{LEAN_MESH_FORMAT}\n".encode() + lean).hexdigest()[:20]
-
-
-def _write_lean_meshes(folder: Path) -> dict[str, str] | None:
-    urdf = panda_urdf_with_tool(None, visuals=False)
-    originals = sorted(set(re.findall(r'<mesh filename="([^"]+\.obj)"', urdf)))
-    index_path = folder / f"lean-index-v{LEAN_MESH_FORMAT}-{_lean_index_tag()}.json"
-    try:
-        index = json.loads(index_path.read_text(encoding="utf-8"))
-        if not isinstance(index, dict):
-            index = {}
-    except (OSError, ValueError):
-        index = {}
-    copies, changed = {}, False
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-        for original in originals:
-            with open(original, "rb") as f:
-                source = f.read()
-            source_digest = hashlib.sha256(source).hexdigest()
-            stem = os.path.splitext(os.path.basename(original))[0]
-            name = index.get(source_digest)
-            if isinstance(name, str) and _is_lean_copy_name(name, stem):
-                path = folder / name
-                try:
-                    if _lean_digest(path.read_bytes()) == name[-24:-4]:
-                        copies[original] = str(path)
-                        continue
-                except OSError:
-                    pass
-            # As open(..., encoding="utf-8") reads it: universal newlines.
-            text = source.decode("utf-8").replace("\r\n", "\n").replace("\r", "\n")
-            lean = lean_collision_mesh(text).encode("utf-8")
-            path = folder / f"panda-{stem}-{_lean_digest(lean)}.obj"
-            try:
-                current = path.read_bytes()
-            except OSError:
-                current = None
-            if current != lean:
-                write_atomic(path, lean)
-            copies[original] = str(path)
-            index[source_digest] = path.name
-            changed = True
-    except (OSError, ValueError, UnicodeDecodeError):
-        return None  # the originals load too, only slower
-    if changed:
-        try:  # only a shortcut: a lost race or a read-only folder costs the next process time
-            write_atomic(index_path, json.dumps(index, indent=1, sort_keys=True).encode())
-        except OSError:
-            pass
-    return copies
-
-
-def _is_lean_copy_name(name: str, stem: str) -> bool:
-    """Whether ``name`` is a file name :func:`_write_lean_meshes` gives a copy of ``stem``."""
-    return re.fullmatch(rf"panda-{re.escape(stem)}-[0-9a-f]{{20}}\.obj", name) is not None
-
-
-#: Bumped whenever :func:`_hand_dynamics` stores something else.
-HAND_DYNAMICS_FORMAT = 1
-
-
-def _hand_dynamics(text: str) -> np.ndarray:
-    """PyBullet's dynamics of ``HAND_ROOT`` and ``HAND_LINKS`` in the robot of URDF ``text``.
-
-    One row per link: mass, principal moments (3), inertial frame's position (3) and
-    orientation (4), as ``getDynamicsInfo`` gives them. Reading them means loading the robot in
-    a server of its own (about 30 ms, once per process), so they are kept in the plan cache's
-    folder (:func:`tooldesign_env.plan.cache_dir`), keyed by the URDF text (whose mesh paths
-    name the lean copies by their content), PyBullet's version and the machine's architecture.
-    The file holds the float64 values exactly, so a process that reads it builds the same
-    merged hand, bit for bit, as one that loaded the robot.
-    """
-    from tooldesign_env.plan import cache_key, load_knots, source_digest, store_knots
-
-    key = cache_key(
-        {
-            "hand_dynamics": HAND_DYNAMICS_FORMAT,
-            "source": source_digest(__name__),  # how the robot is loaded (flags, inertia)
-            "urdf": hashlib.sha256(text.encode("utf-8")).hexdigest(),
-            "links": [HAND_ROOT, *HAND_LINKS],
-            "pybullet": engine_version(),
-            "machine": platform.machine(),
-        }
-    )
-    shape = (1 + len(HAND_LINKS), 11)
-    stored = load_knots(key, shape)
-    if stored is not None:
-        return stored
-    world = BulletWorld(renderer=False)
-    try:
-        robot = world.load_robot(text)
-        links = world.indices(robot.body)
-        rows = []
-        for name in (HAND_ROOT, *HAND_LINKS):
-            info = world.client.getDynamicsInfo(robot.body, links[name])
-            rows.append([info[0], *info[2], *info[3], *info[4]])
-    finally:
-        world.close()
-    dynamics = np.asarray(rows, dtype=np.float64)
-    store_knots(key, dynamics)
-    return dynamics
-
-
-@functools.cache
-def robot_model_digest() -> str:
-    """SHA-256 of the arm's URDF as loaded for inverse kinematics (no tool, no visuals).
-
-    The folder of ``pybullet_data`` is left out, so the same files give the same digest in
-    any environment; any change of the kinematics (joint origins, axes, limits) changes it.
-    """
-    text = panda_urdf_with_tool(None, visuals=False).replace(PANDA_DIR, "<panda>")
-    return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
 
 @functools.cache
@@ -902,6 +500,13 @@ class BulletWorld:
             names[info[1].decode()] = j
             names[info[12].decode()] = j
         return names
+
+    def dynamics_info(self, body: int, link: int) -> tuple[Any, ...]:
+        """PyBullet's ``getDynamicsInfo`` of a link, as it returns it.
+
+        Mass [0], principal moments [2], the inertial frame's position [3] and quaternion [4].
+        """
+        return cast("tuple[Any, ...]", self.client.getDynamicsInfo(body, link))
 
     def remove(self, body: int) -> None:
         """Remove a body from the world."""

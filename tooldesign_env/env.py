@@ -1,4 +1,14 @@
-"""The one-step Gymnasium environment ``ToolDesign-v0``."""
+"""The one-step Gymnasium environment ``ToolDesign-v0``.
+
+A step checks the action, builds the tool, and hands it to the objective's sequence
+(:meth:`ToolDesignEnv.evaluate_geometry`): the scenes the objective names, one rollout each with
+what its estimator asks to record, a score per rollout, their combination. Which objective or
+estimator runs is the spec's choice, made once in the constructor (:mod:`tooldesign_env.objective`).
+
+Longer than 600 lines because a public entry point checks every argument itself (the env's
+constructor, ``reset``, ``step`` and ``render_rollout`` each refuse bad input with a message naming
+the value), and the class docstring carries Gymnasium's sections.
+"""
 
 from __future__ import annotations
 
@@ -15,17 +25,10 @@ from gymnasium import spaces
 
 from tooldesign_env.bullet import not_copyable
 from tooldesign_env.geometry import ToolGeometry, ToolSpec, make_tool, validate_coefficients
-from tooldesign_env.objective import (
-    ObjectiveTerms,
-    free_energy,
-    goal_error,
-    make_estimator,
-    mean_terms,
-    scene_offsets,
-)
+from tooldesign_env.objective import ObjectiveTerms, Rollout, Score, make_objective
 from tooldesign_env.robustness import DEFAULT_MASSES, RobustnessResult, evaluate_robustness
 from tooldesign_env.schema import GOAL_HIGH, GOAL_LOW
-from tooldesign_env.simulation import ToolSimulator, Trajectory
+from tooldesign_env.simulation import ToolSimulator
 from tooldesign_env.specs import (
     BOX_MASS_MAX,
     ControllerSpec,
@@ -229,8 +232,9 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
     ``objective_kind`` and ``box_mass`` are shortcuts for the fields of ``objective`` and
     ``scene``; ``objective_kind=
     "expected-goal-error"`` scores the robust-design baseline instead of F (see
-    ``ObjectiveSpec.kind``). ``reset(options={"goal": (x, y, z),
-    "box_mass": m})`` changes the task of one episode.
+    ``ObjectiveSpec.kind``). Both take any name registered with
+    ``tooldesign_env.objective.register_estimator`` / ``register_objective``.
+    ``reset(options={"goal": (x, y, z), "box_mass": m})`` changes the task of one episode.
 
     ``render_mode="rgb_array"`` renders headless (PyBullet's software renderer, no display):
     ``render()`` returns a (360, 480, 3) uint8 frame of the scene with the goal as a green sphere,
@@ -342,13 +346,17 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
         self.simulator = ToolSimulator(
             scene=scene, plan=plan, controller=controller, render_mode=render_mode
         )
-        self._estimator = make_estimator(objective)
+        # The objective and its estimator, behind one interface: step never asks which.
+        self._scoring = make_objective(objective)
         self._goal = np.asarray(self.task.goal, dtype=float)
         self._box_mass = scene.box_mass
         # What render() shows: the box path of the last step, and whether the world holds the
         # scene of that step (a tool that cannot be built is never put into the world).
         self._last_series: dict[str, Any] | None = None
         self._world_shows_last_step = False
+        # Whether the last evaluation ran the episode's own scene in the world it checked the
+        # tool in (so that the world now shows that rollout's end).
+        self._nominal_world = False
 
     # ------------------------------------------------------------ gym API
     def reset(
@@ -402,7 +410,7 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
         self._last_series = {key: info[key] for key in SERIES_KEYS}
         if not self.info_series:
             info = {k: v for k, v in info.items() if k not in SERIES_KEYS}
-        self._world_shows_last_step = geometry.buildable and self.objective.kind == "free-energy"
+        self._world_shows_last_step = geometry.buildable and self._nominal_world
         if self.render_mode == "human":
             self.render()
         return self._observation(), -info["free_energy"], True, False, info
@@ -514,81 +522,34 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
         return info if series else {k: v for k, v in info.items() if k not in SERIES_KEYS}
 
     def _evaluate_geometry(self, geometry: ToolGeometry) -> dict[str, Any]:
-        goal = self._goal
+        """Check the tool in the episode's scene, use it in the objective's scenes, score it.
+
+        Each rollout is scored while the world still holds it (an estimator may replay it),
+        then its snapshots are released.
+        """
+        self._nominal_world = False
         if not geometry.buildable:
             return self._invalid_info(geometry, f"cannot be built: {geometry.why_not_buildable}")
-        if self.simulator.build(geometry, box_mass=self._box_mass):
-            return self._invalid_info(geometry, "overlaps the box at the start of the sweep")
-        if self.objective.kind == "expected-goal-error":
-            return self._expected_goal_error(geometry)
-        # The nominal scene is built; the others of ObjectiveSpec.scene_samples move the box.
-        nominal, *others = scene_offsets(self.objective)
-        trajectory, terms = self._scored_run(goal)
-        sampled = [terms]
-        for offset in others:
-            dx, dy, dyaw = (float(v) for v in offset)
-            self.simulator.build(geometry, box_mass=self._box_mass, box_offset=(dx, dy, dyaw))
-            sampled.append(self._scored_run(goal)[1])
-        info = self._info(geometry, trajectory, mean_terms(sampled))
-        if len(sampled) > 1:
-            info["free_energy_std"] = float(np.std([t.free_energy for t in sampled], ddof=1))
-        return info
-
-    def _scored_run(self, goal: np.ndarray) -> tuple[Trajectory, ObjectiveTerms]:
-        """Use the tool of the last build once and score the rollout."""
-        resim = self.objective.estimator == "resimulation"
-        trajectory = self.simulator.run(
-            snapshot_every=self.objective.horizon if resim else None,
-            record_mobility=self.objective.estimator == "contact",
-        )
-        try:
-            terms = free_energy(
-                trajectory.box_position,
-                trajectory.torques,
-                goal,
-                self.objective,
-                estimator=self._estimator,
-                replay=self._replay if resim else None,
-                mobility=trajectory.contact_mobility,
-                control_dt=self.simulator.control_dt,
-            )
-        finally:
-            if resim:
-                self.simulator.release_snapshots()
-        return trajectory, terms
-
-    def _expected_goal_error(self, geometry: ToolGeometry) -> dict[str, Any]:
-        """The robust-design baseline: the summed goal error averaged over box masses.
-
-        ``info`` holds the mean goal error as ``free_energy`` and ``goal_error``, a confidence
-        of 0, the mean final distance, and the trajectories of the episode's own box mass. With
-        ``scene_samples`` K > 1 the mean is over every mass in each of the K scenes.
-        """
-        masses = self.objective.expected_masses
-        offsets = [(float(a), float(b), float(c)) for a, b, c in scene_offsets(self.objective)]
-        runs = {
-            (m, k): self.simulator.rollout(geometry, box_mass=m, box_offset=offset)
-            for m in masses
-            for k, offset in enumerate(offsets)
-        }
-        nominal = runs.get((self._box_mass, 0))
-        if nominal is None:
-            nominal = self.simulator.rollout(geometry, box_mass=self._box_mass)
-        precision = self.objective.goal_precision
-        e_t = np.mean([goal_error(r.box_position, self._goal, precision) for r in runs.values()], 0)
-        distance = np.mean([np.linalg.norm(r.box_position[-1] - self._goal) for r in runs.values()])
-        zeros = np.zeros_like(e_t)
-        terms = ObjectiveTerms(
-            free_energy=float(np.sum(e_t)),
-            goal_error=float(np.sum(e_t)),
-            confidence=0.0,
-            final_distance=float(distance),
-            goal_error_t=e_t,
-            confidence_t=zeros,
-            free_energy_t=e_t,
-            jacobian_norm_t=zeros,
-        )
-        return self._info(geometry, nominal, terms)
+        built = self.simulator.build(geometry, box_mass=self._box_mass)
+        self._nominal_world = True
+        if not built.usable:
+            return self._invalid_info(geometry, built.reason)
+        objective = self._scoring
+        scenes = objective.scenes(self._box_mass)
+        rollouts: list[Rollout] = []
+        terms: list[ObjectiveTerms] = []
+        for index, scene in enumerate(scenes):
+            if index or not scene.is_nominal:  # else the world of the check is that scene
+                self.simulator.build(
+                    geometry,
+                    box_mass=self._box_mass if scene.box_mass is None else scene.box_mass,
+                    box_offset=scene.box_offset,
+                )
+                self._nominal_world = False
+            with self.simulator.recorded(objective.recording) as rollout:
+                terms.append(objective.score(rollout, self._goal))
+            rollouts.append(rollout)
+        return self._info(geometry, objective.combine(scenes, rollouts, terms))
 
     def evaluate_robustness(
         self, action: Any, masses: Sequence[float] = DEFAULT_MASSES
@@ -633,9 +594,6 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
             )
         return arr
 
-    def _replay(self, k: int, offsets: np.ndarray) -> np.ndarray:
-        return self.simulator.replay_responses(k, self.objective.horizon, offsets)
-
     def _observation(self) -> np.ndarray:
         return self._goal.astype(np.float64, copy=True)
 
@@ -665,15 +623,14 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
             "tool_mass": float(geometry.mass),
         }
 
-    def _info(
-        self, geometry: ToolGeometry, traj: Trajectory, terms: ObjectiveTerms
-    ) -> dict[str, Any]:
+    def _info(self, geometry: ToolGeometry, score: Score) -> dict[str, Any]:
+        traj, terms = score.trajectory, score.terms
         info = self._common_info(geometry)
         info.update(
             valid=True,
             invalid_reason="",
             free_energy=terms.free_energy,
-            free_energy_std=0.0,
+            free_energy_std=score.free_energy_std,
             goal_error=terms.goal_error,
             confidence=terms.confidence,
             penalty=0.0,

@@ -109,10 +109,11 @@ def evaluate_robustness(
             f"the design {geometry.coeffs.tolist()} cannot be built "
             f"({geometry.why_not_buildable}): it has no robustness"
         )
-    if simulator.build(geometry, box_mass=m0):
+    built = simulator.build(geometry, box_mass=m0)
+    if not built.usable:
         raise ValueError(
-            f"the design {geometry.coeffs.tolist()} overlaps the box at the start of the "
-            "sweep, so it is not a usable tool: it has no robustness"
+            f"the design {geometry.coeffs.tolist()} {built.reason}, so it is not a usable "
+            "tool: it has no robustness"
         )
     nominal = simulator.run()
     perturbed = tuple(simulator.rollout(geometry, box_mass=m) for m in masses)

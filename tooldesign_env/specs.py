@@ -5,6 +5,9 @@ the values this library chose (see ``docs/model.md`` for why). Each one is a fie
 change it without editing code: ``dataclasses.replace(PlanSpec(), hold_duration=1.0)``.
 
 Units are SI: metres, seconds, kilograms, newton metres, radians.
+
+Longer than 600 lines because every spec carries the checks of its own fields (each refusal names
+the field, the value and what is allowed), and a spec's checks belong beside its fields.
 """
 
 from __future__ import annotations
@@ -18,6 +21,12 @@ from typing import Any, Literal
 
 import numpy as np
 
+from tooldesign_env.objective.registry import (
+    BUILTIN_ESTIMATORS,
+    BUILTIN_OBJECTIVES,
+    estimator_names,
+    objective_names,
+)
 from tooldesign_env.schema import (
     DEFAULT_BOX_MASS,
     DEFAULT_GOAL,
@@ -527,8 +536,10 @@ class TaskSpec:
         _check_vector(self, "goal", 3)
 
 
-ESTIMATORS = ("contact", "trajectory", "resimulation")
-KINDS = ("free-energy", "expected-goal-error")
+#: The built-in estimators and objectives; ``ObjectiveSpec`` takes every registered one
+#: (:mod:`tooldesign_env.objective.registry`).
+ESTIMATORS = BUILTIN_ESTIMATORS
+KINDS = BUILTIN_OBJECTIVES
 FORMS = ("clamped", "gauss-newton")
 
 
@@ -540,7 +551,8 @@ class ObjectiveSpec:
         kind: ``"free-energy"``: F of the paper (the default). ``"expected-goal-error"``: the
             robust-design baseline, which asks for robustness directly: the mean over the box
             masses ``expected_masses`` of the summed goal error sum_t E_t, with no confidence
-            term (it costs one rollout per mass).
+            term (it costs one rollout per mass). Or any objective registered with
+            :func:`tooldesign_env.objective.register_objective`.
         expected_masses: box masses of ``"expected-goal-error"``, kg.
         goal_precision: p^X, the weight of the squared goal error (P^X = p^X I_3), 1/m^2.
         eps: regularizer of log|Pi_U|, (m/N m)^2: the confidence of one step is
@@ -551,7 +563,8 @@ class ObjectiveSpec:
             linearization of the tool-box contact along the rollout, from the arm's Jacobian
             and mass matrix; stable under nudges of the scene), ``"trajectory"`` (a sliding
             regression over the recorded torques; noisy, kept for comparison) or
-            ``"resimulation"`` (small torque perturbations replayed in the simulator).
+            ``"resimulation"`` (small torque perturbations replayed in the simulator), or any
+            registered with :func:`tooldesign_env.objective.register_estimator`.
         window: trajectory estimator: control steps in the sliding regression window.
         ridge: trajectory estimator: ridge penalty relative to the mean torque-change energy.
         response_time: contact estimator: how long a torque perturbation acts before the box's
@@ -622,8 +635,9 @@ class ObjectiveSpec:
         _check_range(self, "slip_speed", 0.0, SLIP_SPEED_MAX, "m/s", open_low=True)
         _check_range(self, "perturbation", 0.0, PERTURBATION_MAX, "N m", open_low=True)
         _check_range(self, "invalid_penalty", 0.0, INVALID_PENALTY_MAX, "", open_low=True)
-        if self.kind not in KINDS:
-            raise ValueError(f"ObjectiveSpec.kind must be one of {KINDS}, got {self.kind!r}")
+        kinds = objective_names()
+        if self.kind not in kinds:
+            raise ValueError(f"ObjectiveSpec.kind must be one of {kinds}, got {self.kind!r}")
         if self.kind == "expected-goal-error" and self.goal_precision == 0:
             raise ValueError(
                 "ObjectiveSpec.goal_precision must be > 0 with kind='expected-goal-error': its "
@@ -660,9 +674,10 @@ class ObjectiveSpec:
         object.__setattr__(self, "expected_masses", tuple(float(m) for m in masses))
         if self.form not in FORMS:
             raise ValueError(f"ObjectiveSpec.form must be one of {FORMS}, got {self.form!r}")
-        if self.estimator not in ESTIMATORS:
+        estimators = estimator_names()
+        if self.estimator not in estimators:
             raise ValueError(
-                f"ObjectiveSpec.estimator must be one of {ESTIMATORS}, got {self.estimator!r}"
+                f"ObjectiveSpec.estimator must be one of {estimators}, got {self.estimator!r}"
             )
         for name in ("window", "horizon"):
             value = getattr(self, name)

@@ -154,7 +154,7 @@ def measure(
     try:
         for name, coeffs in designs.items():
             geometry = make_tool(coeffs, tool)
-            if sim.build(geometry):
+            if sim.build(geometry).overlaps_box:
                 out[name] = None
                 continue
             nominal = outcome(sim.run())

@@ -159,7 +159,7 @@ def time_step_study(
         for name, coeffs in designs.items():
             geometry = make_tool(coeffs, tool)
             for sim in sims:
-                if sim.build(geometry):
+                if sim.build(geometry).overlaps_box:
                     raise RuntimeError(f"{name} overlaps the box in a nudged scene")
                 traj = sim.run(record_mobility=True)
                 for estimator, spec in ESTIMATORS.items():

@@ -103,7 +103,7 @@ def valid_designs(
     while len(out) < n:
         c = rng.uniform(bounds[:, 0], bounds[:, 1])
         geometry = make_tool(c, spec)
-        if geometry.buildable and not sim.build(geometry):
+        if geometry.buildable and sim.build(geometry).usable:
             out.append(c)
     return out
 

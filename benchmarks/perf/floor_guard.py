@@ -1,7 +1,7 @@
 """How close the floor guard's bound comes to its limit, and how often it re-simulates.
 
 With ``SceneSpec.arm_floor_contacts="auto"`` (the default) every rollout ends with a lower bound
-on the arm's and the tool's clearance from the floor (``simulation.floor_clearance_bound``); an
+on the arm's and the tool's clearance from the floor (``floor_guard.floor_clearance_bound``); an
 episode whose bound is below the limit is simulated again with the floor contacts. This script
 evaluates the straight tool, a hook and ``--designs`` uniform random designs at the default
 task, then ``--tasks`` random designs at random goals (the paper's range) and box masses in
@@ -21,7 +21,7 @@ import _args  # this folder: the script's own, on sys.path
 import numpy as np
 from gymnasium.spaces import Box
 
-import tooldesign_env.simulation as simulation
+import tooldesign_env.floor_guard as floor_guard
 from tooldesign_env import ToolDesignEnv
 from tooldesign_env.specs import BOX_MASS_MAX
 
@@ -64,14 +64,14 @@ def main(argv: list[str] | None = None) -> None:
     low_mass, high_mass = args.mass_range
 
     bounds: list[float] = []
-    real = simulation.floor_clearance_bound
+    real = floor_guard.floor_clearance_bound
 
     def recorded(*arguments: object) -> float:
         bound = real(*arguments)  # type: ignore[arg-type]
         bounds.append(bound)
         return bound
 
-    simulation.floor_clearance_bound = recorded  # type: ignore[assignment]
+    floor_guard.floor_clearance_bound = recorded  # type: ignore[assignment]
     rng = np.random.default_rng(args.seed)
     env = ToolDesignEnv()
     space = cast("Box", env.action_space)

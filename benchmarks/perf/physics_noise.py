@@ -79,7 +79,7 @@ def measure(name: str, args: argparse.Namespace) -> tuple[float, float, float, f
         geometry = make_tool(c, tool_spec)
         rows = []
         for sim in sims:
-            if sim.build(geometry):
+            if sim.build(geometry).overlaps_box:
                 break  # this tool spec makes the design overlap the box: skip it
             client = sim.world.client
             if engine:

@@ -10,7 +10,7 @@ around it:
   the contact estimator needs (the C loop's rollout without the contact log, less the floor's
   replay of the same steps);
 * **the contact estimator's Jacobians and mass matrices**: PyBullet's requests at the steps in
-  contact (``ToolSimulator._arm_matrices``);
+  contact (``ControlLoops.arm_matrices``);
 * **the tool's mass properties**: trimesh's integral over the mesh, which feeds the physics, so
   its every bit matters;
 * **LAPACK**: the eigenvalues of Pi_U and the inverse mass matrices (every
@@ -40,7 +40,7 @@ from physics_options import designs
 
 import tooldesign_env.geometry.tool as tool_module
 from tooldesign_env import ToolDesignEnv, make_tool
-from tooldesign_env.simulation import ToolSimulator
+from tooldesign_env.control_loop import ControlLoops
 
 #: NumPy's LAPACK calls that an evaluation makes (the objective and the contact mobility).
 LAPACK = ("eigvalsh", "eigh", "inv")
@@ -70,7 +70,7 @@ def measure(env: ToolDesignEnv, coeffs: np.ndarray) -> dict[str, float] | None:
     sim = env.simulator
     arm, mass, lapack = [0.0], [0.0], [0.0]
     with ExitStack() as stack:
-        stack.enter_context(timed(ToolSimulator, "_arm_matrices", arm))
+        stack.enter_context(timed(ControlLoops, "arm_matrices", arm))
         # make_tool looks the mass functions up in its own module
         for name in ("_mesh_mass_properties", "_mass_properties"):
             stack.enter_context(timed(tool_module, name, mass))

@@ -132,7 +132,7 @@ def main(argv: list[str] | None = None) -> None:
     geometries = [make_tool(np.zeros(3), tool)]
     while len(geometries) < args.designs:
         geometry = make_tool(rng.uniform(bounds[:, 0], bounds[:, 1]), tool)
-        if geometry.buildable and not sim.build(geometry):
+        if geometry.buildable and sim.build(geometry).usable:
             geometries.append(geometry)
 
     seconds: dict[str, float] = collections.defaultdict(float)
