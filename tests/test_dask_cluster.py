@@ -1,8 +1,9 @@
 """A suite on a real Dask cluster, started with Dask's own commands, stores the serial numbers.
 
-``benchmarks/perf/dask_cluster.py`` starts ``dask scheduler`` and two ``dask worker`` commands
-as separate processes (no ``LocalCluster``), runs a tiny ``optimizers`` suite serially and on the
-cluster, and compares every stored number to the last bit. The other tests check the pieces it
+The Dask executor's integration test (slow): ``perf/speed/dask_cluster.py`` starts ``dask
+scheduler`` and two ``dask worker`` commands as separate processes (no ``LocalCluster``), runs a
+tiny ``optimizers`` suite serially and on the cluster, and compares every stored number to the
+last bit. The other tests check the pieces it
 relies on: the comparison sees a one-ulp change, the workers' code check, and how many runs are
 kept in flight on a cluster.
 """
@@ -44,14 +45,13 @@ from benchmarks.execution.dask_client import (
     tree_digest,
 )
 from benchmarks.execution.errors import ClusterMismatch
-from benchmarks.perf import dask_cluster
 from benchmarks.suites import builtin_suite
 from benchmarks.suites.runner import SuiteResult, _max_active, summary_text
+from perf.speed import dask_cluster
 
 #: The folder this test imported the project from (a checkout).
 ROOT = Path(benchmarks.__file__).resolve().parents[1]
 
-SCRIPT = Path(dask_cluster.__file__)
 
 
 def _cluster_processes(marker: str) -> list[str]:
@@ -72,12 +72,13 @@ def _cluster_processes(marker: str) -> list[str]:
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="process groups and /proc")
 def test_a_cluster_of_dask_commands_stores_the_serial_numbers_bit_for_bit(tmp_path):
     out = tmp_path / "runs"
-    argv = [sys.executable, str(SCRIPT), "--seeds", "1", "--iterations", "2", "--batch-size", "2"]
+    argv = [sys.executable, "-m", "perf.speed.dask_cluster", "--seeds", "1", "--iterations", "2"]
     result = subprocess.run(
-        [*argv, "--workers", "2", "--out", str(out)],
+        [*argv, "--batch-size", "2", "--workers", "2", "--out", str(out)],
         capture_output=True,
         text=True,
         timeout=900,
+        cwd=ROOT,  # the script runs as a module from the repository's root (perf/ is not installed)
     )
     text = result.stdout + result.stderr
     assert result.returncode == 0, text
@@ -236,7 +237,7 @@ def test_the_identity_is_the_code_a_worker_runs_not_the_clients_own(tmp_path):
         "benchmarks/cli/bench.py",
         "benchmarks/reports/suite.py",
         "benchmarks/suites/runner.py",
-        "benchmarks/perf/dask_cluster.py",
+        "perf/speed/dask_cluster.py",
         "optimizers/__init__.py",
     ):
         _append(tree / client_only, "# a comment\n")

@@ -106,7 +106,7 @@ def test_a_plan_too_short_or_too_long_in_all_is_refused():
     [
         (SceneSpec, {"time_step": 2.5e-4, "solver_iterations": 1000}),
         (SceneSpec, {"time_step": 0.02, "solver_iterations": 1}),
-        (SceneSpec, {"time_step": 1 / 960}),  # benchmarks/perf/confidence_convergence.py
+        (SceneSpec, {"time_step": 1 / 960}),  # perf/studies/confidence_convergence.py
         (SceneSpec, {"time_step": 1 / 120}),  # docs/performance.md
         (SceneSpec, {"box_size": (1e-3, 2.0, 1e-3), "box_position": (-2.5, 2.5)}),
         (SceneSpec, {"box_yaw": -2 * math.pi, "box_friction": 10.0, "floor_friction": 0.0}),

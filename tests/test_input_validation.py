@@ -1,8 +1,8 @@
 """Bad input at every public entry point gives a TypeError/ValueError naming it (issue #10).
 
 The cases found by the fuzzing pass first, then properties over the action space, the env
-options, the configuration fields and suite config files. ``benchmarks/perf/fuzz_inputs.py`` is
-the rerunnable version over many more inputs.
+options, the configuration fields and suite config files. ``tests/test_fuzz_inputs.py`` runs the
+fuzzer's wider net of values through every entry point as Hypothesis properties.
 """
 
 from __future__ import annotations

@@ -9,7 +9,7 @@ round section's (keys starting "round"), when it became the default. Those keys 
 (recorded when that became the default: the model is the same, its rounding is not; a platform
 recorded before has the 13-link keys alone, and skips the merged ones). A speed-up of the
 simulation loop must reproduce them exactly; a change of the physics must not pass this test
-and needs its own, documented, side-by-side comparison instead (benchmarks/perf/physics_options.py).
+and needs its own, documented, side-by-side comparison instead (perf/speed/physics_options.py).
 
 The last bits of PyBullet's physics depend on the machine: glibc and NumPy pick their maths
 routines by the CPU's features at run time (an FMA sin/cos gives other bits), so the fixture keeps

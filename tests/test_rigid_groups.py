@@ -3,7 +3,7 @@ SceneSpec.merge_fixed_links): the same rigid body, fewer links for PyBullet.
 
 The merged model must be the same model: the same mass matrix, the same inverse dynamics and the
 same shapes in the same places, to rounding. Its rollouts differ from the unmerged model's by
-rounding amplified by the pushes' chaos; benchmarks/perf/physics_options.py compares the two on
+rounding amplified by the pushes' chaos; perf/speed/physics_options.py compares the two on
 32 designs against the noise floor (docs/performance.md, "Fewer links").
 """
 
