@@ -101,3 +101,16 @@ def test_a_built_wheel_holds_every_file_the_packages_read(tmp_path):
     )
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "PPOConfig"
+
+
+def test_ci_runs_the_readmes_test_command_word_for_word():
+    """.ci/run runs exactly what the README tells a user to run, and it runs every tier."""
+    readme = (ROOT / "README.md").read_text()
+    commands = [
+        line for line in readme.splitlines() if line.startswith('pip install -e ".[test]"')
+    ]
+    assert len(commands) == 1, commands
+    (command,) = commands
+    assert command.endswith("python -m pytest --all")  # the slow tier too
+    ci = (ROOT / ".ci" / "run").read_text().splitlines()
+    assert command in ci
