@@ -300,3 +300,41 @@ def test_ratio_bound_times_each_part_and_puts_the_originals_back(
     assert {name: getattr(np.linalg, name) for name in bound.LAPACK} == originals
     assert bound.ToolSimulator._arm_matrices is arm_matrices
     assert bound.tool_module._mesh_mass_properties is mass
+
+
+def test_the_asv_config_points_at_this_repository_and_its_benchmarks() -> None:
+    # asv reads JSON with // comments; its paths are relative to the config's folder.
+    text = (PERF / "asv.conf.json").read_text()
+    lines = [line for line in text.splitlines() if not line.strip().startswith("//")]
+    config = json.loads("\n".join(lines))
+    assert (PERF / config["repo"]).resolve() == ROOT
+    assert (PERF / config["benchmark_dir"] / "__init__.py").is_file()
+    for key in ("env_dir", "results_dir", "html_dir"):
+        assert (PERF / config[key]).resolve().parent == ROOT / ".asv"  # gitignored
+    assert ".asv/" in (ROOT / ".gitignore").read_text().splitlines()
+
+
+@pytest.mark.slow
+def test_every_asv_benchmark_runs_once_as_asv_runs_it() -> None:
+    """setup, each time_/track_ method, teardown: what asv does per parameter, once."""
+    from perf.asv_benchmarks import evaluation
+
+    ran = []
+    for cls in (evaluation.Evaluation, evaluation.Construction):
+        params = getattr(cls, "params", [None])
+        for param in params:
+            bench = cls()
+            args = () if param is None else (param,)
+            if hasattr(bench, "setup"):
+                bench.setup(*args)
+            try:
+                for name in dir(bench):
+                    if name.startswith(("time_", "track_")):
+                        value = getattr(bench, name)(*args)
+                        if name.startswith("track_"):
+                            assert np.isfinite(value), (name, param)
+                        ran.append(f"{cls.__name__}.{name}({param})")
+            finally:
+                if hasattr(bench, "teardown"):
+                    bench.teardown(*args)
+    assert len(ran) == 5, ran
