@@ -52,6 +52,7 @@ def test_the_bottom_packages_import_nothing_above_them(package):
             assert {layer_of(t) for t in targets} <= {package}, module
 
 
+@pytest.mark.slow
 def test_optimizers_never_import_pybullet():
     """Nothing under optimizers/ loads PyBullet or the rest of the project, however indirectly."""
     names = sorted(n for n in modules() if n.split(".")[0] == "optimizers")
@@ -132,6 +133,7 @@ def test_the_graph_sees_the_real_imports():
     assert layer_of("benchmarks.rl.__main__") == "benchmarks.cli"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("module", ["tooldesign_env.schema", "tooldesign_env.specs"])
 def test_the_defaults_and_names_load_without_the_simulator(module):
     """The storage layer reads schema and specs; they must not pull in PyBullet or trimesh."""
@@ -154,6 +156,7 @@ def test_the_package_names_resolve_on_first_use():
         _ = tooldesign_env.not_a_name
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("package", "attribute"),
     [

@@ -71,6 +71,7 @@ def test_report_bad_input(tmp_path):
         write_html_report(tmp_path / "empty")
 
 
+@pytest.mark.slow
 def test_cli_prints_where_the_report_is(tmp_path, capsys):
     folder = _run_folder(tmp_path / "run")
     assert main(["html", str(folder)]) == 0
@@ -80,6 +81,7 @@ def test_cli_prints_where_the_report_is(tmp_path, capsys):
     assert excinfo.value.code == 2
 
 
+@pytest.mark.slow
 def test_cli_refuses_an_out_that_is_a_folder_or_in_a_missing_folder_and_leaves_nothing(
     tmp_path, capsys
 ):
@@ -119,6 +121,7 @@ def test_the_report_is_written_atomically_through_the_one_writer(tmp_path, monke
     assert written == [folder / REPORT_FILE]
 
 
+@pytest.mark.slow
 def test_report_rebuilds_a_report_html_the_folder_has(tmp_path, capsys):
     # `tooldesign report DIR` rebuilt the figures but left report.html with the old ones (an
     # audit of issue 11).

@@ -131,6 +131,7 @@ def test_the_limits_themselves_are_accepted(spec, kwargs):
     spec(**kwargs)
 
 
+@pytest.mark.slow
 def test_the_coarsest_control_of_the_shortest_plan_simulates_finite():
     # The limits are chosen so that every plan has a control step: a 1 s plan at a 1 s control
     # step (time_step 0.02 s, 50 physics steps per control step).
@@ -148,6 +149,7 @@ def test_the_coarsest_control_of_the_shortest_plan_simulates_finite():
     env.close()
 
 
+@pytest.mark.slow
 def test_every_suite_and_run_folder_of_the_repo_still_loads():
     from benchmarks.rl.suite import SIZES as RL_SIZES
     from benchmarks.rl.suite import rl_suite_config
@@ -264,6 +266,7 @@ def test_rl_commands_refuse_huge_counts_in_one_line(argv, match, tmp_path, capsy
 # --- retest and dense-search ----------------------------------------------------------------
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("flags", "message"),
     [
@@ -284,6 +287,7 @@ def test_retest_refuses_flags_out_of_range(flags, message, tmp_path, capsys):
     assert not any(tmp_path.iterdir())
 
 
+@pytest.mark.slow
 def test_retest_without_repeats_takes_the_default_or_the_nudges():
     import argparse
 
@@ -297,6 +301,7 @@ def test_retest_without_repeats_takes_the_default_or_the_nudges():
     assert _check_counts(namespace(nudges=9, repeats=9, workers=1024)) == 9
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("flags", "message"),
     [
@@ -313,6 +318,7 @@ def test_dense_search_refuses_sizes_out_of_range(flags, message, tmp_path, capsy
     assert not out.exists()
 
 
+@pytest.mark.slow
 def test_dense_search_never_replaces_earlier_results(tmp_path, capsys):
     from benchmarks.suites.dense_search import dense_search
 

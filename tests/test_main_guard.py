@@ -46,6 +46,7 @@ def test_a_guarded_script_passes_the_check(tmp_path):
     assert out.stdout == "ok\n"
 
 
+@pytest.mark.slow
 def test_the_check_ignores_python_c_and_pytest():
     check_main_guard()  # under pytest: __main__ is pytest's module or console script
     code = "from benchmarks.execution import check_main_guard; check_main_guard(); print('ok')"
@@ -71,6 +72,7 @@ config = DesignConfig(optimizer="random", iterations=1, batch_size=2, workers=1)
 """
 
 
+@pytest.mark.slow
 def test_an_unguarded_design_script_leaves_no_run_folder(tmp_path):
     # The check came after the run folder was made: its manifest and heartbeat stayed, and the
     # fixed script was refused with "exists and is not empty" (an audit of issue 11).
@@ -81,6 +83,7 @@ def test_an_unguarded_design_script_leaves_no_run_folder(tmp_path):
     assert not run.exists()
 
 
+@pytest.mark.slow
 def test_a_run_design_call_beside_the_guard_fails_at_once_naming_its_line(tmp_path):
     # The script had a guard, so the check passed; each worker then re-ran the module-level
     # call and the run ended seconds later in multiprocessing tracebacks (an audit of issue 11).

@@ -20,6 +20,7 @@ def test_the_committed_page_is_made_from_the_committed_results() -> None:
     assert "| (a) CMA-ES lowers F fastest |" in page and "noise floor" in page.lower()
 
 
+@pytest.mark.slow
 def test_a_missing_results_folder_is_one_clear_error(tmp_path: Path) -> None:
     with pytest.raises(SystemExit) as exit_info:
         nothing, page = str(tmp_path / "nothing"), str(tmp_path / "page.md")

@@ -144,6 +144,7 @@ def test_the_merged_arm_has_the_same_dynamics_to_rounding():
             sim.close()
 
 
+@pytest.mark.slow
 def test_a_merged_episode_ends_where_the_unmerged_one_does():
     # The straight tool pushes smoothly: rounding does not grow into a different push.
     infos = {}
@@ -156,6 +157,7 @@ def test_a_merged_episode_ends_where_the_unmerged_one_does():
     assert infos[True]["goal_error"] == pytest.approx(infos[False]["goal_error"], rel=1e-3)
 
 
+@pytest.mark.slow
 def test_load_robot_refuses_inertias_for_a_link_it_lacks():
     world = BulletWorld(renderer=False)
     try:
