@@ -121,6 +121,7 @@ def test_the_argument_check_sees_every_way_in(source):
     assert _parses_arguments(ast.parse("import sys\nsys.exit(0)")) is None
 
 
+@pytest.mark.slow
 def test_the_graph_sees_the_real_imports():
     # A guard of the guards: the graph must find the arrows we know are there.
     edges = package_graph()

@@ -41,6 +41,7 @@ def test_evaluate_writes_terms_trajectory_mesh_and_plots(tmp_path, capsys):
     assert trimesh.load(out / "tool.stl").is_watertight
 
 
+@pytest.mark.slow
 def test_evaluate_an_invalid_design_still_writes_its_card(tmp_path):
     out = tmp_path / "overlap"
     argv = ["evaluate", "--coeffs", "0", "4.35", "0", "--out", str(out), "--outside-bounds"]

@@ -179,6 +179,7 @@ def test_bad_arguments_are_refused_before_the_cluster_starts(argv, message, caps
     assert message in err and "Traceback" not in err
 
 
+@pytest.mark.slow
 def test_good_arguments_make_the_suite_and_an_out_folder_must_be_new(tmp_path, capsys):
     args = dask_cluster.parse_args(["--size", "smoke", "--seeds", "3", "--port", "0"])
     assert (args.config.n_seeds, args.config.iterations, args.port) == (3, 2, 0)
@@ -215,9 +216,9 @@ def test_the_identity_names_the_sources_and_libraries():
 
 
 def _copy_tree(target: Path) -> Path:
-    """A copy of the project's packages, as a worker with another checkout would import them."""
+    """A copy of the project's packages (and perf/, as in a checkout), as another worker's."""
     ignore = shutil.ignore_patterns("__pycache__", "*.so")
-    for package in ("benchmarks", "tooldesign_env", "optimizers"):
+    for package in ("benchmarks", "tooldesign_env", "optimizers", "perf"):
         shutil.copytree(ROOT / package, target / package, ignore=ignore)
     return target
 

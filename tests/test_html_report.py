@@ -173,12 +173,14 @@ def _browser_probe(report, tmp_path):
     return json.loads(found[0].replace("&quot;", '"'))
 
 
+@pytest.mark.slow
 def test_report_opens_in_headless_chromium_with_nothing_broken(tmp_path):
     report = write_html_report(_run_folder(tmp_path / "run"))
     probe = _browser_probe(report, tmp_path)
     assert probe == {"images": 3, "broken": [], "errors": []}
 
 
+@pytest.mark.slow
 def test_the_browser_check_sees_a_broken_image(tmp_path):
     folder = _run_folder(tmp_path / "run")
     (folder / "figure3.png").write_bytes(b"\x89PNG\r\n\x1a\nnot really")

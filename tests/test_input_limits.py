@@ -175,6 +175,7 @@ def test_every_suite_and_run_folder_of_the_repo_still_loads():
 # --- optimizers -----------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("settings", "match"),
     [
@@ -203,6 +204,7 @@ def test_cmaes_refuses_a_step_lost_in_rounding(sigma0):
         optimizers.make("cmaes", bounds=[[-1.0, 1.0]] * 3, batch_size=4, seed=0, sigma0=sigma0)
 
 
+@pytest.mark.slow
 def test_cmaes_runs_with_its_smallest_step():
     optimizer = optimizers.make(
         "cmaes", bounds=[[-1.0, 1.0]] * 3, batch_size=4, seed=0, sigma0=1e-6

@@ -292,6 +292,7 @@ def test_optimizers_refuse_found_cases(name):
     assert opt.n_told == 4
 
 
+@pytest.mark.slow
 @settings(max_examples=60, deadline=None)
 @given(low=ANY, high=ANY)
 def test_optimizer_bounds_accept_only_numbers(low, high):
@@ -305,6 +306,7 @@ def test_optimizer_bounds_accept_only_numbers(low, high):
         assert np.all(np.isfinite(opt.ask().x))
 
 
+@pytest.mark.slow
 @settings(max_examples=60, deadline=None)
 @given(value=st.one_of(ANY, st.floats(-1e120, 1e120)))
 def test_tell_values(value):
@@ -521,6 +523,7 @@ def _settings_ok(value: object) -> bool:
     return isinstance(value, dict) and all(k.isidentifier() for k in value)  # JSON: str keys
 
 
+@pytest.mark.slow
 @settings(max_examples=300, deadline=None)
 @given(place=st.sampled_from(SUITE_PLACES), value=st.one_of(ANY, JSON))
 def test_suite_file_fields_accept_only_valid_values(tmp_path_factory, place, value):
@@ -550,6 +553,7 @@ def _is_finite_json(value: object) -> bool:
     return True
 
 
+@pytest.mark.slow
 @settings(max_examples=100, deadline=None)
 @given(key=st.text(min_size=1, max_size=8), value=JSON, nested=st.booleans())
 def test_unknown_suite_keys_are_named(key, value, nested):
@@ -561,6 +565,7 @@ def test_unknown_suite_keys_are_named(key, value, nested):
     assert repr(key) in str(error.value)
 
 
+@pytest.mark.slow
 @settings(max_examples=150, deadline=None)
 @given(data=st.data(), suffix=st.sampled_from([".json", ".toml"]))
 def test_edited_suite_files_are_accepted_or_refused_naming_the_file(tmp_path_factory, data, suffix):

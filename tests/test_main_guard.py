@@ -32,6 +32,7 @@ def _run(tmp_path, source):
     )
 
 
+@pytest.mark.slow
 def test_an_unguarded_script_fails_before_starting_a_pool(tmp_path):
     out = _run(tmp_path, UNGUARDED)
     assert out.returncode != 0
@@ -40,6 +41,7 @@ def test_an_unguarded_script_fails_before_starting_a_pool(tmp_path):
     assert "script.py" in out.stderr
 
 
+@pytest.mark.slow
 def test_a_guarded_script_passes_the_check(tmp_path):
     out = _run(tmp_path, GUARDED)
     assert out.returncode == 0, out.stderr
@@ -54,6 +56,7 @@ def test_the_check_ignores_python_c_and_pytest():
     assert out.stdout == "ok\n", out.stderr
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "source",
     [
@@ -100,6 +103,7 @@ def test_a_run_design_call_beside_the_guard_fails_at_once_naming_its_line(tmp_pa
     assert not run.exists()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "test",
     [
@@ -117,12 +121,14 @@ def test_a_guard_joined_with_and_is_a_guard(tmp_path, test):
     assert out.stdout == "ok\n"
 
 
+@pytest.mark.slow
 def test_a_guard_joined_with_or_is_not_a_guard(tmp_path):
     source = "import sys\nif __name__ == '__main__' or len(sys.argv) > 1:\n    pass\n"
     out = _run(tmp_path, source + UNGUARDED)
     assert "has no 'if __name__" in out.stderr
 
 
+@pytest.mark.slow
 def test_a_worker_process_re_running_the_script_is_refused_with_the_guard_message(tmp_path):
     # What a worker sees of a call outside the guard when the parent's check cannot see it.
     source = """

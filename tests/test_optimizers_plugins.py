@@ -289,6 +289,7 @@ def test_pso_backend_sees_finite_costs_only() -> None:
     assert all_finite(seen)
 
 
+@pytest.mark.slow
 def test_pso_ring_topology_passes_the_conformance_suite() -> None:
     needs("pyswarms")
     testing.check_optimizer(functools.partial(optimizers.make, "pso", topology="ring"))

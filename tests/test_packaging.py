@@ -51,6 +51,7 @@ def test_console_script_is_installed():
     assert "evaluate" in out.stdout
 
 
+@pytest.mark.slow
 def test_docs_build_strict(tmp_path):
     out = subprocess.run(
         [sys.executable, "-m", "mkdocs", "build", "--strict", "--site-dir", str(tmp_path)],

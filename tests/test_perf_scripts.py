@@ -54,6 +54,7 @@ def test_the_scripts_are_sorted_by_purpose() -> None:
     }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("script", SCRIPTS)
 def test_main_parses_its_arguments_first(script: str, monkeypatch: pytest.MonkeyPatch) -> None:
     """``main`` goes through ``parse_args`` before it measures anything."""
@@ -172,6 +173,7 @@ def test_the_first_evaluation_child_makes_the_parents_tool_and_scene(
     assert _FakeEnv.made == [{"tool": ToolSpec(section_shape="round")}]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("child_loop", ["the parent's", "another"])
 def test_the_first_evaluation_figure_is_construction_plus_first_step(
     child_loop: str, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]

@@ -239,6 +239,7 @@ def test_a_card_with_bad_settings_names_the_field(
     assert str(card) in str(info.value)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("content", "error", "field"), BAD_CARDS[:6] + BAD_CARDS[-1:])
 def test_a_malformed_card_is_one_line_from_tooldesign_design(
     tmp_path: Path,

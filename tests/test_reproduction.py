@@ -13,6 +13,7 @@ ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "docs" / "results"
 
 
+@pytest.mark.slow
 def test_the_committed_page_is_made_from_the_committed_results() -> None:
     # The reports are rebuilt bit for bit by tests/test_suites.py; here the page from them.
     page = reproduction_page(RESULTS)

@@ -81,6 +81,7 @@ def test_a_straight_round_tool_is_a_capsule_with_the_analytic_mass_properties():
     np.testing.assert_allclose(tool.bounds, [[-0.075 - R, -R, -R], [1.175 + R, R, R]], atol=1e-12)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("coeffs", DESIGNS[1:])
 def test_a_curved_round_tool_has_the_volume_of_its_capsules(coeffs):
     tool = make_tool(coeffs, ROUND)

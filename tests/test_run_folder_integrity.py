@@ -125,6 +125,7 @@ def test_the_manifest_records_every_design_and_the_consolidated_file(finished: P
         assert hashlib.sha256((finished / relative).read_bytes()).hexdigest() == digest
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "edit",
     [
@@ -168,6 +169,7 @@ def test_the_cli_refuses_an_edited_design_file_in_one_line(
         assert "seed=" in err and "has changed since it was written" in err
 
 
+@pytest.mark.slow
 def test_an_edited_retest_file_is_refused(run: Path) -> None:
     target = retest_path(run, design_file(run))
     record = {"variant": "", "optimizer": "random", "seed": 1, "noise": [], "stress": []}
@@ -233,6 +235,7 @@ def test_an_edited_part_file_is_refused_by_report_and_html(config_file: Path, ru
         ResultStore(run).read()
 
 
+@pytest.mark.slow
 def test_an_edited_consolidated_file_is_refused_without_parts(run: Path) -> None:
     shutil.rmtree(run / "parts")
     make_suite_report(run, n_boot=50)  # a folder shared without its parts reads

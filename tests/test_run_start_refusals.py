@@ -61,6 +61,7 @@ def test_the_guard_message_names_the_function_called(tmp_path):
     assert "run_design" not in out.stderr
 
 
+@pytest.mark.slow
 def test_an_unguarded_rl_suite_script_with_workers_leaves_no_folder(tmp_path):
     run = tmp_path / "run"
     source = f"""

@@ -113,6 +113,7 @@ def test_an_invalid_design_has_no_spread_over_scenes():
     assert not info["valid"] and info["free_energy_std"] == 0.0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("value", "error"), [(0, ValueError), (65, ValueError), (True, TypeError), (2.0, TypeError)]
 )

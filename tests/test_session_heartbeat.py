@@ -83,6 +83,7 @@ def test_a_closed_session_starts_no_new_heartbeat(tmp_path: Path) -> None:
     assert not (out / HEARTBEAT).exists()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "text",
     [
