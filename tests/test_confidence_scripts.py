@@ -14,7 +14,6 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-PERF = ROOT / "perf" / "studies"
 
 
 def _run(script: str, *args: str) -> subprocess.CompletedProcess[str]:
