@@ -5,7 +5,7 @@ for every point of a batch (constant liar) and polishes ``gp_hedge`` over 10,000
 L-BFGS: 20 s to over 2 min per batch at 200 observations on a shared two-core machine. This
 plugin keeps skopt's model (the ``cook_estimator("GP")`` Matern-5/2 GP with a fitted noise
 level, normalized y) and its acquisition functions, and changes how a batch is made
-(``benchmarks/perf/optimizers_overhead.py`` measures the difference: 0.3 s warm and 1.8 s cold
+(``perf/speed/optimizers_overhead.py`` measures the difference: 0.3 s warm and 1.8 s cold
 at 200 observations against 141 s, with equal or better best values on a shifted sphere and on
 Rosenbrock at 48 evaluations):
 

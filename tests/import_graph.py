@@ -37,13 +37,11 @@ def module_name(path: Path) -> str:
 def modules() -> dict[str, Path]:
     """Every module of the three packages, by dotted name, ``python -m`` entry points included.
 
-    Not the scripts of ``benchmarks/perf/``, which print figures and are no part of the library.
+    The developer scripts of ``perf/`` are outside the packages (not installed), so not here.
     """
     out = {}
     for package in PACKAGES:
         for path in sorted((ROOT / package).rglob("*.py")):
-            if "perf" in path.parts:
-                continue
             out[module_name(path)] = path
     return out
 

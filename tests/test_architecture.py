@@ -52,6 +52,7 @@ def test_the_bottom_packages_import_nothing_above_them(package):
             assert {layer_of(t) for t in targets} <= {package}, module
 
 
+@pytest.mark.slow
 def test_optimizers_never_import_pybullet():
     """Nothing under optimizers/ loads PyBullet or the rest of the project, however indirectly."""
     names = sorted(n for n in modules() if n.split(".")[0] == "optimizers")
@@ -177,6 +178,7 @@ def test_the_argument_check_sees_every_way_in(source):
     assert _parses_arguments(ast.parse("import sys\nsys.exit(0)")) is None
 
 
+@pytest.mark.slow
 def test_the_graph_sees_the_real_imports():
     # A guard of the guards: the graph must find the arrows we know are there.
     edges = package_graph()
@@ -189,6 +191,7 @@ def test_the_graph_sees_the_real_imports():
     assert layer_of("benchmarks.rl.__main__") == "benchmarks.cli"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("module", ["tooldesign_env.schema", "tooldesign_env.specs"])
 def test_the_defaults_and_names_load_without_the_simulator(module):
     """The storage layer reads schema and specs; they must not pull in PyBullet or trimesh."""
@@ -211,6 +214,7 @@ def test_the_package_names_resolve_on_first_use():
         _ = tooldesign_env.not_a_name
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("package", "attribute"),
     [

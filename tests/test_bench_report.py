@@ -68,6 +68,7 @@ def make_store(folder: Path, *, suites: tuple[str, ...] = ("opt",), seeds: int =
     return folder
 
 
+@pytest.mark.slow
 def test_report_writes_figure_and_tables(tmp_path: Path) -> None:
     run = make_store(tmp_path / "run")
     paths = make_report(run, n_boot=N_BOOT)
@@ -109,6 +110,7 @@ def test_report_writes_figure_and_tables(tmp_path: Path) -> None:
     assert "A12 < 0.5 means `a` is better" in (run / "report" / "pairwise.md").read_text()
 
 
+@pytest.mark.slow
 def test_same_store_gives_same_bytes(tmp_path: Path) -> None:
     run = make_store(tmp_path / "run")
     first = {p.name: p.read_bytes() for p in make_report(run, n_boot=N_BOOT)}
@@ -134,6 +136,7 @@ def test_same_store_gives_same_bytes(tmp_path: Path) -> None:
     assert not (tmp_path / "bad").exists()  # refused before anything was written
 
 
+@pytest.mark.slow
 def test_report_has_one_figure_per_suite(tmp_path: Path) -> None:
     run = make_store(tmp_path / "run", suites=("alpha", "beta/2"), seeds=2)
     paths = make_report(run, n_boot=N_BOOT)
@@ -144,6 +147,7 @@ def test_report_has_one_figure_per_suite(tmp_path: Path) -> None:
     assert summary["suite"].tolist() == ["alpha", "alpha", "beta/2", "beta/2"]
 
 
+@pytest.mark.slow
 def test_single_optimizer_gives_empty_pairwise_table(tmp_path: Path) -> None:
     store = ResultStore(tmp_path)
     for seed in range(2):
@@ -157,6 +161,7 @@ def test_single_optimizer_gives_empty_pairwise_table(tmp_path: Path) -> None:
     ]
 
 
+@pytest.mark.slow
 def test_one_seed_gives_nan_p_with_a_note_not_a_crash(tmp_path: Path) -> None:
     make_store(tmp_path, seeds=1)
     make_report(tmp_path, n_boot=N_BOOT)
@@ -165,6 +170,7 @@ def test_one_seed_gives_nan_p_with_a_note_not_a_crash(tmp_path: Path) -> None:
     assert pairwise["note"].str.contains("fewer than 2").all()
 
 
+@pytest.mark.slow
 def test_convergence_table_and_plot_are_reusable(tmp_path: Path) -> None:
     df = ResultStore(make_store(tmp_path)).read()
     table = convergence_table(df, n_boot=N_BOOT)
@@ -182,6 +188,7 @@ def test_convergence_table_and_plot_are_reusable(tmp_path: Path) -> None:
     assert plot_convergence(df, n_boot=N_BOOT).figure is not figure
 
 
+@pytest.mark.slow
 def test_plot_convergence_bad_input(tmp_path: Path) -> None:
     df = ResultStore(make_store(tmp_path, suites=("a", "b"), seeds=1)).read()
     with pytest.raises(ValueError, match="one \\(suite, variant\\); the rows hold 2"):

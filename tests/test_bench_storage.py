@@ -200,6 +200,7 @@ def test_suites_with_different_coefficient_counts_share_a_store(tmp_path: Path) 
 # --- interruption and resume -------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_resume_after_kill_skips_done_units_and_equals_uninterrupted_run(tmp_path: Path) -> None:
     uninterrupted = ResultStore(tmp_path / "full")
     write_all(uninterrupted)
@@ -301,6 +302,7 @@ def assert_bits_equal(a: pd.DataFrame, b: pd.DataFrame) -> None:
             assert np.array_equal(x[keep].view(np.int64), y[keep].view(np.int64)), column
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("fmt", ["csv", "parquet"])
 def test_consolidated_file_round_trips_bit_identical_floats(tmp_path: Path, fmt: str) -> None:
     if fmt == "parquet":
@@ -319,6 +321,7 @@ def test_consolidated_file_round_trips_bit_identical_floats(tmp_path: Path, fmt:
     assert_bits_equal(reread, original)
 
 
+@pytest.mark.slow
 @settings(max_examples=40, deadline=None)
 @given(
     st.lists(
@@ -438,6 +441,7 @@ def test_write_batch_rejects_non_frames() -> None:
         validate_evaluations([{"suite": "s"}])  # type: ignore[arg-type]
 
 
+@pytest.mark.slow
 def test_a_corrupt_part_on_disk_is_named(tmp_path: Path) -> None:
     store = ResultStore(tmp_path)
     write_all(store)
@@ -454,6 +458,7 @@ def test_a_corrupt_part_on_disk_is_named(tmp_path: Path) -> None:
         store.read()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("content", ["", "suite,optimizer\n", 'a,"b\n'])
 def test_an_unreadable_part_on_disk_is_named(tmp_path: Path, content: str) -> None:
     store = ResultStore(tmp_path)
@@ -508,6 +513,7 @@ class _Config:
     out: Path = Path("runs/x")
 
 
+@pytest.mark.slow
 def test_manifest_round_trips_and_records_the_environment(tmp_path: Path) -> None:
     start = dt.datetime(2024, 5, 1, 12, 0, tzinfo=dt.timezone.utc)
     end = start + dt.timedelta(seconds=90)
@@ -616,6 +622,7 @@ def test_timing_totals_needs_timing_columns() -> None:
         timing_totals(pd.DataFrame({"opt_time": [1.0]}))
 
 
+@pytest.mark.slow
 def test_an_install_inside_another_projects_repository_records_no_commit(tmp_path: Path) -> None:
     """The package in a project's ignored .venv must not record that project's commit."""
     if shutil.which("git") is None:

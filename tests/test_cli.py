@@ -21,6 +21,7 @@ def _subparsers(parser: argparse.ArgumentParser) -> argparse._SubParsersAction:
     return next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
 
 
+@pytest.mark.slow
 def test_top_level_help_and_version_import_no_heavy_module():
     code = (
         "import sys\nfrom benchmarks.cli import main\n"
@@ -36,6 +37,7 @@ def test_top_level_help_and_version_import_no_heavy_module():
         assert name in out.stdout
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("command", list(COMMANDS))
 def test_every_subcommands_help_imports_no_simulation_plotting_or_torch(command):
     # Each took 2-5 s: its module imported PyBullet and Matplotlib to build its arguments (an
@@ -51,6 +53,7 @@ def test_every_subcommands_help_imports_no_simulation_plotting_or_torch(command)
     assert out.stdout.rstrip().endswith("[]"), out.stdout.splitlines()[-1]
 
 
+@pytest.mark.slow
 def test_the_help_constants_agree_with_the_suites_they_name():
     from benchmarks.cli import _common
     from benchmarks.rl import RL_SUITE_NAME, SIZES
@@ -77,6 +80,7 @@ def test_build_parser_refuses_an_unknown_command():
         build_parser("frob")
 
 
+@pytest.mark.slow
 def test_design_help_lists_every_available_optimizer(capsys):
     with pytest.raises(SystemExit):
         main(["design", "--help"])
@@ -86,6 +90,7 @@ def test_design_help_lists_every_available_optimizer(capsys):
         assert name in text
 
 
+@pytest.mark.slow
 def test_evaluate_help_has_no_raw_markup(capsys):
     with pytest.raises(SystemExit):
         main(["evaluate", "--help"])
@@ -93,6 +98,7 @@ def test_evaluate_help_has_no_raw_markup(capsys):
     assert "``" not in text and "--outside-bounds" in text
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("error", ["lost", "mismatch"])
 def test_a_lost_or_mismatched_dask_cluster_is_one_line(monkeypatch, capsys, error):
     # Neither is a design's failure: the command stops with exit 1 and one line, no traceback.
@@ -111,6 +117,7 @@ def test_a_lost_or_mismatched_dask_cluster_is_one_line(monkeypatch, capsys, erro
     assert len(err.splitlines()) == 1 and "error:" in err
 
 
+@pytest.mark.slow
 def test_a_design_run_whose_every_evaluation_fails_ends_in_one_line(
     tmp_path, monkeypatch, capsys
 ):
@@ -132,6 +139,7 @@ def test_a_design_run_whose_every_evaluation_fails_ends_in_one_line(
     assert set(log["status"]) == {"failed"} and len(log) == 2  # the log says why
 
 
+@pytest.mark.slow
 def test_design_refuses_an_empty_optimizer_name(tmp_path, capsys):
     # "" ran CMA-ES without a word (an audit of issue 11).
     out = tmp_path / "z"
@@ -143,6 +151,7 @@ def test_design_refuses_an_empty_optimizer_name(tmp_path, capsys):
     assert not out.exists()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("flags", "message"),
     [
@@ -196,6 +205,7 @@ if __name__ == "__main__":
 """
 
 
+@pytest.mark.slow
 def test_process_pool_workers_write_a_warning_as_the_parents_one_line(tmp_path):
     # The workers (forkserver or spawn) do not inherit warnings.formatwarning: the pool hands
     # them the prefix. The worker's stderr is the test process's, so it runs in a subprocess.
@@ -208,6 +218,7 @@ def test_process_pool_workers_write_a_warning_as_the_parents_one_line(tmp_path):
     assert "RuntimeWarning: from a worker" in outside and "tooldesign" not in outside, outside
 
 
+@pytest.mark.slow
 def test_a_command_writes_a_warning_as_one_line_on_stderr(tmp_path):
     # A suite whose optimizer is not importable here is dumped with a warning (not in-process:
     # pytest records warnings instead of writing them).

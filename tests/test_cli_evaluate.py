@@ -41,6 +41,7 @@ def test_evaluate_writes_terms_trajectory_mesh_and_plots(tmp_path, capsys):
     assert trimesh.load(out / "tool.stl").is_watertight
 
 
+@pytest.mark.slow
 def test_evaluate_an_invalid_design_still_writes_its_card(tmp_path):
     out = tmp_path / "overlap"
     argv = ["evaluate", "--coeffs", "0", "4.35", "0", "--out", str(out), "--outside-bounds"]
@@ -74,6 +75,7 @@ def test_bad_arguments_exit_2_with_a_message(argv, tmp_path, monkeypatch, capsys
     assert not (tmp_path / "x").exists()
 
 
+@pytest.mark.slow
 def test_a_missing_optional_backend_is_one_line(monkeypatch, capsys):
     import benchmarks.design.evaluate as evaluate_module  # the command imports it when run
 
@@ -87,6 +89,7 @@ def test_a_missing_optional_backend_is_one_line(monkeypatch, capsys):
     assert "pip install 'tooldesign[bo]'" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_the_api_refuses_a_design_outside_the_bounds_as_env_step_does(tmp_path):
     from benchmarks.design.evaluate import evaluate_coefficients as evaluate
 
@@ -95,6 +98,7 @@ def test_the_api_refuses_a_design_outside_the_bounds_as_env_step_does(tmp_path):
     assert not (tmp_path / "x").exists()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("coeffs", "name"), [(["1e300", "0", "0"], "c1"), (["0", "-2000", "0"], "c2")]
 )
@@ -111,6 +115,7 @@ def test_outside_bounds_names_the_coefficient_beyond_the_largest(tmp_path, capsy
     assert not out.exists()
 
 
+@pytest.mark.slow
 def test_a_folder_that_is_not_empty_is_refused_and_left_as_it_was(tmp_path, capsys):
     # Evaluating into a design run's folder replaced its tool.stl, tool.obj, tool.urdf and
     # report.html without a word (an audit of issue 10); into an earlier evaluation's, it mixed
@@ -127,6 +132,7 @@ def test_a_folder_that_is_not_empty_is_refused_and_left_as_it_was(tmp_path, caps
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("coeffs", [["0", "0.5"], ["0", "0", "1", "0"]])
 def test_a_design_of_another_degree_gets_its_plots_and_report(coeffs, tmp_path):
     # Degree 2 and 4 were simulated and stored, then the tool's plot assumed degree 3 and the
@@ -139,6 +145,7 @@ def test_a_design_of_another_degree_gets_its_plots_and_report(coeffs, tmp_path):
     assert len(terms["coefficients"]) == len(coeffs)
 
 
+@pytest.mark.slow
 def test_the_help_of_coeffs_names_no_option_that_does_not_exist(capsys):
     with pytest.raises(SystemExit):
         main(["evaluate", "--help"])
@@ -147,6 +154,7 @@ def test_the_help_of_coeffs_names_no_option_that_does_not_exist(capsys):
     assert "degree" in text  # the count of coefficients is the degree
 
 
+@pytest.mark.slow
 def test_a_design_past_a_bound_by_rounding_only_is_the_bound_as_env_step_takes_it(tmp_path):
     # env.step takes it as the bound (ACTION_ROUNDING); evaluate refused it, saying "as
     # env.step refuses it" (an audit of issue 11).
@@ -159,6 +167,7 @@ def test_a_design_past_a_bound_by_rounding_only_is_the_bound_as_env_step_takes_i
     assert not (tmp_path / "y").exists()
 
 
+@pytest.mark.slow
 def test_video_of_an_invalid_design_says_why_there_is_none(tmp_path, capsys):
     # It wrote no rollout.gif and said nothing (an audit of issue 11).
     out = tmp_path / "overlap"
@@ -169,6 +178,7 @@ def test_video_of_an_invalid_design_says_why_there_is_none(tmp_path, capsys):
     assert not (out / "rollout.gif").exists()
 
 
+@pytest.mark.slow
 def test_reproduce_help_explains_every_option(capsys):
     with pytest.raises(SystemExit):
         main(["reproduce", "--help"])

@@ -321,6 +321,7 @@ def test_resume_rebuilds_a_damaged_table_from_intact_parts(
     _compare_runs(ref, out)
 
 
+@pytest.mark.slow
 def test_resume_refuses_other_settings_and_foreign_folders(tmp_path: Path) -> None:
     (tmp_path / "notes.txt").write_text("not a run")
     # The Python API is told its own word too (an audit of issue 11).
@@ -333,6 +334,7 @@ def test_resume_refuses_other_settings_and_foreign_folders(tmp_path: Path) -> No
 # --- failures ----------------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_an_exception_in_the_worker_is_a_failed_row() -> None:
     # Outside the action space: the env raises ValueError before simulating anything.
     row = evaluate_design(EvaluationRequest(coeffs=(9.0, 0.0, 0.0)))
@@ -343,6 +345,7 @@ def test_an_exception_in_the_worker_is_a_failed_row() -> None:
     assert [r["status"] for r in rows] == ["failed", "failed"]
 
 
+@pytest.mark.slow
 def test_a_crashed_worker_process_fails_only_its_own_item() -> None:
     # eval is a picklable builtin: one item kills its worker process, the others are fine.
     items = ["abs(-2)", "__import__('os')._exit(3)", "abs(-5)"]
@@ -434,6 +437,7 @@ def test_bad_config_is_a_clear_error(changes: dict, error: type, match: str) -> 
         DesignConfig(**{**dataclasses.asdict(CONFIG), **changes})
 
 
+@pytest.mark.slow
 def test_bad_arguments_of_run_design(tmp_path: Path) -> None:
     with pytest.raises(TypeError, match="config must be a DesignConfig"):
         run_design({"iterations": 2}, tmp_path)  # type: ignore[arg-type]
@@ -475,6 +479,7 @@ def test_non_empty_out_without_resume_is_an_error(
     assert sorted(os.listdir(tmp_path)) == ["keep.txt"]
 
 
+@pytest.mark.slow
 def test_bad_executor_arguments() -> None:
     with pytest.raises(ValueError, match="executor kind must be one of"):
         with make_executor("gpu"):
@@ -525,6 +530,7 @@ def _optimizer_names() -> list[str]:
     return optimizers.available()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", _optimizer_names())
 def test_every_optimizer_resumes_to_the_uninterrupted_run(
     name: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch

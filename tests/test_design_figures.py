@@ -67,6 +67,7 @@ def test_box_paths_highlight_the_best_path():
     assert len(fig.axes) == 2
 
 
+@pytest.mark.slow
 def test_free_energy_axis_shows_every_evaluation_even_an_outlier():
     bests = _bests(4)
     evaluations = pd.DataFrame(
@@ -206,6 +207,7 @@ def _unrecord(folder: Path, *keys: str) -> None:
     path.write_text(json.dumps(manifest), encoding="utf-8")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("key", ["card", "robustness", "box_paths"])
 def test_an_edit_that_keeps_the_form_is_caught_by_the_recorded_checksum(
     design_run: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], key: str
@@ -225,6 +227,7 @@ def _snapshot(folder: Path) -> dict[Path, bytes]:
     return {p: p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
 
 
+@pytest.mark.slow
 def test_an_intact_design_run_is_reported(design_run: Path, tmp_path: Path) -> None:
     folder = tmp_path / "run"
     shutil.copytree(design_run, folder)
@@ -233,6 +236,7 @@ def test_an_intact_design_run_is_reported(design_run: Path, tmp_path: Path) -> N
     assert read_design_run(folder).spec.degree == 3
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("damage", "message"), DAMAGES.values(), ids=DAMAGES.keys())
 def test_a_damaged_design_run_is_refused_naming_the_file_and_field_before_any_write(
     design_run: Path,

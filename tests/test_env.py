@@ -38,6 +38,7 @@ def radius(p):
     return float(np.hypot(p[0], p[1]))
 
 
+@pytest.mark.slow
 def test_make_after_import_and_by_module_path():
     assert "ToolDesign-v0" in gym.registry
     code = (
@@ -50,6 +51,7 @@ def test_make_after_import_and_by_module_path():
     assert out.stdout.strip().splitlines()[-1] == "ToolDesignEnv"
 
 
+@pytest.mark.slow
 def test_gymnasium_check_env(env):
     from gymnasium.utils.env_checker import check_env
 
@@ -58,12 +60,14 @@ def test_gymnasium_check_env(env):
     check_env(env.unwrapped, skip_render_check=True)
 
 
+@pytest.mark.slow
 def test_stable_baselines3_check_env(env):
     from stable_baselines3.common.env_checker import check_env
 
     check_env(env.unwrapped, warn=True)
 
 
+@pytest.mark.slow
 def test_step_contract_and_info_keys(env):
     obs, info = env.reset(seed=1)
     np.testing.assert_array_equal(obs, [0.0, 1.5, 0.1])
@@ -83,6 +87,7 @@ def test_step_contract_and_info_keys(env):
     assert_finite_info(info)
 
 
+@pytest.mark.slow
 def test_info_holds_scalars_unless_series_are_asked_for():
     e = gym.make("ToolDesign-v0")
     e.reset(seed=0)
@@ -203,6 +208,7 @@ def test_fast_forward_matches_full_simulation():
 
 
 # ----------------------------------------------------------------- bad input
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("action", "error", "says"),
     [
@@ -224,12 +230,14 @@ def test_bad_actions_raise_clear_errors(env, action, error, says):
     assert "allowed" in str(excinfo.value) or "[low, high]" in str(excinfo.value)
 
 
+@pytest.mark.slow
 def test_out_of_bounds_message_says_what_is_allowed(env):
     env.reset(seed=0)
     with pytest.raises(ValueError, match=r"outside the action space.*\[low, high\]"):
         env.step([2.0, 0.0, 0.0])
 
 
+@pytest.mark.slow
 def test_an_action_past_a_bound_by_rounding_is_that_bound():
     # Found by an audit: RescaleAction's corners (and a float32 copy of a bound) landed a few
     # ulps outside custom bounds, and 9 of 12 corner actions were refused.
@@ -251,6 +259,7 @@ def test_an_action_past_a_bound_by_rounding_is_that_bound():
     e.close()
 
 
+@pytest.mark.slow
 def test_a_tool_overlapping_the_box_is_invalid_not_a_crash():
     e = ToolDesignEnv(bounds=[(-10, 10)] * 3, info_series=True)
     e.reset(seed=0)
@@ -264,6 +273,7 @@ def test_a_tool_overlapping_the_box_is_invalid_not_a_crash():
     e.close()
 
 
+@pytest.mark.slow
 def test_an_unbuildable_tool_is_invalid():
     e = ToolDesignEnv(bounds=[(-1e3, 1e3)] * 3)
     e.reset(seed=0)
@@ -273,6 +283,7 @@ def test_an_unbuildable_tool_is_invalid():
     e.close()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("options", "error"),
     [
@@ -290,6 +301,7 @@ def test_bad_reset_options(env, options, error):
         env.reset(seed=0, options=options)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "kwargs",
     [
@@ -307,6 +319,7 @@ def test_bad_constructor_arguments(kwargs):
         ToolDesignEnv(**kwargs)
 
 
+@pytest.mark.slow
 def test_human_render_without_display_says_so(monkeypatch):
     if not sys.platform.startswith("linux"):
         pytest.skip("the DISPLAY check is for Linux")
@@ -316,6 +329,7 @@ def test_human_render_without_display_says_so(monkeypatch):
 
 
 # ------------------------------------------------------------------- tasks
+@pytest.mark.slow
 def test_goal_randomization_is_seeded_and_in_the_papers_range():
     e = ToolDesignEnv(randomize_goal=True)
     goals = [e.reset(seed=s)[0] for s in range(20)]
@@ -329,6 +343,7 @@ def test_goal_randomization_is_seeded_and_in_the_papers_range():
     e.close()
 
 
+@pytest.mark.slow
 def test_reset_options_set_the_task(env):
     obs, info = env.reset(seed=0, options={"goal": (0.2, 1.0, 0.1), "box_mass": 0.5})
     np.testing.assert_array_equal(obs, [0.2, 1.0, 0.1])
@@ -336,6 +351,7 @@ def test_reset_options_set_the_task(env):
     env.reset(seed=0)  # back to the default task for the other tests
 
 
+@pytest.mark.slow
 def test_rgb_array_render():
     e = ToolDesignEnv(render_mode="rgb_array")
     e.reset(seed=0)
@@ -361,6 +377,7 @@ def test_robustness_metrics():
     e.close()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("coeffs", "match"),
     [
@@ -382,6 +399,7 @@ def test_robustness_refuses_a_design_that_is_not_a_tool(coeffs, match):
     e.close()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("how", ["copy", "deepcopy", "pickle"])
 def test_an_env_refuses_to_be_copied_since_it_owns_its_connection(env, how):
     # A copy shared the PyBullet client: closing it (or collecting it) disconnected the original.
@@ -398,6 +416,7 @@ def test_an_env_refuses_to_be_copied_since_it_owns_its_connection(env, how):
     assert np.isfinite(env.step(np.zeros(3))[1])  # the original still works
 
 
+@pytest.mark.slow
 def test_no_temporary_files_are_left(env, tmp_path, monkeypatch):
     # A private temporary folder: the shared /tmp also holds the files of test runs and other
     # programs running at the same time, which made this test flaky.
@@ -447,6 +466,7 @@ def test_a_fresh_physics_server_gives_the_same_result(monkeypatch):
     e.close()
 
 
+@pytest.mark.slow
 def test_masked_values_and_boolean_seeds_are_refused(env):
     # np.asarray passed on the value under a mask, and seed=True was taken as the seed 1 (an
     # audit of issue 10).
@@ -466,6 +486,7 @@ def test_masked_values_and_boolean_seeds_are_refused(env):
     rl.close()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("env_id", ["ToolDesign-v0", "ToolDesignRL-v0"])
 def test_a_refused_reset_leaves_a_made_env_usable(env_id):
     """Gymnasium's passive checker broke the env for good after one refused reset."""
@@ -482,6 +503,7 @@ def test_a_refused_reset_leaves_a_made_env_usable(env_id):
         env.close()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["tool", "scene", "plan", "controller", "objective"])
 @pytest.mark.parametrize("value", [3, "x", {"box_mass": 1}])
 def test_a_spec_argument_of_another_type_is_refused_by_name(name, value):
@@ -489,6 +511,7 @@ def test_a_spec_argument_of_another_type_is_refused_by_name(name, value):
         ToolDesignEnv(**{name: value})
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("masses", "error"),
     [

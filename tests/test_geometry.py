@@ -328,6 +328,7 @@ def test_curve_extent_has_the_required_arc_length(coeffs, arc_length):
     assert error < 1e-9
 
 
+@pytest.mark.slow
 @settings(max_examples=60, deadline=None, database=None)
 @given(coeffs=st.tuples(*[st.floats(-1e300, 1e300)] * 3))
 @example(coeffs=(1e300, 0.0, 0.0))
@@ -400,6 +401,7 @@ def test_radius_of_curvature_of_a_parabola_vertex():
     assert make_tool((0.0, 0.0, 0.3), SPEC).min_radius_of_curvature == math.inf
 
 
+@pytest.mark.slow
 @FAST
 @given(coeffs=st.tuples(moderate, moderate, moderate))
 @example(coeffs=(1.5, -1.5, 0.5))
@@ -555,6 +557,7 @@ def _inside_mesh(tool: ToolGeometry, points: np.ndarray) -> np.ndarray:
     return inside
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("coeffs", "spec"),
     [
@@ -806,6 +809,7 @@ def test_same_input_gives_the_same_bytes(tmp_path):
     assert _fingerprints((0.7, -1.2, 0.31), tmp_path / "a") != first
 
 
+@pytest.mark.slow
 def test_same_input_gives_the_same_bytes_in_another_process(tmp_path):
     here = _fingerprints(DESIGN, tmp_path)
     env = {**os.environ, "PYTHONHASHSEED": "12345", "PYTHONPATH": str(REPO)}

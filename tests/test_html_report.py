@@ -71,6 +71,7 @@ def test_report_bad_input(tmp_path):
         write_html_report(tmp_path / "empty")
 
 
+@pytest.mark.slow
 def test_cli_prints_where_the_report_is(tmp_path, capsys):
     folder = _run_folder(tmp_path / "run")
     assert main(["html", str(folder)]) == 0
@@ -80,6 +81,7 @@ def test_cli_prints_where_the_report_is(tmp_path, capsys):
     assert excinfo.value.code == 2
 
 
+@pytest.mark.slow
 def test_cli_refuses_an_out_that_is_a_folder_or_in_a_missing_folder_and_leaves_nothing(
     tmp_path, capsys
 ):
@@ -119,6 +121,7 @@ def test_the_report_is_written_atomically_through_the_one_writer(tmp_path, monke
     assert written == [folder / REPORT_FILE]
 
 
+@pytest.mark.slow
 def test_report_rebuilds_a_report_html_the_folder_has(tmp_path, capsys):
     # `tooldesign report DIR` rebuilt the figures but left report.html with the old ones (an
     # audit of issue 11).
@@ -170,12 +173,14 @@ def _browser_probe(report, tmp_path):
     return json.loads(found[0].replace("&quot;", '"'))
 
 
+@pytest.mark.slow
 def test_report_opens_in_headless_chromium_with_nothing_broken(tmp_path):
     report = write_html_report(_run_folder(tmp_path / "run"))
     probe = _browser_probe(report, tmp_path)
     assert probe == {"images": 3, "broken": [], "errors": []}
 
 
+@pytest.mark.slow
 def test_the_browser_check_sees_a_broken_image(tmp_path):
     folder = _run_folder(tmp_path / "run")
     (folder / "figure3.png").write_bytes(b"\x89PNG\r\n\x1a\nnot really")

@@ -106,7 +106,7 @@ def test_a_plan_too_short_or_too_long_in_all_is_refused():
     [
         (SceneSpec, {"time_step": 2.5e-4, "solver_iterations": 1000}),
         (SceneSpec, {"time_step": 0.02, "solver_iterations": 1}),
-        (SceneSpec, {"time_step": 1 / 960}),  # benchmarks/perf/confidence_convergence.py
+        (SceneSpec, {"time_step": 1 / 960}),  # perf/studies/confidence_convergence.py
         (SceneSpec, {"time_step": 1 / 120}),  # docs/performance.md
         (SceneSpec, {"box_size": (1e-3, 2.0, 1e-3), "box_position": (-2.5, 2.5)}),
         (SceneSpec, {"box_yaw": -2 * math.pi, "box_friction": 10.0, "floor_friction": 0.0}),
@@ -131,6 +131,7 @@ def test_the_limits_themselves_are_accepted(spec, kwargs):
     spec(**kwargs)
 
 
+@pytest.mark.slow
 def test_the_coarsest_control_of_the_shortest_plan_simulates_finite():
     # The limits are chosen so that every plan has a control step: a 1 s plan at a 1 s control
     # step (time_step 0.02 s, 50 physics steps per control step).
@@ -148,6 +149,7 @@ def test_the_coarsest_control_of_the_shortest_plan_simulates_finite():
     env.close()
 
 
+@pytest.mark.slow
 def test_every_suite_and_run_folder_of_the_repo_still_loads():
     from benchmarks.rl.suite import SIZES as RL_SIZES
     from benchmarks.rl.suite import rl_suite_config
@@ -173,6 +175,7 @@ def test_every_suite_and_run_folder_of_the_repo_still_loads():
 # --- optimizers -----------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("settings", "match"),
     [
@@ -201,6 +204,7 @@ def test_cmaes_refuses_a_step_lost_in_rounding(sigma0):
         optimizers.make("cmaes", bounds=[[-1.0, 1.0]] * 3, batch_size=4, seed=0, sigma0=sigma0)
 
 
+@pytest.mark.slow
 def test_cmaes_runs_with_its_smallest_step():
     optimizer = optimizers.make(
         "cmaes", bounds=[[-1.0, 1.0]] * 3, batch_size=4, seed=0, sigma0=1e-6
@@ -264,6 +268,7 @@ def test_rl_commands_refuse_huge_counts_in_one_line(argv, match, tmp_path, capsy
 # --- retest and dense-search ----------------------------------------------------------------
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("flags", "message"),
     [
@@ -284,6 +289,7 @@ def test_retest_refuses_flags_out_of_range(flags, message, tmp_path, capsys):
     assert not any(tmp_path.iterdir())
 
 
+@pytest.mark.slow
 def test_retest_without_repeats_takes_the_default_or_the_nudges():
     import argparse
 
@@ -297,6 +303,7 @@ def test_retest_without_repeats_takes_the_default_or_the_nudges():
     assert _check_counts(namespace(nudges=9, repeats=9, workers=1024)) == 9
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("flags", "message"),
     [
@@ -313,6 +320,7 @@ def test_dense_search_refuses_sizes_out_of_range(flags, message, tmp_path, capsy
     assert not out.exists()
 
 
+@pytest.mark.slow
 def test_dense_search_never_replaces_earlier_results(tmp_path, capsys):
     from benchmarks.suites.dense_search import dense_search
 

@@ -1,8 +1,8 @@
 """Bad input at every public entry point gives a TypeError/ValueError naming it (issue #10).
 
 The cases found by the fuzzing pass first, then properties over the action space, the env
-options, the configuration fields and suite config files. ``benchmarks/perf/fuzz_inputs.py`` is
-the rerunnable version over many more inputs.
+options, the configuration fields and suite config files. ``tests/test_fuzz_inputs.py`` runs the
+fuzzer's wider net of values through every entry point as Hypothesis properties.
 """
 
 from __future__ import annotations
@@ -71,6 +71,7 @@ def env():
     e.close()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("kwargs", "error", "match"),
     [
@@ -91,6 +92,7 @@ def test_env_constructor_refuses_found_cases(kwargs, error, match):
         ToolDesignEnv(**kwargs)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("options", "error"),
     [
@@ -106,6 +108,7 @@ def test_reset_refuses_found_cases(env, options, error):
         env.reset(options=options)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("options", ["", 0, False, [], "goal"])
 def test_reset_options_must_be_none_or_a_mapping(env, options):
     # "", 0 and False were read as no options by `options or {}`.
@@ -113,6 +116,7 @@ def test_reset_options_must_be_none_or_a_mapping(env, options):
         env.reset(options=options)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [np.int64(3), np.uint16(3)])
 def test_a_numpy_integer_seed_is_taken_as_the_int(seed):
     # gymnasium refused it: "Seed must be a python integer".
@@ -124,6 +128,7 @@ def test_a_numpy_integer_seed_is_taken_as_the_int(seed):
         made.close()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("seed", "error"),
     [(True, TypeError), (np.bool_(False), TypeError), (3.0, TypeError), (-1, ValueError)],
@@ -133,6 +138,7 @@ def test_a_seed_that_is_not_an_int_is_refused_naming_it(env, seed, error):
         env.reset(seed=seed)
 
 
+@pytest.mark.slow
 def test_goal_precision_maximum_keeps_free_energy_finite():
     # The worst goal error: 10 m from the goal for 10^4 control steps at the largest p^X.
     spec = ObjectiveSpec(goal_precision=GOAL_PRECISION_MAX)
@@ -150,6 +156,7 @@ SPEC_VECTORS = [
 ]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "make_goal", [set, frozenset, dict.fromkeys, lambda v: dict.fromkeys(v).keys()]
 )
@@ -201,6 +208,7 @@ def test_real_spec_fields_are_stored_as_floats(spec, kind):
         json.dumps(spec_to_dict(made))
 
 
+@pytest.mark.slow
 def test_goal_precision_given_as_a_fraction_reaches_info_as_a_float():
     spec = ObjectiveSpec(goal_precision=fractions.Fraction(20))
     assert type(spec.goal_precision) is float
@@ -220,6 +228,7 @@ def test_numpy_flags_and_counts_of_specs_are_stored_as_python_values():
     json.dumps(spec_to_dict(objective))
 
 
+@pytest.mark.slow
 @settings(max_examples=60, deadline=None)
 @given(value=ANY)
 def test_env_numbers_accept_only_numbers(value):
@@ -232,6 +241,7 @@ def test_env_numbers_accept_only_numbers(value):
             assert value is None or _is_number(value)
 
 
+@pytest.mark.slow
 @settings(max_examples=100, deadline=None)
 @given(action=st.lists(ANY, min_size=0, max_size=4))
 def test_action_check_accepts_only_numbers_in_the_box(env, action):
@@ -245,6 +255,7 @@ def test_action_check_accepts_only_numbers_in_the_box(env, action):
         assert coeffs.tolist() == [float(v) for v in action]  # unchanged, bit for bit
 
 
+@pytest.mark.slow
 @settings(max_examples=60, deadline=None)
 @given(mass=ANY, goal_x=ANY)
 def test_reset_options_accept_only_numbers(env, mass, goal_x):
@@ -281,6 +292,7 @@ def test_optimizers_refuse_found_cases(name):
     assert opt.n_told == 4
 
 
+@pytest.mark.slow
 @settings(max_examples=60, deadline=None)
 @given(low=ANY, high=ANY)
 def test_optimizer_bounds_accept_only_numbers(low, high):
@@ -294,6 +306,7 @@ def test_optimizer_bounds_accept_only_numbers(low, high):
         assert np.all(np.isfinite(opt.ask().x))
 
 
+@pytest.mark.slow
 @settings(max_examples=60, deadline=None)
 @given(value=st.one_of(ANY, st.floats(-1e120, 1e120)))
 def test_tell_values(value):
@@ -321,6 +334,7 @@ def test_design_config_fields(value):
             assert _is_number(value)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "argv",
     [
@@ -343,6 +357,7 @@ def test_cli_errors_are_one_line_exit_2(argv, tmp_path, capsys):
         assert f"{existing} is a file; give a folder" in err[0]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("key", "value", "flag"),
     [
@@ -368,6 +383,7 @@ def test_an_option_the_design_sets_itself_is_refused_naming_its_flag(
         DesignConfig(optimizer="random", optimizer_settings={key: json.loads(value)})
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("key", "field"), [("seed", "seeds"), ("batch_size", "batch_size"), ("low", "bounds")]
 )
@@ -386,6 +402,7 @@ def test_a_suite_optimizer_setting_the_suite_sets_itself_is_refused(key, field, 
     assert not out.exists()
 
 
+@pytest.mark.slow
 def test_report_of_an_existing_file_exits_2(tmp_path: Path, capsys):
     existing = tmp_path / "file"
     existing.write_text("x")
@@ -506,6 +523,7 @@ def _settings_ok(value: object) -> bool:
     return isinstance(value, dict) and all(k.isidentifier() for k in value)  # JSON: str keys
 
 
+@pytest.mark.slow
 @settings(max_examples=300, deadline=None)
 @given(place=st.sampled_from(SUITE_PLACES), value=st.one_of(ANY, JSON))
 def test_suite_file_fields_accept_only_valid_values(tmp_path_factory, place, value):
@@ -535,6 +553,7 @@ def _is_finite_json(value: object) -> bool:
     return True
 
 
+@pytest.mark.slow
 @settings(max_examples=100, deadline=None)
 @given(key=st.text(min_size=1, max_size=8), value=JSON, nested=st.booleans())
 def test_unknown_suite_keys_are_named(key, value, nested):
@@ -546,6 +565,7 @@ def test_unknown_suite_keys_are_named(key, value, nested):
     assert repr(key) in str(error.value)
 
 
+@pytest.mark.slow
 @settings(max_examples=150, deadline=None)
 @given(data=st.data(), suffix=st.sampled_from([".json", ".toml"]))
 def test_edited_suite_files_are_accepted_or_refused_naming_the_file(tmp_path_factory, data, suffix):
@@ -563,6 +583,7 @@ def test_edited_suite_files_are_accepted_or_refused_naming_the_file(tmp_path_fac
         assert str(path) in str(error)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("name", "content", "match"),
     [
@@ -602,6 +623,7 @@ def test_suite_files_found_by_fuzzing_exit_2_with_one_line(tmp_path, capsys, nam
     assert len(err) == 1 and str(path) in err[0] and "Traceback" not in err[0], err
 
 
+@pytest.mark.slow
 def test_an_ordered_array_like_goal_is_taken_in_its_order():
     """A pandas Series (or any 1-D ordered array-like) was accepted before the set check."""
     pd = pytest.importorskip("pandas")
@@ -617,6 +639,7 @@ def test_an_ordered_array_like_goal_is_taken_in_its_order():
         ToolDesignEnv(goal=np.zeros((1, 3)))
 
 
+@pytest.mark.slow
 def test_retest_masses_and_frictions_without_order_are_refused():
     from benchmarks.suites.retest import RetestConfig
 

@@ -341,6 +341,7 @@ def test_without_a_writable_folder_the_originals_are_loaded(tmp_path, monkeypatc
     assert urdf == panda_urdf_with_tool(None, visuals=False)
 
 
+@pytest.mark.slow
 def test_the_simulator_loads_the_lean_copies_from_the_cache_folder(tmp_path, monkeypatch):
     from tooldesign_env.simulation import ToolSimulator
 
@@ -359,6 +360,7 @@ def test_the_simulator_loads_the_lean_copies_from_the_cache_folder(tmp_path, mon
         sim.close()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("merge", [True, False], ids=["merged-hand", "13-links"])
 def test_an_episode_is_the_same_bit_for_bit_with_the_lean_copies(tmp_path, monkeypatch, merge):
     # The hull's vertices come in another order from the lean copies; nothing in an episode

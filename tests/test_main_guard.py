@@ -32,6 +32,7 @@ def _run(tmp_path, source):
     )
 
 
+@pytest.mark.slow
 def test_an_unguarded_script_fails_before_starting_a_pool(tmp_path):
     out = _run(tmp_path, UNGUARDED)
     assert out.returncode != 0
@@ -40,12 +41,14 @@ def test_an_unguarded_script_fails_before_starting_a_pool(tmp_path):
     assert "script.py" in out.stderr
 
 
+@pytest.mark.slow
 def test_a_guarded_script_passes_the_check(tmp_path):
     out = _run(tmp_path, GUARDED)
     assert out.returncode == 0, out.stderr
     assert out.stdout == "ok\n"
 
 
+@pytest.mark.slow
 def test_the_check_ignores_python_c_and_pytest():
     check_main_guard()  # under pytest: __main__ is pytest's module or console script
     code = "from benchmarks.execution import check_main_guard; check_main_guard(); print('ok')"
@@ -53,6 +56,7 @@ def test_the_check_ignores_python_c_and_pytest():
     assert out.stdout == "ok\n", out.stderr
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "source",
     [
@@ -71,6 +75,7 @@ config = DesignConfig(optimizer="random", iterations=1, batch_size=2, workers=1)
 """
 
 
+@pytest.mark.slow
 def test_an_unguarded_design_script_leaves_no_run_folder(tmp_path):
     # The check came after the run folder was made: its manifest and heartbeat stayed, and the
     # fixed script was refused with "exists and is not empty" (an audit of issue 11).
@@ -81,6 +86,7 @@ def test_an_unguarded_design_script_leaves_no_run_folder(tmp_path):
     assert not run.exists()
 
 
+@pytest.mark.slow
 def test_a_run_design_call_beside_the_guard_fails_at_once_naming_its_line(tmp_path):
     # The script had a guard, so the check passed; each worker then re-ran the module-level
     # call and the run ended seconds later in multiprocessing tracebacks (an audit of issue 11).
@@ -97,6 +103,7 @@ def test_a_run_design_call_beside_the_guard_fails_at_once_naming_its_line(tmp_pa
     assert not run.exists()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "test",
     [
@@ -114,12 +121,14 @@ def test_a_guard_joined_with_and_is_a_guard(tmp_path, test):
     assert out.stdout == "ok\n"
 
 
+@pytest.mark.slow
 def test_a_guard_joined_with_or_is_not_a_guard(tmp_path):
     source = "import sys\nif __name__ == '__main__' or len(sys.argv) > 1:\n    pass\n"
     out = _run(tmp_path, source + UNGUARDED)
     assert "has no 'if __name__" in out.stderr
 
 
+@pytest.mark.slow
 def test_a_worker_process_re_running_the_script_is_refused_with_the_guard_message(tmp_path):
     # What a worker sees of a call outside the guard when the parent's check cannot see it.
     source = """

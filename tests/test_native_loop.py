@@ -88,6 +88,7 @@ def test_every_recorded_series_is_the_same_bit_for_bit(section, merge):
     assert logged.contact_mobility is not None and np.any(logged.contact_mobility)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("every", [0, -3, True, 2.5, "10"])
 def test_snapshot_every_must_be_none_or_a_positive_int(every):
     sim = ToolSimulator()
@@ -99,6 +100,7 @@ def test_snapshot_every_must_be_none_or_a_positive_int(every):
         sim.close()
 
 
+@pytest.mark.slow
 @needs_plugin
 def test_a_failed_rollout_leaves_no_snapshots_behind(monkeypatch):
     geometry = make_tool(np.zeros(3))
@@ -181,17 +183,20 @@ def test_the_c_loop_follows_the_world_to_a_new_server():
     assert _same(first.contact_mobility, again.contact_mobility)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("value", ["yes", 1, 0, "auto", np.bool_(True)])
 def test_native_loop_must_be_none_true_or_false(value):
     with pytest.raises(TypeError, match=r"native_loop must be None, True or False, got"):
         ToolSimulator(native_loop=value)  # type: ignore[arg-type]
 
 
+@pytest.mark.slow
 def test_a_rendered_world_cannot_require_the_c_loop():
     with pytest.raises(ValueError, match=r"native_loop=True needs render_mode=None"):
         ToolSimulator(native_loop=True, render_mode="rgb_array")
 
 
+@pytest.mark.slow
 def test_without_the_plugin_the_python_loop_runs_and_says_why(monkeypatch):
     monkeypatch.setattr(native, "library_path", lambda: None)
     geometry = make_tool(np.zeros(3))
@@ -212,6 +217,7 @@ def test_without_the_plugin_the_python_loop_runs_and_says_why(monkeypatch):
         strict.close()
 
 
+@pytest.mark.slow
 def test_the_environment_switch_turns_it_off(monkeypatch):
     monkeypatch.setenv(native.ENV_SWITCH, "0")
     assert native.status().startswith(f"off ({native.ENV_SWITCH}=0)")
@@ -224,6 +230,7 @@ def test_the_environment_switch_turns_it_off(monkeypatch):
         sim.close()
 
 
+@pytest.mark.slow
 @needs_plugin
 def test_a_plugin_built_from_another_version_is_refused(monkeypatch):
     monkeypatch.setattr(native, "LOOP_VERSION", native.LOOP_VERSION + 1)
@@ -236,6 +243,7 @@ def test_a_plugin_built_from_another_version_is_refused(monkeypatch):
         sim.close()
 
 
+@pytest.mark.slow
 @needs_plugin
 def test_the_plugin_refuses_bad_commands_with_a_named_error():
     sim = ToolSimulator(native_loop=True)

@@ -172,6 +172,7 @@ def _stress_retests(missing: bool, repeats: int = 2) -> list[dict[str, object]]:
     return retests
 
 
+@pytest.mark.slow
 def test_a_metric_missing_in_one_scene_of_one_design_keeps_the_others_noise() -> None:
     """The row's noise is the median over the designs whose range was measured, not NaN."""
     from benchmarks.reports.retest import stress_table
@@ -185,6 +186,7 @@ def test_a_metric_missing_in_one_scene_of_one_design_keeps_the_others_noise() ->
     assert row["robustness_n"] == 3  # the design's mean over the scene it has still counts
 
 
+@pytest.mark.slow
 def test_claim_c_says_why_a_noise_is_not_measured(monkeypatch: pytest.MonkeyPatch) -> None:
     """Two scenes per design: an n/a noise is a metric missing, never '--repeats 1'."""
     import benchmarks.reports.reproduction as reproduction
@@ -215,6 +217,7 @@ def _noise_retest(variant: str, seed: int, free_energy: list[float], error: str 
     return {"variant": variant, "optimizer": "cmaes", "seed": seed, "error": error, "noise": rows}
 
 
+@pytest.mark.slow
 def test_a_design_invalid_in_a_nudged_scene_counts_as_the_largest_range_not_as_none() -> None:
     """Dropping it lowered the floor by dropping the noisiest design (audit: p20 26.2 -> 26.9)."""
     from benchmarks.reports.retest import noise_floor
@@ -234,6 +237,7 @@ def test_a_design_invalid_in_a_nudged_scene_counts_as_the_largest_range_not_as_n
     assert math.isnan(noise_floor([*measured[:2], failed, nan_nudge])["free_energy"])
 
 
+@pytest.mark.slow
 def test_a_run_that_starts_without_a_valid_design_keeps_its_auc() -> None:
     """Its first iterations count as the group's worst best-so-far, not as a dropped run."""
     from benchmarks.reports.stats import best_so_far_curves, run_metrics
@@ -257,6 +261,7 @@ def test_a_run_that_starts_without_a_valid_design_keeps_its_auc() -> None:
     assert metrics.loc["x", "final_free_energy"] == 8000.0
 
 
+@pytest.mark.slow
 def test_claim_a_without_any_auc_says_na(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     import benchmarks.reports.reproduction as reproduction
 
@@ -281,6 +286,7 @@ def test_claim_a_without_any_auc_says_na(tmp_path: Path, monkeypatch: pytest.Mon
     assert "n/a" in cell
 
 
+@pytest.mark.slow
 def test_a_retest_that_broke_says_nothing_of_the_design_and_is_left_out() -> None:
     from benchmarks.reports.retest import noise_floor
 

@@ -25,6 +25,14 @@ from optimizers import testing
 
 NAMES = optimizers.available()
 ROOT = Path(__file__).resolve().parents[1]
+#: The optimizers whose checks run in the default tier: the built-in ones that need NumPy only.
+#: The adapters to other libraries (scikit-optimize's GP, Optuna, Nevergrad, PySwarms) take
+#: seconds per check and run with --all.
+FAST = {"random", "cmaes"}
+
+
+def _tiered(names: list[str]) -> list[object]:
+    return [n if n in FAST else pytest.param(n, marks=pytest.mark.slow) for n in names]
 
 # Rosenbrock in 3-D on the tool's coefficient box [-1.5, 1.5]^2 x [-0.5, 0.5]; its minimum
 # (1, 1, 1) lies outside, so the best point is on the boundary x3 = 0.5.
@@ -52,12 +60,12 @@ def test_builtins_are_available_when_their_backend_is_installed() -> None:
 
 
 @pytest.mark.parametrize("check", testing.CHECKS, ids=lambda check: check.__name__)
-@pytest.mark.parametrize("name", NAMES)
+@pytest.mark.parametrize("name", _tiered(NAMES))
 def test_conformance(name: str, check: testing.Factory) -> None:
     check(functools.partial(optimizers.make, name))
 
 
-@pytest.mark.parametrize("name", [n for n in NAMES if n != "random"])
+@pytest.mark.parametrize("name", _tiered([n for n in NAMES if n != "random"]))
 def test_beats_random_sampling_on_rosenbrock(name: str) -> None:
     # Equal budget (15 iterations of 8), five seeds, compared by the median best value.
     seeds = range(5)
@@ -167,6 +175,7 @@ def test_a_bad_declaration_is_refused_by_every_check(cls, error, match) -> None:
         testing.declared_skips(cls)
 
 
+@pytest.mark.slow
 def test_this_suite_skips_what_an_installed_plugin_declares(tmp_path: Path) -> None:
     # A deterministic plugin installed through its entry point used to fail this very file.
     site = tmp_path / "site"
@@ -288,6 +297,7 @@ def test_an_assertion_of_a_check_run_alone_names_the_check() -> None:
         testing.check_same_seed_same_asks(GlobalDraws)
 
 
+@pytest.mark.slow
 def test_the_checks_run_without_pytest_as_the_docs_say() -> None:
     script = (
         "import sys, functools\n"

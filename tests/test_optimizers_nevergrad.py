@@ -92,6 +92,7 @@ def test_names_that_fail_with_a_budget_are_refused_saying_why(name: str, why: st
         assert why in message and "measured on nevergrad" in message
 
 
+@pytest.mark.slow
 def test_every_name_of_the_table_is_refused_with_its_reason() -> None:
     known = set(ng.optimizers.registry)
     for name, why in support.FAILS.items():
@@ -181,6 +182,7 @@ def test_a_backend_drawing_from_np_random_draws_from_its_own_stream() -> None:
 nevergrads_del = pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
 
 
+@pytest.mark.slow
 @nevergrads_del
 def test_names_the_table_does_not_know_fall_back_to_the_class_rule_and_nevergrads_errors(
     monkeypatch: pytest.MonkeyPatch,
@@ -221,6 +223,7 @@ def test_the_survey_classifies_failures_by_the_settings_they_happen_in() -> None
     assert why.startswith("is too slow to be checked: its runs in the survey timed out after 90 s")
 
 
+@pytest.mark.slow
 @nevergrads_del
 def test_the_survey_probes_a_setting_in_this_process(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch

@@ -225,6 +225,7 @@ INIT_BOOM = textwrap.dedent(
 )
 
 
+@pytest.mark.slow
 def test_the_cli_ends_a_failing_plugin_init_in_one_line_with_exit_code_1(tmp_path: Path) -> None:
     (tmp_path / "errplugs.py").write_text(INIT_BOOM)
     argv = [
@@ -313,6 +314,7 @@ def test_a_plugin_module_that_fails_to_import_is_a_plugin_error_naming_it(
     assert isinstance(info.value.__cause__, NameError)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("name", "typo", "known"),
     [

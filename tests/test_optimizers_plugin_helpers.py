@@ -98,6 +98,7 @@ def test_type_and_value_errors_of_a_plugin_keep_their_type_and_name_the_hook(err
     assert excinfo.value.__cause__ is error
 
 
+@pytest.mark.slow
 def test_the_cli_reports_a_plugin_error_in_one_line(monkeypatch, capsys):
     import benchmarks.design as design  # the command imports run_design from here when run
     from benchmarks.cli import main

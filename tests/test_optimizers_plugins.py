@@ -64,6 +64,7 @@ def all_finite(seen: list[Any]) -> bool:
 # --- cmaes ---------------------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_cmaes_backend_is_told_finite_values_only(monkeypatch: pytest.MonkeyPatch) -> None:
     optimizer = optimizers.make("cmaes", bounds=BOUNDS, batch_size=6, seed=0)
     seen: list[Any] = []
@@ -128,6 +129,7 @@ CONTINUE = textwrap.dedent(
 )
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["cmaes", "pso"])
 def test_a_run_resumes_in_a_fresh_process_exactly(name: str, tmp_path: Path) -> None:
     if name == "pso":
@@ -194,6 +196,7 @@ CONTINUE_PENDING = textwrap.dedent(
 )
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(optimizers.available()))
 def test_a_state_saved_with_points_pending_continues_exactly_in_another_process(
     name: str, tmp_path: Path
@@ -228,6 +231,7 @@ def test_a_state_saved_with_points_pending_continues_exactly_in_another_process(
     assert json.loads(python(CONTINUE_PENDING, str(state), hash_seed="6")) == expected
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("policy", [{"margin": 1e300}, {"fixed": 1e100}])
 def test_every_optimizer_survives_the_largest_failure_penalty(policy: dict[str, float]) -> None:
     # bo's Gaussian process saw NaN once penalties passed about 1e155 (an audit of issue 3).
@@ -242,6 +246,7 @@ def test_every_optimizer_survives_the_largest_failure_penalty(policy: dict[str, 
 # --- pso ---------------------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_pso_leaves_no_report_log_and_no_logging_setup(tmp_path: Path) -> None:
     needs("pyswarms")
     code = textwrap.dedent(
@@ -284,6 +289,7 @@ def test_pso_backend_sees_finite_costs_only() -> None:
     assert all_finite(seen)
 
 
+@pytest.mark.slow
 def test_pso_ring_topology_passes_the_conformance_suite() -> None:
     needs("pyswarms")
     testing.check_optimizer(functools.partial(optimizers.make, "pso", topology="ring"))
@@ -372,6 +378,7 @@ def test_bo_pending_points_are_believers_so_batches_differ() -> None:
     assert gaps.min() > 1e-3
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "settings",
     [

@@ -36,6 +36,7 @@ def fake_entry_points(monkeypatch: pytest.MonkeyPatch, **values: str) -> None:
     monkeypatch.setattr(registry, "_entry_points", lambda: points)
 
 
+@pytest.mark.slow
 def test_make_builds_registered_optimizers_with_their_settings() -> None:
     optimizer = optimizers.make("random", bounds=BOUNDS, batch_size=3, seed=2)
     assert isinstance(optimizer, RandomSearch) and optimizer.batch_size == 3

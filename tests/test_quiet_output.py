@@ -6,6 +6,8 @@ import subprocess
 import sys
 import textwrap
 
+import pytest
+
 from tooldesign_env.bullet import _filter_noise
 
 
@@ -25,6 +27,7 @@ def test_filter_keeps_unrelated_lines_unchanged():
     assert _filter_noise("") == ""
 
 
+@pytest.mark.slow
 def test_import_connect_and_render_print_nothing():
     code = textwrap.dedent(
         """
@@ -46,6 +49,7 @@ def test_import_connect_and_render_print_nothing():
     assert out.stderr == "so does stderr\n"
 
 
+@pytest.mark.slow
 def test_exceptions_inside_the_quiet_block_propagate_and_restore_the_descriptors():
     code = textwrap.dedent(
         """

@@ -24,6 +24,7 @@ def env():
     env.close()
 
 
+@pytest.mark.slow
 def test_frame_after_reset_shows_the_scene_and_the_goal(env):
     env.reset(seed=0)
     frame = env.render()
@@ -49,6 +50,7 @@ def test_frame_after_a_step_draws_the_box_path_and_rollout_frames_differ(env, tm
         assert im.n_frames == 3 and im.size == (480, 360)
 
 
+@pytest.mark.slow
 def test_render_without_rgb_array_mode_returns_none():
     env = ToolDesignEnv()
     try:
@@ -60,6 +62,7 @@ def test_render_without_rgb_array_mode_returns_none():
         env.close()
 
 
+@pytest.mark.slow
 def test_render_rollout_bad_input(env):
     env.reset(seed=0)
     with pytest.raises(RuntimeError, match="call step"):
@@ -69,6 +72,7 @@ def test_render_rollout_bad_input(env):
             env.render_rollout(frames=bad)
 
 
+@pytest.mark.slow
 def test_world_render_bad_input():
     world = BulletWorld(render_mode="rgb_array")
     try:
@@ -82,6 +86,7 @@ def test_world_render_bad_input():
         world.close()
 
 
+@pytest.mark.slow
 def test_projection_puts_the_camera_target_at_the_image_centre():
     world = BulletWorld(render_mode="rgb_array")
     try:
@@ -111,6 +116,7 @@ def test_write_gif_bad_input(frames, fps, tmp_path):
     assert not (tmp_path / "x.gif").exists()
 
 
+@pytest.mark.slow
 def test_rollout_gif_refuses_bad_input_before_simulating(tmp_path):
     with pytest.raises(ValueError, match="outside the action space"):
         rollout_gif([0.0, 0.0, 3.0], tmp_path / "x.gif")
@@ -119,6 +125,7 @@ def test_rollout_gif_refuses_bad_input_before_simulating(tmp_path):
     assert not (tmp_path / "x.gif").exists()
 
 
+@pytest.mark.slow
 def test_a_design_run_passes_its_task_to_the_video_and_survives_a_failing_one(
     tmp_path, monkeypatch
 ):

@@ -13,6 +13,7 @@ ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "docs" / "results"
 
 
+@pytest.mark.slow
 def test_the_committed_page_is_made_from_the_committed_results() -> None:
     # The reports are rebuilt bit for bit by tests/test_suites.py; here the page from them.
     page = reproduction_page(RESULTS)
@@ -20,6 +21,7 @@ def test_the_committed_page_is_made_from_the_committed_results() -> None:
     assert "| (a) CMA-ES lowers F fastest |" in page and "noise floor" in page.lower()
 
 
+@pytest.mark.slow
 def test_a_missing_results_folder_is_one_clear_error(tmp_path: Path) -> None:
     with pytest.raises(SystemExit) as exit_info:
         nothing, page = str(tmp_path / "nothing"), str(tmp_path / "page.md")

@@ -74,6 +74,7 @@ def test_reports_use_the_retest(suite_folder: Path) -> None:
     assert "noise floor" in (suite_folder / "report" / "pairwise.md").read_text().lower()
 
 
+@pytest.mark.slow
 def test_noise_floor_is_the_median_range_over_designs() -> None:
     def retest(values: list[float]) -> dict:
         rows = [
@@ -113,6 +114,7 @@ def test_a_difference_below_the_noise_floor_is_not_significant() -> None:
     assert pairwise_table(frame, noise_floor=4.0)["significant"].all()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "kwargs",
     [
@@ -134,6 +136,7 @@ def test_retest_config_refuses_bad_values(kwargs: dict) -> None:
         RetestConfig(**kwargs)
 
 
+@pytest.mark.slow
 def test_retest_command_refuses_a_folder_that_is_not_a_suite(tmp_path: Path) -> None:
     with pytest.raises(SystemExit) as exit_info:
         main(["retest", str(tmp_path / "missing")])

@@ -3,7 +3,7 @@ SceneSpec.merge_fixed_links): the same rigid body, fewer links for PyBullet.
 
 The merged model must be the same model: the same mass matrix, the same inverse dynamics and the
 same shapes in the same places, to rounding. Its rollouts differ from the unmerged model's by
-rounding amplified by the pushes' chaos; benchmarks/perf/physics_options.py compares the two on
+rounding amplified by the pushes' chaos; perf/speed/physics_options.py compares the two on
 32 designs against the noise floor (docs/performance.md, "Fewer links").
 """
 
@@ -147,6 +147,7 @@ def test_the_merged_arm_has_the_same_dynamics_to_rounding():
             sim.close()
 
 
+@pytest.mark.slow
 def test_a_merged_episode_ends_where_the_unmerged_one_does():
     # The straight tool pushes smoothly: rounding does not grow into a different push.
     infos = {}
@@ -159,6 +160,7 @@ def test_a_merged_episode_ends_where_the_unmerged_one_does():
     assert infos[True]["goal_error"] == pytest.approx(infos[False]["goal_error"], rel=1e-3)
 
 
+@pytest.mark.slow
 def test_load_robot_refuses_inertias_for_a_link_it_lacks():
     world = BulletWorld(renderer=False)
     try:

@@ -298,6 +298,7 @@ def test_ppo_and_the_contextual_method_train_on_random_goals_and_masses():
 
 
 # ------------------------------------------------------------------ without torch
+@pytest.mark.slow
 def test_benchmarks_import_and_refuse_ppo_clearly_without_torch(tmp_path):
     card = tmp_path / "c.json"
     policy = ContextualPolicy([(0.0, 1.0, 0.1)], [(0.0, 0.0, 0.0)])

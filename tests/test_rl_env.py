@@ -25,6 +25,7 @@ def env() -> ToolDesignRLEnv:
     e.close()
 
 
+@pytest.mark.slow
 def test_make_with_no_arguments_gives_the_rl_interface():
     e = gym.make(RL_ENV_ID)
     assert e.action_space == gym.spaces.Box(-1.0, 1.0, (3,), np.float32)
@@ -36,6 +37,7 @@ def test_make_with_no_arguments_gives_the_rl_interface():
     e.close()
 
 
+@pytest.mark.slow
 def test_the_default_env_is_unchanged():
     e = gym.make("ToolDesign-v0")
     assert e.action_space.dtype == np.float64
@@ -57,6 +59,7 @@ def test_both_checkers_pass_with_no_warning_and_no_skip(kwargs):
     e.close()
 
 
+@pytest.mark.slow
 def test_actions_map_onto_the_coefficient_bounds(env):
     np.testing.assert_array_equal(env.to_coefficients([-1, -1, -1]), [-1.5, -1.5, -0.5])
     np.testing.assert_array_equal(env.to_coefficients([1, 1, 1]), [1.5, 1.5, 0.5])
@@ -64,6 +67,7 @@ def test_actions_map_onto_the_coefficient_bounds(env):
     np.testing.assert_allclose(env.to_coefficients(env.to_action(HOOK)), HOOK, atol=1e-6)
 
 
+@pytest.mark.slow
 def test_the_observation_is_the_task():
     e = ToolDesignRLEnv(randomize_goal=True, mass_range=(0.2, 0.8))
     seen = []
@@ -82,6 +86,7 @@ def test_the_observation_is_the_task():
     e.close()
 
 
+@pytest.mark.slow
 def test_same_seed_same_tasks():
     a, b = ToolDesignRLEnv(randomize_goal=True), ToolDesignRLEnv(randomize_goal=True)
     a.reset(seed=3)
@@ -92,6 +97,7 @@ def test_same_seed_same_tasks():
     b.close()
 
 
+@pytest.mark.slow
 def test_idle_free_energy_is_the_goal_error_of_a_box_left_in_place(env):
     env.reset(options={"goal": (0.0, 1.5, 0.1)})
     start = np.array([1.35 * np.cos(np.pi / 6), 1.35 * np.sin(np.pi / 6), 0.1])
@@ -122,6 +128,7 @@ def test_the_normalized_reward_is_one_minus_f_over_f_idle_and_f_is_unchanged():
         e.close()
 
 
+@pytest.mark.slow
 def test_an_unusable_design_gets_the_floor_not_a_huge_penalty():
     e = ToolDesignRLEnv(bounds=[(-10, 10)] * 3, full_info=True)
     e.reset(seed=0)
@@ -132,6 +139,7 @@ def test_an_unusable_design_gets_the_floor_not_a_huge_penalty():
     e.close()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("kwargs", "goal"),
     [({"goal_precision": 50.0}, (-0.5, 1.5, 0.1)), ({}, (-2.0, 2.0, 0.1))],
@@ -147,6 +155,7 @@ def test_an_unusable_design_is_at_the_floor_at_far_goals_too(kwargs, goal):
     e.close()
 
 
+@pytest.mark.slow
 def test_the_scalar_info_has_the_base_envs_scalar_terms():
     e = ToolDesignRLEnv(scene_samples=2)
     e.reset(seed=0)
@@ -157,6 +166,7 @@ def test_the_scalar_info_has_the_base_envs_scalar_terms():
     e.close()
 
 
+@pytest.mark.slow
 def test_rgb_array_renders_headless():
     e = gym.make(RL_ENV_ID, render_mode="rgb_array")
     e.reset(seed=0)
@@ -197,6 +207,7 @@ def test_next_step_autoreset_loses_every_second_step():
 
 
 # ------------------------------------------------------------------ bad input
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("kwargs", "error", "match"),
     [
@@ -228,6 +239,7 @@ def test_bad_arguments_raise_clear_errors(kwargs, error, match):
         ToolDesignRLEnv(**kwargs)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("action", "error"),
     [
@@ -245,6 +257,7 @@ def test_bad_actions_raise_clear_errors(env, action, error):
         env.step(action)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("options", "error"),
     [
@@ -259,6 +272,7 @@ def test_bad_reset_options_raise_clear_errors(env, options, error):
         env.reset(options=options)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("options", ["", 0, False, [], [("goal", (0.3, 1.0, 0.1))]])
 def test_reset_options_must_be_none_or_a_mapping(env, options):
     # "", 0 and False were read as no options by `options or {}`.
@@ -266,6 +280,7 @@ def test_reset_options_must_be_none_or_a_mapping(env, options):
         env.reset(options=options)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [np.int64(3), np.uint8(3), np.int32(3)])
 def test_a_numpy_integer_seed_seeds_like_the_int(seed):
     # gymnasium refused it: "Seed must be a python integer".
@@ -277,6 +292,7 @@ def test_a_numpy_integer_seed_seeds_like_the_int(seed):
         b.close()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("seed", "error"),
     [
@@ -292,6 +308,7 @@ def test_a_seed_that_is_not_an_int_is_refused_naming_it(env, seed, error):
         env.reset(seed=seed)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("args", "kwargs", "error"),
     [
@@ -313,6 +330,7 @@ PAPER_CORNERS = [
 ]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "goal", [BOX_START, (BOX_START[0] + 0.01, BOX_START[1], 0.1)], ids=["at-start", "1cm"]
 )
@@ -333,6 +351,7 @@ def test_a_goal_at_the_box_start_is_refused_naming_the_minimum_distance(goal):
     raw.close()
 
 
+@pytest.mark.slow
 def test_a_goal_range_that_reaches_the_box_start_is_refused():
     with pytest.raises(ValueError, match=r"goal_range.*0\.1 m"):
         ToolDesignRLEnv(randomize_goal=True, goal_range=((0.0, 0.5, 0.1), (1.2, 0.7, 0.1)))
@@ -364,6 +383,7 @@ def test_a_valid_design_far_worse_than_idle_is_at_the_floor_as_documented():
 
 
 # ------------------------------------------------------------------ actions ToolDesign-v0 refuses
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("action", "error", "match"),
     [
@@ -381,6 +401,7 @@ def test_actions_the_base_env_refuses_are_refused(env, action, error, match):
             env.to_coefficients(action)
 
 
+@pytest.mark.slow
 def test_a_masked_action_with_nothing_masked_is_taken():
     e = ToolDesignRLEnv()
     assert e.to_coefficients(np.ma.array([0.0, 0.0, 0.0])).tolist() == [0.0, 0.0, 0.0]
@@ -388,6 +409,7 @@ def test_a_masked_action_with_nothing_masked_is_taken():
 
 
 # ------------------------------------------------------------------ no silently ignored argument
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("kwargs", "match"),
     [
@@ -402,6 +424,7 @@ def test_arguments_that_would_be_ignored_are_refused(kwargs, match):
         gym.make(RL_ENV_ID, **kwargs)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("mass_range", [np.array([0.1, 0.9]), [0.1, 0.9], (np.float32(0.1), 0.9)])
 def test_mass_range_takes_any_pair_of_numbers(mass_range):
     e = ToolDesignRLEnv(mass_range=mass_range)
@@ -411,12 +434,14 @@ def test_mass_range_takes_any_pair_of_numbers(mass_range):
     e.close()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("mass_range", [np.array([0.1, 0.5, 0.9]), np.array([[0.1, 0.9]])])
 def test_mass_range_of_other_shapes_is_refused(mass_range):
     with pytest.raises(TypeError, match="mass_range must be a pair"):
         ToolDesignRLEnv(mass_range=mass_range)
 
 
+@pytest.mark.slow
 def test_a_goal_range_given_as_an_array_is_taken_like_a_pair_of_points():
     """mass_range takes arrays; goal_range must too (a (2, 3) array of low and high)."""
     as_tuple = ToolDesignRLEnv(randomize_goal=True, goal_range=((-0.5, 0.5, 0.1), (0.5, 1.5, 0.1)))
@@ -432,6 +457,7 @@ def test_a_goal_range_given_as_an_array_is_taken_like_a_pair_of_points():
         as_array.close()
 
 
+@pytest.mark.slow
 def test_free_energy_reward_at_zero_precision_steps_and_has_no_normalized_reward():
     """The normalized reward's error recommends this setting: it must work (it divided by 0)."""
     e = ToolDesignRLEnv(goal_precision=0.0, reward="free-energy")
@@ -444,6 +470,7 @@ def test_free_energy_reward_at_zero_precision_steps_and_has_no_normalized_reward
         e.close()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("precision", [1e-3, 1e-12])
 def test_the_normalized_reward_stays_within_its_bounds_at_small_precision(precision):
     e = ToolDesignRLEnv(goal_precision=precision)
@@ -457,6 +484,7 @@ def test_the_normalized_reward_stays_within_its_bounds_at_small_precision(precis
         e.close()
 
 
+@pytest.mark.slow
 def test_the_base_envs_name_for_full_info_is_pointed_to():
     with pytest.raises(TypeError, match="full_info=True"):
         ToolDesignRLEnv(info_series=True)

@@ -234,6 +234,7 @@ def test_a_unit_stopped_between_its_parts_is_redone_and_checked(
         assert (out / "policies" / card).read_bytes() == (rl_smoke / "policies" / card).read_bytes()
 
 
+@pytest.mark.slow
 def test_resume_refuses_other_settings_and_edited_parts(tmp_path: Path) -> None:
     out = tmp_path / "run"
     config = rl_suite_config("smoke", parts=("fixed",), methods=("random",))
@@ -255,6 +256,7 @@ def test_resume_refuses_other_settings_and_edited_parts(tmp_path: Path) -> None:
     assert RUNTIME_FIELDS == {"workers"}  # the one setting a resume may change
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("field", "default", "before"),
     [("section_shape", "round", "square"), ("merge_fixed_links", True, False)],
@@ -281,6 +283,7 @@ def test_a_folder_made_with_an_older_default_is_not_resumed_with_todays(
     assert "tooldesign bench rl" not in str(refused.value)
 
 
+@pytest.mark.slow
 def test_resuming_with_another_size_names_the_differences_in_short_lines(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -54,6 +54,7 @@ def test_expected_masses_that_are_not_a_sequence_are_refused_naming_the_field(ma
         ObjectiveSpec(kind="expected-goal-error", expected_masses=masses)
 
 
+@pytest.mark.slow
 def test_expected_goal_error_without_goal_precision_is_refused():
     # p^X = 0 makes every design's expected goal error 0: nothing to optimize, at 3 rollouts.
     with pytest.raises(

@@ -81,6 +81,7 @@ def test_a_straight_round_tool_is_a_capsule_with_the_analytic_mass_properties():
     np.testing.assert_allclose(tool.bounds, [[-0.075 - R, -R, -R], [1.175 + R, R, R]], atol=1e-12)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("coeffs", DESIGNS[1:])
 def test_a_curved_round_tool_has_the_volume_of_its_capsules(coeffs):
     tool = make_tool(coeffs, ROUND)
@@ -140,6 +141,7 @@ def test_the_round_mesh_exports_and_reloads_watertight(tmp_path, suffix):
     assert mesh.volume == pytest.approx(tool.volume, rel=1e-6)
 
 
+@pytest.mark.slow
 def test_pybullet_builds_the_capsules_where_the_geometry_puts_them():
     sim = ToolSimulator()
     try:
@@ -165,6 +167,7 @@ def test_pybullet_builds_the_capsules_where_the_geometry_puts_them():
         sim.close()
 
 
+@pytest.mark.slow
 def test_a_round_tool_pushes_the_box_and_its_outcome_is_stable_under_nudges():
     """The point of the round section: 0.1 mm nudges of the box barely move the outcome.
 
@@ -245,6 +248,7 @@ def test_the_command_line_offers_the_geometrys_section_shapes_and_default():
     assert DesignConfig().section_shape == SuiteConfig(name="s").section_shape == "round"
 
 
+@pytest.mark.slow
 def test_dense_search_passes_the_section_and_the_scene_samples(monkeypatch, tmp_path):
     import pandas as pd
 
@@ -270,6 +274,7 @@ def test_dense_search_passes_the_section_and_the_scene_samples(monkeypatch, tmp_
     assert args.section_shape == "round"
 
 
+@pytest.mark.slow
 def test_evaluate_writes_a_round_tool(tmp_path):
     from benchmarks.design.evaluate import evaluate_coefficients
 
@@ -281,6 +286,7 @@ def test_evaluate_writes_a_round_tool(tmp_path):
     assert any('"section_shape": "round"' in path.read_text() for path in card)
 
 
+@pytest.mark.slow
 def test_retest_evaluates_a_suites_designs_with_the_suites_tool():
     from benchmarks.suites import SuiteConfig
     from benchmarks.suites.retest import retest_task

@@ -115,6 +115,7 @@ def refused_everywhere(config_file: Path, folder: Path, name: str) -> None:
 # --- 1. design, box-path and retest files are checksummed ---------------------------------------
 
 
+@pytest.mark.slow
 def test_the_manifest_records_every_design_and_the_consolidated_file(finished: Path) -> None:
     recorded = read_manifest(finished)["extra"][FILE_CHECKSUMS]
     designs = sorted(p.relative_to(finished).as_posix() for p in finished.rglob("seed=*.json"))
@@ -124,6 +125,7 @@ def test_the_manifest_records_every_design_and_the_consolidated_file(finished: P
         assert hashlib.sha256((finished / relative).read_bytes()).hexdigest() == digest
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "edit",
     [
@@ -167,6 +169,7 @@ def test_the_cli_refuses_an_edited_design_file_in_one_line(
         assert "seed=" in err and "has changed since it was written" in err
 
 
+@pytest.mark.slow
 def test_an_edited_retest_file_is_refused(run: Path) -> None:
     target = retest_path(run, design_file(run))
     record = {"variant": "", "optimizer": "random", "seed": 1, "noise": [], "stress": []}
@@ -189,6 +192,7 @@ def test_an_edited_retest_file_is_refused(run: Path) -> None:
     assert read_retests(run)[0]["noise"][1]["free_energy"] == 2.0
 
 
+@pytest.mark.slow
 def test_tooldesign_retest_records_its_files_and_refuses_edited_ones(run: Path, capsys) -> None:
     argv = ["retest", str(run), "--nudges", "2", "--repeats", "1", "--masses", "0.5"]
     assert main([*argv, "--frictions", "0.3", "--workers", "1"]) == 0
@@ -231,6 +235,7 @@ def test_an_edited_part_file_is_refused_by_report_and_html(config_file: Path, ru
         ResultStore(run).read()
 
 
+@pytest.mark.slow
 def test_an_edited_consolidated_file_is_refused_without_parts(run: Path) -> None:
     shutil.rmtree(run / "parts")
     make_suite_report(run, n_boot=50)  # a folder shared without its parts reads
@@ -249,6 +254,7 @@ def test_an_edited_consolidated_file_is_refused_without_parts(run: Path) -> None
     assert snapshot(run) == before
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("damage", ["truncate", "delete"])
 def test_resume_rebuilds_a_damaged_consolidated_file_from_intact_parts(
     config_file: Path, run: Path, damage: str
@@ -304,6 +310,7 @@ def test_two_unrecorded_parts_are_refused_by_report(run: Path) -> None:
 # --- compatibility: a folder written before file_sha256 -----------------------------------------
 
 
+@pytest.mark.slow
 def test_a_folder_without_file_checksums_reads_and_resumes(config_file: Path, run: Path) -> None:
     edit_manifest(run, lambda m: m["extra"].pop(FILE_CHECKSUMS))
     assert len(read_designs(run)) == 1
@@ -412,6 +419,7 @@ def test_a_heartbeat_of_an_impossible_wall_time_is_left_out(config_file: Path, r
 # --- 4. a malformed design file: one message naming the file ------------------------------------
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("content", "message"),
     [
@@ -447,6 +455,7 @@ def test_a_truncated_box_path_file_is_named(run: Path) -> None:
         read_designs(run)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("fmt", ["csv", "parquet"])
 def test_consolidating_a_finished_folder_in_the_other_format_keeps_it_readable(
     config_file: Path, run: Path, fmt: str
@@ -464,6 +473,7 @@ def test_consolidating_a_finished_folder_in_the_other_format_keeps_it_readable(
     pd.testing.assert_frame_equal(ResultStore(run).read(), before)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("fmt", ["csv", "parquet"])
 def test_a_consolidation_interrupted_at_the_manifest_leaves_the_folder_readable(
     run: Path, fmt: str, monkeypatch: pytest.MonkeyPatch

@@ -35,6 +35,7 @@ def _run_script(tmp_path: Path, source: str) -> subprocess.CompletedProcess[str]
 # --- 1. the __main__ guard of run_suite --------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_an_unguarded_suite_script_is_refused_naming_run_suite_and_leaves_no_folder(tmp_path):
     run = tmp_path / "run"
     source = f"""
@@ -49,6 +50,7 @@ def test_an_unguarded_suite_script_is_refused_naming_run_suite_and_leaves_no_fol
     assert not run.exists()
 
 
+@pytest.mark.slow
 def test_the_guard_message_names_the_function_called(tmp_path):
     source = """
     from benchmarks.execution import check_main_guard
@@ -59,6 +61,7 @@ def test_the_guard_message_names_the_function_called(tmp_path):
     assert "run_design" not in out.stderr
 
 
+@pytest.mark.slow
 def test_an_unguarded_rl_suite_script_with_workers_leaves_no_folder(tmp_path):
     run = tmp_path / "run"
     source = f"""
@@ -73,6 +76,7 @@ def test_an_unguarded_rl_suite_script_with_workers_leaves_no_folder(tmp_path):
     assert not run.exists()
 
 
+@pytest.mark.slow
 def test_the_docs_run_suite_example_has_the_guard():
     text = (Path(__file__).resolve().parents[1] / "docs" / "benchmarks.md").read_text()
     start = text.index("from benchmarks.suites import OptimizerSpec")
@@ -85,6 +89,7 @@ def test_the_docs_run_suite_example_has_the_guard():
 # --- 3. a missing dask leaves no folder ---------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_a_design_run_without_dask_leaves_no_folder(tmp_path, no_dask):
     run = tmp_path / "run"
     config = DesignConfig(iterations=1, batch_size=2, executor="dask")
@@ -93,6 +98,7 @@ def test_a_design_run_without_dask_leaves_no_folder(tmp_path, no_dask):
     assert not run.exists()
 
 
+@pytest.mark.slow
 def test_a_suite_run_without_dask_leaves_no_folder(tmp_path, no_dask):
     run = tmp_path / "run"
     suite = builtin_suite("optimizers", "smoke").replace(executor="dask")
@@ -101,6 +107,7 @@ def test_a_suite_run_without_dask_leaves_no_folder(tmp_path, no_dask):
     assert not run.exists()
 
 
+@pytest.mark.slow
 def test_the_design_command_without_dask_can_be_retried(tmp_path, capsys, no_dask):
     run = tmp_path / "run"
     args = ["design", "--iterations", "1", "--batch-size", "2", "--out", str(run)]
@@ -119,6 +126,7 @@ def _folder(path: Path, kind: str) -> Path:
     return path
 
 
+@pytest.mark.slow
 def test_report_on_a_design_folder_redraws_its_own_figures(tmp_path, monkeypatch, capsys):
     import benchmarks.reports.design_figures as design_figures
 
@@ -137,6 +145,7 @@ def test_report_on_a_design_folder_redraws_its_own_figures(tmp_path, monkeypatch
     assert "design figures" in capsys.readouterr().out
 
 
+@pytest.mark.slow
 def test_report_on_a_real_design_folder_brings_back_its_figures_and_page(tmp_path, capsys):
     folder = tmp_path / "design"
     config = DesignConfig(iterations=1, batch_size=2, executor="serial")
@@ -151,6 +160,7 @@ def test_report_on_a_real_design_folder_brings_back_its_figures_and_page(tmp_pat
     assert "retest` on the folder" not in (folder / "report" / "pairwise.md").read_text()
 
 
+@pytest.mark.slow
 def test_report_on_a_suite_folder_does_not_draw_design_figures(tmp_path, monkeypatch):
     folder = _folder(tmp_path / "suite", "suite")
     monkeypatch.setattr(reports, "make_suite_report", lambda f, out_dir=None: [])
@@ -158,6 +168,7 @@ def test_report_on_a_suite_folder_does_not_draw_design_figures(tmp_path, monkeyp
     assert main(["report", str(folder)]) == 0
 
 
+@pytest.mark.slow
 def test_no_noise_floor_hint_does_not_send_a_design_folder_to_retest():
     import pandas as pd
 
@@ -168,6 +179,7 @@ def test_no_noise_floor_hint_does_not_send_a_design_folder_to_retest():
 # --- 4. folders of another kind -----------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_retest_on_a_design_folder_names_it_its_kind_and_the_command(tmp_path, capsys):
     folder = _folder(tmp_path / "design", DESIGN_SUITE)
     with pytest.raises(SystemExit):
@@ -178,6 +190,7 @@ def test_retest_on_a_design_folder_names_it_its_kind_and_the_command(tmp_path, c
     assert "tooldesign report" in err
 
 
+@pytest.mark.slow
 def test_retest_on_a_folder_without_manifest_says_it_is_no_suite_folder(tmp_path, capsys):
     folder = tmp_path / "evaluated"
     folder.mkdir()
@@ -189,6 +202,7 @@ def test_retest_on_a_folder_without_manifest_says_it_is_no_suite_folder(tmp_path
     assert "tooldesign bench" in err
 
 
+@pytest.mark.slow
 def test_design_resume_on_a_suite_folder_names_its_kind_and_another_folder(tmp_path):
     folder = _folder(tmp_path / "suite", "suite")
     config = DesignConfig(iterations=1, batch_size=2, executor="serial")
@@ -224,6 +238,7 @@ def test_an_interrupt_says_how_to_continue(monkeypatch, capsys, command, module,
     assert hint in err
 
 
+@pytest.mark.slow
 def test_a_scheduler_that_does_not_answer_says_how_to_start_one(tmp_path, monkeypatch):
     distributed = pytest.importorskip("distributed")
 

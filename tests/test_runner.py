@@ -161,6 +161,7 @@ def test_a_finished_suite_grows_by_the_runs_of_new_seeds(
         run_suite(load_suite(tiny_file), grown, resume=True, progress=False)
 
 
+@pytest.mark.slow
 def test_resume_refuses_other_settings_and_foreign_folders(tiny_file: Path, tmp_path: Path) -> None:
     suite = load_suite(tiny_file)
     out = tmp_path / "run"
@@ -193,6 +194,7 @@ def test_a_design_run_folder_is_not_resumed_as_a_suite(tmp_path: Path) -> None:
         run_suite(builtin_suite("optimizers", "smoke"), out, progress=False)
 
 
+@pytest.mark.slow
 def test_parts_of_runs_the_suite_does_not_plan_are_refused(tiny_file: Path, tmp_path: Path) -> None:
     suite = load_suite(tiny_file)
     out = tmp_path / "run"
@@ -207,6 +209,7 @@ def test_parts_of_runs_the_suite_does_not_plan_are_refused(tiny_file: Path, tmp_
     assert path.read_bytes() == before
 
 
+@pytest.mark.slow
 def test_a_dead_worker_is_retried_alone_and_fails_only_its_own_item() -> None:
     # eval is a picklable builtin: one item kills its worker process, the pool breaks and takes
     # the other job's pending items with it; recovery gives each item its own outcome.
@@ -220,6 +223,7 @@ def test_a_dead_worker_is_retried_alone_and_fails_only_its_own_item() -> None:
         assert executor.submit(eval, "3 * 3").result() == 9  # the pool works again
 
 
+@pytest.mark.slow
 def test_the_scheduler_runs_jobs_of_several_batches_in_order() -> None:
     class Countdown:
         def __init__(self, n: int) -> None:
@@ -239,6 +243,7 @@ def test_the_scheduler_runs_jobs_of_several_batches_in_order() -> None:
     assert [job.seen for job in jobs] == [[3, 2, 1], [1], [2, 1]]
 
 
+@pytest.mark.slow
 def test_the_scheduler_sleeps_while_a_job_waits_for_its_last_item(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
@@ -274,6 +279,7 @@ def test_the_scheduler_sleeps_while_a_job_waits_for_its_last_item(
     assert len(calls) <= 2, f"the scheduler called wait {len(calls)} times for 2 items"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("max_active", [0, -1, 1.5, True, 10**30])
 def test_the_scheduler_refuses_bad_settings(max_active: object) -> None:
     from benchmarks.execution import SerialExecutor
@@ -285,6 +291,7 @@ def test_the_scheduler_refuses_bad_settings(max_active: object) -> None:
         Scheduler(SerialExecutor(), 3, max_active=1)  # type: ignore[arg-type]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("executor", [None, make_executor, "process"])
 def test_the_scheduler_refuses_what_is_not_an_executor(executor: object) -> None:
     # None and the make_executor function itself were accepted, and failed only at the first
@@ -306,6 +313,7 @@ class _Returns:
         return None
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("first", [3, "abs(-1)", 2.5])
 def test_a_job_whose_batch_is_not_a_list_of_items_is_named(first: object) -> None:
     # start() returning an int ended in "'int' object is not iterable", naming neither the job
@@ -316,6 +324,7 @@ def test_a_job_whose_batch_is_not_a_list_of_items_is_named(first: object) -> Non
         Scheduler(SerialExecutor(), eval, max_active=1).run([_Returns(first)])
 
 
+@pytest.mark.slow
 def test_a_job_without_start_and_advance_is_named() -> None:
     from benchmarks.execution import SerialExecutor
 

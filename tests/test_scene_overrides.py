@@ -240,6 +240,7 @@ COMMAND_ARGS = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("command", ["design", "evaluate", "dense-search", "bench"])
 @pytest.mark.parametrize(
     ("value", "match"),
@@ -337,6 +338,7 @@ def test_a_design_run_made_with_13_links_is_resumed_from_the_command_line(tmp_pa
     }
 
 
+@pytest.mark.slow
 def test_evaluate_records_the_scene_it_ran_in(tmp_path):
     from benchmarks.design.evaluate import evaluate_coefficients
 

@@ -59,6 +59,7 @@ def test_mean_terms_needs_terms():
         mean_terms([])
 
 
+@pytest.mark.slow
 def test_build_rejects_a_bad_box_offset():
     from tooldesign_env import ToolSimulator, make_tool
 
@@ -112,6 +113,7 @@ def test_an_invalid_design_has_no_spread_over_scenes():
     assert not info["valid"] and info["free_energy_std"] == 0.0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("value", "error"), [(0, ValueError), (65, ValueError), (True, TypeError), (2.0, TypeError)]
 )
@@ -132,6 +134,7 @@ def test_scene_samples_reach_the_env_only_when_asked_for():
     assert dict(DesignConfig(scene_samples=3).task().env_kwargs)["scene_samples"] == 3
 
 
+@pytest.mark.slow
 def test_a_run_stored_before_scene_samples_existed_is_resumed(tmp_path):
     # Older manifests have no scene_samples: they are compared as K = 1, the value they had.
     import json

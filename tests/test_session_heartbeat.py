@@ -83,6 +83,7 @@ def test_a_closed_session_starts_no_new_heartbeat(tmp_path: Path) -> None:
     assert not (out / HEARTBEAT).exists()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "text",
     [
@@ -198,6 +199,7 @@ time.sleep(60)
 """
 
 
+@pytest.mark.slow
 def test_a_second_process_cannot_write_a_folder_in_use(tmp_path: Path) -> None:
     """Two sessions on one folder would redo each other's work and fail on the other's parts."""
     out = tmp_path / "run"
@@ -222,6 +224,7 @@ def test_a_second_process_cannot_write_a_folder_in_use(tmp_path: Path) -> None:
     assert resumed.resumed and len(resumed.sessions) == 2
 
 
+@pytest.mark.slow
 def test_within_one_process_a_new_session_takes_over_an_unclosed_one(tmp_path: Path) -> None:
     out = tmp_path / "run"
     abandoned = _session(out, resume=False)
@@ -247,6 +250,7 @@ except ValueError as err:
 """
 
 
+@pytest.mark.slow
 def test_a_session_stopped_by_an_error_frees_the_folder_for_other_processes(tmp_path: Path) -> None:
     """close() then a last checkpoint (what the runners do on an error) must not lock again."""
     out = tmp_path / "run"
@@ -258,6 +262,7 @@ def test_a_session_stopped_by_an_error_frees_the_folder_for_other_processes(tmp_
     assert subprocess.run(other, cwd=ROOT, capture_output=True, text=True).stdout == "opened\n"
 
 
+@pytest.mark.slow
 def test_a_session_dropped_without_close_frees_the_folder_when_collected(tmp_path: Path) -> None:
     import gc
 
@@ -272,6 +277,7 @@ def test_a_session_dropped_without_close_frees_the_folder_when_collected(tmp_pat
     assert subprocess.run(other, cwd=ROOT, capture_output=True, text=True).stdout == "opened\n"
 
 
+@pytest.mark.slow
 def test_checksums_are_not_added_while_another_process_writes_the_folder(tmp_path: Path) -> None:
     from benchmarks.storage import update_file_checksums
 

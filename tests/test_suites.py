@@ -316,6 +316,7 @@ def test_dump_config_writes_a_suite_whose_optimizer_cannot_be_imported_here(
     )
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("shape", ["square", "round"])
 def test_bench_section_shape_sets_every_runs_tool(tmp_path: Path, shape: str) -> None:
     target = tmp_path / "optimizers.toml"
@@ -340,6 +341,7 @@ def test_bench_refuses_an_unknown_section_shape(
     assert not (tmp_path / "o").exists()
 
 
+@pytest.mark.slow
 def test_python_m_benchmarks_help_works() -> None:
     result = subprocess.run(
         [sys.executable, "-m", "benchmarks", "--help"],

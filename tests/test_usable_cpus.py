@@ -17,6 +17,7 @@ needs_affinity = pytest.mark.skipif(
 )
 
 
+@pytest.mark.slow
 @needs_affinity
 def test_usable_cpus_is_the_affinity_not_the_machines_count() -> None:
     assert usable_cpus() == len(os.sched_getaffinity(0))
@@ -37,6 +38,7 @@ def test_usable_cpus_is_the_affinity_not_the_machines_count() -> None:
     assert out[2] == "3"  # the suite keeps 2 x 1 worker busy, plus one run being told
 
 
+@pytest.mark.slow
 def test_more_workers_than_cpus_warn_and_as_many_do_not(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(executors, "usable_cpus", lambda: 1)
     with pytest.warns(UserWarning, match=r"2 worker processes on the 1 CPU\(s\).*--workers 1"):

@@ -51,6 +51,7 @@ def _alive(pid: int) -> bool:
         return False
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("max_retries", "deaths", "starts", "survives"),
     [
@@ -83,6 +84,7 @@ def test_a_killed_item_is_retried_max_retries_times_then_failed(
     _assert_no_worker_left(tmp_path)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("max_retries", "starts"), [(0, 2), (2, 4)])
 def test_the_scheduler_retries_a_killed_item_alone(
     tmp_path: Path, max_retries: int, starts: int
@@ -100,6 +102,7 @@ def test_the_scheduler_retries_a_killed_item_alone(
     _assert_no_worker_left(tmp_path)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("value", [-1, MAX_RETRIES_MAX + 1, 1.0, True, "2", None])
 def test_max_retries_must_be_an_int_from_0_to_100(value: object) -> None:
     with pytest.raises((TypeError, ValueError), match="max_retries"):
@@ -123,6 +126,7 @@ def test_max_retries_reaches_the_suite_and_may_change_on_resume() -> None:
     assert "max_retries" in RUNTIME_FIELDS
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("argv", "match"),
     [

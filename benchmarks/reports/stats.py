@@ -43,7 +43,7 @@ __all__ = [
 #: The intervals of a mean the reports can give (their ``interval`` argument): ``"t"``, the
 #: Student t interval (the default), and ``"bootstrap"``, the percentile bootstrap. With the
 #: 3 to 10 seeds or goals of the suites the percentile bootstrap covers less than its level
-#: (``benchmarks/perf/interval_coverage.py`` measures both; docs/results-format.md).
+#: (``perf/studies/interval_coverage.py`` measures both; docs/results-format.md).
 INTERVALS = ("t", "bootstrap")
 
 #: What the reports call each interval.

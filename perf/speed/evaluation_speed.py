@@ -32,7 +32,7 @@ says which ran.
 ``--scene FIELD=VALUE`` measures a scene other than the default, e.g.
 ``--scene merge_fixed_links=False`` (the 13-link arm, the default before 2026-11-25).
 
-Run: ``taskset -c 0 python benchmarks/perf/evaluation_speed.py [--designs 12] [--repeats 3]
+Run: ``taskset -c 0 python -m perf.speed.evaluation_speed [--designs 12] [--repeats 3]
 [--scene FIELD=VALUE]`` (``taskset`` pins it, and its child processes, to one core).
 """
 
@@ -48,10 +48,10 @@ import tempfile
 import time
 from typing import Any
 
-import _args  # this folder: the script's own, on sys.path
 import numpy as np
-from physics_options import add_scene_option, designs
 
+from perf import _args
+from perf.speed.physics_options import add_scene_option, designs
 from tooldesign_env import ObjectiveSpec, SceneSpec, ToolDesignEnv, make_tool
 from tooldesign_env.geometry import SECTION_SHAPES, ToolSpec
 from tooldesign_env.objective import free_energy

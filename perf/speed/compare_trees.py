@@ -11,7 +11,7 @@ that fails stops the script with the run's error output, one line naming the run
 exit code.
 
 Run, e.g. main against this worktree, one core:
-``taskset -c 0 python benchmarks/perf/compare_trees.py /work/main . --rounds 3 -- --designs 12
+``taskset -c 0 python -m perf.speed.compare_trees /work/main . --rounds 3 -- --designs 12
 --repeats 2 --reference 0``.
 """
 
@@ -23,11 +23,23 @@ import re
 import statistics
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
-import _args  # this folder: the script's own, on sys.path
+from perf import _args
 
 SCRIPT = Path(__file__).with_name("evaluation_speed.py")
+#: The ``perf`` package this script belongs to: the child measures with it, whatever the tree.
+PERF = Path(__file__).resolve().parents[1]
+#: The child: ``perf`` from this checkout, everything else from PYTHONPATH (the tree measured);
+#: its working folder is one with no package in it, since ``python -c`` puts that first.
+_CHILD = (
+    "import importlib.util, runpy, sys; "
+    "spec = importlib.util.spec_from_file_location('perf', sys.argv.pop(1)); "
+    "perf = importlib.util.module_from_spec(spec); sys.modules['perf'] = perf; "
+    "spec.loader.exec_module(perf); "
+    "runpy.run_module('perf.speed.evaluation_speed', run_name='__main__', alter_sys=True)"
+)
 
 #: The lines of the first evaluation of a fresh process, and its figure in medians.
 _COLD = r"empty plan cache:\s+"
@@ -70,9 +82,15 @@ def run(tree: Path, extra: list[str]) -> tuple[dict[str, float], str]:
     and the exit code is the run's (1 for a run killed by a signal).
     """
     env = dict(os.environ, PYTHONPATH=str(tree))
-    done = subprocess.run(
-        [sys.executable, str(SCRIPT), *extra], env=env, check=False, capture_output=True, text=True
-    )
+    with tempfile.TemporaryDirectory(prefix="compare-trees-") as empty:
+        done = subprocess.run(
+            [sys.executable, "-c", _CHILD, str(PERF / "__init__.py"), *extra],
+            env=env,
+            cwd=empty,
+            check=False,
+            capture_output=True,
+            text=True,
+        )
     if done.returncode != 0:
         sys.stderr.write(done.stderr)
         how = (

@@ -29,7 +29,7 @@ halved (ratio of successive changes > 1) and the estimate at the finest steps di
 next coarser one by no more than about the noise over nudges; in (b), the median ratio tends
 to a constant (ideally 1) and the median |log ratio| shrinks as P decreases.
 
-Run: ``python benchmarks/perf/confidence_convergence.py [--seed 1] [--section-shape square|round]
+Run: ``python -m perf.studies.confidence_convergence [--seed 1] [--section-shape square|round]
 [--scene FIELD=VALUE] [--figure PATH]`` (about a minute and a half on one core). ``--scene``,
 e.g. ``merge_fixed_links=False`` (the 13-link arm, the default before 2026-11-25): a scene other
 than the default, in which every time step is run. Unless ``--figure`` says otherwise, the
@@ -50,16 +50,16 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-import _args  # this folder: the script's own, on sys.path
 import numpy as np
-from confidence_noise import nudged_scenes, score, spread, valid_designs
 from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
-from physics_options import add_scene_option  # this folder: the script's own, on sys.path
 
 from benchmarks.reports.comparison import DPI, figure_png_bytes
 from benchmarks.storage import atomic_write_bytes
+from perf import _args
+from perf.speed.physics_options import add_scene_option
+from perf.studies.confidence_noise import nudged_scenes, score, spread, valid_designs
 from tooldesign_env import ObjectiveSpec, SceneSpec, ToolDesignEnv, ToolSimulator, make_tool
 from tooldesign_env.geometry import SECTION_SHAPES, ToolSpec
 from tooldesign_env.specs import ControllerSpec, TaskSpec

@@ -12,7 +12,7 @@ Prints, in one run, for the same designs:
 * the load average, the CPU share of the serial run and the speed-up of a pure CPU-bound loop on
   the same pool, to tell a slow pool from a busy machine.
 
-Run: ``python benchmarks/perf/pool_speedup.py [--designs 16] [--workers 2] [--repeats 1]``.
+Run: ``python -m perf.speed.pool_speedup [--designs 16] [--workers 2] [--repeats 1]``.
 Nothing else should be running on the machine: the pool needs the cores to itself.
 """
 
@@ -24,10 +24,10 @@ import statistics
 import time
 from typing import Any
 
-import _args  # this folder: the script's own, on sys.path
 import numpy as np
 
 from benchmarks.execution import TaskSettings, evaluate_batch, make_executor
+from perf import _args
 
 
 def designs(n: int, seed: int) -> np.ndarray:

@@ -16,7 +16,7 @@ An option is ``spec.field=value`` with spec one of scene, plan, controller, tool
 ``scene.arm_floor_contacts=False``, ``scene.solver_iterations=20``, ``tool.n_segments=15``.
 Several options joined by ``+`` are applied together.
 
-Run: ``taskset -c 0 python benchmarks/perf/physics_options.py --designs 32 --repeats 3
+Run: ``taskset -c 0 python -m perf.speed.physics_options --designs 32 --repeats 3
 [--base spec.field=value] --option scene.arm_floor_contacts=False --option
 scene.solver_iterations=25``. ``--base`` changes the defaults themselves and every option with
 them: the figures measured before the round section became the default tool's were taken with
@@ -32,9 +32,9 @@ import statistics
 import time
 from typing import Any
 
-import _args  # this folder: the script's own, on sys.path
 import numpy as np
 
+from perf import _args
 from tooldesign_env import (
     ControllerSpec,
     PlanSpec,

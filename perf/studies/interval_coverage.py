@@ -7,7 +7,7 @@ right-skewed (lognormal, sigma 0.5) distribution, computes both intervals of eac
 with the reports' own functions, and prints the fraction that contain the true mean: the
 interval's real coverage, to compare with its nominal 95 %.
 
-Run: ``python benchmarks/perf/interval_coverage.py [--trials 2000] [--sizes 3 5 10 20]``.
+Run: ``python -m perf.studies.interval_coverage [--trials 2000] [--sizes 3 5 10 20]``.
 """
 
 from __future__ import annotations
@@ -16,10 +16,10 @@ import argparse
 import math
 from collections.abc import Callable
 
-import _args  # this folder: the script's own, on sys.path
 import numpy as np
 
 from benchmarks.reports.stats import INTERVALS, mean_interval
+from perf import _args
 
 #: name: (draw(rng, size), true mean)
 DISTRIBUTIONS: dict[str, tuple[Callable[[np.random.Generator, int], np.ndarray], float]] = {

@@ -8,7 +8,7 @@ each (wall time, creation and first reset excluded). ``async`` runs one process 
 rate grows with the cores it is given; ``sync`` runs its envs in turn in this process.
 docs/rl.md, "Throughput", quotes its output.
 
-Run: ``python benchmarks/perf/rl_throughput.py --episodes 64 --num-envs 1 2``.
+Run: ``python -m perf.speed.rl_throughput --episodes 64 --num-envs 1 2``.
 """
 
 from __future__ import annotations
@@ -17,9 +17,9 @@ import argparse
 import os
 import time
 
-import _args  # this folder: the script's own, on sys.path
 import numpy as np
 
+from perf import _args
 from tooldesign_env.rl import ToolDesignRLEnv, make_rl_vector_env
 
 

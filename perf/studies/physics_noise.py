@@ -15,7 +15,7 @@ the tool (``ToolSpec``), PyBullet's engine parameters
 or the contact dynamics of the box and the tool (``changeDynamics`` after the build). Settings
 that change the task (friction, mass) are measured to locate the chaos, not as candidates.
 
-Run: ``python benchmarks/perf/physics_noise.py [--designs 12] [--nudges 6] [--seed 1]
+Run: ``python -m perf.studies.physics_noise [--designs 12] [--nudges 6] [--seed 1]
 [--section-shape square|round] [--settings default "tool segments 60" ...]``.
 """
 
@@ -27,11 +27,11 @@ import time
 from dataclasses import replace
 from typing import Any
 
-import _args  # this folder: the script's own, on sys.path
 import numpy as np
-from confidence_noise import nudged_scenes, score, spread, valid_designs
 
 from benchmarks.execution import TaskSettings
+from perf import _args
+from perf.studies.confidence_noise import nudged_scenes, score, spread, valid_designs
 from tooldesign_env import ObjectiveSpec, SceneSpec, ToolSimulator, make_tool
 from tooldesign_env.geometry import SECTION_SHAPES, ToolSpec
 

@@ -5,15 +5,14 @@ space is seeded once (``env.action_space.seed(--seed)``), episode k resets with 
 steps ``env.action_space.sample()``. Prints how many designs were usable, the range of their
 rewards, and the rewards of the unusable ones.
 
-Run: ``python benchmarks/perf/rl_random_actions.py --episodes 40 --seed 0``.
+Run: ``python -m perf.studies.rl_random_actions --episodes 40 --seed 0``.
 """
 
 from __future__ import annotations
 
 import argparse
 
-import _args  # this folder: the script's own, on sys.path
-
+from perf import _args
 from tooldesign_env.rl import ToolDesignRLEnv
 
 

@@ -9,7 +9,7 @@ torques open loop (the floor of ``evaluation_speed.py``).
 Run (about a minute under valgrind; it counts instructions, not time)::
 
     valgrind --tool=callgrind --callgrind-out-file=/tmp/cg.out \
-        python benchmarks/perf/rollout_callgrind.py --designs 3
+        python -m perf.speed.rollout_callgrind --designs 3
     callgrind_annotate --inclusive=yes /tmp/cg.out | grep -E \
         "rollout|apply_and_step|arm_state|box_state|postProcessStatus|processContactPointData"
     callgrind_annotate --tree=calling --inclusive=yes /tmp/cg.out   # callees of each
@@ -21,9 +21,9 @@ from __future__ import annotations
 
 import argparse
 
-import _args  # this folder: the script's own, on sys.path
 import numpy as np
 
+from perf import _args
 from tooldesign_env import ToolGeometry, ToolSimulator, default_bounds, make_tool
 
 

@@ -21,7 +21,7 @@ floor, and prints the ratio an evaluation would have if everything else it does 
 geometry, the contact mobility, the estimator, the yaw, the tables, Python) took no time at all:
 a lower bound of the ratio under the issue's rule.
 
-Run on one core: ``taskset -c 0 python benchmarks/perf/ratio_bound.py [--designs 12]
+Run on one core: ``taskset -c 0 python -m perf.speed.ratio_bound [--designs 12]
 [--repeats 3]``.
 """
 
@@ -34,11 +34,11 @@ from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
 from typing import Any
 
-import _args  # this folder: the script's own, on sys.path
 import numpy as np
-from physics_options import designs
 
 import tooldesign_env.geometry.tool as tool_module
+from perf import _args
+from perf.speed.physics_options import designs
 from tooldesign_env import ToolDesignEnv, make_tool
 from tooldesign_env.control_loop import ControlLoops
 

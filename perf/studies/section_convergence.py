@@ -6,7 +6,7 @@ polyline is refined. For each section, this script evaluates the same random val
 each number of segments and prints, against the finest, the median and largest relative change of
 F over the designs.
 
-Run: ``python benchmarks/perf/section_convergence.py [--designs 16] [--seed 11]
+Run: ``python -m perf.studies.section_convergence [--designs 16] [--seed 11]
 [--segments 15 30 60 120]``.
 """
 
@@ -15,9 +15,8 @@ from __future__ import annotations
 import argparse
 import statistics
 
-import _args  # this folder: the script's own, on sys.path
-from confidence_noise import valid_designs
-
+from perf import _args
+from perf.studies.confidence_noise import valid_designs
 from tooldesign_env import ToolDesignEnv, ToolSimulator, ToolSpec
 from tooldesign_env.geometry import SECTION_SHAPES
 

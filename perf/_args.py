@@ -1,7 +1,7 @@
 """Argument types and checks shared by the perf scripts: a bad value is an argparse error naming it.
 
-A script imports them from this folder (``from _args import count``), as it imports its
-siblings: ``python benchmarks/perf/SCRIPT.py`` puts the folder first on ``sys.path``. Each type
+A script imports them as ``from perf import _args`` (the scripts run as modules from the
+repository's root: ``python -m perf.speed.SCRIPT``, see ``perf/__init__.py``). Each type
 returns a function for ``add_argument(type=...)`` that raises ``argparse.ArgumentTypeError``, so
 argparse prints ``SCRIPT.py: error: argument --NAME: must be ..., got 'VALUE'`` and exits with
 code 2 before anything is measured. :func:`check_scene` checks ``--scene``'s fields together,

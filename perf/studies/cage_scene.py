@@ -29,10 +29,10 @@ pull then drags it toward the base. This script measures that, with a seeded set
    noise, Spearman rho with p^X, the lowest p^X minus each other paired by goal, and the noise
    floor of F. ``--precisions`` and ``--seeds`` pick a comparable subset of a larger suite.
 
-Run: ``python benchmarks/perf/cage_scene.py [--random 6] [--seed 1] [--pick X Y]
+Run: ``python -m perf.studies.cage_scene [--random 6] [--seed 1] [--pick X Y]
 [--goal X Y] [--masses 0.3 0.5 0.7 0.9] [--section-shape square|round] [--scene FIELD=VALUE]`` or
-``python
-benchmarks/perf/cage_scene.py --claims docs/results/cage docs/results/square/robustness
+``python -m
+perf.studies.cage_scene --claims docs/results/cage docs/results/square/robustness
 --precisions 0 20 50 --seeds 5``. The committed placement (docs/results/cage) was measured with
 the square section and the 13-link arm, the defaults then: ``--section-shape square --scene
 merge_fixed_links=False`` repeats it. One rollout takes
@@ -49,16 +49,16 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import _args  # this folder: the script's own, on sys.path
 import numpy as np
 import pandas as pd
-from physics_options import add_scene_option
 from scipy import stats as sstats
 
 from benchmarks.reports.stats import t_interval
 from benchmarks.reports.suite import designs_table
 from benchmarks.storage import read_designs, read_manifest, read_retests
 from benchmarks.suites.config import suite_of_manifest
+from perf import _args
+from perf.speed.physics_options import add_scene_option
 from tooldesign_env import PlanSpec, SceneSpec, ToolSimulator, default_bounds, make_tool
 from tooldesign_env.geometry import SECTION_SHAPES, ToolSpec
 from tooldesign_env.schema import DEFAULT_GOAL

@@ -12,7 +12,7 @@ default loop runs in C inside PyBullet's server (:mod:`tooldesign_env.native`), 
 be timed from Python. The script also times that loop's rollouts on the same designs, alternating
 with the Python loop's, and prints both.
 
-Run on one core: ``taskset -c 0 python benchmarks/perf/rollout_breakdown.py [--designs 8]
+Run on one core: ``taskset -c 0 python -m perf.speed.rollout_breakdown [--designs 8]
 [--repeats 3]``.
 """
 
@@ -26,11 +26,11 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-import _args  # this folder: the script's own, on sys.path
 import numpy as np
 
 import tooldesign_env.bullet as bullet
 import tooldesign_env.native as native
+from perf import _args
 from tooldesign_env import ToolDesignEnv, make_tool
 from tooldesign_env.env import default_bounds
 from tooldesign_env.geometry import SECTION_SHAPES, ToolSpec

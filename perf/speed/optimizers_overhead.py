@@ -16,7 +16,7 @@ Prints, in one run:
 * the optimizer overhead per iteration (ask + tell, batch 8, d = 3, 15 iterations on a shifted
   sphere) of every available plugin.
 
-Run: ``python benchmarks/perf/optimizers_overhead.py [--time-cap 90] [--quality-seeds 3]``.
+Run: ``python -m perf.speed.optimizers_overhead [--time-cap 90] [--quality-seeds 3]``.
 Target: the ``bo`` batch under 2 s at 200 observations on a two-core machine.
 """
 
@@ -30,11 +30,11 @@ import warnings
 from collections.abc import Callable
 from typing import cast
 
-import _args  # this folder: the script's own, on sys.path
 import numpy as np
 
 import optimizers
 from optimizers.bo import BayesianOptimization
+from perf import _args
 
 BOUNDS = np.array([[-1.5, 1.5], [-1.5, 1.5], [-0.5, 0.5]])
 SHIFT = np.array([0.4, -0.7, 0.2])

@@ -32,7 +32,7 @@ the project from, so that they run the same code as the client (the executor che
 
 Run (a few minutes; ``--size full`` is the paper's suite, about 4,800 evaluations)::
 
-    python benchmarks/perf/dask_cluster.py [--size reduced|smoke|full] [--seeds N]
+    python -m perf.speed.dask_cluster [--size reduced|smoke|full] [--seeds N]
         [--iterations N] [--batch-size N] [--workers 2] [--local serial [--local process]]
         [--out DIR] [--port P] [--timeout S]
 
@@ -68,7 +68,6 @@ import pandas as pd
 import benchmarks
 from benchmarks.execution import WORKERS_MAX
 from benchmarks.execution._parent_death import die_with_parent
-from benchmarks.perf import _args  # this folder: imported as a script or by the tests
 from benchmarks.suites import (
     RUNTIME_FIELDS,
     SuiteConfig,
@@ -76,6 +75,7 @@ from benchmarks.suites import (
     check_optimizers,
     save_suite,
 )
+from perf import _args
 
 #: Sizes of the optimizers suite: ``reduced`` (default) takes a few minutes on 2 cores.
 SIZES: dict[str, dict[str, int]] = {

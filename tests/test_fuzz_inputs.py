@@ -1,9 +1,10 @@
 # mypy: disable-error-code="misc"
 # (the lambdas bind loop variables through default arguments, whose types mypy cannot infer)
-"""Fuzz every public entry point with bad and corner-case inputs; count the ones that fail badly.
+"""Every public entry point, fuzzed with bad and corner-case inputs: none may fail badly.
 
-Tries booleans, strings, None, NaN, +-inf, +-1e308, 10**400, negative and zero values and
-malformed sequences on:
+The fuzzer that was ``benchmarks/perf/fuzz_inputs.py``, as Hypothesis properties. Values are
+booleans, strings, None, NaN, +-inf, +-1e308, 10**400, negative and zero values and malformed
+sequences (:data:`NASTY`) and random magnitudes over the whole float64 and int range, tried on:
 
 * the env constructor (every keyword), ``reset`` options and the action check of ``step``;
 * every registered optimizer (bounds, batch size, seed) and ``tell`` values;
@@ -14,24 +15,20 @@ malformed sequences on:
   settings) set to each value, whole and inside the list or table it belongs in, plus unknown
   keys, written as a JSON file and read by ``load_suite``; random edits of the text of a valid
   JSON and TOML suite file (truncated, characters deleted or inserted, deep nesting, bytes that
-  are not UTF-8); and ``tooldesign bench --config FILE --out EXISTING_FILE`` on the bad files.
+  are not UTF-8); and ``tooldesign bench --config FILE --out EXISTING_FILE`` on the bad files;
+* the corners of the action space, simulated: reward and F are finite.
 
 A GOOD outcome is a ``TypeError``/``ValueError`` (or exit code 2 with one line and no traceback
 on the command line), or acceptance of a value that is valid for its field. For suite configs
 the error must also name the field (or the unknown key), so an error from deep inside (say
 "unhashable type") counts as bad. A BAD outcome is any other exception, a hang (more than
-``--timeout`` s), or a bool, string, non-finite or out-of-range number accepted where a number
-in a range is expected.
-
-Run: ``python benchmarks/perf/fuzz_inputs.py [--random 2000] [--seed 0] [--steps 0]
-[--edits 300]``.
-``--steps N`` also simulates N random actions (corners of the action space included) and checks
-that reward and F are finite. Exit code 1 when any outcome is bad.
+:data:`TIMEOUT` s), or a bool, string, non-finite or out-of-range number accepted where a number
+in a range is expected. The cheap properties run in the default tier; those that build envs,
+run optimizers or the command line many times are ``slow`` (``python -m pytest --all``).
 """
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import functools
 import io
@@ -39,13 +36,15 @@ import json
 import math
 import os
 import signal
-import sys
 import tempfile
 from collections.abc import Callable, Iterator
+from pathlib import Path
 from typing import Any
 
-import _args  # this folder: the script's own, on sys.path
 import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 NASTY: list[Any] = [
     True,
@@ -160,22 +159,6 @@ def _deadline(seconds: float) -> Iterator[None]:
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0)
         signal.signal(signal.SIGALRM, previous)
-
-
-def _random_values(rng: np.random.Generator, n: int) -> list[Any]:
-    """Random magnitudes over the whole float64 range, both signs, and random nasty items."""
-    out: list[Any] = []
-    for _ in range(n):
-        kind = rng.integers(4)
-        if kind == 0:
-            out.append(float(rng.choice([-1, 1]) * 10.0 ** rng.uniform(-320, 308)))
-        elif kind == 1:
-            out.append(int(rng.integers(-(2**62), 2**62)) * int(rng.choice([1, 10**20])))
-        elif kind == 2:
-            out.append(NASTY[int(rng.integers(len(NASTY)))])
-        else:
-            out.append(float(rng.normal()))
-    return out
 
 
 def fuzz_env(tally: Tally, values: list[Any]) -> None:
@@ -359,7 +342,7 @@ def _run_cli(tally: Tally, argv: list[str]) -> tuple[Any, str] | None:
     return code, err.getvalue()
 
 
-def fuzz_cli(tally: Tally) -> None:
+def fuzz_cli(tally: Tally, texts: list[str] = CLI_TEXT) -> None:
     """Every numeric flag of ``design`` and ``evaluate`` with text a user could type."""
     with tempfile.NamedTemporaryFile(prefix="tooldesign-fuzz-") as existing:
         for command, flags in CLI_FLAGS.items():
@@ -367,7 +350,7 @@ def fuzz_cli(tally: Tally) -> None:
             if command == "evaluate":
                 base += ["--coeffs", "0", "0", "0"]
             for flag in flags:
-                for text in CLI_TEXT:
+                for text in texts:
                     argv = [*base, flag, text]
                     ran = _run_cli(tally, argv)
                     if ran is None:
@@ -538,7 +521,7 @@ def _json_text(data: Any) -> str | None:
         return None
 
 
-def fuzz_suite_config(tally: Tally, values: list[Any]) -> list[Any]:
+def fuzz_suite_config(tally: Tally, values: list[Any], folder: Path) -> list[Any]:
     """Every field of a suite set to each value, read from a JSON file.
 
     A value JSON cannot write is given to ``suite_from_json`` in memory instead. Returns the
@@ -546,7 +529,6 @@ def fuzz_suite_config(tally: Tally, values: list[Any]) -> list[Any]:
     """
     from benchmarks.suites import load_suite, suite_from_json
 
-    folder = tempfile.mkdtemp(prefix="tooldesign-fuzz-suites-")
     refused: list[Any] = []
     for index, value in enumerate(values):
         for number, place in enumerate(SUITE_PLACES):
@@ -572,11 +554,12 @@ def _load_and_plan(load: Callable[[str], Any], path: str) -> None:
     load(path).tasks()
 
 
-def fuzz_suite_files(tally: Tally, rng: np.random.Generator, edits: int) -> list[str]:
+def fuzz_suite_files(
+    tally: Tally, rng: np.random.Generator, edits: int, folder: Path
+) -> list[str]:
     """Random edits of the text of a valid JSON and TOML suite file, and odd files."""
     from benchmarks.suites import builtin_suite, load_suite, save_suite
 
-    folder = tempfile.mkdtemp(prefix="tooldesign-fuzz-files-")
     texts = {}
     for suffix in (".json", ".toml"):
         valid = os.path.join(folder, f"valid{suffix}")
@@ -664,79 +647,125 @@ def fuzz_steps(tally: Tally, n: int, rng: np.random.Generator) -> None:
     env.close()
 
 
-def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
-    """The command line, checked: a bad value is an argparse error naming it."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument(
-        "--random", type=_args.count(0), default=200, help="random values on top of the list"
-    )
-    parser.add_argument("--seed", type=_args.seed, default=0)
-    parser.add_argument("--steps", type=_args.count(0), default=0, help="simulated random actions")
-    parser.add_argument(
-        "--timeout",
-        type=_args.number(0.0, above=True, unit="s"),
-        default=20.0,
-        help="s before a call is a hang",
-    )
-    parser.add_argument(
-        "--edits", type=_args.count(0), default=300, help="random edits of the text of a suite file"
-    )
-    parser.add_argument(
-        "--cli-files",
-        type=_args.count(0),
-        default=400,
-        help="bad suite files also run through the CLI",
-    )
-    return parser.parse_args(argv)
+# --- the properties ----------------------------------------------------------------------------
+
+#: The fuzzer's values: the nasty list, and random magnitudes over the whole float64 range and
+#: ints far beyond int64, both signs.
+VALUES = st.one_of(
+    st.sampled_from(NASTY),
+    st.floats(allow_nan=False, allow_infinity=False),
+    st.integers(min_value=-(2**62) * 10**20, max_value=2**62 * 10**20),
+    st.floats(),
+)
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Fuzz and print the counts; exit code 1 if anything failed badly."""
-    global TIMEOUT
-    args = parse_args(argv)
-    TIMEOUT = args.timeout
-    os.environ.setdefault("PYTHONWARNINGS", "ignore")
-    rng = np.random.default_rng(args.seed)
-    values = [*NASTY, *_random_values(rng, args.random)]
-    for part in (fuzz_env, fuzz_optimizers, fuzz_design_config):
-        tally = Tally()
-        part(tally, values)
-        _report(part.__name__, tally)
+def _no_bad(tally: Tally) -> None:
+    assert tally.tried > 0
+    assert tally.bad == [], "\n".join(tally.bad[:20])
+
+
+def test_the_oracle_counts_what_fails_badly() -> None:
+    """The checks below can fail: an accepted bad value, a stray exception, an unnamed field."""
     tally = Tally()
-    refused = fuzz_suite_config(tally, values)
-    _report("fuzz_suite_config", tally)
+    tally.check("accepts nan", lambda: None, value=float("nan"))
+    tally.check("raises KeyError", lambda: {}["x"], value=1.0)
+    tally.check("names nothing", lambda: int("x"), value="x", allowed=_never, names="seed")
+    tally.check("refuses well", lambda: int("x"), value="x", allowed=_never, names="int()")
+    tally.check("accepts a number", lambda: None, value=2.0)
+    assert tally.tried == 5
+    assert [line.split(":")[0] for line in tally.bad] == [
+        "accepts nan",
+        "raises KeyError",
+        "names nothing",
+    ]
+
+
+@settings(max_examples=30, deadline=None)
+@given(value=VALUES)
+def test_design_config_fields_take_only_valid_values(value: Any) -> None:
     tally = Tally()
-    files = fuzz_suite_files(tally, rng, args.edits)
-    _report("fuzz_suite_files", tally)
+    fuzz_design_config(tally, [value])
+    _no_bad(tally)
+
+
+@settings(max_examples=10, deadline=None)
+@given(value=VALUES)
+def test_every_suite_field_takes_only_valid_values_and_its_errors_name_it(
+    tmp_path_factory: pytest.TempPathFactory, value: Any
+) -> None:
     tally = Tally()
-    # Every odd file and edit, and an even spread over the refused configs.
-    step = max(1, len(refused) // max(1, args.cli_files))
-    fuzz_suite_cli(tally, [*files, *refused[::step]])
-    _report("fuzz_suite_cli", tally)
-    for name, run in (("fuzz_cli", fuzz_cli), ("fuzz_steps", None)):
-        tally = Tally()
-        if run is not None:
-            run(tally)
-        elif args.steps:
-            fuzz_steps(tally, args.steps, rng)
-        else:
-            continue
-        _report(name, tally)
-    print(f"total: {TOTAL['tried']} inputs tried, {TOTAL['bad']} failed badly")
-    return 1 if TOTAL["bad"] else 0
+    fuzz_suite_config(tally, [value], tmp_path_factory.mktemp("suites"))
+    _no_bad(tally)
 
 
-TOTAL = {"tried": 0, "bad": 0}
+@settings(max_examples=5, deadline=None)
+@given(seed=st.integers(min_value=0, max_value=2**32 - 1))
+def test_odd_and_edited_suite_files_are_read_or_refused_naming_the_file(
+    tmp_path_factory: pytest.TempPathFactory, seed: int
+) -> None:
+    tally = Tally()
+    rng = np.random.default_rng(seed)
+    fuzz_suite_files(tally, rng, 30, tmp_path_factory.mktemp("files"))
+    _no_bad(tally)
 
 
-def _report(name: str, tally: Tally) -> None:
-    TOTAL["tried"] += tally.tried
-    TOTAL["bad"] += len(tally.bad)
-    print(f"{name}: {tally.tried} inputs tried, {len(tally.bad)} failed badly")
-    for line in tally.bad[:20]:
-        print(f"  BAD {line}")
-    sys.stdout.flush()
+@pytest.mark.slow
+@settings(max_examples=25, deadline=None)
+@given(value=VALUES)
+def test_the_env_takes_only_valid_values(value: Any) -> None:
+    tally = Tally()
+    fuzz_env(tally, [value])
+    _no_bad(tally)
 
 
-if __name__ == "__main__":
-    sys.exit(main())
+@pytest.mark.slow
+@settings(max_examples=15, deadline=None)
+@given(value=VALUES)
+def test_every_optimizer_takes_only_valid_values_and_tells(value: Any) -> None:
+    tally = Tally()
+    fuzz_optimizers(tally, [value])
+    _no_bad(tally)
+
+
+@pytest.mark.slow
+def test_every_numeric_flag_refuses_bad_text_in_one_line() -> None:
+    tally = Tally()
+    fuzz_cli(tally)
+    _no_bad(tally)
+
+
+@pytest.mark.slow
+@settings(max_examples=20, deadline=None)
+@given(text=st.text(max_size=12))
+def test_every_numeric_flag_refuses_any_text_in_one_line(text: str) -> None:
+    # --out is an existing file, so even a valid value ends in a one-line error (exit code 2).
+    tally = Tally()
+    fuzz_cli(tally, [text])
+    _no_bad(tally)
+
+
+@pytest.mark.slow
+@settings(max_examples=10, deadline=None)
+@given(value=VALUES)
+def test_bench_refuses_each_refused_suite_file_in_one_line(
+    tmp_path_factory: pytest.TempPathFactory, value: Any
+) -> None:
+    tally = Tally()
+    refused = fuzz_suite_config(tally, [value], tmp_path_factory.mktemp("suites"))
+    fuzz_suite_cli(tally, refused)
+    _no_bad(tally)
+
+
+@pytest.mark.slow
+def test_bench_refuses_odd_and_edited_suite_files_in_one_line(tmp_path: Path) -> None:
+    tally = Tally()
+    files = fuzz_suite_files(tally, np.random.default_rng(0), 300, tmp_path)
+    fuzz_suite_cli(tally, files)
+    _no_bad(tally)
+
+
+@pytest.mark.slow
+def test_the_corners_of_the_action_space_give_a_finite_reward_and_f() -> None:
+    tally = Tally()
+    fuzz_steps(tally, 8, np.random.default_rng(0))
+    _no_bad(tally)

@@ -10,7 +10,7 @@ of each variant's ratio to the baseline of its round.
 
 Issue 13's comparison, one core, square section for all (fb4a75c had no other):
 ``git worktree add /tmp/fb4a75c fb4a75c`` then
-``taskset -c 0 python benchmarks/perf/against_baseline.py /tmp/fb4a75c --rounds 6
+``taskset -c 0 python -m perf.speed.against_baseline /tmp/fb4a75c --rounds 6
 --variant "" --variant "--scene merge_fixed_links=False"``.
 """
 
@@ -25,17 +25,30 @@ import subprocess
 import sys
 from pathlib import Path
 
-import _args  # this folder: the script's own, on sys.path
+from perf import _args
 
 HERE = Path(__file__).resolve().parents[2]
+#: Where a tree's script is: older trees kept the perf scripts in the benchmarks package.
 SCRIPT = Path("benchmarks") / "perf" / "evaluation_speed.py"
+#: Newer trees keep it in perf/speed/ and run it as a module from the tree's root.
+MODULE = Path("perf") / "speed" / "evaluation_speed.py"
 EVALUATION = re.compile(r"evaluation of F[^\n]*?median ([0-9.]+) s")
+
+
+def _script(tree: Path) -> list[str] | None:
+    """How to run ``tree``'s own evaluation_speed (from the tree's root), or None if it has none."""
+    if (tree / SCRIPT).is_file():
+        return [str(tree / SCRIPT)]
+    if (tree / MODULE).is_file():
+        return ["-m", "perf.speed.evaluation_speed"]
+    return None
 
 
 def _median_evaluation(tree: Path, args: list[str]) -> float:
     env = {**os.environ, "PYTHONPATH": str(tree)}
+    script = _script(tree) or []
     out = subprocess.run(
-        [sys.executable, str(tree / SCRIPT), *args],
+        [sys.executable, *script, *args],
         env=env,
         cwd=tree,
         capture_output=True,
@@ -45,7 +58,7 @@ def _median_evaluation(tree: Path, args: list[str]) -> float:
     match = EVALUATION.search(out.stdout)
     if out.returncode != 0 or match is None:
         raise SystemExit(
-            f"{tree / SCRIPT} {' '.join(args)} failed (exit {out.returncode}):\n"
+            f"{' '.join(script)} in {tree} {' '.join(args)} failed (exit {out.returncode}):\n"
             f"{out.stdout[-2000:]}{out.stderr[-2000:]}"
         )
     return float(match.group(1))
@@ -101,8 +114,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
             except ValueError as error:
                 parser.error(f"{name} {text!r}: {error} (the arguments are split as a shell does)")
     baseline = args.baseline.resolve()
-    if not (baseline / SCRIPT).is_file():
-        parser.error(f"{baseline} has no {SCRIPT}: give the root of a source tree")
+    if _script(baseline) is None:
+        parser.error(f"{baseline} has no {SCRIPT} nor {MODULE}: give the root of a source tree")
     return args
 
 

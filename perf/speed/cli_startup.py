@@ -3,7 +3,7 @@
 Each command is run ``--repeat`` times in a fresh ``python`` process (as the console script runs
 it); printed: the median and the worst wall-clock time, and whether a heavy module was imported.
 
-Run: ``python benchmarks/perf/cli_startup.py [--repeat 5]``. Target (issue 11): under 1 s each,
+Run: ``python -m perf.speed.cli_startup [--repeat 5]``. Target (issue 11): under 1 s each,
 with none of PyBullet, Matplotlib and torch imported (``tests/test_cli.py`` checks the imports).
 """
 
@@ -15,7 +15,7 @@ import subprocess
 import sys
 import time
 
-import _args  # this folder: the script's own, on sys.path
+from perf import _args
 
 HEAVY = ("pybullet", "matplotlib", "pandas", "scipy", "torch")
 

@@ -8,7 +8,7 @@ task, then ``--tasks`` random designs at random goals (the paper's range) and bo
 ``--mass-range``, and prints the bound's minimum, median and maximum and how many episodes were
 simulated twice, for each set (docs/performance.md, "A lower floor").
 
-Run: ``python benchmarks/perf/floor_guard.py --designs 30 --tasks 40``.
+Run: ``python -m perf.speed.floor_guard --designs 30 --tasks 40``.
 """
 
 from __future__ import annotations
@@ -17,11 +17,11 @@ import argparse
 import warnings
 from typing import cast
 
-import _args  # this folder: the script's own, on sys.path
 import numpy as np
 from gymnasium.spaces import Box
 
 import tooldesign_env.floor_guard as floor_guard
+from perf import _args
 from tooldesign_env import ToolDesignEnv
 from tooldesign_env.specs import BOX_MASS_MAX
 

@@ -3,7 +3,7 @@
 Evaluates N designs (default 1000) in one env and prints the resident memory after a warm-up
 and at the end, the growth, and any file left in the temporary directory by the run.
 
-Run: ``python benchmarks/perf/evaluation_memory.py [--evaluations 1000]``.
+Run: ``python -m perf.speed.evaluation_memory [--evaluations 1000]``.
 Target: growth below 50 MB, no files left; the exit code is 1 when either is missed.
 """
 
@@ -14,10 +14,10 @@ import os
 import tempfile
 import time
 
-import _args  # this folder: the script's own, on sys.path
 import gymnasium as gym
 import numpy as np
 
+from perf import _args
 from tooldesign_env import ToolDesignEnv
 
 

@@ -23,7 +23,7 @@ With ``--scene-samples K ...`` it also scores F averaged over K scenes
 at the K fixed offsets of ``scene_offsets`` added to its nudge, and the table gives the spread of
 the mean over the nudges for each K, and its cost relative to one rollout.
 
-Run: ``python benchmarks/perf/confidence_noise.py [--designs 12] [--nudges 6] [--seed 1]
+Run: ``python -m perf.studies.confidence_noise [--designs 12] [--nudges 6] [--seed 1]
 [--scene-samples 1 4 8] [--section-shape square|round] [--scene FIELD=VALUE]`` (the section: the
 default tool's, round; ``--scene``, e.g. ``merge_fixed_links=False``: a scene other than the
 default, nudged the same way).
@@ -43,11 +43,11 @@ import statistics
 import time
 from dataclasses import replace
 
-import _args  # this folder: the script's own, on sys.path
 import numpy as np
-from physics_options import add_scene_option  # this folder: the script's own, on sys.path
 
 from benchmarks.execution import TaskSettings
+from perf import _args
+from perf.speed.physics_options import add_scene_option
 from tooldesign_env import (
     ObjectiveSpec,
     SceneSpec,
