@@ -7,6 +7,7 @@ a protocol instance is an IOH **instance** (its number, 1-24), the tool degree d
 **dimension**, and each (instance, seed) run of an optimizer is one **run**::
 
     ioh/<optimizer>/IOHprofiler_f1_push.json            meta: algorithm, scenarios, runs
+                                                        (<optimizer> percent-encoded)
     ioh/<optimizer>/data_f1_push/IOHprofiler_f1_DIM<d>.dat
 
 Each ``.dat`` holds, per run in the order of the JSON's ``runs``, a header line
@@ -20,6 +21,7 @@ from __future__ import annotations
 
 import json
 import os
+import urllib.parse
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -65,7 +67,7 @@ def export_ioh(
     out = Path(out_dir)
     written = []
     for optimizer, frame in runs.groupby("optimizer", sort=True):
-        folder = out / str(optimizer)
+        folder = out / urllib.parse.quote(str(optimizer), safe="")  # a module:Class label too
         data_dir = folder / f"data_f{_FUNCTION_ID}_{_FUNCTION_NAME}"
         data_dir.mkdir(parents=True, exist_ok=True)
         scenarios = []

@@ -1,0 +1,124 @@
+"""The protocol end to end at size smoke: run, IOHprofiler round trip, a user's run merged."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from benchmarks.protocol import (
+    export_ioh,
+    load_runs,
+    make_protocol_report,
+    protocol_config,
+    run_protocol,
+)
+
+ROOT = Path(__file__).resolve().parents[1]
+PLUGIN = ROOT / "tests" / "fixtures" / "external_plugin"
+
+pytestmark = pytest.mark.slow
+
+
+@pytest.fixture(scope="module")
+def smoke_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("protocol") / "smoke"
+    config = protocol_config("smoke").replace(executor="serial")
+    run_protocol(config, out, progress=False)
+    return out
+
+
+def test_smoke_run_has_every_cell_and_resumes_without_work(smoke_run):
+    config, runs = load_runs(smoke_run)
+    assert config.size == "smoke"
+    counts = runs.groupby(["degree", "instance", "optimizer"]).size()
+    assert len(counts) == 2 * 2 * 2
+    assert counts.xs(3, level="degree").eq(8).all() and counts.xs(5, level="degree").eq(12).all()
+    # A rerun finds every run done and changes no result.
+    run_protocol(config.replace(executor="serial"), smoke_run, progress=False)
+    _, again = load_runs(smoke_run)
+    pd.testing.assert_frame_equal(runs, again)
+
+
+def test_smoke_report_has_the_tables_and_figures(smoke_run, tmp_path):
+    files = make_protocol_report([smoke_run], tmp_path / "report")
+    names = {f.name for f in files}
+    assert {"report.md", "runs.csv", "runtimes.csv", "ecdf_d3.png", "ecdf_pooled.png"} <= names
+    runs = pd.read_csv(tmp_path / "report" / "runs.csv")
+    assert runs["score"].between(0, 1).all()
+    times = pd.read_csv(tmp_path / "report" / "runtimes.csv")
+    # A finite runtime lies within the budget; censored ones are inf.
+    finite = times[np.isfinite(times["runtime"])]
+    assert (finite["runtime"] <= finite["budget"]).all() and (finite["runtime"] >= 1).all()
+    text = (tmp_path / "report" / "report.md").read_text()
+    for heading in ("Area under the ECDF", "Expected running time", "Power", "Ranking"):
+        assert heading in text
+
+
+def test_ioh_export_is_read_back_by_iohinspector(smoke_run, tmp_path):
+    iohinspector = pytest.importorskip("iohinspector")
+    _, runs = load_runs(smoke_run)
+    export_ioh(runs, tmp_path / "ioh")
+    manager = iohinspector.DataManager()
+    manager.add_folder(str(tmp_path / "ioh"))
+    overview = manager.overview.to_pandas()
+    assert len(overview) == runs.groupby(["optimizer", "degree", "instance", "seed"]).ngroups
+    data = manager.load(True, True).to_pandas()
+    for (optimizer, degree, number), run in runs.groupby(
+        ["optimizer", "degree", "instance_number"]
+    ):
+        row = overview[
+            (overview["algorithm_name"] == optimizer)
+            & (overview["dimension"] == degree)
+            & (overview["instance"] == number)
+        ]
+        assert len(row) == 1
+        assert int(row["evals"].iloc[0]) == len(run)
+        assert float(row["best_y"].iloc[0]) == run["free_energy"].min()  # bit for bit
+        logged = data[data["data_id"] == row["data_id"].iloc[0]].sort_values("evaluations")
+        best = np.minimum.accumulate(run.sort_values("evaluation")["free_energy"].to_numpy())
+        for evals, y in zip(logged["evaluations"], logged["raw_y"], strict=True):
+            assert y == best[int(evals) - 1]
+
+
+def test_a_users_plugin_runs_alone_and_is_reported_beside_the_builtins(smoke_run, tmp_path):
+    out = tmp_path / "mine"
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(PLUGIN), str(ROOT)])}
+    done = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "benchmarks",
+            "protocol",
+            "--size",
+            "smoke",
+            "--optimizer",
+            "tooldesign_hillclimb:HillClimb",
+            "--baseline",
+            str(smoke_run),
+            "--executor",
+            "serial",
+            "--no-progress",
+            "--out",
+            str(out),
+        ],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        env=env,
+    )
+    assert done.returncode == 0, done.stderr
+    runs = pd.read_csv(out / "report" / "runs.csv")
+    assert set(runs["optimizer"]) == {"tooldesign_hillclimb:HillClimb", "cmaes", "random"}
+    # Only the user's optimizer ran in its folder.
+    _, mine = load_runs(out)
+    assert set(mine["optimizer"]) == {"tooldesign_hillclimb:HillClimb"}
+    assert (out / "ioh" / "tooldesign_hillclimb%3AHillClimb").is_dir()
+    # The built-ins' folder cannot be reported twice beside itself.
+    with pytest.raises(ValueError, match="is in both"):
+        make_protocol_report([smoke_run, smoke_run], tmp_path / "twice")
