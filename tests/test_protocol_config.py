@@ -12,6 +12,7 @@ import pytest
 
 from benchmarks.protocol import (
     DEGREES,
+    PROTOCOL_SIZES,
     ProtocolConfig,
     bounds_of,
     buildable_fraction,
@@ -185,3 +186,11 @@ def test_buildable_fraction_of_a_few_designs_without_the_scene():
     assert counted.n == 20 and 0 <= counted.buildable <= 20 and counted.usable is None
     assert "d = 5" in counted.text()
     assert np.isfinite(counted.buildable / counted.n)
+
+
+def test_the_command_lines_constants_agree_with_the_protocols():
+    from benchmarks.cli import _common
+    from benchmarks.protocol import PROTOCOL_SUITE_NAME
+
+    assert _common.PROTOCOL_SUITE_NAME == PROTOCOL_SUITE_NAME
+    assert _common.PROTOCOL_SIZES == PROTOCOL_SIZES
