@@ -48,7 +48,7 @@ def test_smoke_run_has_every_cell_and_resumes_without_work(smoke_run):
 def test_smoke_report_has_the_tables_and_figures(smoke_run, tmp_path):
     files = make_protocol_report([smoke_run], tmp_path / "report")
     names = {f.name for f in files}
-    assert {"report.md", "runs.csv", "runtimes.csv", "ecdf_d3.png", "ecdf_pooled.png"} <= names
+    assert {"report.md", "runs.csv", "runtimes.csv", "references.csv", "ecdf_pooled.png"} <= names
     runs = pd.read_csv(tmp_path / "report" / "runs.csv")
     assert runs["score"].between(0, 1).all()
     times = pd.read_csv(tmp_path / "report" / "runtimes.csv")
@@ -56,7 +56,7 @@ def test_smoke_report_has_the_tables_and_figures(smoke_run, tmp_path):
     finite = times[np.isfinite(times["runtime"])]
     assert (finite["runtime"] <= finite["budget"]).all() and (finite["runtime"] >= 1).all()
     text = (tmp_path / "report" / "report.md").read_text()
-    for heading in ("Area under the ECDF", "Expected running time", "Power", "Ranking"):
+    for heading in ("Area under the ECDF", "Expected running time", "Power", "Ranking", "F_ref"):
         assert heading in text
 
 
@@ -122,3 +122,16 @@ def test_a_users_plugin_runs_alone_and_is_reported_beside_the_builtins(smoke_run
     # The built-ins' folder cannot be reported twice beside itself.
     with pytest.raises(ValueError, match="is in both"):
         make_protocol_report([smoke_run, smoke_run], tmp_path / "twice")
+
+
+def test_an_unfinished_folder_is_not_reported(smoke_run, tmp_path):
+    import json
+    import shutil
+
+    copy = tmp_path / "copy"
+    shutil.copytree(smoke_run, copy)
+    record = json.loads((copy / "protocol.json").read_text())
+    record["config"]["n_seeds"] = 2  # as if the second seed's runs had not been made yet
+    (copy / "protocol.json").write_text(json.dumps(record))
+    with pytest.raises(ValueError, match="is unfinished .2 of 4 runs started, 16 of 32 evaluations"):
+        load_runs(copy)

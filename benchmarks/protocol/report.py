@@ -12,6 +12,7 @@ against the references (:mod:`benchmarks.protocol.measures`) and writes::
                                   bootstrapped 95 % bands over instances
         runtimes.csv              one row per (optimizer, instance, d, seed, target)
         runs.csv                  one row per run: AUC of its ECDF, normalized regret at budgets
+        references.csv            per cell: F_ref, noise floor, straight tool, random sampling
         comparisons.csv, ranks.csv, power.csv
                                   per d and pooled ("all")
 
@@ -23,6 +24,7 @@ block of the paired comparison.
 
 from __future__ import annotations
 
+import hashlib
 import math
 import os
 from collections.abc import Sequence
@@ -89,6 +91,14 @@ def load_runs(folder: str | os.PathLike[str]) -> tuple[ProtocolConfig, pd.DataFr
             )
         log = ResultStore(path).read()
         log = log.sort_values(["optimizer", "seed", "iteration", "candidate"], kind="stable")
+        sizes = log.groupby(["optimizer", "seed"]).size()
+        wanted = len(config.optimizers) * config.n_seeds
+        if len(sizes) != wanted or not (sizes == config.budget(degree)).all():
+            raise ValueError(
+                f"{path} is unfinished ({len(sizes)} of {wanted} runs started, "
+                f"{int(sizes.sum())} of {wanted * config.budget(degree)} evaluations): resume it "
+                "with the command that made it"
+            )
         log["evaluation"] = log.groupby(["optimizer", "seed"]).cumcount() + 1
         f = log["free_energy"].where(log["status"] != "failed")
         columns = [f"c{k}" for k in range(1, degree + 1)]
@@ -275,6 +285,34 @@ def _auc_table(scores: pd.DataFrame, by: str) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def _reference_table(
+    refs: dict[tuple[str, int], dict[str, Any]], config: ProtocolConfig, budgets: dict[int, int]
+) -> pd.DataFrame:
+    rows = []
+    for instance, degree in config.cells():
+        ref = refs.get((instance.id, degree))
+        if ref is None:
+            continue  # measure_runs has refused a run without a reference already
+        pool = np.asarray(ref["random_pool"], dtype=float)
+        rows.append(
+            {
+                "d": degree,
+                "instance": instance.id,
+                "set": instance.set,
+                "F_ref": float(ref["f_ref"]),
+                "noise floor": float(ref["noise_floor"]),
+                "final distance (m)": float(ref["final_distance"]),
+                "F straight": float(ref["f_straight"]),
+                "F random median": float(np.median(pool)),
+                "F_random(budget)": float(
+                    expected_best_of_random(pool, np.array([budgets[degree]]))[0]
+                ),
+                "found by": str(ref["method"]),
+            }
+        )
+    return pd.DataFrame(rows)
+
+
 def _ert_table(times: pd.DataFrame) -> pd.DataFrame:
     rows = []
     n = times["target_index"].max() + 1
@@ -328,10 +366,13 @@ def make_protocol_report(
     refs = load_references(ref_path)
     budgets = {d: config.budget(d) for d in config.degrees}
     times, scores = measure_runs(runs, refs, budgets)
+    reference_table = _reference_table(refs, config, budgets)
+    digest = hashlib.sha256(Path(ref_path).read_bytes()).hexdigest()[:16]
     out = Path(out_dir) if out_dir is not None else Path(folders[0]) / "report"
     out.mkdir(parents=True, exist_ok=True)
     written = []
-    for name, frame in (("runtimes.csv", times), ("runs.csv", scores)):
+    tables = (("runtimes.csv", times), ("runs.csv", scores), ("references.csv", reference_table))
+    for name, frame in tables:
         written.append(atomic_write_text(out / name, frame.to_csv(index=False)))
     for degree in config.degrees:
         path = out / f"ecdf_d{degree}.png"
@@ -348,7 +389,7 @@ def make_protocol_report(
         f"{list(config.degrees)}, {config.n_seeds} seed(s), budgets "
         f"{', '.join(f'd = {d}: {b}' for d, b in budgets.items())} evaluations, p^X = "
         f"{config.goal_precision:g}. Run folders: {', '.join(str(f) for f in folders)}. "
-        f"References: `{ref_path}`.",
+        f"References: `{ref_path}` (SHA-256 {digest}...).",
         "",
         f"Targets: {N_TARGETS} per (instance, d), from the median F of a random design down to "
         "F_ref + noise floor. Score of a run: the area under its ECDF over its targets (0 to 1, "
@@ -364,6 +405,11 @@ def make_protocol_report(
         "## Expected running time (evaluations; median over instances)",
         "",
         _md_table(_ert_table(times)),
+        "",
+        "## References (F_random at the full budget; the noise floor is the last target's "
+        "distance to F_ref)",
+        "",
+        _md_table(reference_table, ".6g"),
         "",
         "## Public and held-out instances (mean score)",
         "",
