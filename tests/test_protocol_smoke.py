@@ -81,9 +81,13 @@ def test_ioh_export_is_read_back_by_iohinspector(smoke_run, tmp_path):
         assert int(row["evals"].iloc[0]) == len(run)
         assert float(row["best_y"].iloc[0]) == run["free_energy"].min()  # bit for bit
         logged = data[data["data_id"] == row["data_id"].iloc[0]].sort_values("evaluations")
-        best = np.minimum.accumulate(run.sort_values("evaluation")["free_energy"].to_numpy())
-        for evals, y in zip(logged["evaluations"], logged["raw_y"], strict=True):
-            assert y == best[int(evals) - 1]
+        f = run.sort_values("evaluation")["free_energy"].to_numpy()
+        best = np.minimum.accumulate(f)
+        at = logged["evaluations"].to_numpy(dtype=int) - 1
+        assert logged["raw_y"].tolist() == f[at].tolist()  # each logged evaluation's own F
+        # Every improvement is logged: the best so far read back equals the run's everywhere.
+        assert np.minimum.accumulate(logged["raw_y"].to_numpy()).tolist() == best[at].tolist()
+        assert set(np.flatnonzero(np.diff(best, prepend=np.inf) < 0)) <= set(at.tolist())
 
 
 def test_a_users_plugin_runs_alone_and_is_reported_beside_the_builtins(smoke_run, tmp_path):
@@ -133,5 +137,55 @@ def test_an_unfinished_folder_is_not_reported(smoke_run, tmp_path):
     record = json.loads((copy / "protocol.json").read_text())
     record["config"]["n_seeds"] = 2  # as if the second seed's runs had not been made yet
     (copy / "protocol.json").write_text(json.dumps(record))
-    with pytest.raises(ValueError, match="is unfinished .2 of 4 runs started, 16 of 32 evaluations"):
+    with pytest.raises(ValueError, match="unfinished .2 of 4 runs started, 16 of 32 evaluations"):
         load_runs(copy)
+
+
+def test_the_export_equals_what_the_ioh_packages_own_logger_writes(smoke_run, tmp_path):
+    """The same runs replayed through ``ioh``'s Analyzer: the same runs, evaluations and values."""
+    ioh = pytest.importorskip("ioh")
+    import json
+
+    _, runs = load_runs(smoke_run)
+    runs = runs[runs["optimizer"] == "cmaes"]
+    export_ioh(runs, tmp_path / "ours")
+    values: list[float] = []
+    ioh.wrap_problem(
+        lambda x: values.pop(0),
+        name="push",
+        optimization_type=ioh.OptimizationType.MIN,
+        lb=-1.5,
+        ub=1.5,
+    )
+    logger = ioh.logger.Analyzer(
+        root=str(tmp_path), folder_name="theirs", algorithm_name="cmaes", store_positions=False
+    )
+    for (degree, number, _seed), run in runs.groupby(["degree", "instance_number", "seed"]):
+        problem = ioh.get_problem("push", instance=int(number), dimension=int(degree))
+        problem.attach_logger(logger)
+        for _, row in run.sort_values("evaluation").iterrows():
+            values.append(float(row["free_energy"]))
+            problem(row[[f"c{k}" for k in range(1, int(degree) + 1)]].to_numpy(dtype=float))
+        problem.reset()
+    logger.close()
+    (theirs,) = (tmp_path / "theirs").glob("IOHprofiler_f*_push.json")
+    ours = tmp_path / "ours" / "cmaes" / "IOHprofiler_f1_push.json"
+    meta_theirs, meta_ours = json.loads(theirs.read_text()), json.loads(ours.read_text())
+    assert meta_ours["attributes"] == meta_theirs["attributes"]
+    assert meta_ours["maximization"] == meta_theirs["maximization"]
+    for a, b in zip(meta_ours["scenarios"], meta_theirs["scenarios"], strict=True):
+        assert a["dimension"] == b["dimension"]
+        assert [(r["instance"], r["evals"]) for r in a["runs"]] == [
+            (r["instance"], r["evals"]) for r in b["runs"]
+        ]
+        assert [r["best"]["y"] for r in a["runs"]] == pytest.approx(
+            [r["best"]["y"] for r in b["runs"]], rel=1e-9
+        )
+        mine = (ours.parent / a["path"]).read_text().split()
+        other = (theirs.parent / b["path"]).read_text().split()
+        assert len(mine) == len(other)
+        for x, y in zip(mine, other, strict=True):
+            if x in ("evaluations", "raw_y"):
+                assert x == y
+            else:
+                assert float(x) == pytest.approx(float(y), rel=1e-9)

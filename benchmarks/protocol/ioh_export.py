@@ -12,9 +12,11 @@ a protocol instance is an IOH **instance** (its number, 1-24), the tool degree d
 
 Each ``.dat`` holds, per run in the order of the JSON's ``runs``, a header line
 ``evaluations raw_y`` and one line per improvement of the best-so-far F (the first evaluation
-included), as ``ioh``'s Analyzer logs by default. ``raw_y`` is F (minimized); F is written with
-17 significant digits, so the numbers read back are the run folder's bit for bit. A failed
-evaluation (NaN F) counts in ``evaluations`` and improves nothing.
+included), then the run's last evaluation if it did not improve, as ``ioh``'s Analyzer logs by
+default (a test replays runs through it and compares). ``raw_y`` is the F of that evaluation
+(minimized); F is written with 17 significant digits, so the numbers read back are the run
+folder's bit for bit. A failed evaluation (NaN F) counts in ``evaluations`` and improves
+nothing.
 """
 
 from __future__ import annotations
@@ -81,11 +83,16 @@ def export_ioh(
                 lines.append("evaluations raw_y")
                 best = np.inf
                 best_row = None
+                last = -1
                 for k, value in enumerate(f):
                     if np.isfinite(value) and (value < best or best_row is None):
                         best = value
                         best_row = k
+                        last = k
                         lines.append(f"{int(run['evaluation'].iloc[k])} {_number(value)}")
+                if last != len(f) - 1 and np.isfinite(f[-1]):
+                    # ioh's Analyzer closes a run with its last evaluation, improving or not.
+                    lines.append(f"{int(run['evaluation'].iloc[-1])} {_number(f[-1])}")
                 entry: dict[str, Any] = {"instance": int(number), "evals": len(f)}
                 if best_row is not None:
                     x = run[columns].iloc[best_row].to_numpy(dtype=np.float64).tolist()
