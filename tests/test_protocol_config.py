@@ -16,6 +16,7 @@ from benchmarks.protocol import (
     ProtocolConfig,
     bounds_of,
     buildable_fraction,
+    compute_references,
     export_ioh,
     load_instances,
     load_references,
@@ -106,6 +107,10 @@ def test_smoke_references_are_committed_and_cover_the_smoke_cells():
         (lambda: buildable_fraction(3, 0), "n must be an int"),
         (lambda: export_ioh(pd.DataFrame({"optimizer": ["a"]}), "x"), "lacks columns"),
         (lambda: make_protocol_report([]), "at least one protocol run folder"),
+        (
+            lambda: compute_references(protocol_config("smoke"), "refs.txt"),
+            "must end in .json",
+        ),
     ],
 )
 def test_bad_input_is_refused_with_a_message(call, match):

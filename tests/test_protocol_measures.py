@@ -197,3 +197,56 @@ def test_power_analysis_splits_seed_and_instance_variance():
 def test_bad_input_is_refused_with_a_message(call, match):
     with pytest.raises((ValueError, TypeError), match=match):
         call()
+
+
+# --- the glue: runs and references to runtimes and scores ----------------------------------------
+
+
+def _reference(f_ref=100.0, floor=10.0, pool=(1100.0, 1100.0, 1100.0, 1100.0)):
+    return {
+        "f_ref": f_ref,
+        "noise_floor": floor,
+        "random_pool": list(pool),
+        "f_straight": 500.0,
+        "final_distance": 0.1,
+        "method": "by hand",
+    }
+
+
+def _run_rows(values, optimizer="a", instance="i01", degree=3, seed=0):
+    return pd.DataFrame(
+        {
+            "optimizer": optimizer,
+            "instance": instance,
+            "set": "public",
+            "degree": degree,
+            "seed": seed,
+            "evaluation": np.arange(1, len(values) + 1),
+            "free_energy": values,
+        }
+    )
+
+
+def test_measure_runs_by_hand():
+    from benchmarks.protocol.report import measure_runs
+
+    # Targets with 3 per cell: 1100, 200, 110 (gap 1000, floor 10). Budget 4.
+    runs = _run_rows([1000.0, 150.0, np.nan, 105.0])
+    times, scores = measure_runs(runs, {("i01", 3): _reference()}, {3: 4}, n_targets=3)
+    assert times["target"].tolist() == pytest.approx([1100.0, 200.0, 110.0])
+    assert times["runtime"].tolist() == [1.0, 2.0, 4.0]
+    # AUC = mean over targets of (4 - t + 1) / 4 = (4 + 3 + 1) / 12.
+    assert scores["score"].iloc[0] == pytest.approx(8 / 12)
+    # Regret at the full budget: F_random(4) = 1100 from the pool; (105 - 100) / 1000.
+    assert scores["regret_1"].iloc[0] == pytest.approx(0.005)
+    assert scores["final_f"].iloc[0] == 105.0
+
+
+def test_measure_runs_refuses_a_missing_reference_and_a_small_pool():
+    from benchmarks.protocol.report import measure_runs
+
+    runs = _run_rows([1.0, 2.0])
+    with pytest.raises(ValueError, match="no reference for instance i01 at d = 3"):
+        measure_runs(runs, {}, {3: 2})
+    with pytest.raises(ValueError, match="fewer than the run budget 8"):
+        measure_runs(runs, {("i01", 3): _reference()}, {3: 8})
