@@ -14,6 +14,7 @@ from benchmarks.protocol import (
     DEGREES,
     PROTOCOL_SIZES,
     ProtocolConfig,
+    ReferencePlan,
     bounds_of,
     buildable_fraction,
     compute_references,
@@ -107,6 +108,8 @@ def test_smoke_references_are_committed_and_cover_the_smoke_cells():
         (lambda: buildable_fraction(3, 0), "n must be an int"),
         (lambda: export_ioh(pd.DataFrame({"optimizer": ["a"]}), "x"), "lacks columns"),
         (lambda: make_protocol_report([]), "at least one protocol run folder"),
+        (lambda: ReferencePlan(nudges=1), "nudges must be an int >= 2"),
+        (lambda: ReferencePlan(grid_points=1), "grid_points must be 0"),
         (
             lambda: compute_references(protocol_config("smoke"), "refs.txt"),
             "must end in .json",

@@ -189,3 +189,50 @@ def test_the_export_equals_what_the_ioh_packages_own_logger_writes(smoke_run, tm
                 assert x == y
             else:
                 assert float(x) == pytest.approx(float(y), rel=1e-9)
+
+
+def _tiny_plan(size):
+    from benchmarks.protocol.references import ReferencePlan
+
+    return ReferencePlan(
+        grid_points=2, restarts=1, restart_evaluations_per_degree=1, pool_per_degree=3, nudges=2
+    )
+
+
+def test_with_references_computes_them_into_the_folder_and_reports(
+    smoke_run, tmp_path, monkeypatch
+):
+    """The whole benchmark in one command when a size has no committed references."""
+    import json
+    import shutil
+
+    from benchmarks.cli import main
+    from benchmarks.protocol import references, report
+
+    copy = tmp_path / "run"
+    shutil.copytree(smoke_run, copy)
+    monkeypatch.setattr(report, "packaged_references", lambda size: None)
+    monkeypatch.setattr(references, "reference_plan", _tiny_plan)
+    args = ["bench", "protocol", "--size", "smoke", "--executor", "serial", "--no-progress"]
+    assert main([*args, "--out", str(copy)]) == 0  # no references: the report is skipped
+    assert not (copy / "report" / "report.md").exists()
+    assert main([*args, "--with-references", "--out", str(copy)]) == 0
+    data = json.loads((copy / "references.json").read_text())
+    assert {(c["instance"], c["degree"]) for c in data["cells"]} == {
+        (i, d) for i in ("i01", "i02") for d in (3, 5)
+    }
+    for cell in data["cells"]:
+        pool = cell["random_pool"]
+        assert len(pool) == max(3 * cell["degree"], 8 if cell["degree"] == 3 else 12)
+        assert cell["f_ref"] <= min(pool) and cell["noise_floor"] > 0
+    assert not (copy / "references.json.cells").exists()
+    assert "references.json" in (copy / "report" / "report.md").read_text()
+    # A rerun computes nothing again: the file's cells are kept.
+    before = (copy / "references.json").read_bytes()
+    references.compute_references(
+        references.ProtocolConfig.from_json(
+            json.loads((copy / "protocol.json").read_text())["config"]
+        ).replace(executor="serial"),
+        copy / "references.json",
+    )
+    assert (copy / "references.json").read_bytes() == before

@@ -5,7 +5,9 @@ into DIR (resuming what is there), exports the runs in the IOHprofiler format to
 writes the report to DIR/report. With ``--optimizer NAME`` only that optimizer runs (a registry
 name or ``module:Class``), and ``--baseline DIR2`` puts it in one report beside the runs of
 DIR2 (the committed built-ins), which are not run again. ``--references`` computes the
-references of the size into the file ``--out`` instead; ``--buildable N`` prints the fraction of
+references of the size into the file ``--out`` instead; ``--with-references`` computes them into
+DIR/references.json after the runs when the size has none committed (the full benchmark in
+one resumable command); ``--buildable N`` prints the fraction of
 N random designs per degree that can be built and used.
 """
 
@@ -23,6 +25,7 @@ PROTOCOL_ONLY_OPTIONS: tuple[str, ...] = (
     "baseline",
     "references",
     "reference_file",
+    "with_references",
     "buildable",
 )
 
@@ -59,6 +62,13 @@ def add_protocol_arguments(parser: argparse.ArgumentParser | Any, *, title: str)
         help="compute the size's references into the .json file --out (resumable) and exit",
     )
     group.add_argument(
+        "--with-references",
+        action="store_true",
+        default=None,
+        help="if the size has no committed references, compute them into OUT/references.json "
+        "after the runs (resumable) and report against them: the whole benchmark in one command",
+    )
+    group.add_argument(
         "--buildable",
         type=int,
         default=None,
@@ -85,6 +95,7 @@ def run_protocol_command(args: argparse.Namespace) -> int:
         protocol_config,
         run_protocol,
     )
+    from benchmarks.protocol.report import REFERENCES_IN_FOLDER, find_references
 
     for name, flag in (
         ("config", "--config"),
@@ -118,6 +129,8 @@ def run_protocol_command(args: argparse.Namespace) -> int:
         config = config.replace(**changes)
     say = None if args.no_progress else (lambda line: print(line, flush=True))
     if args.references:
+        if args.with_references:
+            raise ValueError("--references and --with-references: give one")
         if args.optimizer is not None or args.baseline is not None:
             raise ValueError("--references computes references only: no --optimizer, --baseline")
         path = compute_references(config, args.out, say=say)
@@ -134,6 +147,13 @@ def run_protocol_command(args: argparse.Namespace) -> int:
     export_ioh(runs, out / "ioh", algorithm_info=info)
     print(f"IOHprofiler data: {out / 'ioh'}")
     folders = [out, *(args.baseline or [])]
+    if (
+        args.with_references
+        and args.reference_file is None
+        and find_references(folders, size) is None
+    ):
+        path = compute_references(config, out / REFERENCES_IN_FOLDER, say=say)
+        print(f"references: {path}")
     try:
         files = make_protocol_report(folders, out / "report", references=args.reference_file)
     except ValueError as err:

@@ -88,6 +88,24 @@ class ReferencePlan:
     nudges: int = 7
     seed: int = 1
 
+    def __post_init__(self) -> None:
+        for name, low in (
+            ("grid_points", 0),
+            ("restarts", 0),
+            ("restart_evaluations_per_degree", 1),
+            ("pool_per_degree", 1),
+            ("nudges", 2),
+            ("seed", 0),
+        ):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < low:
+                raise ValueError(f"ReferencePlan.{name} must be an int >= {low}, got {value!r}")
+        if self.grid_points == 1 or self.nudges > 100:
+            raise ValueError(
+                "ReferencePlan.grid_points must be 0 (no grid) or >= 2 and nudges at most 100, "
+                f"got {self.grid_points} and {self.nudges}"
+            )
+
     def pool_size(self, degree: int, budget: int) -> int:
         """Random designs of a cell: ``pool_per_degree * d``, at least the run budget."""
         return max(self.pool_per_degree * degree, budget)
@@ -222,7 +240,7 @@ def compute_cell(
     if not np.isfinite(f).any():
         raise RuntimeError(f"no valid design for instance {instance.id} at d = {degree}")
     best = int(np.argmin(f))
-    retest = RetestConfig(nudges=plan.nudges, seed=plan.seed)
+    retest = RetestConfig(nudges=plan.nudges, seed=plan.seed, repeats=1)  # noise only
     item = RetestItem(coeffs=tuple(designs[best].tolist()), task=task, config=retest)
     ((result, exc, _),) = map_robust(pool, retest_design, [item])
     if exc is not None:
@@ -259,7 +277,8 @@ def compute_references(
     Args:
         config: The protocol whose cells need references (its executor and workers are used).
         out_file: The references file (JSON), written atomically at the end; finished cells
-            wait in ``<out_file>.cells/``.
+            wait in ``<out_file>.cells/``. The cells of an existing file are kept, not
+            computed again (a rerun adds the cells it lacks).
         plan: How; :func:`reference_plan` (config.size) if ``None``.
         say: Called with one line per cell.
 
@@ -275,6 +294,11 @@ def compute_references(
         raise ValueError(f"the references file must end in .json, got {out}")
     parts = out.with_name(out.name + ".cells")
     parts.mkdir(parents=True, exist_ok=True)
+    if out.is_file():  # a finished file: its cells are done (checked as any references file)
+        for (instance_id, degree), cell in load_references(out).items():
+            target = parts / f"d{degree}-{instance_id}.json"
+            if not target.is_file():
+                atomic_write_text(target, json.dumps(cell) + "\n")
     cells = []
     with make_executor(config.executor, config.workers, config.scheduler) as pool:
         for k, (instance, degree) in enumerate(config.cells(), 1):

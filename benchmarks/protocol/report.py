@@ -48,7 +48,17 @@ from benchmarks.protocol.references import load_references, packaged_references
 from benchmarks.protocol.statistics import paired_comparisons, power_analysis, rank_stability
 from benchmarks.protocol.suite import ProtocolConfig, cell_folder, read_protocol
 
-__all__ = ["N_TARGETS", "load_runs", "make_protocol_report", "measure_runs"]
+__all__ = [
+    "N_TARGETS",
+    "REFERENCES_IN_FOLDER",
+    "find_references",
+    "load_runs",
+    "make_protocol_report",
+    "measure_runs",
+]
+
+#: The references a run folder may hold (``tooldesign bench protocol --with-references``).
+REFERENCES_IN_FOLDER = "references.json"
 
 #: Targets per (instance, d).
 N_TARGETS = 10
@@ -331,6 +341,21 @@ def _ert_table(times: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def find_references(
+    folders: Sequence[str | os.PathLike[str]], size: str
+) -> str | os.PathLike[str] | None:
+    """The references a report uses by default.
+
+    The first run folder's ``references.json`` (``--with-references`` writes it), else the
+    committed ones of the size, else ``None``.
+    """
+    for folder in folders:
+        path = Path(folder) / REFERENCES_IN_FOLDER
+        if path.is_file():
+            return path
+    return packaged_references(size)
+
+
 def make_protocol_report(
     folders: Sequence[str | os.PathLike[str]],
     out_dir: str | os.PathLike[str] | None = None,
@@ -343,7 +368,7 @@ def make_protocol_report(
     Args:
         folders: Protocol run folders of the same plan (a user's run and the committed one).
         out_dir: Where to write; ``<first folder>/report`` if ``None``.
-        references: A references file; the committed one of the size if ``None``.
+        references: A references file; if ``None``, :func:`find_references`.
         alpha: Family-wise level of the comparisons.
 
     Returns:
@@ -356,12 +381,13 @@ def make_protocol_report(
     from benchmarks.storage import atomic_write_text
 
     config, runs = _merge(folders)
-    ref_path = references if references is not None else packaged_references(config.size)
+    ref_path = find_references(folders, config.size) if references is None else references
     if ref_path is None:
         raise ValueError(
-            f"no committed references for size {config.size!r} yet: compute them with "
-            f"`tooldesign bench protocol --references --size {config.size} --out FILE` and "
-            "pass --references FILE"
+            f"no references for size {config.size!r}: none committed, none in the run folders; "
+            "compute them with `tooldesign bench protocol --size "
+            f"{config.size} --with-references --out {folders[0]}` (or `--references --out "
+            "FILE.json`, then --reference-file FILE.json)"
         )
     refs = load_references(ref_path)
     budgets = {d: config.budget(d) for d in config.degrees}
