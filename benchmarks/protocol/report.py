@@ -458,7 +458,11 @@ def make_protocol_report(
             continue
         table = paired_comparisons(frame, alpha=alpha).assign(d=label)
         rank = rank_stability(frame, resamples=500).reset_index(names="optimizer").assign(d=label)
-        power = power_analysis(frame, alpha=alpha).assign(d=label)
+        power = power_analysis(frame, alpha=alpha).assign(d=label, measure="score")
+        in_f = power_analysis(frame.assign(score=frame["final_f"]), alpha=alpha)
+        in_f = in_f.assign(d=label, measure="final F")
+        degrees = [int(label)] if label != "all" else list(config.degrees)
+        floors = reference_table[reference_table["d"].isin(degrees)]["noise floor"]
         comparisons.append(table)
         ranks.append(rank)
         powers.append(power)
@@ -476,9 +480,15 @@ def make_protocol_report(
             "difference of mean score this run detects; `instances_needed` and `seeds_needed` "
             "what the observed difference would need.",
             "",
-            _md_table(power.drop(columns="d")),
+            _md_table(power.drop(columns=["d", "measure"])),
+            "",
+            "The same in F units (each run's final best F; compare `detectable` with the median "
+            f"noise floor of these cells' references, {floors.median():.4g}):",
+            "",
+            _md_table(in_f.drop(columns=["d", "measure"])),
             "",
         ]
+        powers.append(in_f)
     for name, parts in (
         ("comparisons.csv", comparisons),
         ("ranks.csv", ranks),
