@@ -97,6 +97,7 @@ def test_smoke_references_are_committed_and_cover_the_smoke_cells():
         (lambda: protocol_config("medium"), "unknown size 'medium'"),
         (lambda: protocol_config("quick").replace(instances=("i99",)), "unknown instance ids"),
         (lambda: protocol_config("quick").replace(degrees=(3, 3)), "distinct"),
+        (lambda: protocol_config("quick").replace(instances=("i01", "i01")), "distinct"),
         (lambda: protocol_config("quick").replace(degrees=(0,)), "degree must be an int"),
         (lambda: protocol_config("quick").replace(n_seeds=0), "n_seeds must be an int >= 1"),
         (lambda: protocol_config("quick").replace(optimizers=()), "at least one optimizer"),

@@ -202,7 +202,7 @@ def test_bad_input_is_refused_with_a_message(call, match):
 # --- the glue: runs and references to runtimes and scores ----------------------------------------
 
 
-def _reference(f_ref=100.0, floor=10.0, pool=(1100.0, 1100.0, 1100.0, 1100.0)):
+def _reference(f_ref=100.0, floor=10.0, pool=(1100.0,) * 5):
     return {
         "f_ref": f_ref,
         "noise_floor": floor,
@@ -240,6 +240,10 @@ def test_measure_runs_by_hand():
     # Regret at the full budget: F_random(4) = 1100 from the pool; (105 - 100) / 1000.
     assert scores["regret_1"].iloc[0] == pytest.approx(0.005)
     assert scores["final_f"].iloc[0] == 105.0
+    # Random sampling as good as the reference: regret has no scale and is NaN, not an error.
+    flat = _reference(f_ref=100.0, pool=(100.0, 100.0, 100.0, 100.0, 1100.0))
+    _, scores = measure_runs(runs, {("i01", 3): flat}, {3: 4}, n_targets=3)
+    assert np.isnan(scores["regret_1"].iloc[0])
 
 
 def test_measure_runs_refuses_a_missing_reference_and_a_small_pool():
@@ -248,5 +252,5 @@ def test_measure_runs_refuses_a_missing_reference_and_a_small_pool():
     runs = _run_rows([1.0, 2.0])
     with pytest.raises(ValueError, match="no reference for instance i01 at d = 3"):
         measure_runs(runs, {}, {3: 2})
-    with pytest.raises(ValueError, match="fewer than the run budget 8"):
-        measure_runs(runs, {("i01", 3): _reference()}, {3: 8})
+    with pytest.raises(ValueError, match="needs more than the run budget 5"):
+        measure_runs(runs, {("i01", 3): _reference()}, {3: 5})

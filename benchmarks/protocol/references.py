@@ -75,8 +75,8 @@ class ReferencePlan:
         restarts: CMA-ES runs per cell at d > 3.
         restart_evaluations_per_degree: Each CMA-ES run's budget per unit of d (rounded up to
             whole batches of 8).
-        pool_per_degree: Random designs per unit of d (at least the protocol's budget, so that
-            ``F_random(t)`` is defined at every budget).
+        pool_per_degree: Random designs per unit of d (at least the protocol's budget plus one,
+            so that ``F_random(t)`` is defined at every budget).
         nudges: Scenes of the noise floor (the first is the scene itself).
         seed: Root seed of the pools and restarts.
     """
@@ -107,8 +107,12 @@ class ReferencePlan:
             )
 
     def pool_size(self, degree: int, budget: int) -> int:
-        """Random designs of a cell: ``pool_per_degree * d``, at least the run budget."""
-        return max(self.pool_per_degree * degree, budget)
+        """Random designs of a cell: ``pool_per_degree * d``, more than the run budget.
+
+        More, so that ``F_random(budget)`` is an expectation over subsets of the pool, not the
+        pool's own minimum (which may be the reference itself).
+        """
+        return max(self.pool_per_degree * degree, budget + 1)
 
 
 def reference_plan(size: str) -> ReferencePlan:

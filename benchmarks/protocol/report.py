@@ -167,10 +167,10 @@ def measure_runs(
         f_ref = float(ref["f_ref"])
         pool = np.asarray(ref["random_pool"], dtype=float)
         budget = int(budgets[int(degree)])
-        if budget > pool.size:
+        if budget >= pool.size:
             raise ValueError(
                 f"the reference of {instance} at d = {degree} has a random pool of {pool.size} "
-                f"designs, fewer than the run budget {budget}"
+                f"designs; it needs more than the run budget {budget}"
             )
         targets = target_ladder(f_ref, float(np.median(pool)), float(ref["noise_floor"]), n_targets)
         checkpoints = [max(1, round(fr * budget)) for fr in REGRET_FRACTIONS]
@@ -189,8 +189,12 @@ def measure_runs(
                 "score": ecdf_area(times, budget) if targets.size else math.nan,
                 "final_f": float(best[-1]) if best.size else math.nan,
             }
-            at = [best[min(c, len(best)) - 1] for c in checkpoints]
-            regret = normalized_regret(at, f_ref, f_random)
+            at = np.array([best[min(c, len(best)) - 1] for c in checkpoints])
+            # Undefined where random sampling is as good as the reference (no scale).
+            scaled = f_random > f_ref
+            regret = np.full(len(checkpoints), math.nan)
+            if scaled.any():
+                regret[scaled] = normalized_regret(at[scaled], f_ref, f_random[scaled])
             for fraction, value in zip(REGRET_FRACTIONS, regret, strict=True):
                 record[f"regret_{fraction:g}"] = float(value)
             scores.append(record)

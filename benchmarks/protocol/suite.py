@@ -114,6 +114,8 @@ class ProtocolConfig:
             raise ValueError(f"unknown size {self.size!r}; sizes: {', '.join(PROTOCOL_SIZES)}")
         object.__setattr__(self, "instances", tuple(self.instances))
         select_instances(self.instance_set(), self.instances)  # unknown ids are refused
+        if len(set(self.instances)) != len(self.instances):
+            raise ValueError(f"instances must be distinct, got {list(self.instances)}")
         degrees = tuple(self.degrees)
         for d in degrees:
             bounds_of(d)
