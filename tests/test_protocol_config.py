@@ -103,6 +103,7 @@ def test_smoke_references_are_committed_and_cover_the_smoke_cells():
         (lambda: protocol_config("quick").replace(optimizers=()), "at least one optimizer"),
         (lambda: ProtocolConfig(size="quick", instances=("i01",), batch_size=True), "batch_size"),
         (lambda: load_instances(7), "no committed instance set of version 7"),
+        (lambda: draw_instances(n=1), "n must be an int >= 2"),
         (lambda: select_instances(load_instances(), sets=("private",)), "unknown instance sets"),
         (lambda: select_instances(load_instances(), ids=["x"]), "unknown instance ids"),
         (lambda: bounds_of(2.5), "degree must be an int"),

@@ -192,6 +192,17 @@ def test_power_analysis_splits_seed_and_instance_variance():
         (lambda: detectable_difference(1.0, 0), "n must be an int >= 1"),
         (lambda: detectable_difference(1.0, 5, power=1.0), "power must be in"),
         (lambda: instances_needed(1.0, 0.0), "difference must be"),
+        (lambda: power_analysis([1, 2]), "must be a DataFrame"),
+        (
+            lambda: rank_stability(
+                pd.DataFrame(columns=["instance", "optimizer", "seed", "score"])
+            ),
+            "holds no row",
+        ),
+        (lambda: rank_stability(_scores(0.1).iloc[3:]), "every optimizer must have runs"),
+        (lambda: paired_comparisons(_scores(0.1), alpha=1.5), "alpha must be in"),
+        (lambda: normalized_regret([1.0], math.inf, [2.0]), "must be finite"),
+        (lambda: ecdf([1.0], [[1.0]]), "grid must be 1-D"),
     ],
 )
 def test_bad_input_is_refused_with_a_message(call, match):
