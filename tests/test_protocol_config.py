@@ -173,7 +173,7 @@ def _cli(*args: str) -> subprocess.CompletedProcess[str]:
     [
         (["bench", "protocol", "--size", "huge", "--out", "x"], "unknown size 'huge'"),
         (["bench", "protocol", "--seeds", "2", "--out", "x"], "--seeds: for the rl suite only"),
-        (["bench", "optimizers", "--baseline", "y", "--out", "x"], "--baseline: for the rl or"),
+        (["bench", "optimizers", "--baseline", "y", "--out", "x"], "--baseline: for the protocol"),
         (["bench", "rl", "--optimizer", "cmaes", "--out", "x"], "--optimizer: for the protocol"),
         (["bench", "protocol", "--buildable", "0", "--out", "x"], "--buildable must be an int"),
         (["bench", "protocol", "--scene", "box_yaw=0.1", "--out", "x"], "--scene is not"),

@@ -161,9 +161,12 @@ def _run(args: argparse.Namespace) -> int:
         if _given(args, RL_ONLY_OPTIONS):
             raise ValueError(f"{_given(args, RL_ONLY_OPTIONS)}: for the {RL_SUITE_NAME} suite only")
         return run_protocol_command(args)
-    given = _given(args, (*RL_ONLY_OPTIONS, *PROTOCOL_ONLY_OPTIONS))
-    if given:
-        raise ValueError(f"{given}: for the {RL_SUITE_NAME} or {PROTOCOL_SUITE_NAME} suite only")
+    for names, suite in (
+        (RL_ONLY_OPTIONS, RL_SUITE_NAME),
+        (PROTOCOL_ONLY_OPTIONS, PROTOCOL_SUITE_NAME),
+    ):
+        if _given(args, names):
+            raise ValueError(f"{_given(args, names)}: for the {suite} suite only")
     from benchmarks.reports import make_suite_report
     from benchmarks.suites import run_suite, save_suite, summary_text
 
