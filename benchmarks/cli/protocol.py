@@ -53,7 +53,8 @@ def add_protocol_arguments(parser: argparse.ArgumentParser | Any, *, title: str)
         type=Path,
         default=None,
         metavar="FILE",
-        help="references to measure against (default: the committed ones of the size)",
+        help="references to measure against (default: the run folder's references.json, "
+        "else the committed ones of the size)",
     )
     group.add_argument(
         "--references",

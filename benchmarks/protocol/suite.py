@@ -303,6 +303,11 @@ def run_protocol(
     record = {"format": PROTOCOL_FORMAT, "config": config.to_json()}
     atomic_write_text(path, json.dumps(record, indent=2, sort_keys=True) + "\n")
     cells = config.cells()
+    if say is not None:
+        say(
+            f"protocol {config.size}: {len(cells)} cells, {len(config.optimizers)} optimizer(s), "
+            f"{config.n_seeds} seed(s), {config.evaluations():,} evaluations planned"
+        )
     for k, (instance, degree) in enumerate(cells, 1):
         if say is not None:
             say(f"cell {k}/{len(cells)}: d = {degree}, instance {instance.id}")
