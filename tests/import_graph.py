@@ -25,7 +25,8 @@ LAYERS: dict[str, int] = {
     "benchmarks.suites": 3,
     "benchmarks.rl": 3,
     "benchmarks.reports": 4,
-    "benchmarks.cli": 5,
+    "benchmarks.protocol": 5,
+    "benchmarks.cli": 6,
 }
 
 

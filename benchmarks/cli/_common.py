@@ -30,6 +30,8 @@ BUILTIN_SUITES = (
 SIZES = ("smoke", "full")
 RL_SUITE_NAME = "rl"
 RL_SIZES = ("smoke", "short", "full")
+PROTOCOL_SUITE_NAME = "protocol"  # benchmarks.protocol.PROTOCOL_SUITE_NAME and its sizes
+PROTOCOL_SIZES = ("smoke", "quick", "full")
 RETEST_NUDGES, RETEST_REPEATS = 5, 3
 
 

@@ -12,6 +12,8 @@ from typing import TYPE_CHECKING, Any, cast
 
 from benchmarks.cli._common import (
     BUILTIN_SUITES,
+    PROTOCOL_SIZES,
+    PROTOCOL_SUITE_NAME,
     RL_SIZES,
     RL_SUITE_NAME,
     SECTION_SHAPES,
@@ -20,6 +22,11 @@ from benchmarks.cli._common import (
     add_scene_argument,
     out_path,
     unique_pairs,
+)
+from benchmarks.cli.protocol import (
+    PROTOCOL_ONLY_OPTIONS,
+    add_protocol_arguments,
+    run_protocol_command,
 )
 from benchmarks.cli.rl_suite import RL_ONLY_OPTIONS, add_rl_suite_arguments, run_rl_command
 from benchmarks.execution import EXECUTORS
@@ -42,14 +49,16 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         "suite",
         nargs="?",
         metavar="SUITE",
-        help=f"a built-in suite: {', '.join(BUILTIN_SUITES)}, or {RL_SUITE_NAME} (the RL "
-        "baselines, docs/rl.md); or omit it and give --config",
+        help=f"a built-in suite: {', '.join(BUILTIN_SUITES)}, {RL_SUITE_NAME} (the RL "
+        f"baselines, docs/rl.md) or {PROTOCOL_SUITE_NAME} (the benchmark protocol, "
+        "docs/protocol.md); or omit it and give --config",
     )
     parser.add_argument(
         "--size",
         default=None,
         help=f"size of the suite: {' or '.join(SIZES)} (default: full; a suite file may define "
-        f"its own; the rl suite: {', '.join(RL_SIZES)})",
+        f"its own; the rl suite: {', '.join(RL_SIZES)}; the protocol: "
+        f"{', '.join(PROTOCOL_SIZES)})",
     )
     parser.add_argument("--out", type=out_path, required=True, metavar="DIR", help="run folder")
     parser.add_argument(
@@ -93,6 +102,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         help="write the resolved suite to FILE (.toml or .json) and exit without running",
     )
     add_rl_suite_arguments(parser, title=f"the {RL_SUITE_NAME} suite only")
+    add_protocol_arguments(parser, title=f"the {PROTOCOL_SUITE_NAME} suite only")
     parser.set_defaults(run=_run)
     return cast("argparse.ArgumentParser", parser)
 
@@ -143,10 +153,20 @@ def _run(args: argparse.Namespace) -> int:
                 f"--scene {args.scene[0][0]}=...: not for the {RL_SUITE_NAME} suite, whose envs "
                 "use the default scene"
             )
+        if _given(args, PROTOCOL_ONLY_OPTIONS):
+            flags = _given(args, PROTOCOL_ONLY_OPTIONS)
+            raise ValueError(f"{flags}: for the {PROTOCOL_SUITE_NAME} suite only")
         return run_rl_command(args, default_size="full")
-    given = [f"--{n.replace('_', '-')}" for n in RL_ONLY_OPTIONS if getattr(args, n) is not None]
-    if given:
-        raise ValueError(f"{', '.join(given)}: for the {RL_SUITE_NAME} suite only")
+    if args.suite == PROTOCOL_SUITE_NAME:
+        if _given(args, RL_ONLY_OPTIONS):
+            raise ValueError(f"{_given(args, RL_ONLY_OPTIONS)}: for the {RL_SUITE_NAME} suite only")
+        return run_protocol_command(args)
+    for names, suite in (
+        (RL_ONLY_OPTIONS, RL_SUITE_NAME),
+        (PROTOCOL_ONLY_OPTIONS, PROTOCOL_SUITE_NAME),
+    ):
+        if _given(args, names):
+            raise ValueError(f"{_given(args, names)}: for the {suite} suite only")
     from benchmarks.reports import make_suite_report
     from benchmarks.suites import run_suite, save_suite, summary_text
 
@@ -164,6 +184,11 @@ def _run(args: argparse.Namespace) -> int:
     if report:
         print(f"report: {report[0].parent} ({len(report)} files)")
     return 0
+
+
+def _given(args: argparse.Namespace, names: tuple[str, ...]) -> str:
+    """The flags of ``names`` given on the command line, as ``--a, --b`` ("" if none)."""
+    return ", ".join(f"--{n.replace('_', '-')}" for n in names if getattr(args, n) is not None)
 
 
 def _check_optimizer_settings(config: SuiteConfig) -> None:

@@ -1,0 +1,166 @@
+"""``tooldesign bench protocol``: the benchmark protocol (docs/protocol.md).
+
+``tooldesign bench protocol --size smoke|quick|full --out DIR`` runs every (instance, d) cell
+into DIR (resuming what is there), exports the runs in the IOHprofiler format to DIR/ioh and
+writes the report to DIR/report. With ``--optimizer NAME`` only that optimizer runs (a registry
+name or ``module:Class``), and ``--baseline DIR2`` puts it in one report beside the runs of
+DIR2 (the committed built-ins), which are not run again. ``--references`` computes the
+references of the size into the file ``--out`` instead; ``--with-references`` computes them into
+DIR/references.json after the runs when the size has none committed (the full benchmark in
+one resumable command); ``--buildable N`` prints the fraction of
+N random designs per degree that can be built and used.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+__all__ = ["PROTOCOL_ONLY_OPTIONS", "add_protocol_arguments", "run_protocol_command"]
+
+#: Options that only the protocol suite takes.
+PROTOCOL_ONLY_OPTIONS: tuple[str, ...] = (
+    "optimizer",
+    "baseline",
+    "references",
+    "reference_file",
+    "with_references",
+    "buildable",
+)
+
+
+def add_protocol_arguments(parser: argparse.ArgumentParser | Any, *, title: str) -> None:
+    """Add the protocol suite's options to ``tooldesign bench``."""
+    group = parser.add_argument_group(title)
+    group.add_argument(
+        "--optimizer",
+        default=None,
+        metavar="NAME",
+        help="run only this optimizer (a registry name or module:Class), with the protocol's "
+        "seeds and budgets",
+    )
+    group.add_argument(
+        "--baseline",
+        type=Path,
+        nargs="+",
+        default=None,
+        metavar="DIR",
+        help="protocol run folders of the same size to report beside this run (not rerun)",
+    )
+    group.add_argument(
+        "--reference-file",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="references to measure against (default: the run folder's references.json, "
+        "else the committed ones of the size)",
+    )
+    group.add_argument(
+        "--references",
+        action="store_true",
+        default=None,
+        help="compute the size's references into the .json file --out (resumable) and exit",
+    )
+    group.add_argument(
+        "--with-references",
+        action="store_true",
+        default=None,
+        help="if the size has no committed references, compute them into OUT/references.json "
+        "after the runs (resumable) and report against them: the whole benchmark in one command",
+    )
+    group.add_argument(
+        "--buildable",
+        type=int,
+        default=None,
+        metavar="N",
+        help="print the fraction of N random designs per degree that can be built and used, "
+        "and exit",
+    )
+
+
+def run_protocol_command(args: argparse.Namespace) -> int:
+    """Run the protocol as the parsed ``tooldesign bench`` arguments ask.
+
+    Raises:
+        ValueError: bad input (one line for the command line).
+    """
+    from benchmarks.protocol import (
+        DEGREES,
+        PROTOCOL_SIZES,
+        buildable_fraction,
+        compute_references,
+        export_ioh,
+        load_runs,
+        make_protocol_report,
+        protocol_config,
+        run_protocol,
+    )
+    from benchmarks.protocol.report import REFERENCES_IN_FOLDER, find_references
+
+    for name, flag in (
+        ("config", "--config"),
+        ("dump_config", "--dump-config"),
+        ("section_shape", "--section-shape"),
+    ):
+        if getattr(args, name, None) is not None:
+            raise ValueError(f"{flag} is not available for the protocol suite (docs/protocol.md)")
+    if getattr(args, "scene", None):
+        raise ValueError("--scene is not available for the protocol suite: its instances set it")
+    if args.buildable is not None:
+        if args.buildable < 1:
+            raise ValueError(f"--buildable must be an int >= 1, got {args.buildable}")
+        for degree in DEGREES:
+            print(buildable_fraction(degree, args.buildable).text(), flush=True)
+        return 0
+    size = args.size or "full"
+    if size not in PROTOCOL_SIZES:
+        raise ValueError(f"unknown size {size!r}; protocol sizes: {', '.join(PROTOCOL_SIZES)}")
+    config = protocol_config(size, optimizer=args.optimizer)
+    changes: dict[str, Any] = {}
+    if args.workers is not None:
+        changes["workers"] = args.workers
+    if args.scheduler is not None:
+        changes.update(scheduler=args.scheduler, executor=args.executor or "dask")
+    elif args.executor is not None:
+        changes["executor"] = args.executor
+    if args.max_retries is not None:
+        changes["max_retries"] = args.max_retries
+    if changes:
+        config = config.replace(**changes)
+    say = None if args.no_progress else (lambda line: print(line, flush=True))
+    if args.references:
+        if args.with_references:
+            raise ValueError("--references and --with-references: give one")
+        if args.optimizer is not None or args.baseline is not None:
+            raise ValueError("--references computes references only: no --optimizer, --baseline")
+        path = compute_references(config, args.out, say=say)
+        print(f"references: {path}")
+        return 0
+    if args.baseline is not None:
+        for folder in args.baseline:
+            if Path(folder).resolve() == Path(args.out).resolve():
+                raise ValueError(f"--baseline {folder} is the run folder --out itself")
+            load_runs(folder)  # refuse a folder that is not a finished protocol run, before running
+    out = run_protocol(config, args.out, progress=not args.no_progress, say=say)
+    _, runs = load_runs(out)
+    info = {o.column: f"{o.name} {dict(o.settings)}" for o in config.optimizers}
+    export_ioh(runs, out / "ioh", algorithm_info=info)
+    print(f"IOHprofiler data: {out / 'ioh'}")
+    folders = [out, *(args.baseline or [])]
+    if (
+        args.with_references
+        and args.reference_file is None
+        and find_references(folders, size) is None
+    ):
+        path = compute_references(config, out / REFERENCES_IN_FOLDER, say=say)
+        print(f"references: {path}")
+    try:
+        files = make_protocol_report(folders, out / "report", references=args.reference_file)
+    except ValueError as err:
+        if "references" not in str(err):
+            raise
+        print(f"no report: {err}")
+        return 0
+    print(f"report: {out / 'report' / 'report.md'} ({len(files)} files)")
+    return 0

@@ -1,0 +1,130 @@
+"""The runs of a protocol folder in the IOHprofiler format, for IOHanalyzer and iohinspector.
+
+The format is the one the ``ioh`` package's ``logger.Analyzer`` writes (its documented layout,
+written here directly so that exporting needs no extra package; a test reads it back with
+``iohinspector``). In IOHprofiler's terms the push task is one **function** (id 1, ``push``),
+a protocol instance is an IOH **instance** (its number, 1-24), the tool degree d is the
+**dimension**, and each (instance, seed) run of an optimizer is one **run**::
+
+    ioh/<optimizer>/IOHprofiler_f1_push.json            meta: algorithm, scenarios, runs
+                                                        (<optimizer> percent-encoded)
+    ioh/<optimizer>/data_f1_push/IOHprofiler_f1_DIM<d>.dat
+
+Each ``.dat`` holds, per run in the order of the JSON's ``runs``, a header line
+``evaluations raw_y`` and one line per improvement of the best-so-far F (the first evaluation
+included), then the run's last evaluation if it did not improve, as ``ioh``'s Analyzer logs by
+default (a test replays runs through it and compares). ``raw_y`` is the F of that evaluation
+(minimized); F is written with 17 significant digits, so the numbers read back are the run
+folder's bit for bit. A failed evaluation (NaN F) counts in ``evaluations`` and improves
+nothing.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import urllib.parse
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+__all__ = ["IOH_FOLDER", "export_ioh"]
+
+IOH_FOLDER = "ioh"
+_FUNCTION_ID = 1
+_FUNCTION_NAME = "push"
+
+
+def _number(value: float) -> str:
+    return repr(float(value))
+
+
+def export_ioh(
+    runs: pd.DataFrame,
+    out_dir: str | os.PathLike[str],
+    *,
+    algorithm_info: Mapping[str, str] | None = None,
+) -> list[Path]:
+    """Write the runs in the IOHprofiler format under ``out_dir``.
+
+    Args:
+        runs: One row per evaluation: ``optimizer``, ``instance_number``, ``degree``, ``seed``,
+            ``evaluation`` (1-based order within its run), ``free_energy`` and the coefficient
+            columns ``c1..cd`` (for the best point).
+        out_dir: The folder to write (``<run folder>/ioh``); files in it are replaced.
+        algorithm_info: Per optimizer, the text of the meta's ``algorithm.info``.
+
+    Returns:
+        The meta files written, one per optimizer.
+    """
+    from benchmarks.storage import atomic_write_text
+
+    required = ("optimizer", "instance_number", "degree", "seed", "evaluation", "free_energy")
+    missing = [c for c in required if c not in runs.columns]
+    if missing:
+        raise ValueError(f"runs lacks columns {missing}")
+    out = Path(out_dir)
+    written = []
+    for optimizer, frame in runs.groupby("optimizer", sort=True):
+        folder = out / urllib.parse.quote(str(optimizer), safe="")  # a module:Class label too
+        data_dir = folder / f"data_f{_FUNCTION_ID}_{_FUNCTION_NAME}"
+        data_dir.mkdir(parents=True, exist_ok=True)
+        scenarios = []
+        for degree, by_dim in frame.groupby("degree", sort=True):
+            columns = [f"c{k}" for k in range(1, int(degree) + 1)]
+            lines: list[str] = []
+            meta_runs: list[dict[str, Any]] = []
+            for (number, _seed), run in by_dim.groupby(["instance_number", "seed"], sort=True):
+                run = run.sort_values("evaluation")
+                f = run["free_energy"].to_numpy(dtype=np.float64)
+                lines.append("evaluations raw_y")
+                best = np.inf
+                best_row = None
+                last = -1
+                for k, value in enumerate(f):
+                    if np.isfinite(value) and (value < best or best_row is None):
+                        best = value
+                        best_row = k
+                        last = k
+                        lines.append(f"{int(run['evaluation'].iloc[k])} {_number(value)}")
+                if last != len(f) - 1 and np.isfinite(f[-1]):
+                    # ioh's Analyzer closes a run with its last evaluation, improving or not.
+                    lines.append(f"{int(run['evaluation'].iloc[-1])} {_number(f[-1])}")
+                entry: dict[str, Any] = {"instance": int(number), "evals": len(f)}
+                if best_row is not None:
+                    x = run[columns].iloc[best_row].to_numpy(dtype=np.float64).tolist()
+                    entry["best"] = {
+                        "evals": int(run["evaluation"].iloc[best_row]),
+                        "y": float(best),
+                        "x": x,
+                    }
+                meta_runs.append(entry)
+            path = data_dir / f"IOHprofiler_f{_FUNCTION_ID}_DIM{int(degree)}.dat"
+            atomic_write_text(path, "\n".join(lines) + "\n")
+            scenarios.append(
+                {
+                    "dimension": int(degree),
+                    "path": f"{data_dir.name}/{path.name}",
+                    "runs": meta_runs,
+                }
+            )
+        meta = {
+            "version": "0.3.22",
+            "suite": "tooldesign-protocol",
+            "function_id": _FUNCTION_ID,
+            "function_name": _FUNCTION_NAME,
+            "maximization": False,
+            "algorithm": {
+                "name": str(optimizer),
+                "info": (algorithm_info or {}).get(str(optimizer), ""),
+            },
+            "attributes": ["evaluations", "raw_y"],
+            "scenarios": scenarios,
+        }
+        target = folder / f"IOHprofiler_f{_FUNCTION_ID}_{_FUNCTION_NAME}.json"
+        atomic_write_text(target, json.dumps(meta, indent=1) + "\n")
+        written.append(target)
+    return written

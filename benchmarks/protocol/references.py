@@ -1,0 +1,329 @@
+"""References per (instance, d): the best F known, its noise floor, the straight tool, random F.
+
+A references file is JSON::
+
+    {"format": "tooldesign-protocol-references", "version": 1, "size": "full",
+     "instance_version": 1, "goal_precision": 20.0, "plan": {...how it was computed...},
+     "cells": [{"instance": "i01", "degree": 3,
+                "f_ref": ..., "design": [...], "final_distance": ...,   # the best design known
+                "method": "dense grid 11^3 + 240 random + straight", "evaluations": 1572,
+                "noise_floor": ..., "noise_nudges": 7,   # range of F over nudged scenes
+                "f_straight": ...,                       # C = 0
+                "random_pool": [...]},                   # F of random designs, sorted
+               ...]}
+
+How each reference is found (:class:`ReferencePlan`): the best F among (a) the straight tool,
+(b) a pool of random designs drawn uniformly in the bounds (also the source of ``F_random(t)``,
+see :func:`benchmarks.protocol.measures.expected_best_of_random`), (c) at d = 3 a dense grid
+(``benchmarks.suites.dense_search.grid``, the yardstick the project already uses) and at d > 3
+``restarts`` CMA-ES runs from different seeds, each of ``restart_evaluations`` evaluations. The
+noise floor is the range (max - min) of F of that best design over ``nudges`` scenes whose box
+start is moved by at most 0.1 mm and 1e-4 rad (:class:`benchmarks.suites.RetestConfig`'s
+nudges, the project's noise floor), at least 0.1 % of F_ref (so that a design that happens to
+be stable gives a ladder of finite length).
+
+``tooldesign bench protocol --references --size full --out FILE`` computes them, cell by cell:
+each finished cell is written to ``FILE.cells/d<d>-<instance>.json`` at once, so an interrupted
+computation resumes at the next cell (the folder is removed once FILE is written). The full
+plan is about 188,000 evaluations (24 instances:
+1331 grid + 240 random at d = 3, 5 x 400 CMA-ES + 400 random at d = 5, 5 x 640 + 640 at d = 8,
+plus 7 nudges and the straight tool per cell): about 3.1 hours on 2 cores at 0.12 s an
+evaluation (the integrator measures). The smoke size's small references are committed in
+``benchmarks/protocol/data/references-smoke.json``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import os
+import shutil
+from collections.abc import Callable
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from benchmarks.protocol.dimensions import bounds_of
+from benchmarks.protocol.instances import Instance
+from benchmarks.protocol.suite import ProtocolConfig
+
+__all__ = [
+    "REFERENCE_FORMAT",
+    "ReferencePlan",
+    "compute_references",
+    "load_references",
+    "packaged_references",
+    "reference_plan",
+]
+
+REFERENCE_FORMAT = "tooldesign-protocol-references"
+REFERENCE_VERSION = 1
+
+#: Smallest noise floor, as a fraction of |F_ref|.
+FLOOR_MIN_FRACTION = 1e-3
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class ReferencePlan:
+    """How the references of a size are computed.
+
+    Attributes:
+        grid_points: Points per coefficient of the dense grid at d = 3 (0: no grid).
+        restarts: CMA-ES runs per cell at d > 3.
+        restart_evaluations_per_degree: Each CMA-ES run's budget per unit of d (rounded up to
+            whole batches of 8).
+        pool_per_degree: Random designs per unit of d (at least the protocol's budget plus one,
+            so that ``F_random(t)`` is defined at every budget).
+        nudges: Scenes of the noise floor (the first is the scene itself).
+        seed: Root seed of the pools and restarts.
+    """
+
+    grid_points: int = 11
+    restarts: int = 5
+    restart_evaluations_per_degree: int = 80
+    pool_per_degree: int = 80
+    nudges: int = 7
+    seed: int = 1
+
+    def __post_init__(self) -> None:
+        for name, low in (
+            ("grid_points", 0),
+            ("restarts", 0),
+            ("restart_evaluations_per_degree", 1),
+            ("pool_per_degree", 1),
+            ("nudges", 2),
+            ("seed", 0),
+        ):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < low:
+                raise ValueError(f"ReferencePlan.{name} must be an int >= {low}, got {value!r}")
+        if self.grid_points == 1 or self.nudges > 100:
+            raise ValueError(
+                "ReferencePlan.grid_points must be 0 (no grid) or >= 2 and nudges at most 100, "
+                f"got {self.grid_points} and {self.nudges}"
+            )
+
+    def pool_size(self, degree: int, budget: int) -> int:
+        """Random designs of a cell: ``pool_per_degree * d``, more than the run budget.
+
+        More, so that ``F_random(budget)`` is an expectation over subsets of the pool, not the
+        pool's own minimum (which may be the reference itself).
+        """
+        return max(self.pool_per_degree * degree, budget + 1)
+
+
+def reference_plan(size: str) -> ReferencePlan:
+    """The plan of a size: ``smoke`` is tiny (seconds), ``quick`` and ``full`` use full's."""
+    if size == "smoke":
+        return ReferencePlan(
+            grid_points=3,
+            restarts=1,
+            restart_evaluations_per_degree=2,
+            pool_per_degree=4,
+            nudges=3,
+        )
+    return ReferencePlan()
+
+
+def _cell_key(instance_id: str, degree: int) -> tuple[str, int]:
+    return (instance_id, int(degree))
+
+
+def packaged_references(size: str) -> Path | None:
+    """The committed references file of a size, if there is one (``quick`` uses ``full``'s)."""
+    name = "smoke" if size == "smoke" else "full"
+    path = resources.files("benchmarks.protocol").joinpath(f"data/references-{name}.json")
+    return Path(str(path)) if path.is_file() else None
+
+
+def load_references(path: str | os.PathLike[str]) -> dict[tuple[str, int], dict[str, Any]]:
+    """The cells of a references file, by (instance id, d).
+
+    Raises:
+        ValueError: If the file is missing or not a references file.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"references file {path} does not exist")
+    try:
+        data = json.loads(path.read_text())
+        if data.get("format") != REFERENCE_FORMAT:
+            raise ValueError(f"format is {data.get('format')!r}, not {REFERENCE_FORMAT!r}")
+        cells = {}
+        for cell in data["cells"]:
+            for key in ("f_ref", "noise_floor", "f_straight"):
+                if not math.isfinite(float(cell[key])):
+                    raise ValueError(f"{key} of {cell['instance']} d={cell['degree']} not finite")
+            pool = np.asarray(cell["random_pool"], dtype=float)
+            if pool.size == 0 or not np.all(np.isfinite(pool)):
+                raise ValueError(f"random_pool of {cell['instance']} must be finite F values")
+            cells[_cell_key(cell["instance"], cell["degree"])] = cell
+    except (KeyError, TypeError, ValueError, json.JSONDecodeError) as err:
+        raise ValueError(f"{path} is not a protocol references file: {err}") from None
+    return cells
+
+
+def _task(config: ProtocolConfig, instance: Instance, degree: int) -> Any:
+    return config.cell_suite(instance, degree).runs()[0].design.task()
+
+
+def _evaluate(pool: Any, designs: np.ndarray, task: Any) -> list[dict[str, Any]]:
+    from benchmarks.execution import evaluate_batch
+
+    rows: list[dict[str, Any]] = []
+    for start in range(0, len(designs), 64):
+        rows += evaluate_batch(pool, designs[start : start + 64], task)
+    return rows
+
+
+def _cmaes_runs(
+    pool: Any, config: ProtocolConfig, instance: Instance, degree: int, plan: ReferencePlan
+) -> tuple[np.ndarray, list[dict[str, Any]]]:
+    from benchmarks.design import DesignStepper
+    from benchmarks.execution import evaluate_batch
+
+    base = config.cell_suite(instance, degree).runs()[0].design
+    iterations = math.ceil(plan.restart_evaluations_per_degree * degree / 8)
+    seeds = np.random.SeedSequence(plan.seed, spawn_key=(instance.number, degree, 2))
+    designs, rows = [], []
+    for child in seeds.spawn(plan.restarts):
+        run = dataclasses.replace(
+            base,
+            optimizer="cmaes",
+            optimizer_settings=(),
+            seed=int(child.generate_state(1, dtype=np.uint32)[0]),
+            batch_size=8,
+            iterations=iterations,
+        )
+        stepper = DesignStepper(run, suite="reference")
+        task = run.task()
+        for _ in range(iterations):
+            x = stepper.ask()
+            got = evaluate_batch(pool, x, task)
+            stepper.tell(got)
+            designs.append(x)
+            rows += got
+    return np.vstack(designs), rows
+
+
+def compute_cell(
+    pool: Any, config: ProtocolConfig, instance: Instance, degree: int, plan: ReferencePlan
+) -> dict[str, Any]:
+    """The reference record of one cell (see the module doc), evaluated through ``pool``."""
+    from benchmarks.execution import map_robust
+    from benchmarks.suites.dense_search import grid
+    from benchmarks.suites.retest import RetestConfig, RetestItem, retest_design
+
+    task = _task(config, instance, degree)
+    bounds = np.asarray(bounds_of(degree))
+    rng = np.random.default_rng(
+        np.random.SeedSequence(plan.seed, spawn_key=(instance.number, degree, 1))
+    )
+    n_pool = plan.pool_size(degree, config.budget(degree))
+    random_x = rng.uniform(bounds[:, 0], bounds[:, 1], size=(n_pool, degree))
+    random_rows = _evaluate(pool, random_x, task)
+    straight_rows = _evaluate(pool, np.zeros((1, degree)), task)
+    search_x = np.zeros((0, degree))
+    search_rows: list[dict[str, Any]] = []
+    if degree == 3 and plan.grid_points:
+        search_x = grid(plan.grid_points, 3)
+        search_rows = _evaluate(pool, search_x, task)
+        method = f"dense grid {plan.grid_points}^3"
+    elif plan.restarts:
+        search_x, search_rows = _cmaes_runs(pool, config, instance, degree, plan)
+        method = f"{plan.restarts} CMA-ES runs x {len(search_rows) // plan.restarts} evaluations"
+    else:
+        method = "no search"
+    method += f" + {n_pool} random + straight"
+    designs = np.vstack([random_x, np.zeros((1, degree)), search_x])
+    rows = random_rows + straight_rows + search_rows
+    f = np.array([r["free_energy"] if r["status"] == "ok" else math.inf for r in rows])
+    if not np.isfinite(f).any():
+        raise RuntimeError(f"no valid design for instance {instance.id} at d = {degree}")
+    best = int(np.argmin(f))
+    retest = RetestConfig(nudges=plan.nudges, seed=plan.seed, repeats=1)  # noise only
+    item = RetestItem(coeffs=tuple(designs[best].tolist()), task=task, config=retest)
+    ((result, exc, _),) = map_robust(pool, retest_design, [item])
+    if exc is not None:
+        raise RuntimeError(f"noise floor of {instance.id} at d = {degree}: {exc}") from exc
+    noise = np.array([row["free_energy"] for row in result["noise"]])
+    f_ref = float(f[best])
+    floor = max(float(noise.max() - noise.min()), FLOOR_MIN_FRACTION * abs(f_ref))
+    pool_f = np.array([r["free_energy"] for r in random_rows], dtype=float)
+    return {
+        "instance": instance.id,
+        "degree": degree,
+        "f_ref": f_ref,
+        "design": designs[best].tolist(),
+        "final_distance": float(rows[best]["final_distance"]),
+        "method": method,
+        "evaluations": len(rows) + plan.nudges,
+        "noise_floor": floor,
+        "noise_range": float(noise.max() - noise.min()),
+        "noise_nudges": plan.nudges,
+        "f_straight": float(straight_rows[0]["free_energy"]),
+        "random_pool": sorted(float(v) for v in pool_f[np.isfinite(pool_f)]),
+    }
+
+
+def compute_references(
+    config: ProtocolConfig,
+    out_file: str | os.PathLike[str],
+    *,
+    plan: ReferencePlan | None = None,
+    say: Callable[[str], None] | None = None,
+) -> Path:
+    """Compute the references of every cell of ``config`` into ``out_file``, resumably.
+
+    Args:
+        config: The protocol whose cells need references (its executor and workers are used).
+        out_file: The references file (JSON), written atomically at the end; finished cells
+            wait in ``<out_file>.cells/``. The cells of an existing file are kept, not
+            computed again (a rerun adds the cells it lacks).
+        plan: How; :func:`reference_plan` (config.size) if ``None``.
+        say: Called with one line per cell.
+
+    Returns:
+        ``out_file``.
+    """
+    from benchmarks.execution import make_executor
+    from benchmarks.storage import atomic_write_text
+
+    plan = plan or reference_plan(config.size)
+    out = Path(out_file)
+    if out.suffix != ".json":
+        raise ValueError(f"the references file must end in .json, got {out}")
+    parts = out.with_name(out.name + ".cells")
+    parts.mkdir(parents=True, exist_ok=True)
+    if out.is_file():  # a finished file: its cells are done (checked as any references file)
+        for (instance_id, degree), cell in load_references(out).items():
+            target = parts / f"d{degree}-{instance_id}.json"
+            if not target.is_file():
+                atomic_write_text(target, json.dumps(cell) + "\n")
+    cells = []
+    with make_executor(config.executor, config.workers, config.scheduler) as pool:
+        for k, (instance, degree) in enumerate(config.cells(), 1):
+            part = parts / f"d{degree}-{instance.id}.json"
+            if part.is_file():
+                cells.append(json.loads(part.read_text()))
+                continue
+            if say is not None:
+                say(f"references {k}/{len(config.cells())}: d = {degree}, instance {instance.id}")
+            cell = compute_cell(pool, config, instance, degree, plan)
+            atomic_write_text(part, json.dumps(cell) + "\n")
+            cells.append(cell)
+    record = {
+        "format": REFERENCE_FORMAT,
+        "version": REFERENCE_VERSION,
+        "size": config.size,
+        "instance_version": config.instance_version,
+        "goal_precision": config.goal_precision,
+        "plan": dataclasses.asdict(plan),
+        "cells": cells,
+    }
+    atomic_write_text(out, json.dumps(record, indent=1) + "\n")
+    shutil.rmtree(parts)  # every cell is in the file now
+    return out

@@ -1,0 +1,320 @@
+"""The protocol suite: every (dimension, instance) cell a suite of its own, in one folder.
+
+A protocol run folder::
+
+    run_folder/
+        protocol.json                 the ProtocolConfig, the instance-set version, the sizes
+        cells/d<d>/<instance>/        one suite run folder per cell (benchmarks.suites.runner:
+                                      manifest, parts, designs; resumable on its own)
+        ioh/                          the trajectories in the IOHprofiler format (ioh_export)
+        report/                       tables, ECDF figures, report.md (benchmarks.protocol.report)
+
+Each cell is a :class:`~benchmarks.suites.SuiteConfig` run by
+:func:`~benchmarks.suites.run_suite` on the project's executors (serial, process pool, Dask),
+so resuming, checksums and seeds are those of every suite: a rerun of the same command skips the
+finished cells and runs, and replays unfinished ones. Every optimizer sees the same seeds in a
+cell: the cell's root seed is the first state word of ``SeedSequence(root_seed,
+spawn_key=(instance number, d))``, so an optimizer run later, alone (a user's), gets the seeds
+the committed built-ins had, and its results merge with theirs in one report.
+
+Budgets grow with the dimension, as COCO's: a run has ``iterations(d) x batch_size`` evaluations.
+
+Sizes (:data:`PROTOCOL_SIZES`, estimated at 0.12 s per evaluation per core; the integrator
+measures):
+
+======  ==========================  =====  =======  =====  ===============  ==================
+size    instances                   d      seeds    batch  evaluations/run  evaluations in all
+======  ==========================  =====  =======  =====  ===============  ==================
+smoke   i01, i02 (public)           3, 5   1        4      8, 12            80 (2 optimizers)
+quick   6 public                    3,5,8  2        8      32, 56, 80       8,064 (~8 min)
+full    all 24 (16 public, 8 held)  3,5,8  3        8      120, 200, 320    184,320 (~3.1 h)
+======  ==========================  =====  =======  =====  ===============  ==================
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import os
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from benchmarks.protocol.dimensions import DEGREES, bounds_of
+from benchmarks.protocol.instances import (
+    INSTANCE_VERSION,
+    Instance,
+    load_instances,
+    select_instances,
+)
+from benchmarks.suites.config import OptimizerSpec, SuiteConfig
+
+__all__ = [
+    "BUILTIN_OPTIMIZERS",
+    "PROTOCOL_FILE",
+    "PROTOCOL_SIZES",
+    "PROTOCOL_SUITE_NAME",
+    "ProtocolConfig",
+    "cell_folder",
+    "protocol_config",
+    "read_protocol",
+    "run_protocol",
+]
+
+PROTOCOL_SUITE_NAME = "protocol"
+PROTOCOL_SIZES: tuple[str, ...] = ("smoke", "quick", "full")
+PROTOCOL_FILE = "protocol.json"
+PROTOCOL_FORMAT = 1
+
+#: The committed built-ins of the ``quick`` and ``full`` sizes.
+BUILTIN_OPTIMIZERS: tuple[str, ...] = ("cmaes", "bo", "pso", "random")
+
+#: Fields that do not change results: a resumed protocol may set them differently.
+_RUNTIME = frozenset({"executor", "workers", "scheduler", "max_retries"})
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class ProtocolConfig:
+    """A protocol run: the cells (instances x degrees), the optimizers, seeds and budgets.
+
+    Attributes:
+        size: ``"smoke"``, ``"quick"`` or ``"full"`` (what the sizes table says), recorded.
+        instances: Instance ids of the committed set ``instance_version``.
+        instance_version: Version of the committed instance set.
+        degrees: Tool degrees d.
+        optimizers: The optimizers (registry names or ``"module:Class"``).
+        n_seeds: Seeds per (cell, optimizer).
+        batch_size: Designs per iteration, the same for every optimizer.
+        evaluations_per_degree: Budget per unit of d: a run has ``ceil(e * d / batch)`` iterations.
+        goal_precision: p^X, 1/m^2.
+        root_seed: The protocol's root seed.
+        executor, workers, scheduler, max_retries: As ``SuiteConfig``'s (not results).
+    """
+
+    size: str
+    instances: tuple[str, ...]
+    instance_version: int = INSTANCE_VERSION
+    degrees: tuple[int, ...] = DEGREES
+    optimizers: tuple[OptimizerSpec, ...] = tuple(OptimizerSpec(name=n) for n in BUILTIN_OPTIMIZERS)
+    n_seeds: int = 3
+    batch_size: int = 8
+    evaluations_per_degree: int = 40
+    goal_precision: float = 20.0
+    root_seed: int = 0
+    executor: str = "process"
+    workers: int | None = None
+    scheduler: str | None = None
+    max_retries: int = 0
+
+    def __post_init__(self) -> None:
+        if self.size not in PROTOCOL_SIZES:
+            raise ValueError(f"unknown size {self.size!r}; sizes: {', '.join(PROTOCOL_SIZES)}")
+        object.__setattr__(self, "instances", tuple(self.instances))
+        select_instances(self.instance_set(), self.instances)  # unknown ids are refused
+        if len(set(self.instances)) != len(self.instances):
+            raise ValueError(f"instances must be distinct, got {list(self.instances)}")
+        degrees = tuple(self.degrees)
+        for d in degrees:
+            bounds_of(d)
+        if not degrees or len(set(degrees)) != len(degrees):
+            raise ValueError(f"degrees must be distinct and at least one, got {degrees}")
+        object.__setattr__(self, "degrees", degrees)
+        specs = tuple(
+            o if isinstance(o, OptimizerSpec) else OptimizerSpec(name=o) for o in self.optimizers
+        )
+        if not specs:
+            raise ValueError("optimizers must name at least one optimizer")
+        object.__setattr__(self, "optimizers", specs)
+        for name in ("n_seeds", "batch_size", "evaluations_per_degree"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise ValueError(f"{name} must be an int >= 1, got {value!r}")
+        for cell in self.cells():
+            self.cell_suite(*cell)  # SuiteConfig checks the rest with its own messages
+
+    def instance_set(self) -> tuple[Instance, ...]:
+        """The committed instances of ``instance_version``."""
+        return load_instances(self.instance_version)
+
+    def iterations(self, degree: int) -> int:
+        """Iterations of a run at degree d: ``ceil(evaluations_per_degree * d / batch_size)``."""
+        return math.ceil(self.evaluations_per_degree * degree / self.batch_size)
+
+    def budget(self, degree: int) -> int:
+        """Evaluations of a run at degree d."""
+        return self.iterations(degree) * self.batch_size
+
+    def cells(self) -> list[tuple[Instance, int]]:
+        """(instance, d) of every cell, d by d."""
+        chosen = select_instances(self.instance_set(), self.instances)
+        return [(i, d) for d in self.degrees for i in chosen]
+
+    def cell_seed(self, instance: Instance, degree: int) -> int:
+        """The root seed of a cell's suite (the same for every optimizer)."""
+        seq = np.random.SeedSequence(self.root_seed, spawn_key=(instance.number, degree))
+        return int(seq.generate_state(1, dtype=np.uint32)[0])
+
+    def cell_suite(self, instance: Instance, degree: int) -> SuiteConfig:
+        """The suite of one cell."""
+        return SuiteConfig(
+            name=f"{PROTOCOL_SUITE_NAME}-d{degree}-{instance.id}",
+            description=f"protocol cell: instance {instance.id}, degree {degree}",
+            goal=instance.goal,
+            goal_precision=self.goal_precision,
+            box_mass=instance.box_mass,
+            scene=instance.scene(),
+            bounds=bounds_of(degree),
+            optimizers=self.optimizers,
+            batch_size=self.batch_size,
+            iterations=self.iterations(degree),
+            root_seed=self.cell_seed(instance, degree),
+            n_seeds=self.n_seeds,
+            executor=self.executor,
+            workers=self.workers,
+            scheduler=self.scheduler,
+            max_retries=self.max_retries,
+        )
+
+    def evaluations(self) -> int:
+        """Planned evaluations of the whole protocol run."""
+        return sum(self.cell_suite(i, d).evaluations() for i, d in self.cells())
+
+    def to_json(self) -> dict[str, Any]:
+        """JSON values of the config."""
+        data = dataclasses.asdict(self)
+        data["optimizers"] = [
+            {**dataclasses.asdict(o), "settings": dict(o.settings)} for o in self.optimizers
+        ]
+        return json.loads(json.dumps(data))  # type: ignore[no-any-return]
+
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any]) -> ProtocolConfig:
+        """The config of :meth:`to_json`'s values."""
+        fields = dict(data)
+        fields["optimizers"] = tuple(OptimizerSpec(**o) for o in fields.get("optimizers", ()))
+        for key in ("instances", "degrees"):
+            fields[key] = tuple(fields[key])
+        return cls(**fields)
+
+    def replace(self, **changes: Any) -> ProtocolConfig:
+        """A copy with fields changed (checked again)."""
+        return dataclasses.replace(self, **changes)
+
+
+def protocol_config(size: str, *, optimizer: str | None = None) -> ProtocolConfig:
+    """The protocol at a size; with ``optimizer`` that one optimizer alone (a user's run).
+
+    Raises:
+        ValueError: An unknown size.
+    """
+    if not isinstance(size, str) or size not in PROTOCOL_SIZES:
+        raise ValueError(f"unknown size {size!r}; sizes: {', '.join(PROTOCOL_SIZES)}")
+    instances = load_instances()
+    public = [i.id for i in instances if i.set == "public"]
+    if size == "smoke":
+        config = ProtocolConfig(
+            size=size,
+            instances=tuple(public[:2]),
+            degrees=(3, 5),
+            optimizers=(OptimizerSpec(name="random"), OptimizerSpec(name="cmaes")),
+            n_seeds=1,
+            batch_size=4,
+            evaluations_per_degree=2,  # ceil(2 d / 4): 2 and 3 iterations, 8 and 12 evaluations
+        )
+    elif size == "quick":
+        config = ProtocolConfig(
+            size=size, instances=tuple(public[:6]), n_seeds=2, evaluations_per_degree=10
+        )
+    else:
+        config = ProtocolConfig(size=size, instances=tuple(i.id for i in instances), n_seeds=3)
+    if optimizer is not None:
+        config = config.replace(optimizers=(OptimizerSpec(name=optimizer),))
+    return config
+
+
+def cell_folder(run_folder: str | os.PathLike[str], instance: Instance, degree: int) -> Path:
+    """The suite run folder of a cell."""
+    return Path(run_folder) / "cells" / f"d{degree}" / instance.id
+
+
+def read_protocol(run_folder: str | os.PathLike[str]) -> ProtocolConfig:
+    """The config a protocol run folder was made with.
+
+    Raises:
+        ValueError: If the folder has no readable ``protocol.json``.
+    """
+    path = Path(run_folder) / PROTOCOL_FILE
+    if not path.is_file():
+        raise ValueError(f"{run_folder} is not a protocol run folder: it has no {PROTOCOL_FILE}")
+    try:
+        data = json.loads(path.read_text())
+        if data.get("format") != PROTOCOL_FORMAT:
+            raise ValueError(f"format {data.get('format')!r}, expected {PROTOCOL_FORMAT}")
+        return ProtocolConfig.from_json(data["config"])
+    except (KeyError, TypeError, ValueError) as err:
+        raise ValueError(f"{path} is not a protocol file: {err}") from None
+
+
+def _comparable(config: ProtocolConfig) -> dict[str, Any]:
+    return {k: v for k, v in config.to_json().items() if k not in _RUNTIME}
+
+
+def run_protocol(
+    config: ProtocolConfig,
+    out_dir: str | os.PathLike[str],
+    *,
+    progress: bool = True,
+    say: Callable[[str], None] | None = None,
+) -> Path:
+    """Run (or resume) every cell of the protocol into ``out_dir``.
+
+    Args:
+        config: The protocol.
+        out_dir: The run folder; a folder of another protocol config is refused.
+        progress: Progress bars of the cells.
+        say: Called with one line per cell started.
+
+    Returns:
+        The run folder.
+
+    Raises:
+        ValueError: ``out_dir`` holds another protocol run or other files.
+    """
+    from benchmarks.storage import atomic_write_text, check_out_dir
+    from benchmarks.suites import run_suite
+
+    if not isinstance(config, ProtocolConfig):
+        raise TypeError(f"config must be a ProtocolConfig, got {type(config).__name__}")
+    out = check_out_dir(out_dir)
+    path = out / PROTOCOL_FILE
+    if path.is_file():
+        old = read_protocol(out)
+        if _comparable(old) != _comparable(config):
+            raise ValueError(
+                f"{out} holds a protocol run of another configuration (size {old.size}, "
+                f"optimizers {[o.column for o in old.optimizers]}); use another folder"
+            )
+    elif out.is_dir() and any(out.iterdir()):
+        raise ValueError(f"--out {out} is not empty and is not a protocol run folder")
+    out.mkdir(parents=True, exist_ok=True)
+    record = {"format": PROTOCOL_FORMAT, "config": config.to_json()}
+    atomic_write_text(path, json.dumps(record, indent=2, sort_keys=True) + "\n")
+    cells = config.cells()
+    if say is not None:
+        say(
+            f"protocol {config.size}: {len(cells)} cells, {len(config.optimizers)} optimizer(s), "
+            f"{config.n_seeds} seed(s), {config.evaluations():,} evaluations planned"
+        )
+    for k, (instance, degree) in enumerate(cells, 1):
+        if say is not None:
+            say(f"cell {k}/{len(cells)}: d = {degree}, instance {instance.id}")
+        run_suite(
+            config.cell_suite(instance, degree),
+            cell_folder(out, instance, degree),
+            progress=progress,
+            size=config.size,
+        )
+    return out
