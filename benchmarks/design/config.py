@@ -33,8 +33,8 @@ DESIGN_SUITE = "design"
 """Suite name of a design run in its evaluation log."""
 
 
-# Fields that do not change the results, so a resumed run may set them differently.
-_RUNTIME_FIELDS = frozenset({"iterations", "workers", "executor", "scheduler", "max_retries"})
+#: Fields that do not change the results, so a resumed run may set them differently.
+RUNTIME_FIELDS = frozenset({"iterations", "workers", "executor", "scheduler", "max_retries"})
 
 #: Config fields added after runs were first stored, with the value older runs had: a run
 #: folder whose manifest lacks one is resumed as if it held that value. A table adds its keys to
