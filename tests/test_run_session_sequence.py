@@ -5,6 +5,7 @@ And a refused resume for other settings is a compact diff naming the differing f
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 from typing import Any
@@ -260,8 +261,8 @@ def test_config_changes_and_describe_changes() -> None:
 @pytest.mark.parametrize(
     ("call", "error", "match"),
     [
-        (lambda: config_changes([1], {}), TypeError, "recorded must be a config"),
-        (lambda: config_changes({}, "x"), TypeError, "requested must be a config"),
+        (lambda: config_changes([1], {}), TypeError, "recorded must be a config"),  # type: ignore[arg-type]
+        (lambda: config_changes({}, "x"), TypeError, "requested must be a config"),  # type: ignore[arg-type]
         (lambda: config_changes({}, {}, ignore="workers"), TypeError, "list of field names"),
         (lambda: describe_changes([], shown=0), ValueError, "shown must be an int >= 1"),
     ],
@@ -295,3 +296,49 @@ def test_a_unit_of_the_stepper_names_its_part(tmp_path: Path) -> None:
     )
     labelled = DesignStepper(config, suite="s", variant="v", label="lab")
     assert labelled.unit(0) == Unit(suite="s", variant="v", optimizer="lab", seed=3, iteration=0)
+
+
+def test_the_task_fields_are_declared_once_and_shared_by_both_configs() -> None:
+    from benchmarks.design import DesignConfig, TaskConfig
+    from benchmarks.design.config import TASK_FIELDS
+    from benchmarks.suites import SuiteConfig, Variant
+    from benchmarks.suites.config import _FILE_ORDER
+
+    for cls in (DesignConfig, SuiteConfig):
+        assert issubclass(cls, TaskConfig)
+        assert not set(TASK_FIELDS) & set(cls.__dict__.get("__annotations__", {}))
+    # The suite's JSON (and its suite files) keep every field, in the order they had.
+    assert sorted(_FILE_ORDER) == sorted(f.name for f in dataclasses.fields(SuiteConfig))
+    suite = SuiteConfig(
+        name="shared",
+        goal_precision=30,
+        scene_samples=2,
+        variants=[Variant(name="a", goal_precision=10)],
+        n_seeds=1,
+        iterations=1,
+    )
+    assert list(suite.to_json())[:4] == ["name", "description", "env_id", "goal"]
+    [run] = suite.runs()
+    assert {**run.design.task_fields(), "goal_precision": 30.0} == suite.task_fields()
+    design = DesignConfig(scene_samples=2)
+    assert list(design.to_json())[0] == "optimizer"
+    assert list(design.to_json())[-len(TASK_FIELDS) :] == list(TASK_FIELDS)
+
+
+@pytest.mark.parametrize(
+    ("fields", "error", "match"),
+    [
+        ({"goal_precision": -1.0}, ValueError, "goal_precision"),
+        ({"scene_samples": 0}, ValueError, "scene_samples must be >= 1"),
+        ({"robustness_masses": []}, ValueError, "robustness_masses"),
+        ({"section_shape": "hexagon"}, ValueError, "section_shape must be one of"),
+        ({"scene": {"box_mass": 1.0}}, ValueError, "scene must not set 'box_mass'"),
+    ],
+)
+def test_a_task_config_refuses_bad_input(
+    fields: dict[str, Any], error: type[Exception], match: str
+) -> None:
+    from benchmarks.design import TaskConfig
+
+    with pytest.raises(error, match=match):
+        TaskConfig(**fields)

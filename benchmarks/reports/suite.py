@@ -53,6 +53,7 @@ from benchmarks.reports.rl import make_rl_report
 from benchmarks.reports.stats import INTERVAL_NAMES, Interval, check_interval, mean_interval
 from benchmarks.rl.suite import RL_SUITE_KIND
 from benchmarks.storage import (
+    MANIFEST_NAME,
     ResultStore,
     atomic_write_text,
     read_designs,
@@ -931,7 +932,12 @@ def make_suite_report(
 def _incomplete_notice(
     folder: Path, designs: Sequence[Mapping[str, Any]], retests: Sequence[Mapping[str, Any]]
 ) -> str | None:
-    """What is missing from a suite folder: runs not finished, designs not retested; or None."""
+    """What is missing from a suite folder: runs not finished, designs not retested; or None.
+
+    None for a bare store (no manifest): it is no suite folder, and its report says so.
+    """
+    if not (folder / MANIFEST_NAME).exists():
+        return None
     manifest = read_manifest(folder)
     extra = manifest.get("extra")
     if not isinstance(extra, dict) or extra.get("kind") != SUITE_KIND:

@@ -263,9 +263,8 @@ class RunSession:
         heartbeat_interval: Seconds between two writes of :data:`HEARTBEAT`.
 
     Raises:
-        TypeError: If ``out_dir`` is not a path.
-        TypeError: If ``first_fields`` is not a list of names or ``resume_hint`` is not
-            callable.
+        TypeError: If ``out_dir`` is not a path, ``first_fields`` not a list of names or
+            ``resume_hint`` not callable.
         ValueError: If ``out_dir`` is a file, or has content and ``resume`` is false, or
             ``heartbeat_interval`` is not a positive finite number of seconds, or a session
             of another process is writing the folder (it holds the folder's lock until it
