@@ -330,7 +330,8 @@ def test_a_design_run_made_with_13_links_is_resumed_from_the_command_line(tmp_pa
     with pytest.raises(SystemExit) as exit_info:
         main([*base, "--iterations", "2", "--resume"])
     assert exit_info.value.code == 2
-    assert "'merge_fixed_links': False" in capsys.readouterr().err
+    # The dotted field and JSON values, as --scene takes them (it printed both scene tables).
+    assert "scene.merge_fixed_links: false -> true" in capsys.readouterr().err
     grown = [*base, "--iterations", "2", "--resume", "--scene", "merge_fixed_links=false"]
     assert main(grown) == 0
     assert json.loads((out / "manifest.json").read_text())["config"]["scene"] == {
