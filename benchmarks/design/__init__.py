@@ -1,6 +1,7 @@
 """Designing a tool: Algorithm 1 of the paper (ask a batch, evaluate it, tell, repeat).
 
-- :mod:`~benchmarks.design.config`: :class:`DesignConfig`, what a run is.
+- :mod:`~benchmarks.design.config`: :class:`DesignConfig`, what a run is; :class:`TaskConfig`,
+  the task fields it shares with a suite.
 - :mod:`~benchmarks.design.stepper`: :class:`DesignStepper`, one iteration at a time.
 - :mod:`~benchmarks.design.loop`: :func:`run_design`, the whole resumable run into a run folder.
 - :mod:`~benchmarks.design.evaluate`: :func:`evaluate_coefficients`, one given design's terms,
@@ -17,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 from tooldesign_env.lazy import lazy_attribute
 
 if TYPE_CHECKING:
-    from benchmarks.design.config import DESIGN_SUITE, DesignConfig
+    from benchmarks.design.config import DESIGN_SUITE, DesignConfig, TaskConfig
     from benchmarks.design.evaluate import evaluate_coefficients
     from benchmarks.design.loop import CARD_VERSION, DesignResult, run_design
     from benchmarks.design.stepper import DesignStepper, best_evaluation
@@ -31,6 +32,7 @@ _LAZY: dict[str, str] = {
     "DesignConfig": "benchmarks.design.config",
     "DesignResult": "benchmarks.design.loop",
     "DesignStepper": "benchmarks.design.stepper",
+    "TaskConfig": "benchmarks.design.config",
     "best_evaluation": "benchmarks.design.stepper",
     "evaluate_coefficients": "benchmarks.design.evaluate",
     "run_design": "benchmarks.design.loop",
@@ -42,6 +44,7 @@ __all__ = [
     "DesignConfig",
     "DesignResult",
     "DesignStepper",
+    "TaskConfig",
     "best_evaluation",
     "evaluate_coefficients",
     "run_design",

@@ -33,8 +33,8 @@ DESIGN_SUITE = "design"
 """Suite name of a design run in its evaluation log."""
 
 
-# Fields that do not change the results, so a resumed run may set them differently.
-_RUNTIME_FIELDS = frozenset({"iterations", "workers", "executor", "scheduler", "max_retries"})
+#: Fields that do not change the results, so a resumed run may set them differently.
+RUNTIME_FIELDS = frozenset({"iterations", "workers", "executor", "scheduler", "max_retries"})
 
 #: Config fields added after runs were first stored, with the value older runs had: a run
 #: folder whose manifest lacks one is resumed as if it held that value. A table adds its keys to
@@ -230,29 +230,16 @@ def _bounds(value: Any) -> tuple[tuple[float, float], ...]:
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
-class DesignConfig:
-    """What a design run does: the designer, its budget, where it runs, and the task.
+class TaskConfig:
+    """The task every design of a run is scored on: what a design run and a suite share.
+
+    :class:`DesignConfig` and :class:`~benchmarks.suites.SuiteConfig` are made of it (plus the
+    designer, the budget and the executor), so each task field is declared, defaulted, checked
+    and documented once, here; a suite file, a design run's flags and both configs' JSON keep
+    the flat field names below.
 
     Attributes:
-        optimizer: Name in the :mod:`optimizers` registry (``cmaes``, ``bo``, ``pso``,
-            ``random``) or a ``"module:Class"`` string.
-        optimizer_settings: Keyword arguments of the optimizer (a mapping; stored as sorted
-            pairs), JSON values only; not ``seed``, ``batch_size``, ``bounds``, ``low`` or
-            ``high``, which the run gives it from its own fields (:data:`HARNESS_SETTINGS`).
-        seed: Seed of the optimizer, >= 0; the simulation has no randomness.
-        iterations: K, iterations of ask/evaluate/tell, >= 1.
-        batch_size: Designs asked per iteration (the population size), 1 to 10,000.
-        workers: Worker processes, 1 to 1024; ``None`` is the CPUs this process may use
-            (:func:`benchmarks.execution.usable_cpus`, its affinity).
-        executor: ``"serial"``, ``"process"`` or ``"dask"``.
-        scheduler: Address of a Dask scheduler (with ``executor="dask"``); a LocalCluster if
-            ``None``.
-        max_retries: With ``executor="process"``: how many more times a design whose worker
-            process died while it was evaluated alone is evaluated again, alone in a fresh pool,
-            before it is logged as ``"failed"``; an int from 0 to 100 (default 0: the simulation
-            is deterministic). A design whose worker died in a shared pool is always evaluated
-            once more alone first, so the others' designs are not failed with it.
-        goal: X^g, (x, y, z) in m.
+        goal: X^g, (x, y, z) in m (a suite with ``goal_box`` draws one per task instead).
         goal_precision: p^X in 1/m^2, >= 0 (the paper's Figure 3 uses 40, its comparisons 20).
         box_mass: Box mass in kg (the paper's 0.1).
         estimator: ``"contact"``, ``"trajectory"`` or ``"resimulation"`` estimate of dX/dU.
@@ -274,15 +261,6 @@ class DesignConfig:
             ``"square"``.
     """
 
-    optimizer: str = "cmaes"
-    optimizer_settings: tuple[tuple[str, Any], ...] | Mapping[str, Any] = ()
-    seed: int = 0
-    iterations: int = 15
-    batch_size: int = 8
-    workers: int | None = None
-    executor: str = "process"
-    scheduler: str | None = None
-    max_retries: int = 0
     goal: Sequence[float] = DEFAULT_GOAL
     goal_precision: float = DEFAULT_GOAL_PRECISION
     box_mass: float = DEFAULT_BOX_MASS
@@ -295,32 +273,13 @@ class DesignConfig:
     section_shape: str = "round"
 
     def __post_init__(self) -> None:
-        if not isinstance(self.optimizer, str) or not self.optimizer.strip():
-            raise ValueError(f"optimizer must be a non-empty name, got {self.optimizer!r}")
-        object.__setattr__(self, "optimizer_settings", _settings(self.optimizer_settings))
-        object.__setattr__(self, "seed", _int("seed", self.seed, 0))
-        object.__setattr__(self, "iterations", _int("iterations", self.iterations, 1))
-        from optimizers import BATCH_SIZE_MAX
+        self._check_task()
 
-        # The optimizers refuse a larger batch too, but only once the run has started.
-        batch_size = _int("batch_size", self.batch_size, 1, BATCH_SIZE_MAX)
-        object.__setattr__(self, "batch_size", batch_size)
+    def _check_task(self) -> None:
+        """Check the task fields and store them in their canonical form (tuples, floats)."""
         object.__setattr__(
             self, "scene_samples", _int("scene_samples", self.scene_samples, 1, SCENE_SAMPLES_MAX)
         )
-        if self.workers is not None:
-            object.__setattr__(self, "workers", _int("workers", self.workers, 1, WORKERS_MAX))
-        if self.executor not in EXECUTORS:
-            raise ValueError(f"executor must be one of {EXECUTORS}, got {self.executor!r}")
-        if self.scheduler is not None:
-            if not isinstance(self.scheduler, str) or not self.scheduler:
-                raise ValueError(f"scheduler must be an address, got {self.scheduler!r}")
-            if self.executor != "dask":
-                raise ValueError(
-                    f"scheduler is a Dask scheduler address; it needs executor='dask', "
-                    f"got executor={self.executor!r}"
-                )
-        object.__setattr__(self, "max_retries", check_max_retries(self.max_retries))
         # TaskSettings checks goal, precision, mass and estimator and says what is wrong.
         task = TaskSettings(
             goal=self.goal,
@@ -334,12 +293,14 @@ class DesignConfig:
         object.__setattr__(self, "box_mass", task.box_mass)
         object.__setattr__(self, "bounds", _bounds(self.bounds))
         object.__setattr__(self, "scene", recorded_scene(self.scene))
+        object.__setattr__(self, "robustness_masses", self._checked_masses(self.robustness_masses))
+        object.__setattr__(self, "section_shape", check_section_shape(self.section_shape))
+
+    def _checked_masses(self, value: Any) -> Sequence[float]:
         try:
-            masses = RobustnessRequest(coeffs=(0.0,), masses=self.robustness_masses).masses
+            return RobustnessRequest(coeffs=(0.0,), masses=value).masses
         except (TypeError, ValueError) as error:
             raise type(error)(f"robustness_masses: {error}") from None
-        object.__setattr__(self, "robustness_masses", masses)
-        object.__setattr__(self, "section_shape", check_section_shape(self.section_shape))
 
     @property
     def degree(self) -> int:
@@ -351,6 +312,80 @@ class DesignConfig:
         from tooldesign_env import ToolSpec
 
         return ToolSpec(degree=self.degree, section_shape=self.section_shape)
+
+    def task_fields(self) -> dict[str, Any]:
+        """The task fields by name, as stored (to make another config of the same task)."""
+        return {name: getattr(self, name) for name in TASK_FIELDS}
+
+
+#: The fields of :class:`TaskConfig`, in their order.
+TASK_FIELDS: tuple[str, ...] = tuple(f.name for f in dataclasses.fields(TaskConfig))
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class DesignConfig(TaskConfig):
+    """What a design run does: the designer, its budget, where it runs, and the task.
+
+    The task fields are those of :class:`TaskConfig`, which a suite shares.
+
+    Attributes:
+        optimizer: Name in the :mod:`optimizers` registry (``cmaes``, ``bo``, ``pso``,
+            ``random``) or a ``"module:Class"`` string.
+        optimizer_settings: Keyword arguments of the optimizer (a mapping; stored as sorted
+            pairs), JSON values only; not ``seed``, ``batch_size``, ``bounds``, ``low`` or
+            ``high``, which the run gives it from its own fields (:data:`HARNESS_SETTINGS`).
+        seed: Seed of the optimizer, >= 0; the simulation has no randomness.
+        iterations: K, iterations of ask/evaluate/tell, >= 1.
+        batch_size: Designs asked per iteration (the population size), 1 to 10,000.
+        workers: Worker processes, 1 to 1024; ``None`` is the CPUs this process may use
+            (:func:`benchmarks.execution.usable_cpus`, its affinity).
+        executor: ``"serial"``, ``"process"`` or ``"dask"``.
+        scheduler: Address of a Dask scheduler (with ``executor="dask"``); a LocalCluster if
+            ``None``.
+        max_retries: With ``executor="process"``: how many more times a design whose worker
+            process died while it was evaluated alone is evaluated again, alone in a fresh pool,
+            before it is logged as ``"failed"``; an int from 0 to 100 (default 0: the simulation
+            is deterministic). A design whose worker died in a shared pool is always evaluated
+            once more alone first, so the others' designs are not failed with it.
+        goal, goal_precision, box_mass, estimator, objective, scene_samples, bounds, scene,
+            robustness_masses, section_shape: The task (see :class:`TaskConfig`).
+    """
+
+    optimizer: str = "cmaes"
+    optimizer_settings: tuple[tuple[str, Any], ...] | Mapping[str, Any] = ()
+    seed: int = 0
+    iterations: int = 15
+    batch_size: int = 8
+    workers: int | None = None
+    executor: str = "process"
+    scheduler: str | None = None
+    max_retries: int = 0
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.optimizer, str) or not self.optimizer.strip():
+            raise ValueError(f"optimizer must be a non-empty name, got {self.optimizer!r}")
+        object.__setattr__(self, "optimizer_settings", _settings(self.optimizer_settings))
+        object.__setattr__(self, "seed", _int("seed", self.seed, 0))
+        object.__setattr__(self, "iterations", _int("iterations", self.iterations, 1))
+        from optimizers import BATCH_SIZE_MAX
+
+        # The optimizers refuse a larger batch too, but only once the run has started.
+        batch_size = _int("batch_size", self.batch_size, 1, BATCH_SIZE_MAX)
+        object.__setattr__(self, "batch_size", batch_size)
+        if self.workers is not None:
+            object.__setattr__(self, "workers", _int("workers", self.workers, 1, WORKERS_MAX))
+        if self.executor not in EXECUTORS:
+            raise ValueError(f"executor must be one of {EXECUTORS}, got {self.executor!r}")
+        if self.scheduler is not None:
+            if not isinstance(self.scheduler, str) or not self.scheduler:
+                raise ValueError(f"scheduler must be an address, got {self.scheduler!r}")
+            if self.executor != "dask":
+                raise ValueError(
+                    f"scheduler is a Dask scheduler address; it needs executor='dask', "
+                    f"got executor={self.executor!r}"
+                )
+        object.__setattr__(self, "max_retries", check_max_retries(self.max_retries))
+        self._check_task()
 
     def task(self) -> TaskSettings:
         """The task and env settings every design of the run is scored with."""
@@ -376,8 +411,14 @@ class DesignConfig:
         )
 
     def to_json(self) -> dict[str, Any]:
-        """The configuration as JSON values (settings as an object, tuples as lists)."""
+        """The configuration as JSON values (settings as an object, tuples as lists).
+
+        The designer's fields come first, then the task's, as before the task fields were
+        shared.
+        """
         data = dataclasses.asdict(self)
+        task = {name: data.pop(name) for name in TASK_FIELDS}
+        data.update(task)
         data["optimizer_settings"] = dict(self.optimizer_settings)
         data["scene"] = dict(self.scene)
         return cast("dict[str, Any]", json.loads(json.dumps(data, allow_nan=False)))

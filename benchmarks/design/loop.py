@@ -31,8 +31,8 @@ from typing import Any, cast
 import numpy as np
 import pandas as pd
 
-from benchmarks.design.config import _RUNTIME_FIELDS, ADDED_FIELDS, DESIGN_SUITE, DesignConfig
-from benchmarks.design.stepper import DesignStepper, _best_row, _unit, iteration_bests
+from benchmarks.design.config import ADDED_FIELDS, DESIGN_SUITE, RUNTIME_FIELDS, DesignConfig
+from benchmarks.design.stepper import DesignStepper, best_evaluation, iteration_bests
 from benchmarks.execution import (
     RobustnessRequest,
     check_main_guard,
@@ -47,8 +47,8 @@ from benchmarks.storage import (
     ResumeError,
     RunSession,
     atomic_write_text,
+    check_out_dir,
     json_text,
-    write_recorded,
 )
 from tooldesign_env.schema import ROBUSTNESS_METRICS, STATUSES, coefficient_columns, rounded_path
 
@@ -102,9 +102,11 @@ class DesignResult:
     card: dict[str, Any]
 
 
-def _logged_iterations(store: ResultStore, config: DesignConfig) -> list[pd.DataFrame]:
+def _logged_iterations(
+    store: ResultStore, config: DesignConfig, stepper: DesignStepper
+) -> list[pd.DataFrame]:
     units = store.completed_units()
-    mine = sorted(u.iteration for u in units if u == _unit(config, u.iteration))
+    mine = sorted(u.iteration for u in units if u == stepper.unit(u.iteration))
     if len(mine) != len(units):
         raise ResumeError(f"cannot resume: {store.parts_dir} holds parts of other runs")
     if mine != list(range(len(mine))):
@@ -155,73 +157,78 @@ def run_design(
     # Before the run folder is made: a script refused here, a missing dask or a scheduler that
     # does not answer leaves nothing, so the same call reruns cleanly once that is fixed.
     check_main_guard(config.executor, config.scheduler, function="run_design")
-    with make_executor(
-        config.executor, config.workers, config.scheduler, max_retries=config.max_retries
-    ) as executor:
-        session = RunSession(
-            out_dir,
-            kind=DESIGN_SUITE,
-            config=config.to_json(),
-            resume=bool(resume),
-            runtime_fields=_RUNTIME_FIELDS,
-            added_fields=ADDED_FIELDS,
-        )
-        out, store = session.out, session.store
+    out = check_out_dir(out_dir)
+    # The session checks the folder (and refuses it, changing nothing) before the executor is
+    # made; it writes nothing before start(), so a missing dask or a scheduler that does not
+    # answer leaves nothing either. Leaving the block on an error keeps the session's time.
+    with RunSession(
+        out,
+        kind=DESIGN_SUITE,
+        config=config.to_json(),
+        resume=bool(resume),
+        runtime_fields=RUNTIME_FIELDS,
+        added_fields=ADDED_FIELDS,
+        # Every session writes these again at its end (see RunSession's rewritten_files).
+        rewritten_files=[out / DESIGN_RUN_FILES[name] for name in REWRITTEN_FILES],
+    ) as session:
+        store = session.store
         stepper = DesignStepper(config)
-        logged = _logged_iterations(store, config)
-        # Every session writes these again at its end: their records go before the first
-        # checkpoint, so a session killed after rewriting one leaves it unrecorded (read
-        # unchecked), never recorded with the checksum of the file it replaced.
-        for name in REWRITTEN_FILES:
-            session.forget_file(out / DESIGN_RUN_FILES[name])
-        session.checkpoint()
-        stepper.replay(logged)
-        best = min((_best_ok(p) for p in logged), default=math.inf)
-        evaluations_done = sum(len(p) for p in logged)
-        task = config.task()
-
-        from tqdm.auto import tqdm
-
-        bar = tqdm(
-            total=config.iterations,
-            initial=len(logged),
-            desc=f"design {config.optimizer}",
-            unit="it",
-            disable=not progress,
-            file=sys.stderr,
-            dynamic_ncols=True,
-        )
-        try:
-            bar.set_postfix(evals=evaluations_done, best_F=_fmt(best))
-            for iteration in range(len(logged), config.iterations):
-                x = stepper.ask()
-                rows = evaluate_batch(executor, x, task)
-                frame = stepper.tell(rows)
-                session.write_batch(frame)
-                _warn_failures(iteration, rows)
-                best = min(best, _best_ok(frame))
-                evaluations_done += len(frame)
-                bar.set_postfix(evals=evaluations_done, best_F=_fmt(best), refresh=False)
-                bar.update(1)
-        except BaseException:
-            session.close()  # its heartbeat stays: resuming counts this session's time
-            raise
-        finally:
-            bar.close()
-        evaluations = store.read(verify=False)  # written or verified by this session
-        result = _finish(config, out, store, evaluations, executor)
-        for name in ("robustness", "box_paths"):
-            session.record_file(out / DESIGN_RUN_FILES[name])  # in the manifest of finish()
-    manifest = session.finish(evaluations, keep_lock=True)  # the card and the GIF come after
-    try:
+        logged = _logged_iterations(store, config, stepper)
+        with make_executor(
+            config.executor, config.workers, config.scheduler, max_retries=config.max_retries
+        ) as executor:
+            session.start()
+            evaluations = _iterate(config, session, stepper, logged, executor, progress)
+            result = _finish(config, out, store, evaluations, executor)
+            for name in ("robustness", "box_paths"):
+                session.record_file(out / DESIGN_RUN_FILES[name])  # in the manifest of finish()
+        manifest = session.finish(evaluations)  # the card and the GIF come after
         card = _card(config, result, evaluations, manifest)
         # The session has written its last manifest: the card's checksum is added to it.
-        write_recorded(out, out / DESIGN_RUN_FILES["card"], json_text(card))
+        session.write_file(out / DESIGN_RUN_FILES["card"], json_text(card))
         if video and result.status == "ok":
             _video(config, result.coefficients, out / DESIGN_RUN_FILES["video"])
-    finally:
-        session.release()
     return dataclasses.replace(result, card=card)
+
+
+def _iterate(
+    config: DesignConfig,
+    session: RunSession,
+    stepper: DesignStepper,
+    logged: list[pd.DataFrame],
+    executor: Any,
+    progress: bool,
+) -> pd.DataFrame:
+    """Replay the logged iterations, run the others (one part each); the whole log."""
+    stepper.replay(logged)
+    best = min((_best_ok(p) for p in logged), default=math.inf)
+    evaluations_done = sum(len(p) for p in logged)
+    task = config.task()
+
+    from tqdm.auto import tqdm
+
+    bar = tqdm(
+        total=config.iterations,
+        initial=len(logged),
+        desc=f"design {config.optimizer}",
+        unit="it",
+        disable=not progress,
+        file=sys.stderr,
+        dynamic_ncols=True,
+    )
+    with bar:
+        bar.set_postfix(evals=evaluations_done, best_F=_fmt(best))
+        for iteration in range(len(logged), config.iterations):
+            x = stepper.ask()
+            rows = evaluate_batch(executor, x, task)
+            frame = stepper.tell(rows)
+            session.write_batch(frame)
+            _warn_failures(iteration, rows)
+            best = min(best, _best_ok(frame))
+            evaluations_done += len(frame)
+            bar.set_postfix(evals=evaluations_done, best_F=_fmt(best), refresh=False)
+            bar.update(1)
+    return session.store.read(verify=False)  # written or verified by this session
 
 
 def _best_ok(frame: pd.DataFrame) -> float:
@@ -259,7 +266,7 @@ def _finish(
     from tooldesign_env import export_mesh, make_tool, tool_urdf
 
     degree = config.degree
-    best = _best_row(evaluations)
+    best = best_evaluation(evaluations)
     coeffs = _coeffs(best, degree)
     geometry = make_tool(coeffs, config.tool_spec())
     export_mesh(geometry, out / DESIGN_RUN_FILES["stl"])

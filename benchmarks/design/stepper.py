@@ -74,12 +74,6 @@ def _replay(optimizer: Any, config: DesignConfig, logged: list[pd.DataFrame]) ->
         _tell(optimizer, ids, values, failed)
 
 
-def _unit(config: DesignConfig, iteration: int) -> Unit:
-    return Unit(
-        suite=DESIGN_SUITE, optimizer=config.optimizer, seed=config.seed, iteration=iteration
-    )
-
-
 def _batch_frame(
     config: DesignConfig,
     iteration: int,
@@ -148,6 +142,16 @@ class DesignStepper:
         self.iteration = 0
         self._suite, self._variant, self._label = suite, variant, label
         self._asked: tuple[np.ndarray, np.ndarray, float] | None = None
+
+    def unit(self, iteration: int) -> Unit:
+        """The part file (:class:`~benchmarks.storage.Unit`) of this run's ``iteration``."""
+        return Unit(
+            suite=self._suite,
+            variant=self._variant,
+            optimizer=self.config.optimizer if self._label is None else self._label,
+            seed=self.config.seed,
+            iteration=iteration,
+        )
 
     def replay(self, logged: Sequence[pd.DataFrame]) -> None:
         """Ask and tell the logged iterations again, checking each ask against the log.

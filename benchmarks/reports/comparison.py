@@ -63,6 +63,7 @@ __all__ = [
     "percent_cell",
     "plot_convergence",
     "summary_table",
+    "with_notice",
 ]
 
 FIGSIZE: tuple[float, float] = (6.4, 4.0)
@@ -422,9 +423,7 @@ def plot_convergence(
             f"plot_convergence draws one (suite, variant); the rows hold {len(groups)}: "
             f"{labels}; select one first"
         )
-    table = convergence_table(
-        evaluations, level=level, n_boot=n_boot, seed=seed, interval=interval
-    )
+    table = convergence_table(evaluations, level=level, n_boot=n_boot, seed=seed, interval=interval)
     if ax is None:
         _, ax = new_figure()
     colors = optimizer_colors(table["optimizer"])
@@ -653,6 +652,11 @@ def _slug(*names: str) -> str:
     return slug if slug == text else f"{slug}-{zlib.crc32(text.encode('utf-8')):08x}"
 
 
+def with_notice(markdown: str, notice: str | None) -> str:
+    """A Markdown page led by the notice of an incomplete run (as a quote), if there is one."""
+    return markdown if notice is None else f"> **Incomplete run.** {notice}\n\n{markdown}"
+
+
 def make_report(
     run_folder: str | os.PathLike[str],
     *,
@@ -663,6 +667,7 @@ def make_report(
     interval: str = "t",
     alpha: float = 0.05,
     noise_floor: float | Mapping[str, float] | None = None,
+    notice: str | None = None,
 ) -> list[Path]:
     """Rebuild the figures and tables of a run folder from its stored results alone.
 
@@ -678,6 +683,8 @@ def make_report(
         noise_floor: The noise floor of F, one number or one per variant (see
             :func:`pairwise_table`), drawn as a band on the convergence figures; None if it was
             not measured.
+        notice: What is missing from an incomplete run; it leads every ``.md`` page, as a
+            quote (see :func:`with_notice`). None for a complete run.
 
     Returns:
         The files written: one ``convergence-*.png`` per (suite, variant), then
@@ -715,16 +722,19 @@ def make_report(
         png = target / f"convergence-{_slug(*map(str, key))}.png"
         written.append(atomic_write_bytes(png, figure_png_bytes(figure)))
 
-    summary = summary_table(
-        evaluations, level=level, n_boot=n_boot, seed=seed, interval=interval
-    )
+    summary = summary_table(evaluations, level=level, n_boot=n_boot, seed=seed, interval=interval)
     written.append(atomic_write_text(target / "summary.csv", csv_text(summary)))
     written.append(
-        atomic_write_text(target / "summary.md", _summary_markdown(summary, level, interval))
+        atomic_write_text(
+            target / "summary.md", with_notice(_summary_markdown(summary, level, interval), notice)
+        )
     )
     pairwise = pairwise_table(evaluations, alpha=alpha, noise_floor=noise_floor)
     written.append(atomic_write_text(target / "pairwise.csv", csv_text(pairwise)))
     written.append(
-        atomic_write_text(target / "pairwise.md", _pairwise_markdown(pairwise, alpha, noise_floor))
+        atomic_write_text(
+            target / "pairwise.md",
+            with_notice(_pairwise_markdown(pairwise, alpha, noise_floor), notice),
+        )
     )
     return written

@@ -32,6 +32,7 @@ from benchmarks.reports.comparison import (
     interval_bounds,
     no_interval_note,
     percent_cell,
+    with_notice,
 )
 from benchmarks.reports.stats import INTERVAL_NAMES, check_interval, mean_interval
 from benchmarks.storage import atomic_write_text, json_text, retest_outcome
@@ -329,11 +330,13 @@ def make_retest_report(
     n_boot: int = 10_000,
     seed: int = 0,
     interval: str = "t",
+    notice: str | None = None,
 ) -> list[Path]:
     """Write the noise-floor and stress reports of retested designs into ``target``.
 
     ``interval`` is the interval of a mean (:data:`~benchmarks.reports.stats.INTERVALS`);
-    ``n_boot`` and ``seed`` are the bootstrap's.
+    ``n_boot`` and ``seed`` are the bootstrap's. ``notice`` (an incomplete run's) leads every
+    ``.md`` page, as :func:`~benchmarks.reports.comparison.with_notice` puts it.
     """
     interval = check_interval(interval)
     if not retests:
@@ -377,7 +380,8 @@ def make_retest_report(
             f"{_fmt(row['goal_error_range'])} | {_fmt(row['confidence_range'])} | "
             f"{_fmt(row['final_distance_range'])} |"
         )
-    written.append(atomic_write_text(target / "noise.md", "\n".join(lines) + "\n"))
+    page = with_notice("\n".join(lines) + "\n", notice)
+    written.append(atomic_write_text(target / "noise.md", page))
     for change in ("mass", "friction"):
         stress = stress_table(retests, change, n_boot=n_boot, seed=seed, interval=interval)
         if not len(stress):
@@ -389,7 +393,7 @@ def make_retest_report(
         written.append(atomic_write_text(target / f"{stem}.csv", stress.to_csv(index=False)))
         repeats = stress_repeats(retests, change)
         markdown = _stress_markdown(stress, change, values, repeats, interval)
-        written.append(atomic_write_text(target / f"{stem}.md", markdown))
+        written.append(atomic_write_text(target / f"{stem}.md", with_notice(markdown, notice)))
         figure = _plot_stress(retests, change, target, seed, interval)
         if figure is not None:
             written.append(figure)
@@ -453,8 +457,7 @@ def noise_floor(retests: Sequence[Mapping[str, Any]]) -> dict[str, float]:
 def _retest_notes(retests: Sequence[Mapping[str, Any]], floor: Mapping[str, float]) -> str:
     def where(outcome: str) -> str:
         return "; ".join(
-            f"{r.get('variant') or '-'} / {r.get('optimizer')} / seed {r.get('seed')}: "
-            f"{r['error']}"
+            f"{r.get('variant') or '-'} / {r.get('optimizer')} / seed {r.get('seed')}: {r['error']}"
             for r in retests
             if retest_outcome(r) == outcome
         )

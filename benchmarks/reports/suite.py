@@ -46,12 +46,14 @@ from benchmarks.reports.comparison import (
     interval_bounds,
     make_report,
     no_interval_note,
+    with_notice,
 )
 from benchmarks.reports.retest import make_retest_report, noise_floor
 from benchmarks.reports.rl import make_rl_report
 from benchmarks.reports.stats import INTERVAL_NAMES, Interval, check_interval, mean_interval
 from benchmarks.rl.suite import RL_SUITE_KIND
 from benchmarks.storage import (
+    MANIFEST_NAME,
     ResultStore,
     atomic_write_text,
     read_designs,
@@ -116,10 +118,12 @@ def _markdown(header: Sequence[str], rows: Iterable[Sequence[str]]) -> list[str]
     return lines
 
 
-def _write_table(target: Path, stem: str, frame: pd.DataFrame, markdown: str) -> list[Path]:
+def _write_table(
+    target: Path, stem: str, frame: pd.DataFrame, markdown: str, notice: str | None = None
+) -> list[Path]:
     return [
         atomic_write_text(target / f"{stem}.csv", csv_text(frame)),
-        atomic_write_text(target / f"{stem}.md", markdown),
+        atomic_write_text(target / f"{stem}.md", with_notice(markdown, notice)),
     ]
 
 
@@ -295,6 +299,8 @@ def _tool_shapes(
     target: Path,
     seed: int,
     interval: str,
+    *,
+    notice: str | None = None,
 ) -> list[Path]:
     from tooldesign_env import make_tool
 
@@ -343,7 +349,7 @@ def _tool_shapes(
     table = table.drop(columns=list(ROBUSTNESS_METRICS), errors="ignore")
     everything = designs_table([d for d in designs if d.get("status") == "ok"])
     written += _write_table(
-        target, "tool-shapes", table, _tool_shapes_markdown(table, everything, config)
+        target, "tool-shapes", table, _tool_shapes_markdown(table, everything, config), notice
     )
     return written
 
@@ -691,9 +697,11 @@ def _robustness_table(
     target: Path,
     seed: int,
     interval: str,
+    *,
+    notice: str | None = None,
 ) -> list[Path]:
     table = table_one(designs, config, seed=seed, interval=interval)
-    return _write_table(target, "table1", table, _table_one_markdown(table, interval))
+    return _write_table(target, "table1", table, _table_one_markdown(table, interval), notice)
 
 
 def _robustness_scatter(
@@ -702,6 +710,8 @@ def _robustness_scatter(
     target: Path,
     seed: int,
     interval: str,
+    *,
+    notice: str | None = None,
 ) -> list[Path]:
     tested = _tested(designs)
     figure, ax = plots.new_figure(figsize=(6.4, 4.4))
@@ -732,7 +742,7 @@ def _robustness_scatter(
     written = [plots.save_png(figure, target / "robustness-scatter.png")]
     table, correlations = robustness_by_precision(designs, config, seed=seed, interval=interval)
     markdown = _by_precision_markdown(table, correlations, interval)
-    written += _write_table(target, "robustness-by-precision", table, markdown)
+    written += _write_table(target, "robustness-by-precision", table, markdown, notice)
     return written
 
 
@@ -750,6 +760,8 @@ def _mass_paths(
     target: Path,
     seed: int,
     interval: str,
+    *,
+    notice: str | None = None,
 ) -> list[Path]:
     written = []
     chosen = _chosen(designs, config, _has_mass_paths)
@@ -800,7 +812,7 @@ def _mass_paths(
             )
         rows.append(row)
     table = pd.DataFrame(rows)
-    written += _write_table(target, "mass-perturbation", table, _mass_markdown(table))
+    written += _write_table(target, "mass-perturbation", table, _mass_markdown(table), notice)
     return written
 
 
@@ -900,24 +912,32 @@ def make_suite_report(
         return make_rl_report(folder, out_dir=out_dir)
     target = folder / REPORT_DIR if out_dir is None else Path(out_dir)
     designs, retests = read_designs(folder), read_retests(folder)
-    written = _suite_report(
-        folder, target, designs, retests, n_boot=n_boot, seed=seed, interval=interval
-    )
     notice = _incomplete_notice(folder, designs, retests)
     if notice is not None:
-        # Every page says so first: its comparisons may cover unequal budgets.
+        # Every page says so first (each written once, with it): its comparisons may cover
+        # unequal budgets.
         warnings.warn(notice, RuntimeWarning, stacklevel=2)
-        for path in written:
-            if path.suffix == ".md":
-                text = path.read_text(encoding="utf-8")
-                atomic_write_text(path, f"> **Incomplete run.** {notice}\n\n{text}")
-    return written
+    return _suite_report(
+        folder,
+        target,
+        designs,
+        retests,
+        n_boot=n_boot,
+        seed=seed,
+        interval=interval,
+        notice=notice,
+    )
 
 
 def _incomplete_notice(
     folder: Path, designs: Sequence[Mapping[str, Any]], retests: Sequence[Mapping[str, Any]]
 ) -> str | None:
-    """What is missing from a suite folder: runs not finished, designs not retested; or None."""
+    """What is missing from a suite folder: runs not finished, designs not retested; or None.
+
+    None for a bare store (no manifest): it is no suite folder, and its report says so.
+    """
+    if not (folder / MANIFEST_NAME).exists():
+        return None
     manifest = read_manifest(folder)
     extra = manifest.get("extra")
     if not isinstance(extra, dict) or extra.get("kind") != SUITE_KIND:
@@ -952,6 +972,7 @@ def _suite_report(
     n_boot: int,
     seed: int,
     interval: str,
+    notice: str | None,
 ) -> list[Path]:
     floors = {
         str(v): noise_floor([r for r in retests if r.get("variant") == v])["free_energy"]
@@ -964,8 +985,11 @@ def _suite_report(
         seed=seed,
         interval=interval,
         noise_floor=floors or None,
+        notice=notice,
     )
-    written += make_retest_report(retests, target, n_boot=n_boot, seed=seed, interval=interval)
+    written += make_retest_report(
+        retests, target, n_boot=n_boot, seed=seed, interval=interval, notice=notice
+    )
     try:
         config = suite_of_manifest(read_manifest(folder))
     except (FileNotFoundError, ValueError, TypeError):
@@ -973,7 +997,7 @@ def _suite_report(
     if not designs:
         return written
     table = designs_table(designs)
-    written += _write_table(target, "designs", table, _designs_markdown(table))
+    written += _write_table(target, "designs", table, _designs_markdown(table), notice)
     for figure in config.figures:
-        written += _FIGURES[figure](designs, config, target, seed, interval)
+        written += _FIGURES[figure](designs, config, target, seed, interval, notice=notice)
     return written

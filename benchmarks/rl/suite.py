@@ -28,12 +28,11 @@ report is made from the stored files by :func:`benchmarks.reports.make_suite_rep
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
 import os
 import shlex
 import time
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from concurrent.futures import FIRST_COMPLETED, wait
 from dataclasses import dataclass
 from pathlib import Path
@@ -63,16 +62,12 @@ from benchmarks.rl.configs import (
 )
 from benchmarks.rl.policies import save_policy
 from benchmarks.storage import (
-    MANIFEST_VERSION,
     ResultStore,
     ResumeError,
     RunSession,
     Unit,
-    check_out_dir,
     json_ready,
-    read_manifest,
     validate_evaluations,
-    with_added_fields,
 )
 from tooldesign_env.schema import (
     BEST_SO_FAR,
@@ -816,109 +811,24 @@ def _write(
 #: Fields named first when a resume is refused: those the options set, then what they decide.
 _OPTION_FIELDS = ("size.name", "size.seeds", "methods", "parts", "mass_range")
 
-#: Differing fields listed one per line when a resume is refused; the rest are only counted.
-_SHOWN_DIFFERENCES = 4
 
-#: Longest value shown whole in that list, in characters.
-_BRIEF = 40
+def _continue_hint(out: Path, recorded: Mapping[str, Any]) -> list[str]:
+    """How to go on from a folder made with other settings: the command that continues it.
 
-#: A field one of the two configurations does not have.
-_ABSENT = object()
-
-
-def _check_same_settings(config: RLSuiteConfig, out_dir: Path) -> None:
-    """Refuse to resume an rl suite folder made with other settings, in a few short lines.
-
-    :class:`~benchmarks.storage.RunSession` refuses it too, but prints every differing field
-    whole: the held-out tasks and the method configs make that one line of thousands of
-    characters. A folder this cannot read, or of another kind or version, is left to the session.
-
-    Raises:
-        ResumeError: the recorded configuration differs, apart from :data:`RUNTIME_FIELDS`; the
-            message names the folder, the first differing fields (recorded -> requested) and the
-            command that continues it.
+    The end of :class:`~benchmarks.storage.RunSession`'s refusal (the differing fields come
+    first, recorded -> requested, see :class:`~benchmarks.storage.SettingsChanged`).
     """
-    try:
-        manifest = read_manifest(out_dir)
-    except (OSError, ValueError):
-        return
-    old, extra = manifest.get("config"), manifest.get("extra")
-    if (
-        manifest.get("format_version") != MANIFEST_VERSION
-        or not isinstance(old, dict)
-        or not isinstance(extra, dict)
-        or extra.get("kind") != RL_SUITE_KIND
-    ):
-        return
-    recorded = with_added_fields(old, ADDED_FIELDS)
-    requested = config.to_json()
-    # The session's own comparison: top-level fields, runtime ones aside.
-    if all(
-        recorded.get(k) == requested.get(k)
-        for k in (recorded.keys() | requested.keys()) - RUNTIME_FIELDS
-    ):
-        return
-    changed = _differences(recorded, requested)
-    order = {name: i for i, name in enumerate(_OPTION_FIELDS)}
-    changed.sort(key=lambda item: (order.get(item[0], len(order)), item[0]))
-    lines = [
-        f"cannot resume: {out_dir} holds an rl suite made with other settings "
-        "(recorded -> requested):"
-    ]
-    for name, before, after in changed[:_SHOWN_DIFFERENCES]:
-        lines.append(f"  {name}: {_change(before, after)}")
-    rest = [name for name, _, _ in changed[_SHOWN_DIFFERENCES:]]
-    if rest:
-        named = ", ".join(rest[:3]) + (", ..." if len(rest) > 3 else "")
-        lines.append(f"  and {len(rest)} more ({named})")
     flags = _continuing_flags(recorded)
     if flags is None:
-        lines.append(
+        return [
             "this version cannot continue it (its settings are not those of any size and "
             "options here): run the requested suite in another folder"
-        )
-    else:
-        command = shlex.join(["tooldesign", "bench", "rl", *flags, "--out", str(out_dir)])
-        lines.append(f"continue it with: {command}")
-        lines.append("or run the requested suite in another folder")
-    raise ResumeError("\n".join(lines))
+        ]
+    command = shlex.join(["tooldesign", "bench", "rl", *flags, "--out", str(out)])
+    return [f"continue it with: {command}", "or run the requested suite in another folder"]
 
 
-def _differences(old: Any, new: Any, name: str = "") -> list[tuple[str, Any, Any]]:
-    """The leaves that differ between two JSON tables, as (dotted name, old, new)."""
-    if isinstance(old, dict) and isinstance(new, dict):
-        found: list[tuple[str, Any, Any]] = []
-        for key in sorted(old.keys() | new.keys()):
-            if name or key not in RUNTIME_FIELDS:
-                dotted = f"{name}.{key}" if name else key
-                found += _differences(old.get(key, _ABSENT), new.get(key, _ABSENT), dotted)
-        return found
-    return [] if old == new else [(name, old, new)]
-
-
-def _change(before: Any, after: Any) -> str:
-    """``before -> after`` in a few words; two lists, one of them long, by their lengths."""
-    if isinstance(before, list) and isinstance(after, list):
-        if max(len(json.dumps(v)) for v in (before, after)) > _BRIEF:
-            if len(before) == len(after):
-                return f"{len(before)} items, other values"
-            return f"[{len(before)} items] -> [{len(after)} items]"
-    return f"{_brief(before)} -> {_brief(after)}"
-
-
-def _brief(value: Any) -> str:
-    """A JSON value in at most :data:`_BRIEF` characters: a long list by its length."""
-    if value is _ABSENT:
-        return "(none)"
-    text = json.dumps(value)
-    if len(text) <= _BRIEF:
-        return text
-    if isinstance(value, list):
-        return f"[{len(value)} items]"
-    return text[: _BRIEF - 3] + "..."
-
-
-def _continuing_flags(recorded: dict[str, Any]) -> list[str] | None:
+def _continuing_flags(recorded: Mapping[str, Any]) -> list[str] | None:
     """The ``tooldesign bench rl`` options whose suite is ``recorded``; None if there are none."""
     try:
         size = SIZES[recorded["size"]["name"]]
@@ -983,9 +893,7 @@ def run_rl_suite(
     if config.workers != 1:
         # Before the run folder is made: a script refused here reruns cleanly once fixed.
         check_main_guard("process", function="run_rl_suite", serial="workers=1")
-    if resume:
-        _check_same_settings(config, check_out_dir(out_dir))
-    session = RunSession(
+    with RunSession(
         out_dir,
         kind=RL_SUITE_KIND,
         config=config.to_json(),
@@ -997,40 +905,38 @@ def run_rl_suite(
             "units": len(work),
             "planned_episodes": config.planned_episodes(),
         },
-    )
-    store = session.store
-    stored = _stored_keys(store, planned)
-    session.checkpoint()
-    pending = [w for w in work if not all(k in stored for k in w.keys())]
-    say = progress or (lambda line: None)
-    say(
-        f"rl suite, size {config.size.name}: {len(work) - len(pending)} of {len(work)} units on "
-        f"disk, {len(pending)} to run (about {config.planned_episodes()} episodes in all)"
-    )
+        # A refusal for other settings names these first and offers the continuing command.
+        first_fields=_OPTION_FIELDS,
+        resume_hint=_continue_hint,
+    ) as session:
+        store = session.store
+        stored = _stored_keys(store, planned)
+        session.start()
+        pending = [w for w in work if not all(k in stored for k in w.keys())]
+        say = progress or (lambda line: None)
+        say(
+            f"rl suite, size {config.size.name}: {len(work) - len(pending)} of {len(work)} "
+            f"units on disk, {len(pending)} to run (about {config.planned_episodes()} "
+            "episodes in all)"
+        )
 
-    def finished(item: _Work, frames: list[pd.DataFrame]) -> None:
-        _write(session, item, frames, stored)
-        best = min(float(f["free_energy"].min()) for f in frames)
-        episodes = sum(len(f) for f in frames)
-        # The unit's own time (simulation and agent), wherever it ran: not its wait in a queue.
-        seconds = sum(float(f["eval_time"].sum() + f["opt_time"].sum()) for f in frames)
-        say(f"{item.label()}: {episodes} episodes, best F {best:.0f} ({seconds:.0f} s)")
+        def finished(item: _Work, frames: list[pd.DataFrame]) -> None:
+            _write(session, item, frames, stored)
+            best = min(float(f["free_energy"].min()) for f in frames)
+            episodes = sum(len(f) for f in frames)
+            # The unit's own time (simulation and agent), wherever it ran: not its queue wait.
+            seconds = sum(float(f["eval_time"].sum() + f["opt_time"].sum()) for f in frames)
+            say(f"{item.label()}: {episodes} episodes, best F {best:.0f} ({seconds:.0f} s)")
 
-    try:
         if config.workers == 1 or len(pending) <= 1:
             for item in pending:
                 finished(item, _run_work(item, config, session.out))
         else:
             _run_pool(pending, config, session, finished)
-    except BaseException:
-        session.close()  # its heartbeat stays: resuming counts this session's time
-        raise
-    finally:
-        session.checkpoint()
-    evaluations = store.read(verify=False)  # written or verified by this session
-    store.consolidate()
-    session.update_extra(load_average_at_end=_load_average())
-    manifest = session.finish(evaluations)
+        evaluations = store.read(verify=False)  # written or verified by this session
+        store.consolidate()
+        session.update_extra(load_average_at_end=_load_average())
+        manifest = session.finish(evaluations)
     return RLSuiteResult(
         out_dir=session.out,
         config=config,

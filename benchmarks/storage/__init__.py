@@ -12,15 +12,17 @@ A run folder (of ``tooldesign design``, ``tooldesign bench`` or ``tooldesign ret
 Modules, lowest first: :mod:`~benchmarks.storage.atomic` (atomic writes),
 :mod:`~benchmarks.storage.manifest` (``manifest.json``, JSON, checksums),
 :mod:`~benchmarks.storage.table` (the evaluation table and its part files),
-:mod:`~benchmarks.storage.designs` (a suite's design files) and
-:mod:`~benchmarks.storage.session` (start or resume a run folder; used by the designer and
-the suite runner alike). The columns are named in :mod:`tooldesign_env.schema`; the files are
-documented in ``docs/results-format.md``.
+:mod:`~benchmarks.storage.designs` (a suite's design files),
+:mod:`~benchmarks.storage.configdiff` (the compact diff a refused resume shows) and
+:mod:`~benchmarks.storage.session` (start or resume a run folder; used by the designer, the
+suite runner and the rl suite alike). The columns are named in
+:mod:`tooldesign_env.schema`; the files are documented in ``docs/results-format.md``.
 """
 
 from __future__ import annotations
 
 from benchmarks.storage.atomic import atomic_write_bytes, atomic_write_text, check_file_target
+from benchmarks.storage.configdiff import FieldChange, config_changes, describe_changes
 from benchmarks.storage.designs import (
     DESIGN_RUN_FILES,
     DESIGN_VERSION,
@@ -62,6 +64,7 @@ from benchmarks.storage.session import (
     PART_CHECKSUMS,
     ResumeError,
     RunSession,
+    SettingsChanged,
     check_out_dir,
     with_added_fields,
 )
@@ -82,6 +85,9 @@ from benchmarks.storage.table import (
 
 __all__ = [
     "FILE_CHECKSUMS",
+    "FieldChange",
+    "config_changes",
+    "describe_changes",
     "INVALID_IN_SCENE",
     "RETEST_DIR",
     "read_retests",
@@ -105,6 +111,7 @@ __all__ = [
     "ResultStore",
     "ResumeError",
     "RunSession",
+    "SettingsChanged",
     "Unit",
     "atomic_write_bytes",
     "atomic_write_text",

@@ -9,13 +9,35 @@ the same way, through :class:`RunSession`:
    such as the number of workers, and counts that may grow, such as a suite's number of seeds),
    and every part file matches the SHA-256 the manifest records.
    At most one part may be unrecorded: the one written just before a kill, whose manifest
-   update was lost. Anything else raises :class:`ResumeError` and changes nothing on disk.
-2. **Write.** :meth:`RunSession.write_batch` writes one part file atomically, records its
+   update was lost. Anything else raises :class:`ResumeError` and changes nothing on disk; a
+   config that differs raises :class:`SettingsChanged`, whose message is a compact diff (the
+   first differing fields, recorded -> requested, and how many more; see
+   :mod:`~benchmarks.storage.configdiff`).
+2. **Start.** :meth:`RunSession.start` (once the caller has checked the folder's parts are its
+   own) records the session in the manifest and starts the heartbeat.
+3. **Write.** :meth:`RunSession.write_batch` writes one part file atomically, records its
    checksum and rewrites the manifest, so the manifest is never more than one part behind.
-3. **Close.** :meth:`RunSession.finish` writes the end time, the wall time summed over every
+4. **Close.** :meth:`RunSession.finish` writes the end time, the wall time summed over every
    session, the simulation and optimizer times summed over the evaluation table, and the
    number of evaluations of each status (``extra.evaluation_counts``: total, ok, invalid,
-   failed).
+   failed). :meth:`RunSession.write_file` then adds a file written after the final manifest
+   (a design run's card).
+
+A session is a context manager, and the ``with`` block owns that sequence::
+
+    with RunSession(out, kind="design", config=config, resume=True) as session:
+        logged = check_parts(session.store)   # a refusal here leaves the folder as it was
+        session.start()
+        for batch in batches:
+            session.write_batch(batch)         # one atomic part, one manifest
+        session.finish(session.store.read(verify=False))
+        session.write_file(out / "design.json", card_text)
+
+Leaving the block before :meth:`~RunSession.finish` (on an exception, or on purpose) stops the
+heartbeat, rewrites the manifest with the session's time so far and unlocks the folder; the
+heartbeat's file stays, as after a kill, and an exception is never swallowed. A refusal before
+:meth:`~RunSession.start` leaves the folder as it was. The folder stays locked until the block
+ends, also after :meth:`~RunSession.finish`.
 
 The manifest's ``extra`` holds ``kind`` (what wrote the folder), ``sessions`` (start time and
 wall time of each session), ``part_sha256`` (checksums of the part files, by path relative
@@ -52,13 +74,14 @@ import os
 import threading
 import time
 import warnings
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import pandas as pd
 
 from benchmarks.storage.atomic import atomic_write_text
+from benchmarks.storage.configdiff import FieldChange, config_changes, describe_changes
 from benchmarks.storage.lock import FolderLock
 from benchmarks.storage.manifest import (
     FILE_CHECKSUMS,
@@ -70,6 +93,7 @@ from benchmarks.storage.manifest import (
     file_sha256,
     read_manifest,
     recorded_checksums,
+    update_file_checksums,
     verify_checksums,
 )
 from benchmarks.storage.table import (
@@ -89,6 +113,7 @@ __all__ = [
     "PART_CHECKSUMS",
     "ResumeError",
     "RunSession",
+    "SettingsChanged",
     "check_out_dir",
     "with_added_fields",
 ]
@@ -109,6 +134,23 @@ allows for a folder moved between machines whose clocks differ.
 
 class ResumeError(ValueError):
     """A run folder cannot be continued with this config (or was tampered with)."""
+
+
+class SettingsChanged(ResumeError):
+    """A run folder records other settings than the ones asked for now.
+
+    Its message is a compact diff: the folder, the first differing fields (recorded ->
+    requested), how many more differ, and how to go on.
+
+    Attributes:
+        out: The run folder.
+        changes: Every differing field (see :func:`~benchmarks.storage.configdiff.config_changes`).
+    """
+
+    def __init__(self, message: str, *, out: Path, changes: list[FieldChange]) -> None:
+        super().__init__(message)
+        self.out = out
+        self.changes = changes
 
 
 def with_added_fields(config: Mapping[str, Any], added: Mapping[str, Any]) -> dict[str, Any]:
@@ -209,15 +251,26 @@ class RunSession:
         own_files: The user's files that may sit in ``out_dir`` before the run began, e.g. the
             suite file given with ``--config`` kept with its results: they do not make the
             folder non-empty.
+        rewritten_files: Result files every session writes again (a design run's card): their
+            recorded checksums are dropped from the first manifest this session writes, so a
+            session killed after rewriting one leaves it unrecorded (read unchecked), never
+            recorded with the checksum of the file it replaced.
+        first_fields: Dotted config fields a refusal for other settings names first (those the
+            command's options set); the others follow by name.
+        resume_hint: ``resume_hint(out_dir, recorded_config)``: the lines that end a refusal
+            for other settings (e.g. the command that continues the folder); by default "use
+            the same settings, or another folder".
         heartbeat_interval: Seconds between two writes of :data:`HEARTBEAT`.
 
     Raises:
-        TypeError: If ``out_dir`` is not a path.
+        TypeError: If ``out_dir`` is not a path, ``first_fields`` not a list of names or
+            ``resume_hint`` not callable.
         ValueError: If ``out_dir`` is a file, or has content and ``resume`` is false, or
             ``heartbeat_interval`` is not a positive finite number of seconds, or a session
             of another process is writing the folder (it holds the folder's lock until it
-            closes or its process ends).
-        ResumeError: If the folder cannot be continued (see the module docstring).
+            closes or its process ends), or a file of ``rewritten_files`` is outside it.
+        ResumeError: If the folder cannot be continued (see the module docstring);
+            :class:`SettingsChanged` if its config differs from ``config``.
     """
 
     def __init__(
@@ -232,6 +285,9 @@ class RunSession:
         added_fields: Mapping[str, Any] | None = None,
         extra: Mapping[str, Any] | None = None,
         own_files: Iterable[str | os.PathLike[str]] = (),
+        rewritten_files: Iterable[str | os.PathLike[str]] = (),
+        first_fields: Sequence[str] = (),
+        resume_hint: Callable[[Path, Mapping[str, Any]], Sequence[str]] | None = None,
         heartbeat_interval: float = HEARTBEAT_INTERVAL,
     ) -> None:
         self.out = check_out_dir(out_dir)
@@ -247,6 +303,18 @@ class RunSession:
         self._heartbeat_interval = float(heartbeat_interval)
         self._heartbeat: _Heartbeat | None = None
         self._closed = False
+        self._started = False
+        self._finished = False
+        self._in_block = False
+        if isinstance(first_fields, str) or not all(isinstance(f, str) for f in first_fields):
+            raise TypeError(f"first_fields must be a list of field names, got {first_fields!r}")
+        if resume_hint is not None and not callable(resume_hint):
+            raise TypeError(
+                f"resume_hint must be a function of (out_dir, recorded config), got "
+                f"{type(resume_hint).__name__}"
+            )
+        self._first_fields = tuple(first_fields)
+        self._resume_hint = resume_hint
         # One session at a time per folder: a second one would redo the work and then fail on
         # the first one's parts. Taken now if the folder exists, else when it is first written.
         self._lock = FolderLock(self.out)
@@ -263,6 +331,7 @@ class RunSession:
             self._session: dict[str, Any] = {"start_time": _now().isoformat(), "wall_time": 0.0}
             self._extra: dict[str, Any] = dict(extra or {})
             self._damaged_tables: list[str] = []  # found by _verify_parts
+            rewritten = [self._relative(path) for path in rewritten_files]
             previous = self._previous(bool(resume))
             self.resumed = previous is not None
             if previous is None:
@@ -280,6 +349,8 @@ class RunSession:
                 self._files = {k: v for k, v in (files or {}).items() if not _is_table(k)}
                 self.store.remove_stale_temp_files()  # only this process writes here
                 self._rebuild_tables()
+            for relative in rewritten:
+                self._files.pop(relative, None)
             # The parts of the manifest that do not change within a session (packages, commit,
             # host) are collected once: a manifest is rewritten after every part.
             self._base = build_manifest(config=self.config, start_time=self.start_time)
@@ -345,19 +416,22 @@ class RunSession:
             )
         self._verify_parts(extra)
         old = with_added_fields(old, self._added)
-        changed = sorted(
-            k
-            for k in (old.keys() | self.config.keys()) - self._runtime
-            if old.get(k) != self.config.get(k)
-            and not self._grows(old.get(k), self.config.get(k), k)
-        )
-        if changed:
-            detail = ", ".join(f"{k}: {old.get(k)!r} -> {self.config.get(k)!r}" for k in changed)
-            raise ResumeError(
-                f"cannot resume: the run in {out} was made with other settings ({detail}); use "
-                "the same settings, or another folder"
-            )
+        changes = config_changes(old, self.config, ignore=self._runtime, allowed=self._grows)
+        if changes:
+            raise SettingsChanged(self._settings_message(old, changes), out=out, changes=changes)
         return manifest
+
+    def _settings_message(self, recorded: Mapping[str, Any], changes: list[FieldChange]) -> str:
+        """The refusal for other settings: one line if it is short, else a few short lines."""
+        lines = describe_changes(changes, first=self._first_fields)
+        head = f"cannot resume: the run in {self.out} was made with other settings"
+        advice = ["use the same settings, or another folder"]
+        if self._resume_hint is not None:
+            advice = list(self._resume_hint(self.out, recorded)) or advice
+        detail = "; ".join(line.strip() for line in lines)
+        if len(advice) == 1 and len(changes) == len(lines) and len(detail) <= 160:
+            return f"{head} ({detail}); {advice[0]}"
+        return "\n".join([f"{head} (recorded -> requested):", *lines, *advice])
 
     def _with_killed_session(self, sessions: list[Any]) -> list[Any]:
         """``sessions`` with the wall time of a session that was killed taken from its heartbeat.
@@ -409,7 +483,7 @@ class RunSession:
             )
         return out
 
-    def _grows(self, old: Any, new: Any, key: str) -> bool:
+    def _grows(self, key: str, old: Any, new: Any) -> bool:
         """Whether ``key`` is a growable count that this session raises (e.g. more seeds)."""
         return key in self._growable and all(type(v) is int for v in (old, new)) and new >= old
 
@@ -516,8 +590,15 @@ class RunSession:
         self._files[self._relative(path)] = file_sha256(path)
 
     def forget_file(self, path: str | os.PathLike[str]) -> None:
-        """Drop the recorded SHA-256 of a file that is about to be rewritten (or is gone)."""
-        self._files.pop(self._relative(path), None)
+        """Drop the recorded SHA-256 of a file that is about to be rewritten (or is gone).
+
+        Once the session has started, the manifest is rewritten at once if it recorded the
+        file, so the record is gone from disk before the file is rewritten; before
+        :meth:`start`, the record is left out of the first manifest the session writes.
+        """
+        recorded = self._files.pop(self._relative(path), None)
+        if recorded is not None and self._started and not self._closed:
+            self.checkpoint()
 
     def is_recorded(self, path: str | os.PathLike[str]) -> bool:
         """Whether the manifest records the SHA-256 of ``path`` (see :meth:`record_file`)."""
@@ -528,6 +609,35 @@ class RunSession:
             return Path(path).resolve().relative_to(self.out.resolve()).as_posix()
         except ValueError:
             raise ValueError(f"{path} is not inside the run folder {self.out}") from None
+
+    def write_file(self, path: str | os.PathLike[str], text: str) -> Path:
+        """Write a result file of the run atomically and record its SHA-256.
+
+        Before :meth:`finish` the record goes into the next manifest (its old record is dropped
+        first, see :meth:`forget_file`); after it, into the final manifest on disk at once, old
+        record first, so a kill between the writes leaves the file unrecorded, never recorded
+        with the checksum of the file it replaced.
+
+        Args:
+            path: A file inside the run folder.
+            text: Its text, written as UTF-8.
+
+        Returns:
+            ``path`` as a :class:`~pathlib.Path`.
+        """
+        target = Path(path)
+        relative = self._relative(target)
+        if not self._finished:
+            self.forget_file(target)
+            atomic_write_text(target, text)
+            self.record_file(target)
+            return target
+        self._files.pop(relative, None)
+        update_file_checksums(self.out, {relative: None})
+        atomic_write_text(target, text)
+        self._files[relative] = file_sha256(target)
+        update_file_checksums(self.out, {relative: self._files[relative]})
+        return target
 
     def update_extra(self, **entries: Any) -> None:
         """Set entries of the manifest's ``extra`` (written at the next checkpoint)."""
@@ -567,8 +677,19 @@ class RunSession:
         manifest["extra"] = _jsonable(extra, "extra")  # refuses NaN and what JSON cannot store
         return manifest
 
+    def start(self) -> None:
+        """Begin writing: the first manifest of this session, and its heartbeat.
+
+        Call it once the folder's content is known to be this run's (the caller's own checks of
+        its parts, which may still refuse the folder and leave it as it was), before the long
+        work: a session killed later keeps its time (see the module docstring). The first
+        :meth:`write_batch` starts the session too.
+        """
+        self.checkpoint()
+
     def checkpoint(self) -> None:
         """Rewrite the manifest: times so far, checksums, ``extra``; start the heartbeat."""
+        self._started = True
         self.store.write_manifest(self.manifest())
         if not self._closed:  # a closed session (stopped on an error) leaves the folder free
             self._lock.acquire_if_present()
@@ -587,10 +708,12 @@ class RunSession:
         """Write the final manifest (end time, summed times) and delete the heartbeat.
 
         The consolidated evaluation table, if the caller wrote one, is recorded in
-        ``file_sha256``. With ``keep_lock`` the folder stays locked against other processes
-        until :meth:`release` (a caller that writes more files after the manifest).
+        ``file_sha256``. Inside a ``with`` block the folder stays locked until the block ends
+        (files written after the manifest go through :meth:`write_file`); outside one, only
+        with ``keep_lock``, until :meth:`release`.
         """
-        self.close(keep_lock=keep_lock)
+        self._finished = True
+        self.close(keep_lock=keep_lock or self._in_block)
         consolidated = self.store.consolidated_path()
         if consolidated is not None:
             self.record_file(consolidated)
@@ -616,6 +739,27 @@ class RunSession:
     def release(self) -> None:
         """Unlock the folder for other processes (:meth:`close` does it unless told not to)."""
         self._lock.release()
+
+    def __enter__(self) -> RunSession:
+        self._in_block = True
+        return self
+
+    def __exit__(self, kind: type[BaseException] | None, error: object, trace: object) -> None:
+        """End the session: see the module docstring. An exception is never swallowed."""
+        self._in_block = False
+        try:
+            if self._started and not self._finished:
+                # Stopped by an error, or left unfinished on purpose: the manifest keeps the
+                # session's time so far and the files recorded since the last part. The
+                # heartbeat's file stays, as after a kill.
+                self.close(keep_lock=True)
+                try:
+                    self.checkpoint()
+                except Exception:
+                    if kind is None:
+                        raise  # else the error that ended the block is the one to see
+        finally:
+            self.close()
 
 
 class _Heartbeat(threading.Thread):

@@ -37,17 +37,10 @@ import numpy as np
 
 from benchmarks.design import DesignConfig
 from benchmarks.design.config import ADDED_FIELDS as DESIGN_ADDED_FIELDS
-from benchmarks.design.config import HARNESS_SETTINGS, check_section_shape, recorded_scene
-from benchmarks.execution import TaskSettings
+from benchmarks.design.config import HARNESS_SETTINGS, TaskConfig
 from benchmarks.storage import with_added_fields
 from optimizers import BATCH_SIZE_MAX
 from tooldesign_env.env import WORKSPACE_HIGH, WORKSPACE_LOW
-from tooldesign_env.schema import (
-    DEFAULT_BOX_MASS,
-    DEFAULT_GOAL,
-    DEFAULT_GOAL_PRECISION,
-    ROBUSTNESS_MASSES,
-)
 from tooldesign_env.specs import BOX_MASS_MAX, GOAL_PRECISION_MAX
 
 ENV_IDS: tuple[str, ...] = ("ToolDesign-v0",)
@@ -331,12 +324,50 @@ class RunSpec:
         return (self.suite, self.variant.name, self.optimizer.column, self.task.seed)
 
 
+#: The order of a suite's fields in its JSON form and its suite files (the task fields, shared
+#: with a design run through :class:`~benchmarks.design.config.TaskConfig`, sit among them).
+_FILE_ORDER: tuple[str, ...] = (
+    "name",
+    "description",
+    "env_id",
+    "goal",
+    "goal_box",
+    "goal_precision",
+    "box_mass",
+    "estimator",
+    "objective",
+    "scene_samples",
+    "bounds",
+    "scene",
+    "section_shape",
+    "variants",
+    "optimizers",
+    "batch_size",
+    "iterations",
+    "root_seed",
+    "n_seeds",
+    "test_robustness",
+    "robustness_masses",
+    "keep_paths",
+    "figures",
+    "executor",
+    "workers",
+    "scheduler",
+    "max_retries",
+)
+
+
 @dataclasses.dataclass(frozen=True, kw_only=True)
-class SuiteConfig:
+class SuiteConfig(TaskConfig):
     """A benchmark suite: the task family, the optimizers, the budget, the seeds, the executor.
 
     Runs: every (task, variant, optimizer), in that order, so that an interrupted suite has
-    whole tasks for every optimizer first.
+    whole tasks for every optimizer first. The task fields (``goal``, ``goal_precision``,
+    ``box_mass``, ``estimator``, ``objective``, ``scene_samples``, ``bounds``, ``scene``,
+    ``section_shape``, ``robustness_masses``) are those of
+    :class:`~benchmarks.design.config.TaskConfig`, shared with every run's
+    :class:`~benchmarks.design.DesignConfig`; a variant may set its own ``goal_precision`` and
+    ``goal_box`` draws each task's goal.
 
     Attributes:
         name: Suite name (the log's ``suite`` column), e.g. ``"optimizers"``.
@@ -384,16 +415,7 @@ class SuiteConfig:
     name: str
     description: str = ""
     env_id: str = "ToolDesign-v0"
-    goal: Sequence[float] = DEFAULT_GOAL
     goal_box: Sequence[Sequence[float]] | None = None
-    goal_precision: float = DEFAULT_GOAL_PRECISION
-    box_mass: float = DEFAULT_BOX_MASS
-    estimator: str = "contact"
-    objective: str = "free-energy"
-    scene_samples: int = 1
-    bounds: Sequence[Sequence[float]] | None = None
-    scene: tuple[tuple[str, Any], ...] | Mapping[str, Any] = ()
-    section_shape: str = "round"
     variants: Sequence[Variant] = (Variant(),)
     optimizers: Sequence[OptimizerSpec] = (OptimizerSpec(name="cmaes"),)
     batch_size: int = 8
@@ -401,7 +423,6 @@ class SuiteConfig:
     root_seed: int = 0
     n_seeds: int = 10
     test_robustness: bool = False
-    robustness_masses: Sequence[float] = ROBUSTNESS_MASSES
     keep_paths: bool = False
     figures: Sequence[str] = ()
     executor: str = "process"
@@ -418,19 +439,8 @@ class SuiteConfig:
                 f"env_id must be one of {list(ENV_IDS)} (the env the evaluation workers build), "
                 f"got {self.env_id!r}"
             )
-        task = TaskSettings(
-            goal=self.goal,
-            goal_precision=self.goal_precision,
-            box_mass=self.box_mass,
-            estimator=self.estimator,
-            objective=self.objective,
-        )
-        object.__setattr__(self, "goal", task.goal)
-        object.__setattr__(self, "goal_precision", task.goal_precision)
-        object.__setattr__(self, "box_mass", task.box_mass)
+        self._check_task()
         object.__setattr__(self, "goal_box", self._checked_goal_box())
-        object.__setattr__(self, "scene", recorded_scene(self.scene))
-        object.__setattr__(self, "section_shape", check_section_shape(self.section_shape))
         variants = tuple(
             _from_mapping(Variant, v, f"variants[{i}]")
             for i, v in enumerate(_sequence("variants", self.variants))
@@ -461,13 +471,6 @@ class SuiteConfig:
         for flag in ("test_robustness", "keep_paths"):
             if not isinstance(getattr(self, flag), bool):
                 raise TypeError(f"{flag} must be true or false, got {_kind(getattr(self, flag))}")
-        masses = tuple(
-            _number("robustness_masses (kg)", m, 0.0, BOX_MASS_MAX)
-            for m in _sequence("robustness_masses", self.robustness_masses)
-        )
-        if not masses or min(masses) <= 0:
-            raise ValueError(f"robustness_masses must be one or more masses > 0 kg, got {masses}")
-        object.__setattr__(self, "robustness_masses", masses)
         figures = tuple(_sequence("figures", self.figures))
         for figure in figures:
             if not isinstance(figure, str) or figure not in FIGURES:
@@ -489,9 +492,18 @@ class SuiteConfig:
         # estimator) with the messages the design command gives; the bounds come back as tuples.
         for variant in variants:
             design = self._design(variant, OptimizerSpec(name="random"), 0, self.goal)
-        object.__setattr__(self, "bounds", design.bounds)
         object.__setattr__(self, "workers", design.workers)
         object.__setattr__(self, "max_retries", design.max_retries)
+
+    def _checked_masses(self, value: Any) -> tuple[float, ...]:
+        # A suite file's own wording (kg, the limit), then the design run's check.
+        masses = tuple(
+            _number("robustness_masses (kg)", m, 0.0, BOX_MASS_MAX)
+            for m in _sequence("robustness_masses", value)
+        )
+        if not masses or min(masses) <= 0:
+            raise ValueError(f"robustness_masses must be one or more masses > 0 kg, got {masses}")
+        return tuple(super()._checked_masses(masses))
 
     def _checked_goal_box(self) -> tuple[tuple[float, float], ...] | None:
         if self.goal_box is None:
@@ -517,6 +529,7 @@ class SuiteConfig:
         precision = (
             self.goal_precision if variant.goal_precision is None else variant.goal_precision
         )
+        task = {**self.task_fields(), "goal": tuple(goal), "goal_precision": precision}
         return DesignConfig(
             optimizer=optimizer.name,
             optimizer_settings=optimizer.settings,
@@ -527,16 +540,7 @@ class SuiteConfig:
             executor=self.executor,
             scheduler=self.scheduler,
             max_retries=self.max_retries,
-            goal=tuple(goal),
-            goal_precision=precision,
-            box_mass=self.box_mass,
-            estimator=self.estimator,
-            objective=self.objective,
-            scene_samples=self.scene_samples,
-            bounds=self.bounds,
-            scene=self.scene,
-            robustness_masses=self.robustness_masses,
-            section_shape=self.section_shape,
+            **task,
         )
 
     # derived plans
@@ -587,6 +591,7 @@ class SuiteConfig:
     def to_json(self) -> dict[str, Any]:
         """The suite as JSON values: what :func:`suite_from_json` and suite files accept."""
         data = dataclasses.asdict(self)
+        data = {name: data[name] for name in _FILE_ORDER}
         data["optimizers"] = [
             {**dataclasses.asdict(o), "settings": dict(o.settings)} for o in self.optimizers
         ]

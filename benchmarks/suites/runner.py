@@ -67,7 +67,6 @@ from benchmarks.storage import (
     ResultStore,
     ResumeError,
     RunSession,
-    atomic_write_text,
     design_path,
     json_text,
     paths_path,
@@ -253,11 +252,9 @@ class _RunJob:
             # Written first: the design file is the mark that the run is complete.
             masses = list(self.config.robustness_masses) if self.config.test_robustness else []
             paths_record = {"nominal_mass": self.config.box_mass, "masses": masses, **paths}
-            atomic_write_text(paths_path(target), json_text(paths_record, compact=True))
-        atomic_write_text(target, json_text(record))
-        if paths is not None:
-            self.session.record_file(paths_path(target))
-        self.session.record_file(target)  # in the manifest at the checkpoint of on_done
+            self.session.write_file(paths_path(target), json_text(paths_record, compact=True))
+        # Recorded in the manifest at the checkpoint of on_done.
+        self.session.write_file(target, json_text(record))
         if self.testing:
             self.bar.update(_test_rollouts(self.config))
         self.on_done()
@@ -430,67 +427,34 @@ def run_suite(
     # Before the run folder is made: a script refused here, a missing dask or a scheduler that
     # does not answer leaves nothing, so the same call reruns cleanly once that is fixed.
     check_main_guard(config.executor, config.scheduler, function="run_suite")
-    with make_executor(
-        config.executor, config.workers, config.scheduler, max_retries=config.max_retries
-    ) as executor:
-        session = RunSession(
-            out_dir,
-            kind=SUITE_KIND,
-            config=config.to_json(),
-            resume=bool(resume),
-            runtime_fields=RUNTIME_FIELDS,
-            growable_fields=GROWABLE_FIELDS,
-            added_fields=ADDED_FIELDS,
-            extra={"size": size, "runs": len(runs), "planned_evaluations": config.evaluations()},
-            own_files=own_files,
-        )
+    # The session checks the folder (refusing it changes nothing) before the executor is made,
+    # and writes nothing before start(): a missing dask or a scheduler that does not answer
+    # leaves nothing. Leaving the block on an error keeps the session's time and records.
+    with RunSession(
+        out_dir,
+        kind=SUITE_KIND,
+        config=config.to_json(),
+        resume=bool(resume),
+        runtime_fields=RUNTIME_FIELDS,
+        growable_fields=GROWABLE_FIELDS,
+        added_fields=ADDED_FIELDS,
+        extra={"size": size, "runs": len(runs), "planned_evaluations": config.evaluations()},
+        own_files=own_files,
+    ) as session:
         out, store = session.out, session.store
         logged = _logged_frames(store, config, runs)
         pending = _adopt_designs(session, runs)
-        session.checkpoint()
-        done_tests = (len(runs) - len(pending)) * _test_rollouts(config)
-        total = config.evaluations() + len(runs) * _test_rollouts(config)
-        initial = sum(sum(len(f) for f in frames) for frames in logged.values()) + done_tests
-
-        from tqdm.auto import tqdm
-
-        bar = tqdm(
-            total=total,
-            initial=initial,
-            desc=config.name,
-            unit="sim",
-            disable=not progress,
-            file=sys.stderr,
-            dynamic_ncols=True,
-        )
-        finished = len(runs) - len(pending)
-
-        def on_run_done() -> None:
-            nonlocal finished
-            finished += 1
-            bar.set_postfix(runs=f"{finished}/{len(runs)}", refresh=False)
-            session.checkpoint()
-
-        try:
-            if pending:
-                jobs = [
-                    _RunJob(spec, list(logged.get(spec.key, [])), config, session, bar, on_run_done)
-                    for spec in pending
-                ]
-                Scheduler(executor, evaluate_item, _max_active(config, executor)).run(jobs)
-        except BaseException:
-            session.close()  # its heartbeat stays: resuming counts this session's time
-            raise
-        finally:
-            bar.close()
-            session.checkpoint()
-
-    evaluations = store.read(verify=False)  # written or verified by this session
-    store.consolidate()
-    designs = read_designs(out)
-    test_time = float(sum(d.get("test_time") or 0.0 for d in designs))
-    session.update_extra(test_time=test_time, load_average_at_end=_load_average())
-    manifest = session.finish(evaluations)
+        with make_executor(
+            config.executor, config.workers, config.scheduler, max_retries=config.max_retries
+        ) as executor:
+            session.start()
+            _run_pending(config, runs, pending, logged, session, executor, progress)
+        evaluations = store.read(verify=False)  # written or verified by this session
+        store.consolidate()
+        designs = read_designs(out)
+        test_time = float(sum(d.get("test_time") or 0.0 for d in designs))
+        session.update_extra(test_time=test_time, load_average_at_end=_load_average())
+        manifest = session.finish(evaluations)
     return SuiteResult(
         out_dir=out,
         config=config,
@@ -503,6 +467,48 @@ def run_suite(
         test_time=test_time,
         optimizer_time=float(manifest["optimizer_time"] or 0.0),
     )
+
+
+def _run_pending(
+    config: SuiteConfig,
+    runs: Sequence[RunSpec],
+    pending: Sequence[RunSpec],
+    logged: dict[tuple[str, str, str, int], list[pd.DataFrame]],
+    session: RunSession,
+    executor: Any,
+    progress: bool,
+) -> None:
+    """Run the pending runs on the executor, with a progress bar; each batch is one part."""
+    done_tests = (len(runs) - len(pending)) * _test_rollouts(config)
+    total = config.evaluations() + len(runs) * _test_rollouts(config)
+    initial = sum(sum(len(f) for f in frames) for frames in logged.values()) + done_tests
+
+    from tqdm.auto import tqdm
+
+    bar = tqdm(
+        total=total,
+        initial=initial,
+        desc=config.name,
+        unit="sim",
+        disable=not progress,
+        file=sys.stderr,
+        dynamic_ncols=True,
+    )
+    finished = len(runs) - len(pending)
+
+    def on_run_done() -> None:
+        nonlocal finished
+        finished += 1
+        bar.set_postfix(runs=f"{finished}/{len(runs)}", refresh=False)
+        session.checkpoint()
+
+    with bar:
+        if pending:
+            jobs = [
+                _RunJob(spec, list(logged.get(spec.key, [])), config, session, bar, on_run_done)
+                for spec in pending
+            ]
+            Scheduler(executor, evaluate_item, _max_active(config, executor)).run(jobs)
 
 
 def _load_average() -> str:
