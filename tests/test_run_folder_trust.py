@@ -450,3 +450,35 @@ def test_list_run_files_never_descends_a_link(tmp_path: Path) -> None:
         read_run_file(run, "c.txt")
     with pytest.raises(UnsafeRunFileError, match="symbolic link"):
         read_run_file(run, "b/run/a/x.json")
+
+
+def test_a_resume_writes_nothing_through_a_linked_folder(
+    config_file: Path, place: tuple[Path, Path]
+) -> None:
+    run, outside = place
+    empty = outside / "elsewhere"
+    empty.mkdir()
+    shutil.rmtree(run / DESIGNS_DIR)  # the suite would write its design files again
+    (run / DESIGNS_DIR).symlink_to(empty, target_is_directory=True)
+    edit_manifest(
+        run,
+        lambda m: m["extra"].update(
+            {
+                FILE_CHECKSUMS: {
+                    k: v for k, v in m["extra"][FILE_CHECKSUMS].items() if "designs/" not in k
+                }
+            }
+        ),
+    )
+    before = snapshot(outside)
+    with pytest.raises(ResumeError, match="designs is a symbolic link; a run folder holds regular"):
+        resume(config_file, run)
+    assert snapshot(outside) == before and not list(empty.iterdir())
+
+
+def test_report_keeps_a_report_html_of_the_users_own(place: tuple[Path, Path], capsys) -> None:  # type: ignore[no-untyped-def]
+    run, _ = place
+    (run / REPORT_FILE).write_text("<p>mine</p>")
+    assert main(["report", str(run)]) == 0
+    assert "left as it is" in capsys.readouterr().out
+    assert (run / REPORT_FILE).read_text() == "<p>mine</p>"

@@ -66,6 +66,7 @@ from benchmarks.storage.runfiles import (
     check_write_folder,
     list_run_files,
     read_run_file,
+    refuse_links,
     run_file_path,
     run_file_sha256,
 )
@@ -97,6 +98,7 @@ __all__ = [
     "check_write_folder",
     "list_run_files",
     "read_run_file",
+    "refuse_links",
     "run_file_path",
     "run_file_sha256",
     "FILE_CHECKSUMS",

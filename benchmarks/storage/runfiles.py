@@ -36,6 +36,7 @@ __all__ = [
     "check_write_folder",
     "list_run_files",
     "read_run_file",
+    "refuse_links",
     "run_file_path",
     "run_file_sha256",
 ]
@@ -337,6 +338,28 @@ def _walk(
                 yield from _walk(root, Path(entry.path), skip_dir)
         else:
             yield relative, entry
+
+
+def refuse_links(run_folder: str | os.PathLike[str]) -> None:
+    """Refuse a run folder that holds a symbolic link, FIFO, socket or device anywhere below it.
+
+    For a command about to write into the folder (a resumed run): a linked ``parts/`` or
+    ``designs/`` would have its files written into another folder. The folder itself may be a
+    link (the user named it).
+
+    Raises:
+        UnsafeRunFileError: naming the first such entry and what it is.
+    """
+    root = Path(run_folder)
+    if not root.is_dir():
+        return
+    _, left_out = list_run_files(root)
+    for relative, kind in left_out.items():
+        raise UnsafeRunFileError(
+            f"{root / relative} is {kind}; a run folder holds regular files and folders only, "
+            "and nothing is written into it while it holds one (it could lead anywhere on this "
+            "machine): remove it"
+        )
 
 
 def check_write_folder(run_folder: str | os.PathLike[str], folder: str | os.PathLike[str]) -> Path:

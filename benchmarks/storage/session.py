@@ -72,7 +72,7 @@ from benchmarks.storage.manifest import (
     recorded_checksums,
     verify_checksums,
 )
-from benchmarks.storage.runfiles import read_run_file, run_file_sha256
+from benchmarks.storage.runfiles import read_run_file, refuse_links, run_file_sha256
 from benchmarks.storage.table import (
     CONSOLIDATED_STEM,
     ResultStore,
@@ -457,6 +457,7 @@ class RunSession:
             )
         files = dict(files or {})
         try:
+            refuse_links(self.out)  # a linked parts/ or designs/ would be written through
             verify_checksums(self.out, recorded)
             if recorded:
                 # The consolidated table is derived: every part it was made from is on disk with
