@@ -18,6 +18,8 @@ import zipfile
 from pathlib import Path
 
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from benchmarks.cli import main
 from benchmarks.rl.policies import (
@@ -242,3 +244,22 @@ def test_the_committed_cards_design_without_the_flag_as_documented(
     assert main(argv) == 0
     design = json.loads((out / "design.json").read_text())
     assert design["free_energy"] == result.free_energy
+
+
+@settings(
+    max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(name=st.text(alphabet="./\\~ab-_:\x00", min_size=1, max_size=16))
+def test_no_weights_name_reads_outside_the_cards_folder(tmp_path: Path, name: str) -> None:
+    folder = tmp_path / "policies"
+    if not folder.exists():
+        _copy_card(tmp_path, "ppo")
+        for outside in ("x", "a", "b"):  # what a name going up could reach
+            shutil.copy(POLICIES / "ppo.safetensors", tmp_path / f"{outside}.safetensors")
+    card = folder / "ppo.json"
+    _edit(card, weights=name + ".safetensors")
+    try:
+        policy_digest(card)
+    except (ValueError, TypeError, OSError):
+        return
+    assert (folder / (name + ".safetensors")).resolve().parent == folder.resolve()
