@@ -124,6 +124,8 @@ def _relative(folder: Path, path: str | os.PathLike[str]) -> tuple[str, ...]:
 
 
 def _kind(mode: int) -> str:
+    if stat.S_ISREG(mode):
+        return "a file"
     if stat.S_ISDIR(mode):
         return "a folder"
     if stat.S_ISLNK(mode):
