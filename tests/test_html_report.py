@@ -35,6 +35,8 @@ PROBE_TAIL = (
 def _run_folder(folder):
     """A folder shaped like a design run, with a suite-style report subfolder."""
     folder.mkdir()
+    # A design run's manifest (no checksums: those are tested in test_run_folder_trust.py).
+    (folder / "manifest.json").write_text(json.dumps({"extra": {"kind": "design"}}))
     rgb = (np.arange(40 * 30 * 3) % 255).astype(np.uint8).reshape(30, 40, 3)
     Image.fromarray(rgb).save(folder / "figure3.png")
     frames = [Image.fromarray(np.roll(rgb, k, axis=1)) for k in range(3)]
@@ -67,7 +69,10 @@ def test_report_bad_input(tmp_path):
     with pytest.raises(FileNotFoundError):
         write_html_report(tmp_path / "absent")
     (tmp_path / "empty").mkdir()
-    with pytest.raises(ValueError, match="no figure"):
+    with pytest.raises(ValueError, match="empty is not a run folder: it has no manifest.json"):
+        write_html_report(tmp_path / "empty")
+    (tmp_path / "empty" / "tool.urdf").write_text("<robot/>")
+    with pytest.raises(ValueError, match="not a run folder"):  # half an evaluate folder
         write_html_report(tmp_path / "empty")
 
 

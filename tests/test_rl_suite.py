@@ -120,13 +120,13 @@ def test_the_smoke_run_folder_is_as_documented(rl_smoke: Path) -> None:
         "contextual.json",
         "mass-contextual.json",
         "mass-ppo.json",
-        "mass-ppo.zip",
+        "mass-ppo.safetensors",
         "mass-sac.json",
-        "mass-sac.zip",
+        "mass-sac.safetensors",
         "ppo.json",
-        "ppo.zip",
+        "ppo.safetensors",
         "sac.json",
-        "sac.zip",
+        "sac.safetensors",
     ]
     card = json.loads((rl_smoke / "policies" / "mass-contextual.json").read_text())
     assert card["mass_range"] == config["mass_range"] and len(card["policy"]["masses"]) == 2

@@ -104,7 +104,8 @@ def test_an_unreadable_heartbeat_is_reported_and_adds_no_time(tmp_path: Path, te
     (out / HEARTBEAT).write_text(text)
     with pytest.warns(RuntimeWarning, match="cannot be read"):
         resumed = _session(out, resume=True)
-    assert resumed.sessions[:-1] == before
+    # No time is added, but the run had no end: its session was interrupted all the same.
+    assert resumed.sessions[:-1] == [{**before[0], "interrupted": True}]
     resumed.close()
 
 
@@ -117,7 +118,7 @@ def test_a_heartbeat_of_a_session_the_manifest_does_not_record_is_reported(
     (out / HEARTBEAT).write_text('{"start_time": "2020-01-01T00:00:00+00:00", "wall_time": 9.0}')
     with pytest.warns(RuntimeWarning, match="does not record"):
         resumed = _session(out, resume=True)
-    assert resumed.sessions[:-1] == before
+    assert resumed.sessions[:-1] == [{**before[0], "interrupted": True}]
     resumed.close()
 
 
@@ -125,9 +126,22 @@ def test_a_heartbeat_never_lowers_the_recorded_time(tmp_path: Path) -> None:
     out = tmp_path / "run"
     _killed_session(out, 0.1)
     start = read_manifest(out)["extra"]["sessions"][0]["start_time"]
+    recorded = read_manifest(out)["extra"]["sessions"][0]["wall_time"]
     (out / HEARTBEAT).write_text(json.dumps({"start_time": start, "wall_time": 0.0}))
     resumed = _session(out, resume=True)
-    assert "interrupted" not in resumed.sessions[0]
+    assert resumed.sessions[0]["wall_time"] == recorded
+    # Killed with its process group right after a checkpoint, a session's last beat may count
+    # no more than its manifest: it was interrupted all the same (issue 33).
+    assert resumed.sessions[0]["interrupted"] is True
+    resumed.close()
+
+
+def test_a_session_killed_before_its_first_beat_is_marked_interrupted(tmp_path: Path) -> None:
+    out = tmp_path / "run"
+    _killed_session(out, 0.0)
+    (out / HEARTBEAT).unlink()  # killed before the thread wrote it
+    resumed = _session(out, resume=True)
+    assert resumed.sessions[0]["interrupted"] is True
     resumed.close()
 
 

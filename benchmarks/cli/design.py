@@ -62,6 +62,13 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         "run folder (see docs/rl.md)",
     )
     parser.add_argument(
+        "--allow-pickle",
+        action="store_true",
+        help="with --policy: load a policy card of format 1, whose Stable-Baselines3 .zip is "
+        "unpickled and so can run any code it holds; only for a policy you trust (it warns; "
+        "docs/reliability.md)",
+    )
+    parser.add_argument(
         "--seed",
         type=int,
         default=None,
@@ -148,6 +155,8 @@ _DESIGNER_FLAGS = {
 def _designer(args: argparse.Namespace) -> dict[str, Any]:
     """The designer's fields of the config: an optimizer's, or a saved policy's one design."""
     if args.policy is None:
+        if args.allow_pickle:
+            raise ValueError("--allow-pickle applies to a policy's file: give it with --policy")
         settings = unique_pairs(args.option, "--option")
         for key in settings:
             if key in HARNESS_SETTINGS:
@@ -184,14 +193,17 @@ def _designer(args: argparse.Namespace) -> dict[str, Any]:
     from benchmarks.rl.policies import policy_digest
 
     policy = Path(args.policy).resolve()
+    policy_settings: dict[str, Any] = {
+        "policy": str(policy),
+        "sha256": policy_digest(policy),
+        "goal": list(task.goal),
+        "box_mass": task.box_mass,
+    }
+    if args.allow_pickle:  # recorded only when given: the runs made without it keep their config
+        policy_settings["allow_pickle"] = True
     return {
         "optimizer": POLICY_DESIGNER,
-        "optimizer_settings": {
-            "policy": str(policy),
-            "sha256": policy_digest(policy),
-            "goal": list(task.goal),
-            "box_mass": task.box_mass,
-        },
+        "optimizer_settings": policy_settings,
         "seed": 0,
         "iterations": 1,
         "batch_size": 1,

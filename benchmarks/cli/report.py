@@ -57,7 +57,12 @@ def _run(args: argparse.Namespace) -> int:
     page = Path(args.run_folder) / REPORT_FILE
     if page.is_file() and args.out is None:
         # It embeds the figures just replaced: left as it was, it would show the old ones.
-        print(f"{write_html_report(args.run_folder)} rebuilt")
+        from benchmarks.storage import UnsafeRunFileError
+
+        try:
+            print(f"{write_html_report(args.run_folder)} rebuilt")
+        except UnsafeRunFileError as error:  # a page of the user's own: theirs, kept
+            print(f"{page} left as it is: {error}")
     return 0
 
 

@@ -66,6 +66,12 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     design.add_argument("--goal", type=float, nargs=3, required=True, metavar=("X", "Y", "Z"))
     design.add_argument("--box-mass", type=float, default=DEFAULT_BOX_MASS, help="kg")
     design.add_argument(
+        "--allow-pickle",
+        action="store_true",
+        help="load a policy card of format 1, whose Stable-Baselines3 .zip runs code when "
+        "unpickled; only for a policy you trust",
+    )
+    design.add_argument(
         "--no-simulate",
         action="store_true",
         help="print the design only (free_energy, normalized_reward and final_distance are null)",
@@ -91,7 +97,11 @@ def _run(args: argparse.Namespace) -> int:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", UserWarning)
         result = design_for_goal(
-            args.policy, args.goal, box_mass=args.box_mass, simulate=not args.no_simulate
+            args.policy,
+            args.goal,
+            box_mass=args.box_mass,
+            simulate=not args.no_simulate,
+            allow_pickle=args.allow_pickle,
         )
     for warning in caught:  # a task outside the policy's training ranges: one line each
         sys.stderr.write(warning_line("tooldesign rl design", warning.message))

@@ -19,6 +19,11 @@
   From the check on, the client's tracebacks of the lost connection (Dask logs one per call in
   flight) are left out of the log: :class:`ClusterLost` says what happened.
 
+- **An unreachable scheduler is refused soon.** :func:`connect` gives up after
+  :data:`CONNECT_TIMEOUT` s (Dask's own default, 30 s plus retries, kept a dead address waiting
+  34-40 s), naming the address; ``TOOLDESIGN_DASK_CONNECT_TIMEOUT`` (seconds) or the
+  ``connect_timeout`` of :func:`benchmarks.execution.make_executor` sets another.
+
 This module needs ``dask.distributed`` (``pip install 'tooldesign[dask]'``); the executor
 imports it only for ``--executor dask``.
 """
@@ -31,6 +36,8 @@ import hashlib
 import importlib.metadata
 import importlib.util
 import logging
+import math
+import os
 import platform
 from collections.abc import Callable
 from concurrent.futures import Executor, Future
@@ -47,8 +54,12 @@ __all__ = [
     "ClusterLost",
     "DaskExecutor",
     "IdentityCheck",
+    "CONNECT_TIMEOUT",
+    "CONNECT_TIMEOUT_ENV",
     "check_workers",
     "code_identity",
+    "connect",
+    "connect_timeout",
     "differences",
     "end_quiet",
     "forget_check",
@@ -73,12 +84,71 @@ LIBRARIES: tuple[str, ...] = ("numpy", "scipy", "pybullet", "gymnasium", "trimes
 #: Name of the plugin on the scheduler; registering again replaces it.
 PLUGIN_NAME = "tooldesign-code-identity"
 
+#: Seconds a client waits for the scheduler at ``--scheduler ADDRESS`` before it refuses it: an
+#: unreachable address is refused within 10 s with the start-up, while a scheduler across a slow
+#: network still has time to answer.
+CONNECT_TIMEOUT = 8.0
+
+#: The environment variable that sets another :data:`CONNECT_TIMEOUT` (seconds).
+CONNECT_TIMEOUT_ENV = "TOOLDESIGN_DASK_CONNECT_TIMEOUT"
+
 #: Workers named in full in a refusal; the rest are counted.
 _NAMED_WORKERS = 3
 
 # Ids of the clients whose check is registered: only they remove it (a refused client must not
 # remove the check of another client's run on the same cluster).
 _REGISTERED: set[str] = set()
+
+
+def connect_timeout(value: float | None = None) -> float:
+    """The seconds to wait for a scheduler: ``value``, else the environment's, else the default.
+
+    Args:
+        value: Seconds, or None for ``$TOOLDESIGN_DASK_CONNECT_TIMEOUT`` or
+            :data:`CONNECT_TIMEOUT`.
+
+    Raises:
+        ValueError: The value (or the variable) is not a positive finite number of seconds.
+    """
+    where = "connect_timeout"
+    if value is None:
+        text = os.environ.get(CONNECT_TIMEOUT_ENV)
+        if text is None or not text.strip():
+            return CONNECT_TIMEOUT
+        where = f"${CONNECT_TIMEOUT_ENV}"
+        try:
+            value = float(text)
+        except ValueError:
+            raise ValueError(f"{where} must be a number of seconds > 0, got {text!r}") from None
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ValueError(f"{where} must be a number of seconds > 0, got {value!r}")
+    if not (math.isfinite(value) and value > 0):
+        raise ValueError(f"{where} must be a finite number of seconds > 0, got {value!r}")
+    return float(value)
+
+
+def connect(scheduler: str, timeout: float | None = None) -> Client:
+    """A client of the scheduler at ``scheduler``, or an ``OSError`` naming it after ``timeout``.
+
+    Args:
+        scheduler: The scheduler's address, e.g. ``tcp://host:8786``.
+        timeout: Seconds to wait (:func:`connect_timeout`).
+
+    Raises:
+        ValueError: A bad address or timeout.
+        OSError: Nothing answered at the address within the timeout.
+    """
+    if not isinstance(scheduler, str) or not scheduler.strip():
+        raise ValueError(f"scheduler must be an address like tcp://host:8786, got {scheduler!r}")
+    seconds = connect_timeout(timeout)
+    try:
+        return Client(scheduler, timeout=seconds)
+    except OSError as err:  # distributed's "Timed out trying to connect to ..."
+        raise OSError(
+            f"no Dask scheduler answers at {scheduler} (gave up after {seconds:g} s; "
+            f"${CONNECT_TIMEOUT_ENV} sets the wait): start a scheduler with `dask scheduler` "
+            "or check the address"
+        ) from err
 
 
 def _version(distribution: str) -> str:

@@ -51,6 +51,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from benchmarks.execution._parent_death import die_with_parent
+from benchmarks.execution._stale_ipc import remove_stale_ipc
 
 #: Largest ``max_retries``: each retry starts a fresh pool and evaluates the item again.
 MAX_RETRIES_MAX = 100
@@ -251,6 +252,9 @@ def _warning_line(
 
 
 def _process_context() -> Any:
+    # What an earlier pool killed with its process group left in /dev/shm and the temporary
+    # folder (its resource tracker died with it) goes before this pool adds its own.
+    remove_stale_ipc()
     # forkserver forks workers from a clean server process that never made a PyBullet client
     # (and is faster to start than spawn); plain fork would copy the parent's client.
     methods = multiprocessing.get_all_start_methods()
@@ -419,6 +423,7 @@ def make_executor(
     scheduler: str | None = None,
     *,
     max_retries: int = 0,
+    connect_timeout: float | None = None,
 ) -> Iterator[Executor]:
     """An executor for :func:`evaluate_batch`, shut down (and its cluster closed) on exit.
 
@@ -434,6 +439,9 @@ def make_executor(
             while it ran alone is run again, alone in a fresh pool, before its outcome is a
             :class:`WorkerDied` error (see :func:`run_alone`); an int from 0 to 100. The
             ``"serial"`` executor has no worker to lose, and Dask retries by itself.
+        connect_timeout: With a ``scheduler``: seconds to wait for it before an ``OSError``
+            naming it; default ``$TOOLDESIGN_DASK_CONNECT_TIMEOUT`` or 8 s
+            (:func:`benchmarks.execution.dask_client.connect_timeout`).
 
     The workers of ``"process"`` write warnings as this process does when its warning format
     is the command line's one line (see the module's docstring).
@@ -476,12 +484,14 @@ def make_executor(
         check_main_guard(kind, scheduler)  # a LocalCluster starts worker processes here
         if scheduler is None:
             _warn_oversubscribed(count)
-        with _dask_executor(count, scheduler) as executor:
+        with _dask_executor(count, scheduler, connect_timeout) as executor:
             yield executor
 
 
 @contextlib.contextmanager
-def _dask_executor(workers: int, scheduler: str | None) -> Iterator[Executor]:
+def _dask_executor(
+    workers: int, scheduler: str | None, connect_timeout: float | None = None
+) -> Iterator[Executor]:
     try:
         from distributed import Client, LocalCluster
     except ImportError as err:
@@ -492,23 +502,14 @@ def _dask_executor(workers: int, scheduler: str | None) -> Iterator[Executor]:
     from benchmarks.execution.dask_client import (
         DaskExecutor,
         check_workers,
+        connect,
         end_quiet,
         forget_check,
     )
 
     if scheduler is not None:
-        if not isinstance(scheduler, str) or not scheduler:
-            raise ValueError(
-                f"scheduler must be an address like tcp://host:8786, got {scheduler!r}"
-            )
         cluster = None
-        try:
-            client = Client(scheduler)
-        except OSError as err:  # distributed's "Timed out trying to connect to ..." after 30 s
-            raise OSError(
-                f"no Dask scheduler answers at {scheduler} ({err}); start a scheduler with "
-                "`dask scheduler` or check the address"
-            ) from err
+        client = connect(scheduler, connect_timeout)  # refused after seconds, naming it
     else:
         # One thread per worker: the env cache is per thread, and PyBullet is CPU bound.
         cluster = LocalCluster(

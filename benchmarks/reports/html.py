@@ -13,14 +13,16 @@ from __future__ import annotations
 
 import base64
 import html
+import io
 import json
 import os
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-from benchmarks.storage import ResultStore, atomic_write_text
+from benchmarks.storage import atomic_write_text, read_run_file
 from benchmarks.storage.atomic import check_file_target
+from benchmarks.storage.runfolder import check_own_page, report_files
 
 __all__ = ["REPORT_FILE", "write_html_report"]
 
@@ -43,17 +45,19 @@ pre { background: #f7f7f7; padding: 0.8em; overflow-x: auto; font-size: 0.85em; 
 
 
 def _files(folder: Path) -> Iterator[Path]:
-    """The folder's files, sorted, depth first, without stored results and earlier reports."""
-    for root, dirs, names in os.walk(folder):
-        dirs[:] = sorted(d for d in dirs if d not in _SKIP_DIRS and not d.startswith("."))
-        for name in sorted(names):
-            if name != REPORT_FILE and not name.startswith("."):
-                yield Path(root) / name
+    """The folder's files, sorted, depth first, without stored results and earlier reports.
+
+    Regular files inside the folder only, after the folder is checked against its manifest
+    (:func:`benchmarks.storage.runfolder.report_files`, which warns about what it leaves out).
+    """
+    listed = report_files(folder, skip_dirs=_SKIP_DIRS, skip_names={REPORT_FILE})
+    for relative in listed.files:
+        yield folder / relative
 
 
 def _image(path: Path, folder: Path) -> str:
     mime = _IMAGES[path.suffix.lower()]
-    data = base64.b64encode(path.read_bytes()).decode("ascii")
+    data = base64.b64encode(read_run_file(folder, path)).decode("ascii")
     name = html.escape(str(path.relative_to(folder)))
     return (
         f'<figure><img src="data:{mime};base64,{data}" alt="{name}">'
@@ -72,7 +76,7 @@ def _value(value: Any) -> str:
 
 def _json_table(path: Path, folder: Path) -> str:
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
+        data = json.loads(read_run_file(folder, path).decode("utf-8"))
     except (OSError, ValueError) as error:
         return f"<p>{html.escape(path.name)}: not readable ({html.escape(str(error))})</p>"
     if not isinstance(data, dict):
@@ -90,7 +94,7 @@ def _csv_table(path: Path, folder: Path) -> str:
 
     name = html.escape(str(path.relative_to(folder)))
     try:
-        frame = pd.read_csv(path, nrows=_MAX_CSV_ROWS + 1)
+        frame = pd.read_csv(io.BytesIO(read_run_file(folder, path)), nrows=_MAX_CSV_ROWS + 1)
     except (OSError, ValueError) as error:
         return f"<p>{name}: not readable ({html.escape(str(error))})</p>"
     more = len(frame) > _MAX_CSV_ROWS
@@ -115,9 +119,11 @@ def write_html_report(
         FileNotFoundError: ``folder`` is not a folder, or the folder of ``out`` does not exist.
         IsADirectoryError: ``out`` is a folder.
         NotADirectoryError: a file stands where the folder of ``out`` would be.
-        ValueError: the folder holds no figure, table or card to report, or too many files, or
-            a file differs from the checksum its ``manifest.json`` records for it
-            (:meth:`benchmarks.storage.ResultStore.verify`).
+        ValueError: the folder is not a run folder of a known kind, holds no figure, table or
+            card to report, or too many files, or a file differs from the checksum its
+            ``manifest.json`` records for it (:meth:`benchmarks.storage.ResultStore.verify`),
+            or the page to write exists and was not written by this function, or is a link
+            (:func:`benchmarks.storage.runfolder.check_own_page`).
     """
     folder = Path(folder)
     if not folder.is_dir():
@@ -125,8 +131,8 @@ def write_html_report(
     # Before the folder is read: a wrong --out is named, not found after the work is done.
     target = Path(out) if out is not None else folder / REPORT_FILE
     check_file_target(target, parent_must_exist=out is not None)
-    ResultStore(folder).verify()  # a run folder that was tampered with is not shown
-    files = list(_files(folder))
+    check_own_page(folder, target)  # a user's own report.html, or a link, is not overwritten
+    files = list(_files(folder))  # a run folder that was tampered with is not shown
     if len(files) > _MAX_FILES:
         raise ValueError(f"{folder} has more than {_MAX_FILES} files: give a run folder")
     images = [p for p in files if p.suffix.lower() in _IMAGES]
@@ -139,6 +145,7 @@ def write_html_report(
     parts = [
         "<!DOCTYPE html>",
         '<html lang="en"><head><meta charset="utf-8">',
+        '<meta name="generator" content="tooldesign html">',  # check_own_page looks for it
         f"<title>{title}</title><style>{_STYLE}</style></head><body>",
         f"<h1>{title}</h1>",
         f"<p>{len(images)} figures, {len(cards)} cards, {len(tables)} tables; made from the "
@@ -155,7 +162,7 @@ def write_html_report(
         parts.extend(_csv_table(p, folder) for p in tables)
     for path in texts:
         name = html.escape(str(path.relative_to(folder)))
-        text = path.read_text(encoding="utf-8", errors="replace")
+        text = read_run_file(folder, path).decode("utf-8", errors="replace")
         parts.append(f"<h2>{name}</h2><pre>{html.escape(text)}</pre>")
     parts.append("</body></html>\n")
     return atomic_write_text(target, "\n".join(parts))

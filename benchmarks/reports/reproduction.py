@@ -14,6 +14,7 @@ nudged scenes that leave the motion unchanged); a rank correlation counts when p
 
 from __future__ import annotations
 
+import io
 import json
 import math
 import os
@@ -44,7 +45,7 @@ from benchmarks.reports.retest import (
 )
 from benchmarks.reports.stats import t_interval
 from benchmarks.reports.suite import designs_table
-from benchmarks.storage import read_designs, read_retests, with_added_fields
+from benchmarks.storage import read_designs, read_retests, read_run_file, with_added_fields
 from benchmarks.suites.config import ADDED_FIELDS
 from tooldesign_env.schema import ROBUSTNESS_METRICS
 
@@ -67,8 +68,21 @@ def _fmt(value: float, digits: int = 4) -> str:
     return "n/a" if value is None or not math.isfinite(value) else f"{value:.{digits}g}"
 
 
-def _read_csv(path: Path) -> pd.DataFrame:
-    return pd.read_csv(path) if path.is_file() else pd.DataFrame()
+def _suite_file(folder: Path, relative: str) -> bytes | None:
+    """A file of a suite folder (a regular file inside it, no link followed), None if absent."""
+    if not os.path.lexists(folder / relative):
+        return None
+    return read_run_file(folder, relative)
+
+
+def _suite_json(folder: Path, relative: str) -> Any:
+    data = _suite_file(folder, relative)
+    return None if data is None else json.loads(data.decode("utf-8"))
+
+
+def _read_csv(folder: Path, relative: str) -> pd.DataFrame:
+    data = _suite_file(folder, relative)
+    return pd.DataFrame() if data is None else pd.read_csv(io.BytesIO(data))
 
 
 def _spearman(x: Any, y: Any) -> tuple[float, float, int]:
@@ -124,8 +138,8 @@ def _comparison_noise(pure: float, other: float, label: str) -> tuple[float, str
 
 
 def _claim_a(folder: Path) -> tuple[str, str, list[str]]:
-    report = folder / "report"
-    summary, pairwise = _read_csv(report / "summary.csv"), _read_csv(report / "pairwise.csv")
+    summary = _read_csv(folder, "report/summary.csv")
+    pairwise = _read_csv(folder, "report/pairwise.csv")
     floor = noise_floor(read_retests(folder))
     runs = int(summary["runs"].max()) if len(summary) else 0
     lines = [
@@ -414,15 +428,15 @@ def _claim_d(folder: Path) -> tuple[str, str, list[str]]:
 
 
 def _seeds(folder: Path) -> str:
-    path = folder / "manifest.json"
-    if not path.is_file():
+    manifest = _suite_json(folder, "manifest.json")
+    if manifest is None:
         return "n/a"
-    return str(json.loads(path.read_text(encoding="utf-8")).get("config", {}).get("n_seeds"))
+    return str(manifest.get("config", {}).get("n_seeds"))
 
 
 def _run_facts(folder: Path) -> tuple[dict[str, Any], str, str]:
     """A suite folder's config, the short commit it ran with, and whether it was retested."""
-    manifest = json.loads((folder / "manifest.json").read_text(encoding="utf-8"))
+    manifest = _suite_json(folder, "manifest.json") or {}
     commit = str(manifest.get("git_commit") or manifest.get("commit") or "n/a")[:7]
     retested = "yes" if (folder / "retest").is_dir() else "no"
     return manifest.get("config", {}), commit, retested
@@ -476,9 +490,9 @@ def _section_noise(results: Path) -> str:
     for suite in SUITES:
         floors = []
         for folder in (results / SQUARE / suite, results / suite):
-            path = folder / "report" / "noise-floor.json"
-            if path.is_file():
-                floors.append(json.loads(path.read_text(encoding="utf-8"))["all"])
+            floor = _suite_json(folder, "report/noise-floor.json")
+            if floor is not None:
+                floors.append(floor["all"])
         if len(floors) == 2:
             square, round_ = (percent_cell(f["free_energy_relative"]) for f in floors)
             parts.append(f"{suite} {square} against {round_}")
@@ -535,9 +549,9 @@ def _square_section(results: Path) -> list[str]:
         "|---|---|---|---|---|---|",
     ]
     for name in present:
-        path = square / name / "report" / "noise-floor.json"
-        if path.is_file():
-            lines.append(_floor_row(name, json.loads(path.read_text(encoding="utf-8"))["all"]))
+        floor = _suite_json(square / name, "report/noise-floor.json")
+        if floor is not None:
+            lines.append(_floor_row(name, floor["all"]))
     # The details, one heading level down, after the suites' own.
     lines += [("#" + line) if line.startswith("## ") else line for line in details]
     return [*lines, ""]
@@ -568,9 +582,9 @@ def reproduction_page(results: str | os.PathLike[str]) -> str:
             )
     floors = {}
     for suite in SUITES:
-        path = results / suite / "report" / "noise-floor.json"
-        if path.is_file():
-            floors[suite] = json.loads(path.read_text(encoding="utf-8"))["all"]
+        floor = _suite_json(results / suite, "report/noise-floor.json")
+        if floor is not None:
+            floors[suite] = floor["all"]
     baseline = results / "robust-design"
     a = _claim_a(results / "optimizers")
     b = _claim_b(results / "robustness")
@@ -653,11 +667,13 @@ def reproduction_page(results: str | os.PathLike[str]) -> str:
         "`evaluations.parquet`, `designs/`, `retest/` (the noise and stress rollouts of every "
         "final design), `report/` and `bench-output.txt`.",
     ]
-    timing = results / "optimizers" / "bench-output.txt"
-    if timing.is_file():
+    timing = _suite_file(results / "optimizers", "bench-output.txt")
+    if timing is not None:
         lines += ["", "The `optimizers` suite's own account of its time:", "", "```"]
         lines += [
-            ln for ln in timing.read_text(encoding="utf-8").splitlines() if not ln.startswith("$")
+            ln
+            for ln in timing.decode("utf-8", errors="replace").splitlines()
+            if not ln.startswith("$")
         ]
         lines += ["```"]
     return "\n".join(lines) + "\n"

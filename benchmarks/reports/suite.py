@@ -56,6 +56,7 @@ from benchmarks.storage import (
     MANIFEST_NAME,
     ResultStore,
     atomic_write_text,
+    check_write_folder,
     read_designs,
     read_manifest,
     read_retests,
@@ -908,9 +909,10 @@ def make_suite_report(
     # Every recorded checksum and every design and retest file first: a folder that was
     # tampered with is refused before a report file is written.
     ResultStore(folder).verify()
+    target = folder / REPORT_DIR if out_dir is None else Path(out_dir)
+    check_write_folder(folder, target)  # a report/ linked to another folder is not written
     if _kind(folder) == RL_SUITE_KIND:
         return make_rl_report(folder, out_dir=out_dir)
-    target = folder / REPORT_DIR if out_dir is None else Path(out_dir)
     designs, retests = read_designs(folder), read_retests(folder)
     notice = _incomplete_notice(folder, designs, retests)
     if notice is not None:

@@ -36,7 +36,10 @@ class PolicyDesigner(Optimizer):
         policy: Path of the policy card (:func:`benchmarks.rl.save_policy`).
         goal: (x, y, z) in m, the task's goal.
         box_mass: kg, the task's box mass (the observation of a mass-conditioned policy).
-        sha256: :func:`benchmarks.rl.policy_digest` of the policy when the run began.
+        sha256: :func:`benchmarks.rl.policy_digest` of the policy when the run began; checked
+            before the policy is loaded.
+        allow_pickle: Load a policy card of format 1, whose Stable-Baselines3 ``.zip`` runs code
+            when it is unpickled (``--allow-pickle``; it warns).
 
     Raises:
         ValueError: A batch size other than 1, a policy whose digest is not ``sha256``, a bad
@@ -56,21 +59,24 @@ class PolicyDesigner(Optimizer):
         goal: Sequence[float],
         box_mass: float,
         sha256: str,
+        allow_pickle: bool = False,
     ) -> None:
         if batch_size != 1 or isinstance(batch_size, bool):
             raise ValueError(
                 f"a policy designs one tool per task: batch_size must be 1, got {batch_size!r}"
             )
         super().__init__(bounds, batch_size=1, seed=seed)
-        from benchmarks.rl.policies import design_for_goal, policy_digest
+        from benchmarks.rl.policies import design_for_goal
 
-        digest = policy_digest(policy)
-        if digest != sha256:
-            raise ValueError(
-                f"the policy {policy} has changed since the run began (SHA-256 {digest}, the "
-                f"run recorded {sha256}); design into a new run folder"
-            )
-        design = design_for_goal(policy, goal, box_mass=box_mass, simulate=False)
+        # The digest is checked on the bytes that are then loaded, before anything is parsed.
+        design = design_for_goal(
+            policy,
+            goal,
+            box_mass=box_mass,
+            simulate=False,
+            allow_pickle=allow_pickle,
+            sha256=sha256,
+        )
         c = np.asarray(design.coefficients, dtype=np.float64)
         low, high = self._low, self._high
         if c.shape != low.shape or np.any(c < low) or np.any(c > high):

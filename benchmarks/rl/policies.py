@@ -1,11 +1,21 @@
 """Saved policies: write a trained baseline to disk, and design a tool for a new goal with it.
 
 A saved policy is a small JSON card (``<name>.json``) naming the method, the training budget, the
-configuration and, for PPO and SAC, the Stable-Baselines3 ``.zip`` beside it; the contextual
-regression is stored in the card itself (no torch needed to use it). The card also records the
-task it was trained on: the tool's section and the arm (``section_shape``,
-``merge_fixed_links``), which the env it designs with is built with, and the ranges of its
-training goals and box masses (``goal_range``, ``mass_range``), outside which designing warns.
+configuration and, for PPO and SAC, the network's weights beside it; the contextual regression is
+stored in the card itself (no torch needed to use it). The card also records the task it was
+trained on: the tool's section and the arm (``section_shape``, ``merge_fixed_links``), which the
+env it designs with is built with, and the ranges of its training goals and box masses
+(``goal_range``, ``mass_range``), outside which designing warns.
+
+**A policy file is data, never code.** PPO's and SAC's weights are a state dict in safetensors
+(``<name>.safetensors``: named tensors, nothing to unpickle) whose SHA-256 the card records
+(``weights_sha256``) and which is checked before the weights are parsed; the network is rebuilt
+from the card's ``architecture`` (layer sizes, an activation from a fixed list, the observation and
+action boxes), never from a class name in the file. The weights must be a regular file in the
+card's folder (no path, no ``..``, no link). Cards of format 1 name a Stable-Baselines3 ``.zip``
+instead, which Stable-Baselines3 loads by unpickling, so it can run any code: such a card is
+loaded only with ``allow_pickle=True`` (``--allow-pickle``), with a warning, and
+:func:`convert_policy` turns it into a card of this format once.
 """
 
 from __future__ import annotations
@@ -31,6 +41,8 @@ from tooldesign_env.schema import DEFAULT_BOX_MASS
 __all__ = [
     "CARD_ADDED_FIELDS",
     "POLICY_FORMAT",
+    "UnsafePolicyError",
+    "convert_policy",
     "DesignResult",
     "design_for_goal",
     "load_policy",
@@ -40,9 +52,20 @@ __all__ = [
     "save_policy",
 ]
 
-#: Version of the card format.
-POLICY_FORMAT = 1
+#: Version of the card format written: 2 stores PPO's and SAC's weights in safetensors; 1 (read
+#: only with ``allow_pickle``) named a Stable-Baselines3 ``.zip``.
+POLICY_FORMAT = 2
+_FORMATS = (1, 2)
 _METHODS = ("ppo", "sac", "contextual")
+_WEIGHTS_SUFFIX = ".safetensors"
+#: The activations a card may name (looked up in this table, never imported by name).
+_ACTIVATIONS = ("Tanh", "ReLU", "ELU", "LeakyReLU", "GELU", "SiLU")
+_MAX_POLICY_BYTES = 256 << 20  # the committed SAC weights are 0.2 MB
+
+
+class UnsafePolicyError(ValueError):
+    """A policy file that would run code or read outside its card's folder, refused."""
+
 
 #: Card fields added after the first cards were written, with the value those cards were trained
 #: with: the committed rl suite (docs/results/rl, commit a327f7f) ran with the square section
@@ -91,7 +114,7 @@ def save_policy(
     mass_range: Sequence[float] | None = None,
     extra: dict[str, Any] | None = None,
 ) -> Path:
-    """Save a trained baseline as ``path`` (a ``.json`` card, plus ``.zip`` for PPO/SAC).
+    """Save a trained baseline as ``path`` (a ``.json`` card, plus ``.safetensors`` for PPO/SAC).
 
     Args:
         model: a Stable-Baselines3 PPO/SAC model or a :class:`ContextualPolicy`.
@@ -146,41 +169,94 @@ def save_policy(
             raise TypeError(f"a contextual policy must be a ContextualPolicy, got {model!r}")
         card["policy"] = model.to_dict()
     else:
-        if not hasattr(model, "save"):
+        if not hasattr(model, "policy") or not hasattr(model.policy, "state_dict"):
             raise TypeError(f"a {method} policy must be a Stable-Baselines3 model, got {model!r}")
-        zip_path = card_path.with_suffix(".zip")
-        # Save to memory first so that the file appears whole (the atomic write).
-        import io
-
-        buffer = io.BytesIO()
-        model.save(buffer, exclude=["replay_buffer"])
-        atomic_write_bytes(zip_path, buffer.getvalue())
-        card["file"] = zip_path.name
+        card.update(_weights_fields(model.policy, method, card_path))
     return atomic_write_text(card_path, json_text(card))
 
 
+def _import_safetensors() -> Any:
+    """The ``safetensors.torch`` module, or an ``ImportError`` naming the extra to install."""
+    try:
+        import safetensors.torch
+    except ImportError as error:
+        from benchmarks.rl.agents import RL_EXTRA
+
+        raise ImportError(
+            f"PPO and SAC policies are stored with safetensors, which is not installed "
+            f"({error}); install it with `{RL_EXTRA}`"
+        ) from error
+    return safetensors.torch
+
+
+def _weights_fields(policy: Any, method: str, card_path: Path) -> dict[str, Any]:
+    """Write the policy's weights beside the card (safetensors); the card's fields naming them."""
+    save = _import_safetensors().save
+
+    architecture = _architecture(policy, method)
+    state = {k: v.detach().cpu().contiguous() for k, v in policy.state_dict().items()}
+    data = save(state)
+    weights = card_path.with_suffix(_WEIGHTS_SUFFIX)
+    atomic_write_bytes(weights, data)
+    return {
+        "weights": weights.name,
+        "weights_sha256": hashlib.sha256(data).hexdigest(),
+        "architecture": architecture,
+    }
+
+
+def _architecture(policy: Any, method: str) -> dict[str, Any]:
+    """What rebuilds ``policy``'s network: sizes, activation, spaces (JSON, no class names)."""
+    params = policy._get_constructor_parameters()
+    activation = params["activation_fn"].__name__
+    if activation not in _ACTIVATIONS:
+        raise ValueError(f"the activation {activation} cannot be saved; use one of {_ACTIVATIONS}")
+    if params.get("use_sde"):
+        raise ValueError("a policy with gSDE exploration (use_sde=True) cannot be saved")
+    extractor = params["features_extractor_class"].__name__
+    if extractor != "FlattenExtractor":
+        raise ValueError(f"a policy with the features extractor {extractor} cannot be saved")
+    architecture: dict[str, Any] = {
+        "net_arch": params["net_arch"],
+        "activation_fn": activation,
+        "observation_space": _box_fields(params["observation_space"]),
+        "action_space": _box_fields(params["action_space"]),
+        "log_std_init": float(params["log_std_init"]),
+    }
+    if method == "sac":
+        architecture["n_critics"] = int(params["n_critics"])
+        architecture["clip_mean"] = float(params["clip_mean"])
+        architecture["share_features_extractor"] = bool(
+            params.get("share_features_extractor", False)
+        )
+    else:
+        architecture["share_features_extractor"] = bool(
+            params.get("share_features_extractor", True)
+        )
+    return architecture
+
+
+def _box_fields(space: Any) -> dict[str, Any]:
+    low, high = np.asarray(space.low, dtype=float), np.asarray(space.high, dtype=float)
+    if not (np.all(np.isfinite(low)) and np.all(np.isfinite(high))):
+        raise ValueError(f"a policy over the unbounded space {space} cannot be saved")
+    return {"low": low.ravel().tolist(), "high": high.ravel().tolist(), "shape": list(space.shape)}
+
+
 def policy_digest(path: str | os.PathLike[str]) -> str:
-    """SHA-256 of a saved policy: its card and, for PPO and SAC, the ``.zip`` it names.
+    """SHA-256 of a saved policy: its card and, for PPO and SAC, the weights (or ``.zip``) it names.
 
     A design run made with a policy records it, so that resuming with a changed policy is
-    refused instead of mixing two policies' designs.
+    refused instead of mixing two policies' designs. Nothing is loaded (no torch, no pickle).
 
     Raises:
-        FileNotFoundError: no such card (or its ``.zip`` is missing).
-        ValueError: not a policy card of a known format.
+        FileNotFoundError: no such card (or the file it names is missing).
+        ValueError: not a policy card of a known format, or the file it names is not a regular
+            file beside it (a path, ``..`` or a link: :class:`UnsafePolicyError`).
     """
     if not isinstance(path, (str, os.PathLike)):
         raise TypeError(f"path must be a str or os.PathLike, got {path!r}")
-    card_path = Path(path)
-    data = card_path.read_bytes()
-    card = _parse_card(card_path, data)
-    digest = hashlib.sha256(data)
-    if "file" in card:
-        zip_path = card_path.parent / card["file"]
-        if not zip_path.is_file():
-            raise FileNotFoundError(f"{card_path} names {zip_path}, which does not exist")
-        digest.update(zip_path.read_bytes())
-    return digest.hexdigest()
+    return _read_policy(Path(path))[0]
 
 
 def read_policy_card(path: str | os.PathLike[str]) -> dict[str, Any]:
@@ -196,7 +272,52 @@ def read_policy_card(path: str | os.PathLike[str]) -> dict[str, Any]:
     if not isinstance(path, (str, os.PathLike)):
         raise TypeError(f"path must be a str or os.PathLike, got {path!r}")
     card_path = Path(path)
-    return _parse_card(card_path, card_path.read_bytes())
+    return _parse_card(card_path, _read_card_bytes(card_path))
+
+
+def _read_card_bytes(card_path: Path) -> bytes:
+    """The card's bytes: a regular file (the path the user gave may be a link to one)."""
+    from benchmarks.storage import UnsafeRunFileError, read_run_file
+
+    try:
+        return read_run_file(
+            card_path.resolve().parent, card_path.resolve().name, max_bytes=_MAX_POLICY_BYTES
+        )
+    except UnsafeRunFileError as err:
+        raise UnsafePolicyError(f"{card_path} is not a policy card: {err}") from None
+    except FileNotFoundError:
+        raise FileNotFoundError(f"No such file: {card_path}") from None
+
+
+def _read_policy(card_path: Path) -> tuple[str, dict[str, Any], bytes | None]:
+    """``(digest, card, bytes of the file the card names or None)``, each file read once.
+
+    The file a card names must be a regular file in the card's folder: a name, not a path.
+    """
+    from benchmarks.storage import UnsafeRunFileError, read_run_file
+
+    data = _read_card_bytes(card_path)
+    card = _parse_card(card_path, data)
+    digest = hashlib.sha256(data)
+    name = card.get("weights", card.get("file"))
+    payload = None
+    if name is not None:
+        folder = card_path.resolve().parent
+        if "/" in name or "\\" in name or name in (".", ".."):
+            raise UnsafePolicyError(
+                f"{card_path}: {name!r} is a path; a card names a file beside it in its own "
+                f"folder ({folder}), and nothing outside that folder is read"
+            )
+        try:
+            payload = read_run_file(folder, name, max_bytes=_MAX_POLICY_BYTES)
+        except FileNotFoundError:
+            raise FileNotFoundError(
+                f"{card_path} names {folder / name}, which does not exist"
+            ) from None
+        except UnsafeRunFileError as err:
+            raise UnsafePolicyError(f"{card_path} names a file that is refused: {err}") from None
+        digest.update(payload)
+    return digest.hexdigest(), card, payload
 
 
 def _parse_card(card_path: Path, data: bytes) -> dict[str, Any]:
@@ -206,10 +327,12 @@ def _parse_card(card_path: Path, data: bytes) -> dict[str, Any]:
         raise ValueError(f"{card_path} is not a policy card (not UTF-8 text: {error})") from None
     try:
         card = json.loads(text)
-    except json.JSONDecodeError as error:
+    except (json.JSONDecodeError, RecursionError) as error:
         raise ValueError(f"{card_path} is not a policy card (invalid JSON: {error})") from None
-    if not isinstance(card, dict) or card.get("format") != POLICY_FORMAT:
-        raise ValueError(f"{card_path} is not a policy card of format {POLICY_FORMAT}")
+    if not isinstance(card, dict) or card.get("format") not in _FORMATS:
+        raise ValueError(
+            f"{card_path} is not a policy card of format {' or '.join(map(str, _FORMATS))}"
+        )
     method = card.get("method")
     if method not in _METHODS:
         raise ValueError(f"{card_path}: 'method' must be one of {_METHODS}, got {method!r}")
@@ -228,7 +351,7 @@ def _parse_card(card_path: Path, data: bytes) -> dict[str, Any]:
         missing = [name for name in _CONTEXTUAL_FIELDS if name not in policy]
         if missing:
             raise ValueError(f"{card_path}: 'policy' lacks the fields {', '.join(missing)}")
-    else:
+    elif card["format"] == 1:
         if "file" not in card:
             raise ValueError(
                 f"{card_path}: a {method} card names its Stable-Baselines3 model in the field "
@@ -241,9 +364,95 @@ def _parse_card(card_path: Path, data: bytes) -> dict[str, Any]:
             )
         if not card["file"]:
             raise ValueError(f"{card_path}: 'file' must name the .zip beside the card, got ''")
+    else:
+        _check_weights_fields(card, card_path, method)
     card = {**CARD_ADDED_FIELDS, **card}
     _check_settings(card, card_path)
     return card
+
+
+def _check_weights_fields(card: dict[str, Any], card_path: Path, method: str) -> None:
+    """A format-2 PPO or SAC card: ``weights``, ``weights_sha256`` and ``architecture``."""
+    weights = card.get("weights")
+    if not isinstance(weights, str) or not weights.endswith(_WEIGHTS_SUFFIX):
+        raise ValueError(
+            f"{card_path}: a {method} card names its weights in the field 'weights', the name "
+            f"of a {_WEIGHTS_SUFFIX} file beside it; got {weights!r}"
+        )
+    if "file" in card:
+        raise ValueError(f"{card_path}: a card of format 2 has 'weights', not 'file'")
+    digest = card.get("weights_sha256")
+    if not (
+        isinstance(digest, str) and len(digest) == 64 and set(digest) <= set("0123456789abcdef")
+    ):
+        raise ValueError(
+            f"{card_path}: 'weights_sha256' must be the 64 hex digits of the weights' SHA-256, "
+            f"got {digest!r}"
+        )
+    architecture = card.get("architecture")
+    if not isinstance(architecture, dict):
+        raise TypeError(f"{card_path}: 'architecture' must be an object, got {architecture!r}")
+    activation = architecture.get("activation_fn")
+    if activation not in _ACTIVATIONS:
+        raise ValueError(
+            f"{card_path}: 'architecture.activation_fn' must be one of {_ACTIVATIONS}, "
+            f"got {activation!r}"
+        )
+    net_arch = architecture.get("net_arch")
+    layers = list(net_arch.values()) if isinstance(net_arch, dict) else [net_arch]
+    if (
+        not layers
+        or not all(
+            isinstance(sizes, list) and all(type(n) is int and 0 < n <= 65536 for n in sizes)
+            for sizes in layers
+        )
+        or (isinstance(net_arch, dict) and not set(net_arch) <= {"pi", "vf", "qf"})
+    ):
+        raise ValueError(
+            f"{card_path}: 'architecture.net_arch' must be a list of layer sizes (or an object "
+            f"of lists pi, vf, qf), got {net_arch!r}"
+        )
+    for name in ("observation_space", "action_space"):
+        box = architecture.get(name)
+        if not (
+            isinstance(box, dict)
+            and isinstance(box.get("shape"), list)
+            and len(box["shape"]) == 1
+            and type(box["shape"][0]) is int
+            and 0 < box["shape"][0] <= 1024
+        ):
+            raise ValueError(
+                f"{card_path}: 'architecture.{name}' must be an object with 'shape' [n], "
+                f"'low' and 'high', got {box!r}"
+            )
+        _check_pairs(
+            [box.get("low"), box.get("high")],
+            card_path,
+            f"architecture.{name}",
+            "low and high lists of finite numbers",
+        )
+        if len(box["low"]) != box["shape"][0]:
+            raise ValueError(
+                f"{card_path}: 'architecture.{name}' has low and high of another shape"
+            )
+    for name in ("log_std_init", "clip_mean"):
+        value = architecture.get(name, 0.0)
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, (int, float))
+            or not math.isfinite(value)
+        ):
+            raise ValueError(
+                f"{card_path}: 'architecture.{name}' must be a finite number, got {value!r}"
+            )
+    if method == "sac":
+        n = architecture.get("n_critics", 2)
+        if type(n) is not int or not 1 <= n <= 16:
+            raise ValueError(f"{card_path}: 'architecture.n_critics' must be 1-16, got {n!r}")
+    if not isinstance(architecture.get("share_features_extractor", False), bool):
+        raise ValueError(
+            f"{card_path}: 'architecture.share_features_extractor' must be true or false"
+        )
 
 
 def _check_settings(card: dict[str, Any], card_path: Path) -> None:
@@ -277,9 +486,7 @@ def _check_settings(card: dict[str, Any], card_path: Path) -> None:
             raise ValueError(f"{card_path}: 'mass_range' must be > 0 kg, got {value!r}")
 
 
-def _check_pairs(
-    value: Any, card_path: Path, name: str, what: str, *, shown: Any = None
-) -> None:
+def _check_pairs(value: Any, card_path: Path, name: str, what: str, *, shown: Any = None) -> None:
     """``value`` must be [low, high], two equally long lists of finite numbers, low <= high.
 
     ``shown``: what the card holds, for the message, if ``value`` was reshaped from it.
@@ -321,32 +528,181 @@ def policy_env_kwargs(card: dict[str, Any]) -> dict[str, Any]:
     }
 
 
-def load_policy(path: str | os.PathLike[str]) -> tuple[Any, dict[str, Any]]:
+def load_policy(
+    path: str | os.PathLike[str], *, allow_pickle: bool = False, sha256: str | None = None
+) -> tuple[Any, dict[str, Any]]:
     """Load a saved policy card; returns the policy (with ``predict``) and the card.
 
     The card is :func:`read_policy_card`'s: checked, with :data:`CARD_ADDED_FIELDS` filled in.
+    The files are read once: their SHA-256 is checked against ``sha256`` (the one a run
+    recorded) and the weights' against the card's ``weights_sha256`` before anything is parsed;
+    the network is rebuilt from the card's ``architecture`` and the weights are plain tensors.
+
+    Args:
+        path: The card.
+        allow_pickle: Load a card of format 1, whose Stable-Baselines3 ``.zip`` is unpickled
+            and can run any code: only for a file from a source you trust (it warns).
+        sha256: :func:`policy_digest` the policy must have (a run's record), or None.
 
     Raises:
-        FileNotFoundError: no such card (or its ``.zip`` is missing).
+        FileNotFoundError: no such card (or the file it names is missing).
         ValueError / TypeError: not a policy card of a known format and method, or a field of
-            the wrong value or type; the message names the card and the field.
+            the wrong value or type; the message names the card and the field. A digest other
+            than ``sha256`` or ``weights_sha256``, weights that do not fit the architecture, or
+            a ``.zip`` without ``allow_pickle`` (:class:`UnsafePolicyError`).
     """
-    card = read_policy_card(path)
+    if not isinstance(path, (str, os.PathLike)):
+        raise TypeError(f"path must be a str or os.PathLike, got {path!r}")
+    if not isinstance(allow_pickle, bool):
+        raise TypeError(f"allow_pickle must be True or False, got {allow_pickle!r}")
     card_path = Path(path)
+    digest, card, payload = _read_policy(card_path)
+    if sha256 is not None and digest != sha256:
+        raise ValueError(
+            f"the policy {card_path} has changed since the run began (SHA-256 {digest}, the "
+            f"run recorded {sha256}); design into a new run folder"
+        )
     method = card["method"]
     if method == "contextual":
         try:
             return ContextualPolicy.from_dict(card["policy"]), card
         except (TypeError, ValueError) as error:
             raise type(error)(f"{card_path}: 'policy': {error}") from None
-    zip_path = card_path.parent / card["file"]
-    if not zip_path.is_file():
-        raise FileNotFoundError(f"{card_path} names {zip_path}, which does not exist")
+    assert payload is not None  # a PPO or SAC card names its file (_read_policy)
     from benchmarks.rl.agents import _torch_single_thread, import_sb3
 
-    algorithm = getattr(import_sb3(), method.upper())
+    sb3 = import_sb3()
     _torch_single_thread()
-    return algorithm.load(zip_path, device="cpu"), card
+    if "weights" in card:
+        return _policy_from_weights(card, card_path, payload), card
+    if not allow_pickle:
+        raise UnsafePolicyError(
+            f"{card_path} names the Stable-Baselines3 file {card['file']}, which is loaded by "
+            "unpickling and so can run any code it holds: load it only if you trust where it "
+            "came from, with --allow-pickle (API: allow_pickle=True), or convert it once with "
+            "benchmarks.rl.policies.convert_policy"
+        )
+    warnings.warn(
+        f"loading {card['file']} of {card_path} unpickles it, which runs any code it holds: "
+        "do this only for a policy from a source you trust",
+        UserWarning,
+        stacklevel=2,
+    )
+    import io
+
+    algorithm = getattr(sb3, method.upper())
+    return algorithm.load(io.BytesIO(payload), device="cpu"), card
+
+
+def _policy_from_weights(card: dict[str, Any], card_path: Path, payload: bytes) -> Any:
+    """The Stable-Baselines3 policy network of a format-2 card, its weights loaded."""
+    import torch
+    from gymnasium.spaces import Box
+    from safetensors import SafetensorError
+    from stable_baselines3.common.policies import ActorCriticPolicy, BasePolicy
+    from stable_baselines3.sac.policies import SACPolicy
+
+    _import_safetensors()  # first: a missing package names its extra
+    actual = hashlib.sha256(payload).hexdigest()
+    if actual != card["weights_sha256"]:
+        raise ValueError(
+            f"{card_path}: its weights {card['weights']} have changed since they were saved "
+            f"(SHA-256 {actual[:12]}..., the card records {card['weights_sha256'][:12]}...)"
+        )
+    arch = card["architecture"]
+
+    def box(name: str) -> Box:
+        fields = arch[name]
+        return Box(
+            low=np.asarray(fields["low"], dtype=np.float32),
+            high=np.asarray(fields["high"], dtype=np.float32),
+            dtype=np.float32,
+        )
+
+    kwargs: dict[str, Any] = {
+        "observation_space": box("observation_space"),
+        "action_space": box("action_space"),
+        "lr_schedule": lambda _: 0.0,
+        "net_arch": arch["net_arch"],
+        "activation_fn": getattr(torch.nn, arch["activation_fn"]),  # one of _ACTIVATIONS
+        "log_std_init": float(arch.get("log_std_init", 0.0)),
+        "share_features_extractor": bool(arch.get("share_features_extractor", True)),
+    }
+    if card["method"] == "sac":
+        kwargs.update(
+            n_critics=int(arch.get("n_critics", 2)), clip_mean=float(arch.get("clip_mean", 2.0))
+        )
+        policy: BasePolicy = SACPolicy(**kwargs)
+    else:
+        policy = ActorCriticPolicy(**kwargs)
+    try:
+        state = _import_safetensors().load(payload)
+        policy.load_state_dict(state, strict=True)
+    except (SafetensorError, RuntimeError, ValueError) as error:
+        first = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
+        raise ValueError(
+            f"{card_path}: its weights {card['weights']} do not fit its architecture ({first})"
+        ) from None
+    policy.set_training_mode(False)
+    return policy
+
+
+def convert_policy(
+    path: str | os.PathLike[str], out: str | os.PathLike[str] | None = None, *, allow_pickle: bool
+) -> Path:
+    """Turn a card of format 1 (a Stable-Baselines3 ``.zip``) into one of format 2 (safetensors).
+
+    The ``.zip`` is unpickled once, here, so ``allow_pickle=True`` must be given: convert only a
+    policy from a source you trust. The new card keeps every field of the old one (its task and
+    ranges) and names ``<name>.safetensors`` beside it; the ``.zip`` is left as it is.
+
+    Args:
+        path: The card of format 1.
+        out: The new card (default: ``path`` itself, rewritten atomically).
+        allow_pickle: Must be True: the acknowledgement that the ``.zip`` runs code.
+
+    Returns:
+        The new card's path.
+
+    Raises:
+        UnsafePolicyError: ``allow_pickle`` is not True.
+        ValueError: not a PPO or SAC card of format 1.
+    """
+    if allow_pickle is not True:
+        raise UnsafePolicyError(
+            "converting a Stable-Baselines3 .zip unpickles it, which runs any code it holds: "
+            "pass allow_pickle=True for a policy from a source you trust"
+        )
+    card_path = Path(path)
+    raw = json.loads(_read_card_bytes(card_path))
+    if raw.get("format") != 1 or raw.get("method") not in ("ppo", "sac"):
+        raise ValueError(f"{card_path} is not a PPO or SAC card of format 1")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)  # the acknowledged pickle warning
+        model, _ = load_policy(card_path, allow_pickle=True)
+    target = card_path if out is None else Path(out)
+    if target.suffix != ".json":
+        raise ValueError(f"out must end in .json (the policy card), got {str(target)!r}")
+    card = {k: v for k, v in raw.items() if k != "file"}
+    card["format"] = POLICY_FORMAT
+    card.update(_weights_fields(model.policy, raw["method"], target))
+    return atomic_write_text(target, json_text(card))
+
+
+def _check_observation(card: dict[str, Any], card_path: Any, space: Any) -> None:
+    """Refuse a policy whose recorded observation box is not the env's (another task)."""
+    fields = card["architecture"]["observation_space"]
+    low = np.asarray(space.low, dtype=np.float32).ravel().tolist()
+    high = np.asarray(space.high, dtype=np.float32).ravel().tolist()
+    recorded = (
+        np.asarray(fields["low"], dtype=np.float32).tolist(),
+        np.asarray(fields["high"], dtype=np.float32).tolist(),
+    )
+    if (low, high) != recorded:
+        raise ValueError(
+            f"{card_path} was trained on observations in {recorded[0]} to {recorded[1]}, but "
+            f"ToolDesignRL-v0 observes {low} to {high}: it is a policy of another task"
+        )
 
 
 def _warn_outside_training(card: dict[str, Any], card_path: Any, goal: Any, mass: float) -> None:
@@ -378,6 +734,8 @@ def design_for_goal(
     *,
     box_mass: float = DEFAULT_BOX_MASS,
     simulate: bool = True,
+    allow_pickle: bool = False,
+    sha256: str | None = None,
 ) -> DesignResult:
     """Design a tool for ``goal`` with a saved policy (zero-shot), and score it.
 
@@ -388,6 +746,9 @@ def design_for_goal(
         box_mass: the box mass in kg.
         simulate: simulate the tool to report F (one episode, about 0.2 s); False returns the
             design only.
+        allow_pickle: load a card of format 1 (a Stable-Baselines3 ``.zip``, which runs code
+            when loaded); see :func:`load_policy`.
+        sha256: the :func:`policy_digest` the policy must have (checked before it is loaded).
 
     The tool is simulated with the section and arm the policy was trained with (the card's
     ``section_shape`` and ``merge_fixed_links``; the committed cards: square, 13 links). A goal
@@ -405,13 +766,15 @@ def design_for_goal(
     """
     if not isinstance(simulate, bool):
         raise TypeError(f"simulate must be True or False, got {simulate!r}")
-    policy, card = load_policy(policy_path)
+    policy, card = load_policy(policy_path, allow_pickle=allow_pickle, sha256=sha256)
     # reward="free-energy" takes every goal: one within MIN_GOAL_DISTANCE of the box's start,
     # where the normalized reward has no scale, is designed and scored by F alone. The record's
     # normalized reward is info's either way (NaN that near).
     env = make_env(**policy_env_kwargs(card), reward="free-energy")
     logged = EpisodeLog(env)
     try:
+        if "architecture" in card:
+            _check_observation(card, policy_path, env.observation_space)
         obs, info = logged.reset(options={"goal": goal, "box_mass": box_mass})
         _warn_outside_training(card, policy_path, info["goal"], float(info["box_mass"]))
         action, _ = policy.predict(obs, deterministic=True)

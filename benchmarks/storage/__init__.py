@@ -10,6 +10,8 @@ A run folder (of ``tooldesign design``, ``tooldesign bench`` or ``tooldesign ret
     designs/...                    a suite's final designs (see :mod:`benchmarks.storage.designs`)
 
 Modules, lowest first: :mod:`~benchmarks.storage.atomic` (atomic writes),
+:mod:`~benchmarks.storage.runfiles` (the one safe way to read a run folder's files: regular files
+inside it only, no link followed; and to refuse writing through a linked folder),
 :mod:`~benchmarks.storage.manifest` (``manifest.json``, JSON, checksums),
 :mod:`~benchmarks.storage.table` (the evaluation table and its part files),
 :mod:`~benchmarks.storage.designs` (a suite's design files),
@@ -60,6 +62,16 @@ from benchmarks.storage.manifest import (
     verify_checksums,
     write_manifest,
 )
+from benchmarks.storage.runfiles import (
+    MAX_RUN_FILE_BYTES,
+    UnsafeRunFileError,
+    check_write_folder,
+    list_run_files,
+    read_run_file,
+    refuse_links,
+    run_file_path,
+    run_file_sha256,
+)
 from benchmarks.storage.session import (
     PART_CHECKSUMS,
     ResumeError,
@@ -84,6 +96,14 @@ from benchmarks.storage.table import (
 )
 
 __all__ = [
+    "MAX_RUN_FILE_BYTES",
+    "UnsafeRunFileError",
+    "check_write_folder",
+    "list_run_files",
+    "read_run_file",
+    "refuse_links",
+    "run_file_path",
+    "run_file_sha256",
     "FILE_CHECKSUMS",
     "FieldChange",
     "config_changes",

@@ -35,6 +35,12 @@ from benchmarks.storage.manifest import (
     update_file_checksums,
     verify_checksums,
 )
+from benchmarks.storage.runfiles import (
+    UnsafeRunFileError,
+    check_write_folder,
+    list_run_files,
+    read_run_file,
+)
 from tooldesign_env.schema import METRICS
 
 __all__ = [
@@ -136,7 +142,9 @@ class _Files:
     def load(self, path: Path, what: str) -> Any:
         """The JSON of ``path``, checked against its recorded SHA-256 if it has one."""
         try:
-            data = path.read_bytes()
+            data = read_run_file(self.folder, path)
+        except UnsafeRunFileError:
+            raise
         except OSError as err:
             raise ValueError(f"{path}: not a readable {what}: {err.strerror or err}") from err
         expected = self.recorded.get(path.relative_to(self.folder).as_posix())
@@ -209,6 +217,27 @@ def _check_design(record: Any, path: Path, folder: Path) -> dict[str, Any]:
     return record
 
 
+def _listed(root: Path, under: str) -> list[Path]:
+    """The ``seed=*.json`` files below ``root/under``; a link or FIFO among them is refused.
+
+    A link in a design folder is not a design: reading it could read any file of the machine,
+    and leaving it out silently would drop a run from the reports.
+    """
+    files, left_out = list_run_files(root, under=under)
+    for relative, kind in left_out.items():
+        name = relative.rpartition("/")[2]
+        if name.startswith("seed=") and name.endswith(".json"):
+            raise UnsafeRunFileError(
+                f"{root / relative} is {kind}, not a regular file; a run folder's files are read "
+                "only if they are regular files inside it"
+            )
+    return [
+        root / relative
+        for relative in files
+        if (name := relative.rpartition("/")[2]).startswith("seed=") and name.endswith(".json")
+    ]
+
+
 def _run_folder(run_folder: str | os.PathLike[str]) -> Path:
     """``run_folder`` as a Path, refused if it is not an existing folder (as ResultStore does).
 
@@ -250,12 +279,12 @@ def read_designs(run_folder: str | os.PathLike[str]) -> list[dict[str, Any]]:
         return []
     files = _Files(root, DESIGNS_DIR)
     records = []
-    for path in sorted(folder.rglob("seed=*.json")):
-        if path.name.endswith(".paths.json") or path.name.startswith("."):
+    for path in _listed(root, DESIGNS_DIR):
+        if path.name.endswith(".paths.json"):
             continue
         record = _check_design(files.load(path, "design file"), path, root)
         extra = paths_path(path)
-        if extra.is_file():
+        if os.path.lexists(extra):
             paths = files.load(extra, "box-path file")
             if not isinstance(paths, dict):
                 raise ValueError(
@@ -467,6 +496,7 @@ def write_recorded(run_folder: str | os.PathLike[str], target: Path, text: str) 
     """
     folder = Path(run_folder)
     relative = target.relative_to(folder).as_posix()
+    check_write_folder(folder, target.parent)  # never through a linked retest/ or designs/
     update_file_checksums(folder, {relative: None})
     atomic_write_text(target, text)
     digest = hashlib.sha256(text.encode("utf-8")).hexdigest()
@@ -517,8 +547,6 @@ def read_retests(run_folder: str | os.PathLike[str]) -> list[dict[str, Any]]:
         return []
     files = _Files(root, RETEST_DIR)
     out = []
-    for path in sorted(folder.rglob("seed=*.json")):
-        if path.name.startswith("."):
-            continue
+    for path in _listed(root, RETEST_DIR):
         out.append(_check_retest(files.load(path, "retest file"), path))
     return out

@@ -21,6 +21,12 @@ import numpy as np
 
 from benchmarks.storage.atomic import atomic_write_text
 from benchmarks.storage.lock import holding
+from benchmarks.storage.runfiles import (
+    UnsafeRunFileError,
+    read_run_file,
+    run_file_path,
+    run_file_sha256,
+)
 
 MANIFEST_NAME = "manifest.json"
 
@@ -384,6 +390,7 @@ def recorded_checksums(
 
 
 _SHA256 = re.compile(r"[0-9a-f]{64}")
+_MAX_MANIFEST_BYTES = 64 << 20  # a suite's manifest lists hundreds of files in a few 10 kB
 
 
 def _kind(value: Any) -> str:
@@ -402,31 +409,47 @@ def verify_checksums(run_folder: str | os.PathLike[str], recorded: Mapping[str, 
             the record itself is malformed. Nothing is written or removed.
     """
     folder = Path(run_folder)
+    manifest = folder / MANIFEST_NAME
     if not isinstance(recorded, Mapping):
-        raise ValueError(f"{folder / 'manifest.json'}: the checksums are not a mapping")
+        raise ValueError(f"{manifest}: the checksums are not a mapping")
     for relative, expected in sorted(recorded.items()):
-        path = (folder / relative).resolve()
-        if not isinstance(expected, str) or folder.resolve() not in path.parents:
-            raise ValueError(f"{folder / 'manifest.json'}: bad checksum entry {relative!r}")
-        if not path.is_file():
+        if not isinstance(expected, str):
+            raise ValueError(f"{manifest}: the checksum of {relative!r} is not a str")
+        try:
+            path = run_file_path(folder, relative)
+            actual = run_file_sha256(folder, path)
+        except UnsafeRunFileError as err:
+            raise UnsafeRunFileError(
+                f"{manifest} lists {relative!r}, which is refused: {err}"
+            ) from None
+        except FileNotFoundError:
             raise ValueError(
-                f"{path} is listed in the manifest but missing; the run folder is incomplete"
-            )
-        check_sha256(path, expected)
+                f"{folder / relative} is listed in the manifest but missing; the run folder is "
+                "incomplete"
+            ) from None
+        check_sha256(path, expected, actual=actual)
 
 
-def check_sha256(path: str | os.PathLike[str], expected: str, data: bytes | None = None) -> None:
+def check_sha256(
+    path: str | os.PathLike[str],
+    expected: str,
+    data: bytes | None = None,
+    *,
+    actual: str | None = None,
+) -> None:
     """Refuse a file whose SHA-256 is not the ``expected`` one the manifest records.
 
     Args:
         path: The file.
         expected: Its recorded hex SHA-256.
         data: Its bytes, if already read (then they are hashed, not the file).
+        actual: Its SHA-256, if already computed.
 
     Raises:
         ValueError: If it differs; the message names the file.
     """
-    actual = file_sha256(path) if data is None else hashlib.sha256(data).hexdigest()
+    if actual is None:
+        actual = file_sha256(path) if data is None else hashlib.sha256(data).hexdigest()
     if actual != expected:
         raise ValueError(
             f"{path} has changed since it was written (sha256 {actual[:12]}..., the "
@@ -494,10 +517,14 @@ def read_manifest(run_folder: str | os.PathLike[str]) -> dict[str, Any]:
         ValueError: If it is not UTF-8 text holding a JSON object.
     """
     path = Path(run_folder) / MANIFEST_NAME
-    if not path.is_file():
-        raise FileNotFoundError(f"{path} does not exist")
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
+        raw = read_run_file(run_folder, MANIFEST_NAME, max_bytes=_MAX_MANIFEST_BYTES)
+    except FileNotFoundError:
+        raise FileNotFoundError(f"{path} does not exist") from None
+    except (NotADirectoryError, IsADirectoryError) as err:
+        raise FileNotFoundError(f"{path} does not exist ({err})") from None
+    try:
+        data = json.loads(raw.decode("utf-8"))
     except UnicodeDecodeError as err:
         raise ValueError(f"{path} is not UTF-8 text ({err.reason} at byte {err.start})") from err
     except json.JSONDecodeError as err:

@@ -96,6 +96,7 @@ from benchmarks.storage.manifest import (
     update_file_checksums,
     verify_checksums,
 )
+from benchmarks.storage.runfiles import read_run_file, refuse_links, run_file_sha256
 from benchmarks.storage.table import (
     CONSOLIDATED_STEM,
     ResultStore,
@@ -341,7 +342,9 @@ class RunSession:
                 self._files: dict[str, str] = {}
             else:
                 self.start_time, sessions = self._previous_times(previous)
-                earlier = self._with_killed_session(sessions)
+                earlier = self._with_killed_session(
+                    sessions, finished=previous.get("end_time") is not None
+                )
                 self.sessions = [*earlier, self._session]
                 self._checksums = part_checksums(self.store)  # verified in _previous
                 # Verified in _previous too. The consolidated table is rewritten by finish().
@@ -433,18 +436,21 @@ class RunSession:
             return f"{head} ({detail}); {advice[0]}"
         return "\n".join([f"{head} (recorded -> requested):", *lines, *advice])
 
-    def _with_killed_session(self, sessions: list[Any]) -> list[Any]:
+    def _with_killed_session(self, sessions: list[Any], *, finished: bool) -> list[Any]:
         """``sessions`` with the wall time of a session that was killed taken from its heartbeat.
 
         Its manifest was last written after its last part; :data:`HEARTBEAT` was written every
         few seconds until the kill. A heartbeat that cannot be read, or that names no session
-        of the manifest, is reported and left out: it only ever adds time, never results.
+        of the manifest, is reported and left out: it only ever adds time, never results. The
+        session it names is marked interrupted, and so is the last one of a run that has no end
+        time (``finished`` false) when no heartbeat was left (killed before its first beat).
         """
         path = self.out / HEARTBEAT
-        if not path.is_file():
-            return list(sessions)
+        if not os.path.lexists(path):
+            return _mark_last_interrupted(sessions) if not finished else list(sessions)
         try:
-            beat = json.loads(path.read_text(encoding="utf-8"))
+            raw = read_run_file(self.out, HEARTBEAT, max_bytes=1 << 16)
+            beat = json.loads(raw.decode("utf-8"))
             if not isinstance(beat, dict):
                 raise ValueError(f"it must hold a JSON object, got {type(beat).__name__}")
             start = beat.get("start_time")
@@ -465,16 +471,19 @@ class RunSession:
                 RuntimeWarning,
                 stacklevel=3,
             )
-            return list(sessions)
+            return _mark_last_interrupted(sessions) if not finished else list(sessions)
         out = []
         matched = False
         for session in sessions:
             if isinstance(session, dict) and session.get("start_time") == start:
                 matched = True
-                if wall > session.get("wall_time", 0.0):
-                    session = {**session, "wall_time": float(wall), "interrupted": True}
+                # Killed at once with its process group, the session may have recorded as much
+                # time as its last beat: interrupted all the same.
+                longest = max(float(wall), float(session.get("wall_time", 0.0)))
+                session = {**session, "wall_time": longest, "interrupted": True}
             out.append(session)
         if not matched:
+            out = _mark_last_interrupted(out) if not finished else out
             warnings.warn(
                 f"{path} is of a session ({start}) that manifest.json does not record; its "
                 "wall time is left out",
@@ -522,6 +531,7 @@ class RunSession:
             )
         files = dict(files or {})
         try:
+            refuse_links(self.out)  # a linked parts/ or designs/ would be written through
             verify_checksums(self.out, recorded)
             if recorded:
                 # The consolidated table is derived: every part it was made from is on disk with
@@ -762,6 +772,14 @@ class RunSession:
             self.close()
 
 
+def _mark_last_interrupted(sessions: list[Any]) -> list[Any]:
+    """``sessions`` with the last one marked ``"interrupted": true`` (it did not finish)."""
+    out = list(sessions)
+    if out and isinstance(out[-1], dict):
+        out[-1] = {**out[-1], "interrupted": True}
+    return out
+
+
 class _Heartbeat(threading.Thread):
     """Rewrites ``path`` with the session's wall time every ``interval`` s until stopped."""
 
@@ -819,5 +837,8 @@ def _is_table(relative: str) -> bool:
 
 
 def _intact(path: Path, digest: str) -> bool:
-    """Whether ``path`` is a file whose SHA-256 is ``digest``."""
-    return path.is_file() and file_sha256(path) == digest
+    """Whether ``path`` is a regular file (not a link) whose SHA-256 is ``digest``."""
+    try:
+        return run_file_sha256(path.parent, Path(path)) == digest
+    except (OSError, ValueError):
+        return False

@@ -26,6 +26,7 @@ import io
 import os
 import re
 import urllib.parse
+import warnings
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any, Literal, cast
@@ -45,6 +46,7 @@ from benchmarks.storage.manifest import (
     verify_checksums,
     write_manifest,
 )
+from benchmarks.storage.runfiles import UnsafeRunFileError, read_run_file
 from tooldesign_env.schema import (
     BEST_SO_FAR,
     COEFFICIENT_PATTERN,
@@ -376,12 +378,14 @@ def _read_csv(path: Path | io.StringIO) -> pd.DataFrame:
     )
 
 
-def _read_table(path: Path) -> pd.DataFrame:
+def _read_table(path: Path, folder: Path) -> pd.DataFrame:
+    """The consolidated table ``path``, read as a regular file inside ``folder`` only."""
+    if path.suffix == ".parquet" and not _pyarrow_available():
+        raise ImportError(f"{path}: {_NO_PYARROW}")
+    data = read_run_file(folder, path)
     if path.suffix == ".parquet":
-        if not _pyarrow_available():
-            raise ImportError(f"{path}: {_NO_PYARROW}")
-        return pd.read_parquet(path)
-    return _read_csv(path)
+        return pd.read_parquet(io.BytesIO(data))
+    return _read_csv(io.StringIO(data.decode("utf-8")))
 
 
 class ResultStore:
@@ -517,27 +521,35 @@ class ResultStore:
             return parquet
         return csv if csv.is_file() else None
 
-    def verify(self) -> None:
+    def verify(self) -> list[str]:
         """Refuse a run folder whose files differ from what its manifest records.
 
         The checks a resumed session makes (:class:`~benchmarks.storage.RunSession`), without
         the ones on the config: every file the manifest's :data:`PART_CHECKSUMS` and
-        :data:`FILE_CHECKSUMS` list exists and has its recorded SHA-256, and at most one part
-        file is unrecorded (the one written just before a kill, ahead of its manifest). A
-        folder shared without its ``parts/`` (the committed results) is read from its
-        consolidated file: the parts are then not checked, the consolidated file is if the
-        manifest records it; with parts, the consolidated file (which :meth:`read` then does not
-        read) is not checked. A folder without a manifest (a bare store) is not checked, and
-        neither is a file the manifest does not list (e.g. the design files of a folder
-        written before their checksums were recorded). Nothing is written.
+        :data:`FILE_CHECKSUMS` list exists, is a regular file inside the folder (no symbolic
+        link, no ``..``) and has its recorded SHA-256, and at most one part file is unrecorded
+        (the one written just before a kill, ahead of its manifest). A folder shared without its
+        ``parts/`` (the committed results) is read from its consolidated file, which must then
+        match its checksum. With parts, the consolidated file is a copy that :meth:`read` does
+        not read: if it differs from its checksum (an edit, or a consolidation interrupted
+        before the manifest was updated) or the manifest does not list it, a ``RuntimeWarning``
+        says so and it is returned as not to be used. A folder without a manifest (a bare
+        store) is not checked, and neither is a file the manifest does not list (e.g. the
+        design files of a folder written before their checksums were recorded). Nothing is
+        written.
+
+        Returns:
+            The consolidated tables (paths relative to the folder) that must not be used: they
+            differ from their checksum, or the manifest records file checksums but not them.
 
         Raises:
             ValueError: If the manifest cannot be read, its checksums are malformed, or a
-                recorded file is missing or changed; the message names the file.
+                recorded file is missing, changed, a link or outside the folder; the message
+                names the file.
         """
         manifest_path = self.manifest_path
-        if not manifest_path.exists():
-            return
+        if not os.path.lexists(manifest_path):
+            return []
         manifest = read_manifest(self._folder)
         parts = recorded_checksums(manifest, PART_CHECKSUMS, manifest_path)
         files = recorded_checksums(manifest, FILE_CHECKSUMS, manifest_path)
@@ -550,15 +562,30 @@ class ResultStore:
                     f"{self._folder} holds part files {manifest_path} does not record: "
                     f"{unrecorded}; at most one (written just before a kill) may be unrecorded"
                 )
+        untrusted: list[str] = []
         if files is not None:
+            tables = {f"{CONSOLIDATED_STEM}.{suffix}" for suffix in ("csv", "parquet")}
+            present = {t for t in tables if os.path.lexists(self._folder / t)}
+            untrusted = sorted(present - set(files))
             if on_disk:
                 # The parts are the source of truth and read() reads them: the consolidated
-                # file, a copy rewritten at every session's end, is checked only when it is all
-                # there is (an interrupted consolidation must not lock the folder out).
-                files = {
-                    k: v for k, v in files.items() if k.rpartition(".")[0] != CONSOLIDATED_STEM
-                }
+                # file, a copy rewritten at every session's end, must not lock the folder out
+                # (an interrupted consolidation), nor be shown if it differs.
+                for table in sorted(tables & set(files)):
+                    try:
+                        verify_checksums(self._folder, {table: files[table]})
+                    except (ValueError, OSError) as err:
+                        if table in present:
+                            untrusted.append(table)
+                            warnings.warn(
+                                f"{err}. It is not used: the results are read from the part "
+                                "files (resume the run to rebuild it)",
+                                RuntimeWarning,
+                                stacklevel=2,
+                            )
+                files = {k: v for k, v in files.items() if k not in tables}
             verify_checksums(self._folder, files)
+        return sorted(set(untrusted))
 
     def read(self, *, verify: bool = True) -> pd.DataFrame:
         """All stored evaluations with ``best_so_far``, sorted by :data:`SORT_COLUMNS`.
@@ -582,8 +609,7 @@ class ResultStore:
                 file and the column.
         """
         self._check_folder()
-        if verify:
-            self.verify()
+        untrusted = self.verify() if verify else []
         units = sorted(self.completed_units())
         if units:
             combined = self._read_parts(units)
@@ -594,7 +620,12 @@ class ResultStore:
                     f"run folder {self._folder} holds no results: no part files under "
                     f"{PARTS_DIR}/ and no {CONSOLIDATED_STEM}.csv or {CONSOLIDATED_STEM}.parquet"
                 )
-            combined = validate_evaluations(_read_table(path), source=str(path))
+            if path.name in untrusted:
+                raise UnsafeRunFileError(
+                    f"{path} is not listed among the files {self.manifest_path} records; it "
+                    "was not written by this run and is not read"
+                )
+            combined = validate_evaluations(_read_table(path, self._folder), source=str(path))
         return _with_best_so_far(combined)
 
     def _read_parts(self, units: list[Unit]) -> pd.DataFrame:
@@ -606,7 +637,9 @@ class ResultStore:
             for unit in units:
                 path = self.part_path(unit)
                 try:
-                    raw = _read_csv(path)
+                    raw = _read_csv(io.StringIO(read_run_file(self._folder, path).decode("utf-8")))
+                except UnsafeRunFileError:
+                    raise
                 except ValueError as err:
                     raise ValueError(f"{path}: not a readable CSV part file: {err}") from err
                 frame = validate_evaluations(raw, source=str(path))
@@ -621,7 +654,8 @@ class ResultStore:
         # small parts and pandas' per-call overhead, not parsing, would dominate.
         bodies: dict[str, list[str]] = {}
         for unit in units:
-            header, _, body = self.part_path(unit).read_text(encoding="utf-8").partition("\n")
+            text = read_run_file(self._folder, self.part_path(unit)).decode("utf-8")
+            header, _, body = text.partition("\n")
             if body and not body.endswith("\n"):
                 body += "\n"
             bodies.setdefault(header, []).append(body)

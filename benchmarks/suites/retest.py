@@ -44,6 +44,7 @@ from benchmarks.storage import (
     read_designs,
     read_manifest,
     read_retests,
+    read_run_file,
     retest_outcome,
     retest_path,
     write_retest,
@@ -269,14 +270,14 @@ def retest_suite(
     for path in sorted((folder / DESIGNS_DIR).rglob("seed=*.json")):
         if path.name.endswith(".paths.json"):
             continue
-        record = json.loads(path.read_text(encoding="utf-8"))
+        record = json.loads(read_run_file(folder, path))  # checked by read_designs above
         if record.get("status") != "ok" or not record.get("coefficients"):
             continue
         target = retest_path(folder, path)
-        if target.is_file():
+        if os.path.lexists(target):
             try:
-                done = json.loads(target.read_text(encoding="utf-8"))
-            except ValueError:
+                done = json.loads(read_run_file(folder, target))  # checked by read_retests
+            except (OSError, ValueError):
                 done = {}
             # A retest that broke for a reason of its own (a worker that died) is tried again;
             # a design invalid in a nudged scene is an outcome, kept.
