@@ -242,6 +242,7 @@ def _counts_text(counts: dict[str, int]) -> str:
 
 def _run(args: argparse.Namespace) -> int:
     from benchmarks.design import run_design
+    from benchmarks.design.progress import phase
     from benchmarks.reports import write_design_report
 
     config = config_from_args(args)
@@ -252,7 +253,11 @@ def _run(args: argparse.Namespace) -> int:
         progress=not args.no_progress,
         video=not args.no_video,
     )
-    write_design_report(result.out_dir)
+    with phase(
+        f"design {config.optimizer}: drawing Figure 3, robustness.png and report.html",
+        enabled=not args.no_progress,
+    ):
+        write_design_report(result.out_dir)
     coeffs = ", ".join(repr(float(c)) for c in result.coefficients)
     print(
         f"best design: C = ({coeffs}), F = {result.free_energy!r} "
