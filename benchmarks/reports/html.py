@@ -70,7 +70,7 @@ figcaption { font-size: 0.85em; color: #444; }
 figcaption code { font-size: 0.95em; color: #777; }
 .tablebox { max-width: 100%; overflow-x: auto; }
 table { border-collapse: collapse; font-size: 0.85em; margin: 0.3em 0; }
-td, th { border: 1px solid #d4d4d4; padding: 0.2em 0.5em; text-align: right; }
+td, th { border: 1px solid #d4d4d4; padding: 0.15em 0.4em; text-align: right; }
 th { background: #f1f3f5; } td.key, th.key { text-align: left; font-weight: 600; }
 td.text { text-align: left; }
 table.sortable th { cursor: pointer; user-select: none; white-space: nowrap; }
@@ -159,8 +159,8 @@ _COLUMNS: dict[str, str] = {
     "confidence": "confidence",
     "final_distance": "final distance (m)",
     "status": "status",
-    "eval_time": "evaluation time (s)",
-    "opt_time": "optimizer time (s)",
+    "eval_time": "eval. time (s)",
+    "opt_time": "opt. time (s)",
     "best_so_far": "best F so far",
     "goal_x": "goal x (m)",
     "goal_y": "goal y (m)",
@@ -245,15 +245,24 @@ def _read_csv(path: Path) -> tuple[list[str], list[list[str]], bool]:
     return header, rows, False
 
 
-def _cell(text: str) -> str:
-    """A table cell; a number is shown with 6 significant digits and sorted by its value."""
+def _digits(column: str) -> int:
+    """Significant digits a column of the logs is shown with (the full value sorts)."""
+    if re.fullmatch(r"c\d+|final_distance", column):
+        return 4
+    if column.endswith("_time"):
+        return 3
+    return 6
+
+
+def _cell(text: str, digits: int = 6) -> str:
+    """A table cell; a number is shown with ``digits`` significant digits, sorted by its value."""
     try:
         number = float(text)
     except ValueError:
         return f'<td class="text">{_esc(text)}</td>'
     if text.strip().lower() in ("nan", "inf", "-inf", "") or not math.isfinite(number):
         return f"<td>{_esc(text)}</td>"
-    shown = f"{number:.6g}" if ("." in text or "e" in text.lower()) else text
+    shown = f"{number:.{digits}g}" if ("." in text or "e" in text.lower()) else text
     return f'<td data-v="{_esc(text)}">{_esc(shown)}</td>'
 
 
@@ -274,7 +283,8 @@ def _csv_table(path: Path, folder: Path, *, label: str = "") -> str:
         f'<th title="{_esc(header[i])}">{_esc(_COLUMNS.get(header[i], header[i]))}</th>'
         for i in shown
     )
-    body = "".join("<tr>" + "".join(_cell(r[i]) for i in shown) + "</tr>" for r in rows)
+    digits = [_digits(header[i]) for i in range(width)]
+    body = "".join("<tr>" + "".join(_cell(r[i], digits[i]) for i in shown) + "</tr>" for r in rows)
     same = ", ".join(
         f"{_esc(_COLUMNS.get(header[i], header[i]))} = {_esc(rows[0][i] or '(empty)')}"
         for i in constant
@@ -387,11 +397,28 @@ def _finite(value: Any) -> bool:
 
 #: The rows of the card: key, label, unit, whether lower is better.
 _TERMS = (
-    ("free_energy", "free energy F", "dimensionless; lower is better", True),
-    ("goal_error", "goal error", "dimensionless, 1/2 p^X |X_t - X^g|^2 summed over steps", True),
-    ("confidence", "control confidence", "dimensionless, 1/2 log|Pi_U| summed over steps", False),
-    ("final_distance", "final distance to the goal", "m", True),
+    ("free_energy", "free energy F", "dimensionless", "F = goal error - confidence", True, 4),
+    ("goal_error", "goal error", "dimensionless", "1/2 p^X |X_t - X^g|^2 over steps", True, 4),
+    ("confidence", "control confidence", "dimensionless", "1/2 log|Pi_U| over steps", False, 4),
+    ("final_distance", "final distance to goal", "m", "|X_T - X^g|", True, 3),
 )
+
+
+def _answer(design: Mapping[str, Any], straight: Mapping[str, Any]) -> str:
+    """One sentence: F and the final distance against the straight tool's."""
+    mine, theirs = design.get("free_energy"), straight.get("free_energy")
+    if not (_finite(mine) and _finite(theirs)) or theirs == 0:
+        return ""
+    change = 100.0 * (mine - theirs) / abs(theirs)
+    word = "lower (better)" if change < 0 else "higher (worse)"
+    text = (
+        f"<strong>F = {_num(mine)}</strong>, {abs(change):.1f} % {word} than the straight "
+        f"tool's {_num(theirs)}"
+    )
+    near, far = design.get("final_distance"), straight.get("final_distance")
+    if _finite(near) and _finite(far):
+        text += f"; the box ends {_num(near, 3)} m from the goal (straight tool: {_num(far, 3)} m)"
+    return text + "."
 
 
 def _comparison(
@@ -399,12 +426,13 @@ def _comparison(
 ) -> str:
     """The card's table: each term of the design beside the straight tool's (if ``compare``)."""
     has_straight = straight is not None and straight.get("status") == "ok"
-    head = '<tr><th class="key">quantity (unit)</th><th class="num">this tool</th>'
-    head += '<th class="num">straight tool, C = 0</th></tr>' if has_straight else "</tr>"
+    head = '<tr><th class="key">quantity</th><th class="key">unit</th>'
+    head += '<th class="num">this tool</th>'
+    head += '<th class="num">straight tool (C = 0)</th></tr>' if has_straight else "</tr>"
     rows = []
-    for key, label, unit, lower in _TERMS:
+    for key, label, unit, meaning, lower, digits in _TERMS:
         mine = design.get(key)
-        cells = f'<td class="num">{_num(mine)}</td>'
+        cells = f'<td class="num">{_num(mine, digits)}</td>'
         if has_straight:
             assert straight is not None
             theirs = straight.get(key)
@@ -412,19 +440,28 @@ def _comparison(
             if _finite(mine) and _finite(theirs) and mine != theirs:
                 good = (mine < theirs) == lower
                 verdict = "better" if good else "worse"
-            cells = f'<td class="num {verdict}">{_num(mine)}</td>'
-            cells += f'<td class="num">{_num(theirs)}</td>'
+            cells = f'<td class="num {verdict}">{_num(mine, digits)}</td>'
+            cells += f'<td class="num">{_num(theirs, digits)}</td>'
+        better = "lower" if lower else "higher"
         rows.append(
-            f'<tr><td class="key">{_esc(label)} <span class="note">({_esc(unit)})</span></td>'
-            f"{cells}</tr>"
+            f'<tr><td class="key" title="{_esc(meaning)}; {better} is better">{_esc(label)}'
+            f'</td><td class="text">{_esc(unit)}</td>{cells}</tr>'
         )
     table = f"<table><thead>{head}</thead><tbody>{''.join(rows)}</tbody></table>"
-    if straight is None and compare:
+    if has_straight:
+        assert straight is not None
+        table = f'<p class="verdict">{_answer(design, straight)}</p>' + table
+        table += (
+            '<p class="note">F = goal error - confidence; lower F, goal error and distance and '
+            "higher confidence are better. Green: better than the straight tool on the same "
+            "task; red: worse.</p>"
+        )
+    elif straight is None and compare:
         table += (
             '<p class="note">The straight tool (C = 0) was not evaluated for this run '
             "(runs made before it was stored in design.json).</p>"
         )
-    elif straight is not None and not has_straight:
+    elif straight is not None:
         why = straight.get("message") or f"status {straight.get('status')}"
         table += f'<p class="note">The straight tool (C = 0) has no score here: {_esc(why)}.</p>'
     return table
@@ -641,8 +678,9 @@ def _design_page(folder: Path, files: list[Path], card: dict[str, Any]) -> str:
     title = f"Tool design: {config.get('optimizer', '?')}, seed {config.get('seed', '?')}"
     subtitle = (
         f"{_esc(folder.resolve().name)}: {_esc(config.get('iterations'))} iterations of "
-        f"{_esc(config.get('batch_size'))} designs, goal "
-        f"{_esc(config.get('goal'))} m, box {_esc(config.get('box_mass'))} kg. "
+        f"{_esc(config.get('batch_size'))} designs, goal X^g = "
+        f"({_esc(', '.join(f'{v:g}' for v in config.get('goal') or []))}) m, box "
+        f"{_esc(config.get('box_mass'))} kg. "
         "Everything below is made from the files of the run folder and embedded in this page."
     )
     return _page(title, subtitle, body)
