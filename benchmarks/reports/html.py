@@ -73,7 +73,7 @@ table { border-collapse: collapse; font-size: 0.85em; margin: 0.3em 0; }
 td, th { border: 1px solid #d4d4d4; padding: 0.15em 0.4em; text-align: right; }
 th { background: #f1f3f5; } td.key, th.key { text-align: left; font-weight: 600; }
 td.text { text-align: left; }
-table.sortable th { cursor: pointer; user-select: none; white-space: nowrap; }
+table.sortable th { cursor: pointer; user-select: none; vertical-align: bottom; }
 table.sortable th[aria-sort=ascending]::after { content: " \\25B2"; }
 table.sortable th[aria-sort=descending]::after { content: " \\25BC"; }
 .pager { font-size: 0.85em; margin: 0.2em 0 0.8em; }
@@ -293,7 +293,7 @@ def _csv_table(path: Path, folder: Path, *, label: str = "") -> str:
     cut = f" (the first {_MAX_CSV_ROWS}; the file has more)" if more else ""
     notes = [f"{len(rows)} rows{cut}; click a column to sort"]
     if same:
-        notes.append(f"the same in every row: {same}")
+        notes.append(f"The same in every row: {same}")
     title = label or name
     return (
         f'<h3>{title}</h3><p class="note">{". ".join(notes)}. File: <code>{name}</code></p>'
