@@ -161,9 +161,8 @@ def test_caption_frame_names_the_design_and_rings_the_goal(env):
         frame, "tool C = (0, 0, 0), F = 8,611   t = 0.0 s of 14.2 s", (0.0, 1.5, 0.1)
     )
     assert captioned.shape == (360 + 44, 480, 3) and captioned.dtype == np.uint8
-    np.testing.assert_array_equal(
-        captioned[22:-22], np.where(captioned[22:-22] == frame, frame, captioned[22:-22])
-    )
+    # The frame itself is kept, but for the ring and the word "goal".
+    assert np.mean(np.all(captioned[22:-22] == frame, axis=2)) > 0.95
     # The caption strip and the key hold dark text; the goal is ringed in red on the frame.
     assert np.mean(captioned[:22] < 100) > 0.01 and np.mean(captioned[-22:] < 100) > 0.01
     ring = np.all(np.abs(captioned[22:-22].astype(int) - (200, 0, 0)) < 30, axis=2)
