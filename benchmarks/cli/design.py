@@ -11,6 +11,7 @@ from benchmarks.cli._common import (
     DEFAULT_SECTION_SHAPE,
     add_max_retries_argument,
     add_task_arguments,
+    check_out_folder,
     out_path,
     unique_pairs,
 )
@@ -240,12 +241,27 @@ def _counts_text(counts: dict[str, int]) -> str:
     return text
 
 
+def _check_optimizer(name: str | None) -> None:
+    """Refuse an unknown optimizer name now, as ``optimizers.make`` would once the run starts."""
+    from optimizers import make, registry
+
+    if name is None or ":" in name or name in registry.available():
+        return  # a known name; a plugin string is imported and checked when the run starts
+    make(name)  # raises: unknown (ValueError), or its backend is not installed (ImportError)
+
+
 def _run(args: argparse.Namespace) -> int:
+    # Bad input is refused in well under a second, before the run imports the simulation,
+    # pandas and the plotting (seconds on a busy machine): the folder, the optimizer's name,
+    # then every setting (DesignConfig).
+    check_out_folder(args.out)
+    if args.policy is None:
+        _check_optimizer(args.optimizer)
+    config = config_from_args(args)
     from benchmarks.design import run_design
     from benchmarks.design.progress import phase
     from benchmarks.reports import write_design_report
 
-    config = config_from_args(args)
     result = run_design(
         config,
         args.out,
