@@ -245,8 +245,10 @@ def _check_optimizer(name: str | None) -> None:
     """Refuse an unknown optimizer name now, as ``optimizers.make`` would once the run starts."""
     from optimizers import make, registry
 
-    if name is None or ":" in name or name in registry.available():
-        return  # a known name; a plugin string is imported and checked when the run starts
+    if name is None or not name.strip() or ":" in name or name in registry.available():
+        # A known name (a plugin string is imported and checked when the run starts), or an
+        # empty one, which _designer refuses in its own words.
+        return
     make(name)  # raises: unknown (ValueError), or its backend is not installed (ImportError)
 
 
