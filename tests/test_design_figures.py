@@ -352,3 +352,50 @@ def test_the_card_stores_the_straight_tool_scored_on_the_run_task(design_run: Pa
     straight = card["straight_tool"]
     assert straight["coefficients"] == [0.0, 0.0, 0.0] and straight["status"] == "ok"
     assert straight["free_energy"] == -1.0 and straight["final_distance"] == 0.5
+
+
+def test_no_phase_after_the_progress_bar_is_silent(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # Issue 34: after the bar reached 100 %, a run printed nothing for up to a minute.
+    monkeypatch.setattr(design_loop, "evaluate_batch", _fake_rows)
+    monkeypatch.setattr(design_loop, "map_robust", _fake_robustness)
+    out = tmp_path / "run"
+    argv = ["design", "--optimizer", "random", "--iterations", "1", "--batch-size", "2"]
+    assert main([*argv, "--executor", "serial", "--no-video", "--out", str(out)]) == 0
+    err = capsys.readouterr().err
+    for phase in (
+        "design random: meshes, box paths and robustness test of the final tool ... done (",
+        "design random: drawing Figure 3, robustness.png and report.html ... done (",
+    ):
+        assert phase in err, err
+    assert err.index("meshes, box paths") < err.index("drawing Figure 3")
+    assert (
+        main(
+            [
+                *argv,
+                "--executor",
+                "serial",
+                "--no-video",
+                "--no-progress",
+                "--out",
+                str(tmp_path / "quiet"),
+            ]
+        )
+        == 0
+    )
+    assert "... done" not in capsys.readouterr().err
+
+
+def test_a_phase_that_fails_says_stopped() -> None:
+    import io
+
+    from benchmarks.design.progress import phase
+
+    stream = io.StringIO()
+    with pytest.raises(KeyError), phase("design x: work", stream=stream):
+        raise KeyError("boom")
+    assert stream.getvalue() == "design x: work ... stopped\n"
+    with phase("silent", enabled=False, stream=stream):
+        pass
+    assert "silent" not in stream.getvalue()

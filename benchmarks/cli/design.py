@@ -121,7 +121,11 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         help="optimizer setting (JSON value or word), repeatable, e.g. --option sigma0=0.3",
     )
     parser.add_argument("--resume", action="store_true", help="continue the run in --out")
-    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument(
+        "--no-progress",
+        action="store_true",
+        help="no progress bar, and no status line for the phases after it",
+    )
     parser.add_argument(
         "--no-video", action="store_true", help="do not write rollout.gif (saves about 20 s)"
     )
