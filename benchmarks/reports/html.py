@@ -74,6 +74,7 @@ td, th { border: 1px solid #d4d4d4; padding: 0.15em 0.4em; text-align: right; }
 th { background: #f1f3f5; } td.key, th.key { text-align: left; font-weight: 600; }
 td.text { text-align: left; }
 table.sortable th { cursor: pointer; user-select: none; vertical-align: bottom; }
+table.sortable td { white-space: nowrap; }
 table.sortable th[aria-sort=ascending]::after { content: " \\25B2"; }
 table.sortable th[aria-sort=descending]::after { content: " \\25BC"; }
 .pager { font-size: 0.85em; margin: 0.2em 0 0.8em; }
