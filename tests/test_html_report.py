@@ -426,3 +426,27 @@ def test_the_design_report_at_1280_px_in_headless_chromium(tmp_path):
     with Image.open(shot) as image:
         assert image.size == (WIDTH, HEIGHT)
         assert len(np.unique(np.asarray(image.convert("L")))) > 10  # not a blank page
+
+
+def test_a_suite_report_leads_with_its_summary_then_its_figures(tmp_path):
+    folder = _run_folder(tmp_path / "run")
+    (folder / "report" / "pairwise.md").write_text(
+        "# Pairwise\n\n| a | b |\n|---|---|\n| x | y |\n"
+    )
+    for k in range(10):
+        (folder / "report" / f"design-{k}.json").write_text(json.dumps({"k": k}))
+    text = write_html_report(folder).read_text()
+    order = [
+        text.index(s)
+        for s in (
+            "report/summary.md",
+            "<h2>Figures",
+            "report/pairwise.md",
+            "<h2>Tables",
+            "<h2>Cards",
+        )
+    ]
+    assert order == sorted(order)
+    assert "<th>optimizer</th>" in text  # the Markdown table is a table, not text
+    assert "11 JSON files</summary>" in text  # many cards: one fold
+    assert "3 figures, 2 reports, 1 table, 11 cards" in text

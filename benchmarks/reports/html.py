@@ -744,16 +744,25 @@ def _figure_rank(path: Path) -> tuple[int, str]:
 
 
 def _rest(folder: Path, files: Sequence[Path], *, open_figures: bool) -> list[str]:
-    """Reports, figures, tables and cards not shown above: reports and figures first."""
+    """Reports, figures, tables and cards not shown above, the answers first.
+
+    The lead reports (a summary, verdicts, rankings), then the figures (ECDFs and convergence
+    first), then the other reports; the tables and cards, which the reports summarize, are
+    folded away.
+    """
     images = sorted((p for p in files if p.suffix.lower() in _IMAGES), key=_figure_rank)
     texts = sorted((p for p in files if p.suffix == ".md"), key=_text_rank)
+    lead = [p for p in texts if _text_rank(p)[0] < 3]  # summary, verdict, ranking
     logs = [p for p in files if p.suffix == ".txt"]
     tables = [p for p in files if p.suffix == ".csv"]
     cards = [p for p in files if p.suffix == ".json"]
     body: list[str] = []
-    for path in texts:
+
+    def report(path: Path) -> str:
         text = path.read_text(encoding="utf-8", errors="replace")
-        body.append(f"<h2>{_esc(path.relative_to(folder))}</h2>{_markdown(text)}")
+        return f"<h2>{_esc(path.relative_to(folder))}</h2>{_markdown(text)}"
+
+    body.extend(report(p) for p in lead)
     if images:
         if open_figures:
             body.append('<h2>Figures</h2><div class="loose">')
@@ -763,6 +772,7 @@ def _rest(folder: Path, files: Sequence[Path], *, open_figures: bool) -> list[st
             body.append('<details><summary>More figures</summary><div class="loose">')
             body.extend(_image(p, folder) for p in images)
             body.append("</div></details>")
+    body.extend(report(p) for p in texts if p not in lead)
     if tables:
         body.append("<h2>Tables</h2>")
         body.extend(
@@ -774,7 +784,12 @@ def _rest(folder: Path, files: Sequence[Path], *, open_figures: bool) -> list[st
         )
     if cards:
         body.append("<h2>Cards</h2>")
-        body.extend(_json_table(p, folder) for p in cards)
+        if len(cards) > 8:  # a suite's design files: one fold for all
+            body.append(f"<details><summary>{len(cards)} JSON files</summary>")
+            body.extend(_json_table(p, folder) for p in cards)
+            body.append("</details>")
+        else:
+            body.extend(_json_table(p, folder) for p in cards)
     for path in logs:
         text = path.read_text(encoding="utf-8", errors="replace")
         body.append(
@@ -825,12 +840,15 @@ def write_html_report(
         page = _evaluate_page(folder, known, terms)
     else:
         title = f"tooldesign report: {folder.resolve().name}"
+        kinds = {"figure": _IMAGES, "report": (".md",), "table": (".csv",), "card": (".json",)}
+        numbers = [
+            (sum(p.suffix.lower() in suffixes for p in known), name)
+            for name, suffixes in kinds.items()
+        ]
         counts = (
-            f"{sum(p.suffix.lower() in _IMAGES for p in known)} figures, "
-            f"{sum(p.suffix == '.md' for p in known)} reports, "
-            f"{sum(p.suffix == '.csv' for p in known)} tables, "
-            f"{sum(p.suffix == '.json' for p in known)} cards: the reports (rankings and "
-            "verdicts) first, made from the files of the folder, everything embedded."
+            ", ".join(f"{n} {name}{'' if n == 1 else 's'}" for n, name in numbers)
+            + ": the reports (rankings and verdicts) first, made from the files of the folder, "
+            "everything embedded."
         )
         page = _page(title, counts, _rest(folder, known, open_figures=True))
     return atomic_write_text(target, page)
