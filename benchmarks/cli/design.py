@@ -256,6 +256,18 @@ def _check_optimizer(name: str | None) -> None:
     make(name)  # raises: unknown (ValueError), or its backend is not installed (ImportError)
 
 
+def _straight_text(free_energy: float, straight: dict[str, Any]) -> str:
+    """One line: F against the straight tool's, or nothing if it has no score."""
+    theirs = straight.get("free_energy")
+    if straight.get("status") != "ok" or not isinstance(theirs, float) or theirs == 0:
+        return ""
+    change = 100.0 * (free_energy - theirs) / abs(theirs)
+    return (
+        f"straight tool (C = 0) on the same task: F = {theirs:.6g}; the design's F is "
+        f"{abs(change):.1f} % {'lower' if change < 0 else 'higher'}\n"
+    )
+
+
 def _run(args: argparse.Namespace) -> int:
     # Bad input is refused in well under a second, before the run imports the simulation,
     # pandas and the plotting (seconds on a busy machine): the folder, the optimizer's name,
@@ -286,6 +298,7 @@ def _run(args: argparse.Namespace) -> int:
         f"(goal error {result.goal_error:.6g}, confidence {result.confidence:.6g}, "
         f"final distance {result.final_distance:.4g} m), iteration {result.iteration}, "
         f"candidate {result.candidate}\n{_counts_text(result.card['evaluations'])}\n"
-        f"run folder: {result.out_dir}"
+        f"{_straight_text(result.free_energy, result.straight_tool)}"
+        f"run folder: {result.out_dir} (open report.html there)"
     )
     return 0

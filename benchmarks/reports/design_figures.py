@@ -193,7 +193,12 @@ def _panel_tool(ax: Any, coeffs: np.ndarray, free_energy: float | None, spec: An
 
     handles, names = ax.get_legend_handles_labels()
     kind = "capsules" if geometry.capsules else "boxes"
-    shape = Patch(**style, label=f"collision {kind} from above ({spec.section:g} m section)")
+    shape = Patch(
+        facecolor="tab:orange",
+        edgecolor="0.3",
+        lw=0.5,
+        label=f"collision {kind} from above ({spec.section:g} m section)",
+    )
     ax.legend([*handles, shape], [*names, shape.get_label()], frameon=False, fontsize="small")
     text = ", ".join(f"{v:.3g}" for v in coeffs)
     energy = "n/a" if free_energy is None else f"{float(free_energy):,.0f}"

@@ -394,6 +394,11 @@ def _finite(value: Any) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
+def _number(value: Any) -> float | None:
+    """``value`` as a float if it is a finite number (not a bool), else None."""
+    return float(value) if _finite(value) else None
+
+
 # --- the summary card -------------------------------------------------------------------------
 
 #: The rows of the card: key, label, unit, whether lower is better.
@@ -407,8 +412,8 @@ _TERMS = (
 
 def _answer(design: Mapping[str, Any], straight: Mapping[str, Any]) -> str:
     """One sentence: F and the final distance against the straight tool's."""
-    mine, theirs = design.get("free_energy"), straight.get("free_energy")
-    if not (_finite(mine) and _finite(theirs)) or theirs == 0:
+    mine, theirs = _number(design.get("free_energy")), _number(straight.get("free_energy"))
+    if mine is None or theirs is None or theirs == 0:
         return ""
     change = 100.0 * (mine - theirs) / abs(theirs)
     word = "lower (better)" if change < 0 else "higher (worse)"
@@ -416,8 +421,8 @@ def _answer(design: Mapping[str, Any], straight: Mapping[str, Any]) -> str:
         f"<strong>F = {_num(mine)}</strong>, {abs(change):.1f} % {word} than the straight "
         f"tool's {_num(theirs)}"
     )
-    near, far = design.get("final_distance"), straight.get("final_distance")
-    if _finite(near) and _finite(far):
+    near, far = _number(design.get("final_distance")), _number(straight.get("final_distance"))
+    if near is not None and far is not None:
         text += f"; the box ends {_num(near, 3)} m from the goal (straight tool: {_num(far, 3)} m)"
     return text + "."
 
@@ -432,13 +437,13 @@ def _comparison(
     head += '<th class="num">straight tool (C = 0)</th></tr>' if has_straight else "</tr>"
     rows = []
     for key, label, unit, meaning, lower, digits in _TERMS:
-        mine = design.get(key)
+        mine = _number(design.get(key))
         cells = f'<td class="num">{_num(mine, digits)}</td>'
         if has_straight:
             assert straight is not None
-            theirs = straight.get(key)
+            theirs = _number(straight.get(key))
             verdict = ""
-            if _finite(mine) and _finite(theirs) and mine != theirs:
+            if mine is not None and theirs is not None and mine != theirs:
                 good = (mine < theirs) == lower
                 verdict = "better" if good else "worse"
             cells = f'<td class="num {verdict}">{_num(mine, digits)}</td>'
@@ -471,10 +476,10 @@ def _comparison(
 def _robustness_sentence(card: Mapping[str, Any], paths: Mapping[str, Any] | None) -> str:
     """The robustness test of a design in one sentence, with its units."""
     rob = card.get("robustness") or {}
-    value = rob.get("robustness")
+    value = _number(rob.get("robustness"))
     masses = [m for m in rob.get("masses") or [] if _finite(m)]
     nominal = (paths or {}).get("nominal_mass", card.get("config", {}).get("box_mass"))
-    if not _finite(value) or not masses:
+    if value is None or not masses:
         error = (card.get("robustness_error") or "").strip()
         return "Robustness: not tested" + (f" ({_esc(error)})." if error else ".")
     mass_text = ", ".join(f"{m:g}" for m in masses)
