@@ -450,3 +450,26 @@ def test_a_suite_report_leads_with_its_summary_then_its_figures(tmp_path):
     assert "<th>optimizer</th>" in text  # the Markdown table is a table, not text
     assert "11 JSON files</summary>" in text  # many cards: one fold
     assert "3 figures, 2 reports, 1 table, 11 cards" in text
+
+
+def test_an_evaluate_report_leads_with_the_design_card(tmp_path):
+    folder = tmp_path / "eval"
+    folder.mkdir()
+    Image.fromarray(np.zeros((30, 40, 3), np.uint8)).save(folder / "tool_shape.png")
+    Image.fromarray(np.zeros((30, 40, 3), np.uint8)).save(folder / "box_path.png")
+    terms = {
+        "coefficients": [0.1, 0.2, 0.05],
+        "free_energy": 8359.3,
+        "goal_error": 9554.9,
+        "confidence": 1195.6,
+        "final_distance": 0.066,
+        "valid": True,
+        "goal": [0, 1.5, 0.1],
+    }
+    (folder / "terms.json").write_text(json.dumps(terms))
+    rows = "\n".join(f"{0.01 * k},{k},lower" for k in range(200))
+    (folder / "trajectory.csv").write_text("time,box_x,phase\n" + rows + "\n")
+    text = write_html_report(folder).read_text()
+    assert text.index('id="summary"') < text.index("box_path.png") < text.index("trajectory.csv")
+    assert "8,359" in text and "0.066" in text and "straight tool" not in text
+    assert "<details><summary>trajectory.csv</summary>" in text  # thousands of rows: folded

@@ -719,7 +719,8 @@ def _evaluate_page(folder: Path, files: list[Path], terms: dict[str, Any]) -> st
         body.extend(_image(p, folder) for p in figures)
         body.append("</div>")
     rest = [p for p in files if p not in figures and p != picture]
-    body.extend(_rest(folder, rest, open_figures=True))
+    # The per-step trajectory (thousands of rows) is there to be looked up: folded.
+    body.extend(_rest(folder, rest, open_figures=True, fold_tables=True))
     return _page(
         f"Evaluated design: C = ({coeffs})",
         f"{_esc(folder.resolve().name)}: made from the files of the folder, everything embedded.",
@@ -748,7 +749,9 @@ def _figure_rank(path: Path) -> tuple[int, str]:
     return 4, str(path)
 
 
-def _rest(folder: Path, files: Sequence[Path], *, open_figures: bool) -> list[str]:
+def _rest(
+    folder: Path, files: Sequence[Path], *, open_figures: bool, fold_tables: bool = False
+) -> list[str]:
     """Reports, figures, tables and cards not shown above, the answers first.
 
     The lead reports (a summary, verdicts, rankings), then the figures (ECDFs and convergence
@@ -783,7 +786,7 @@ def _rest(folder: Path, files: Sequence[Path], *, open_figures: bool) -> list[st
         body.extend(
             f"<details><summary>{_esc(p.relative_to(folder))}</summary>"
             f"{_csv_table(p, folder)}</details>"
-            if texts
+            if texts or fold_tables
             else _csv_table(p, folder)
             for p in tables
         )
