@@ -53,7 +53,7 @@ def test_tool_curves_use_a_colour_bar_and_highlight_the_best():
     assert len(fig.axes) == 2 and fig.axes[1].get_ylabel() == "iteration"
     texts = [t.get_text() for t in ax.get_legend().get_texts()]
     # The "+" at the origin is named too (issue 34: it was unexplained).
-    assert texts == [plots.GRASP_LABEL, "best tool (iteration 7)"]
+    assert texts == ["best tool (iteration 7)", plots.GRASP_LABEL]
     assert _red_lines(ax)
 
 

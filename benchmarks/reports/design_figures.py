@@ -77,7 +77,7 @@ def _panel_curves(
             linewidth=3.5,
             spec=spec,
         )
-        ax.legend(frameon=False, fontsize="small")
+        plots.legend(ax)
     _iteration_colorbar(ax, bests["iteration"].tolist())
     ax.set_title("a) best tool of each iteration (centrelines, m)")
 

@@ -27,6 +27,7 @@ from benchmarks.reports.comparison import DPI, figure_png_bytes, new_figure
 from benchmarks.storage import atomic_write_bytes
 
 __all__ = [
+    "legend",
     "new_figure",
     "new_figure_grid",
     "plot_box_paths",
@@ -137,7 +138,7 @@ def plot_tool_shapes(
     ax.set_ylabel("y, tool frame (m)")
     ax.grid(True, alpha=0.3)
     if key or (labels is not None and designs):
-        ax.legend(frameon=False, fontsize="small")
+        legend(ax)
     return ax
 
 
@@ -150,6 +151,24 @@ GOAL_LABEL = "goal X^g"
 
 def _legend_labels(ax: Axes) -> set[str]:
     return {str(line.get_label()) for line in ax.get_lines()}
+
+
+def legend(ax: Axes) -> Axes:
+    """The axes' legend, its lines first and the markers' key (start, end, goal, grasp) last.
+
+    Args:
+        ax: Axes drawn by :func:`plot_tool_shapes` or :func:`plot_box_paths` (and others).
+
+    Returns:
+        ``ax``.
+    """
+    handles, labels = ax.get_legend_handles_labels()
+    keys = (GRASP_LABEL, START_LABEL, END_LABEL, GOAL_LABEL)
+    order = sorted(range(len(labels)), key=lambda i: any(labels[i].startswith(k) for k in keys))
+    ax.legend(
+        [handles[i] for i in order], [labels[i] for i in order], frameon=False, fontsize="small"
+    )
+    return ax
 
 
 def plot_box_paths(
@@ -224,7 +243,7 @@ def plot_box_paths(
     ax.set_ylabel("y, world frame (m)")
     ax.grid(True, alpha=0.3)
     if key or (labels is not None and any(len(p) for p in paths)):
-        ax.legend(frameon=False, fontsize="small")
+        legend(ax)
     return ax
 
 
