@@ -701,7 +701,7 @@ def _evaluate_page(folder: Path, files: list[Path], terms: dict[str, Any]) -> st
     valid = terms.get("valid")
     lines = [
         f"<strong>The tool:</strong> C = ({_esc(coeffs)}), "
-        f"{'valid' if valid else 'not valid: ' + _esc(terms.get('message', ''))}."
+        f"{'valid' if valid else 'not valid: ' + _esc(terms.get('invalid_reason', ''))}."
     ]
     if "robustness" in terms:
         paths = _read_json(folder / "box_paths.json")
