@@ -33,6 +33,7 @@ The checks need only numpy (no pytest) and take a few seconds for a fast plugin.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 import os
@@ -47,6 +48,7 @@ from .base import Batch, Optimizer, OptimizerStateError, Recommendation
 
 __all__ = [
     "CHECKS",
+    "ConformanceReport",
     "check_asks_inside_bounds",
     "check_bad_inputs_raise",
     "check_counts",
@@ -531,7 +533,44 @@ CHECKS: tuple[Callable[[Factory], None], ...] = (
 )
 
 
-def check_optimizer(factory: Factory, *, skip: Iterable[str] = ()) -> None:
+@dataclasses.dataclass(frozen=True)
+class ConformanceReport:
+    """What :func:`check_optimizer` ran: printed, one line that says the plugin passed.
+
+    Attributes:
+        plugin: The plugin's ``module.Class``, or the factory's repr.
+        passed: Names of the checks that ran and passed, in :data:`CHECKS` order.
+        declared: Checks the class declares inapplicable (``conformance_skip``): not run.
+        skipped: Checks left out by ``skip=``: not run.
+    """
+
+    plugin: str
+    passed: tuple[str, ...]
+    declared: tuple[str, ...] = ()
+    skipped: tuple[str, ...] = ()
+
+    def __str__(self) -> str:
+        """E.g. ``tooldesign_hillclimb.HillClimb: all 14 conformance checks passed``."""
+        total = len(self.passed) + len(self.declared) + len(self.skipped)
+        if not self.declared and not self.skipped:
+            return f"{self.plugin}: all {total} conformance checks passed"
+        text = f"{self.plugin}: {len(self.passed)} of {total} conformance checks passed"
+        if self.declared:
+            text += f"; not run, declared in conformance_skip: {', '.join(self.declared)}"
+        if self.skipped:
+            text += f"; not run, left out by skip=: {', '.join(self.skipped)}"
+        return text
+
+
+def _plugin_name(factory: Factory) -> str:
+    target = factory.func if isinstance(factory, functools.partial) else factory
+    if isinstance(factory, functools.partial) and factory.args:
+        return f"{getattr(target, '__name__', repr(target))}({factory.args[0]!r})"
+    module, name = getattr(target, "__module__", None), getattr(target, "__qualname__", None)
+    return f"{module}.{name}" if module and name else repr(factory)
+
+
+def check_optimizer(factory: Factory, *, skip: Iterable[str] = ()) -> ConformanceReport:
     """Run every check of :data:`CHECKS` on a plugin, but those it declares inapplicable.
 
     Args:
@@ -540,19 +579,33 @@ def check_optimizer(factory: Factory, *, skip: Iterable[str] = ()) -> None:
         skip: Names of further checks not to run, besides those in the class's
             ``conformance_skip`` (see :func:`declared_skips`).
 
+    Returns:
+        What ran and passed; ``print(check_optimizer(MyOptimizer))`` prints one line, e.g.
+        ``tooldesign_hillclimb.HillClimb: all 14 conformance checks passed``.
+
     Raises:
         AssertionError: The first check that fails, with its name in the message.
         TypeError: The class's ``conformance_skip`` is not a tuple of str.
         ValueError: An unknown name in ``skip`` or in ``conformance_skip``.
     """
     names = {check.__name__ for check in CHECKS}
-    unknown = set(skip) - names
+    left_out = set(skip)
+    unknown = left_out - names
     if unknown:
         raise ValueError(f"unknown checks in skip: {sorted(unknown)}; known: {sorted(names)}")
+    passed, declared = [], []
     for check in CHECKS:
-        if check.__name__ in set(skip):
+        if check.__name__ in left_out:
             continue
         try:
             check(factory)
         except unittest.SkipTest:  # declared inapplicable by the plugin
+            declared.append(check.__name__)
             continue
+        passed.append(check.__name__)
+    return ConformanceReport(
+        plugin=_plugin_name(factory),
+        passed=tuple(passed),
+        declared=tuple(declared),
+        skipped=tuple(c.__name__ for c in CHECKS if c.__name__ in left_out),
+    )

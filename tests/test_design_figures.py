@@ -52,7 +52,8 @@ def test_tool_curves_use_a_colour_bar_and_highlight_the_best():
     _panel_curves(ax, designs, bests, None, ToolSpec())
     assert len(fig.axes) == 2 and fig.axes[1].get_ylabel() == "iteration"
     texts = [t.get_text() for t in ax.get_legend().get_texts()]
-    assert texts == ["best tool (iteration 7)"]
+    # The "+" at the origin is named too (issue 34: it was unexplained).
+    assert texts == ["best tool (iteration 7)", plots.GRASP_LABEL]
     assert _red_lines(ax)
 
 
@@ -82,7 +83,89 @@ def test_free_energy_axis_shows_every_evaluation_even_an_outlier():
     _panel_free_energy(ax, evaluations, bests)
     low, high = ax.get_ylim()
     assert low <= evaluations["free_energy"].min() and high >= 20000.0
-    assert ax.get_yscale() == "symlog"
+    assert ax.get_yscale() == "log"
+    assert len(_tick_labels(fig, ax)) >= 4
+
+
+def _tick_labels(fig, ax):
+    """The y tick labels a reader sees: inside the axis range and not empty."""
+    fig.canvas.draw()
+    low, high = ax.get_ylim()
+    return [
+        t.get_text()
+        for t, v in zip(ax.get_yticklabels(), ax.get_yticks(), strict=True)
+        if low <= v <= high and t.get_text()
+    ]
+
+
+def test_free_energy_log_axis_within_a_decade_has_readable_labels():
+    # Issue 34: F from 8000 to 25000 on a log axis carried one label, 10^4.
+    bests = pd.DataFrame({"iteration": [0, 1], "free_energy": [8945.4, 8337.5], "status": "ok"})
+    f = [8945.4, 24582.5, 20809.5, 9654.2, 8337.5, 13063.5, 11021.4, 9398.2]
+    evaluations = pd.DataFrame(
+        {
+            "iteration": [0, 0, 0, 0, 1, 1, 1, 1],
+            "free_energy": f,
+            "status": "ok",
+            "best_so_far": [8945.4] * 4 + [8337.5] * 4,
+        }
+    )
+    fig, ax = plots.new_figure()
+    _panel_free_energy(ax, evaluations, bests)
+    assert ax.get_yscale() == "log" and "log scale" in ax.get_ylabel()
+    labels = _tick_labels(fig, ax)
+    assert len(labels) >= 4 and all("10^" not in t and "$" not in t for t in labels), labels
+    values = [float(t.replace(",", "")) for t in labels]
+    assert min(values) <= 8337.5  # a labelled tick at or below the best F
+    low, high = ax.get_ylim()
+    assert low <= min(f) and high >= max(f)
+
+
+def test_box_paths_name_every_marker_and_draw_the_goal_on_top():
+    bests = _bests(3)
+    paths = [np.c_[np.linspace(1, 0, 4), np.linspace(0.7, 1.5, 4), np.zeros(4)]] * 3
+    fig, ax = plots.new_figure()
+    _panel_paths(ax, paths, bests, None, (0.0, 1.5, 0.1))
+    texts = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert texts[0] == "best tool"
+    assert {plots.START_LABEL, plots.END_LABEL} <= set(texts)
+    assert any(t.startswith(plots.GOAL_LABEL) and t.endswith(" m") for t in texts), texts
+    (goal,) = [x for x in ax.get_lines() if x.get_marker() == "*"]
+    assert goal.get_zorder() > max(x.get_zorder() for x in ax.get_lines() if x is not goal)
+    assert "(m)" in ax.get_title() and "(m)" in ax.get_xlabel() and "(m)" in ax.get_ylabel()
+
+
+def test_the_final_tool_panel_names_its_shapes_and_says_f_has_no_unit():
+    from benchmarks.reports.design_figures import _panel_tool
+
+    fig, ax = plots.new_figure()
+    _panel_tool(ax, np.array([0.2, -0.3, 0.07]), 8337.49, ToolSpec())
+    texts = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert "centreline" in texts and plots.GRASP_LABEL in texts
+    assert any(t.startswith("collision capsules from above") for t in texts), texts
+    assert "F = 8,337 (dimensionless)" in ax.get_title()
+
+
+def test_the_robustness_figure_title_says_what_the_number_means(
+    design_run: Path, tmp_path: Path
+) -> None:
+    import benchmarks.reports.design_figures as figures
+
+    folder = tmp_path / "run"
+    shutil.copytree(design_run, folder)
+
+    titles = []
+    real = figures.plots.save_png
+
+    def spy(figure, path):
+        titles.extend(ax.get_title() for ax in figure.axes)
+        return real(figure, path)
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(figures.plots, "save_png", spy)
+        figures.write_design_report(folder)
+    (title,) = [t for t in titles if "robustness =" in t]
+    assert "mm per step" in title and "1.0 m" in title and "4 masses x 5 steps" in title
 
 
 # --- a damaged design run folder: one error naming the file and the field, nothing written ------
@@ -264,3 +347,59 @@ def test_a_damaged_design_run_is_refused_naming_the_file_and_field_before_any_wr
     err = capsys.readouterr().err
     assert err.startswith("tooldesign report: error: ") and err.count("\n") == 1, err
     assert _snapshot(folder) == before  # not even the generic report/ was written
+
+
+def test_the_card_stores_the_straight_tool_scored_on_the_run_task(design_run: Path) -> None:
+    # report.html sets the design beside the straight tool (C = 0); the run stores its scores
+    # (here the fake evaluator's F = |C|^2 - 1 = -1).
+    card = json.loads((design_run / DESIGN_RUN_FILES["card"]).read_text(encoding="utf-8"))
+    straight = card["straight_tool"]
+    assert straight["coefficients"] == [0.0, 0.0, 0.0] and straight["status"] == "ok"
+    assert straight["free_energy"] == -1.0 and straight["final_distance"] == 0.5
+
+
+def test_no_phase_after_the_progress_bar_is_silent(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # Issue 34: after the bar reached 100 %, a run printed nothing for up to a minute.
+    monkeypatch.setattr(design_loop, "evaluate_batch", _fake_rows)
+    monkeypatch.setattr(design_loop, "map_robust", _fake_robustness)
+    out = tmp_path / "run"
+    argv = ["design", "--optimizer", "random", "--iterations", "1", "--batch-size", "2"]
+    assert main([*argv, "--executor", "serial", "--no-video", "--out", str(out)]) == 0
+    err = capsys.readouterr().err
+    for phase in (
+        "design random: meshes, box paths and robustness test of the final tool ... done (",
+        "design random: drawing Figure 3, robustness.png and report.html ... done (",
+    ):
+        assert phase in err, err
+    assert err.index("meshes, box paths") < err.index("drawing Figure 3")
+    assert (
+        main(
+            [
+                *argv,
+                "--executor",
+                "serial",
+                "--no-video",
+                "--no-progress",
+                "--out",
+                str(tmp_path / "quiet"),
+            ]
+        )
+        == 0
+    )
+    assert "... done" not in capsys.readouterr().err
+
+
+def test_a_phase_that_fails_says_stopped() -> None:
+    import io
+
+    from benchmarks.design.progress import phase
+
+    stream = io.StringIO()
+    with pytest.raises(KeyError), phase("design x: work", stream=stream):
+        raise KeyError("boom")
+    assert stream.getvalue() == "design x: work ... stopped\n"
+    with phase("silent", enabled=False, stream=stream):
+        pass
+    assert "silent" not in stream.getvalue()

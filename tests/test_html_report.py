@@ -60,7 +60,9 @@ def test_report_embeds_every_figure_card_and_table(tmp_path):
     assert "4861.25" in text and "5000.5" in text and "report/summary.md" in text
     assert "&lt;b&gt;x" in text  # file contents are escaped, not interpreted
     assert "secret" not in text  # stored results under parts/ are left out
-    assert "<script" not in text and not re.search(r"""(src|href)=["']?(https?:|//|file:)""", text)
+    # The only script is inline (sorting and paging); nothing is loaded from anywhere.
+    assert "<script src" not in text.replace(" ", " ")
+    assert not re.search(r"""(src|href)=["']?(https?:|//|file:)""", text)
     write_html_report(folder)  # again: the earlier report is not embedded in the new one
     assert path.read_text() == text
 
@@ -191,3 +193,293 @@ def test_the_browser_check_sees_a_broken_image(tmp_path):
     (folder / "figure3.png").write_bytes(b"\x89PNG\r\n\x1a\nnot really")
     probe = _browser_probe(write_html_report(folder), tmp_path)
     assert probe["broken"] == ["figure3.png"]
+
+
+# --- a design run's page, as a person at a 1280 px window sees it ------------------------------
+
+WIDTH, HEIGHT = 1280, 800
+COLUMNS = (
+    "suite,optimizer,seed,iteration,candidate,eval_id,c1,c2,c3,free_energy,goal_error,"
+    "confidence,final_distance,status,eval_time,opt_time,best_so_far,goal_x,goal_y,goal_z,"
+    "goal_precision,box_mass,variant"
+)
+
+
+def _design_folder(folder, *, straight=True, iterations=15, batch=8):
+    """A design run folder as `tooldesign design` writes it (pictures are stand-ins)."""
+    folder.mkdir()
+    rng = np.random.default_rng(0)
+    picture = (rng.random((675, 900, 3)) * 255).astype(np.uint8)
+    for name in (
+        "fig3a_tool_curves",
+        "fig3b_free_energy",
+        "fig3c_box_paths",
+        "fig3d_final_tool",
+        "figure3",
+        "robustness",
+    ):
+        Image.fromarray(picture).save(folder / f"{name}.png")
+    frames = [Image.fromarray(picture[:404, :480]) for _ in range(2)]
+    frames[0].save(folder / "rollout.gif", save_all=True, append_images=frames[1:])
+    lines, best = [COLUMNS], np.inf
+    for k in range(iterations * batch):
+        f = float(8000.0 + 5000.0 * rng.random())
+        best = min(best, f)
+        c = [float(v) for v in rng.uniform(-1.5, 1.5, 3)]
+        distance, seconds = float(rng.random()), float(8 * rng.random())
+        lines.append(
+            f"design,cmaes,0,{k // batch},{k % batch},{k},{c[0]!r},{c[1]!r},{c[2]!r},{f!r},"
+            f"{f + 1200.5!r},1200.5,{distance!r},ok,{seconds!r},0.000458,{best!r},"
+            "0.0,1.5,0.1,20.0,0.1,"
+        )
+    (folder / "evaluations.csv").write_text("\n".join(lines) + "\n")
+    config = {
+        "batch_size": batch,
+        "bounds": [[-1.5, 1.5], [-1.5, 1.5], [-0.5, 0.5]],
+        "box_mass": 0.1,
+        "estimator": "contact",
+        "executor": "process",
+        "goal": [0.0, 1.5, 0.1],
+        "goal_precision": 20.0,
+        "iterations": iterations,
+        "max_retries": 0,
+        "objective": "free-energy",
+        "optimizer": "cmaes",
+        "optimizer_settings": {},
+        "robustness_masses": [0.3, 0.5, 0.7, 0.9],
+        "scene": {"merge_fixed_links": True},
+        "scene_samples": 1,
+        "scheduler": None,
+        "section_shape": "round",
+        "seed": 0,
+        "workers": None,
+    }
+    card = {
+        "coefficients": [0.2046, -0.2876, 0.0759],
+        "free_energy": 8030.25,
+        "goal_error": 9230.75,
+        "confidence": 1200.5,
+        "final_distance": 0.0654,
+        "status": "ok",
+        "iteration": 14,
+        "candidate": 2,
+        "eval_id": 114,
+        "format_version": 1,
+        "polynomial": "y = c1 x^n + ... + cn x (highest power first, constant term 0)",
+        "tool": {
+            "mass": 0.224,
+            "arc_length": 1.1,
+            "handle_length": 0.15,
+            "section": 0.03,
+            "section_shape": "round",
+            "min_radius_of_curvature": 1.36,
+            "buildable": True,
+        },
+        "robustness": {
+            "robustness": -224.0,
+            "accuracy": -3100.2,
+            "control_deviation": 20729.8,
+            "masses": [0.3, 0.5, 0.7, 0.9],
+        },
+        "seed": 0,
+        "config": config,
+        "evaluations": {
+            "total": iterations * batch,
+            "iterations": iterations,
+            "ok": iterations * batch,
+            "invalid": 0,
+            "failed": 0,
+        },
+        "packages": {"numpy": "2.4.6"},
+        "git_commit": "062b3a0",
+        "start_time": "2026-11-27T06:42:08+00:00",
+        "end_time": "2026-11-27T06:43:40+00:00",
+        "wall_time": 92.0,
+        "simulation_time": 141.0,
+        "optimizer_time": 0.05,
+        "files": {},
+    }
+    if straight:
+        card["straight_tool"] = {
+            "coefficients": [0.0, 0.0, 0.0],
+            "free_energy": 8610.93,
+            "goal_error": 9488.91,
+            "confidence": 877.98,
+            "final_distance": 0.0615,
+            "status": "ok",
+            "message": "",
+        }
+    (folder / "design.json").write_text(json.dumps(card))
+    path = [[1.17, 0.67 + 0.001 * t, 0.1] for t in range(100)]
+    paths = {
+        "iterations": list(range(iterations)),
+        "iteration_bests": [path] * iterations,
+        "nominal_mass": 0.1,
+        "masses": [0.3, 0.5, 0.7, 0.9],
+        "nominal": path,
+        "perturbed": [path] * 4,
+    }
+    (folder / "box_paths.json").write_text(json.dumps(paths))
+    robustness = {
+        "robustness": -224.0,
+        "accuracy": -3100.2,
+        "control_deviation": 20729.8,
+        "masses": [0.3, 0.5, 0.7, 0.9],
+        "nominal_mass": 0.1,
+        "goal": [0.0, 1.5, 0.1],
+        "coefficients": card["coefficients"],
+        "error": "",
+    }
+    (folder / "robustness.json").write_text(json.dumps(robustness))
+    return folder
+
+
+def test_a_design_report_leads_with_the_answer(tmp_path):
+    text = write_html_report(_design_folder(tmp_path / "run")).read_text()
+    summary = text.index('id="summary"')
+    # The card comes first: F beside the straight tool's, the terms with units, robustness.
+    for wanted in (
+        "8,030",
+        "8,611",
+        "straight tool (C = 0)",
+        "dimensionless",
+        "final distance",
+        "6.7 % lower (better)",
+        "Robustness:",
+        "mm</strong> from its nominal path",
+    ):
+        assert wanted in text[summary:], wanted
+    order = [
+        text.index(s)
+        for s in ('id="summary"', "rollout.gif", "<h2>Settings", "<h2>Every evaluation")
+    ]
+    assert order == sorted(order)
+    # Settings with units; the evaluation log whole, its constant columns said once.
+    assert "0.1 kg" in text and "(0, 1.5, 0.1) m" in text and "wall time (elapsed)" in text
+    assert text.count("<tr><td") >= 120 and "The same in every row: suite = design" in text
+    assert 'data-page="25"' in text
+
+
+def test_a_design_report_of_a_run_without_the_straight_tool_says_so(tmp_path):
+    text = write_html_report(_design_folder(tmp_path / "run", straight=False)).read_text()
+    assert "was not evaluated for this run" in text and "straight tool (C = 0)</th>" not in text
+
+
+def _browser():
+    browser = next((shutil.which(b) for b in BROWSERS if shutil.which(b)), None)
+    if browser is None:
+        pytest.skip("no headless Chromium installed (apt-get install chromium)")
+    return browser
+
+
+# After load: where the summary ends, how wide the page and every table box are, and what the
+# pager shows before and after a click on the F column.
+LAYOUT_PROBE = (
+    "<script>window.addEventListener('load',function(){"
+    "var s=document.getElementById('summary').getBoundingClientRect();"
+    "var boxes=[].map.call(document.querySelectorAll('table'),function(t){"
+    "var b=t.closest('.tablebox')||t;var r=b.getBoundingClientRect();"
+    "return {right:r.right,scroll:b.scrollWidth>b.clientWidth+1,"
+    "sortable:t.classList.contains('sortable')};});"
+    "var t=document.querySelector('table.sortable');var rows=[].slice.call(t.tBodies[0].rows);"
+    "var shown=rows.filter(function(r){return r.style.display!=='none';}).length;"
+    "var heads=[].slice.call(t.tHead.rows[0].cells);"
+    "var col=heads.findIndex(function(h){return h.textContent.trim()==='F';});"
+    "heads[col].click();"
+    "var first=[].slice.call(t.tBodies[0].rows).filter(function(r){"
+    "return r.style.display!=='none';}).map(function(r){return parseFloat(r.cells[col]"
+    ".getAttribute('data-v'));});"
+    "var d=document.createElement('div');d.id='__layout';d.textContent=JSON.stringify({"
+    "height:window.innerHeight,width:window.innerWidth,summaryBottom:s.bottom,"
+    "pageWidth:document.documentElement.scrollWidth,tables:boxes,shown:shown,"
+    "rows:rows.length,sorted:first});document.body.appendChild(d);});</script>"
+)
+
+
+def test_the_design_report_at_1280_px_in_headless_chromium(tmp_path):
+    browser = _browser()
+    report = write_html_report(_design_folder(tmp_path / "run"))
+    page = tmp_path / "layout.html"
+    page.write_text(report.read_text().replace("</body>", LAYOUT_PROBE + "</body>"))
+    common = [
+        browser,
+        "--headless",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--hide-scrollbars",
+        f"--window-size={WIDTH},{HEIGHT}",
+    ]
+    out = subprocess.run(
+        [*common, "--virtual-time-budget=10000", "--dump-dom", page.as_uri()],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    found = re.findall(r'<div id="__layout">(.*?)</div>', out.stdout)
+    assert found, f"the browser printed no layout: {out.stderr[-500:]}"
+    layout = json.loads(found[0].replace("&quot;", '"'))
+    # The window's inner height: 800 px less what headless Chromium keeps for its frame.
+    assert layout["width"] == WIDTH and 650 <= layout["height"] <= HEIGHT, layout
+    assert layout["summaryBottom"] <= layout["height"], layout  # the answer is above the fold
+    assert layout["pageWidth"] <= WIDTH, layout  # nothing widens the page
+    assert all(t["right"] <= WIDTH for t in layout["tables"]), layout["tables"]
+    # The 23-column log of 120 evaluations fits without scrolling, a page at a time.
+    log = [t for t in layout["tables"] if t["sortable"]]
+    assert log and not log[0]["scroll"], layout["tables"]
+    assert (layout["rows"], layout["shown"]) == (120, 25)
+    assert len(layout["sorted"]) == 25 and layout["sorted"] == sorted(layout["sorted"])
+    # The screenshot a person would see first.
+    shot = tmp_path / "report.png"
+    subprocess.run(
+        [*common, f"--screenshot={shot}", report.as_uri()], capture_output=True, timeout=120
+    )
+    with Image.open(shot) as image:
+        assert image.size == (WIDTH, HEIGHT)
+        assert len(np.unique(np.asarray(image.convert("L")))) > 10  # not a blank page
+
+
+def test_a_suite_report_leads_with_its_summary_then_its_figures(tmp_path):
+    folder = _run_folder(tmp_path / "run")
+    (folder / "report" / "pairwise.md").write_text(
+        "# Pairwise\n\n| a | b |\n|---|---|\n| x | y |\n"
+    )
+    for k in range(10):
+        (folder / "report" / f"design-{k}.json").write_text(json.dumps({"k": k}))
+    text = write_html_report(folder).read_text()
+    order = [
+        text.index(s)
+        for s in (
+            "report/summary.md",
+            "<h2>Figures",
+            "report/pairwise.md",
+            "<h2>Tables",
+            "<h2>Cards",
+        )
+    ]
+    assert order == sorted(order)
+    assert "<th>optimizer</th>" in text  # the Markdown table is a table, not text
+    assert "11 JSON files</summary>" in text  # many cards: one fold
+    assert "3 figures, 2 reports, 1 table, 11 cards" in text
+
+
+def test_an_evaluate_report_leads_with_the_design_card(tmp_path):
+    folder = tmp_path / "eval"
+    folder.mkdir()
+    Image.fromarray(np.zeros((30, 40, 3), np.uint8)).save(folder / "tool_shape.png")
+    Image.fromarray(np.zeros((30, 40, 3), np.uint8)).save(folder / "box_path.png")
+    terms = {
+        "coefficients": [0.1, 0.2, 0.05],
+        "free_energy": 8359.3,
+        "goal_error": 9554.9,
+        "confidence": 1195.6,
+        "final_distance": 0.066,
+        "valid": True,
+        "goal": [0, 1.5, 0.1],
+    }
+    (folder / "terms.json").write_text(json.dumps(terms))
+    rows = "\n".join(f"{0.01 * k},{k},lower" for k in range(200))
+    (folder / "trajectory.csv").write_text("time,box_x,phase\n" + rows + "\n")
+    text = write_html_report(folder).read_text()
+    assert text.index('id="summary"') < text.index("box_path.png") < text.index("trajectory.csv")
+    assert "8,359" in text and "0.066" in text and "straight tool" not in text
+    assert "<details><summary>trajectory.csv</summary>" in text  # thousands of rows: folded

@@ -157,3 +157,32 @@ def test_write_gif_into_a_folder_is_refused_and_leaves_no_temporary_file(tmp_pat
         write_gif(frames, target)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["video.gif"]
     assert list(target.iterdir()) == []
+
+
+def test_caption_frame_names_the_design_and_rings_the_goal(env):
+    from benchmarks.design.video import caption_frame
+
+    env.reset(seed=0)
+    frame = env.render()
+    captioned = caption_frame(
+        frame, "tool C = (0, 0, 0), F = 8,611   t = 0.0 s of 14.2 s", (0.0, 1.5, 0.1)
+    )
+    assert captioned.shape == (360 + 44, 480, 3) and captioned.dtype == np.uint8
+    # The frame itself is kept, but for the ring and the word "goal".
+    assert np.mean(np.all(captioned[22:-22] == frame, axis=2)) > 0.95
+    # The caption strip and the key hold dark text; the goal is ringed in red on the frame.
+    assert np.mean(captioned[:22] < 100) > 0.01 and np.mean(captioned[-22:] < 100) > 0.01
+    ring = np.all(np.abs(captioned[22:-22].astype(int) - (200, 0, 0)) < 30, axis=2)
+    assert ring.sum() > 20
+    # A frame without the goal is captioned, with nothing ringed.
+    empty = caption_frame(np.full((360, 480, 3), 200, np.uint8), "x", None)
+    assert not np.any(np.all(np.abs(empty[22:-22].astype(int) - (200, 0, 0)) < 30, axis=2))
+
+
+@pytest.mark.slow
+def test_rollout_gif_frames_carry_the_caption(tmp_path):
+    from PIL import Image
+
+    gif = rollout_gif([0.0, 0.0, 0.0], tmp_path / "r.gif", frames=2)
+    with Image.open(gif) as im:
+        assert im.size == (480, 404) and im.n_frames == 2

@@ -117,6 +117,17 @@ def _check_bounds(bounds: Any) -> np.ndarray:
         raise ValueError(f"bounds must be numbers that fit a float64, got {bounds!r}") from None
 
 
+def _render_modes_here() -> list[str]:
+    """The render modes of ``ToolDesign-v0`` that work on this machine, as ``metadata`` lists.
+
+    ``"rgb_array"`` always (a software renderer); ``"human"`` (PyBullet's window) only where it
+    can open: on Linux with an X display (``DISPLAY`` set), elsewhere always.
+    """
+    if sys.platform.startswith("linux") and not os.environ.get("DISPLAY"):
+        return ["rgb_array"]
+    return ["human", "rgb_array"]
+
+
 def default_bounds(degree: int) -> np.ndarray:
     """Coefficient bounds (degree, 2): +-1.5 for every coefficient but the linear one, +-0.5.
 
@@ -240,7 +251,9 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
     ``render()`` returns a (360, 480, 3) uint8 frame of the scene with the goal as a green sphere,
     after a step also the arm, the tool and the box path as a blue line; ``render_rollout()``
     returns frames of the last rollout (for a GIF: ``benchmarks.design.video.write_gif``).
-    ``render_mode="human"`` opens PyBullet's window and needs a display.
+    ``render_mode="human"`` opens PyBullet's window and needs a display: ``metadata`` of an
+    instance lists it only where one is (``DISPLAY`` set on Linux), so that Gymnasium's
+    ``check_env`` passes headless; the class's ``metadata`` lists both modes.
 
     ## Version History
 
@@ -276,13 +289,15 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
                 f"render_mode must be None or one of {self.metadata['render_modes']}, "
                 f"got {render_mode!r}"
             )
-        if render_mode == "human" and sys.platform.startswith("linux"):
-            if not os.environ.get("DISPLAY"):
-                # PyBullet's GUI ends the whole process when it finds no X server.
-                raise RuntimeError(
-                    "render_mode='human' opens a PyBullet window and needs a display, but "
-                    "DISPLAY is not set; use render_mode='rgb_array' on a headless machine"
-                )
+        if render_mode == "human" and "human" not in _render_modes_here():
+            # PyBullet's GUI ends the whole process when it finds no X server.
+            raise RuntimeError(
+                "render_mode='human' opens a PyBullet window and needs a display, but "
+                "DISPLAY is not set; use render_mode='rgb_array' on a headless machine"
+            )
+        # The modes that work on this machine: Gymnasium's check_env makes the env in every
+        # mode its metadata lists, so "human" is listed only where a window can open.
+        self.metadata = {**type(self).metadata, "render_modes": _render_modes_here()}
         for name, value, kind in (
             ("tool", tool, ToolSpec),
             ("scene", scene, SceneSpec),

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -33,6 +34,14 @@ RL_SIZES = ("smoke", "short", "full")
 PROTOCOL_SUITE_NAME = "protocol"  # benchmarks.protocol.PROTOCOL_SUITE_NAME and its sizes
 PROTOCOL_SIZES = ("smoke", "quick", "full")
 RETEST_NUDGES, RETEST_REPEATS = 5, 3
+
+#: ``tooldesign_env.default_bounds`` (+-1.5, the linear coefficient +-0.5), ``ACTION_ROUNDING``,
+#: ``COEFFICIENT_MAX`` and the geometry's ``DEGREE_MAX``, spelled out so that a design outside
+#: the bounds is refused before the simulation is imported (a test checks that they agree).
+COEFFICIENT_BOUND, LINEAR_BOUND = 1.5, 0.5
+ACTION_ROUNDING = 1e-6
+COEFFICIENT_MAX = 1e3
+DEGREE_MAX = 20
 
 
 def _max_retries(text: str) -> int:
@@ -197,3 +206,44 @@ def add_task_arguments(parser: argparse.ArgumentParser, *, section_default: str 
         "the chaos of pushing; costs K rollouts per design (1 to 64, default: %(default)s)",
     )
     add_scene_argument(parser, "for every evaluation")
+
+
+def check_out_folder(out: Path, *, empty: bool = False) -> None:
+    """Refuse an ``--out`` that is a file (or, with ``empty``, a folder with files) up front.
+
+    The same words as the library's own checks (``benchmarks.storage.check_out_dir`` and
+    ``evaluate_coefficients``), said before the command imports the simulation and the
+    plotting, which takes seconds.
+
+    Raises:
+        ValueError: ``out`` is an existing file, or (``empty``) a folder that is not empty.
+    """
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"--out {out} is a file; give a folder for the run")
+    if empty and out.is_dir() and any(out.iterdir()):
+        raise ValueError(
+            f"--out {out} exists and is not empty; tooldesign evaluate writes a folder of its "
+            "own: give a new folder, or delete this one first"
+        )
+
+
+def check_in_default_bounds(coeffs: Sequence[float]) -> None:
+    """Refuse a design outside the default bounds as ``tooldesign evaluate`` does, but early.
+
+    Only a design of 1 to ``DEGREE_MAX`` finite coefficients is checked here; anything else is
+    left to the library's checks, which say what is wrong with it.
+
+    Raises:
+        ValueError: the message of ``evaluate_coefficients`` for a design outside the bounds.
+    """
+    values = [float(c) for c in coeffs]
+    if not 1 <= len(values) <= DEGREE_MAX or not all(math.isfinite(v) for v in values):
+        return
+    bounds = [[-COEFFICIENT_BOUND, COEFFICIENT_BOUND] for _ in values]
+    bounds[-1] = [-LINEAR_BOUND, LINEAR_BOUND]
+    slack = [ACTION_ROUNDING * max(max(abs(lo), abs(hi)), hi - lo) for lo, hi in bounds]
+    if any(v < lo - d or v > hi + d for v, (lo, hi), d in zip(values, bounds, slack, strict=True)):
+        raise ValueError(
+            f"design {values} is outside the default bounds {bounds} (as env.step "
+            "refuses it); pass --outside-bounds (API: outside_bounds=True) to evaluate it anyway"
+        )

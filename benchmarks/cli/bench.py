@@ -20,6 +20,7 @@ from benchmarks.cli._common import (
     SIZES,
     add_max_retries_argument,
     add_scene_argument,
+    check_out_folder,
     out_path,
     unique_pairs,
 )
@@ -167,6 +168,15 @@ def _run(args: argparse.Namespace) -> int:
     ):
         if _given(args, names):
             raise ValueError(f"{_given(args, names)}: for the {suite} suite only")
+    # Before the suites, the simulation and the plotting are imported (seconds): the same
+    # refusals as theirs, at once.
+    if args.config is None and args.suite is not None and args.suite not in BUILTIN_SUITES:
+        raise ValueError(
+            f"unknown suite {args.suite!r}; built-in suites: {', '.join(BUILTIN_SUITES)} (or "
+            "give a suite file with --config)"
+        )
+    if args.dump_config is None:
+        check_out_folder(args.out)
     from benchmarks.reports import make_suite_report
     from benchmarks.suites import run_suite, save_suite, summary_text
 

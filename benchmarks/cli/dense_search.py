@@ -6,7 +6,7 @@ import argparse
 import time
 from typing import Any, cast
 
-from benchmarks.cli._common import add_task_arguments, out_path, unique_pairs
+from benchmarks.cli._common import add_task_arguments, check_out_folder, out_path, unique_pairs
 from benchmarks.execution import EXECUTORS
 
 
@@ -41,6 +41,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 
 def _run(args: argparse.Namespace) -> int:
+    check_out_folder(args.out)  # before the simulation is imported (seconds)
     from benchmarks.design import DesignConfig
     from benchmarks.suites.dense_search import best_designs, dense_search
 

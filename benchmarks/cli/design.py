@@ -11,6 +11,7 @@ from benchmarks.cli._common import (
     DEFAULT_SECTION_SHAPE,
     add_max_retries_argument,
     add_task_arguments,
+    check_out_folder,
     out_path,
     unique_pairs,
 )
@@ -127,7 +128,11 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         help="optimizer setting (JSON value or word), repeatable, e.g. --option sigma0=0.3",
     )
     parser.add_argument("--resume", action="store_true", help="continue the run in --out")
-    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument(
+        "--no-progress",
+        action="store_true",
+        help="no progress bar, and no status line for the phases after it",
+    )
     parser.add_argument(
         "--no-video", action="store_true", help="do not write rollout.gif (saves about 20 s)"
     )
@@ -252,11 +257,41 @@ def _counts_text(counts: dict[str, int]) -> str:
     return text
 
 
+def _check_optimizer(name: str | None) -> None:
+    """Refuse an unknown optimizer name now, as ``optimizers.make`` would once the run starts."""
+    from optimizers import make, registry
+
+    if name is None or not name.strip() or ":" in name or name in registry.available():
+        # A known name (a plugin string is imported and checked when the run starts), or an
+        # empty one, which _designer refuses in its own words.
+        return
+    make(name)  # raises: unknown (ValueError), or its backend is not installed (ImportError)
+
+
+def _straight_text(free_energy: float, straight: dict[str, Any]) -> str:
+    """One line: F against the straight tool's, or nothing if it has no score."""
+    theirs = straight.get("free_energy")
+    if straight.get("status") != "ok" or not isinstance(theirs, float) or theirs == 0:
+        return ""
+    change = 100.0 * (free_energy - theirs) / abs(theirs)
+    return (
+        f"straight tool (C = 0) on the same task: F = {theirs:.6g}; the design's F is "
+        f"{abs(change):.1f} % {'lower' if change < 0 else 'higher'}\n"
+    )
+
+
 def _run(args: argparse.Namespace) -> int:
+    # Bad input is refused in well under a second, before the run imports the simulation,
+    # pandas and the plotting (seconds on a busy machine): the folder, the optimizer's name,
+    # then every setting (DesignConfig).
+    check_out_folder(args.out)
+    if args.policy is None:
+        _check_optimizer(args.optimizer)
+    config = config_from_args(args)
     from benchmarks.design import run_design
+    from benchmarks.design.progress import phase
     from benchmarks.reports import write_design_report
 
-    config = config_from_args(args)
     result = run_design(
         config,
         args.out,
@@ -264,13 +299,18 @@ def _run(args: argparse.Namespace) -> int:
         progress=not args.no_progress,
         video=not args.no_video,
     )
-    write_design_report(result.out_dir)
+    with phase(
+        f"design {config.optimizer}: drawing Figure 3, robustness.png and report.html",
+        enabled=not args.no_progress,
+    ):
+        write_design_report(result.out_dir)
     coeffs = ", ".join(repr(float(c)) for c in result.coefficients)
     print(
         f"best design: C = ({coeffs}), F = {result.free_energy!r} "
         f"(goal error {result.goal_error:.6g}, confidence {result.confidence:.6g}, "
         f"final distance {result.final_distance:.4g} m), iteration {result.iteration}, "
         f"candidate {result.candidate}\n{_counts_text(result.card['evaluations'])}\n"
-        f"run folder: {result.out_dir}"
+        f"{_straight_text(result.free_energy, result.straight_tool)}"
+        f"run folder: {result.out_dir} (open report.html there)"
     )
     return 0

@@ -6,7 +6,13 @@ import argparse
 import sys
 from typing import Any
 
-from benchmarks.cli._common import add_task_arguments, out_path, unique_pairs
+from benchmarks.cli._common import (
+    add_task_arguments,
+    check_in_default_bounds,
+    check_out_folder,
+    out_path,
+    unique_pairs,
+)
 
 
 def add_parser(subparsers: Any) -> None:
@@ -51,6 +57,11 @@ def add_parser(subparsers: Any) -> None:
 
 
 def _run(args: argparse.Namespace) -> int:
+    # Bad input is refused in well under a second, before the simulation and the plotting are
+    # imported (seconds on a busy machine); the library checks everything again.
+    check_out_folder(args.out, empty=True)
+    if not args.outside_bounds:
+        check_in_default_bounds(args.coeffs)
     import numpy as np
 
     from benchmarks.design.evaluate import evaluate_coefficients

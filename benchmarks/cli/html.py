@@ -26,6 +26,8 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 
 def _run(args: argparse.Namespace) -> int:
+    if not args.folder.is_dir():  # before the imports (pandas: a second)
+        raise FileNotFoundError(f"{args.folder} is not a folder")
     from benchmarks.reports import write_html_report
 
     path = write_html_report(args.folder, out=args.out)

@@ -41,6 +41,8 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 
 def _run(args: argparse.Namespace) -> int:
+    if not args.results.is_dir():  # before the imports (seconds)
+        raise ValueError(f"no results folder {args.results}")
     from benchmarks.reports import make_suite_report
     from benchmarks.reports.reproduction import SQUARE, SUITES, reproduction_page
     from benchmarks.storage import atomic_write_text

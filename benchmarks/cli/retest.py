@@ -95,6 +95,8 @@ def _check_counts(args: argparse.Namespace) -> int:
 
 def _run(args: argparse.Namespace) -> int:
     repeats = _check_counts(args)  # before the folder is read: a bad flag is named first
+    if not Path(args.run_folder).is_dir():  # before the imports (seconds)
+        raise FileNotFoundError(f"run folder {args.run_folder} does not exist or is not a folder")
     from benchmarks.reports.retest import noise_floor
     from benchmarks.storage import RETEST_DIR, read_retests
     from benchmarks.suites.config import suite_of_manifest

@@ -17,6 +17,7 @@ import json
 import math
 import sys
 import warnings
+from pathlib import Path
 from typing import Any, cast
 
 from benchmarks.cli._common import out_path
@@ -92,6 +93,8 @@ def _run(args: argparse.Namespace) -> int:
         )
         print(json.dumps(report), flush=True)
         return 0
+    if not Path(args.policy).is_file():  # before the simulation is imported (seconds)
+        raise FileNotFoundError(f"no policy card {args.policy}: give a .json card of a policy")
     from benchmarks.rl.policies import design_for_goal
 
     with warnings.catch_warnings(record=True) as caught:

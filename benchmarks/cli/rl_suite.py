@@ -88,6 +88,9 @@ def run_rl_command(args: argparse.Namespace, *, default_size: str) -> int:
     Raises:
         ValueError / TypeError: bad input (one line for the command line).
     """
+    from benchmarks.cli._common import check_out_folder
+
+    check_out_folder(args.out)  # before the suite's imports (seconds)
     from benchmarks.reports import make_suite_report
     from benchmarks.rl import rl_suite_config, rl_summary_text, run_rl_suite
     from benchmarks.rl.suite import FIXED_METHODS, MASS_RANGE, PARTS

@@ -32,6 +32,7 @@ import numpy as np
 import pandas as pd
 
 from benchmarks.design.config import ADDED_FIELDS, DESIGN_SUITE, RUNTIME_FIELDS, DesignConfig
+from benchmarks.design.progress import phase
 from benchmarks.design.stepper import DesignStepper, best_evaluation, iteration_bests
 from benchmarks.execution import (
     RobustnessRequest,
@@ -85,6 +86,8 @@ class DesignResult:
         evaluations: The evaluation log (one row per evaluation, ``ResultStore.read`` format).
         robustness: ``robustness.json`` as a dict.
         card: ``design.json`` as a dict.
+        straight_tool: The straight tool's (C = 0) F, terms and status on the same task, as
+            ``design.json`` stores them under ``straight_tool``.
     """
 
     out_dir: Path
@@ -100,6 +103,7 @@ class DesignResult:
     evaluations: pd.DataFrame
     robustness: dict[str, Any]
     card: dict[str, Any]
+    straight_tool: dict[str, Any] = dataclasses.field(default_factory=dict)
 
 
 def _logged_iterations(
@@ -179,7 +183,9 @@ def run_design(
         ) as executor:
             session.start()
             evaluations = _iterate(config, session, stepper, logged, executor, progress)
-            result = _finish(config, out, store, evaluations, executor)
+            what = "meshes, box paths and robustness test of the final tool"
+            with phase(f"design {config.optimizer}: {what}", enabled=progress):
+                result = _finish(config, out, store, evaluations, executor)
             for name in ("robustness", "box_paths"):
                 session.record_file(out / DESIGN_RUN_FILES[name])  # in the manifest of finish()
         manifest = session.finish(evaluations)  # the card and the GIF come after
@@ -187,7 +193,8 @@ def run_design(
         # The session has written its last manifest: the card's checksum is added to it.
         session.write_file(out / DESIGN_RUN_FILES["card"], json_text(card))
         if video and result.status == "ok":
-            _video(config, result.coefficients, out / DESIGN_RUN_FILES["video"])
+            with phase(f"design {config.optimizer}: rendering rollout.gif", enabled=progress):
+                _video(config, result.coefficients, out / DESIGN_RUN_FILES["video"])
     return dataclasses.replace(result, card=card)
 
 
@@ -278,7 +285,12 @@ def _finish(
     # and store them for the figures (which are made from stored files only).
     bests = iteration_bests(evaluations)
     designs = [_coeffs(row, degree) for _, row in bests.iterrows()]
-    rows = evaluate_batch(executor, designs, config.task(), keep_trajectory=True)
+    # The straight tool (C = 0) in the same batch: the yardstick report.html sets the design
+    # beside, scored on the run's own task.
+    rows = evaluate_batch(
+        executor, [*designs, np.zeros(degree)], config.task(), keep_trajectory=True
+    )
+    straight = _straight_tool(rows.pop(), degree)
     robustness = _robustness(config, best, coeffs, executor)
     atomic_write_text(out / DESIGN_RUN_FILES["robustness"], json_text(_without_paths(robustness)))
     paths = {
@@ -304,7 +316,19 @@ def _finish(
         evaluations=evaluations,
         robustness=_without_paths(robustness),
         card={},
+        straight_tool=straight,
     )
+
+
+def _straight_tool(row: Mapping[str, Any], degree: int) -> dict[str, Any]:
+    """The straight tool's entry of ``design.json``: its F, terms and status on the run's task."""
+    entry: dict[str, Any] = {"coefficients": [0.0] * degree}
+    for key in ("free_energy", "goal_error", "confidence", "final_distance"):
+        value = float(row.get(key, math.nan))
+        entry[key] = value if math.isfinite(value) else None
+    entry["status"] = str(row.get("status", "failed"))
+    entry["message"] = str(row.get("message") or "")
+    return entry
 
 
 def _video(config: DesignConfig, coeffs: np.ndarray, path: Path) -> None:
@@ -400,6 +424,7 @@ def _card(
             "buildable": bool(geometry.buildable),
         },
         "robustness": {k: result.robustness.get(k) for k in (*ROBUSTNESS_METRICS, "masses")},
+        "straight_tool": result.straight_tool,
         "seed": config.seed,
         "config": config.to_json(),
         "evaluations": {

@@ -77,9 +77,9 @@ def _panel_curves(
             linewidth=3.5,
             spec=spec,
         )
-        ax.legend(frameon=False, fontsize="small")
+        plots.legend(ax)
     _iteration_colorbar(ax, bests["iteration"].tolist())
-    ax.set_title("a) best tool of each iteration")
+    ax.set_title("a) best tool of each iteration (centrelines, m)")
 
 
 def _panel_free_energy(ax: Any, evaluations: pd.DataFrame, bests: pd.DataFrame) -> None:
@@ -90,24 +90,65 @@ def _panel_free_energy(ax: Any, evaluations: pd.DataFrame, bests: pd.DataFrame) 
     )
     so_far = evaluations.groupby("iteration", sort=True)["best_so_far"].last()
     ax.step(so_far.index, so_far.to_numpy(), where="post", color="black", label="best so far")
+    scale = ""
     if len(bests) and len(ok):
         # Every evaluation stays visible. A bad candidate can score 100 times the good ones;
-        # then a symmetric-log axis keeps the iteration bests readable without clipping it.
+        # then a log (or, with F <= 0, symmetric-log) axis keeps the iteration bests readable
+        # without clipping it.
         low = float(ok["free_energy"].min())
         top = float(ok["free_energy"].max())
         spread = float(np.nanmax([bests["free_energy"].max(), low])) - low
-        if top - low > 10.0 * max(spread, 1.0):
-            ax.set_yscale("symlog", linthresh=max(abs(low), spread, 1.0))
         margin = 0.05 * max(top - low, abs(top), 1.0)
-        ax.set_ylim(low - margin, top + margin)
+        if top - low > 10.0 * max(spread, 1.0):
+            if low > 0:
+                ax.set_yscale("log")
+                ax.set_ylim(low / 1.05, top * 1.05)
+                scale = ", log scale"
+            else:
+                ax.set_yscale("symlog", linthresh=max(abs(low), spread, 1.0))
+                ax.set_ylim(low - margin, top + margin)
+                scale = ", symmetric log scale"
+            _readable_log_ticks(ax, low, top)
+        else:
+            ax.set_ylim(low - margin, top + margin)
     ax.set_xlabel("iteration")
-    ax.set_ylabel("free energy F (dimensionless)")
+    ax.set_ylabel(f"F (dimensionless{scale})")
     from matplotlib.ticker import MaxNLocator
 
     ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     ax.grid(True, alpha=0.3)
     ax.legend(frameon=False, fontsize="small")
-    ax.set_title("b) free energy per iteration")
+    ax.set_title("b) free energy F per iteration (dimensionless)")
+
+
+def _readable_log_ticks(ax: Any, low: float, top: float) -> None:
+    """About 5 to 8 labelled ticks on a log F axis, as plain numbers (8,000, not 8x10^3).
+
+    Matplotlib labels only the powers of ten, so a range within one decade (F from 8000 to
+    15000) showed a single label, 10^4.
+    """
+    from matplotlib.ticker import FixedLocator, FuncFormatter, MaxNLocator, NullLocator
+
+    low, top = max(low, 1e-12), max(top, low * 1.0001)
+    decades = math.log10(top / low)
+    subs = (1.0, 2.0, 5.0) if decades > 1.5 else tuple(float(k) for k in range(1, 10))
+    if decades > 4:
+        subs = (1.0,)
+    ticks: list[float] = []
+    for power in range(math.floor(math.log10(low)) - 1, math.ceil(math.log10(top)) + 1):
+        ticks.extend(sub * 10.0**power for sub in subs)
+    inside = [t for t in ticks if low / 1.05 <= t <= top * 1.05]
+    if decades <= 1.0:  # within a decade: evenly spaced round numbers read best
+        values = MaxNLocator(nbins=7, steps=[1, 2, 2.5, 5, 10]).tick_values(low, top)
+        below = [float(t) for t in values if 0 < t <= low]
+        if below:  # a labelled tick under the best F, which is the one read
+            ax.set_ylim(below[-1], ax.get_ylim()[1])
+        inside = [float(t) for t in values if (below[-1] if below else low) <= t <= top * 1.05]
+    while len(inside) > 9:
+        inside = inside[::2]
+    ax.yaxis.set_major_locator(FixedLocator(inside))
+    ax.yaxis.set_minor_locator(NullLocator())
+    ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:,.6g}"))
 
 
 def _panel_paths(
@@ -117,14 +158,14 @@ def _panel_paths(
     labels: list[str] | None,
     goal: Sequence[float],
 ) -> None:
-    plots.plot_box_paths(ax, paths, goal, labels, colors=plots.sequential_colors(len(paths)))
     k = _best_index(bests)
     if k is not None and len(paths[k]):
+        # Under the markers: the goal star stays visible on top of the thick path.
         path = np.asarray(paths[k])
-        ax.plot(path[:, 0], path[:, 1], color="red", linewidth=3.0, label="best tool")
-        ax.legend(frameon=False, fontsize="small")
+        ax.plot(path[:, 0], path[:, 1], color="red", linewidth=3.0, label="best tool", zorder=3)
+    plots.plot_box_paths(ax, paths, goal, labels, colors=plots.sequential_colors(len(paths)))
     _iteration_colorbar(ax, bests["iteration"].tolist())
-    ax.set_title("c) box paths of the best tools (top view)")
+    ax.set_title("c) box paths of the best tools, top view (m)")
 
 
 def _panel_tool(ax: Any, coeffs: np.ndarray, free_energy: float | None, spec: Any) -> None:
@@ -147,10 +188,21 @@ def _panel_tool(ax: Any, coeffs: np.ndarray, free_energy: float | None, spec: An
         axis = capsule.half_length * np.array([math.cos(capsule.yaw), math.sin(capsule.yaw)])
         for end in (np.asarray(capsule.center)[:2] - axis, np.asarray(capsule.center)[:2] + axis):
             ax.add_patch(Circle(tuple(end), capsule.radius, **style))
-    plots.plot_tool_shapes(ax, [coeffs], colors=["black"], linewidth=0.8, spec=spec)
+    plots.plot_tool_shapes(ax, [coeffs], ["centreline"], colors=["black"], linewidth=0.8, spec=spec)
+    from matplotlib.patches import Patch
+
+    handles, names = ax.get_legend_handles_labels()
+    kind = "capsules" if geometry.capsules else "boxes"
+    shape = Patch(
+        facecolor="tab:orange",
+        edgecolor="0.3",
+        lw=0.5,
+        label=f"collision {kind} from above ({spec.section:g} m section)",
+    )
+    ax.legend([*handles, shape], [*names, shape.get_label()], frameon=False, fontsize="small")
     text = ", ".join(f"{v:.3g}" for v in coeffs)
-    energy = "n/a" if free_energy is None else f"{float(free_energy):.4g}"
-    ax.set_title(f"d) final tool: C = ({text}), F = {energy}")
+    energy = "n/a" if free_energy is None else f"{float(free_energy):,.0f}"
+    ax.set_title(f"d) final tool, F = {energy} (dimensionless)\nC = ({text})")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -199,8 +251,7 @@ def _config_fields(folder: Path) -> tuple[tuple[float, float, float], Any]:
         isinstance(bounds, list)
         and bounds
         and all(
-            isinstance(b, list) and len(b) == 2 and all(finite_number(v) for v in b)
-            for b in bounds
+            isinstance(b, list) and len(b) == 2 and all(finite_number(v) for v in b) for b in bounds
         )
     ):
         raise bad(
@@ -329,9 +380,13 @@ def write_design_report(
             for x in [stored["nominal"], *stored["perturbed"]]
         ]
         plots.plot_box_paths(ax, trajectories, goal, names, colors=colors)
+        steps = max(len(trajectories[0]), 1)
+        mean = abs(float(robustness["robustness"])) / (max(len(masses), 1) * steps)
         ax.set_title(
-            f"robustness {robustness['robustness']:.4g} under box-mass changes\n"
-            "(- sum over masses and control steps of the path deviation in m)",
+            f"final tool's box paths at {len(masses) + 1} box masses (top view, m)\n"
+            f"mean deviation from the nominal path: {1000.0 * mean:.3g} mm per step\n"
+            f"robustness = {robustness['robustness']:,.1f} m (sum over {len(masses)} masses "
+            f"x {steps} steps)",
             fontsize="medium",
         )
     written.append(plots.save_png(figure, out / DESIGN_RUN_FILES["robustness_png"]))

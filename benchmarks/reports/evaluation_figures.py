@@ -50,7 +50,8 @@ def write_evaluation_figures(folder: str | os.PathLike[str]) -> list[Path]:
     spec = ToolSpec(degree=coeffs.size, section_shape=shape)
     fig, ax = new_figure()
     plot_tool_shapes(ax, [coeffs], spec=spec)
-    ax.set_title(f"tool C = {np.round(coeffs, 3).tolist()}")
+    text = ", ".join(f"{v:.3g}" for v in coeffs)
+    ax.set_title(f"tool C = ({text}): centreline, tool frame (m)")
     written.append(save_png(fig, out / "tool_shape.png"))
     table_path = out / "trajectory.csv"
     if not terms["valid"] or not table_path.is_file():
@@ -58,7 +59,7 @@ def write_evaluation_figures(folder: str | os.PathLike[str]) -> list[Path]:
     table = pd.read_csv(table_path)
     fig, ax = new_figure()
     plot_box_paths(ax, [table[["box_x", "box_y", "box_z"]].to_numpy()], goal)
-    ax.set_title(f"box path, final distance {terms['final_distance']:.3f} m")
+    ax.set_title(f"box path, top view (m): final distance {terms['final_distance']:.3f} m")
     written.append(save_png(fig, out / "box_path.png"))
     fig, ax = new_figure()
     plot_time_series(
@@ -71,16 +72,17 @@ def write_evaluation_figures(folder: str | os.PathLike[str]) -> list[Path]:
         },
         ylabel="term per control step (dimensionless; F = sum of F_t)",
     )
-    ax.set_title(f"F = {terms['free_energy']:.4g}")
+    ax.set_title(f"F = {terms['free_energy']:,.0f} (dimensionless): its terms per control step")
     written.append(save_png(fig, out / "free_energy.png"))
     paths_file = out / "box_paths.json"
     if paths_file.is_file():
         stored = json.loads(paths_file.read_text(encoding="utf-8"))
         fig, ax = new_figure()
         paths = [np.asarray(p) for p in [stored["nominal"], *stored["perturbed"]]]
-        labels = [f"{stored['nominal_mass']} kg"] + [f"{m} kg" for m in stored["masses"]]
+        labels = [f"m = {stored['nominal_mass']:g} kg (nominal)"]
+        labels += [f"m = {m:g} kg" for m in stored["masses"]]
         plot_box_paths(ax, paths, goal, labels)
-        ax.set_title("box paths under altered box masses")
+        ax.set_title("box paths at altered box masses, top view (m)")
         written.append(save_png(fig, out / "robustness.png"))
     return written
 

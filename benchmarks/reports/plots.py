@@ -27,6 +27,7 @@ from benchmarks.reports.comparison import DPI, figure_png_bytes, new_figure
 from benchmarks.storage import atomic_write_bytes
 
 __all__ = [
+    "legend",
     "new_figure",
     "new_figure_grid",
     "plot_box_paths",
@@ -97,6 +98,7 @@ def plot_tool_shapes(
     colors: Sequence[object] | None = None,
     linewidth: float = 2.0,
     spec: object | None = None,
+    key: bool = True,
 ) -> Axes:
     """Draw tool centrelines (handle and curve) in the tool frame, equal axes.
 
@@ -107,6 +109,8 @@ def plot_tool_shapes(
         colors: One colour per tool; default :func:`sequential_colors` (early to late).
         linewidth: Line width in points.
         spec: A ``tooldesign_env.ToolSpec``; the paper's tool if ``None``.
+        key: Name the grasp-point marker (a "+" at the origin) in the legend; False for
+            small multiples that share one key.
 
     Returns:
         ``ax``, with x and y in m in the tool frame (origin at the grasp point).
@@ -119,13 +123,51 @@ def plot_tool_shapes(
     for coeffs, label, color in zip(designs, names, palette, strict=True):
         line = np.asarray(make_tool(coeffs, spec).centerline)  # type: ignore[arg-type]
         ax.plot(line[:, 0], line[:, 1], color=color, linewidth=linewidth, label=label)
-    ax.plot([0.0], [0.0], marker="+", color="black", markersize=8, linestyle="none")
+    ax.plot(
+        [0.0],
+        [0.0],
+        marker="+",
+        color="black",
+        markersize=8,
+        linestyle="none",
+        zorder=5,
+        label=GRASP_LABEL if key and GRASP_LABEL not in _legend_labels(ax) else None,
+    )
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("x, tool frame (m)")
     ax.set_ylabel("y, tool frame (m)")
     ax.grid(True, alpha=0.3)
-    if labels is not None and designs:
-        ax.legend(frameon=False, fontsize="small")
+    if key or (labels is not None and designs):
+        legend(ax)
+    return ax
+
+
+#: The legend entries of the markers every tool and box-path figure draws.
+GRASP_LABEL = "grasp point (tool-frame origin)"
+START_LABEL = "box start"
+END_LABEL = "box end"
+GOAL_LABEL = "goal X^g"
+
+
+def _legend_labels(ax: Axes) -> set[str]:
+    return {str(line.get_label()) for line in ax.get_lines()}
+
+
+def legend(ax: Axes) -> Axes:
+    """The axes' legend, its lines first and the markers' key (start, end, goal, grasp) last.
+
+    Args:
+        ax: Axes drawn by :func:`plot_tool_shapes` or :func:`plot_box_paths` (and others).
+
+    Returns:
+        ``ax``.
+    """
+    handles, labels = ax.get_legend_handles_labels()
+    keys = (GRASP_LABEL, START_LABEL, END_LABEL, GOAL_LABEL)
+    order = sorted(range(len(labels)), key=lambda i: any(labels[i].startswith(k) for k in keys))
+    ax.legend(
+        [handles[i] for i in order], [labels[i] for i in order], frameon=False, fontsize="small"
+    )
     return ax
 
 
@@ -137,6 +179,7 @@ def plot_box_paths(
     *,
     colors: Sequence[object] | None = None,
     linewidth: float = 1.5,
+    key: bool = True,
 ) -> Axes:
     """Draw box paths seen from above, with start, end and goal markers.
 
@@ -148,9 +191,12 @@ def plot_box_paths(
         labels: One legend label per path, or ``None`` for no legend.
         colors: One colour per path; default :func:`sequential_colors`.
         linewidth: Line width in points.
+        key: Name the start, end and goal markers in the legend; False for small multiples
+            that share one key.
 
     Returns:
-        ``ax``, x and y in m, equal axes; starts are black circles, ends black crosses.
+        ``ax``, x and y in m, equal axes; starts are black circles, ends black crosses, the
+        goal a red star drawn above the paths.
     """
     paths = [np.asarray(t, dtype=np.float64) for t in trajectories]
     for index, path in enumerate(paths):
@@ -159,19 +205,45 @@ def plot_box_paths(
     names = _labels(labels, len(paths), "path")
     palette = _colors(colors, len(paths))
     goal_xy = np.asarray(goal, dtype=np.float64)[:2]
+    named = _legend_labels(ax) if key else {START_LABEL, END_LABEL, GOAL_LABEL}
     for path, label, color in zip(paths, names, palette, strict=True):
         if len(path) == 0:
             continue
-        ax.plot(path[:, 0], path[:, 1], color=color, linewidth=linewidth, label=label)
-        ax.plot(path[0, 0], path[0, 1], marker="o", color="black", markersize=5, linestyle="none")
-        ax.plot(path[-1, 0], path[-1, 1], marker="x", color="black", markersize=7, linestyle="none")
-    ax.plot(goal_xy[0], goal_xy[1], marker="*", color="red", markersize=14, linestyle="none")
+        ax.plot(path[:, 0], path[:, 1], color=color, linewidth=linewidth, label=label, zorder=2)
+        for point, marker, size, name in (
+            (path[0], "o", 5, START_LABEL),
+            (path[-1], "x", 7, END_LABEL),
+        ):
+            ax.plot(
+                point[0],
+                point[1],
+                marker=marker,
+                color="black",
+                markersize=size,
+                linestyle="none",
+                zorder=4,
+                label=None if name in named else name,
+            )
+            named.add(name)
+    goal_name = f"{GOAL_LABEL} = ({goal_xy[0]:g}, {goal_xy[1]:g}) m"
+    ax.plot(
+        goal_xy[0],
+        goal_xy[1],
+        marker="*",
+        color="red",
+        markeredgecolor="black",
+        markeredgewidth=0.6,
+        markersize=15,
+        linestyle="none",
+        zorder=6,  # above every path, the thick one of the best tool too
+        label=None if GOAL_LABEL in named or any(GOAL_LABEL in n for n in named) else goal_name,
+    )
     ax.set_aspect("equal", adjustable="datalim")
-    ax.set_xlabel("x (m)")
-    ax.set_ylabel("y (m)")
+    ax.set_xlabel("x, world frame (m)")
+    ax.set_ylabel("y, world frame (m)")
     ax.grid(True, alpha=0.3)
-    if labels is not None and any(len(p) for p in paths):
-        ax.legend(frameon=False, fontsize="small")
+    if key or (labels is not None and any(len(p) for p in paths)):
+        legend(ax)
     return ax
 
 

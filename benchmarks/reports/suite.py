@@ -320,10 +320,12 @@ def _tool_shapes(
     figure, axes = plots.new_figure_grid(2, n, figsize=(2.7 * n, height))
     for column, ((_, record), color) in enumerate(zip(chosen, colors, strict=True)):
         title = f"{_variant_name(record)}\nF = {_fmt(record['free_energy'])}"
-        plots.plot_tool_shapes(axes[0, column], [record["coefficients"]], colors=[color])
+        # The markers are named once, in the first column's legends.
+        key = column == 0
+        plots.plot_tool_shapes(axes[0, column], [record["coefficients"]], colors=[color], key=key)
         axes[0, column].set_title(title, fontsize="small")
         path = np.asarray(record["paths"]["nominal"], dtype=np.float64)
-        plots.plot_box_paths(axes[1, column], [path], record["goal"], colors=[color])
+        plots.plot_box_paths(axes[1, column], [path], record["goal"], colors=[color], key=key)
         final = np.linalg.norm(path[-1] - np.asarray(record["goal"])) if len(path) else math.nan
         axes[1, column].set_title(f"box ends {_fmt(final, 3)} m from goal", fontsize="small")
     # One scale for every tool and every path, so shapes compare at a glance.
