@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import json
 import re
 import shutil
@@ -13,6 +14,7 @@ from PIL import Image
 
 from benchmarks.cli import main
 from benchmarks.reports.html import REPORT_FILE, write_html_report
+from benchmarks.storage.manifest import FILE_CHECKSUMS
 
 BROWSERS = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable")
 
@@ -331,6 +333,14 @@ def _design_folder(folder, *, straight=True, iterations=15, batch=8):
         "error": "",
     }
     (folder / "robustness.json").write_text(json.dumps(robustness))
+    # The manifest records every file a design run writes, the evaluation log among them: the
+    # report shows only files that match their checksums (docs/reliability.md, trust model).
+    recorded = sorted(p.name for p in folder.iterdir())
+    checksums = {
+        name: hashlib.sha256((folder / name).read_bytes()).hexdigest() for name in recorded
+    }
+    manifest = {"extra": {"kind": "design", FILE_CHECKSUMS: checksums}}
+    (folder / "manifest.json").write_text(json.dumps(manifest))
     return folder
 
 
@@ -458,8 +468,8 @@ def test_a_suite_report_leads_with_its_summary_then_its_figures(tmp_path):
     ]
     assert order == sorted(order)
     assert "<th>optimizer</th>" in text  # the Markdown table is a table, not text
-    assert "11 JSON files</summary>" in text  # many cards: one fold
-    assert "3 figures, 2 reports, 1 table, 11 cards" in text
+    assert "12 JSON files</summary>" in text  # many cards (the manifest too): one fold
+    assert "3 figures, 2 reports, 1 table, 12 cards" in text
 
 
 def test_an_evaluate_report_leads_with_the_design_card(tmp_path):
@@ -477,6 +487,7 @@ def test_an_evaluate_report_leads_with_the_design_card(tmp_path):
         "goal": [0, 1.5, 0.1],
     }
     (folder / "terms.json").write_text(json.dumps(terms))
+    (folder / "tool.urdf").write_text("<robot name='tool'/>\n")  # what marks an evaluate folder
     rows = "\n".join(f"{0.01 * k},{k},lower" for k in range(200))
     (folder / "trajectory.csv").write_text("time,box_x,phase\n" + rows + "\n")
     text = write_html_report(folder).read_text()

@@ -44,6 +44,15 @@ COEFFICIENT_MAX = 1e3
 DEGREE_MAX = 20
 
 
+def shown(path: object) -> str:
+    """A path as a message shows it, so that a refusal stays one line.
+
+    As typed, or quoted where it holds a newline or another control character (legal in a name).
+    """
+    text = str(path)
+    return text if text.isprintable() else repr(text)
+
+
 def _max_retries(text: str) -> int:
     # int() alone would take "1_000" and " 3"; a count is digits only. Booleans are not counts.
     if not text.isascii() or not text.isdigit() or int(text) > MAX_RETRIES_MAX:
@@ -219,7 +228,7 @@ def check_out_folder(out: Path, *, empty: bool = False) -> None:
         ValueError: ``out`` is an existing file, or (``empty``) a folder that is not empty.
     """
     if out.exists() and not out.is_dir():
-        raise ValueError(f"--out {out} is a file; give a folder for the run")
+        raise ValueError(f"--out {shown(out)} is a file; give a folder for the run")
     if empty and out.is_dir() and any(out.iterdir()):
         raise ValueError(
             f"--out {out} exists and is not empty; tooldesign evaluate writes a folder of its "

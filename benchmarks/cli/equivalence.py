@@ -12,6 +12,7 @@ import argparse
 from pathlib import Path
 from typing import Any, cast
 
+from benchmarks.cli._common import shown
 from benchmarks.execution import WORKERS_MAX
 
 #: ``benchmarks.suites.equivalence.REFERENCE``, spelled out so that parsing the command line
@@ -180,7 +181,7 @@ def _calibration_line(reference: dict[str, Any], figures: dict[str, float]) -> s
 def _runs(folder: Path) -> dict[str, Path]:
     """The suite run folders in ``folder``: itself, or its subfolders that have a report."""
     if not folder.is_dir():
-        raise FileNotFoundError(f"{folder} does not exist or is not a folder")
+        raise FileNotFoundError(f"{shown(folder)} does not exist or is not a folder")
     if (folder / "report").is_dir():
         return {"": folder}
     runs = {p.name: p for p in sorted(folder.iterdir()) if (p / "report").is_dir()}

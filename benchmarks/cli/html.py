@@ -6,6 +6,8 @@ import argparse
 from pathlib import Path
 from typing import Any, cast
 
+from benchmarks.cli._common import shown
+
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     """Register ``tooldesign html``."""
@@ -27,7 +29,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 def _run(args: argparse.Namespace) -> int:
     if not args.folder.is_dir():  # before the imports (pandas: a second)
-        raise FileNotFoundError(f"{args.folder} is not a folder")
+        raise FileNotFoundError(f"{shown(args.folder)} is not a folder")
     from benchmarks.reports import write_html_report
 
     path = write_html_report(args.folder, out=args.out)

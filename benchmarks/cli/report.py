@@ -6,6 +6,8 @@ import argparse
 from pathlib import Path
 from typing import Any, cast
 
+from benchmarks.cli._common import shown
+
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     """Register ``tooldesign report`` on the dispatcher's subparsers."""
@@ -30,7 +32,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 def _run(args: argparse.Namespace) -> int:
     if not Path(args.run_folder).is_dir():  # before the imports (seconds)
-        raise FileNotFoundError(f"run folder {args.run_folder} does not exist")
+        raise FileNotFoundError(f"run folder {shown(args.run_folder)} does not exist")
     from benchmarks.reports import make_suite_report, write_design_report, write_html_report
     from benchmarks.reports.design_figures import read_design_run
     from benchmarks.reports.html import REPORT_FILE

@@ -7,6 +7,8 @@ import os
 from pathlib import Path
 from typing import Any, cast
 
+from benchmarks.cli._common import shown
+
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     """Register ``tooldesign reproduce``."""
@@ -42,13 +44,13 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 def _run(args: argparse.Namespace) -> int:
     if not args.results.is_dir():  # before the imports (seconds)
-        raise ValueError(f"no results folder {args.results}")
+        raise ValueError(f"no results folder {shown(args.results)}")
     from benchmarks.reports import make_suite_report
     from benchmarks.reports.reproduction import SQUARE, SUITES, reproduction_page
     from benchmarks.storage import atomic_write_text
 
     if not args.results.is_dir():
-        raise ValueError(f"no results folder {args.results}")
+        raise ValueError(f"no results folder {shown(args.results)}")
     if not args.skip_reports:
         for folder in (args.results, args.results / SQUARE):
             for suite in SUITES:

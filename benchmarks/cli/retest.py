@@ -7,7 +7,7 @@ import dataclasses
 from pathlib import Path
 from typing import Any, cast
 
-from benchmarks.cli._common import RETEST_NUDGES, RETEST_REPEATS
+from benchmarks.cli._common import RETEST_NUDGES, RETEST_REPEATS, shown
 from benchmarks.execution import WORKERS_MAX
 
 #: Scenes per design of the noise floor (RetestConfig's range).
@@ -96,7 +96,9 @@ def _check_counts(args: argparse.Namespace) -> int:
 def _run(args: argparse.Namespace) -> int:
     repeats = _check_counts(args)  # before the folder is read: a bad flag is named first
     if not Path(args.run_folder).is_dir():  # before the imports (seconds)
-        raise FileNotFoundError(f"run folder {args.run_folder} does not exist or is not a folder")
+        raise FileNotFoundError(
+            f"run folder {shown(args.run_folder)} does not exist or is not a folder"
+        )
     from benchmarks.reports.retest import noise_floor
     from benchmarks.storage import RETEST_DIR, read_retests
     from benchmarks.suites.config import suite_of_manifest
@@ -134,7 +136,7 @@ def _suite_manifest(folder: Path) -> dict[str, Any]:
     from benchmarks.suites.config import SUITE_KIND
 
     if not folder.is_dir():
-        raise FileNotFoundError(f"run folder {folder} does not exist or is not a folder")
+        raise FileNotFoundError(f"run folder {shown(folder)} does not exist or is not a folder")
     what = "retest re-evaluates the final designs of a suite run folder (`tooldesign bench`)"
     try:
         manifest: dict[str, Any] = read_manifest(folder)

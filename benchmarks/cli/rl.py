@@ -20,7 +20,7 @@ import warnings
 from pathlib import Path
 from typing import Any, cast
 
-from benchmarks.cli._common import out_path
+from benchmarks.cli._common import out_path, shown
 from benchmarks.cli._warnings import warning_line
 from benchmarks.cli.rl_suite import add_rl_suite_arguments, run_rl_command
 from tooldesign_env.schema import DEFAULT_BOX_MASS
@@ -94,7 +94,9 @@ def _run(args: argparse.Namespace) -> int:
         print(json.dumps(report), flush=True)
         return 0
     if not Path(args.policy).is_file():  # before the simulation is imported (seconds)
-        raise FileNotFoundError(f"no policy card {args.policy}: give a .json card of a policy")
+        raise FileNotFoundError(
+            f"no policy card {shown(args.policy)}: give a .json card of a policy"
+        )
     from benchmarks.rl.policies import design_for_goal
 
     with warnings.catch_warnings(record=True) as caught:

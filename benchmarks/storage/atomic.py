@@ -81,9 +81,7 @@ def check_file_target(path: str | os.PathLike[str], *, parent_must_exist: bool =
     for folder in target.parents:
         if folder.exists():
             if not folder.is_dir():
-                raise NotADirectoryError(
-                    f"cannot write {target}: {folder} is a file, not a folder"
-                )
+                raise NotADirectoryError(f"cannot write {target}: {folder} is a file, not a folder")
             break
         if parent_must_exist:
             raise FileNotFoundError(

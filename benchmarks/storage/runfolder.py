@@ -67,7 +67,8 @@ def run_folder_kind(folder: str | os.PathLike[str]) -> str:
     """
     root = Path(folder)
     if not root.is_dir():
-        raise FileNotFoundError(f"{root} is not a folder")
+        name = str(root)  # one line, whatever the name holds (a newline is legal)
+        raise FileNotFoundError(f"{name if name.isprintable() else repr(name)} is not a folder")
     if os.path.lexists(root / MANIFEST_NAME):
         manifest = read_manifest(root)
         extra = manifest.get("extra")
