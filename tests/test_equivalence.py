@@ -89,6 +89,16 @@ def test_a_shift_of_the_mean_inside_every_floor_is_rejected_by_the_interval():
     assert "interval" in result.reasons[0]
 
 
+def test_the_bound_comes_from_the_designs_floors_not_from_the_files_summary():
+    # A reference whose summary was edited to a wide floor still bounds a shift of 2 % by the
+    # floors its designs record (0.1 %): the shift is rejected.
+    reference = _reference()
+    reference["median_relative_floor"] = 1.0
+    result = eq.compare(reference, _rows([10_200.0] * 64))
+    assert result.bound == pytest.approx(0.5 * 10.0 / 10_000.0)
+    assert not result.accepted
+
+
 def test_unbounded_floors_count_as_within_and_a_design_turned_invalid_as_outside():
     reference = _reference()
     for d in reference["designs"][:10]:
@@ -121,7 +131,22 @@ def test_calibration_holds_each_nudge_out_against_the_range_of_the_others():
     assert figures["pass_probability"] < 0.01
     for d in reference["designs"]:
         d["scene_free_energy"] = [1.5, 0.0, 1.0, 2.0, 3.0, 1.4, 1.6, 0.5, 2.5]  # nominal central
-    assert eq.calibration(reference) == {"held_out_within": 1.0, "pass_probability": 1.0}
+    figures = eq.calibration(reference)
+    assert figures["held_out_within"] == 1.0 and figures["pass_probability"] == 1.0
+    # Test 2 on each nudge as a change of every design at once: all designs move alike, by
+    # 0 %, -100 %, -33 %, +33 %, ..., so only a nudge equal to the nominal F passes (none here).
+    assert figures["nudges_passing_test2"] == 0.0
+    for d in reference["designs"]:
+        d["scene_free_energy"] = [10_000.0, 10_001.0, 9_999.0]
+    assert eq.calibration(reference)["nudges_passing_test2"] == 1.0  # 0.01 %, bound 0.05 %
+
+
+def test_the_committed_reference_says_how_often_test_2_passes_a_nudge(reference):
+    # Measured, not assumed: a nudge moves every design at once, and its mean relative change
+    # (to 0.18 %) is of the size of the bound (0.30 %), so test 2 rejects some nudges (3 of 15
+    # in the reference of 737061f). docs/performance.md quotes this figure.
+    figures = eq.calibration(reference)
+    assert 0.5 <= figures["nudges_passing_test2"] < 1.0
 
 
 def test_compare_refuses_results_of_another_length():
@@ -231,6 +256,9 @@ def test_write_then_read_gives_the_reference_back(tmp_path):
         (lambda r: r["designs"][5].update(free_energy="x"), "design 5: field 'free_energy'"),
         (lambda r: r["designs"][6].update(floor=-1.0), "design 6: field 'floor'"),
         (lambda r: r["designs"][7].update(valid=False), "design 7: field 'valid'"),
+        # The summary the bound could be read from: edited, or not a number.
+        (lambda r: r.update(median_relative_floor=1.0), "'median_relative_floor' must be the"),
+        (lambda r: r.update(median_relative_floor="0.1"), "'median_relative_floor' must be a"),
     ],
 )
 def test_a_damaged_reference_is_refused_naming_the_field(tmp_path, edit, match):
@@ -418,8 +446,19 @@ def test_record_draws_the_committed_designs_and_measures_them_within_their_floor
 
 @pytest.mark.slow
 def test_the_code_as_it_is_passes_the_check_against_the_committed_reference(reference):
+    from benchmarks.storage import platform_id
+
     result = eq.check(reference, workers=2)
-    assert result.accepted, eq.format_comparison(result)
+    if platform_id() == reference["platform"]:
+        assert result.accepted, eq.format_comparison(result)
+        assert result.mean_relative == 0.0  # the same code on the recording CPU: the same F
+    else:
+        # Another CPU rounds differently and the pushes diverge like a nudge: test 1 holds
+        # (probability 0.9996, calibration), test 2 passes only about 4 nudges in 5
+        # (test_the_committed_reference_says_how_often_test_2_passes_a_nudge), so only test 1
+        # is required here; the printed table shows test 2's figures.
+        print(eq.format_comparison(result))
+        assert result.within_fraction >= eq.WITHIN_FRACTION, eq.format_comparison(result)
 
 
 @pytest.mark.slow

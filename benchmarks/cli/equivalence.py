@@ -174,7 +174,8 @@ def _calibration_line(reference: dict[str, Any], figures: dict[str, float]) -> s
         f"{len(reference['designs'])} designs, {scenes} scenes each: a held-out nudge lies within "
         f"the floor of the other scenes for {100 * figures['held_out_within']:.1f} % of "
         f"(design, nudge) pairs, so a change of nudge size passes test 1 with probability "
-        f"{figures['pass_probability']:.4f}"
+        f"{figures['pass_probability']:.4f}; test 2 passes "
+        f"{100 * figures['nudges_passing_test2']:.0f} % of the recorded nudges taken as a change"
     )
 
 

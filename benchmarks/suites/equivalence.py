@@ -561,6 +561,20 @@ def _check_reference(data: Any, path: Path) -> dict[str, Any]:
                 raise bad(f"{where}: field {name!r} must be a number >= 0 or null", value)
         if d.get("valid") is not True:
             raise bad(f"{where}: field 'valid' must be true (a design valid as recorded)", d)
+    # The summary must be what the designs' floors give: the rule's bound is computed from
+    # them (compare), and a file that says otherwise was edited.
+    stored = data.get("median_relative_floor")
+    median = _median_floor([d.get("relative_floor") for d in designs])
+    if stored is not None and not finite_number(stored):
+        raise bad("field 'median_relative_floor' must be a number or null", stored)
+    if (stored is None) != (median is None) or (
+        median is not None and not math.isclose(float(stored), median, rel_tol=1e-9)
+    ):
+        raise bad(
+            f"field 'median_relative_floor' must be the median of the designs' relative floors "
+            f"({median!r})",
+            stored,
+        )
     return data
 
 
@@ -650,7 +664,8 @@ def compare(reference: Mapping[str, Any], current: Sequence[Mapping[str, Any]]) 
     fraction = sum(r["within"] for r in rows) / len(rows)
     relative = np.array([r["relative"] for r in rows if r["relative"] is not None])
     mean, low, high = _t_interval(relative, LEVEL)
-    median = reference.get("median_relative_floor")
+    # Derived from the designs' own floors, never taken from the file's summary of them.
+    median = _median_floor([design["relative_floor"] for design in designs])
     bound = MEAN_BOUND_FRACTION * median if median is not None else math.nan
     reasons = []
     if fraction < WITHIN_FRACTION:
@@ -701,22 +716,28 @@ def check(
 
 
 def calibration(reference: Mapping[str, Any]) -> dict[str, float]:
-    """How often the rule's test 1 passes a change of nudge size, from the reference alone.
+    """How often the rule passes a change of nudge size, from the reference alone.
 
-    Each nudged scene k >= 1 of a design is held out in turn, as a change would be: it is within
-    the floor when ``|F_k - F_0|`` is at most the range of F over the other scenes (one fewer
-    than the rule's, so this is slightly pessimistic). A design with an unbounded floor is
-    within, as in :func:`compare`.
+    Test 1: each nudged scene k >= 1 of a design is held out in turn, as a change would be: it
+    is within the floor when ``|F_k - F_0|`` is at most the range of F over the other scenes
+    (one fewer than the rule's, so this is slightly pessimistic). A design with an unbounded
+    floor is within, as in :func:`compare`. Test 2: each nudged scene k taken as the "current"
+    results of every design at once (a nudge moves every design, as another CPU's rounding
+    does), its mean relative change over the designs and that mean's interval, against the
+    bound of :func:`compare`.
 
     Returns:
         ``held_out_within``: the fraction of (design, held-out scene) pairs within the floor;
         ``pass_probability``: the chance that at least 90 % of the reference's designs are
-        within, for independent designs each within with that fraction (binomial).
+        within, for independent designs each within with that fraction (binomial);
+        ``nudges_passing_test2``: the fraction of the recorded nudges whose mean relative
+        change passes test 2 (NaN without F per scene).
     """
     from scipy import stats
 
     hits = total = 0
-    for design in reference["designs"]:
+    designs = reference["designs"]
+    for design in designs:
         values = design.get("scene_free_energy") or []
         for k in range(1, len(values)):
             total += 1
@@ -726,13 +747,35 @@ def calibration(reference: Mapping[str, Any]) -> dict[str, float]:
             others = np.delete(np.asarray(values, dtype=np.float64), k)
             hits += abs(values[k] - values[0]) <= float(np.ptp(others))
     if not total:
-        return {"held_out_within": math.nan, "pass_probability": math.nan}
+        return {
+            "held_out_within": math.nan,
+            "pass_probability": math.nan,
+            "nudges_passing_test2": math.nan,
+        }
     fraction = hits / total
-    n = len(reference["designs"])
+    n = len(designs)
     need = math.ceil(WITHIN_FRACTION * n - 1e-9)
+    passing = math.nan
+    scenes = {len(d.get("scene_free_energy") or []) for d in designs}
+    if len(scenes) == 1 and (count := scenes.pop()) > 1:
+        median = _median_floor([d["relative_floor"] for d in designs])
+        bound = MEAN_BOUND_FRACTION * median if median is not None else math.nan
+        # As compare counts them: designs valid in every scene (a bounded floor), F_0 != 0.
+        values = np.array(
+            [d["scene_free_energy"] for d in designs if d["floor"] is not None],
+            dtype=np.float64,
+        ).reshape(-1, count)
+        values = values[values[:, 0] != 0.0]
+        passed = []
+        for k in range(1, count):
+            relative = (values[:, k] - values[:, 0]) / np.abs(values[:, 0])
+            _, low, high = _t_interval(relative, LEVEL)
+            passed.append(bool(-bound <= low and high <= bound))
+        passing = float(np.mean(passed))
     return {
         "held_out_within": fraction,
         "pass_probability": float(stats.binom.sf(need - 1, n, fraction)),
+        "nudges_passing_test2": passing,
     }
 
 
