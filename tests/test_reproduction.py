@@ -279,3 +279,19 @@ def test_motion_figures_refuse_a_file_of_another_kind(tmp_path: Path) -> None:
     full.to_csv(path, index=False)
     with pytest.raises(ValueError, match="one with the hand merged"):
         reproduction.motion_figures(path)
+
+
+def test_the_other_pages_quote_the_measured_merged_hand_figures() -> None:
+    # docs/model.md and docs/benchmarks.md quote the merged hand's effect on the committed
+    # designs by hand: the figures must be those the page computes from the committed CSV.
+    figures = reproduction._motion(RESULTS, "round")
+    assert figures is not None
+    percent = f"{100 * figures['merged_max_relative']:.2g} %"
+    model = " ".join((ROOT / "docs" / "model.md").read_text(encoding="utf-8").split())
+    bench = " ".join((ROOT / "docs" / "benchmarks.md").read_text(encoding="utf-8").split())
+    assert f"by up to {percent} of F on some" in model and f"up to {percent} of F" in bench
+    assert f"on the {int(figures['designs'])} committed final designs" in model
+    assert f"F moves by up to {figures['merged_max_change']:.4g}" in model
+    assert f"by more than 0.1 % on {int(figures['merged_moved_0.1%'])} of them" in model
+    for text in (model, bench):
+        assert "differ from the 13 links' by rounding," not in text
