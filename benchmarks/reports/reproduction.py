@@ -607,11 +607,14 @@ def _claim_e(folder: Path) -> tuple[str, str, list[str]]:
         head = "holds in part"
     else:
         head = "not shown"
+    worse = {"better": "", "none": "", "worse": ", free energy worse"}
     detail = "; ".join(
-        f"{name} {state} (" + ", ".join(f"{f.evidence()} against {f.other}" for f in found) + ")"
+        f"{name} {state} ("
+        + ", ".join(f"{f.evidence()} against {f.other}{worse[f.outcome]}" for f in found)
+        + ")"
         for name, state, found in parts
     )
-    verdict = f"**{head}**: {detail}"
+    verdict = f"**{head}**: free energy minus the other objective, {detail}"
     best = rows.loc[rows["accuracy"].idxmax(), "label"] if rows["accuracy"].notna().any() else "n/a"
     fe_pp = {f.metric: f for _, _, found in parts for f in found if f.other == "pure performance"}
     cell = (
