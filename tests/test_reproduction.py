@@ -298,3 +298,24 @@ def test_the_other_pages_quote_the_measured_merged_hand_figures() -> None:
     assert f"by more than 0.1 % on {int(figures['merged_moved_0.1%'])} of them" in model
     for text in (model, bench):
         assert "differ from the 13 links' by rounding," not in text
+
+
+def test_the_motion_study_parses_its_arguments(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from perf.studies import committed_motion
+
+    args = committed_motion.parse_args(
+        ["--results", str(RESULTS), "--section", "square", "--out", str(tmp_path / "m.csv")]
+    )
+    assert (args.section, args.nudges, args.workers) == ("square", 5, 2)
+    for argv, said in (
+        (["--results", str(tmp_path)], "holds none of the suites"),
+        (["--results", str(RESULTS), "--nudges", "1"], "--nudges"),
+        (["--results", str(RESULTS), "--section", "hexagon"], "--section"),
+    ):
+        with pytest.raises(SystemExit) as info:
+            committed_motion.parse_args([*argv, "--out", str(tmp_path / "m.csv")])
+        assert info.value.code == 2
+        assert said in capsys.readouterr().err
+    assert not (tmp_path / "m.csv").exists()

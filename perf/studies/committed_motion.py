@@ -93,15 +93,34 @@ def _rollouts(item: tuple[Any, Any, tuple[float, ...], int]) -> list[dict[str, A
     return rows
 
 
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """The command line; a results folder without a suite of the section is an argparse error."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument(
+        "--results", type=Path, default=Path("docs/results"), help="the committed results"
+    )
+    parser.add_argument("--section", choices=("round", "square"), default="round")
+    parser.add_argument(
+        "--nudges",
+        type=_args.count(2, 100),
+        default=5,
+        help="scenes per design, the first its own (the retest's nudges; default 5)",
+    )
+    parser.add_argument("--workers", type=_args.count(1), default=2)
+    parser.add_argument("--out", type=Path, required=True, help="the CSV to write")
+    args = parser.parse_args(argv)
+    root = args.results / "square" if args.section == "square" else args.results
+    if not any((root / suite / "manifest.json").is_file() for suite in SUITES):
+        parser.error(
+            f"argument --results: {root} holds none of the suites {', '.join(SUITES)} "
+            f"(section {args.section})"
+        )
+    return args
+
+
 def main(argv: list[str] | None = None) -> int:
     """Roll out every final design of a section's committed suites; write the CSV."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--results", type=Path, default=Path("docs/results"))
-    parser.add_argument("--section", choices=("round", "square"), default="round")
-    parser.add_argument("--nudges", type=_args.count(2, 100), default=5)
-    parser.add_argument("--workers", type=_args.count(1), default=2)
-    parser.add_argument("--out", type=Path, required=True)
-    args = parser.parse_args(argv)
+    args = parse_args(argv)
 
     import pandas as pd
 
