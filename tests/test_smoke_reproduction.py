@@ -16,8 +16,13 @@ from smoke_results import SUITES, read_fixture, read_variants, run_all
 
 
 @pytest.fixture(scope="module")
-def fresh(tmp_path_factory):
-    return run_all(tmp_path_factory.mktemp("smoke"), workers=2)
+def smoke_root(tmp_path_factory):
+    return tmp_path_factory.mktemp("smoke")
+
+
+@pytest.fixture(scope="module")
+def fresh(smoke_root):
+    return run_all(smoke_root, workers=2)
 
 
 @pytest.mark.slow
@@ -58,3 +63,32 @@ def test_the_fixture_holds_every_suite_and_real_numbers(platform):
         assert stored["parts"], name
         scores = [float(row["free_energy"]) for row in stored["parts"] if row["status"] == "ok"]
         assert len(scores) >= 8 and len(set(scores)) == len(scores), name
+
+
+#: The words a verdict on the reproduction page opens with (docs/reproduction.md).
+VERDICTS = (
+    "**holds",
+    "**holds in part",
+    "**not shown",
+    "**reversed",
+    "**does not hold",
+    "**not judged",
+    "**goal error",
+    "**robustness",
+)
+
+
+@pytest.mark.slow
+def test_the_reproduction_page_is_written_from_smoke_results(fresh, smoke_root):
+    # The page from fresh smoke folders (no retest, so no stress test and no motion file): every
+    # claim, (e) of Table I included, gets a verdict in the page's words; none is left out.
+    from benchmarks.reports.reproduction import reproduction_page
+
+    assert set(SUITES) <= set(fresh)
+    page = reproduction_page(smoke_root)
+    rows = [line for line in page.splitlines() if line.startswith("| (")]
+    assert [row[:5] for row in rows] == ["| (a)", "| (b)", "| (c)", "| (d)", "| (e)"]
+    for row in rows:
+        verdict = row.rstrip(" |").rsplit(" | ", 1)[1]
+        assert verdict.startswith(VERDICTS), row
+    assert "(e) Table I" in page and "not measured (no `committed-motion/round.csv`)" in page

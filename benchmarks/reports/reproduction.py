@@ -9,11 +9,13 @@ The results are made by ``tooldesign bench SUITE --size full --out docs/results/
 ``tooldesign retest docs/results/SUITE`` for the suites of :data:`SUITES`. A claim's verdict
 follows one rule everywhere: a difference counts when its 95 % interval (or its Holm-corrected
 test) excludes zero AND it is larger than the noise floor of the quantity (its median range over
-nudged scenes that leave the motion unchanged); a rank correlation counts when p < 0.05.
+scenes whose box starts at most 0.1 mm and 1e-4 rad away, which move the box's final position by
+millimetres: see :func:`motion_figures`); a rank correlation counts when p < 0.05.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import json
 import math
@@ -45,11 +47,17 @@ from benchmarks.reports.retest import (
 )
 from benchmarks.reports.stats import t_interval
 from benchmarks.reports.suite import designs_table
-from benchmarks.storage import read_designs, read_retests, read_run_file, with_added_fields
+from benchmarks.storage import (
+    read_designs,
+    read_manifest,
+    read_retests,
+    read_run_file,
+    with_added_fields,
+)
 from benchmarks.suites.config import ADDED_FIELDS
 from tooldesign_env.schema import ROBUSTNESS_METRICS
 
-__all__ = ["SUITES", "reproduction_page"]
+__all__ = ["SUITES", "motion_figures", "reproduction_page"]
 
 SUITES = ("optimizers", "precision-sweep", "mass-perturbation", "robustness", "robust-design")
 
@@ -120,7 +128,9 @@ def _verdict_difference(low: float, high: float, diff: float, floor: float) -> b
     return (low > 0 or high < 0) and abs(diff) > (floor if math.isfinite(floor) else 0.0)
 
 
-def _comparison_noise(pure: float, other: float, label: str) -> tuple[float, str]:
+def _comparison_noise(
+    pure: float, other: float, label: str, first: str = "pure confidence"
+) -> tuple[float, str]:
     """The noise a difference of claim (c) must exceed: the larger of the two rows' noise.
 
     A row whose noise was not measured (NaN) does not count (``max(nan, x)`` would depend on
@@ -128,9 +138,7 @@ def _comparison_noise(pure: float, other: float, label: str) -> tuple[float, str
     is empty. With neither measured the noise is 0: the interval alone decides.
     """
     known = [v for v in (pure, other) if math.isfinite(v)]
-    missing = [
-        name for name, v in (("pure confidence", pure), (label, other)) if not math.isfinite(v)
-    ]
+    missing = [name for name, v in ((first, pure), (label, other)) if not math.isfinite(v)]
     if len(missing) == 2:
         return 0.0, "noise not measured"
     note = f"noise of {missing[0]} not measured" if missing else ""
@@ -205,44 +213,83 @@ def _designs(folder: Path) -> pd.DataFrame:
     return designs_table(read_designs(folder))
 
 
+#: The shape measures of claim (b), and the sign of their rank correlation with p^X that the
+#: claim predicts (tools straighten as p^X grows: the turning angle falls, chord / arc rises).
+SHAPE_MEASURES = (
+    ("turning_angle", "turning angle (deg)", -1),
+    ("straightness", "straightness (chord / arc)", 1),
+)
+
+
+def _trend(rho: float, p: float, expected: int) -> str:
+    """``"for"`` a significant trend in the claimed direction, ``"against"`` one the other way."""
+    if not (math.isfinite(rho) and math.isfinite(p)) or p >= 0.05 or rho == 0:
+        return "none"
+    return "for" if rho * expected > 0 else "against"
+
+
 def _claim_b(folder: Path) -> tuple[str, str, list[str]]:
+    """Claim (b) from the tools' shapes alone: where the box ends is claim (d)'s goal error."""
     table = _designs(folder)
     table = table[table["status"] == "ok"]
+    low_px, high_px = table["goal_precision"].min(), table["goal_precision"].max()
     lines = [
         "## (b) Low p^X gives curved tools that hold the box; high p^X straighter tools",
         "",
         f"All {len(table)} designs of the robustness suite "
         f"({table['goal_precision'].nunique()} p^X x {table['seed'].nunique()} random goals), "
         f"`docs/results/{_where(folder)}/report/designs.md`; Spearman rank correlation of p^X with "
-        "each shape measure and the final distance (n, p):",
+        "each shape measure (n, p). The claim is about the tool's shape: where the box ends "
+        "(nearer the goal as p^X grows) is the goal error of claim (d), and is judged there.",
         "",
-        "| measure | mean at p^X = 0 | mean at p^X = 50 | rho | p |",
-        "|---|---|---|---|---|",
+        f"| measure | mean at p^X = {_fmt(low_px)} | mean at p^X = {_fmt(high_px)} | rho | p | n "
+        "| trend |",
+        "|---|---|---|---|---|---|---|",
     ]
-    results = {}
-    for column, name in (
-        ("turning_angle", "turning angle (deg)"),
-        ("straightness", "straightness (chord / arc)"),
-        ("final_distance", "final distance to the goal (m)"),
-    ):
+    results: dict[str, tuple[float, float, float, float, str]] = {}
+    for column, name, expected in SHAPE_MEASURES:
         rho, p, n = _spearman(table["goal_precision"], table[column])
-        results[column] = (rho, p)
-        low = table.loc[table["goal_precision"] == table["goal_precision"].min(), column].mean()
-        high = table.loc[table["goal_precision"] == table["goal_precision"].max(), column].mean()
-        lines.append(f"| {name} | {_fmt(low)} | {_fmt(high)} | {_fmt(rho, 3)} | {_fmt(p, 2)} |")
-    straighter = results["turning_angle"][0] < 0 and results["turning_angle"][1] < 0.05
-    closer = results["final_distance"][0] < 0 and results["final_distance"][1] < 0.05
-    if straighter and closer:
-        verdict = "**holds**: tools straighten and boxes end nearer the goal as p^X grows"
-    elif straighter or closer:
-        verdict = "**holds in part**: " + (
-            "tools straighten" if straighter else "boxes end nearer the goal"
+        low = float(table.loc[table["goal_precision"] == low_px, column].mean())
+        high = float(table.loc[table["goal_precision"] == high_px, column].mean())
+        trend = _trend(rho, p, expected)
+        results[column] = (rho, p, low, high, trend)
+        said = {"for": "straighter as p^X grows", "against": "*curved* as p^X grows"}
+        lines.append(
+            f"| {name} | {_fmt(low)} | {_fmt(high)} | {_fmt(rho, 3)} | {_fmt(p, 2)} | {n} | "
+            f"{said.get(trend, 'none (p >= 0.05)')} |"
+        )
+    trends = [r[4] for r in results.values()]
+    evidence = "; ".join(
+        f"{name.split(' (')[0]} rho {_fmt(results[column][0], 2)}, p {_fmt(results[column][1], 2)}"
+        for column, name, _ in SHAPE_MEASURES
+    )
+    angle = results["turning_angle"]
+    # Which end's tools are the straighter on average (a smaller turning angle), significant or not.
+    if angle[2] < angle[3]:
+        lean = (
+            f"; p^X = {_fmt(low_px)} tools are, if anything, slightly straighter (turning angle "
+            f"{_fmt(angle[2], 3)} against {_fmt(angle[3], 3)} deg at p^X = {_fmt(high_px)})"
+        )
+    elif angle[2] > angle[3]:
+        lean = (
+            f"; p^X = {_fmt(high_px)} tools are slightly straighter on average (turning angle "
+            f"{_fmt(angle[3], 3)} against {_fmt(angle[2], 3)} deg), not significantly"
         )
     else:
-        verdict = "**does not hold**: no significant trend of shape or distance with p^X"
+        lean = ""
+    if all(t == "for" for t in trends):
+        verdict = f"**holds**: tools straighten as p^X grows ({evidence})"
+    elif "for" in trends and "against" not in trends:
+        verdict = f"**holds in part**: one shape measure straightens as p^X grows ({evidence})"
+    elif "against" in trends and "for" not in trends:
+        verdict = f"**reversed**: tools curve *more* as p^X grows ({evidence})"
+    elif "against" in trends:
+        verdict = f"**not shown**: the shape measures disagree ({evidence})"
+    else:
+        verdict = f"**not shown**: the shape does not move with p^X ({evidence}){lean}"
     cell = (
-        f"turning angle rho = {_fmt(results['turning_angle'][0], 2)}, final distance "
-        f"rho = {_fmt(results['final_distance'][0], 2)}"
+        f"turning angle rho = {_fmt(angle[0], 2)} (p {_fmt(angle[1], 2)}), straightness "
+        f"rho = {_fmt(results['straightness'][0], 2)} (p {_fmt(results['straightness'][1], 2)})"
     )
     return cell, verdict, lines
 
@@ -286,6 +333,83 @@ def _design_stress(retests: Sequence[Mapping[str, Any]]) -> pd.DataFrame:
             )
     columns = ["variant", "label", "goal_precision", "goal_key", "optimizer", *STRESS_COLUMNS]
     return pd.DataFrame(rows, columns=columns)
+
+
+#: Whether a higher value of a stress metric is better (+1) or worse (-1), and its unit.
+METRIC_SENSE = {"robustness": (1, "m"), "accuracy": (1, "m"), "control_deviation": (-1, "N m")}
+
+
+@dataclasses.dataclass(frozen=True)
+class Comparison:
+    """One objective against another on one stress metric, paired by goal (``a`` minus ``b``).
+
+    ``outcome`` is ``"better"`` or ``"worse"`` (for ``a``) when the difference counts: its 95 %
+    paired interval excludes 0 and it exceeds ``noise``, the larger of the two rows' noise;
+    ``"none"`` otherwise.
+    """
+
+    first: str
+    other: str
+    metric: str
+    diff: float
+    low: float
+    high: float
+    n: int
+    noise: float
+    unmeasured: str
+    outcome: str
+
+    def evidence(self) -> str:
+        """``"+1247 N m [425.9, 2069]"``: the difference with its sign, unit and interval."""
+        unit = METRIC_SENSE[self.metric][1]
+        sign = "+" if self.diff > 0 else ""
+        return (
+            f"{sign}{_fmt(self.diff)} {unit} {interval_bounds(self.low, self.high, self.n, _fmt)}"
+        )
+
+
+def _compare(
+    per_design: pd.DataFrame, rows: pd.DataFrame, first: str, other: str, metric: str
+) -> Comparison:
+    """``first`` minus ``other`` on ``metric``, paired by goal, judged by the page's rule."""
+    diff, low, high, n = _paired_difference(
+        per_design[per_design["label"] == first], per_design[per_design["label"] == other], metric
+    )
+    noise, unmeasured = _comparison_noise(
+        float(rows.loc[rows["label"] == first, f"{metric}_noise"].max()),
+        float(rows.loc[rows["label"] == other, f"{metric}_noise"].max()),
+        other,
+        first,
+    )
+    outcome = "none"
+    if _verdict_difference(low, high, diff, noise):
+        outcome = "better" if diff * METRIC_SENSE[metric][0] > 0 else "worse"
+    return Comparison(first, other, metric, diff, low, high, n, noise, unmeasured, outcome)
+
+
+def _metric_verdict(first: str, name: str, found: Sequence[Comparison]) -> str:
+    """The verdict on "``first`` has the best ``name``" from its comparisons with the others.
+
+    It holds when ``first`` is better beyond the noise than every other objective; it is
+    *reversed* when it is worse beyond the noise than some, with those differences stated.
+    """
+    better = [f for f in found if f.outcome == "better"]
+    worse = [f for f in found if f.outcome == "worse"]
+    if found and len(better) == len(found):
+        return f"**{name} holds**"
+    if worse:
+        if len(worse) == len(found) > 1:
+            against = f"all {len(found)} other objectives"
+        else:
+            against = ", ".join(f.other for f in worse)
+        shown = "; ".join(f"{f.evidence()} against {f.other}" for f in worse)
+        return (
+            f"**{name} reversed**: {first} is significantly worse, beyond the noise, than "
+            f"{against} ({shown})"
+        )
+    if better:
+        return f"**{name} in part**: better only than {', '.join(f.other for f in better)}"
+    return f"**{name} not shown**"
 
 
 def _claim_c(folder: Path, baseline: Path | None) -> tuple[str, str, list[str]]:
@@ -346,35 +470,31 @@ def _claim_c(folder: Path, baseline: Path | None) -> tuple[str, str, list[str]]:
         "| metric | vs | difference [95 % CI] | n | counts |",
         "|---|---|---|---|---|",
     ]
-    pure = per_design[per_design["label"] == "pure confidence"]
-    findings: dict[str, list[bool]] = {"robustness": [], "control_deviation": []}
-    for other in [lab for lab in per_design["label"].unique() if lab != "pure confidence"]:
-        part = per_design[per_design["label"] == other]
-        for metric, better in (("robustness", 1), ("control_deviation", -1)):
-            diff, low, high, n = _paired_difference(pure, part, metric)
-            noise, unmeasured = _comparison_noise(
-                float(rows.loc[rows["label"] == "pure confidence", f"{metric}_noise"].max()),
-                float(rows.loc[rows["label"] == other, f"{metric}_noise"].max()),
-                other,
-            )
-            counts = _verdict_difference(low, high, diff, noise)
-            findings[metric].append(counts and diff * better > 0)
-            short = 0 < n < MIN_INTERVAL_VALUES
-            lines.append(
-                f"| {metric.replace('_', ' ')} | {other} | {_fmt(diff)} "
-                f"{interval_bounds(low, high, n, _fmt)} | {n} | {'yes' if counts else 'no'}"
-                f"{' (no interval: fewer than 2 shared goals)' if short else ''}"
-                f"{' (pure confidence better)' if counts and diff * better > 0 else ''}"
-                f"{' (pure confidence worse)' if counts and diff * better < 0 else ''}"
-                f"{f' ({unmeasured})' if unmeasured else ''} |"
-            )
-    parts = []
-    for metric, name in (("robustness", "robustness"), ("control_deviation", "control deviation")):
-        if findings[metric] and all(findings[metric]):
-            parts.append(f"{name} holds")
-        else:
-            parts.append(f"{name} not shown")
-    verdict = "**" + "; ".join(parts) + "**"
+    others = [lab for lab in per_design["label"].unique() if lab != "pure confidence"]
+    found = [
+        _compare(per_design, rows, "pure confidence", other, metric)
+        for other in others
+        for metric in ("robustness", "control_deviation")
+    ]
+    for f in found:
+        short = 0 < f.n < MIN_INTERVAL_VALUES
+        lines.append(
+            f"| {f.metric.replace('_', ' ')} | {f.other} | {_fmt(f.diff)} "
+            f"{interval_bounds(f.low, f.high, f.n, _fmt)} | {f.n} | "
+            f"{'yes' if f.outcome != 'none' else 'no'}"
+            f"{' (no interval: fewer than 2 shared goals)' if short else ''}"
+            f"{' (pure confidence better)' if f.outcome == 'better' else ''}"
+            f"{' (pure confidence worse)' if f.outcome == 'worse' else ''}"
+            f"{f' ({f.unmeasured})' if f.unmeasured else ''} |"
+        )
+    parts = [
+        _metric_verdict("pure confidence", name, [f for f in found if f.metric == metric])
+        for metric, name in (
+            ("robustness", "robustness"),
+            ("control_deviation", "control deviation"),
+        )
+    ]
+    verdict = "; ".join(parts)
     best = {}
     for metric, pick in (("robustness", "idxmax"), ("control_deviation", "idxmin")):
         if len(rows):
@@ -395,26 +515,31 @@ def _claim_d(folder: Path) -> tuple[str, str, list[str]]:
         "",
         "Spearman rank correlation with p^X over the robustness suite's designs (robustness: "
         "the design's mean over masses and nudged scenes, `stress.md`; goal error: the "
-        "squared goal error of the final test, `designs.md`):",
+        "squared goal error of the final test, and the box's final distance to the goal in the "
+        "design's own run, `designs.md`):",
         "",
         "| quantity | rho | p | n |",
         "|---|---|---|---|",
     ]
     rob = _spearman(per_design["goal_precision"], per_design["robustness"])
     err = _spearman(designs["goal_precision"], designs["squared_goal_error"])
+    near = _spearman(designs["goal_precision"], designs["final_distance"])
     dist = _spearman(per_design["goal_precision"], per_design["final_distance"])
     for name, (rho, p, n) in (
         ("robustness (higher is better)", rob),
         ("squared goal error", err),
+        ("final distance to the goal (m)", near),
         ("final distance over the mass range", dist),
     ):
         lines.append(f"| {name} | {_fmt(rho, 3)} | {_fmt(p, 2)} | {n} |")
     rob_falls = rob[0] < 0 and rob[1] < 0.05
     rob_rises = rob[0] > 0 and rob[1] < 0.05
     err_falls = err[0] < 0 and err[1] < 0.05
+    nearer = near[0] < 0 and near[1] < 0.05
     verdict = (
         "**"
         + ("goal error falls" if err_falls else "goal error: no significant trend")
+        + (" and boxes end nearer the goal" if nearer else "")
         + "; "
         + (
             "robustness falls"
@@ -423,7 +548,105 @@ def _claim_d(folder: Path) -> tuple[str, str, list[str]]:
         )
         + "**"
     )
-    cell = f"robustness rho = {_fmt(rob[0], 2)}, goal error rho = {_fmt(err[0], 2)}"
+    cell = (
+        f"robustness rho = {_fmt(rob[0], 2)}, goal error rho = {_fmt(err[0], 2)}, final "
+        f"distance rho = {_fmt(near[0], 2)}"
+    )
+    return cell, verdict, lines
+
+
+#: The statement of the paper's Table I judged as claim (e), part by part: (name, metric, the
+#: objectives free energy must beat on it).
+TABLE_I_PARTS = (
+    ("best accuracy", "accuracy", ("pure confidence", "pure performance")),
+    ("better robustness than pure performance", "robustness", ("pure performance",)),
+    (
+        "lower control deviation than pure performance",
+        "control_deviation",
+        ("pure performance",),
+    ),
+)
+
+#: The objectives of the paper's Table I, as the robustness suite labels them.
+TABLE_I_OBJECTIVES = ("pure confidence", "free energy", "pure performance")
+
+
+def _claim_e(folder: Path) -> tuple[str, str, list[str]]:
+    """Table I's statement on free energy, from the stress tests of claim (c), part by part."""
+    table, retests = _stress_rows(folder)
+    rows = table[table["label"].isin(TABLE_I_OBJECTIVES)] if len(table) else table
+    per_design = _design_stress(retests)
+    lines = [
+        "## (e) Table I: free energy has the best accuracy, and beats pure performance on "
+        "robustness and control deviation",
+        "",
+        "The paper's Table I, in its words: \"the free energy objective generates tools with the "
+        "highest goal accuracy with better robustness and control deviation than the pure "
+        'performance objective". Judged on the stress tests of (c) '
+        f"(`docs/results/{_where(folder)}/report/stress.md`: the robustness suite's designs of "
+        "the three objectives of Table I, on the same goals, over the box masses), free energy "
+        "minus the other objective per metric, paired by goal, by the same rule (95 % paired t "
+        "interval excluding 0, and the difference larger than the larger of the two rows' "
+        "noise):",
+        "",
+        "| part of the claim | metric | vs | free energy minus it [95 % CI] | n | noise "
+        "| outcome |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    labels = set(per_design["label"])
+    if not {"free energy", *(o for _, _, vs in TABLE_I_PARTS for o in vs)} <= labels:
+        missing = sorted(set(TABLE_I_OBJECTIVES) - labels)
+        lines[-2:] = [f"The suite has no designs of {', '.join(missing)}: nothing to compare."]
+        return "n/a", f"**not judged**: no designs of {', '.join(missing)}", lines
+    said = {"better": "free energy better", "worse": "free energy *worse*", "none": "no difference"}
+    parts: list[tuple[str, str, list[Comparison]]] = []
+    for name, metric, versus in TABLE_I_PARTS:
+        found = [_compare(per_design, rows, "free energy", other, metric) for other in versus]
+        for f in found:
+            lines.append(
+                f"| {name} | {metric.replace('_', ' ')} | {f.other} | {f.evidence()} | {f.n} | "
+                f"{_fmt(f.noise, 2)} | {said[f.outcome]}"
+                f"{f' ({f.unmeasured})' if f.unmeasured else ''} |"
+            )
+        if all(f.outcome == "better" for f in found):
+            state = "holds"
+        elif any(f.outcome == "worse" for f in found):
+            state = "reversed"
+        else:
+            state = "not shown"
+        parts.append((name, state, found))
+    states = [state for _, state, _ in parts]
+    if all(state == "holds" for state in states):
+        head = "holds"
+    elif all(state == "reversed" for state in states):
+        head = "reversed"
+    elif "reversed" in states:
+        # A part the results contradict is said first, whatever else holds.
+        head = "reversed in part" + (", holds in part" if "holds" in states else "")
+    elif "holds" in states:
+        head = "holds in part"
+    else:
+        head = "not shown"
+    worse = {"better": "", "none": "", "worse": ", free energy worse"}
+    detail = "; ".join(
+        f"{name} {state} ("
+        + ", ".join(f"{f.evidence()} against {f.other}{worse[f.outcome]}" for f in found)
+        + ")"
+        for name, state, found in parts
+    )
+    verdict = f"**{head}**: free energy minus the other objective, {detail}"
+    best = rows.loc[rows["accuracy"].idxmax(), "label"] if rows["accuracy"].notna().any() else "n/a"
+    fe_pp = {f.metric: f for _, _, found in parts for f in found if f.other == "pure performance"}
+    cell = (
+        f"highest mean accuracy: {best}; free energy minus pure performance: robustness "
+        f"{fe_pp['robustness'].evidence()}, control deviation "
+        f"{fe_pp['control_deviation'].evidence()}"
+    )
+    lines += [
+        "",
+        "Accuracy and robustness are in m (higher is better), control deviation in N m (lower is "
+        "better); the means of each objective are in the table of (c).",
+    ]
     return cell, verdict, lines
 
 
@@ -499,6 +722,27 @@ def _section_noise(results: Path) -> str:
     return ", ".join(parts) or "n/a (no suite has both)"
 
 
+TABLE_I_ROW = (
+    "| (e) Table I: free energy has the best accuracy and beats pure performance on robustness "
+    "and control deviation"
+)
+
+
+def _square_motion(results: Path) -> str:
+    """The merged hand's and the nudges' effect on the square section's designs, if measured."""
+    figures = _motion(results, "square")
+    if figures is None:
+        return ""
+    return (
+        f"; on its {int(figures['designs'])} final designs the nudges move the box's final "
+        f"position by a median {_fmt(figures['nudge_median_shift_mm'], 2)} mm (up to "
+        f"{_fmt(figures['nudge_max_shift_mm'], 3)} mm), and the merged hand moves F by up to "
+        f"{_fmt(figures['merged_max_change'])} ({percent_cell(figures['merged_max_relative'])}"
+        f"; `docs/results/{MOTION}/square.csv`; {_reproduced(figures)}: the merged hand is "
+        "compared with the 13 links rolled out by the same code, not with the stored numbers)"
+    )
+
+
 def _square_section(results: Path) -> list[str]:
     """The claims again from the suites run with the paper's square section, if present."""
     square = results / SQUARE
@@ -515,21 +759,24 @@ def _square_section(results: Path) -> list[str]:
         b = _claim_b(square / "robustness")
         c = _claim_c(square / "robustness", baseline if "robust-design" in present else None)
         d = _claim_d(square / "robustness")
+        e = _claim_e(square / "robustness")
         rows += [
             f"| (b) p^X = 0 tools are curved and hold the box; p^X = 50 tools are straighter "
             f"| {b[0]} | {b[1]} |",
             f"| (c) pure confidence has the best robustness and the lowest control deviation "
             f"| {c[0]} | {c[1]} |",
             f"| (d) robustness falls and goal error falls as p^X grows | {d[0]} | {d[1]} |",
+            f"{TABLE_I_ROW} | {e[0]} | {e[1]} |",
         ]
-        details += ["", *b[2], "", *c[2], "", *d[2]]
+        details += ["", *b[2], "", *c[2], "", *d[2], "", *e[2]]
     lines = [
         "## With the paper's square section",
         "",
         "The paper's tool has a square section. Pushing with it is chaotic ([The model]"
         "(model.md#the-tools-section-where-the-chaos-came-from) measures it on random designs); "
         "on the suites' final designs, the median relative range of F under 0.1 mm nudges is, "
-        f"square against round: {_section_noise(results)} (the tables of noise floors). These "
+        f"square against round: {_section_noise(results)} (the tables of noise floors)"
+        f"{_square_motion(results)}. These "
         "suites ran with the square section, the default until the round one "
         f"replaced it, with everything else as above (`docs/results/{SQUARE}/`); they are judged "
         "by the same rules:",
@@ -555,6 +802,183 @@ def _square_section(results: Path) -> list[str]:
     # The details, one heading level down, after the suites' own.
     lines += [("#" + line) if line.startswith("## ") else line for line in details]
     return [*lines, ""]
+
+
+#: The folder under the results with the committed final designs rolled out again with the hand
+#: merged and in the retest's nudged scenes (``python -m perf.studies.committed_motion``), one
+#: CSV per section (``round.csv``, ``square.csv``).
+MOTION = "committed-motion"
+
+#: The columns :func:`motion_figures` reads.
+MOTION_COLUMNS = (
+    "suite",
+    "variant",
+    "optimizer",
+    "seed",
+    "arm",
+    "nudge",
+    "free_energy",
+    "box_x",
+    "box_y",
+    "stored_free_energy",
+    "error",
+)
+
+
+def motion_figures(
+    path: str | os.PathLike[str], one_rollout: Iterable[str] | None = None
+) -> dict[str, float]:
+    """What the merged hand and the retest's nudges do to the committed final designs.
+
+    ``path`` is a CSV of ``perf.studies.committed_motion``: per final design, its rollout with
+    13 links (the arm it ran with) in its own scene (``nudge`` 0) and in the retest's nudged
+    scenes (``nudge`` 1, 2, ...), and with the hand merged in its own scene. A rollout in which
+    the design is invalid (its ``error`` says why) has no numbers and is counted apart.
+
+    ``one_rollout`` names the suites whose stored score is the F of one rollout (not, e.g., a
+    mean over box masses); None: every suite.
+
+    Returns:
+        ``designs``; ``reproduced``: how many of the ``compared`` designs of the suites of
+        ``one_rollout`` gave their stored F bit for bit with 13 links in their own scene;
+        ``merged_max_change`` and ``merged_median_change``: the
+        largest and the median |F merged - F 13 links| over the designs valid with both arms,
+        with ``merged_max_relative`` (that over |F 13 links|), ``merged_unchanged`` (designs
+        whose F is bit for bit the same), ``merged_moved_0.1%`` (designs whose F moves by more
+        than 0.1 %) and ``merged_invalid``; ``merged_median_shift_mm`` and
+        ``merged_max_shift_mm``: the median and the largest distance between the box's final
+        positions with the two arms, mm;
+        ``nudge_median_shift_mm`` and ``nudge_max_shift_mm``: the median and the largest
+        distance between the box's final position in a nudged scene and in the design's own
+        one, over the ``nudged_rollouts`` valid ones (``nudge_invalid`` were not).
+
+    Raises:
+        ValueError: The file lacks a column, or a design lacks its 13-link rollout in its own
+            scene or its merged one.
+    """
+    table = pd.read_csv(path, dtype={"variant": str, "error": str})
+    missing = [c for c in MOTION_COLUMNS if c not in table.columns]
+    if missing:
+        raise ValueError(
+            f"{os.fspath(path)} lacks the columns {missing}: not a committed_motion CSV"
+        )
+    keys = ["suite", "variant", "optimizer", "seed"]
+    table["variant"] = table["variant"].fillna("").astype(str)
+    table["error"] = table["error"].fillna("").astype(str)
+    own = table[(table["arm"] == "13 links") & (table["nudge"] == 0)].set_index(keys)
+    merged = table[table["arm"] == "hand merged"].set_index(keys)
+    nudged = table[(table["arm"] == "13 links") & (table["nudge"] > 0)]
+    if not own.index.is_unique or set(own.index) != set(merged.index):
+        raise ValueError(
+            f"{os.fspath(path)}: every design needs one 13-link rollout in its own scene and one "
+            "with the hand merged"
+        )
+    merged = merged.loc[own.index]
+    suites = set(own.index.get_level_values("suite"))
+    scored = own[
+        own.index.get_level_values("suite").isin(
+            suites if one_rollout is None else set(one_rollout)
+        )
+    ]
+    both = (own["error"] == "") & (merged["error"] == "")
+    change = (merged["free_energy"] - own["free_energy"]).abs()[both]
+    shift = np.hypot(merged["box_x"] - own["box_x"], merged["box_y"] - own["box_y"])[both]
+    valid = nudged[nudged["error"] == ""]
+    base = own.loc[pd.MultiIndex.from_frame(valid[keys])]
+    moved = np.hypot(
+        valid["box_x"].to_numpy() - base["box_x"].to_numpy(),
+        valid["box_y"].to_numpy() - base["box_y"].to_numpy(),
+    )
+    moved = moved[np.isfinite(moved)]  # a nudge of a design invalid in its own scene: no base
+    return {
+        "designs": float(len(own)),
+        "reproduced": float((scored["free_energy"] == scored["stored_free_energy"]).sum()),
+        "compared": float(len(scored)),
+        "merged_max_change": float(change.max()),
+        "merged_median_change": float(change.median()),
+        "merged_max_relative": float((change / own["free_energy"].abs()[both]).max()),
+        "merged_unchanged": float((change == 0).sum()),
+        "merged_invalid": float((~both).sum()),
+        "merged_moved_0.1%": float((change / own["free_energy"].abs()[both] > 1e-3).sum()),
+        "merged_median_shift_mm": float(1000 * np.median(shift)),
+        "merged_max_shift_mm": float(1000 * np.max(shift)),
+        "nudge_median_shift_mm": float(1000 * np.median(moved)) if len(moved) else math.nan,
+        "nudge_max_shift_mm": float(1000 * np.max(moved)) if len(moved) else math.nan,
+        "nudged_rollouts": float(len(moved)),
+        "nudge_invalid": float(len(nudged) - len(moved)),
+    }
+
+
+def _one_rollout_suites(folder: Path) -> list[str]:
+    """The suites under ``folder`` whose stored score is one rollout's F (objective free-energy)."""
+    names = []
+    for suite in SUITES:
+        if (folder / suite / "manifest.json").is_file():
+            config = read_manifest(folder / suite).get("config", {})  # through the reader gate
+            if config.get("objective", "free-energy") == "free-energy":
+                names.append(suite)
+    return names
+
+
+def _motion(results: Path, section: str) -> dict[str, float] | None:
+    """:func:`motion_figures` of a section's committed CSV, or None without one."""
+    path = results / MOTION / f"{section}.csv"
+    if not path.is_file():
+        return None
+    return motion_figures(
+        path, _one_rollout_suites(results / SQUARE if section == SQUARE else results)
+    )
+
+
+def _reproduced(figures: Mapping[str, float]) -> str:
+    """How many designs the 13-link rollouts gave the stored F of, bit for bit."""
+    return (
+        f"with 13 links in its own scene, {int(figures['reproduced'])} of the "
+        f"{int(figures['compared'])} designs whose stored score is one rollout's F gave it bit for "
+        "bit"
+    )
+
+
+def _invalid(count: float) -> str:
+    """``"; 1 invalid in its scene, left out"`` or nothing."""
+    return f"; {int(count)} invalid in its scene, left out" if count else ""
+
+
+def _merged_sentence(results: Path) -> str:
+    """What the merged hand does to the outcomes, as measured on the committed designs."""
+    figures = _motion(results, "round")
+    if figures is None:
+        return (
+            "its outcomes on the committed designs not measured (no `committed-motion/round.csv`)"
+        )
+    return (
+        "outcomes that differ from the 13 links' by rounding on most designs and by much more on "
+        f"some, as the pushes' chaos amplifies it: on the {int(figures['designs'])} committed "
+        "final designs of the round section, rolled out again with each arm in the design's own "
+        f"scene, F moves by a median {_fmt(figures['merged_median_change'], 2)} but up to "
+        f"{_fmt(figures['merged_max_change'])} ({percent_cell(figures['merged_max_relative'])}; "
+        f"by more than 0.1 % on {int(figures['merged_moved_0.1%'])} designs, bit for bit on "
+        f"{int(figures['merged_unchanged'])}{_invalid(figures['merged_invalid'])}), and the "
+        f"box's final position by a median {_fmt(figures['merged_median_shift_mm'], 2)} mm and "
+        f"up to {_fmt(figures['merged_max_shift_mm'], 3)} mm (`docs/results/{MOTION}/round.csv`, "
+        f"below; {_reproduced(figures)})"
+    )
+
+
+def _nudge_sentence(results: Path) -> str:
+    """What the retest's nudges do to the motion, as measured on the committed designs."""
+    figures = _motion(results, "round")
+    if figures is None:
+        return "whose effect on the motion was not measured (no `committed-motion/round.csv`)"
+    return (
+        "which move the box's final position by a median "
+        f"{_fmt(figures['nudge_median_shift_mm'], 2)} mm and up to "
+        f"{_fmt(figures['nudge_max_shift_mm'], 3)} mm on the "
+        f"{int(figures['designs'])} committed final designs of the round section "
+        f"({int(figures['nudged_rollouts'])} nudged rollouts{_invalid(figures['nudge_invalid'])}, "
+        f"`docs/results/{MOTION}/round.csv`): "
+        "the pushes are chaotic, and the noise floor is how much of each quantity that chaos moves"
+    )
 
 
 #: The suites each claim is read from (robust-design is optional: claim (c)'s baseline).
@@ -590,6 +1014,7 @@ def reproduction_page(results: str | os.PathLike[str]) -> str:
     b = _claim_b(results / "robustness")
     c = _claim_c(results / "robustness", baseline if baseline.is_dir() else None)
     d = _claim_d(results / "robustness")
+    e = _claim_e(results / "robustness")
     lines = [
         "# Reproduction of the paper's results",
         "",
@@ -599,7 +1024,7 @@ def reproduction_page(results: str | os.PathLike[str]) -> str:
         "its config (`manifest.json`) says; the tool's section (round by default; the paper's "
         "square section has its own results, in the last section), the arm (13 links, or the "
         "hand merged into the last arm link, the default since 83b01fb: the same rigid body, "
-        "results equal to rounding, [Performance](performance.md#fewer-links-the-hand-merged-"
+        f"{_merged_sentence(results)}; [Performance](performance.md#fewer-links-the-hand-merged-"
         "into-the-last-arm-link-2026-11-25)), the estimator of Pi_U and the code each ran with:",
         "",
         "| suite | section | arm | estimator | objective | seeds | batch x iterations | commit "
@@ -609,8 +1034,9 @@ def reproduction_page(results: str | os.PathLike[str]) -> str:
         "",
         "**How a claim is judged.** A difference counts when its 95 % interval (or its "
         "Holm-corrected test) excludes zero AND it is larger than the noise floor: the median "
-        "range of that quantity over scenes nudged by at most 0.1 mm and 1e-4 rad, which leave "
-        "the motion unchanged (`tooldesign retest`). A trend counts when its Spearman p < 0.05.",
+        "range of that quantity over scenes nudged by at most 0.1 mm and 1e-4 rad "
+        f"(`tooldesign retest`), {_nudge_sentence(results)}. A trend counts when its Spearman "
+        "p < 0.05.",
         "",
         "| claim of the paper | here | verdict |",
         "|---|---|---|",
@@ -620,6 +1046,7 @@ def reproduction_page(results: str | os.PathLike[str]) -> str:
         f"| (c) pure confidence has the best robustness and the lowest control deviation "
         f"| {c[0]} | {c[1]} |",
         f"| (d) robustness falls and goal error falls as p^X grows | {d[0]} | {d[1]} |",
+        f"{TABLE_I_ROW} | {e[0]} | {e[1]} |",
         "",
         "## Noise floors",
         "",
@@ -633,7 +1060,7 @@ def reproduction_page(results: str | os.PathLike[str]) -> str:
     ]
     for suite, floor in floors.items():
         lines.append(_floor_row(suite, floor))
-    lines += ["", *a[2], "", *b[2], "", *c[2], "", *d[2], ""]
+    lines += ["", *a[2], "", *b[2], "", *c[2], "", *d[2], "", *e[2], ""]
     lines += [
         "## Does control confidence buy robustness more cheaply than asking for it?",
         "",
@@ -660,8 +1087,22 @@ def reproduction_page(results: str | os.PathLike[str]) -> str:
             for s in SUITES
             if (results / SQUARE / s / "manifest.json").is_file()
         ],
+        *[
+            f"python -m perf.studies.committed_motion --section {section} "
+            f"--out docs/results/{MOTION}/{section}.csv"
+            for section in ("round", "square")
+            if (results / MOTION / f"{section}.csv").is_file()
+        ],
         "tooldesign reproduce   # every report, then this page",
         "```",
+        "",
+        f"`docs/results/{MOTION}/` holds every committed final design rolled out again, from the "
+        "repository's root (`perf/studies/committed_motion.py`): with the 13 links it ran with in "
+        "its own scene (its stored F, where that code and platform reproduce it: the page counts "
+        "how many did) "
+        "and in the retest's nudged scenes, and with the hand merged; per rollout F, its terms, "
+        "and the box's final position. The page's figures on the merged hand and on the nudges "
+        "are read from it.",
         "",
         "Each folder holds `manifest.json` (config, versions, commit, host, times), "
         "`evaluations.parquet`, `designs/`, `retest/` (the noise and stress rollouts of every "

@@ -69,7 +69,8 @@ class RetestConfig:
 
     Attributes:
         nudges: Scenes per design for the noise floor (the first is the scene itself).
-        shift: Largest change of the box's start position, m (0.1 mm: the motion is unchanged).
+        shift: Largest change of the box's start position, m (0.1 mm, which moves the box's
+            final position by millimetres: the pushes are chaotic, docs/reproduction.md).
         turn: Largest change of the box's start yaw, rad.
         seed: Seed of the nudges; every design gets the same ones.
         masses: Box masses of the stress test, kg (empty: no stress test).
