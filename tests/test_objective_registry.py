@@ -146,6 +146,21 @@ def test_the_names_are_known_to_the_spec_only_while_registered(toys):
     assert make_objective(spec).recording == Recording()
 
 
+@pytest.mark.slow
+def test_the_harness_takes_a_registered_estimator_in_its_own_process(toys):
+    # The harness's task settings read the same registry as the spec: a design run with the
+    # serial executor scores with the toy (a process pool's workers would need the
+    # registration at import, docs/architecture.md).
+    from benchmarks.execution import TaskSettings, evaluate_batch, make_executor
+
+    task = TaskSettings(estimator="toy", objective="toy-final-distance")
+    with make_executor("serial") as executor:
+        (row,) = evaluate_batch(executor, [np.zeros(3)], task)
+    assert row["status"] == "ok" and row["free_energy"] == -(-100.0 * row["final_distance"])
+    with pytest.raises(ValueError, match="estimator must be one of .*'toy'"):
+        TaskSettings(estimator="magic")
+
+
 def test_after_unregistering_the_spec_refuses_the_name():
     register_estimator("toy", MovingBoxEstimator.from_spec)
     unregister_estimator("toy")

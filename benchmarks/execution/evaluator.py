@@ -42,6 +42,8 @@ from tooldesign_env.schema import (
     rounded_path,
 )
 
+#: The built-in estimators and objectives, as the command line offers them (it reads these names
+#: without importing the env); TaskSettings takes any registered name.
 _ESTIMATORS: tuple[str, ...] = ("contact", "trajectory", "resimulation")
 
 
@@ -115,10 +117,18 @@ class TaskSettings:
         if not 0 < mass <= BOX_MASS_MAX:
             raise ValueError(f"box_mass must be > 0 and <= {BOX_MASS_MAX:g} kg, got {mass}")
         object.__setattr__(self, "box_mass", mass)
-        if self.estimator not in _ESTIMATORS:
-            raise ValueError(f"estimator must be one of {_ESTIMATORS}, got {self.estimator!r}")
-        if self.objective not in OBJECTIVES:
-            raise ValueError(f"objective must be one of {OBJECTIVES}, got {self.objective!r}")
+        # The registries (tooldesign_env/objective/registry.py), so that an estimator or
+        # objective registered in this process is taken as the env takes it.
+        from tooldesign_env.objective.registry import estimator_names, objective_names
+
+        if self.estimator not in estimator_names():
+            raise ValueError(
+                f"estimator must be one of {estimator_names()}, got {self.estimator!r}"
+            )
+        if self.objective not in objective_names():
+            raise ValueError(
+                f"objective must be one of {objective_names()}, got {self.objective!r}"
+            )
         extra = self.env_kwargs
         if isinstance(extra, Mapping):
             extra = tuple(extra.items())
