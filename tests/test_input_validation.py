@@ -614,13 +614,15 @@ def test_suite_files_found_by_fuzzing_exit_2_with_one_line(tmp_path, capsys, nam
         path.write_text(json.dumps({**SUITE, **content}), encoding="utf-8")
     with pytest.raises((TypeError, ValueError), match=match):
         load_suite(path)
-    existing = tmp_path / "file"
-    existing.write_text("x")
+    # A good --out (a bad one is refused first, before the suite file is read): the refusal
+    # names the suite file, and the run folder is never made.
+    out = tmp_path / "run"
     with pytest.raises(SystemExit) as stop:
-        main(["bench", "--config", str(path), "--out", str(existing), "--no-progress"])
+        main(["bench", "--config", str(path), "--out", str(out), "--no-progress"])
     assert stop.value.code == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and str(path) in err[0] and "Traceback" not in err[0], err
+    assert not out.exists()
 
 
 @pytest.mark.slow

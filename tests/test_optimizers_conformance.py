@@ -195,6 +195,7 @@ def test_this_suite_skips_what_an_installed_plugin_declares(tmp_path: Path) -> N
             str(Path(__file__)),
             "-q",
             "-rs",
+            "--all",  # the plugin's checks include slow ones: this test is about all of them
             "-p",
             "no:cacheprovider",
             "-k",
