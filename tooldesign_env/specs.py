@@ -40,13 +40,19 @@ __all__ = [
     "MASS_RANGE_MIN",
     "PLAN_DURATION_MAX",
     "PLAN_DURATION_MIN",
+    "DEFAULT_PHYSICS",
+    "LOWER_FLOOR",
+    "PHYSICS_062B3A0",
+    "PHYSICS_PRESETS",
     "ControllerSpec",
     "ObjectiveSpec",
+    "PhysicsPreset",
     "PlanSpec",
     "SceneSpec",
     "TaskSpec",
     "check_real",
     "is_unordered",
+    "physics_preset",
     "spec_to_dict",
 ]
 
@@ -144,6 +150,111 @@ PLAN_DURATION_MAX = 60.0
 #: m: PyBullet's contact breaking threshold: shapes closer than this get contact points
 #: (SceneSpec.floor_clearance must exceed it).
 FLOOR_CONTACT_THRESHOLD = 0.02
+
+
+@dataclass(frozen=True, kw_only=True)
+class PhysicsPreset:
+    """The settings that move results (in their last bits or more), as one named set.
+
+    Each field is the default of the spec field of the same name; :data:`DEFAULT_PHYSICS` is
+    the set the specs take their defaults from. A preset other than the default is tried, or
+    used, without changing the defaults, by :meth:`specs`, which returns the specs with its
+    values: ``ToolDesignEnv(**LOWER_FLOOR.specs())``.
+
+    Flipping the defaults is the one line ``DEFAULT_PHYSICS = ...`` below, and it must go in
+    with every committed result regenerated (docs/performance.md, "The equivalence rule").
+
+    Attributes:
+        name: what the preset is called (``tooldesign_env.specs.PHYSICS_PRESETS``).
+        solver_iterations: ``SceneSpec.solver_iterations``.
+        box_settle_time: ``SceneSpec.box_settle_time``, s.
+        rest_time: ``SceneSpec.rest_time``, s.
+        gram: ``ObjectiveSpec.gram``.
+    """
+
+    name: str
+    solver_iterations: int
+    box_settle_time: float
+    rest_time: float
+    gram: str
+
+    def specs(
+        self,
+        *,
+        scene: SceneSpec | None = None,
+        objective: ObjectiveSpec | None = None,
+    ) -> dict[str, Any]:
+        """``scene`` and ``objective`` (their defaults if None) with this preset's values.
+
+        Returns:
+            ``{"scene": SceneSpec, "objective": ObjectiveSpec}``, keyword arguments of
+            ``ToolDesignEnv``, ``gymnasium.make`` and ``ToolSimulator`` (which takes the scene).
+
+        Raises:
+            TypeError: ``scene`` or ``objective`` is not a spec of its kind.
+        """
+        import dataclasses
+
+        given: tuple[tuple[str, object, type], ...] = (
+            ("scene", scene, SceneSpec),
+            ("objective", objective, ObjectiveSpec),
+        )
+        for label, value, kind in given:
+            if value is not None and not isinstance(value, kind):
+                raise TypeError(
+                    f"{label} must be a {kind.__name__} or None, got {type(value).__name__} "
+                    f"{value!r}"
+                )
+        return {
+            "scene": dataclasses.replace(
+                scene or SceneSpec(),
+                solver_iterations=self.solver_iterations,
+                box_settle_time=self.box_settle_time,
+                rest_time=self.rest_time,
+            ),
+            "objective": dataclasses.replace(objective or ObjectiveSpec(), gram=self.gram),
+        }
+
+
+#: The physics every committed result was computed with (that of 062b3a0).
+PHYSICS_062B3A0 = PhysicsPreset(
+    name="062b3a0",
+    solver_iterations=50,
+    box_settle_time=0.25,
+    rest_time=0.1,
+    gram="joints",
+)
+
+#: The candidates of issue 31 that the equivalence rule accepted, together (docs/performance.md,
+#: "A lower floor, under the equivalence rule"): fewer solver iterations, a shorter settling of
+#: the box, a shorter rest before the fast-forward, the 3 x 3 Gram matrix.
+LOWER_FLOOR = PhysicsPreset(
+    name="lower-floor",
+    solver_iterations=20,
+    box_settle_time=0.0,
+    rest_time=0.05,
+    gram="box",
+)
+
+#: The presets by name.
+PHYSICS_PRESETS: dict[str, PhysicsPreset] = {p.name: p for p in (PHYSICS_062B3A0, LOWER_FLOOR)}
+
+#: The preset the specs' defaults come from. The flip to LOWER_FLOOR is this one line, in the
+#: change that regenerates every committed result (pending).
+DEFAULT_PHYSICS = PHYSICS_062B3A0
+
+
+def physics_preset(name: str) -> PhysicsPreset:
+    """The preset called ``name``.
+
+    Raises:
+        ValueError: no preset has that name (the message lists those that exist).
+    """
+    if not isinstance(name, str) or name not in PHYSICS_PRESETS:
+        raise ValueError(
+            f"the physics preset must be one of {sorted(PHYSICS_PRESETS)}, got {name!r}"
+        )
+    return PHYSICS_PRESETS[name]
 
 
 def check_real(value: Any, label: str) -> float:
@@ -451,7 +562,7 @@ class SceneSpec:
     """
 
     time_step: float = 1.0 / 240.0
-    solver_iterations: int = 50
+    solver_iterations: int = DEFAULT_PHYSICS.solver_iterations
     box_size: tuple[float, float, float] = (0.1, 0.1, 0.2)
     box_mass: float = DEFAULT_BOX_MASS
     box_position: tuple[float, float] = (
@@ -462,10 +573,10 @@ class SceneSpec:
     box_friction: float = 0.4
     floor_friction: float = 1.0
     tool_friction: float = 0.5
-    box_settle_time: float = 0.25
+    box_settle_time: float = DEFAULT_PHYSICS.box_settle_time
     fast_forward_rest: bool = True
     rest_speed: float = 1e-3
-    rest_time: float = 0.1
+    rest_time: float = DEFAULT_PHYSICS.rest_time
     arm_floor_contacts: bool | Literal["auto"] = "auto"
     floor_clearance: float = 0.03
     merge_fixed_links: bool = True
@@ -541,6 +652,8 @@ class TaskSpec:
 ESTIMATORS = BUILTIN_ESTIMATORS
 KINDS = BUILTIN_OBJECTIVES
 FORMS = ("clamped", "gauss-newton")
+#: The matrices whose eigenvalues give the Gauss-Newton confidence (ObjectiveSpec.gram).
+GRAMS = ("joints", "box")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -559,6 +672,13 @@ class ObjectiveSpec:
             1/2 sum_k log(1 + max(lambda_k, 0) / eps) over the eigenvalues lambda_k of Pi_U.
         form: ``"clamped"``: Pi_U with the second-order term, negative eigenvalues clamped at 0;
             ``"gauss-newton"``: Pi_U = J^T J only.
+        gram: where Pi_U is the Gauss-Newton J^T J (``form="gauss-newton"``, or an estimator
+            that gives no second derivative, such as the default ``"contact"``), which matrix
+            is decomposed: ``"joints"``, the 7 x 7 J^T J (the default, the arithmetic of every
+            committed result), or ``"box"``, the 3 x 3 J J^T. Their non-zero eigenvalues are
+            the same (J is 3 x 7), so c_t is the same up to rounding, and the 3 x 3 costs
+            less (docs/performance.md, "The confidence from the 3 x 3 J J^T"). With the
+            second-order term the 7 x 7 Pi_U is decomposed whatever this says.
         estimator: how dX/dU (and d2X/dU2) are estimated: ``"contact"`` (the default: a
             linearization of the tool-box contact along the rollout, from the arm's Jacobian
             and mass matrix; stable under nudges of the scene), ``"trajectory"`` (a sliding
@@ -601,6 +721,7 @@ class ObjectiveSpec:
     goal_precision: float = DEFAULT_GOAL_PRECISION
     eps: float = 1e-6
     form: str = "clamped"
+    gram: str = DEFAULT_PHYSICS.gram
     estimator: str = "contact"
     window: int = 24
     ridge: float = 0.1
@@ -674,6 +795,8 @@ class ObjectiveSpec:
         object.__setattr__(self, "expected_masses", tuple(float(m) for m in masses))
         if self.form not in FORMS:
             raise ValueError(f"ObjectiveSpec.form must be one of {FORMS}, got {self.form!r}")
+        if not isinstance(self.gram, str) or self.gram not in GRAMS:
+            raise ValueError(f"ObjectiveSpec.gram must be one of {GRAMS}, got {self.gram!r}")
         estimators = estimator_names()
         if self.estimator not in estimators:
             raise ValueError(
