@@ -138,6 +138,19 @@ BAD = [
     ("fuzz_inputs", ["--random", "-1"], "argument --random: must be an int >= 0"),
     ("fuzz_inputs", ["--cli-files", "-1"], "argument --cli-files: must be an int >= 0"),
     ("fuzz_inputs", ["--seed", "-1"], "argument --seed: must be an int >= 0"),
+    ("evaluation_at_floor", [str(ROOT), "--designs", "0"], "--designs: must be an int >= 1"),
+    ("evaluation_at_floor", [str(ROOT), "--rounds", "0"], "--rounds: must be an int >= 1"),
+    ("evaluation_at_floor", [str(ROOT), "--preset", "fast"], "--preset must be one of"),
+    ("evaluation_at_floor", [str(ROOT), "--core", "4096"], "--core must be one of the CPUs"),
+    ("evaluation_at_floor", ["/nonexistent"], "has no tooldesign_env package"),
+    ("suite_throughput", ["--workers", "1"], "argument --workers: must be an int from 2 to"),
+    ("suite_throughput", ["--size", "huge"], "argument --size: invalid choice: 'huge'"),
+    ("suite_throughput", ["--batch-size", "1"], "the suite of --size full"),
+    ("suite_throughput", ["--timeout", "0"], "argument --timeout: must be a finite number > 0"),
+    ("dask_task_overhead", ["--tasks", "5"], "argument --tasks: must be an int >= 10, got '5'"),
+    ("dask_task_overhead", ["--workers", "0"], "argument --workers: must be an int from 1 to"),
+    ("dask_task_overhead", ["--sequential", "0"], "--sequential: must be an int >= 1"),
+    ("dask_task_overhead", ["--repeats", "0"], "argument --repeats: must be an int >= 1"),
 ]
 
 
@@ -192,6 +205,9 @@ def test_main_parses_its_arguments_first(script: str, monkeypatch: pytest.Monkey
         ("section_convergence", ["--segments", "15", "30"]),
         ("compare_trees", [str(ROOT), str(ROOT), "--", "--designs", "2"]),
         ("against_baseline", [str(ROOT), "--designs", "2"]),
+        ("evaluation_at_floor", [str(ROOT), "--designs", "1", "--preset", "062b3a0"]),
+        ("suite_throughput", ["--size", "smoke", "--seeds", "1", "--iterations", "1"]),
+        ("dask_task_overhead", ["--tasks", "10", "--sequential", "1"]),
     ],
 )
 def test_good_arguments_parse(
