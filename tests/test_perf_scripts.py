@@ -151,6 +151,9 @@ BAD = [
     ("dask_task_overhead", ["--workers", "0"], "argument --workers: must be an int from 1 to"),
     ("dask_task_overhead", ["--sequential", "0"], "--sequential: must be an int >= 1"),
     ("dask_task_overhead", ["--repeats", "0"], "argument --repeats: must be an int >= 1"),
+    ("preset_callgrind", ["--preset", "fast"], "argument --preset: invalid choice: 'fast'"),
+    ("preset_callgrind", ["--designs", "-1"], "argument --designs: must be an int >= 0"),
+    ("preset_callgrind", ["--seed", "-1"], "argument --seed: must be an int >= 0"),
 ]
 
 
