@@ -563,7 +563,7 @@ def _tool_yaws(orientations: np.ndarray) -> list[float]:
 
     The rotation matrix's entries are computed for all rows at once (NumPy's elementwise
     products and sums round as Python's floats do), and ``math.atan2`` takes them row by row,
-    as :func:`_tool_yaw` does: the per-step Python calls were 1 % of an evaluation.
+    as :func:`_tool_yaw` does: the per-step Python calls were 0.8 % of an evaluation (cProfile).
     """
     if orientations.shape[0] == 0:
         return []
