@@ -16,7 +16,7 @@ import math
 import numbers
 from collections.abc import Iterable, Mapping, MappingView
 from collections.abc import Set as AbstractSet
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from typing import Any, Literal
 
 import numpy as np
@@ -162,7 +162,7 @@ class PhysicsPreset:
     values: ``ToolDesignEnv(**LOWER_FLOOR.specs())``.
 
     Flipping the defaults is the one line ``DEFAULT_PHYSICS = ...`` below, and it must go in
-    with every committed result regenerated (docs/performance.md, "The equivalence rule").
+    with every committed result regenerated (docs/performance.md, "The flip (pending)").
 
     Attributes:
         name: what the preset is called (``tooldesign_env.specs.PHYSICS_PRESETS``).
@@ -191,8 +191,6 @@ class PhysicsPreset:
         Raises:
             TypeError: ``scene`` or ``objective`` is not a spec of its kind.
         """
-        import dataclasses
-
         given: tuple[tuple[str, object, type], ...] = (
             ("scene", scene, SceneSpec),
             ("objective", objective, ObjectiveSpec),
@@ -204,12 +202,12 @@ class PhysicsPreset:
                     f"{value!r}"
                 )
         return {
-            "scene": dataclasses.replace(
+            "scene": replace(
                 scene or SceneSpec(),
                 solver_iterations=self.solver_iterations,
                 rest_time=self.rest_time,
             ),
-            "objective": dataclasses.replace(objective or ObjectiveSpec(), gram=self.gram),
+            "objective": replace(objective or ObjectiveSpec(), gram=self.gram),
         }
 
 
@@ -504,7 +502,9 @@ class SceneSpec:
 
     Attributes:
         time_step: physics time step, s.
-        solver_iterations: PyBullet constraint-solver iterations per step.
+        solver_iterations: PyBullet constraint-solver iterations per step. The default (50)
+            comes from :data:`DEFAULT_PHYSICS`; 20 passes the equivalence rule and is the
+            ``LOWER_FLOOR`` preset's (docs/performance.md, "Issue 31, staged").
         box_size: box extents (x, y, z), m.
         box_mass: box mass, kg.
         box_position: box centre at the start, (x, y) on the floor, m (z is half the height).
@@ -521,7 +521,8 @@ class SceneSpec:
             The scene is static then, so this changes the trajectory by less than the rest
             tolerance and saves about 40 % of the simulation time (see docs/model.md).
         rest_speed: box speed (m/s) and joint speed (rad/s) below which the scene is at rest.
-        rest_time: how long the scene must stay at rest before fast-forwarding, s.
+        rest_time: how long the scene must stay at rest before fast-forwarding, s. The
+            default (0.1) comes from :data:`DEFAULT_PHYSICS`; ``LOWER_FLOOR`` uses 0.05.
         arm_floor_contacts: whether the arm and the tool can touch the floor: True, False or
             ``"auto"`` (the default). With False only the box touches it, and PyBullet no
             longer tests the arm's 12 links and the tool's ~31 boxes against the floor on every
