@@ -16,7 +16,7 @@ import math
 import numbers
 from collections.abc import Iterable, Mapping, MappingView
 from collections.abc import Set as AbstractSet
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from typing import Any, Literal
 
 import numpy as np
@@ -40,13 +40,19 @@ __all__ = [
     "MASS_RANGE_MIN",
     "PLAN_DURATION_MAX",
     "PLAN_DURATION_MIN",
+    "DEFAULT_PHYSICS",
+    "LOWER_FLOOR",
+    "PHYSICS_062B3A0",
+    "PHYSICS_PRESETS",
     "ControllerSpec",
     "ObjectiveSpec",
+    "PhysicsPreset",
     "PlanSpec",
     "SceneSpec",
     "TaskSpec",
     "check_real",
     "is_unordered",
+    "physics_preset",
     "spec_to_dict",
 ]
 
@@ -144,6 +150,104 @@ PLAN_DURATION_MAX = 60.0
 #: m: PyBullet's contact breaking threshold: shapes closer than this get contact points
 #: (SceneSpec.floor_clearance must exceed it).
 FLOOR_CONTACT_THRESHOLD = 0.02
+
+
+@dataclass(frozen=True, kw_only=True)
+class PhysicsPreset:
+    """The settings that move results (in their last bits or more), as one named set.
+
+    Each field is the default of the spec field of the same name; :data:`DEFAULT_PHYSICS` is
+    the set the specs take their defaults from. A preset other than the default is tried, or
+    used, without changing the defaults, by :meth:`specs`, which returns the specs with its
+    values: ``ToolDesignEnv(**LOWER_FLOOR.specs())``.
+
+    Flipping the defaults is the one line ``DEFAULT_PHYSICS = ...`` below, and it must go in
+    with every committed result regenerated (docs/performance.md, "The flip (pending)").
+
+    Attributes:
+        name: what the preset is called (``tooldesign_env.specs.PHYSICS_PRESETS``).
+        solver_iterations: ``SceneSpec.solver_iterations``.
+        rest_time: ``SceneSpec.rest_time``, s.
+        gram: ``ObjectiveSpec.gram``.
+    """
+
+    name: str
+    solver_iterations: int
+    rest_time: float
+    gram: str
+
+    def specs(
+        self,
+        *,
+        scene: SceneSpec | None = None,
+        objective: ObjectiveSpec | None = None,
+    ) -> dict[str, Any]:
+        """``scene`` and ``objective`` (their defaults if None) with this preset's values.
+
+        Returns:
+            ``{"scene": SceneSpec, "objective": ObjectiveSpec}``, keyword arguments of
+            ``ToolDesignEnv``, ``gymnasium.make`` and ``ToolSimulator`` (which takes the scene).
+
+        Raises:
+            TypeError: ``scene`` or ``objective`` is not a spec of its kind.
+        """
+        given: tuple[tuple[str, object, type], ...] = (
+            ("scene", scene, SceneSpec),
+            ("objective", objective, ObjectiveSpec),
+        )
+        for label, value, kind in given:
+            if value is not None and not isinstance(value, kind):
+                raise TypeError(
+                    f"{label} must be a {kind.__name__} or None, got {type(value).__name__} "
+                    f"{value!r}"
+                )
+        return {
+            "scene": replace(
+                scene or SceneSpec(),
+                solver_iterations=self.solver_iterations,
+                rest_time=self.rest_time,
+            ),
+            "objective": replace(objective or ObjectiveSpec(), gram=self.gram),
+        }
+
+
+#: The physics every committed result was computed with (that of 062b3a0).
+PHYSICS_062B3A0 = PhysicsPreset(
+    name="062b3a0",
+    solver_iterations=50,
+    rest_time=0.1,
+    gram="joints",
+)
+
+#: The candidates of issue 31 that the equivalence rule accepted, together, all three tests
+#: (docs/performance.md, "Issue 31, staged: the evaluation at the floor and a lower floor"): fewer
+#: solver iterations, a shorter rest before the fast-forward, the 3 x 3 Gram matrix.
+LOWER_FLOOR = PhysicsPreset(
+    name="lower-floor",
+    solver_iterations=20,
+    rest_time=0.05,
+    gram="box",
+)
+
+#: The presets by name.
+PHYSICS_PRESETS: dict[str, PhysicsPreset] = {p.name: p for p in (PHYSICS_062B3A0, LOWER_FLOOR)}
+
+#: The preset the specs' defaults come from. The flip to LOWER_FLOOR is this one line, in the
+#: change that regenerates every committed result (pending).
+DEFAULT_PHYSICS = PHYSICS_062B3A0
+
+
+def physics_preset(name: str) -> PhysicsPreset:
+    """The preset called ``name``.
+
+    Raises:
+        ValueError: no preset has that name (the message lists those that exist).
+    """
+    if not isinstance(name, str) or name not in PHYSICS_PRESETS:
+        raise ValueError(
+            f"the physics preset must be one of {sorted(PHYSICS_PRESETS)}, got {name!r}"
+        )
+    return PHYSICS_PRESETS[name]
 
 
 def check_real(value: Any, label: str) -> float:
@@ -398,7 +502,9 @@ class SceneSpec:
 
     Attributes:
         time_step: physics time step, s.
-        solver_iterations: PyBullet constraint-solver iterations per step.
+        solver_iterations: PyBullet constraint-solver iterations per step. The default (50)
+            comes from :data:`DEFAULT_PHYSICS`; 20 passes the equivalence rule and is the
+            ``LOWER_FLOOR`` preset's (docs/performance.md, "Issue 31, staged").
         box_size: box extents (x, y, z), m.
         box_mass: box mass, kg.
         box_position: box centre at the start, (x, y) on the floor, m (z is half the height).
@@ -415,7 +521,8 @@ class SceneSpec:
             The scene is static then, so this changes the trajectory by less than the rest
             tolerance and saves about 40 % of the simulation time (see docs/model.md).
         rest_speed: box speed (m/s) and joint speed (rad/s) below which the scene is at rest.
-        rest_time: how long the scene must stay at rest before fast-forwarding, s.
+        rest_time: how long the scene must stay at rest before fast-forwarding, s. The
+            default (0.1) comes from :data:`DEFAULT_PHYSICS`; ``LOWER_FLOOR`` uses 0.05.
         arm_floor_contacts: whether the arm and the tool can touch the floor: True, False or
             ``"auto"`` (the default). With False only the box touches it, and PyBullet no
             longer tests the arm's 12 links and the tool's ~31 boxes against the floor on every
@@ -451,7 +558,7 @@ class SceneSpec:
     """
 
     time_step: float = 1.0 / 240.0
-    solver_iterations: int = 50
+    solver_iterations: int = DEFAULT_PHYSICS.solver_iterations
     box_size: tuple[float, float, float] = (0.1, 0.1, 0.2)
     box_mass: float = DEFAULT_BOX_MASS
     box_position: tuple[float, float] = (
@@ -465,7 +572,7 @@ class SceneSpec:
     box_settle_time: float = 0.25
     fast_forward_rest: bool = True
     rest_speed: float = 1e-3
-    rest_time: float = 0.1
+    rest_time: float = DEFAULT_PHYSICS.rest_time
     arm_floor_contacts: bool | Literal["auto"] = "auto"
     floor_clearance: float = 0.03
     merge_fixed_links: bool = True
@@ -541,6 +648,8 @@ class TaskSpec:
 ESTIMATORS = BUILTIN_ESTIMATORS
 KINDS = BUILTIN_OBJECTIVES
 FORMS = ("clamped", "gauss-newton")
+#: The matrices whose eigenvalues give the Gauss-Newton confidence (ObjectiveSpec.gram).
+GRAMS = ("joints", "box")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -559,6 +668,13 @@ class ObjectiveSpec:
             1/2 sum_k log(1 + max(lambda_k, 0) / eps) over the eigenvalues lambda_k of Pi_U.
         form: ``"clamped"``: Pi_U with the second-order term, negative eigenvalues clamped at 0;
             ``"gauss-newton"``: Pi_U = J^T J only.
+        gram: where Pi_U is the Gauss-Newton J^T J (``form="gauss-newton"``, or an estimator
+            that gives no second derivative, such as the default ``"contact"``), which matrix
+            is decomposed: ``"joints"``, the 7 x 7 J^T J (the default, the arithmetic of every
+            committed result), or ``"box"``, the 3 x 3 J J^T. Their non-zero eigenvalues are
+            the same (J is 3 x 7), so c_t is the same up to rounding, and the 3 x 3 costs
+            less (docs/performance.md, "The confidence from the 3 x 3 J J^T"). With the
+            second-order term the 7 x 7 Pi_U is decomposed whatever this says.
         estimator: how dX/dU (and d2X/dU2) are estimated: ``"contact"`` (the default: a
             linearization of the tool-box contact along the rollout, from the arm's Jacobian
             and mass matrix; stable under nudges of the scene), ``"trajectory"`` (a sliding
@@ -601,6 +717,7 @@ class ObjectiveSpec:
     goal_precision: float = DEFAULT_GOAL_PRECISION
     eps: float = 1e-6
     form: str = "clamped"
+    gram: str = DEFAULT_PHYSICS.gram
     estimator: str = "contact"
     window: int = 24
     ridge: float = 0.1
@@ -674,6 +791,8 @@ class ObjectiveSpec:
         object.__setattr__(self, "expected_masses", tuple(float(m) for m in masses))
         if self.form not in FORMS:
             raise ValueError(f"ObjectiveSpec.form must be one of {FORMS}, got {self.form!r}")
+        if not isinstance(self.gram, str) or self.gram not in GRAMS:
+            raise ValueError(f"ObjectiveSpec.gram must be one of {GRAMS}, got {self.gram!r}")
         estimators = estimator_names()
         if self.estimator not in estimators:
             raise ValueError(

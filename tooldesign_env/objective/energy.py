@@ -46,7 +46,7 @@ def free_energy_terms(
     box_position = rollout.box_position
     sens = estimator.estimate(rollout)
     e_t = goal_error(box_position, goal, spec.goal_precision)
-    c_t = control_confidence(sens, box_position, goal, eps=spec.eps, form=spec.form)
+    c_t = control_confidence(sens, box_position, goal, eps=spec.eps, form=spec.form, gram=spec.gram)
     f_t = e_t - c_t
     return ObjectiveTerms(
         free_energy=float(np.sum(f_t)),
