@@ -567,9 +567,12 @@ def _check_reference(data: Any, path: Path) -> dict[str, Any]:
     median = _median_floor([d.get("relative_floor") for d in designs])
     if stored is not None and not finite_number(stored):
         raise bad("field 'median_relative_floor' must be a number or null", stored)
-    if (stored is None) != (median is None) or (
-        median is not None and not math.isclose(float(stored), median, rel_tol=1e-9)
-    ):
+    agrees = (
+        stored is None
+        if median is None
+        else stored is not None and math.isclose(float(stored), median, rel_tol=1e-9)
+    )
+    if not agrees:
         raise bad(
             f"field 'median_relative_floor' must be the median of the designs' relative floors "
             f"({median!r})",
