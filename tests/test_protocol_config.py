@@ -204,3 +204,19 @@ def test_the_command_lines_constants_agree_with_the_protocols():
 
     assert _common.PROTOCOL_SUITE_NAME == PROTOCOL_SUITE_NAME
     assert _common.PROTOCOL_SIZES == PROTOCOL_SIZES
+
+
+@pytest.mark.slow
+def test_buildable_fraction_builds_the_scene_and_counts_usable_tools():
+    # build() returns a BuildResult with no truth value: the count must read .usable.
+    counted = buildable_fraction(3, 3, seed=0, check_box=True)
+    assert counted.usable is not None and 0 <= counted.usable <= counted.buildable <= 3
+    assert "usable" in counted.text()
+
+
+@pytest.mark.slow
+def test_cli_buildable_prints_every_degree():
+    done = _cli("bench", "protocol", "--buildable", "2", "--out", "unused")
+    assert done.returncode == 0, done.stderr
+    assert [line.split(":")[0] for line in done.stdout.splitlines()] == ["d = 3", "d = 5", "d = 8"]
+    assert "usable" in done.stdout
