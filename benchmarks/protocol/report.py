@@ -45,7 +45,12 @@ from benchmarks.protocol.measures import (
     target_ladder,
 )
 from benchmarks.protocol.references import load_references, packaged_references
-from benchmarks.protocol.statistics import paired_comparisons, power_analysis, rank_stability
+from benchmarks.protocol.statistics import (
+    min_instances,
+    paired_comparisons,
+    power_analysis,
+    rank_stability,
+)
 from benchmarks.protocol.suite import ProtocolConfig, cell_folder, read_protocol
 
 __all__ = [
@@ -279,19 +284,19 @@ def _md_table(frame: pd.DataFrame, floatfmt: str = ".3g") -> str:
 
 
 def _auc_table(scores: pd.DataFrame, by: str) -> pd.DataFrame:
+    from benchmarks.reports.stats import t_interval
+
     rows = []
     for (group, optimizer), frame in scores.groupby([by, "optimizer"], sort=True):
         per = frame.groupby(["instance", "degree"])["score"].mean().to_numpy()
-        rng = np.random.default_rng(0)
-        boot = per[rng.integers(0, per.size, size=(2000, per.size))].mean(axis=1)
-        low, high = np.quantile(boot, [0.025, 0.975])
+        interval = t_interval(per, 0.95)  # the percentile bootstrap under-covers few instances
         rows.append(
             {
                 by: group,
                 "optimizer": optimizer,
-                "AUC": per.mean(),
-                "95% low": low,
-                "95% high": high,
+                "AUC": interval.estimate,
+                "95% low": interval.low,
+                "95% high": interval.high,
                 "final regret (median)": frame["regret_1"].median(),
                 "runs": len(frame),
             }
@@ -426,7 +431,7 @@ def make_protocol_report(
         "higher is better). Regret: (F - F_ref) / (F_random(budget) - F_ref), 1 = random "
         "sampling, 0 = the reference. See docs/protocol.md.",
         "",
-        "## Area under the ECDF (mean over instances, 95 % bootstrap interval over instances)",
+        "## Area under the ECDF (mean over instances, 95 % Student t interval over instances)",
         "",
         _md_table(_auc_table(scores, "degree")),
         "",
@@ -461,6 +466,9 @@ def make_protocol_report(
             sections += ["Fewer than two optimizers or instances: no comparison.", ""]
             continue
         table = paired_comparisons(frame, alpha=alpha).assign(d=label)
+        pairs = len(table)
+        floor = min_instances(alpha, max(1, pairs))
+        blocks = int(frame["instance"].nunique())
         rank = rank_stability(frame, resamples=500).reset_index(names="optimizer").assign(d=label)
         power = power_analysis(frame, alpha=alpha).assign(d=label, measure="score")
         in_f = power_analysis(frame.assign(score=frame["final_f"]), alpha=alpha)
@@ -470,9 +478,33 @@ def make_protocol_report(
         comparisons.append(table)
         ranks.append(rank)
         powers.append(power)
+        unit = "instances" if label != "all" else "(instance, d) blocks"
+        if blocks < floor:
+            verdict = (
+                f"**This section cannot separate any pair.** With {blocks} {unit}, the exact "
+                f"Wilcoxon signed-rank test's smallest p is 2 / 2^{blocks} = "
+                f"{2.0 ** (1 - blocks):.3g}, and Holm's first step over the {pairs} pairs needs "
+                f"p < {alpha:g} / {pairs}: no difference, however large, is significant with "
+                f"fewer than {floor} {unit}. The detectable differences below are therefore "
+                "inf; more seeds do not help, more instances do."
+            )
+            if label != "all" and len(config.degrees) > 1:
+                verdict += (
+                    " The pooled section (all dimensions) has "
+                    f"{blocks * len(config.degrees)} blocks: read the comparisons there."
+                )
+        else:
+            verdict = (
+                f"With {blocks} {unit} (at least {floor} are needed for any pair to be "
+                f"significant at Holm alpha = {alpha:g} over {pairs} pairs), a pair can be "
+                "told apart; the power table says how large a difference must be."
+            )
         sections += [
+            verdict,
+            "",
             f"Paired by instance (Wilcoxon signed-rank), Holm-corrected, alpha = {alpha:g}; "
-            "mean_diff = mean(score a - score b) with a 95 % bootstrap interval.",
+            "mean_diff = mean(score a - score b) with a 95 % Student t interval over "
+            f"{unit}.",
             "",
             _md_table(table.drop(columns="d")),
             "",
@@ -480,8 +512,10 @@ def make_protocol_report(
             "",
             _md_table(rank.drop(columns="d")),
             "",
-            "Power (80 %, at the Holm family's first-step level): `detectable` is the smallest "
-            "difference of mean score this run detects; `instances_needed` and `seeds_needed` "
+            "Power (80 %, at the Holm family's first-step level, the paired t approximation "
+            "with the signed-rank test's efficiency 3/pi): `detectable` is the smallest "
+            "difference of mean score this run detects (inf when n < min_n: the test cannot "
+            "reach the level at all); `instances_needed` (never below min_n) and `seeds_needed` "
             "what the observed difference would need.",
             "",
             _md_table(power.drop(columns=["d", "measure"])),
