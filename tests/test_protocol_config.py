@@ -132,9 +132,14 @@ def test_references_file_errors(tmp_path):
         load_references(bad)
     nan = tmp_path / "nan.json"
     cell = {"instance": "i01", "degree": 3, "f_ref": "nan", "noise_floor": 1, "f_straight": 1}
-    nan.write_text(json.dumps({"format": "tooldesign-protocol-references", "cells": [cell]}))
+    header = {"format": "tooldesign-protocol-references", "version": 1}
+    nan.write_text(json.dumps({**header, "cells": [cell]}))
     with pytest.raises(ValueError, match="f_ref of i01 d=3 not finite"):
         load_references(nan)
+    old = tmp_path / "old.json"
+    old.write_text(json.dumps({"format": "tooldesign-protocol-references", "version": 0}))
+    with pytest.raises(ValueError, match="version is 0, not 1"):
+        load_references(old)
 
 
 def test_run_protocol_refuses_other_folders(tmp_path):

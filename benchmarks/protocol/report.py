@@ -24,7 +24,6 @@ block of the paired comparison.
 
 from __future__ import annotations
 
-import hashlib
 import math
 import os
 from collections.abc import Sequence
@@ -51,15 +50,24 @@ from benchmarks.protocol.statistics import (
     power_analysis,
     rank_stability,
 )
-from benchmarks.protocol.suite import ProtocolConfig, cell_folder, read_protocol
+from benchmarks.protocol.suite import (
+    PROTOCOL_FILE,
+    ProtocolConfig,
+    cell_folder,
+    protocol_record,
+    read_protocol,
+    write_protocol_record,
+)
 
 __all__ = [
     "N_TARGETS",
     "REFERENCES_IN_FOLDER",
     "find_references",
+    "folder_references",
     "load_runs",
     "make_protocol_report",
     "measure_runs",
+    "record_references",
 ]
 
 #: The references a run folder may hold (``tooldesign bench protocol --with-references``).
@@ -94,8 +102,11 @@ def load_runs(folder: str | os.PathLike[str]) -> tuple[ProtocolConfig, pd.DataFr
     Raises:
         ValueError: If the folder is not a protocol run folder or a cell has no results.
     """
-    from benchmarks.storage import ResultStore
+    from benchmarks.storage import ResultStore, refuse_links
 
+    # A folder may come from someone else (a --baseline): a linked cell or table could make
+    # this read any file of the machine.
+    refuse_links(folder)
     config = read_protocol(folder)
     frames = []
     for instance, degree in config.cells():
@@ -350,18 +361,56 @@ def _ert_table(times: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def folder_references(folder: str | os.PathLike[str]) -> tuple[Path, str] | None:
+    """A run folder's ``references.json`` and the SHA-256 its ``protocol.json`` records.
+
+    ``None`` if the folder has no ``references.json``.
+
+    Raises:
+        ValueError: It has one that ``protocol.json`` does not record (it was not computed by
+            ``--with-references`` in this folder: it is not trusted).
+    """
+    path = Path(folder) / REFERENCES_IN_FOLDER
+    if not os.path.lexists(path):
+        return None
+    digest = protocol_record(folder).get("references_sha256")
+    if digest is None:
+        raise ValueError(
+            f"{path} is not recorded in {Path(folder) / PROTOCOL_FILE} (no references_sha256): "
+            "it was not computed into this folder by --with-references; if you trust it, pass "
+            "it with --reference-file, else remove it and compute them again"
+        )
+    return path, str(digest)
+
+
+def record_references(folder: str | os.PathLike[str]) -> str:
+    """Record the SHA-256 of the folder's ``references.json`` in its ``protocol.json``.
+
+    Returns:
+        The SHA-256 (hex).
+    """
+    from benchmarks.storage import run_file_sha256
+
+    digest = run_file_sha256(folder, REFERENCES_IN_FOLDER)
+    write_protocol_record(folder, read_protocol(folder), references_sha256=digest)
+    return digest
+
+
 def find_references(
     folders: Sequence[str | os.PathLike[str]], size: str
 ) -> str | os.PathLike[str] | None:
     """The references a report uses by default.
 
-    The first run folder's ``references.json`` (``--with-references`` writes it), else the
-    committed ones of the size, else ``None``.
+    The first run folder's ``references.json`` (``--with-references`` writes it and records its
+    SHA-256 in ``protocol.json``), else the committed ones of the size, else ``None``.
+
+    Raises:
+        ValueError: A folder's ``references.json`` is not recorded (:func:`folder_references`).
     """
     for folder in folders:
-        path = Path(folder) / REFERENCES_IN_FOLDER
-        if path.is_file():
-            return path
+        found = folder_references(folder)
+        if found is not None:
+            return found[0]
     return packaged_references(size)
 
 
@@ -387,10 +436,19 @@ def make_protocol_report(
         ValueError: Folders of different plans, an optimizer in two folders, a missing
             reference.
     """
-    from benchmarks.storage import atomic_write_text
+    from benchmarks.storage import atomic_write_text, check_write_folder, run_file_sha256
 
     config, runs = _merge(folders)
-    ref_path = find_references(folders, config.size) if references is None else references
+    expected: str | None = None
+    ref_path: str | os.PathLike[str] | None = references
+    if references is None:
+        for folder in folders:
+            found = folder_references(folder)
+            if found is not None:
+                ref_path, expected = found
+                break
+        else:
+            ref_path = packaged_references(config.size)
     if ref_path is None:
         raise ValueError(
             f"no references for size {config.size!r}: none committed, none in the run folders; "
@@ -398,13 +456,16 @@ def make_protocol_report(
             f"{config.size} --with-references --out {folders[0]}` (or `--references --out "
             "FILE.json`, then --reference-file FILE.json)"
         )
-    refs = load_references(ref_path)
+    refs = load_references(ref_path, config=config, expected_sha256=expected)
     budgets = {d: config.budget(d) for d in config.degrees}
     times, scores = measure_runs(runs, refs, budgets)
     reference_table = _reference_table(refs, config, budgets)
-    digest = hashlib.sha256(Path(ref_path).read_bytes()).hexdigest()[:16]
+    digest = run_file_sha256(Path(ref_path).parent, Path(ref_path).name)[:16]
     out = Path(out_dir) if out_dir is not None else Path(folders[0]) / "report"
+    # report/ inside a run folder is never written through a link (it could lead anywhere).
+    check_write_folder(folders[0], out)
     out.mkdir(parents=True, exist_ok=True)
+    check_write_folder(folders[0], out)  # and not swapped for one while it was made
     written = []
     tables = (("runtimes.csv", times), ("runs.csv", scores), ("references.csv", reference_table))
     for name, frame in tables:
