@@ -532,7 +532,11 @@ def make_protocol_report(
         blocks = int(frame["instance"].nunique())
         rank = rank_stability(frame, resamples=500).reset_index(names="optimizer").assign(d=label)
         power = power_analysis(frame, alpha=alpha).assign(d=label, measure="score")
-        in_f = power_analysis(frame.assign(score=frame["final_f"]), alpha=alpha)
+        # A run with no valid evaluation has no final F (inf): it is left out of the F table.
+        no_f = int(np.isinf(frame["final_f"]).sum())
+        in_f = power_analysis(
+            frame.assign(score=frame["final_f"].replace([np.inf, -np.inf], np.nan)), alpha=alpha
+        )
         in_f = in_f.assign(d=label, measure="final F")
         degrees = [int(label)] if label != "all" else list(config.degrees)
         floors = reference_table[reference_table["d"].isin(degrees)]["noise floor"]
@@ -582,7 +586,9 @@ def make_protocol_report(
             _md_table(power.drop(columns=["d", "measure"])),
             "",
             "The same in F units (each run's final best F; compare `detectable` with the median "
-            f"noise floor of these cells' references, {floors.median():.4g}):",
+            f"noise floor of these cells' references, {floors.median():.4g}"
+            + (f"; {no_f} run(s) with no valid evaluation left out" if no_f else "")
+            + "):",
             "",
             _md_table(in_f.drop(columns=["d", "measure"])),
             "",
