@@ -548,7 +548,7 @@ def make_protocol_report(
             verdict = (
                 f"**This section cannot separate any pair.** With {blocks} {unit}, the exact "
                 f"Wilcoxon signed-rank test's smallest p is 2 / 2^{blocks} = "
-                f"{2.0 ** (1 - blocks):.3g}, and Holm's first step over the {pairs} pairs needs "
+                f"{2.0 ** (1 - blocks):.3g}, and Holm's first step over {pairs} pair(s) needs "
                 f"p < {alpha:g} / {pairs}: no difference, however large, is significant with "
                 f"fewer than {floor} {unit}. The detectable differences below are therefore "
                 "inf; more seeds do not help, more instances do."
@@ -561,7 +561,7 @@ def make_protocol_report(
         else:
             verdict = (
                 f"With {blocks} {unit} (at least {floor} are needed for any pair to be "
-                f"significant at Holm alpha = {alpha:g} over {pairs} pairs), a pair can be "
+                f"significant at Holm alpha = {alpha:g} over {pairs} pair(s)), a pair can be "
                 "told apart; the power table says how large a difference must be."
             )
         sections += [
@@ -577,8 +577,9 @@ def make_protocol_report(
             "",
             _md_table(rank.drop(columns="d")),
             "",
-            "Power (80 %, at the Holm family's first-step level, the paired t approximation "
-            "with the signed-rank test's efficiency 3/pi): `detectable` is the smallest "
+            "Power (80 %, at the Holm family's first-step level, for normal paired differences: "
+            "the exact signed-rank test's own power up to 50 instances, the t approximation "
+            "with its efficiency 3/pi above): `detectable` is the smallest "
             "difference of mean score this run detects (inf when n < min_n: the test cannot "
             "reach the level at all); `instances_needed` (never below min_n) and `seeds_needed` "
             "what the observed difference would need.",
