@@ -132,9 +132,14 @@ def test_references_file_errors(tmp_path):
         load_references(bad)
     nan = tmp_path / "nan.json"
     cell = {"instance": "i01", "degree": 3, "f_ref": "nan", "noise_floor": 1, "f_straight": 1}
-    nan.write_text(json.dumps({"format": "tooldesign-protocol-references", "cells": [cell]}))
+    header = {"format": "tooldesign-protocol-references", "version": 1}
+    nan.write_text(json.dumps({**header, "cells": [cell]}))
     with pytest.raises(ValueError, match="f_ref of i01 d=3 not finite"):
         load_references(nan)
+    old = tmp_path / "old.json"
+    old.write_text(json.dumps({"format": "tooldesign-protocol-references", "version": 0}))
+    with pytest.raises(ValueError, match="version is 0, not 1"):
+        load_references(old)
 
 
 def test_run_protocol_refuses_other_folders(tmp_path):
@@ -204,3 +209,19 @@ def test_the_command_lines_constants_agree_with_the_protocols():
 
     assert _common.PROTOCOL_SUITE_NAME == PROTOCOL_SUITE_NAME
     assert _common.PROTOCOL_SIZES == PROTOCOL_SIZES
+
+
+@pytest.mark.slow
+def test_buildable_fraction_builds_the_scene_and_counts_usable_tools():
+    # build() returns a BuildResult with no truth value: the count must read .usable.
+    counted = buildable_fraction(3, 3, seed=0, check_box=True)
+    assert counted.usable is not None and 0 <= counted.usable <= counted.buildable <= 3
+    assert "usable" in counted.text()
+
+
+@pytest.mark.slow
+def test_cli_buildable_prints_every_degree():
+    done = _cli("bench", "protocol", "--buildable", "2", "--out", "unused")
+    assert done.returncode == 0, done.stderr
+    assert [line.split(":")[0] for line in done.stdout.splitlines()] == ["d = 3", "d = 5", "d = 8"]
+    assert "usable" in done.stdout

@@ -23,6 +23,7 @@ from benchmarks.protocol.measures import (
 from benchmarks.protocol.statistics import (
     detectable_difference,
     instances_needed,
+    min_instances,
     paired_comparisons,
     power_analysis,
     rank_stability,
@@ -122,11 +123,77 @@ def test_holm_by_hand():
 
 
 def test_power_formulas_by_hand():
-    z = 1.959963984540054 + 0.8416212335729143
-    assert detectable_difference(2.0, 16) == pytest.approx(z * 2.0 / 4.0)
-    assert instances_needed(2.0, 1.0) == math.ceil((z * 2.0) ** 2)  # 31.4 -> 32
+    from scipy.stats import t
+
+    # Above 50 pairs (SciPy's test is then approximate): t quantiles, n_eff = 3 n / pi.
+    q = t.ppf(0.975, 63) + t.ppf(0.8, 63)
+    assert detectable_difference(2.0, 64) == pytest.approx(q * 2.0 / math.sqrt(192 / math.pi))
+    needed = instances_needed(4.0, 1.0)
+    assert needed > 50
+    for n, ok in ((needed, True), (needed - 1, False)):  # the smallest n that reaches 1.0
+        q = t.ppf(0.975, n - 1) + t.ppf(0.8, n - 1)
+        assert bool(q * 4.0 / math.sqrt(3 * n / math.pi) <= 1.0) is ok
     # Holm's first step with 6 tests is at alpha / 6.
-    assert detectable_difference(1.0, 1, tests=6) > detectable_difference(1.0, 1)
+    assert detectable_difference(1.0, 40, tests=6) > detectable_difference(1.0, 40)
+    # Up to 50 pairs: the exact test's own power; more instances detect less.
+    steps = [detectable_difference(1.0, n, alpha=0.01, tests=6) for n in (11, 18, 24, 50)]
+    assert steps == sorted(steps, reverse=True)
+    needed = instances_needed(1.0, 1.0, alpha=0.01, tests=6)
+    assert detectable_difference(1.0, needed, alpha=0.01, tests=6) <= 1.0
+    assert detectable_difference(1.0, needed - 1, alpha=0.01, tests=6) > 1.0
+
+
+def test_min_instances_is_where_the_real_wilcoxon_holm_procedure_can_first_reject():
+    # alpha 0.01, 6 pairs: 2 / 2^n * 6 < 0.01 first at n = 11 (the reviewer's bound).
+    assert min_instances(0.01, 6) == 11
+    assert min_instances(0.05, 1) == 6
+    for n, significant in ((10, False), (11, True)):
+        # Four optimizers, every instance ordered the same way by a huge margin.
+        rows = [
+            {"instance": i, "optimizer": o, "seed": 0, "score": 10.0 * k + 0.01 * i}
+            for i in range(n)
+            for k, o in enumerate("abcd")
+        ]
+        table = paired_comparisons(pd.DataFrame(rows), alpha=0.01)
+        assert bool(table["significant"].any()) is significant
+
+
+def test_power_is_infinite_where_the_test_can_never_reject_and_sizes_never_go_below():
+    rng = np.random.default_rng(0)
+    rows = [
+        {"instance": f"i{i:02d}", "optimizer": o, "seed": s, "score": shift + 0.01 * rng.normal()}
+        for i in range(6)
+        for o, shift in (("cmaes", 0.3), ("bo", 0.2), ("pso", 0.1), ("random", 0.0))
+        for s in range(2)
+    ]
+    power = power_analysis(pd.DataFrame(rows), alpha=0.01)
+    # Six instances, six pairs: no pair can be significant, whatever the effect (d_z ~ 10+).
+    assert (power["detectable"] == math.inf).all()
+    assert (~power["separable"]).all() and (power["min_n"] == 11).all()
+    assert (power["instances_needed"] >= 11).all()
+    assert (power["seeds_needed"] == math.inf).all()
+    assert detectable_difference(1.0, 10, alpha=0.01, tests=6) == math.inf
+    assert instances_needed(1e-9, 1.0, alpha=0.01, tests=6) == 11
+
+
+def test_paired_interval_is_the_t_interval_of_the_differences():
+    from scipy.stats import t
+
+    table = paired_comparisons(_scores(0.5, n_instances=5), alpha=0.01)
+    ab = table[(table["a"] == "a") & (table["b"] == "b")].iloc[0]
+    frame = _scores(0.5, n_instances=5).groupby(["instance", "optimizer"])["score"].mean()
+    diff = (frame.xs("a", level="optimizer") - frame.xs("b", level="optimizer")).to_numpy()
+    half = t.ppf(0.975, 4) * diff.std(ddof=1) / math.sqrt(5)
+    assert ab["ci_low"] == pytest.approx(diff.mean() - half)
+    assert ab["ci_high"] == pytest.approx(diff.mean() + half)
+
+
+def test_instance_ids_may_be_ints():
+    scores = _scores(0.5)
+    as_int = scores.assign(instance=scores["instance"].str[1:].astype(int))
+    ranks = rank_stability(as_int, resamples=50)
+    assert list(ranks.index) == ["a", "b", "c"]
+    assert paired_comparisons(as_int)["significant"].all()
 
 
 def _scores(effect: float, n_instances: int = 12, seeds: int = 3, noise: float = 0.05):
@@ -190,7 +257,7 @@ def test_power_analysis_splits_seed_and_instance_variance():
         (lambda: paired_comparisons(pd.DataFrame({"x": [1]})), "lacks columns"),
         (lambda: paired_comparisons("scores"), "must be a DataFrame"),
         (lambda: detectable_difference(1.0, 0), "n must be an int >= 1"),
-        (lambda: detectable_difference(1.0, 5, power=1.0), "power must be in"),
+        (lambda: detectable_difference(1.0, 5, power=1.0), "power must be a number in"),
         (lambda: instances_needed(1.0, 0.0), "difference must be"),
         (lambda: power_analysis([1, 2]), "must be a DataFrame"),
         (
@@ -200,7 +267,26 @@ def test_power_analysis_splits_seed_and_instance_variance():
             "holds no row",
         ),
         (lambda: rank_stability(_scores(0.1).iloc[3:]), "every optimizer must have runs"),
-        (lambda: paired_comparisons(_scores(0.1), alpha=1.5), "alpha must be in"),
+        (lambda: paired_comparisons(_scores(0.1), alpha=1.5), "alpha must be a number in"),
+        (lambda: paired_comparisons(_scores(0.1), level=1.5), "level must be a number in"),
+        (lambda: power_analysis(_scores(0.1), alpha=1.5), "alpha must be a number in"),
+        (lambda: power_analysis(_scores(0.1), alpha=0.0), "alpha must be a number in"),
+        (lambda: power_analysis(_scores(0.1), power=1.0), "power must be a number in"),
+        (lambda: power_analysis(_scores(0.1), wanted=[math.inf]), "wanted differences must"),
+        (lambda: power_analysis(_scores(0.1), wanted=[math.nan]), "wanted differences must"),
+        (lambda: rank_stability(_scores(0.1), resamples=0), "resamples must be an int >= 1"),
+        (lambda: rank_stability(_scores(0.1), resamples=-5), "resamples must be an int >= 1"),
+        (
+            lambda: paired_comparisons(
+                _scores(0.1).assign(score=lambda f: f["score"].where(f.index != 0, math.inf))
+            ),
+            "scores must be finite numbers",
+        ),
+        (lambda: min_instances(0.0, 6), "alpha must be a number in"),
+        (lambda: min_instances(0.01, 0), "tests must be an int >= 1"),
+        (lambda: detectable_difference(math.nan, 20), "sd must be a finite number"),
+        (lambda: expected_running_time([math.inf, 3.0], [math.nan, 10]), "budgets must be"),
+        (lambda: expected_running_time([math.inf, 3.0], [0, 10]), "budgets must be"),
         (lambda: normalized_regret([1.0], math.inf, [2.0]), "must be finite"),
         (lambda: ecdf([1.0], [[1.0]]), "grid must be 1-D"),
     ],
@@ -265,3 +351,17 @@ def test_measure_runs_refuses_a_missing_reference_and_a_small_pool():
         measure_runs(runs, {}, {3: 2})
     with pytest.raises(ValueError, match="needs more than the run budget 5"):
         measure_runs(runs, {("i01", 3): _reference()}, {3: 5})
+
+
+def test_detectable_difference_has_its_power_through_the_real_wilcoxon_holm_step():
+    """Simulated: normal paired differences shifted by the detectable difference reach p < alpha
+    / m in about 80 % of draws through SciPy's test itself, also just above the minimum n."""
+    from scipy.stats import wilcoxon
+
+    rng = np.random.default_rng(5)
+    for n in (11, 12, 24):  # near the minimum n the t approximation gave 55 % and 68 %
+        shift = detectable_difference(1.0, n, alpha=0.01, tests=6)
+        draws = rng.normal(shift, 1.0, size=(600, n))
+        p = np.array([wilcoxon(d).pvalue for d in draws])
+        power = float(np.mean(6 * p < 0.01))
+        assert 0.72 <= power <= 0.88, (n, shift, power)

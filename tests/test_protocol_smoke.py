@@ -236,3 +236,26 @@ def test_with_references_computes_them_into_the_folder_and_reports(
         copy / "references.json",
     )
     assert (copy / "references.json").read_bytes() == before
+    # The folder records the file's SHA-256; a resumed run keeps it; a swapped file is refused.
+    recorded = json.loads((copy / "protocol.json").read_text())["references_sha256"]
+    assert recorded == __import__("hashlib").sha256(before).hexdigest()
+    assert main([*args, "--out", str(copy)]) == 0
+    assert json.loads((copy / "protocol.json").read_text())["references_sha256"] == recorded
+    swapped = json.loads(before)
+    swapped["cells"][0]["f_ref"] -= 1000.0
+    (copy / "references.json").write_text(json.dumps(swapped, indent=1) + "\n")
+    with pytest.raises(ValueError, match="not the references this run folder recorded"):
+        report.make_protocol_report([copy], tmp_path / "swapped")
+    with pytest.raises(SystemExit) as refused:  # the command refuses it too (exit 2)
+        main([*args, "--out", str(copy)])
+    assert refused.value.code == 2
+
+
+def test_a_report_says_when_a_section_cannot_separate_any_pair(smoke_run, tmp_path):
+    make_protocol_report([smoke_run], tmp_path / "report")
+    text = (tmp_path / "report" / "report.md").read_text()
+    # Two instances, one pair: the exact test's smallest p is 2 / 2^2 = 0.5.
+    assert text.count("This section cannot separate any pair") == 3  # d = 3, d = 5, pooled
+    power = pd.read_csv(tmp_path / "report" / "power.csv")
+    assert np.isinf(power["detectable"]).all() and (~power["separable"]).all()
+    assert "Student t interval" in text and "bootstrap interval over instances" not in text

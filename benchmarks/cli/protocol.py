@@ -96,7 +96,11 @@ def run_protocol_command(args: argparse.Namespace) -> int:
         protocol_config,
         run_protocol,
     )
-    from benchmarks.protocol.report import REFERENCES_IN_FOLDER, find_references
+    from benchmarks.protocol.report import (
+        REFERENCES_IN_FOLDER,
+        find_references,
+        record_references,
+    )
 
     for name, flag in (
         ("config", "--config"),
@@ -141,11 +145,13 @@ def run_protocol_command(args: argparse.Namespace) -> int:
         for folder in args.baseline:
             if Path(folder).resolve() == Path(args.out).resolve():
                 raise ValueError(f"--baseline {folder} is the run folder --out itself")
-            load_runs(folder)  # refuse a folder that is not a finished protocol run, before running
+            # Refuse a folder that is not a finished protocol run, or holds a link, before
+            # running (load_runs refuses links below it).
+            load_runs(folder)
     out = run_protocol(config, args.out, progress=not args.no_progress, say=say)
     _, runs = load_runs(out)
     info = {o.column: f"{o.name} {dict(o.settings)}" for o in config.optimizers}
-    export_ioh(runs, out / "ioh", algorithm_info=info)
+    export_ioh(runs, out / "ioh", algorithm_info=info, run_folder=out)
     print(f"IOHprofiler data: {out / 'ioh'}")
     folders = [out, *(args.baseline or [])]
     if (
@@ -154,12 +160,13 @@ def run_protocol_command(args: argparse.Namespace) -> int:
         and find_references(folders, size) is None
     ):
         path = compute_references(config, out / REFERENCES_IN_FOLDER, say=say)
-        print(f"references: {path}")
+        digest = record_references(out)  # a report checks the file against this SHA-256
+        print(f"references: {path} (sha256 {digest[:16]}..., recorded in protocol.json)")
     try:
         files = make_protocol_report(folders, out / "report", references=args.reference_file)
     except ValueError as err:
-        if "references" not in str(err):
-            raise
+        if not str(err).startswith("no references for size"):
+            raise  # a references file that does not match or changed is an error, not a skip
         print(f"no report: {err}")
         return 0
     print(f"report: {out / 'report' / 'report.md'} ({len(files)} files)")

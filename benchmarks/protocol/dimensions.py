@@ -99,7 +99,8 @@ def buildable_fraction(
         try:
             env.reset()
             simulator = env.unwrapped.simulator  # type: ignore[attr-defined]
-            usable = sum(not simulator.build(t, box_mass=0.1) for t in buildable)
+            # build() returns a BuildResult (no truth value): count the tools it calls usable.
+            usable = sum(simulator.build(t, box_mass=0.1).usable for t in buildable)
         finally:
             env.close()
     return Buildable(degree=degree, n=n, buildable=len(buildable), usable=usable)

@@ -47,6 +47,7 @@ def export_ioh(
     out_dir: str | os.PathLike[str],
     *,
     algorithm_info: Mapping[str, str] | None = None,
+    run_folder: str | os.PathLike[str] | None = None,
 ) -> list[Path]:
     """Write the runs in the IOHprofiler format under ``out_dir``.
 
@@ -56,22 +57,33 @@ def export_ioh(
             columns ``c1..cd`` (for the best point).
         out_dir: The folder to write (``<run folder>/ioh``); files in it are replaced.
         algorithm_info: Per optimizer, the text of the meta's ``algorithm.info``.
+        run_folder: The run folder ``out_dir`` lies in (its parent if ``None``): nothing is
+            written through a symbolic link below it (``ioh/`` or an optimizer's folder
+            replaced by a link to another folder is refused).
+
+    Raises:
+        ValueError: Missing columns; ``benchmarks.storage.UnsafeRunFileError`` (a ValueError)
+            for a linked folder.
 
     Returns:
         The meta files written, one per optimizer.
     """
-    from benchmarks.storage import atomic_write_text
+    from benchmarks.storage import atomic_write_text, check_write_folder
 
     required = ("optimizer", "instance_number", "degree", "seed", "evaluation", "free_energy")
     missing = [c for c in required if c not in runs.columns]
     if missing:
         raise ValueError(f"runs lacks columns {missing}")
     out = Path(out_dir)
+    root = Path(run_folder) if run_folder is not None else out.parent
+    check_write_folder(root, out)
     written = []
     for optimizer, frame in runs.groupby("optimizer", sort=True):
         folder = out / urllib.parse.quote(str(optimizer), safe="")  # a module:Class label too
         data_dir = folder / f"data_f{_FUNCTION_ID}_{_FUNCTION_NAME}"
+        check_write_folder(root, data_dir)
         data_dir.mkdir(parents=True, exist_ok=True)
+        check_write_folder(root, data_dir)
         scenarios = []
         for degree, by_dim in frame.groupby("degree", sort=True):
             columns = [f"c{k}" for k in range(1, int(degree) + 1)]

@@ -202,12 +202,18 @@ def expected_running_time(times: ArrayLike, budgets: ArrayLike | float) -> float
         no runs.
 
     Raises:
-        ValueError: If a finite runtime exceeds its run's budget.
+        ValueError: If a finite runtime exceeds its run's budget, or a budget is not a finite
+            number >= 1.
     """
     t = _vector(times, "times")
     b = np.broadcast_to(np.asarray(budgets, dtype=np.float64), t.shape)
     if t.size == 0:
         return math.nan
+    bad = ~(np.isfinite(b) & (b >= 1))
+    if bad.any():
+        raise ValueError(
+            f"budgets must be finite numbers >= 1 (evaluations), got {float(b[bad][0])!r}"
+        )
     done = np.isfinite(t)
     if np.any(t[done] > b[done]):
         raise ValueError("a runtime exceeds its run's budget")

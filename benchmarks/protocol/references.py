@@ -7,7 +7,8 @@ A references file is JSON::
      "cells": [{"instance": "i01", "degree": 3,
                 "f_ref": ..., "design": [...], "final_distance": ...,   # the best design known
                 "method": "dense grid 11^3 + 240 random + straight", "evaluations": 1572,
-                "noise_floor": ..., "noise_nudges": 7,   # range of F over nudged scenes
+                "noise_floor": ..., "noise_range": ..., "noise_nudges": 16,
+                "floor_min_fraction": ...,               # range of F over nudged scenes
                 "f_straight": ...,                       # C = 0
                 "random_pool": [...]},                   # F of random designs, sorted
                ...]}
@@ -17,17 +18,25 @@ How each reference is found (:class:`ReferencePlan`): the best F among (a) the s
 see :func:`benchmarks.protocol.measures.expected_best_of_random`), (c) at d = 3 a dense grid
 (``benchmarks.suites.dense_search.grid``, the yardstick the project already uses) and at d > 3
 ``restarts`` CMA-ES runs from different seeds, each of ``restart_evaluations`` evaluations. The
-noise floor is the range (max - min) of F of that best design over ``nudges`` scenes whose box
-start is moved by at most 0.1 mm and 1e-4 rad (:class:`benchmarks.suites.RetestConfig`'s
-nudges, the project's noise floor), at least 0.1 % of F_ref (so that a design that happens to
-be stable gives a ladder of finite length).
+noise floor is the range (max - min) of F of that best design over ``nudges`` (16,
+:data:`FLOOR_SCENES`) scenes whose box start is moved by at most 0.1 mm and 1e-4 rad
+(:class:`benchmarks.suites.RetestConfig`'s nudges, the project's noise floor), at least
+``floor_min_fraction`` x |F_ref|: the median relative floor the committed equivalence reference
+measured (:func:`floor_min_fraction`), so that a design that happens to be stable in its own
+nudges gets no floor below the typical design's.
+
+A references file records the size, instance-set version, p^X and plan; :func:`load_references`
+with ``config`` refuses one of another run, naming the field, and reads the file without
+following a link (with ``expected_sha256``, only if it has that SHA-256: a run folder records
+the one of its ``references.json``).
 
 ``tooldesign bench protocol --references --size full --out FILE`` computes them, cell by cell:
 each finished cell is written to ``FILE.cells/d<d>-<instance>.json`` at once, so an interrupted
-computation resumes at the next cell (the folder is removed once FILE is written). The full
-plan is about 188,000 evaluations (24 instances:
+computation resumes at the next cell (the folder is removed once FILE is written; its
+``plan.json`` records the plan, and cells of another plan are refused). The full
+plan is about 189,000 evaluations (24 instances:
 1331 grid + 240 random at d = 3, 5 x 400 CMA-ES + 400 random at d = 5, 5 x 640 + 640 at d = 8,
-plus 7 nudges and the straight tool per cell): about 3.1 hours on 2 cores at 0.12 s an
+plus 16 nudges and the straight tool per cell): about 3.1 hours on 2 cores at 0.12 s an
 evaluation (the integrator measures). The smoke size's small references are committed in
 ``benchmarks/protocol/data/references-smoke.json``.
 """
@@ -35,6 +44,7 @@ evaluation (the integrator measures). The smoke size's small references are comm
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import json
 import math
 import os
@@ -62,8 +72,40 @@ __all__ = [
 REFERENCE_FORMAT = "tooldesign-protocol-references"
 REFERENCE_VERSION = 1
 
-#: Smallest noise floor, as a fraction of |F_ref|.
-FLOOR_MIN_FRACTION = 1e-3
+#: The plan a resumable computation's ``.cells`` folder was started with.
+_PARTS_PLAN = "plan.json"
+
+#: Scenes of a noise floor: the equivalence rule's 16 (``benchmarks.suites.equivalence``). A
+#: new scene's F falls inside the range of n scenes with probability (n - 1) / (n + 1): 50 % for
+#: 3 scenes, 75 % for 7, 88 % for 16, so a floor of few scenes is too narrow.
+FLOOR_SCENES = 16
+
+
+def floor_min_fraction() -> float:
+    """The smallest noise floor, as a fraction of |F_ref|: the equivalence reference's median.
+
+    The committed equivalence reference (``benchmarks/suites/equivalence-reference.json``,
+    read through :func:`benchmarks.suites.equivalence.read_reference`) measures the relative
+    range of F over 16 nudged scenes on 64+ designs; its median is the floor a design that
+    happens to be stable in its own nudges is given, instead of a hard-coded constant.
+
+    Raises:
+        ValueError: If the reference has no measured median relative floor.
+    """
+    from benchmarks.suites.equivalence import REFERENCE, read_reference
+
+    value = read_reference().get("median_relative_floor")
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, (int, float))
+        or not math.isfinite(value)
+        or value <= 0
+    ):
+        raise ValueError(
+            f"{REFERENCE} has no measured median_relative_floor (got {value!r}); record the "
+            "equivalence reference (`tooldesign equivalence record`) before references"
+        )
+    return float(value)
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
@@ -77,16 +119,19 @@ class ReferencePlan:
             whole batches of 8).
         pool_per_degree: Random designs per unit of d (at least the protocol's budget plus one,
             so that ``F_random(t)`` is defined at every budget).
-        nudges: Scenes of the noise floor (the first is the scene itself).
+        nudges: Scenes of the noise floor (the first is the scene itself), :data:`FLOOR_SCENES`.
         seed: Root seed of the pools and restarts.
+        floor_min_fraction: The smallest noise floor as a fraction of |F_ref|; ``None`` (the
+            default) takes :func:`floor_min_fraction` when the references are computed.
     """
 
     grid_points: int = 11
     restarts: int = 5
     restart_evaluations_per_degree: int = 80
     pool_per_degree: int = 80
-    nudges: int = 7
+    nudges: int = FLOOR_SCENES
     seed: int = 1
+    floor_min_fraction: float | None = None
 
     def __post_init__(self) -> None:
         for name, low in (
@@ -100,6 +145,16 @@ class ReferencePlan:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < low:
                 raise ValueError(f"ReferencePlan.{name} must be an int >= {low}, got {value!r}")
+        fraction = self.floor_min_fraction
+        if fraction is not None and (
+            isinstance(fraction, bool)
+            or not isinstance(fraction, (int, float))
+            or not 0 < fraction < 1
+        ):
+            raise ValueError(
+                f"ReferencePlan.floor_min_fraction must be None or a number in (0, 1), got "
+                f"{fraction!r}"
+            )
         if self.grid_points == 1 or self.nudges > 100:
             raise ValueError(
                 "ReferencePlan.grid_points must be 0 (no grid) or >= 2 and nudges at most 100, "
@@ -123,7 +178,6 @@ def reference_plan(size: str) -> ReferencePlan:
             restarts=1,
             restart_evaluations_per_degree=2,
             pool_per_degree=4,
-            nudges=3,
         )
     return ReferencePlan()
 
@@ -139,30 +193,135 @@ def packaged_references(size: str) -> Path | None:
     return Path(str(path)) if path.is_file() else None
 
 
-def load_references(path: str | os.PathLike[str]) -> dict[tuple[str, int], dict[str, Any]]:
-    """The cells of a references file, by (instance id, d).
+def references_size(size: str) -> str:
+    """The size whose references a run of ``size`` is measured against (``quick`` uses full's)."""
+    return "smoke" if size == "smoke" else "full"
+
+
+def _plan_fields(plan: ReferencePlan) -> dict[str, Any]:
+    """The plan's fields that a references file must match.
+
+    Not the floor's minimum: it is recorded per cell, and comes from the equivalence reference,
+    which may be recorded again without the references being stale.
+    """
+    fields = dataclasses.asdict(plan)
+    fields.pop("floor_min_fraction")
+    return fields
+
+
+def check_references_match(
+    data: dict[str, Any],
+    config: ProtocolConfig,
+    where: str | os.PathLike[str],
+    *,
+    plan: ReferencePlan | None = None,
+    sizes: tuple[str, ...] | None = None,
+) -> None:
+    """Refuse references computed for another run: instance set, p^X, size or plan.
+
+    Args:
+        data: The references file's JSON (or a resumed computation's header).
+        config: The run they are for.
+        where: The file, for the message.
+        plan: The plan they must have been computed with; :func:`reference_plan` (config.size)
+            if ``None``.
+        sizes: Sizes accepted; ``config.size`` and the size whose references it uses if
+            ``None``.
 
     Raises:
-        ValueError: If the file is missing or not a references file.
+        ValueError: naming the first field that differs, its value and the run's.
     """
+    plan = plan or reference_plan(config.size)
+    sizes = sizes or tuple(dict.fromkeys((config.size, references_size(config.size))))
+    hint = (
+        f"compute references for this run (`tooldesign bench protocol --references --size "
+        f"{config.size} --out FILE.json`) or give the ones it was made with"
+    )
+    for field, want in (
+        ("instance_version", config.instance_version),
+        ("goal_precision", config.goal_precision),
+    ):
+        if data.get(field) != want:
+            raise ValueError(
+                f"{where} was computed with {field} = {data.get(field)!r}, this run has "
+                f"{want!r}: {hint}"
+            )
+    if data.get("size") not in sizes:
+        raise ValueError(
+            f"{where} was computed for size {data.get('size')!r}, this run of size "
+            f"{config.size!r} uses references of size {' or '.join(map(repr, sizes))}: {hint}"
+        )
+    got = data.get("plan")
+    want_plan = _plan_fields(plan)
+    if not isinstance(got, dict):
+        raise ValueError(f"{where} has no plan (got {got!r}): {hint}")
+    for field, want in want_plan.items():
+        if got.get(field) != want:
+            raise ValueError(
+                f"{where} was computed with plan {field} = {got.get(field)!r}, the plan of size "
+                f"{config.size!r} has {want!r}: {hint}"
+            )
+
+
+def load_references(
+    path: str | os.PathLike[str],
+    *,
+    config: ProtocolConfig | None = None,
+    expected_sha256: str | None = None,
+) -> dict[tuple[str, int], dict[str, Any]]:
+    """The cells of a references file, by (instance id, d).
+
+    The file is read without following a symbolic link (a run folder's ``references.json`` may
+    come from someone else: ``benchmarks.storage.read_run_file``), and with
+    ``expected_sha256`` it must have that SHA-256.
+
+    Args:
+        path: The references file.
+        config: The run it is for: its instance set, p^X, size and plan must match
+            (:func:`check_references_match`).
+        expected_sha256: The SHA-256 its run folder's ``protocol.json`` records.
+
+    Raises:
+        ValueError: If the file is missing, a link, not a references file, changed since it was
+            recorded, or computed for another run (naming the field).
+    """
+    from benchmarks.storage import read_run_file
+
     path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"references file {path} does not exist")
     try:
-        data = json.loads(path.read_text())
-        if data.get("format") != REFERENCE_FORMAT:
-            raise ValueError(f"format is {data.get('format')!r}, not {REFERENCE_FORMAT!r}")
+        raw = read_run_file(path.parent, path.name, max_bytes=256 << 20)
+    except FileNotFoundError:
+        raise ValueError(f"references file {path} does not exist") from None
+    if expected_sha256 is not None:
+        actual = hashlib.sha256(raw).hexdigest()
+        if actual != expected_sha256:
+            raise ValueError(
+                f"{path} is not the references this run folder recorded (sha256 "
+                f"{actual[:12]}..., protocol.json records {expected_sha256[:12]}...): it was "
+                "replaced or edited; compute them again with --with-references"
+            )
+    try:
+        data = json.loads(raw)
+        if not isinstance(data, dict) or data.get("format") != REFERENCE_FORMAT:
+            got = data.get("format") if isinstance(data, dict) else data
+            raise ValueError(f"format is {got!r}, not {REFERENCE_FORMAT!r}")
+        if data.get("version") != REFERENCE_VERSION:
+            raise ValueError(f"version is {data.get('version')!r}, not {REFERENCE_VERSION}")
         cells = {}
         for cell in data["cells"]:
             for key in ("f_ref", "noise_floor", "f_straight"):
                 if not math.isfinite(float(cell[key])):
                     raise ValueError(f"{key} of {cell['instance']} d={cell['degree']} not finite")
+            if float(cell["noise_floor"]) <= 0:
+                raise ValueError(f"noise_floor of {cell['instance']} d={cell['degree']} <= 0")
             pool = np.asarray(cell["random_pool"], dtype=float)
             if pool.size == 0 or not np.all(np.isfinite(pool)):
                 raise ValueError(f"random_pool of {cell['instance']} must be finite F values")
             cells[_cell_key(cell["instance"], cell["degree"])] = cell
-    except (KeyError, TypeError, ValueError, json.JSONDecodeError) as err:
+    except (KeyError, TypeError, ValueError, UnicodeDecodeError) as err:
         raise ValueError(f"{path} is not a protocol references file: {err}") from None
+    if config is not None:
+        check_references_match(data, config, path)
     return cells
 
 
@@ -244,6 +403,7 @@ def compute_cell(
     if not np.isfinite(f).any():
         raise RuntimeError(f"no valid design for instance {instance.id} at d = {degree}")
     best = int(np.argmin(f))
+    fraction = floor_min_fraction() if plan.floor_min_fraction is None else plan.floor_min_fraction
     retest = RetestConfig(nudges=plan.nudges, seed=plan.seed, repeats=1)  # noise only
     item = RetestItem(coeffs=tuple(designs[best].tolist()), task=task, config=retest)
     ((result, exc, _),) = map_robust(pool, retest_design, [item])
@@ -251,7 +411,7 @@ def compute_cell(
         raise RuntimeError(f"noise floor of {instance.id} at d = {degree}: {exc}") from exc
     noise = np.array([row["free_energy"] for row in result["noise"]])
     f_ref = float(f[best])
-    floor = max(float(noise.max() - noise.min()), FLOOR_MIN_FRACTION * abs(f_ref))
+    floor = max(float(noise.max() - noise.min()), fraction * abs(f_ref))
     pool_f = np.array([r["free_energy"] for r in random_rows], dtype=float)
     return {
         "instance": instance.id,
@@ -264,6 +424,7 @@ def compute_cell(
         "noise_floor": floor,
         "noise_range": float(noise.max() - noise.min()),
         "noise_nudges": plan.nudges,
+        "floor_min_fraction": fraction,
         "f_straight": float(straight_rows[0]["free_energy"]),
         "random_pool": sorted(float(v) for v in pool_f[np.isfinite(pool_f)]),
     }
@@ -290,25 +451,64 @@ def compute_references(
         ``out_file``.
     """
     from benchmarks.execution import make_executor
-    from benchmarks.storage import atomic_write_text
+    from benchmarks.storage import atomic_write_text, check_write_folder, read_run_file
 
     plan = plan or reference_plan(config.size)
+    if plan.floor_min_fraction is None:  # recorded as the value used, not as "the default"
+        plan = dataclasses.replace(plan, floor_min_fraction=floor_min_fraction())
     out = Path(out_file)
     if out.suffix != ".json":
         raise ValueError(f"the references file must end in .json, got {out}")
     parts = out.with_name(out.name + ".cells")
+    check_write_folder(out.parent, parts)  # a linked .cells folder is not written through
+    header = {
+        "size": config.size,
+        "instance_version": config.instance_version,
+        "goal_precision": config.goal_precision,
+        "plan": dataclasses.asdict(plan),
+    }
+    if os.path.lexists(out):  # a finished file: its cells are done, if they are this plan's
+        done = load_references(out)
+        data = json.loads(read_run_file(out.parent, out.name))
+        check_references_match(data, config, out, plan=plan, sizes=(config.size,))
+    else:
+        done = {}
     parts.mkdir(parents=True, exist_ok=True)
-    if out.is_file():  # a finished file: its cells are done (checked as any references file)
-        for (instance_id, degree), cell in load_references(out).items():
-            target = parts / f"d{degree}-{instance_id}.json"
-            if not target.is_file():
-                atomic_write_text(target, json.dumps(cell) + "\n")
+    plan_file = parts / _PARTS_PLAN
+    if os.path.lexists(plan_file):  # cells computed before: only if under the same plan
+        try:
+            before = json.loads(read_run_file(parts, _PARTS_PLAN, max_bytes=1 << 20))
+        except (UnicodeDecodeError, json.JSONDecodeError) as err:
+            raise ValueError(f"{plan_file} is not a plan record: {err}") from None
+        if not isinstance(before, dict):
+            raise ValueError(f"{plan_file} is not a plan record: {before!r}")
+        check_references_match(
+            {**before, "plan": before.get("plan")}, config, parts, plan=plan, sizes=(config.size,)
+        )
+        earlier = before.get("plan")
+        fraction = earlier.get("floor_min_fraction") if isinstance(earlier, dict) else None
+        if fraction != plan.floor_min_fraction:
+            raise ValueError(
+                f"{parts} was computed with plan floor_min_fraction = {fraction!r}, this plan "
+                f"has {plan.floor_min_fraction!r}: remove it or use its plan"
+            )
+    elif any(parts.iterdir()):
+        raise ValueError(
+            f"{parts} holds cells but no {_PARTS_PLAN}: they may be of another plan; remove it"
+        )
+    else:
+        atomic_write_text(plan_file, json.dumps(header, indent=1) + "\n")
+    for (instance_id, degree), cell in done.items():
+        target = parts / f"d{degree}-{instance_id}.json"
+        if not os.path.lexists(target):
+            atomic_write_text(target, json.dumps(cell) + "\n")
     cells = []
     with make_executor(config.executor, config.workers, config.scheduler) as pool:
         for k, (instance, degree) in enumerate(config.cells(), 1):
-            part = parts / f"d{degree}-{instance.id}.json"
-            if part.is_file():
-                cells.append(json.loads(part.read_text()))
+            name = f"d{degree}-{instance.id}.json"
+            part = parts / name
+            if os.path.lexists(part):
+                cells.append(json.loads(read_run_file(parts, name, max_bytes=64 << 20)))
                 continue
             if say is not None:
                 say(f"references {k}/{len(config.cells())}: d = {degree}, instance {instance.id}")
@@ -318,10 +518,7 @@ def compute_references(
     record = {
         "format": REFERENCE_FORMAT,
         "version": REFERENCE_VERSION,
-        "size": config.size,
-        "instance_version": config.instance_version,
-        "goal_precision": config.goal_precision,
-        "plan": dataclasses.asdict(plan),
+        **header,
         "cells": cells,
     }
     atomic_write_text(out, json.dumps(record, indent=1) + "\n")

@@ -24,7 +24,6 @@ block of the paired comparison.
 
 from __future__ import annotations
 
-import hashlib
 import math
 import os
 from collections.abc import Sequence
@@ -45,16 +44,30 @@ from benchmarks.protocol.measures import (
     target_ladder,
 )
 from benchmarks.protocol.references import load_references, packaged_references
-from benchmarks.protocol.statistics import paired_comparisons, power_analysis, rank_stability
-from benchmarks.protocol.suite import ProtocolConfig, cell_folder, read_protocol
+from benchmarks.protocol.statistics import (
+    min_instances,
+    paired_comparisons,
+    power_analysis,
+    rank_stability,
+)
+from benchmarks.protocol.suite import (
+    PROTOCOL_FILE,
+    ProtocolConfig,
+    cell_folder,
+    protocol_record,
+    read_protocol,
+    write_protocol_record,
+)
 
 __all__ = [
     "N_TARGETS",
     "REFERENCES_IN_FOLDER",
     "find_references",
+    "folder_references",
     "load_runs",
     "make_protocol_report",
     "measure_runs",
+    "record_references",
 ]
 
 #: The references a run folder may hold (``tooldesign bench protocol --with-references``).
@@ -89,8 +102,11 @@ def load_runs(folder: str | os.PathLike[str]) -> tuple[ProtocolConfig, pd.DataFr
     Raises:
         ValueError: If the folder is not a protocol run folder or a cell has no results.
     """
-    from benchmarks.storage import ResultStore
+    from benchmarks.storage import ResultStore, refuse_links
 
+    # A folder may come from someone else (a --baseline): a linked cell or table could make
+    # this read any file of the machine.
+    refuse_links(folder)
     config = read_protocol(folder)
     frames = []
     for instance, degree in config.cells():
@@ -279,19 +295,19 @@ def _md_table(frame: pd.DataFrame, floatfmt: str = ".3g") -> str:
 
 
 def _auc_table(scores: pd.DataFrame, by: str) -> pd.DataFrame:
+    from benchmarks.reports.stats import t_interval
+
     rows = []
     for (group, optimizer), frame in scores.groupby([by, "optimizer"], sort=True):
         per = frame.groupby(["instance", "degree"])["score"].mean().to_numpy()
-        rng = np.random.default_rng(0)
-        boot = per[rng.integers(0, per.size, size=(2000, per.size))].mean(axis=1)
-        low, high = np.quantile(boot, [0.025, 0.975])
+        interval = t_interval(per, 0.95)  # the percentile bootstrap under-covers few instances
         rows.append(
             {
                 by: group,
                 "optimizer": optimizer,
-                "AUC": per.mean(),
-                "95% low": low,
-                "95% high": high,
+                "AUC": interval.estimate,
+                "95% low": interval.low,
+                "95% high": interval.high,
                 "final regret (median)": frame["regret_1"].median(),
                 "runs": len(frame),
             }
@@ -345,18 +361,56 @@ def _ert_table(times: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def folder_references(folder: str | os.PathLike[str]) -> tuple[Path, str] | None:
+    """A run folder's ``references.json`` and the SHA-256 its ``protocol.json`` records.
+
+    ``None`` if the folder has no ``references.json``.
+
+    Raises:
+        ValueError: It has one that ``protocol.json`` does not record (it was not computed by
+            ``--with-references`` in this folder: it is not trusted).
+    """
+    path = Path(folder) / REFERENCES_IN_FOLDER
+    if not os.path.lexists(path):
+        return None
+    digest = protocol_record(folder).get("references_sha256")
+    if digest is None:
+        raise ValueError(
+            f"{path} is not recorded in {Path(folder) / PROTOCOL_FILE} (no references_sha256): "
+            "it was not computed into this folder by --with-references; if you trust it, pass "
+            "it with --reference-file, else remove it and compute them again"
+        )
+    return path, str(digest)
+
+
+def record_references(folder: str | os.PathLike[str]) -> str:
+    """Record the SHA-256 of the folder's ``references.json`` in its ``protocol.json``.
+
+    Returns:
+        The SHA-256 (hex).
+    """
+    from benchmarks.storage import run_file_sha256
+
+    digest = run_file_sha256(folder, REFERENCES_IN_FOLDER)
+    write_protocol_record(folder, read_protocol(folder), references_sha256=digest)
+    return digest
+
+
 def find_references(
     folders: Sequence[str | os.PathLike[str]], size: str
 ) -> str | os.PathLike[str] | None:
     """The references a report uses by default.
 
-    The first run folder's ``references.json`` (``--with-references`` writes it), else the
-    committed ones of the size, else ``None``.
+    The first run folder's ``references.json`` (``--with-references`` writes it and records its
+    SHA-256 in ``protocol.json``), else the committed ones of the size, else ``None``.
+
+    Raises:
+        ValueError: A folder's ``references.json`` is not recorded (:func:`folder_references`).
     """
     for folder in folders:
-        path = Path(folder) / REFERENCES_IN_FOLDER
-        if path.is_file():
-            return path
+        found = folder_references(folder)
+        if found is not None:
+            return found[0]
     return packaged_references(size)
 
 
@@ -382,10 +436,19 @@ def make_protocol_report(
         ValueError: Folders of different plans, an optimizer in two folders, a missing
             reference.
     """
-    from benchmarks.storage import atomic_write_text
+    from benchmarks.storage import atomic_write_text, check_write_folder, run_file_sha256
 
     config, runs = _merge(folders)
-    ref_path = find_references(folders, config.size) if references is None else references
+    expected: str | None = None
+    ref_path: str | os.PathLike[str] | None = references
+    if references is None:
+        for folder in folders:
+            found = folder_references(folder)
+            if found is not None:
+                ref_path, expected = found
+                break
+        else:
+            ref_path = packaged_references(config.size)
     if ref_path is None:
         raise ValueError(
             f"no references for size {config.size!r}: none committed, none in the run folders; "
@@ -393,13 +456,16 @@ def make_protocol_report(
             f"{config.size} --with-references --out {folders[0]}` (or `--references --out "
             "FILE.json`, then --reference-file FILE.json)"
         )
-    refs = load_references(ref_path)
+    refs = load_references(ref_path, config=config, expected_sha256=expected)
     budgets = {d: config.budget(d) for d in config.degrees}
     times, scores = measure_runs(runs, refs, budgets)
     reference_table = _reference_table(refs, config, budgets)
-    digest = hashlib.sha256(Path(ref_path).read_bytes()).hexdigest()[:16]
+    digest = run_file_sha256(Path(ref_path).parent, Path(ref_path).name)[:16]
     out = Path(out_dir) if out_dir is not None else Path(folders[0]) / "report"
+    # report/ inside a run folder is never written through a link (it could lead anywhere).
+    check_write_folder(folders[0], out)
     out.mkdir(parents=True, exist_ok=True)
+    check_write_folder(folders[0], out)  # and not swapped for one while it was made
     written = []
     tables = (("runtimes.csv", times), ("runs.csv", scores), ("references.csv", reference_table))
     for name, frame in tables:
@@ -426,7 +492,7 @@ def make_protocol_report(
         "higher is better). Regret: (F - F_ref) / (F_random(budget) - F_ref), 1 = random "
         "sampling, 0 = the reference. See docs/protocol.md.",
         "",
-        "## Area under the ECDF (mean over instances, 95 % bootstrap interval over instances)",
+        "## Area under the ECDF (mean over instances, 95 % Student t interval over instances)",
         "",
         _md_table(_auc_table(scores, "degree")),
         "",
@@ -461,18 +527,49 @@ def make_protocol_report(
             sections += ["Fewer than two optimizers or instances: no comparison.", ""]
             continue
         table = paired_comparisons(frame, alpha=alpha).assign(d=label)
+        pairs = len(table)
+        floor = min_instances(alpha, max(1, pairs))
+        blocks = int(frame["instance"].nunique())
         rank = rank_stability(frame, resamples=500).reset_index(names="optimizer").assign(d=label)
         power = power_analysis(frame, alpha=alpha).assign(d=label, measure="score")
-        in_f = power_analysis(frame.assign(score=frame["final_f"]), alpha=alpha)
+        # A run with no valid evaluation has no final F (inf): it is left out of the F table.
+        no_f = int(np.isinf(frame["final_f"]).sum())
+        in_f = power_analysis(
+            frame.assign(score=frame["final_f"].replace([np.inf, -np.inf], np.nan)), alpha=alpha
+        )
         in_f = in_f.assign(d=label, measure="final F")
         degrees = [int(label)] if label != "all" else list(config.degrees)
         floors = reference_table[reference_table["d"].isin(degrees)]["noise floor"]
         comparisons.append(table)
         ranks.append(rank)
         powers.append(power)
+        unit = "instances" if label != "all" else "(instance, d) blocks"
+        if blocks < floor:
+            verdict = (
+                f"**This section cannot separate any pair.** With {blocks} {unit}, the exact "
+                f"Wilcoxon signed-rank test's smallest p is 2 / 2^{blocks} = "
+                f"{2.0 ** (1 - blocks):.3g}, and Holm's first step over {pairs} pair(s) needs "
+                f"p < {alpha:g} / {pairs}: no difference, however large, is significant with "
+                f"fewer than {floor} {unit}. The detectable differences below are therefore "
+                "inf; more seeds do not help, more instances do."
+            )
+            if label != "all" and len(config.degrees) > 1:
+                verdict += (
+                    " The pooled section (all dimensions) has "
+                    f"{blocks * len(config.degrees)} blocks: read the comparisons there."
+                )
+        else:
+            verdict = (
+                f"With {blocks} {unit} (at least {floor} are needed for any pair to be "
+                f"significant at Holm alpha = {alpha:g} over {pairs} pair(s)), a pair can be "
+                "told apart; the power table says how large a difference must be."
+            )
         sections += [
+            verdict,
+            "",
             f"Paired by instance (Wilcoxon signed-rank), Holm-corrected, alpha = {alpha:g}; "
-            "mean_diff = mean(score a - score b) with a 95 % bootstrap interval.",
+            "mean_diff = mean(score a - score b) with a 95 % Student t interval over "
+            f"{unit}.",
             "",
             _md_table(table.drop(columns="d")),
             "",
@@ -480,14 +577,19 @@ def make_protocol_report(
             "",
             _md_table(rank.drop(columns="d")),
             "",
-            "Power (80 %, at the Holm family's first-step level): `detectable` is the smallest "
-            "difference of mean score this run detects; `instances_needed` and `seeds_needed` "
+            "Power (80 %, at the Holm family's first-step level, for normal paired differences: "
+            "the exact signed-rank test's own power up to 50 instances, the t approximation "
+            "with its efficiency 3/pi above): `detectable` is the smallest "
+            "difference of mean score this run detects (inf when n < min_n: the test cannot "
+            "reach the level at all); `instances_needed` (never below min_n) and `seeds_needed` "
             "what the observed difference would need.",
             "",
             _md_table(power.drop(columns=["d", "measure"])),
             "",
             "The same in F units (each run's final best F; compare `detectable` with the median "
-            f"noise floor of these cells' references, {floors.median():.4g}):",
+            f"noise floor of these cells' references, {floors.median():.4g}"
+            + (f"; {no_f} run(s) with no valid evaluation left out" if no_f else "")
+            + "):",
             "",
             _md_table(in_f.drop(columns=["d", "measure"])),
             "",

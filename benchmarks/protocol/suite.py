@@ -3,7 +3,8 @@
 A protocol run folder::
 
     run_folder/
-        protocol.json                 the ProtocolConfig, the instance-set version, the sizes
+        protocol.json                 the ProtocolConfig, the instance-set version, the sizes,
+                                      and the SHA-256 of references.json once computed here
         cells/d<d>/<instance>/        one suite run folder per cell (benchmarks.suites.runner:
                                       manifest, parts, designs; resumable on its own)
         ioh/                          the trajectories in the IOHprofiler format (ioh_export)
@@ -16,6 +17,10 @@ finished cells and runs, and replays unfinished ones. Every optimizer sees the s
 cell: the cell's root seed is the first state word of ``SeedSequence(root_seed,
 spawn_key=(instance number, d))``, so an optimizer run later, alone (a user's), gets the seeds
 the committed built-ins had, and its results merge with theirs in one report.
+
+The folder is data (``benchmarks.storage.runfiles``): :func:`run_protocol` refuses to start or
+resume in one that holds a symbolic link anywhere below it, and ``protocol.json`` is read
+without following a link.
 
 Budgets grow with the dimension, as COCO's: a run has ``iterations(d) x batch_size`` evaluations.
 
@@ -60,8 +65,10 @@ __all__ = [
     "ProtocolConfig",
     "cell_folder",
     "protocol_config",
+    "protocol_record",
     "read_protocol",
     "run_protocol",
+    "write_protocol_record",
 ]
 
 PROTOCOL_SUITE_NAME = "protocol"
@@ -240,22 +247,77 @@ def cell_folder(run_folder: str | os.PathLike[str], instance: Instance, degree: 
     return Path(run_folder) / "cells" / f"d{degree}" / instance.id
 
 
+def protocol_record(run_folder: str | os.PathLike[str]) -> dict[str, Any]:
+    """The ``protocol.json`` of a run folder, read without following a link.
+
+    It holds ``format``, ``config`` and, once references were computed into the folder,
+    ``references_sha256``: the SHA-256 of its ``references.json``, checked whenever that file
+    is read.
+
+    Raises:
+        ValueError: If the folder has no readable ``protocol.json`` (a link, not a file, not
+            JSON, another format).
+    """
+    from benchmarks.storage import read_run_file
+
+    path = Path(run_folder) / PROTOCOL_FILE
+    if not os.path.lexists(path):
+        raise ValueError(f"{run_folder} is not a protocol run folder: it has no {PROTOCOL_FILE}")
+    try:
+        data = json.loads(read_run_file(run_folder, PROTOCOL_FILE, max_bytes=1 << 20))
+    except FileNotFoundError:
+        raise ValueError(
+            f"{run_folder} is not a protocol run folder: it has no {PROTOCOL_FILE}"
+        ) from None
+    except (UnicodeDecodeError, json.JSONDecodeError) as err:
+        raise ValueError(f"{path} is not a protocol file: {err}") from None
+    if not isinstance(data, dict) or data.get("format") != PROTOCOL_FORMAT:
+        got = data.get("format") if isinstance(data, dict) else data
+        raise ValueError(
+            f"{path} is not a protocol file: format {got!r}, expected {PROTOCOL_FORMAT}"
+        )
+    digest = data.get("references_sha256")
+    if digest is not None and (
+        not isinstance(digest, str)
+        or len(digest) != 64
+        or any(c not in "0123456789abcdef" for c in digest)
+    ):
+        raise ValueError(f"{path}: references_sha256 must be 64 hex digits, got {digest!r}")
+    return data
+
+
 def read_protocol(run_folder: str | os.PathLike[str]) -> ProtocolConfig:
     """The config a protocol run folder was made with.
 
     Raises:
-        ValueError: If the folder has no readable ``protocol.json``.
+        ValueError: If the folder has no readable ``protocol.json`` (or it is a link).
     """
-    path = Path(run_folder) / PROTOCOL_FILE
-    if not path.is_file():
-        raise ValueError(f"{run_folder} is not a protocol run folder: it has no {PROTOCOL_FILE}")
+    data = protocol_record(run_folder)
     try:
-        data = json.loads(path.read_text())
-        if data.get("format") != PROTOCOL_FORMAT:
-            raise ValueError(f"format {data.get('format')!r}, expected {PROTOCOL_FORMAT}")
         return ProtocolConfig.from_json(data["config"])
     except (KeyError, TypeError, ValueError) as err:
-        raise ValueError(f"{path} is not a protocol file: {err}") from None
+        raise ValueError(
+            f"{Path(run_folder) / PROTOCOL_FILE} is not a protocol file: {err}"
+        ) from None
+
+
+def write_protocol_record(
+    run_folder: str | os.PathLike[str],
+    config: ProtocolConfig,
+    *,
+    references_sha256: str | None = None,
+) -> Path:
+    """Write ``protocol.json`` atomically (refusing a linked folder on the way)."""
+    from benchmarks.storage import atomic_write_text, check_write_folder
+
+    out = Path(run_folder)
+    check_write_folder(out, out)
+    record: dict[str, Any] = {"format": PROTOCOL_FORMAT, "config": config.to_json()}
+    if references_sha256 is not None:
+        record["references_sha256"] = references_sha256
+    return atomic_write_text(
+        out / PROTOCOL_FILE, json.dumps(record, indent=2, sort_keys=True) + "\n"
+    )
 
 
 def _comparable(config: ProtocolConfig) -> dict[str, Any]:
@@ -283,25 +345,30 @@ def run_protocol(
     Raises:
         ValueError: ``out_dir`` holds another protocol run or other files.
     """
-    from benchmarks.storage import atomic_write_text, check_out_dir
+    from benchmarks.storage import check_out_dir, refuse_links
     from benchmarks.suites import run_suite
 
     if not isinstance(config, ProtocolConfig):
         raise TypeError(f"config must be a ProtocolConfig, got {type(config).__name__}")
     out = check_out_dir(out_dir)
+    # Nothing is written into a folder that holds a link anywhere below it: a linked cells/,
+    # cells/d3/ or report/ would have the run's files written into another folder.
+    refuse_links(out)
     path = out / PROTOCOL_FILE
-    if path.is_file():
+    digest = None
+    if os.path.lexists(path):
+        record = protocol_record(out)
         old = read_protocol(out)
         if _comparable(old) != _comparable(config):
             raise ValueError(
                 f"{out} holds a protocol run of another configuration (size {old.size}, "
                 f"optimizers {[o.column for o in old.optimizers]}); use another folder"
             )
+        digest = record.get("references_sha256")
     elif out.is_dir() and any(out.iterdir()):
         raise ValueError(f"--out {out} is not empty and is not a protocol run folder")
     out.mkdir(parents=True, exist_ok=True)
-    record = {"format": PROTOCOL_FORMAT, "config": config.to_json()}
-    atomic_write_text(path, json.dumps(record, indent=2, sort_keys=True) + "\n")
+    write_protocol_record(out, config, references_sha256=digest)
     cells = config.cells()
     if say is not None:
         say(
