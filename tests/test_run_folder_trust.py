@@ -32,6 +32,7 @@ from benchmarks.storage import (
     ResultStore,
     ResumeError,
     UnsafeRunFileError,
+    check_write_folder,
     file_sha256,
     list_run_files,
     read_designs,
@@ -482,3 +483,33 @@ def test_report_keeps_a_report_html_of_the_users_own(place: tuple[Path, Path], c
     assert main(["report", str(run)]) == 0
     assert "left as it is" in capsys.readouterr().out
     assert (run / REPORT_FILE).read_text() == "<p>mine</p>"
+
+
+# --- where a command writes ----------------------------------------------------------------------
+def test_an_out_folder_named_through_dotdot_is_where_it_leads(
+    place: tuple[Path, Path], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``run/../outdir`` is ``outdir``, as its absolute path is: accepted, written there."""
+    run, _ = place
+    monkeypatch.chdir(run.parent)
+    assert main(["report", "run", "--out", "run/../outdir"]) == 0
+    assert (run.parent / "outdir" / "summary.csv").is_file()
+    # Back into the run folder through '..' is inside it: still checked, link and all.
+    shutil.rmtree(run / "report")
+    (run / "report").symlink_to(run.parent / "outdir", target_is_directory=True)
+    before = snapshot(run.parent / "outdir")
+    for out in ("run/../run/report", str(run / ".." / "run" / "report")):
+        with pytest.raises(UnsafeRunFileError, match="report is a symbolic link"):
+            check_write_folder(run, out)
+    # Nor through a link of the run folder reached by '..' after it.
+    with pytest.raises(UnsafeRunFileError, match="report is a symbolic link"):
+        check_write_folder(run, "run/report/../x")
+    # The user's own link outside the run folder is followed, part by part.
+    (run.parent / "latest").symlink_to(run, target_is_directory=True)
+    with pytest.raises(UnsafeRunFileError, match="report is a symbolic link"):
+        check_write_folder(run, "latest/report")
+    (run.parent / "shortcut").symlink_to(run / "report", target_is_directory=True)
+    with pytest.raises(UnsafeRunFileError, match="report is a symbolic link"):
+        check_write_folder(run, run.parent / "shortcut")
+    assert check_write_folder("latest", "latest/designs") == Path("latest/designs")
+    assert snapshot(run.parent / "outdir") == before
