@@ -46,6 +46,7 @@ from benchmarks.reports.retest import (
 from benchmarks.reports.stats import t_interval
 from benchmarks.reports.suite import designs_table
 from benchmarks.storage import read_designs, read_retests, read_run_file, with_added_fields
+from benchmarks.storage.runfolder import read_report_file
 from benchmarks.suites.config import ADDED_FIELDS
 from tooldesign_env.schema import ROBUSTNESS_METRICS
 
@@ -69,9 +70,16 @@ def _fmt(value: float, digits: int = 4) -> str:
 
 
 def _suite_file(folder: Path, relative: str) -> bytes | None:
-    """A file of a suite folder (a regular file inside it, no link followed), None if absent."""
+    """A file of a suite folder (a regular file inside it, no link followed), None if absent.
+
+    A report file (``report/summary.csv``) is used only as ``tooldesign report`` wrote it: one
+    that differs from the checksum the manifest records, or that it does not record, is left
+    out with a warning, as if absent (:func:`benchmarks.storage.runfolder.read_report_file`).
+    """
     if not os.path.lexists(folder / relative):
         return None
+    if relative.startswith("report/"):
+        return read_report_file(folder, relative)
     return read_run_file(folder, relative)
 
 
