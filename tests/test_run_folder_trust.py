@@ -24,6 +24,7 @@ from hypothesis import strategies as st
 
 from benchmarks.cli import main
 from benchmarks.reports.html import REPORT_FILE, write_html_report
+from benchmarks.reports.reproduction import _claim_a
 from benchmarks.reports.suite import make_suite_report
 from benchmarks.reports.verdicts import read_report_tables
 from benchmarks.storage import (
@@ -549,10 +550,15 @@ def test_an_edited_report_table_is_left_out_of_the_page_and_of_reproduce(
         page = write_html_report(run).read_text()
     assert edited not in page and "report/summary.md" in page
     # What reproduce and equivalence verdicts read: left out, said so.
-    with pytest.warns(RuntimeWarning, match="summary.csv has changed since it was written"):
+    with pytest.warns(RuntimeWarning, match="summary.csv has changed since its report was"):
         assert read_report_file(run, "report/summary.csv") is None
     with pytest.warns(RuntimeWarning, match="summary.csv has changed"):
         assert "summary.csv" not in read_report_tables(run)
+    with (
+        pytest.warns(RuntimeWarning, match="summary.csv has changed"),
+        pytest.raises(ValueError, match="summary.csv is not as tooldesign report wrote it"),
+    ):
+        _claim_a(run)  # the claims of reproduce: refused, not made from the edited number
     # A table the report never wrote is not shown either.
     (run / "report" / "extra.csv").write_text("optimizer,final_free_energy\nrandom,1.0\n")
     with pytest.warns(RuntimeWarning, match="extra.csv is left out of the page: its manifest"):
@@ -566,7 +572,11 @@ def test_an_edited_report_table_is_left_out_of_the_page_and_of_reproduce(
         warnings.simplefilter("error")
         page = write_html_report(run).read_text()
         assert read_report_file(run, "report/summary.csv") is not None
-    assert edited not in page and "report/summary.csv" in page and '<span class="unchecked"' not in page
+    assert (
+        edited not in page
+        and "report/summary.csv" in page
+        and '<span class="unchecked"' not in page
+    )
 
 
 def test_a_report_written_elsewhere_is_not_recorded(place: tuple[Path, Path]) -> None:

@@ -18,6 +18,7 @@ report's files leaves out an unrecorded file under ``report/``.
 
 from __future__ import annotations
 
+import hashlib
 import os
 import stat
 import warnings
@@ -258,19 +259,20 @@ def read_report_file(run_folder: str | os.PathLike[str], relative: str) -> bytes
         recorded = recorded_checksums(manifest, key, where) or {}
         if relative not in recorded:
             continue
-        try:
+        if key != REPORT_CHECKSUMS:
             return read_run_file(root, relative, expected_sha256=recorded[relative])
-        except UnsafeRunFileError:
-            raise
-        except ValueError as err:
-            if key != REPORT_CHECKSUMS:
-                raise
+        data = read_run_file(root, relative)
+        actual = hashlib.sha256(data).hexdigest()
+        if actual != recorded[relative]:
             warnings.warn(
-                f"{err}. It is left out (tooldesign report writes it again)",
+                f"{root / relative} has changed since its report was written (sha256 "
+                f"{actual[:12]}..., the manifest records {recorded[relative][:12]}...): it is "
+                "left out; tooldesign report writes it again",
                 RuntimeWarning,
                 stacklevel=2,
             )
             return None
+        return data
     if recorded_checksums(manifest, REPORT_CHECKSUMS, where) is not None:
         warnings.warn(f"{root / relative} is left out: {_UNRECORDED}", RuntimeWarning, stacklevel=2)
         return None
