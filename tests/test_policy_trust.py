@@ -71,6 +71,12 @@ def _edit(card: Path, **fields: object) -> None:
     card.write_text(json.dumps(data))
 
 
+def _edit_architecture(card: Path, **fields: object) -> None:
+    data = json.loads(card.read_text())
+    data["architecture"] = {**data["architecture"], **fields}
+    card.write_text(json.dumps(data))
+
+
 def test_a_crafted_zip_runs_nothing_without_the_flag(tmp_path: Path) -> None:
     marker = tmp_path / "ran"
     card = _crafted_zip(tmp_path / "p", marker)
@@ -263,3 +269,104 @@ def test_no_weights_name_reads_outside_the_cards_folder(tmp_path: Path, name: st
     except (ValueError, TypeError, OSError):
         return
     assert (folder / (name + ".safetensors")).resolve().parent == folder.resolve()
+
+
+# --- a card cannot make the loader build what its weights do not hold (L4) -----------------------
+def test_a_format_1_card_with_weights_is_refused(tmp_path: Path) -> None:
+    """Its weights fields would be loaded unchecked (activation "Identity", no layers)."""
+    card = _copy_card(tmp_path)
+    data = json.loads(card.read_text())
+    data["format"] = 1
+    data["architecture"] = {**data["architecture"], "activation_fn": "Identity", "net_arch": []}
+    card.write_text(json.dumps(data))
+    with pytest.raises(ValueError, match="a card of format 1 names .*'weights' belongs to"):
+        load_policy(card)
+    with pytest.raises(ValueError, match="'weights' belongs to a card of format 2"):
+        load_policy(card, allow_pickle=True)
+
+
+def test_a_huge_architecture_is_refused_before_anything_is_built(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import benchmarks.rl.policies as policies
+
+    built: list[object] = []
+    monkeypatch.setattr(
+        "stable_baselines3.common.policies.ActorCriticPolicy.__init__",
+        lambda *a, **k: built.append(a) or (_ for _ in ()).throw(AssertionError("built")),
+    )
+    card = _copy_card(tmp_path)
+    _edit_architecture(card, net_arch=[65536] * 40)  # a 1 kB card asking for 170 G parameters
+    with pytest.raises(ValueError, match="parameters, more than the 16,000,000"):
+        policies.read_policy_card(card)
+    with pytest.raises(ValueError, match="parameters, more than"):
+        load_policy(card)
+    assert not built
+
+
+@pytest.mark.parametrize(
+    ("net_arch", "words"),
+    [
+        ([64], "do not fit its architecture .*hold mlp_extractor.policy_net.2"),
+        ([64, 64, 64], "do not fit its architecture .*lack mlp_extractor.policy_net.4"),
+        ([32, 64], r"policy_net.0.(weight|bias) is \[64.*\], the architecture makes \[32"),
+    ],
+)
+def test_weights_of_another_architecture_are_refused_from_the_header(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, net_arch: list[int], words: str
+) -> None:
+    built: list[object] = []
+    monkeypatch.setattr(
+        "stable_baselines3.common.policies.ActorCriticPolicy.__init__",
+        lambda *a, **k: built.append(a) or (_ for _ in ()).throw(AssertionError("built")),
+    )
+    card = _copy_card(tmp_path)
+    _edit_architecture(card, net_arch=net_arch)
+    with pytest.raises(ValueError, match=words):
+        load_policy(card)
+    assert not built  # refused from the header, before the network was built
+
+
+@pytest.mark.parametrize(
+    ("method", "net_arch", "extra"),
+    [
+        ("ppo", [8, 9], {}),
+        ("ppo", {"pi": [7, 8], "vf": [9]}, {}),
+        ("ppo", {"vf": [5]}, {}),
+        ("sac", [8, 9], {"n_critics": 3}),
+        ("sac", {"pi": [7], "qf": [9, 4]}, {"share_features_extractor": False}),
+    ],
+)
+def test_the_shapes_a_card_describes_are_what_stable_baselines3_builds(
+    method: str, net_arch: object, extra: dict[str, object]
+) -> None:
+    import numpy as np
+    import torch
+    from gymnasium.spaces import Box
+    from stable_baselines3.common.policies import ActorCriticPolicy
+    from stable_baselines3.sac.policies import SACPolicy
+
+    from benchmarks.rl.policies import policy_shapes
+
+    box = {"shape": [5], "low": [-1.0] * 5, "high": [1.0] * 5}
+    act = {"shape": [3], "low": [-1.0] * 3, "high": [1.0] * 3}
+    card = {
+        "method": method,
+        "architecture": {
+            "observation_space": box,
+            "action_space": act,
+            "net_arch": net_arch,
+            **extra,
+        },
+    }
+    kwargs: dict[str, object] = {
+        "observation_space": Box(-1, 1, (5,), np.float32),
+        "action_space": Box(-1, 1, (3,), np.float32),
+        "lr_schedule": lambda _: 0.0,
+        "net_arch": net_arch,
+        "activation_fn": torch.nn.Tanh,
+        **extra,
+    }
+    policy = SACPolicy(**kwargs) if method == "sac" else ActorCriticPolicy(**kwargs)
+    built = {k: tuple(v.shape) for k, v in policy.state_dict().items()}
+    assert policy_shapes(card) == built

@@ -24,21 +24,25 @@ from hypothesis import strategies as st
 
 from benchmarks.cli import main
 from benchmarks.reports.html import REPORT_FILE, write_html_report
+from benchmarks.reports.reproduction import _claim_a
 from benchmarks.reports.suite import make_suite_report
+from benchmarks.reports.verdicts import read_report_tables
 from benchmarks.storage import (
     DESIGNS_DIR,
     FILE_CHECKSUMS,
     PART_CHECKSUMS,
+    REPORT_CHECKSUMS,
     ResultStore,
     ResumeError,
     UnsafeRunFileError,
+    check_write_folder,
     file_sha256,
     list_run_files,
     read_designs,
     read_run_file,
     run_file_path,
 )
-from benchmarks.storage.runfolder import RUN_KINDS, run_folder_kind
+from benchmarks.storage.runfolder import RUN_KINDS, read_report_file, run_folder_kind
 from benchmarks.suites import load_suite
 from benchmarks.suites.runner import run_suite
 
@@ -482,3 +486,138 @@ def test_report_keeps_a_report_html_of_the_users_own(place: tuple[Path, Path], c
     assert main(["report", str(run)]) == 0
     assert "left as it is" in capsys.readouterr().out
     assert (run / REPORT_FILE).read_text() == "<p>mine</p>"
+
+
+# --- where a command writes ----------------------------------------------------------------------
+def test_an_out_folder_named_through_dotdot_is_where_it_leads(
+    place: tuple[Path, Path], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``run/../outdir`` is ``outdir``, as its absolute path is: accepted, written there."""
+    run, _ = place
+    monkeypatch.chdir(run.parent)
+    assert main(["report", "run", "--out", "run/../outdir"]) == 0
+    assert (run.parent / "outdir" / "summary.csv").is_file()
+    # Back into the run folder through '..' is inside it: still checked, link and all.
+    shutil.rmtree(run / "report")
+    (run / "report").symlink_to(run.parent / "outdir", target_is_directory=True)
+    before = snapshot(run.parent / "outdir")
+    for out in ("run/../run/report", str(run / ".." / "run" / "report")):
+        with pytest.raises(UnsafeRunFileError, match="report is a symbolic link"):
+            check_write_folder(run, out)
+    # Nor through a link of the run folder reached by '..' after it.
+    with pytest.raises(UnsafeRunFileError, match="report is a symbolic link"):
+        check_write_folder(run, "run/report/../x")
+    # The user's own link outside the run folder is followed, part by part.
+    (run.parent / "latest").symlink_to(run, target_is_directory=True)
+    with pytest.raises(UnsafeRunFileError, match="report is a symbolic link"):
+        check_write_folder(run, "latest/report")
+    (run.parent / "shortcut").symlink_to(run / "report", target_is_directory=True)
+    with pytest.raises(UnsafeRunFileError, match="report is a symbolic link"):
+        check_write_folder(run, run.parent / "shortcut")
+    assert check_write_folder("latest", "latest/designs") == Path("latest/designs")
+    assert snapshot(run.parent / "outdir") == before
+
+
+# --- report files: recorded when written, checked when read (M1) --------------------------------
+def _edit_summary_f(run: Path) -> str:
+    """Change one digit of a final F in report/summary.csv; the edited number, as text."""
+    path = run / "report" / "summary.csv"
+    frame = pd.read_csv(path)
+    edited = "123456.789"
+    text = path.read_text()
+    value = repr(float(frame["final_free_energy"].iloc[0]))
+    assert value in text or str(frame["final_free_energy"].iloc[0]) in text
+    old = value if value in text else str(frame["final_free_energy"].iloc[0])
+    path.write_text(text.replace(old, edited, 1))
+    return edited
+
+
+def test_the_report_files_are_recorded_when_written(finished: Path) -> None:
+    extra = json.loads((finished / "manifest.json").read_text())["extra"]
+    recorded = extra[REPORT_CHECKSUMS]
+    on_disk = sorted(p.relative_to(finished).as_posix() for p in (finished / "report").iterdir())
+    assert sorted(recorded) == on_disk and "report/summary.csv" in recorded
+    for relative, digest in recorded.items():
+        assert file_sha256(finished / relative) == digest
+
+
+def test_an_edited_report_table_is_left_out_of_the_page_and_of_reproduce(
+    place: tuple[Path, Path],
+) -> None:
+    run, _ = place
+    edited = _edit_summary_f(run)
+    with pytest.warns(RuntimeWarning, match="summary.csv is left out of the page: it differs"):
+        page = write_html_report(run).read_text()
+    assert edited not in page and "report/summary.md" in page
+    # What reproduce and equivalence verdicts read: left out, said so.
+    with pytest.warns(RuntimeWarning, match="summary.csv has changed since its report was"):
+        assert read_report_file(run, "report/summary.csv") is None
+    with pytest.warns(RuntimeWarning, match="summary.csv has changed"):
+        assert "summary.csv" not in read_report_tables(run)
+    with (
+        pytest.warns(RuntimeWarning, match="summary.csv has changed"),
+        pytest.raises(ValueError, match="summary.csv is not as tooldesign report wrote it"),
+    ):
+        _claim_a(run)  # the claims of reproduce: refused, not made from the edited number
+    # A table the report never wrote is not shown either.
+    (run / "report" / "extra.csv").write_text("optimizer,final_free_energy\nrandom,1.0\n")
+    with pytest.warns(RuntimeWarning, match="extra.csv is left out of the page: its manifest"):
+        assert "extra.csv" not in write_html_report(run).read_text()
+    with pytest.warns(RuntimeWarning, match="extra.csv is left out: its manifest does not"):
+        assert read_report_file(run, "report/extra.csv") is None
+    # tooldesign report writes it again, and records it: shown again, as written.
+    (run / "report" / "extra.csv").unlink()
+    assert main(["report", str(run)]) == 0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        page = write_html_report(run).read_text()
+        assert read_report_file(run, "report/summary.csv") is not None
+    assert (
+        edited not in page
+        and "report/summary.csv" in page
+        and '<span class="unchecked"' not in page
+    )
+
+
+def test_a_report_written_elsewhere_is_not_recorded(place: tuple[Path, Path]) -> None:
+    run, outside = place
+    before = json.loads((run / "manifest.json").read_text())["extra"][REPORT_CHECKSUMS]
+    make_suite_report(run, out_dir=outside / "report", n_boot=20)
+    after = json.loads((run / "manifest.json").read_text())["extra"][REPORT_CHECKSUMS]
+    assert after == before
+
+
+def test_an_older_folder_shows_its_report_files_marked_unchecked(place: tuple[Path, Path]) -> None:
+    """A manifest without report records (written before them): shown, visibly unchecked."""
+    run, _ = place
+    edit_manifest(run, lambda data: data["extra"].pop(REPORT_CHECKSUMS))
+    with pytest.warns(RuntimeWarning, match="files of .* are shown unchecked"):
+        page = write_html_report(run).read_text()
+    assert "files below are unchecked" in page
+    assert 'report/summary.md <span class="unchecked"' in page
+    with pytest.warns(RuntimeWarning, match="summary.csv is read unchecked"):
+        assert read_report_file(run, "report/summary.csv") is not None
+    # The design files the manifest records are checked: no mark.
+    assert "seed=" not in page.split("files below are unchecked")[1].split("</p>")[0]
+
+
+# --- equivalence verdicts reads through the gate (L3) --------------------------------------------
+def test_equivalence_verdicts_never_follows_a_link_nor_opens_a_fifo(
+    place: tuple[Path, Path], capsys: pytest.CaptureFixture[str]
+) -> None:
+    run, outside = place
+    (outside / "pairwise.csv").write_text("a,b,metric,significant\nx,y,auc,True\n")
+    (run / "report" / "pairwise.csv").unlink()
+    os.mkfifo(run / "report" / "pairwise.csv")  # opened for reading, it would block for ever
+    (run / "report" / "leak.csv").symlink_to(outside / "pairwise.csv")
+    with pytest.warns(RuntimeWarning, match="pairwise.csv is left out: it is a FIFO"):
+        tables = read_report_tables(run)
+    assert "pairwise.csv" not in tables and "leak.csv" not in tables and "summary.csv" in tables
+    # A linked report/ is refused in one line.
+    shutil.rmtree(run / "report")
+    (run / "report").symlink_to(outside, target_is_directory=True)
+    with pytest.raises(SystemExit) as exit_info:
+        main(["equivalence", "verdicts", str(run), str(run)])
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "symbolic link" in err

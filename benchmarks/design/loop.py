@@ -51,6 +51,7 @@ from benchmarks.storage import (
     check_out_dir,
     json_text,
 )
+from benchmarks.storage.runfolder import record_report_files
 from tooldesign_env.schema import ROBUSTNESS_METRICS, STATUSES, coefficient_columns, rounded_path
 
 __all__ = ["CARD_VERSION", "DesignResult", "run_design"]
@@ -194,7 +195,9 @@ def run_design(
         session.write_file(out / DESIGN_RUN_FILES["card"], json_text(card))
         if video and result.status == "ok":
             with phase(f"design {config.optimizer}: rendering rollout.gif", enabled=progress):
-                _video(config, result.coefficients, out / DESIGN_RUN_FILES["video"])
+                if _video(config, result.coefficients, out / DESIGN_RUN_FILES["video"]):
+                    # A figure made from the card: recorded as the report's files are.
+                    record_report_files(out, [out / DESIGN_RUN_FILES["video"]])
     return dataclasses.replace(result, card=card)
 
 
@@ -331,7 +334,8 @@ def _straight_tool(row: Mapping[str, Any], degree: int) -> dict[str, Any]:
     return entry
 
 
-def _video(config: DesignConfig, coeffs: np.ndarray, path: Path) -> None:
+def _video(config: DesignConfig, coeffs: np.ndarray, path: Path) -> bool:
+    """Write the rollout GIF; whether it was written (a failure is warned about)."""
     from benchmarks.design.video import rollout_gif
 
     task = config.task()
@@ -350,6 +354,8 @@ def _video(config: DesignConfig, coeffs: np.ndarray, path: Path) -> None:
     except Exception as exc:  # noqa: BLE001
         # The run's results are complete and stored; a picture that fails must not lose them.
         warnings.warn(f"rollout.gif not written: {type(exc).__name__}: {exc}", stacklevel=2)
+        return False
+    return True
 
 
 def _robustness(

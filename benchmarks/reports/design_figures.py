@@ -30,6 +30,7 @@ from benchmarks.storage import (
     read_manifest,
     short_repr,
 )
+from benchmarks.storage.runfolder import record_report_files
 from tooldesign_env.schema import coefficient_columns
 
 __all__ = ["DesignRun", "read_design_run", "write_design_report"]
@@ -390,5 +391,7 @@ def write_design_report(
             fontsize="medium",
         )
     written.append(plots.save_png(figure, out / DESIGN_RUN_FILES["robustness_png"]))
+    # The page shows a figure only while it is as written here (html leaves out the others).
+    record_report_files(out, written)
     written.append(write_html_report(out))
     return written

@@ -21,6 +21,7 @@ under ``parts/`` are left out.
 from __future__ import annotations
 
 import base64
+import contextvars
 import csv
 import html
 import io
@@ -28,13 +29,18 @@ import json
 import math
 import os
 import re
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 from benchmarks.storage import atomic_write_text, read_run_file
 from benchmarks.storage.atomic import check_file_target
-from benchmarks.storage.runfolder import check_own_page, report_files
+from benchmarks.storage.runfolder import (
+    EVALUATE_KIND,
+    ReportFiles,
+    check_own_page,
+    report_files,
+)
 
 __all__ = ["REPORT_FILE", "write_html_report"]
 
@@ -84,6 +90,9 @@ table.sortable th[aria-sort=descending]::after { content: " \\25BC"; }
 .settings { display: grid; grid-template-columns: repeat(3, minmax(0, 1fr)); gap: 0 1.2em; }
 .settings table { width: 100%; }
 .note { font-size: 0.85em; color: #555; }
+.unchecked { font-size: 0.8em; color: #8a4b00; background: #fff3e0; border: 1px solid #e0a060;
+  border-radius: 3px; padding: 0 0.3em; font-family: system-ui, sans-serif; }
+.unchecked-note { background: #fff3e0; border-left: 4px solid #e0a060; padding: 0.4em 0.8em; }
 details { margin: 0.4em 0; } summary { cursor: pointer; font-weight: 600; }
 pre { background: #f7f7f7; padding: 0.8em; overflow-x: auto; font-size: 0.85em;
   white-space: pre-wrap; word-break: break-word; }
@@ -173,15 +182,59 @@ _COLUMNS: dict[str, str] = {
 }
 
 
-def _files(folder: Path) -> Iterator[Path]:
-    """The folder's files, sorted, depth first, without stored results and earlier reports.
+def _files(folder: Path) -> ReportFiles:
+    """The folder's files the page may show, without stored results and earlier reports.
 
     Regular files inside the folder only, after the folder is checked against its manifest
-    (:func:`benchmarks.storage.runfolder.report_files`, which warns about what it leaves out).
+    (:func:`benchmarks.storage.runfolder.report_files`, which warns about what it leaves out):
+    a report file that differs from its record, or (in a folder that records its files) a file
+    recorded nowhere, is left out; the files of an older folder that nothing records are
+    shown, marked unchecked.
     """
-    listed = report_files(folder, skip_dirs=_SKIP_DIRS, skip_names={REPORT_FILE})
-    for relative in listed.files:
-        yield folder / relative
+    return report_files(
+        folder,
+        skip_dirs=_SKIP_DIRS,
+        skip_names={REPORT_FILE},
+        suffixes=(*_IMAGES, ".json", ".csv", ".md", ".txt"),
+    )
+
+
+_UNCHECKED: contextvars.ContextVar[frozenset[Path]] = contextvars.ContextVar(
+    "unchecked", default=frozenset()
+)
+"""The files of the page being written that its folder's manifest does not record."""
+
+_NOTE: contextvars.ContextVar[str] = contextvars.ContextVar("note", default="")
+"""The page's warning about its unchecked files (:func:`_unchecked_note`), or ``""``."""
+
+_UNCHECKED_MARK = (
+    ' <span class="unchecked" title="its manifest records no checksum">unchecked</span>'
+)
+
+
+def _name(path: Path, folder: Path) -> str:
+    """A file's name as the page shows it, marked when nothing checked it."""
+    mark = _UNCHECKED_MARK if path in _UNCHECKED.get() else ""
+    return _esc(path.relative_to(folder)) + mark
+
+
+def _unchecked_note(unchecked: Sequence[str]) -> str:
+    """The page's warning about the files shown unchecked (each is marked), or ``""``."""
+    if not unchecked:
+        return ""
+    return (
+        f'<p class="unchecked-note"><strong>{len(unchecked)} files below are unchecked</strong> '
+        '(marked <span class="unchecked">unchecked</span>): the folder\'s manifest records no '
+        "checksum for them, so nothing tells whether they are as the run wrote them. It was "
+        "written before tooldesign recorded its report files, or by tooldesign evaluate, which "
+        "writes no manifest; <code>tooldesign report</code> records the report's.</p>"
+    )
+
+
+_EVALUATE_NOTE = (
+    '<p class="note">Made from the files of a <code>tooldesign evaluate</code> folder, which '
+    "records no checksums: nothing on this page is checked against a manifest.</p>"
+)
 
 
 def _esc(value: Any) -> str:
@@ -203,10 +256,11 @@ def _num(value: Any, digits: int = 4) -> str:
 def _image(path: Path, folder: Path, caption: str = "") -> str:
     mime = _IMAGES[path.suffix.lower()]
     data = base64.b64encode(read_run_file(folder, path)).decode("ascii")
-    name = _esc(path.relative_to(folder))
+    name = _name(path, folder)
+    alt = _esc(path.relative_to(folder))
     text = f"{caption} <code>{name}</code>" if caption else f"<code>{name}</code>"
     return (
-        f'<figure><img src="data:{mime};base64,{data}" alt="{name}">'
+        f'<figure><img src="data:{mime};base64,{data}" alt="{alt}">'
         f"<figcaption>{text}</figcaption></figure>"
     )
 
@@ -225,7 +279,7 @@ def _json_table(path: Path, folder: Path) -> str:
         data = json.loads(read_run_file(folder, path).decode("utf-8"))
     except (OSError, ValueError) as error:
         return f"<p>{_esc(path.name)}: not readable ({_esc(error)})</p>"
-    name = _esc(path.relative_to(folder))
+    name = _name(path, folder)
     if not isinstance(data, dict):
         body = f"<pre>{_esc(json.dumps(data, indent=2)[:5000])}</pre>"
     else:
@@ -274,7 +328,7 @@ def _cell(text: str, digits: int = 6) -> str:
 
 def _csv_table(path: Path, folder: Path, *, label: str = "") -> str:
     """A CSV file as a sortable, paginated table; columns equal in every row become one line."""
-    name = _esc(path.relative_to(folder))
+    name = _name(path, folder)
     try:
         header, rows, more = _read_csv(folder, path)
     except (OSError, csv.Error) as error:
@@ -381,6 +435,7 @@ def _page(title: str, subtitle: str, body: Sequence[str]) -> str:
             head,
             f"<h1>{_esc(title)}</h1>",
             f'<p class="sub">{subtitle}</p>',
+            _NOTE.get(),
             *body,
             f"<script>{_SCRIPT}</script>",
             "</body></html>\n",
@@ -775,7 +830,7 @@ def _rest(
 
     def report(path: Path) -> str:
         text = read_run_file(folder, path).decode("utf-8", errors="replace")
-        return f"<h2>{_esc(path.relative_to(folder))}</h2>{_markdown(text)}"
+        return f"<h2>{_name(path, folder)}</h2>{_markdown(text)}"
 
     body.extend(report(p) for p in lead)
     if images:
@@ -791,8 +846,7 @@ def _rest(
     if tables:
         body.append("<h2>Tables</h2>")
         body.extend(
-            f"<details><summary>{_esc(p.relative_to(folder))}</summary>"
-            f"{_csv_table(p, folder)}</details>"
+            f"<details><summary>{_name(p, folder)}</summary>{_csv_table(p, folder)}</details>"
             if texts or fold_tables
             else _csv_table(p, folder)
             for p in tables
@@ -808,8 +862,7 @@ def _rest(
     for path in logs:
         text = read_run_file(folder, path).decode("utf-8", errors="replace")
         body.append(
-            f"<details><summary>{_esc(path.relative_to(folder))}</summary>"
-            f"<pre>{_esc(text)}</pre></details>"
+            f"<details><summary>{_name(path, folder)}</summary><pre>{_esc(text)}</pre></details>"
         )
     return body
 
@@ -843,12 +896,27 @@ def write_html_report(
     target = Path(out) if out is not None else folder / REPORT_FILE
     check_file_target(target, parent_must_exist=out is not None)
     check_own_page(folder, target)  # a user's own report.html, or a link, is not overwritten
-    files = list(_files(folder))  # a run folder that was tampered with is not shown
-    if len(files) > _MAX_FILES:
+    listed = _files(folder)  # a run folder that was tampered with is not shown
+    known = [folder / relative for relative in listed.files]
+    if len(known) > _MAX_FILES:
         raise ValueError(f"{folder} has more than {_MAX_FILES} files: give a run folder")
-    known = [p for p in files if p.suffix.lower() in (*_IMAGES, ".json", ".csv", ".md", ".txt")]
     if not known:
         raise ValueError(f"{folder} has no figure, table or card to report")
+    # An evaluate folder has no manifest: all of it is unchecked, which its note says once.
+    evaluate = listed.kind == EVALUATE_KIND
+    unchecked = () if evaluate else listed.unchecked
+    marks = _UNCHECKED.set(frozenset(folder / relative for relative in unchecked))
+    note = _NOTE.set(_EVALUATE_NOTE if evaluate else _unchecked_note(unchecked))
+    try:
+        page = _page_of(folder, known)
+    finally:
+        _UNCHECKED.reset(marks)
+        _NOTE.reset(note)
+    return atomic_write_text(target, page)
+
+
+def _page_of(folder: Path, known: list[Path]) -> str:
+    """The page of ``folder`` showing the files ``known``."""
     card = _read_json(folder, folder / "design.json")
     terms = _read_json(folder, folder / "terms.json")
     if card is not None and isinstance(card.get("config"), dict) and "coefficients" in card:
@@ -868,4 +936,4 @@ def write_html_report(
             "everything embedded."
         )
         page = _page(title, counts, _rest(folder, known, open_figures=True))
-    return atomic_write_text(target, page)
+    return page

@@ -54,6 +54,7 @@ from benchmarks.storage import (
     read_run_file,
     with_added_fields,
 )
+from benchmarks.storage.runfolder import read_report_file
 from benchmarks.suites.config import ADDED_FIELDS
 from tooldesign_env.schema import ROBUSTNESS_METRICS
 
@@ -77,9 +78,24 @@ def _fmt(value: float, digits: int = 4) -> str:
 
 
 def _suite_file(folder: Path, relative: str) -> bytes | None:
-    """A file of a suite folder (a regular file inside it, no link followed), None if absent."""
+    """A file of a suite folder (a regular file inside it, no link followed), None if absent.
+
+    A report file (``report/summary.csv``) is used only as ``tooldesign report`` wrote it: one
+    that differs from the checksum the manifest records, or that it does not record, is
+    refused (after the warning of :func:`benchmarks.storage.runfolder.read_report_file`), as
+    the claims it feeds cannot be made without it.
+    """
     if not os.path.lexists(folder / relative):
         return None
+    if relative.startswith("report/"):
+        data = read_report_file(folder, relative)
+        if data is None:
+            raise ValueError(
+                f"{folder / relative} is not as tooldesign report wrote it (see the warning), "
+                f"and the page needs it: run tooldesign report {folder}, or reproduce without "
+                "--skip-reports"
+            )
+        return data
     return read_run_file(folder, relative)
 
 

@@ -61,6 +61,7 @@ from benchmarks.storage import (
     read_manifest,
     read_retests,
 )
+from benchmarks.storage.runfolder import record_report_files
 from benchmarks.storage.table import csv_text
 from benchmarks.suites.config import SUITE_KIND, SuiteConfig, suite_of_manifest
 from tooldesign_env.schema import GOAL_COLUMNS, METRICS, ROBUSTNESS_METRICS
@@ -914,7 +915,18 @@ def make_suite_report(
     target = folder / REPORT_DIR if out_dir is None else Path(out_dir)
     check_write_folder(folder, target)  # a report/ linked to another folder is not written
     if _kind(folder) == RL_SUITE_KIND:
-        return make_rl_report(folder, out_dir=out_dir)
+        written = make_rl_report(folder, out_dir=out_dir)
+    else:
+        written = _checked_suite_report(folder, target, n_boot=n_boot, seed=seed, interval=interval)
+    # A reader shows a report file only while it is as written here (html, reproduce).
+    record_report_files(folder, written)
+    return written
+
+
+def _checked_suite_report(
+    folder: Path, target: Path, *, n_boot: int, seed: int, interval: str
+) -> list[Path]:
+    """The report of a suite folder (or a design run's, or a bare store's) that was checked."""
     designs, retests = read_designs(folder), read_retests(folder)
     notice = _incomplete_notice(folder, designs, retests)
     if notice is not None:

@@ -19,6 +19,7 @@ Command: ``tooldesign equivalence verdicts BEFORE AFTER``.
 from __future__ import annotations
 
 import functools
+import io
 import math
 import os
 from collections.abc import Mapping, Sequence
@@ -116,20 +117,42 @@ def compare_verdicts(
 def read_report_tables(folder: str | os.PathLike[str]) -> dict[str, list[dict[str, str]]]:
     """The report tables (``report/*.csv``) of a suite run folder, as rows of strings.
 
+    Read through the run folder's gate: regular files inside the folder only (a link, a FIFO
+    or a linked ``report/`` is refused or left out, never followed or opened), and a table that
+    differs from the checksum the manifest records for it, or that it does not record, is left
+    out with a warning (:func:`benchmarks.storage.runfolder.read_report_file`).
+
     Raises:
         FileNotFoundError: If the folder has no ``report/`` tables (run ``tooldesign report``).
+        benchmarks.storage.UnsafeRunFileError: If ``report/`` is a link.
     """
+    import warnings
+
     import pandas as pd
 
-    report = Path(folder) / "report"
-    paths = sorted(report.glob("*.csv")) if report.is_dir() else []
-    if not paths:
+    from benchmarks.storage import list_run_files
+    from benchmarks.storage.runfolder import read_report_file
+
+    root = Path(folder)
+    listed, left_out = list_run_files(root, under="report", skip_dir=lambda name: True)
+    for relative, kind in left_out.items():
+        if relative.endswith(".csv"):
+            warnings.warn(
+                f"{root / relative} is left out: it is {kind}, not a regular file",
+                RuntimeWarning,
+                stacklevel=2,
+            )
+    tables = [relative for relative in listed if relative.endswith(".csv")]
+    if not tables:
         raise FileNotFoundError(
             f"{folder} has no report tables (report/*.csv): is it a suite run folder? Its "
             "report is written by `tooldesign report`"
         )
     out = {}
-    for path in paths:
-        frame = pd.read_csv(path, keep_default_na=False, dtype=str)
-        out[path.name] = [dict(row) for row in frame.to_dict("records")]
+    for relative in tables:
+        data = read_report_file(root, relative)
+        if data is None:
+            continue  # left out, and warned about
+        frame = pd.read_csv(io.BytesIO(data), keep_default_na=False, dtype=str)
+        out[_name(relative)] = [dict(row) for row in frame.to_dict("records")]
     return out

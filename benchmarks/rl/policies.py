@@ -26,7 +26,7 @@ import json
 import math
 import os
 import warnings
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -40,6 +40,7 @@ from tooldesign_env.schema import DEFAULT_BOX_MASS
 
 __all__ = [
     "CARD_ADDED_FIELDS",
+    "MAX_POLICY_PARAMETERS",
     "POLICY_FORMAT",
     "UnsafePolicyError",
     "convert_policy",
@@ -48,6 +49,7 @@ __all__ = [
     "load_policy",
     "policy_digest",
     "policy_env_kwargs",
+    "policy_shapes",
     "read_policy_card",
     "save_policy",
 ]
@@ -352,6 +354,13 @@ def _parse_card(card_path: Path, data: bytes) -> dict[str, Any]:
         if missing:
             raise ValueError(f"{card_path}: 'policy' lacks the fields {', '.join(missing)}")
     elif card["format"] == 1:
+        if "weights" in card:
+            # A format-1 card is loaded from its .zip: weights named in it would be loaded
+            # unchecked (the fields of format 2 are checked only there).
+            raise ValueError(
+                f"{card_path}: a card of format 1 names a Stable-Baselines3 .zip in 'file'; "
+                "'weights' belongs to a card of format 2"
+            )
         if "file" not in card:
             raise ValueError(
                 f"{card_path}: a {method} card names its Stable-Baselines3 model in the field "
@@ -449,10 +458,128 @@ def _check_weights_fields(card: dict[str, Any], card_path: Path, method: str) ->
         n = architecture.get("n_critics", 2)
         if type(n) is not int or not 1 <= n <= 16:
             raise ValueError(f"{card_path}: 'architecture.n_critics' must be 1-16, got {n!r}")
+        if isinstance(net_arch, dict) and not {"pi", "qf"} <= set(net_arch):
+            raise ValueError(
+                f"{card_path}: 'architecture.net_arch' of a sac card is a list of layer sizes or "
+                f"an object with pi and qf, got {net_arch!r}"
+            )
     if not isinstance(architecture.get("share_features_extractor", False), bool):
         raise ValueError(
             f"{card_path}: 'architecture.share_features_extractor' must be true or false"
         )
+    count = sum(math.prod(shape) for shape in policy_shapes(card).values())
+    if count > MAX_POLICY_PARAMETERS:
+        raise ValueError(
+            f"{card_path}: 'architecture' makes a network of {count:,} parameters, more than the "
+            f"{MAX_POLICY_PARAMETERS:,} a policy card may have"
+        )
+
+
+MAX_POLICY_PARAMETERS = 16_000_000
+"""The most parameters a policy card's network may have (64 MB of float32); the committed
+policies have some 10,000. Checked on the card's JSON, before its weights are read."""
+
+
+def policy_shapes(card: Mapping[str, Any]) -> dict[str, tuple[int, ...]]:
+    """The tensors, by name and shape, of the network a PPO or SAC card of format 2 describes.
+
+    What Stable-Baselines3's ``ActorCriticPolicy`` (PPO) or ``SACPolicy`` builds from the card's
+    ``architecture`` (an MLP feature-less policy: Flatten, then the layers of ``net_arch``),
+    computed from the numbers alone: the weights' header is compared with it before any
+    network is built, and the parameter count is bounded with it.
+    """
+    arch = card["architecture"]
+    n_obs = int(arch["observation_space"]["shape"][0])
+    n_act = int(arch["action_space"]["shape"][0])
+    net_arch = arch["net_arch"]
+    shapes: dict[str, tuple[int, ...]] = {}
+
+    def mlp(prefix: str, n_in: int, sizes: Sequence[int], n_out: int | None = None) -> int:
+        for i, size in enumerate(sizes):
+            shapes[f"{prefix}.{2 * i}.weight"] = (size, n_in)
+            shapes[f"{prefix}.{2 * i}.bias"] = (size,)
+            n_in = size
+        if n_out is not None:
+            index = 2 * len(sizes)
+            shapes[f"{prefix}.{index}.weight"] = (n_out, n_in)
+            shapes[f"{prefix}.{index}.bias"] = (n_out,)
+        return n_in
+
+    if card["method"] == "sac":
+        pi, qf = (net_arch["pi"], net_arch["qf"]) if isinstance(net_arch, dict) else (net_arch,) * 2
+        last = mlp("actor.latent_pi", n_obs, pi)
+        for head in ("mu", "log_std"):
+            shapes[f"actor.{head}.weight"] = (n_act, last)
+            shapes[f"actor.{head}.bias"] = (n_act,)
+        for critic in ("critic", "critic_target"):
+            for k in range(int(arch.get("n_critics", 2))):
+                mlp(f"{critic}.qf{k}", n_obs + n_act, qf, 1)
+        return shapes
+    if isinstance(net_arch, dict):
+        pi, vf = net_arch.get("pi", []), net_arch.get("vf", [])
+    else:
+        pi = vf = net_arch
+    shapes["log_std"] = (n_act,)
+    last_pi = mlp("mlp_extractor.policy_net", n_obs, pi)
+    last_vf = mlp("mlp_extractor.value_net", n_obs, vf)
+    shapes["action_net.weight"], shapes["action_net.bias"] = (n_act, last_pi), (n_act,)
+    shapes["value_net.weight"], shapes["value_net.bias"] = (1, last_vf), (1,)
+    return shapes
+
+
+_MAX_HEADER_BYTES = 100 << 20  # safetensors' own limit
+
+
+def _header_shapes(payload: bytes, card_path: Path, name: str) -> dict[str, tuple[int, ...]]:
+    """The tensors' names and shapes in a safetensors file's header, the tensors not read.
+
+    The header is 8 bytes of its length (little endian), then that many bytes of JSON:
+    ``{name: {"dtype", "shape", "data_offsets"}, "__metadata__": {...}}``.
+    """
+    where = f"{card_path}: its weights {name}"
+    if len(payload) < 8:
+        raise ValueError(f"{where} are not a safetensors file (too short)")
+    size = int.from_bytes(payload[:8], "little")
+    if size > min(_MAX_HEADER_BYTES, len(payload) - 8):
+        raise ValueError(f"{where} are not a safetensors file (a header of {size} bytes)")
+    try:
+        header = json.loads(payload[8 : 8 + size].decode("utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError, RecursionError):
+        raise ValueError(f"{where} are not a safetensors file (its header is no JSON)") from None
+    if not isinstance(header, dict):
+        raise ValueError(f"{where} are not a safetensors file (its header is no object)")
+    shapes: dict[str, tuple[int, ...]] = {}
+    for key, entry in header.items():
+        if key == "__metadata__":
+            continue
+        shape = entry.get("shape") if isinstance(entry, dict) else None
+        if not (isinstance(shape, list) and all(type(n) is int and n >= 0 for n in shape)):
+            raise ValueError(f"{where}: the tensor {key!r} has no shape in the header")
+        shapes[str(key)] = tuple(shape)
+    return shapes
+
+
+def _check_header(card: dict[str, Any], card_path: Path, payload: bytes) -> None:
+    """Refuse weights whose tensors are not the ones the card's architecture makes."""
+    name = card["weights"]
+    found = _header_shapes(payload, card_path, name)
+    expected = policy_shapes(card)
+    if found == expected:
+        return
+    missing = sorted(set(expected) - set(found))
+    extra = sorted(set(found) - set(expected))
+    wrong = sorted(k for k in set(found) & set(expected) if found[k] != expected[k])
+    if wrong:
+        key = wrong[0]
+        what = f"{key} is {list(found[key])}, the architecture makes {list(expected[key])}"
+    elif missing:
+        what = f"they lack {missing[0]}" + (f" and {len(missing) - 1} more" if missing[1:] else "")
+    else:
+        what = f"they hold {extra[0]}, which the architecture does not make"
+    raise ValueError(
+        f"{card_path}: its weights {name} do not fit its architecture ({what}); nothing was "
+        "built or loaded"
+    )
 
 
 def _check_settings(card: dict[str, Any], card_path: Path) -> None:
@@ -609,6 +736,9 @@ def _policy_from_weights(card: dict[str, Any], card_path: Path, payload: bytes) 
             f"{card_path}: its weights {card['weights']} have changed since they were saved "
             f"(SHA-256 {actual[:12]}..., the card records {card['weights_sha256'][:12]}...)"
         )
+    # The header alone, before the network is built: a card cannot make it build what its
+    # weights do not hold (and the card's parameter count was bounded when it was read).
+    _check_header(card, card_path, payload)
     arch = card["architecture"]
 
     def box(name: str) -> Box:

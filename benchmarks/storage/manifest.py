@@ -46,6 +46,20 @@ do not have it: their files are read unchecked (see :func:`recorded_checksums`).
 """
 
 
+REPORT_CHECKSUMS = "report_sha256"
+"""Key in the manifest's ``extra`` of the SHA-256 checksums of the files a report wrote.
+
+What ``tooldesign report`` (and ``bench``, ``bench rl``, ``reproduce``, which make the same
+report) writes under ``report/``, and the figures and video of a design run, by path relative to
+the run folder. They are made from the checked results and can be made again, so a file that
+differs is not a damaged run: the readers (``html``, ``reproduce``, ``equivalence verdicts``)
+leave it out with a warning instead of refusing the folder, and the next ``tooldesign report``
+writes and records it again (:func:`benchmarks.storage.runfolder.record_report_files`). Kept
+apart from :data:`FILE_CHECKSUMS` for that reason, and because a folder written before that key
+existed would otherwise gain it and have its consolidated table read as unlisted.
+"""
+
+
 # Distribution names (what importlib.metadata knows), not module names: skopt is scikit-optimize.
 _PACKAGES: tuple[str, ...] = (
     "tooldesign",
@@ -358,7 +372,7 @@ def recorded_checksums(
 
     Args:
         manifest: A manifest, e.g. from :func:`read_manifest`.
-        key: :data:`PART_CHECKSUMS` or :data:`FILE_CHECKSUMS`.
+        key: :data:`PART_CHECKSUMS`, :data:`FILE_CHECKSUMS` or :data:`REPORT_CHECKSUMS`.
         where: The manifest's path, for error messages.
 
     Returns:
@@ -459,7 +473,10 @@ def check_sha256(
 
 
 def update_file_checksums(
-    run_folder: str | os.PathLike[str], changes: Mapping[str, str | None]
+    run_folder: str | os.PathLike[str],
+    changes: Mapping[str, str | None],
+    *,
+    key: str = FILE_CHECKSUMS,
 ) -> None:
     """Set (or, with ``None``, remove) entries of the manifest's :data:`FILE_CHECKSUMS`.
 
@@ -469,6 +486,8 @@ def update_file_checksums(
     Args:
         run_folder: The run folder; it must hold a manifest.
         changes: ``{path relative to the run folder: sha256 or None}``.
+        key: The record to change: :data:`FILE_CHECKSUMS` (the default) or
+            :data:`REPORT_CHECKSUMS` (created if the manifest has none).
 
     Raises:
         FileNotFoundError: If there is no manifest.
@@ -479,14 +498,17 @@ def update_file_checksums(
     with holding(run_folder):
         manifest = read_manifest(run_folder)
         where = Path(run_folder) / MANIFEST_NAME
-        recorded = recorded_checksums(manifest, FILE_CHECKSUMS, where) or {}
+        if key not in (FILE_CHECKSUMS, REPORT_CHECKSUMS):
+            raise ValueError(f"key must be {FILE_CHECKSUMS!r} or {REPORT_CHECKSUMS!r}, got {key!r}")
+        recorded = recorded_checksums(manifest, key, where) or {}
         for relative, digest in changes.items():
+            run_file_path(run_folder, relative)  # a relative path inside the folder, or refused
             if digest is None:
                 recorded.pop(relative, None)
             else:
                 recorded[relative] = digest
         checksums = dict(sorted(recorded.items()))
-        manifest["extra"] = {**manifest.get("extra", {}), FILE_CHECKSUMS: checksums}
+        manifest["extra"] = {**manifest.get("extra", {}), key: checksums}
         write_manifest(run_folder, manifest)
 
 

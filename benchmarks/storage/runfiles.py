@@ -371,6 +371,12 @@ def check_write_folder(run_folder: str | os.PathLike[str], folder: str | os.Path
     as it is. One inside it must be reached through real folders only: a ``report/`` that is a
     link to another folder would have that folder's files overwritten.
 
+    The path is followed as the system will follow it when the command writes: part by part,
+    ``..`` going up from where the parts so far lead (``run/../outdir`` is ``outdir``, the same
+    folder as its absolute path). A link met on the way is followed if it lies outside the run
+    folder (the user's own ``runs/latest``) and refused if it lies inside it, however the path
+    reaches it (``run/report``, ``run/../run/report`` or its absolute path alike).
+
     Args:
         run_folder: The run folder.
         folder: Where a command is about to write (it may not exist yet).
@@ -379,33 +385,58 @@ def check_write_folder(run_folder: str | os.PathLike[str], folder: str | os.Path
         ``folder`` as a Path.
 
     Raises:
-        UnsafeRunFileError: a part of ``folder`` below ``run_folder`` is a symbolic link or not
+        UnsafeRunFileError: a part of ``folder`` in ``run_folder`` is a symbolic link or not
             a folder.
     """
-    root = Path(run_folder)
     target = Path(folder)
-    try:
-        inside = target.relative_to(root)
-    except ValueError:
-        try:
-            inside = target.resolve().relative_to(root.resolve())
-        except ValueError:
-            return target  # not in the run folder: the user's own choice of folder
-        root = root.resolve()
-    current = root
-    for part in inside.parts:
+    real_root = Path(os.path.realpath(run_folder))
+    current = Path(os.path.abspath(target.anchor or os.curdir))
+    remaining = list(target.parts[1:] if target.anchor else target.parts)
+    links = 0
+    while remaining:
+        part = remaining.pop(0)
+        if part in ("", "."):
+            continue
         if part == "..":
-            raise UnsafeRunFileError(f"{target}: '..' would leave the run folder {root}")
-        current = current / part
+            current = current.parent  # ``current`` holds no link: '..' is its real parent
+            continue
+        step = current / part
         try:
-            mode = os.lstat(current).st_mode
-        except FileNotFoundError:
+            mode = os.lstat(step).st_mode
+        except (FileNotFoundError, NotADirectoryError):
+            # Nothing below a missing folder exists, so no link either; a '..' in the rest is
+            # refused by the system (the folder is missing) when the command writes.
             break
+        inside = _is_within(step, real_root)
         if stat.S_ISLNK(mode):
-            raise UnsafeRunFileError(
-                f"{current} is a symbolic link; nothing is written through it (it could lead "
-                "to any folder of this machine): replace it by a folder, or give --out"
-            )
+            if inside:
+                raise UnsafeRunFileError(
+                    f"{step} is a symbolic link; nothing is written through it (it could lead "
+                    "to any folder of this machine): replace it by a folder, or give --out"
+                )
+            # The user's own link (runs/latest): followed as the system follows it, one part
+            # at a time, so a link of the run folder it leads through is refused too.
+            links += 1
+            if links > _MAX_LINKS:
+                raise UnsafeRunFileError(f"{target}: too many levels of symbolic links")
+            destination = Path(os.readlink(step))
+            if destination.anchor:
+                current = Path(destination.anchor)
+                remaining[:0] = destination.parts[1:]
+            else:
+                remaining[:0] = destination.parts
+            continue
         if not stat.S_ISDIR(mode):
-            raise UnsafeRunFileError(f"cannot write into {current}: it is {_kind(mode)}")
+            if inside:
+                raise UnsafeRunFileError(f"cannot write into {step}: it is {_kind(mode)}")
+            break  # the user's own file: the write fails there, and the system says why
+        current = step
     return target
+
+
+_MAX_LINKS = 40  # as Linux's ELOOP
+
+
+def _is_within(path: Path, root: Path) -> bool:
+    """Whether the link-free absolute ``path`` is ``root`` or below it."""
+    return path == root or root in path.parents

@@ -88,6 +88,7 @@ from benchmarks.storage.manifest import (
     MANIFEST_NAME,
     MANIFEST_VERSION,
     PART_CHECKSUMS,
+    REPORT_CHECKSUMS,
     _jsonable,
     build_manifest,
     file_sha256,
@@ -682,6 +683,9 @@ class RunSession:
             "sessions": self.sessions,
             PART_CHECKSUMS: dict(sorted(self._checksums.items())),
             FILE_CHECKSUMS: dict(sorted(self._files.items())),
+            # The report files are written once the session is over (record_report_files); a
+            # session's results make the earlier ones stale, so their records start empty.
+            REPORT_CHECKSUMS: {},
             **self._extra,
         }
         manifest["extra"] = _jsonable(extra, "extra")  # refuses NaN and what JSON cannot store
