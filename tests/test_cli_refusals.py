@@ -45,6 +45,7 @@ REFUSALS = [
 ]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("argv", "words"), REFUSALS, ids=lambda v: " ".join(v)[:40])
 def test_a_refusal_imports_nothing_heavy(tmp_path, argv, words):
     file = tmp_path / "file.txt"

@@ -36,6 +36,7 @@ def test_a_dead_scheduler_is_refused_within_10_s_by_default(monkeypatch) -> None
     assert time.monotonic() - began < 20
 
 
+@pytest.mark.slow
 def test_the_wait_is_configurable_and_the_command_names_the_address(
     monkeypatch, tmp_path, capsys
 ) -> None:  # type: ignore[no-untyped-def]

@@ -146,6 +146,7 @@ def test_the_final_tool_panel_names_its_shapes_and_says_f_has_no_unit():
     assert "F = 8,337 (dimensionless)" in ax.get_title()
 
 
+@pytest.mark.slow
 def test_the_robustness_figure_title_says_what_the_number_means(
     design_run: Path, tmp_path: Path
 ) -> None:
@@ -358,6 +359,7 @@ def test_the_card_stores_the_straight_tool_scored_on_the_run_task(design_run: Pa
     assert straight["free_energy"] == -1.0 and straight["final_distance"] == 0.5
 
 
+@pytest.mark.slow
 def test_no_phase_after_the_progress_bar_is_silent(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:

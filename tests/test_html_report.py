@@ -347,6 +347,7 @@ def _design_folder(folder, *, straight=True, iterations=15, batch=8):
     return folder
 
 
+@pytest.mark.slow
 def test_a_design_report_leads_with_the_answer(tmp_path):
     text = write_html_report(_design_folder(tmp_path / "run")).read_text()
     summary = text.index('id="summary"')
@@ -373,6 +374,7 @@ def test_a_design_report_leads_with_the_answer(tmp_path):
     assert 'data-page="25"' in text
 
 
+@pytest.mark.slow
 def test_a_design_report_of_a_run_without_the_straight_tool_says_so(tmp_path):
     text = write_html_report(_design_folder(tmp_path / "run", straight=False)).read_text()
     assert "was not evaluated for this run" in text and "straight tool (C = 0)</th>" not in text
@@ -409,6 +411,7 @@ LAYOUT_PROBE = (
 )
 
 
+@pytest.mark.slow
 def test_the_design_report_at_1280_px_in_headless_chromium(tmp_path):
     browser = _browser()
     report = write_html_report(_design_folder(tmp_path / "run"))

@@ -77,6 +77,7 @@ def _edit_architecture(card: Path, **fields: object) -> None:
     card.write_text(json.dumps(data))
 
 
+@pytest.mark.slow
 def test_a_crafted_zip_runs_nothing_without_the_flag(tmp_path: Path) -> None:
     marker = tmp_path / "ran"
     card = _crafted_zip(tmp_path / "p", marker)
@@ -195,6 +196,7 @@ def test_bad_flags_of_the_loader_are_refused(tmp_path: Path) -> None:
         convert_policy(card, allow_pickle=True)
 
 
+@pytest.mark.slow
 def test_a_converted_zip_designs_what_the_zip_did(tmp_path: Path) -> None:
     """convert_policy: the same weights, bit for bit, without pickle from then on."""
     from benchmarks.rl.agents import import_sb3, make_env

@@ -122,6 +122,7 @@ def test_holm_by_hand():
     assert holm_bonferroni([0.04, 0.01, 0.02]).tolist() == pytest.approx([0.04, 0.03, 0.04])
 
 
+@pytest.mark.slow
 def test_power_formulas_by_hand():
     from scipy.stats import t
 
@@ -143,6 +144,7 @@ def test_power_formulas_by_hand():
     assert detectable_difference(1.0, needed - 1, alpha=0.01, tests=6) > 1.0
 
 
+@pytest.mark.slow
 def test_min_instances_is_where_the_real_wilcoxon_holm_procedure_can_first_reject():
     # alpha 0.01, 6 pairs: 2 / 2^n * 6 < 0.01 first at n = 11 (the reviewer's bound).
     assert min_instances(0.01, 6) == 11
@@ -353,6 +355,7 @@ def test_measure_runs_refuses_a_missing_reference_and_a_small_pool():
         measure_runs(runs, {("i01", 3): _reference()}, {3: 5})
 
 
+@pytest.mark.slow
 def test_detectable_difference_has_its_power_through_the_real_wilcoxon_holm_step():
     """Simulated: normal paired differences shifted by the detectable difference reach p < alpha
     / m in about 80 % of draws through SciPy's test itself, also just above the minimum n."""
