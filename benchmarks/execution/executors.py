@@ -440,7 +440,7 @@ def make_executor(
             :class:`WorkerDied` error (see :func:`run_alone`); an int from 0 to 100. The
             ``"serial"`` executor has no worker to lose, and Dask retries by itself.
         connect_timeout: With a ``scheduler``: seconds to wait for it before an ``OSError``
-            naming it; default ``$TOOLDESIGN_DASK_CONNECT_TIMEOUT`` or 8 s
+            naming it; default ``$TOOLDESIGN_DASK_CONNECT_TIMEOUT`` or 5 s
             (:func:`benchmarks.execution.dask_client.connect_timeout`).
 
     The workers of ``"process"`` write warnings as this process does when its warning format
