@@ -579,6 +579,15 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         help="s to wait for the workers (default 120)",
     )
     args = parser.parse_args(argv)
+    check_suite_args(parser, args)
+    return args
+
+
+def check_suite_args(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """Make ``args.config``, the suite the arguments ask for, or refuse them through ``parser``.
+
+    Also refuses an ``--out`` that is not a new or empty folder (the runs need new folders).
+    """
     try:
         args.config = suite_config(args)
         check_optimizers(args.config)  # e.g. CMA-ES needs a batch of 2 or more
@@ -588,7 +597,6 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         out = args.out.resolve()
         if out.exists() and (not out.is_dir() or any(out.iterdir())):
             parser.error(f"--out {out} is not an empty folder; the runs need new folders")
-    return args
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -41,10 +41,10 @@ import tempfile
 from pathlib import Path
 
 from benchmarks.execution import WORKERS_MAX
-from benchmarks.suites import SuiteConfig, check_optimizers, save_suite
+from benchmarks.suites import SuiteConfig, save_suite
 from perf import _args
 from perf.speed import dask_cluster  # the cluster, the runs and the suite's sizes
-from perf.speed.dask_cluster import DaskCluster, Run, run_bench, suite_config
+from perf.speed.dask_cluster import DaskCluster, Run, run_bench
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -69,15 +69,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         help="s to wait for the workers (default 120)",
     )
     args = parser.parse_args(argv)
-    try:
-        args.config = suite_config(args)
-        check_optimizers(args.config)
-    except (TypeError, ValueError) as err:
-        parser.error(f"the suite of --size {args.size}, --seeds, --iterations, --batch-size: {err}")
-    if args.out is not None:
-        out = args.out.resolve()
-        if out.exists() and (not out.is_dir() or any(out.iterdir())):
-            parser.error(f"--out {out} is not an empty folder; the runs need new folders")
+    dask_cluster.check_suite_args(parser, args)
     return args
 
 
