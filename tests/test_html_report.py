@@ -500,3 +500,31 @@ def test_an_evaluate_report_leads_with_the_design_card(tmp_path):
     assert text.index('id="summary"') < text.index("box_path.png") < text.index("trajectory.csv")
     assert "8,359" in text and "0.066" in text and "straight tool" not in text
     assert "<details><summary>trajectory.csv</summary>" in text  # thousands of rows: folded
+
+
+def test_a_protocol_folder_gets_a_page_that_leads_with_its_report(tmp_path):
+    # Issue 34: the benchmark protocol's page leads with its rankings and ECDFs, like a suite's;
+    # the cells (a suite run folder each) and the IOHprofiler files are data, not the page.
+    from benchmarks.protocol.suite import PROTOCOL_FILE
+    from benchmarks.storage import runfolder
+    from benchmarks.storage.runfolder import run_folder_kind
+
+    folder = tmp_path / "protocol-run"
+    (folder / "report").mkdir(parents=True)
+    (folder / PROTOCOL_FILE).write_text(json.dumps({"size": "smoke"}))
+    (folder / "report" / "report.md").write_text("# Protocol report\n\nranking: cmaes first\n")
+    (folder / "report" / "power.csv").write_text("d,detectable\n3,inf\n")
+    picture = np.zeros((30, 40, 3), np.uint8)
+    Image.fromarray(picture).save(folder / "report" / "ecdf_d3.png")
+    cell = folder / "cells" / "d3" / "i01"
+    cell.mkdir(parents=True)
+    (cell / "manifest.json").write_text(json.dumps({"extra": {"kind": "suite"}}))
+    Image.fromarray(picture).save(cell / "fig.png")
+    (folder / "ioh").mkdir()
+    (folder / "ioh" / "IOHprofiler_f1.json").write_text("{}")
+    assert run_folder_kind(folder) == "protocol"
+    assert runfolder._PROTOCOL_FILE == PROTOCOL_FILE  # storage cannot import the protocol
+    text = write_html_report(folder).read_text()
+    assert text.index("report/report.md") < text.index("report/ecdf_d3.png")
+    assert "ranking: cmaes first" in text and "tooldesign bench protocol" in text
+    assert "cells/" not in text and "IOHprofiler_f1" not in text

@@ -170,4 +170,7 @@ def run_protocol_command(args: argparse.Namespace) -> int:
         print(f"no report: {err}")
         return 0
     print(f"report: {out / 'report' / 'report.md'} ({len(files)} files)")
+    from benchmarks.reports import write_html_report
+
+    print(f"page: {write_html_report(out)} (rankings, power and ECDFs first)")
     return 0

@@ -37,6 +37,7 @@ from benchmarks.storage import atomic_write_text, read_run_file
 from benchmarks.storage.atomic import check_file_target
 from benchmarks.storage.runfolder import (
     EVALUATE_KIND,
+    PROTOCOL_KIND,
     ReportFiles,
     check_own_page,
     report_files,
@@ -230,6 +231,13 @@ def _unchecked_note(unchecked: Sequence[str]) -> str:
         "writes no manifest; <code>tooldesign report</code> records the report's.</p>"
     )
 
+
+_PROTOCOL_NOTE = (
+    '<p class="note">Made from the report of a <code>tooldesign bench protocol</code> folder '
+    "(its rankings, power and ECDFs first; the cells' own run folders and the IOHprofiler files "
+    "are not embedded). The protocol records no checksums of its report's files; its "
+    "references are checked against the SHA-256 in <code>protocol.json</code>.</p>"
+)
 
 _EVALUATE_NOTE = (
     '<p class="note">Made from the files of a <code>tooldesign evaluate</code> folder, which '
@@ -792,7 +800,10 @@ def _evaluate_page(folder: Path, files: list[Path], terms: dict[str, Any]) -> st
 
 # --- anything else (a suite's run folder) ------------------------------------------------------
 
-_FIRST_TEXTS = ("summary", "verdict", "ranking", "table1", "ecdf", "pairwise")
+#: The reports a page leads with (the first _LEAD), then the order of the other texts; "report"
+#: is the protocol's report.md (its rankings, power and verdicts).
+_FIRST_TEXTS = ("summary", "verdict", "ranking", "report", "table1", "ecdf", "pairwise")
+_LEAD = 4
 
 
 def _text_rank(path: Path) -> tuple[int, str]:
@@ -822,7 +833,7 @@ def _rest(
     """
     images = sorted((p for p in files if p.suffix.lower() in _IMAGES), key=_figure_rank)
     texts = sorted((p for p in files if p.suffix == ".md"), key=_text_rank)
-    lead = [p for p in texts if _text_rank(p)[0] < 3]  # summary, verdict, ranking
+    lead = [p for p in texts if _text_rank(p)[0] < _LEAD]  # summary, verdict, ranking, report
     logs = [p for p in files if p.suffix == ".txt"]
     tables = [p for p in files if p.suffix == ".csv"]
     cards = [p for p in files if p.suffix == ".json"]
@@ -902,11 +913,12 @@ def write_html_report(
         raise ValueError(f"{folder} has more than {_MAX_FILES} files: give a run folder")
     if not known:
         raise ValueError(f"{folder} has no figure, table or card to report")
-    # An evaluate folder has no manifest: all of it is unchecked, which its note says once.
-    evaluate = listed.kind == EVALUATE_KIND
-    unchecked = () if evaluate else listed.unchecked
+    # An evaluate or protocol folder has no manifest: all of it is unchecked, which its note
+    # says once.
+    whole = {EVALUATE_KIND: _EVALUATE_NOTE, PROTOCOL_KIND: _PROTOCOL_NOTE}.get(listed.kind)
+    unchecked = () if whole is not None else listed.unchecked
     marks = _UNCHECKED.set(frozenset(folder / relative for relative in unchecked))
-    note = _NOTE.set(_EVALUATE_NOTE if evaluate else _unchecked_note(unchecked))
+    note = _NOTE.set(whole if whole is not None else _unchecked_note(unchecked))
     try:
         page = _page_of(folder, known)
     finally:

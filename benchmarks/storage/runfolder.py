@@ -46,6 +46,7 @@ from benchmarks.storage.table import ResultStore
 
 __all__ = [
     "EVALUATE_KIND",
+    "PROTOCOL_KIND",
     "PAGE_MARKS",
     "RUN_KINDS",
     "ReportFiles",
@@ -69,6 +70,14 @@ EVALUATE_KIND = "evaluate"
 
 _EVALUATE_FILES = ("terms.json", "tool.urdf")
 
+PROTOCOL_KIND = "protocol"
+"""The kind of a ``tooldesign bench protocol`` folder: no manifest of its own, its
+``protocol.json`` (``benchmarks.protocol.suite.PROTOCOL_FILE``; a test keeps them equal), one
+suite run folder per cell under ``cells/`` and the IOHprofiler files under ``ioh/``."""
+
+_PROTOCOL_FILE = "protocol.json"
+_PROTOCOL_DATA = frozenset({"cells", "ioh"})  # data, not a page: each cell has its own report
+
 PAGE_MARKS: tuple[bytes, ...] = (
     b'<meta name="generator" content="tooldesign html">',
     b"<title>tooldesign report: ",  # the pages written before the generator mark
@@ -80,7 +89,9 @@ _MAX_EMBED_BYTES = 64 << 20  # a design's rollout GIF is a few MB
 
 
 def run_folder_kind(folder: str | os.PathLike[str]) -> str:
-    """Which command wrote ``folder``: one of :data:`RUN_KINDS` or :data:`EVALUATE_KIND`.
+    """Which command wrote ``folder``: a :data:`RUN_KINDS`, or evaluate's, or the protocol's.
+
+    One of :data:`RUN_KINDS`, :data:`EVALUATE_KIND` or :data:`PROTOCOL_KIND`.
 
     Raises:
         FileNotFoundError: ``folder`` is not a folder.
@@ -103,10 +114,13 @@ def run_folder_kind(folder: str | os.PathLike[str]) -> str:
         )
     if all(_regular(root / name) for name in _EVALUATE_FILES):
         return EVALUATE_KIND
+    if _regular(root / _PROTOCOL_FILE):
+        return PROTOCOL_KIND
     raise ValueError(
         f"{root} is not a run folder: it has no {MANIFEST_NAME} (a design, bench or bench rl "
-        f"run) and no {' and '.join(_EVALUATE_FILES)} (tooldesign evaluate); give the folder "
-        "a tooldesign command wrote"
+        f"run), no {' and '.join(_EVALUATE_FILES)} (tooldesign evaluate) and no "
+        f"{_PROTOCOL_FILE} (tooldesign bench protocol); give the folder a tooldesign command "
+        "wrote"
     )
 
 
@@ -316,8 +330,9 @@ def report_files(
     records = _records(root)
     names = {*skip_names, _HEARTBEAT}  # the session's clock: no result
     wanted = {s.lower() for s in suffixes}
+    skipped = {*skip_dirs, *(_PROTOCOL_DATA if kind == PROTOCOL_KIND else ())}
     listed, left_out = list_run_files(
-        root, skip_dir=lambda name: name in skip_dirs or name.startswith(".")
+        root, skip_dir=lambda name: name in skipped or name.startswith(".")
     )
     left_out = {k: f"it is {v}" for k, v in left_out.items()}
     files: list[str] = []
@@ -350,7 +365,8 @@ def report_files(
         warnings.warn(
             f"{root / relative} is left out of the page: {why}", RuntimeWarning, stacklevel=2
         )
-    if unchecked and kind != EVALUATE_KIND:  # evaluate records no checksums: its page says so
+    if unchecked and kind not in (EVALUATE_KIND, PROTOCOL_KIND):
+        # evaluate and the protocol record no checksums of their pages' files: the page says so
         warnings.warn(
             f"{len(unchecked)} files of {root} are shown unchecked, marked so on the page: its "
             "manifest records no checksums for them (a folder written before they were "
