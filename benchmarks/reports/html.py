@@ -723,24 +723,16 @@ def _design_page(folder: Path, files: list[Path], card: dict[str, Any]) -> str:
     lines = [first, _robustness_sentence(card, paths)]
     body = [_card_html(folder, present("fig3d"), card, card.get("straight_tool"), lines)]
     shown: set[Path] = set()
-    row = [k for k in ("video", "fig3b", "fig3c") if present(k)]
-    if row:
-        body.append('<h2>The run</h2><div class="grid3">')
-        for key in row:
-            path = present(key)
-            assert path is not None
-            body.append(_image(path, folder, _FIGURES[key]))
-            shown.add(path)
-        body.append("</div>")
-    more = [k for k in ("robustness_png", "fig3a") if present(k)]
-    if more:
-        body.append('<div class="grid2">')
-        for key in more:
-            path = present(key)
-            assert path is not None
-            body.append(_image(path, folder, _FIGURES[key]))
-            shown.add(path)
-        body.append("</div>")
+    for head, keys in (
+        ('<h2>The run</h2><div class="grid3">', ("video", "fig3b", "fig3c")),
+        ('<div class="grid2">', ("robustness_png", "fig3a")),
+    ):
+        figures = [(key, path) for key in keys if (path := present(key)) is not None]
+        if figures:
+            body.append(head)
+            body.extend(_image(path, folder, _FIGURES[key]) for key, path in figures)
+            body.append("</div>")
+            shown.update(path for _, path in figures)
     body.append("<h2>Settings</h2>")
     body.append(_settings_html(card))
     log = present("evaluations")
