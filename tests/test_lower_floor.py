@@ -1,8 +1,7 @@
 """The options of issue 31, items 2 and 3: each refuses bad input, and the defaults are unchanged.
 
-The defaults stay those of 062b3a0 until the change that flips them regenerates every committed
-result (docs/performance.md, "Issue 31, staged"); the tests below that
-pin the defaults are the ones that change with that flip.
+The defaults stay those of 062b3a0: the flip was measured and not taken (docs/performance.md, "The
+flip: not taken"); the tests below that pin the defaults are the ones that would change with one.
 """
 
 from __future__ import annotations
@@ -151,7 +150,7 @@ def test_the_tool_yaw_of_all_steps_at_once_has_the_bits_of_the_one_step_form():
 # ------------------------------------------------------------------ the rule, on the preset
 @pytest.mark.slow
 def test_the_lower_floor_preset_passes_tests_1_and_2_of_the_equivalence_rule():
-    """What makes the flip a proven one-line change: the preset is equivalent to the defaults.
+    """What would make a flip a proven one-line change: the preset is equivalent to the defaults.
 
     Test 3 (the smoke suites' verdicts) was run by hand for it (docs/performance.md); it needs
     the four smoke suites and cannot set the objective's ``gram`` from the command line.

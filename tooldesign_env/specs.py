@@ -162,7 +162,8 @@ class PhysicsPreset:
     values: ``ToolDesignEnv(**LOWER_FLOOR.specs())``.
 
     Flipping the defaults is the one line ``DEFAULT_PHYSICS = ...`` below, and it must go in
-    with every committed result regenerated (docs/performance.md, "The flip (pending)").
+    with every committed result regenerated; it was measured and not taken (docs/performance.md,
+    "The flip: not taken").
 
     Attributes:
         name: what the preset is called (``tooldesign_env.specs.PHYSICS_PRESETS``).
@@ -232,8 +233,8 @@ LOWER_FLOOR = PhysicsPreset(
 #: The presets by name.
 PHYSICS_PRESETS: dict[str, PhysicsPreset] = {p.name: p for p in (PHYSICS_062B3A0, LOWER_FLOOR)}
 
-#: The preset the specs' defaults come from. The flip to LOWER_FLOOR is this one line, in the
-#: change that regenerates every committed result (pending).
+#: The preset the specs' defaults come from. A flip to another preset is this one line, in the
+#: change that regenerates every committed result (docs/performance.md, "The flip: not taken").
 DEFAULT_PHYSICS = PHYSICS_062B3A0
 
 
