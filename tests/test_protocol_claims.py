@@ -245,6 +245,26 @@ def test_a_linked_or_missing_table_and_another_runs_report_are_refused(tmp_path:
         read_claim_tables(folder)
 
 
+def test_a_users_report_merged_with_a_baseline_is_neither_judged_nor_overwritten(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # bench protocol --optimizer mine --baseline BUILTINS writes a report of both into the
+    # user's folder, whose protocol.json records the user's optimizer alone.
+    folder = _folder(tmp_path)
+    write_protocol_record(folder, QUICK.replace(optimizers=("random",)))
+    with pytest.raises(ValueError, match=r"merged with other run folders' \(bo, cmaes, pso:"):
+        read_claim_tables(folder)
+    before = (folder / "report" / "ranks.csv").read_bytes()
+    results = tmp_path / "results"
+    results.mkdir()
+    with pytest.raises(SystemExit) as refused:
+        main(["reproduce", "--results", str(results), "--protocol", str(folder),
+              "--out", str(tmp_path / "page.md")])  # fmt: skip
+    assert refused.value.code == 2
+    assert "point --protocol at the built-ins' run folder" in capsys.readouterr().err
+    assert (folder / "report" / "ranks.csv").read_bytes() == before
+
+
 def test_a_table_with_bad_values_is_refused(tmp_path: Path) -> None:
     folder = _folder(tmp_path)
     path = folder / "report" / "comparisons.csv"

@@ -75,7 +75,7 @@ def _run(args: argparse.Namespace) -> int:
     if not args.results.is_dir():  # before the imports (seconds)
         raise ValueError(f"no results folder {shown(args.results)}")
     from benchmarks.protocol import make_protocol_report, read_protocol
-    from benchmarks.protocol.claims import PROTOCOL_ALPHA, protocol_claim
+    from benchmarks.protocol.claims import PROTOCOL_ALPHA, check_own_report, protocol_claim
     from benchmarks.reports import make_suite_report
     from benchmarks.reports.reproduction import (
         PROTOCOL_FOLDER,
@@ -90,6 +90,7 @@ def _run(args: argparse.Namespace) -> int:
     protocol = _protocol_folder(args, args.results / PROTOCOL_FOLDER)
     if protocol is not None:
         read_protocol(protocol)  # not a protocol run folder: refused before any report is built
+        check_own_report(protocol)  # a user's report merged with --baseline is not overwritten
     if not args.skip_reports:
         for folder in (args.results, args.results / SQUARE):
             for suite in SUITES:

@@ -62,7 +62,9 @@ __all__ = [
     "PROTOCOL_ALPHA",
     "GroupJudgement",
     "check_claim_tables",
+    "check_own_report",
     "judge_claim_a",
+    "merged_report",
     "protocol_claim",
     "read_claim_tables",
 ]
@@ -243,6 +245,51 @@ def _read_tables(folder: Path, *, gate: bool) -> dict[str, pd.DataFrame]:
     return tables
 
 
+def _merged_message(root: Path, extra: Sequence[str]) -> str:
+    return (
+        f"{root / 'report'} is the report of this run merged with other run folders' "
+        f"({', '.join(extra)}: tooldesign bench protocol --baseline); claim (a) is judged from a "
+        "run's own report, which would replace it: point --protocol at the built-ins' run "
+        "folder instead"
+    )
+
+
+def merged_report(folder: str | os.PathLike[str]) -> tuple[str, ...]:
+    """The optimizers a protocol folder's report ranks beyond the folder's own run.
+
+    ``tooldesign bench protocol --optimizer NAME --baseline DIR`` writes into the user's folder
+    a report that merges its run with DIR's; writing that folder's own report again (as
+    ``tooldesign reproduce`` does) would replace it. Empty when the report is the run's own,
+    absent, or unreadable (then writing it again repairs it).
+
+    Raises:
+        ValueError: ``folder`` is not a protocol run folder.
+    """
+    from benchmarks.storage import read_run_file
+
+    root = Path(folder)
+    own = {o.column for o in read_protocol(root).optimizers}
+    relative = "report/ranks.csv"
+    if not os.path.lexists(root / relative):
+        return ()
+    try:
+        frame = _parse_table("ranks.csv", read_run_file(root, relative), str(root / relative))
+    except (OSError, ValueError):
+        return ()
+    return tuple(sorted(set(frame["optimizer"].astype(str)) - own))
+
+
+def check_own_report(folder: str | os.PathLike[str]) -> None:
+    """Refuse a folder whose report is merged with other folders' (:func:`merged_report`).
+
+    Raises:
+        ValueError: The report ranks optimizers the folder did not run, named in the message.
+    """
+    extra = merged_report(folder)
+    if extra:
+        raise ValueError(_merged_message(Path(folder), extra))
+
+
 def read_claim_tables(
     folder: str | os.PathLike[str],
 ) -> tuple[ProtocolConfig, dict[str, pd.DataFrame]]:
@@ -266,6 +313,8 @@ def read_claim_tables(
     groups = {str(d) for d in config.degrees} | {_POOLED}
     ranks = tables["ranks.csv"]
     named = set(ranks["optimizer"].astype(str))
+    if named > optimizers:
+        raise ValueError(_merged_message(root, sorted(named - optimizers)))
     if named != optimizers:
         raise ValueError(
             f"{root / 'report' / 'ranks.csv'} ranks {sorted(named)}, but "
