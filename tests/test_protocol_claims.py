@@ -183,6 +183,44 @@ def test_the_summary_verdict_over_the_dimensions() -> None:
     assert overall({}, {}, {}, sooner).endswith("pooled: holds)")
 
 
+@pytest.mark.slow  # the exact power computation of 24 instances takes seconds
+def test_the_statistics_own_tables_of_four_optimizers_are_judged() -> None:
+    """Tables made by the protocol's statistics, as its report makes them, on 24 instances."""
+    import numpy as np
+
+    from benchmarks.protocol.statistics import paired_comparisons, power_analysis, rank_stability
+
+    rng = np.random.default_rng(0)
+    speed = {"cmaes": 0.7, "pso": 0.6, "bo": 0.6, "random": 0.45}
+    rows = [
+        {
+            "instance": f"i{i:02d}",
+            "optimizer": o,
+            "seed": seed,
+            "score": mean + 0.1 * base + rng.normal(0, 0.02),
+        }  # fmt: skip
+        for i, base in enumerate(rng.normal(0, 1, 24))
+        for o, mean in speed.items()
+        for seed in range(3)
+    ]
+    scores = pd.DataFrame(rows)
+    tables = {
+        "comparisons.csv": paired_comparisons(scores, alpha=PROTOCOL_ALPHA).assign(d="5"),
+        "ranks.csv": rank_stability(scores, resamples=50)
+        .reset_index(names="optimizer")
+        .assign(d="5"),
+        "power.csv": power_analysis(scores, alpha=PROTOCOL_ALPHA).assign(d="5", measure="score"),
+        "references.csv": pd.DataFrame({"d": ["5"], "noise floor": [50.0]}),
+    }
+    (judged,) = judge_claim_a(tables, ["5"])
+    assert judged.verdict == "holds" and judged.ranking[0][0] == "cmaes"
+    assert {v.other for v in judged.versus} == {"bo", "pso", "random"}
+    assert all(v.diff > 0 and v.low > 0 for v in judged.versus)
+    assert ("bo", "pso") in judged.not_told_apart and ("pso", "random") in judged.told_apart
+    assert judged.instances == 24 and judged.min_instances == 11 and judged.separable
+    assert 0 < judged.detectable[0] <= judged.detectable[1] < 0.1
+
+
 def test_judge_refuses_tables_without_their_columns() -> None:
     tables = _tables({"3": {}})
     tables["comparisons.csv"] = tables["comparisons.csv"].drop(columns="p_holm")
