@@ -260,7 +260,8 @@ def merged_report(folder: str | os.PathLike[str]) -> tuple[str, ...]:
     ``tooldesign bench protocol --optimizer NAME --baseline DIR`` writes into the user's folder
     a report that merges its run with DIR's; writing that folder's own report again (as
     ``tooldesign reproduce`` does) would replace it. Empty when the report is the run's own,
-    absent, or unreadable (then writing it again repairs it).
+    absent or unreadable, or does not rank every optimizer of the run (an edit, which writing
+    the report again repairs).
 
     Raises:
         ValueError: ``folder`` is not a protocol run folder.
@@ -276,7 +277,8 @@ def merged_report(folder: str | os.PathLike[str]) -> tuple[str, ...]:
         frame = _parse_table("ranks.csv", read_run_file(root, relative), str(root / relative))
     except (OSError, ValueError):
         return ()
-    return tuple(sorted(set(frame["optimizer"].astype(str)) - own))
+    named = set(frame["optimizer"].astype(str))
+    return tuple(sorted(named - own)) if named > own else ()  # else an edit: written again
 
 
 def check_own_report(folder: str | os.PathLike[str]) -> None:
