@@ -71,3 +71,16 @@ def rl_smoke(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("rl-smoke") / "run"
     assert main(["bench", "rl", "--size", "smoke", "--out", str(out), "--no-progress"]) == 0
     return out
+
+
+@pytest.fixture(scope="session")
+def protocol_smoke(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A protocol run folder at size smoke, every cell run (no report), once per session.
+
+    Shared by the protocol's tests and the reproduction page's: copy it before changing it.
+    """
+    from benchmarks.protocol import protocol_config, run_protocol
+
+    out = tmp_path_factory.mktemp("protocol") / "smoke"
+    run_protocol(protocol_config("smoke").replace(executor="serial"), out, progress=False)
+    return out

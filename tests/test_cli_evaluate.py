@@ -183,7 +183,7 @@ def test_reproduce_help_explains_every_option(capsys):
     with pytest.raises(SystemExit):
         main(["reproduce", "--help"])
     text = " ".join(capsys.readouterr().out.split())
-    for option in ("--results DIR", "--out FILE", "--skip-reports"):
+    for option in ("--results DIR", "--out FILE", "--skip-reports", "--protocol DIR"):
         assert option in text
     assert "docs/results" in text and "docs/reproduction.md" in text
     assert text.count("(default:") >= 2

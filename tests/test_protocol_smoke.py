@@ -15,7 +15,6 @@ from benchmarks.protocol import (
     export_ioh,
     load_runs,
     make_protocol_report,
-    protocol_config,
     run_protocol,
 )
 
@@ -26,11 +25,8 @@ pytestmark = pytest.mark.slow
 
 
 @pytest.fixture(scope="module")
-def smoke_run(tmp_path_factory):
-    out = tmp_path_factory.mktemp("protocol") / "smoke"
-    config = protocol_config("smoke").replace(executor="serial")
-    run_protocol(config, out, progress=False)
-    return out
+def smoke_run(protocol_smoke):
+    return protocol_smoke  # run once per session (conftest.py), shared with test_protocol_claims
 
 
 def test_smoke_run_has_every_cell_and_resumes_without_work(smoke_run):

@@ -15,6 +15,8 @@ Submodules, by responsibility (lower ones never import higher ones):
   power.
 - :mod:`~benchmarks.protocol.ioh_export`: runs in the IOHprofiler format.
 - :mod:`~benchmarks.protocol.report`: the report of one or more run folders, merged.
+- :mod:`~benchmarks.protocol.claims`: the paper's claim (a) judged from a run's report, for
+  the reproduction page (``tooldesign reproduce``).
 
 Command: ``tooldesign bench protocol --size smoke|quick|full --out DIR`` (docs/protocol.md).
 """

@@ -3,10 +3,13 @@
 One command rebuilds every suite's report from its stored results (nothing is simulated) and
 then the page, whose every number is read from those files::
 
-    tooldesign reproduce [--results docs/results] [--out docs/reproduction.md]
+    tooldesign reproduce [--results docs/results] [--out docs/reproduction.md] [--protocol DIR]
 
 The results are made by ``tooldesign bench SUITE --size full --out docs/results/SUITE`` and
-``tooldesign retest docs/results/SUITE`` for the suites of :data:`SUITES`. A claim's verdict
+``tooldesign retest docs/results/SUITE`` for the suites of :data:`SUITES`; claim (a) is judged
+again under the benchmark protocol from ``docs/results/protocol-full`` (:data:`PROTOCOL_FOLDER`)
+by :mod:`benchmarks.protocol.claims`, a layer above this module, which hands the page its
+section (:class:`ClaimSection`). A claim's verdict
 follows one rule everywhere: a difference counts when its 95 % interval (or its Holm-corrected
 test) excludes zero AND it is larger than the noise floor of the quantity (its median range over
 scenes whose box starts at most 0.1 mm and 1e-4 rad away, which move the box's final position by
@@ -58,9 +61,74 @@ from benchmarks.storage.runfolder import read_report_file
 from benchmarks.suites.config import ADDED_FIELDS
 from tooldesign_env.schema import ROBUSTNESS_METRICS
 
-__all__ = ["SUITES", "motion_figures", "reproduction_page"]
+__all__ = [
+    "PROTOCOL_FOLDER",
+    "SUITES",
+    "ClaimSection",
+    "motion_figures",
+    "protocol_not_tested",
+    "reproduction_page",
+]
 
 SUITES = ("optimizers", "precision-sweep", "mass-perturbation", "robustness", "robust-design")
+
+#: The protocol run folder under the results that claim (a) is judged under again
+#: (``tooldesign bench protocol --size full --out docs/results/protocol-full``, docs/protocol.md).
+PROTOCOL_FOLDER = "protocol-full"
+
+#: The first cells of claim (a)'s two rows in the summary table: the 10-seed suite's judgement
+#: and the protocol's, each labelled with what it rests on.
+CLAIM_A_ROW = "| (a) CMA-ES lowers F fastest, 10 seeds of the `optimizers` suite (one goal, d = 3)"
+PROTOCOL_ROW = "| (a) CMA-ES lowers F fastest, under the benchmark protocol"
+PROTOCOL_HEADING = "## (a) under the benchmark protocol"
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class ClaimSection:
+    """A claim judged from results this module does not read (the protocol's run folder).
+
+    :mod:`benchmarks.protocol.claims` makes the one of claim (a) under the protocol; the page
+    shows it as a row of its summary table and a section.
+
+    Attributes:
+        cell: The summary table's "here" cell: what the results show, in short.
+        verdict: The verdict cell, opening with the page's words (``**holds**``, ...).
+        lines: The section's Markdown lines, its heading first.
+        made_by: Commands for "How the results were made" (none when nothing was run).
+    """
+
+    cell: str
+    verdict: str
+    lines: tuple[str, ...]
+    made_by: tuple[str, ...] = ()
+
+
+def protocol_not_tested(reason: str) -> ClaimSection:
+    """Claim (a) under the protocol, not tested: ``reason`` says why; the section says how.
+
+    Args:
+        reason: Why it was not judged, a clause (``"no protocol run folder ..."``).
+    """
+    command = (
+        f"tooldesign bench protocol --size full --with-references --out docs/results/"
+        f"{PROTOCOL_FOLDER}"
+    )
+    return ClaimSection(
+        cell="no protocol run",
+        verdict=f"**not tested**: {reason}",
+        lines=(
+            PROTOCOL_HEADING,
+            "",
+            f"**Not tested**: {reason}. The benchmark protocol's `full` run of the built-in "
+            "optimizers (its instances, dimensions, seeds and budgets: [The benchmark protocol]"
+            f"(protocol.md#sizes)) is made by `{command}` (hours on 2 cores; run it again "
+            "after an interruption, it resumes). `tooldesign reproduce` then judges the claim "
+            "here from its report, per dimension and pooled, by the rule of [The benchmark "
+            "protocol](protocol.md#claim-a-on-the-reproduction-page); `tooldesign reproduce "
+            "--protocol DIR` judges it from another protocol run folder (a `quick` one, say).",
+        ),
+    )
+
 
 #: The folder under the results that holds the suites of :data:`SUITES` run with the paper's
 #: square tool section (``section_shape = "square"``, the default before the round one,
@@ -167,9 +235,9 @@ def _claim_a(folder: Path) -> tuple[str, str, list[str]]:
     floor = noise_floor(read_retests(folder))
     runs = int(summary["runs"].max()) if len(summary) else 0
     lines = [
-        "## (a) CMA-ES lowers F fastest",
+        "## (a) CMA-ES lowers F fastest: 10 seeds of the `optimizers` suite",
         "",
-        f"{len(summary)} optimizers, {runs} seeds each "
+        f"{len(summary)} optimizers, {runs} seeds each, on the suite's one goal "
         f"(`docs/results/{_where(folder)}/report/summary.md`, `pairwise.md`, "
         f"`convergence-{folder.name}.png`). Noise floor of F over the {int(floor['designs'])} "
         f"final designs: {_fmt(floor['free_energy'])} "
@@ -768,7 +836,7 @@ def _square_section(results: Path) -> list[str]:
     rows, details = [], []
     if "optimizers" in present:
         a = _claim_a(square / "optimizers")
-        rows.append(f"| (a) CMA-ES lowers F fastest | {a[0]} | {a[1]} |")
+        rows.append(f"{CLAIM_A_ROW} | {a[0]} | {a[1]} |")
         details += ["", *a[2]]
     if "robustness" in present:
         baseline = square / "robust-design"
@@ -1001,14 +1069,35 @@ def _nudge_sentence(results: Path) -> str:
 REQUIRED_SUITES = ("optimizers", "robustness")
 
 
-def reproduction_page(results: str | os.PathLike[str]) -> str:
+def reproduction_page(
+    results: str | os.PathLike[str], *, protocol: ClaimSection | None = None
+) -> str:
     """The Markdown of docs/reproduction.md, from the committed results under ``results``.
+
+    Args:
+        results: The folder of the suites' run folders (``docs/results``).
+        protocol: Claim (a) judged under the benchmark protocol
+            (:func:`benchmarks.protocol.claims.protocol_claim`, which reads a protocol run
+            folder: a layer above this one). ``None``: not tested, which the page says, with
+            the command that makes the run; refused while ``results`` holds
+            :data:`PROTOCOL_FOLDER`, whose run would then be left unjudged.
 
     Raises:
         FileNotFoundError: ``results`` lacks a suite folder the claims are read from (its
             evaluation table), named in the message.
+        ValueError: ``protocol`` is None and ``results`` holds :data:`PROTOCOL_FOLDER`.
     """
     results = Path(results)
+    if protocol is None:
+        if os.path.lexists(results / PROTOCOL_FOLDER):
+            raise ValueError(
+                f"{results / PROTOCOL_FOLDER} holds a protocol run, which claim (a) must be "
+                "judged under: pass benchmarks.protocol.claims.protocol_claim(folder) as "
+                "protocol= (tooldesign reproduce does)"
+            )
+        protocol = protocol_not_tested(
+            f"no protocol run folder `docs/results/{PROTOCOL_FOLDER}` has been committed yet"
+        )
     for suite in REQUIRED_SUITES:
         folder = results / suite
         if (
@@ -1056,7 +1145,8 @@ def reproduction_page(results: str | os.PathLike[str]) -> str:
         "",
         "| claim of the paper | here | verdict |",
         "|---|---|---|",
-        f"| (a) CMA-ES lowers F fastest | {a[0]} | {a[1]} |",
+        f"{CLAIM_A_ROW} | {a[0]} | {a[1]} |",
+        f"{PROTOCOL_ROW} | {protocol.cell} | {protocol.verdict} |",
         f"| (b) p^X = 0 tools are curved and hold the box; p^X = 50 tools are straighter "
         f"| {b[0]} | {b[1]} |",
         f"| (c) pure confidence has the best robustness and the lowest control deviation "
@@ -1076,7 +1166,7 @@ def reproduction_page(results: str | os.PathLike[str]) -> str:
     ]
     for suite, floor in floors.items():
         lines.append(_floor_row(suite, floor))
-    lines += ["", *a[2], "", *b[2], "", *c[2], "", *d[2], "", *e[2], ""]
+    lines += ["", *a[2], "", *protocol.lines, "", *b[2], "", *c[2], "", *d[2], "", *e[2], ""]
     lines += [
         "## Does control confidence buy robustness more cheaply than asking for it?",
         "",
@@ -1092,6 +1182,7 @@ def reproduction_page(results: str | os.PathLike[str]) -> str:
         "```bash",
         *[f"tooldesign bench {s} --size full --out docs/results/{s}" for s in SUITES],
         *[f"tooldesign retest docs/results/{s}" for s in SUITES],
+        *protocol.made_by,
         *[
             f"tooldesign bench {s} --size full --section-shape square "
             f"--out docs/results/{SQUARE}/{s}"
