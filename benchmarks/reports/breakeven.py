@@ -37,7 +37,7 @@ import numpy as np
 import pandas as pd
 
 from benchmarks.reports.comparison import REPORT_DIR, new_figure
-from benchmarks.reports.plots import save_png
+from benchmarks.reports.plots import new_figure_grid, save_png
 from benchmarks.reports.stats import holm_bonferroni, t_interval
 from benchmarks.storage import atomic_write_text, json_text
 from benchmarks.storage.table import csv_text
@@ -396,25 +396,35 @@ def _regret_figure(table: pd.DataFrame, path: Path) -> Path:
 
 
 def _amortization_figure(table: pd.DataFrame, path: Path) -> Path:
-    figure, ax = new_figure((7.0, 4.5))
-    if len(table):
-        budget = int(table["reference_budget"].max())
+    """One panel per budget B of cold CMA-ES: total episodes against goals, to its quality."""
+    budgets = sorted(set(table["reference_budget"])) if len(table) else []
+    ncols = min(3, max(1, len(budgets)))
+    nrows = max(1, -(-len(budgets) // ncols))
+    figure, axes = new_figure_grid(nrows, ncols, (4.2 * ncols, 3.4 * nrows))
+    for ax in axes.ravel()[len(budgets) :]:
+        ax.set_visible(False)
+    finite = table["breakeven_goals"][np.isfinite(table["breakeven_goals"])] if len(table) else []
+    top = max(10.0, 2.0 * float(np.max(finite))) if len(finite) else 1000.0
+    goals = np.unique(np.geomspace(1, top, 200).round())
+    for ax, budget in zip(axes.ravel(), budgets, strict=False):
         rows = table[table["reference_budget"] == budget]
-        finite = rows["breakeven_goals"][np.isfinite(rows["breakeven_goals"])]
-        top = max(10.0, 2.0 * float(finite.max())) if len(finite) else 1000.0
-        goals = np.unique(np.geomspace(1, top, 200).round())
-        ax.plot(goals, goals * budget, "k--", label=f"cold CMA-ES, {budget} per goal")
+        ax.plot(goals, goals * budget, "k--", label=f"cold CMA-ES ({budget} per goal)")
         for _, row in rows.iterrows():
             if math.isnan(row["budget_needed"]):
-                continue
+                continue  # never reaches cold CMA-ES's quality at any budget of the study
             total = row["training_episodes"] + goals * row["budget_needed"]
-            ax.plot(goals, total, label=f"{row['method']}, {row['budget_needed']:.0f} per goal")
+            ax.plot(goals, total, label=f"{row['method']} ({row['budget_needed']:.0f} per goal)")
+            if math.isfinite(row["breakeven_goals"]):
+                g = float(row["breakeven_goals"])
+                ax.plot([g], [g * budget], "o", color=ax.lines[-1].get_color())
         ax.set_xscale("log")
         ax.set_yscale("log")
-        ax.set_title(f"Episodes to reach cold CMA-ES's quality at {budget} evaluations per goal")
-        ax.legend(fontsize="small")
-    ax.set_xlabel("goals designed for")
-    ax.set_ylabel("episodes in total (training included)")
+        ax.set_title(f"quality of cold CMA-ES at B = {budget}", fontsize="medium")
+        ax.set_xlabel("goals designed for")
+        ax.set_ylabel("episodes in total (training included)")
+        ax.legend(fontsize="x-small")
+    if not budgets:
+        axes[0, 0].set_title("no budget above 1: nothing to amortize")
     return save_png(figure, path)
 
 
