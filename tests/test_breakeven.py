@@ -364,3 +364,44 @@ def test_score_refuses_bad_input(tmp_path: Path, capsys: pytest.CaptureFixture[s
         assert excinfo.value.code == 2
         err = capsys.readouterr().err
         assert message in err and "Traceback" not in err
+
+
+@pytest.mark.slow
+def test_a_stable_baselines3_zip_is_scored_through_the_process_pool(
+    smoke_study: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    sb3 = pytest.importorskip("stable_baselines3")
+    from tooldesign_env.rl import ToolDesignRLEnv
+
+    env = ToolDesignRLEnv()
+    model = sb3.PPO("MlpPolicy", env, n_steps=8, batch_size=8, device="cpu", seed=0)
+    model.save(tmp_path / "mine.zip")
+    env.close()
+    argv = ["rl", "score", "--policy", str(tmp_path / "mine.zip"), "--study", str(smoke_study)]
+    with pytest.raises(SystemExit) as excinfo:
+        main(argv)
+    assert excinfo.value.code == 2
+    err = capsys.readouterr().err
+    assert "needs its algorithm" in err and "Traceback" not in err
+    with pytest.raises(SystemExit) as excinfo:
+        main([*argv, "--algorithm", "ppo"])
+    assert "unpickling" in capsys.readouterr().err
+    extra = ["--algorithm", "ppo", "--allow-pickle", "--executor", "process", "--workers", "2"]
+    assert main([*argv, *extra]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[2].startswith("| mine | ") and len(out) == 3
+
+
+@pytest.mark.slow
+def test_units_on_dask_or_a_process_pool_give_the_serial_data(tmp_path: Path) -> None:
+    pytest.importorskip("distributed")
+    timing = ["eval_time", "opt_time"]
+    frames = []
+    for executor, workers in (("process", 1), ("dask", 2), ("process", 2)):
+        config = breakeven_config(
+            "smoke", learned=["contextual"], executor=executor, workers=workers
+        )
+        result = run_breakeven(config, tmp_path / f"{executor}-{workers}")
+        frames.append(result.evaluations.drop(columns=timing))
+    pd.testing.assert_frame_equal(frames[0], frames[1])
+    pd.testing.assert_frame_equal(frames[0], frames[2])
