@@ -257,7 +257,7 @@ class WarmStartDesigner(Optimizer):
                 f"{np.stack([low, high], axis=1).tolist()}; give the bounds it was trained with"
             )
         self.coefficients: np.ndarray = c
-        self._proposal_unit = (c - low) / self._span
+        self._proposal_unit: np.ndarray = np.asarray((c - low) / self._span)
         self.sigma0 = warm_sigma0(self.spread) if chosen_sigma is None else chosen_sigma
         self.popsize = population
         self._cmaes = optimizers.make(
@@ -277,7 +277,7 @@ class WarmStartDesigner(Optimizer):
     def _ask(self, ids: tuple[int, ...]) -> np.ndarray:
         if not self._proposed:
             self._proposed = True
-            return self._proposal_unit[np.newaxis, :]
+            return np.asarray(self._proposal_unit[np.newaxis, :])
         if not self._queue:
             if len(self._generation) < len(self._generation_ids):
                 # Not reachable through the design loop (it tells each design before the next
@@ -291,7 +291,7 @@ class WarmStartDesigner(Optimizer):
             self._queue = [(int(i), np.asarray(x)) for i, x in zip(batch.ids, batch.x, strict=True)]
         inner, x = self._queue.pop(0)
         self._outer[ids[0]] = inner
-        return ((x - self._low) / self._span)[np.newaxis, :]
+        return np.asarray(((x - self._low) / self._span)[np.newaxis, :])
 
     def _to_physical(self, u: np.ndarray) -> np.ndarray:
         # The proposal's own coefficients, bit for bit (as PolicyDesigner gives them): the way
