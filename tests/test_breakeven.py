@@ -254,6 +254,16 @@ def test_the_smoke_study_runs_resumes_and_reports(smoke_study: Path) -> None:
     assert cold.to_dict() == warm.to_dict()
     assert (tested[tested["method"] == "cmaes"]["sigma0"] == 0.3).all()
     assert np.isfinite(tested[tested["method"] == "warm-sac"]["sigma0"]).all()
+    # Each warm start's step size is the rule's, from the saved card's own spread at the task.
+    from benchmarks.rl.policies import load_policy
+    from benchmarks.rl.warmstart import proposal_spread, warm_sigma0
+
+    for method in ("contextual", "ppo", "sac"):
+        policy, _ = load_policy(smoke_study / "policies" / f"{method}-0.json")
+        for task in breakeven_tasks()[:2]:
+            run = tested[(tested["method"] == f"warm-{method}") & (tested["task"] == task.id)]
+            expected = warm_sigma0(proposal_spread(policy, task.observation()))
+            assert run["sigma0"].iloc[0] == pytest.approx(expected, rel=1e-12), (method, task)
     # The Parquet file alone loads the same frame.
     alone = load_breakeven(smoke_study / "evaluations.parquet")
     pd.testing.assert_frame_equal(
