@@ -288,6 +288,10 @@ def test_the_smoke_study_runs_resumes_and_reports(smoke_study: Path) -> None:
         "summary.json",
     ):
         assert (report / name).is_file(), name
+    # `tooldesign report` rebuilds it from the stored files alone, byte for byte.
+    before_report = {p.name: p.read_bytes() for p in report.iterdir()}
+    assert main(["report", str(smoke_study)]) == 0
+    assert {p.name: p.read_bytes() for p in report.iterdir()} == before_report
     regret = pd.read_csv(report / "regret.csv")
     assert set(regret["budget"]) == {1, 2, 4}
     assert regret[regret["method"] == "random"]["mean"].notna().any()

@@ -215,11 +215,11 @@ def _run_breakeven(args: argparse.Namespace) -> int:
     from benchmarks.cli._common import check_out_folder
 
     check_out_folder(args.out)
-    from benchmarks.reports.breakeven import make_breakeven_report
+    from benchmarks.reports import make_suite_report
 
     say = None if args.no_progress else (lambda line: print(line, flush=True))
     result = run_breakeven(config, args.out, progress=say)
-    written = make_breakeven_report(result.out_dir)
+    written = make_suite_report(result.out_dir)  # the study's report, recorded in its manifest
     print(
         f"break-even study ({config.size.name}): {len(result.evaluations)} evaluations, "
         f"{result.units} units ({result.units_run} run now), {result.wall_time:.1f} s\n"
