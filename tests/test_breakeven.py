@@ -419,3 +419,27 @@ def test_units_on_dask_or_a_process_pool_give_the_serial_data(tmp_path: Path) ->
         frames.append(result.evaluations.drop(columns=timing))
     pd.testing.assert_frame_equal(frames[0], frames[1])
     pd.testing.assert_frame_equal(frames[0], frames[2])
+
+
+@pytest.mark.slow
+def test_a_studys_ppo_card_warm_starts_a_design_run(smoke_study: Path, tmp_path: Path) -> None:
+    import json
+
+    from benchmarks.rl.policies import load_policy
+    from benchmarks.rl.warmstart import proposal_spread, warm_sigma0
+
+    card = smoke_study / "policies" / "ppo-0.json"
+    task = breakeven_tasks()[0]
+    goal = [str(v) for v in task.goal]
+    argv = ["design", "--policy", str(card), "--refine", "2", "--goal", *goal]
+    argv += ["--box-mass", str(task.box_mass), "--out", str(tmp_path / "run")]
+    assert main([*argv, "--no-progress", "--no-video"]) == 0
+    settings = json.loads((tmp_path / "run" / "design.json").read_text())["config"][
+        "optimizer_settings"
+    ]
+    policy, _ = load_policy(card)
+    # PPO's spread is its Gaussian's exp(log_std), the step size half of it (in [0.02, 0.3]).
+    spread = float(np.exp(policy.log_std.detach().numpy()).mean())
+    assert proposal_spread(policy, task.observation()) == pytest.approx(spread)
+    assert settings["sigma0"] == pytest.approx(warm_sigma0(spread))
+    assert len(pd.read_csv(tmp_path / "run" / "evaluations.csv")) == 3
