@@ -17,6 +17,7 @@ from benchmarks.cli import main
 from benchmarks.reports.breakeven import (
     amortization_table,
     comparison_table,
+    make_breakeven_report,
     regret_curves,
     regret_table,
     score_row,
@@ -97,6 +98,29 @@ def test_the_command_prints_the_plan_and_refuses_bad_input(
         assert excinfo.value.code == 2
         err = capsys.readouterr().err
         assert message in err and "Traceback" not in err
+
+
+def test_the_report_and_its_measures_refuse_bad_input(tmp_path: Path) -> None:
+    from benchmarks.reports.breakeven import expected_best_of_random
+    from benchmarks.rl.scoring import score_policy
+
+    with pytest.raises(ValueError, match="at least one F"):
+        expected_best_of_random([], np.array([1]))
+    with pytest.raises(ValueError, match="budgets must be ints from 1 to the pool size 2"):
+        expected_best_of_random([1.0, 2.0], np.array([3]))
+    with pytest.raises(FileNotFoundError):
+        make_breakeven_report(tmp_path / "missing")
+    with pytest.raises(ValueError, match="seconds_per_evaluation must be"):
+        estimate_text(breakeven_config("smoke"), seconds_per_evaluation=0)
+    with pytest.raises(ValueError, match="executor must be one of"):
+        score_policy("x:y", tmp_path, executor="threads")
+    with pytest.raises(TypeError, match="refine must be True or False"):
+        score_policy("x:y", tmp_path, refine="yes")  # type: ignore[arg-type]
+    with pytest.raises(FileNotFoundError, match="no break-even study"):
+        score_policy("x:y", tmp_path)
+    with pytest.raises(ValueError, match="size must be one of"):
+        run_breakeven("huge", tmp_path / "run")  # type: ignore[arg-type]
+    assert not (tmp_path / "run").exists()
 
 
 def test_the_loader_refuses_what_is_not_a_study(tmp_path: Path) -> None:

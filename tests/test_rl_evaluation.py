@@ -20,6 +20,7 @@ from benchmarks.rl.evaluation import (
     action_to_coefficients,
     evaluate_policy_on_tasks,
     load_designer,
+    policy_actions,
 )
 
 TASKS = [
@@ -149,3 +150,26 @@ def test_the_throughput_script_refuses_bad_arguments() -> None:
         rl_policy_throughput.parse_args(["--episodes", "0"])
     with pytest.raises(SystemExit):
         rl_policy_throughput.parse_args(["--executors", "threads"])
+
+
+def test_actions_and_their_coefficients_are_checked() -> None:
+    bounds = [[-1.5, 1.5], [-1.5, 1.5], [-0.5, 0.5]]
+    assert action_to_coefficients([0, 0, 0], bounds).tolist() == [0.0, 0.0, 0.0]
+    assert action_to_coefficients([1, -1, 1], bounds).tolist() == [1.5, -1.5, 0.5]
+    with pytest.raises(ValueError, match="bounds must be \\(3, 2\\)"):
+        action_to_coefficients([0, 0, 0], bounds[:2])
+    with pytest.raises(ValueError, match="within \\[-1, 1\\]"):
+        action_to_coefficients([0, 2, 0], bounds)
+    with pytest.raises(TypeError, match="predict"):
+        policy_actions(object(), TASKS)
+
+    class TwoNumbers:
+        def predict(
+            self, observation: object, deterministic: bool = True
+        ) -> tuple[list[float], None]:
+            return [0.0, 0.0], None
+
+    with pytest.raises(ValueError, match="for task a must be 3 finite numbers"):
+        policy_actions(TwoNumbers(), TASKS)
+    clipped = policy_actions(CallablePolicy(pseudo_random), TASKS)
+    assert clipped.shape == (2, 3) and clipped.dtype == np.float32

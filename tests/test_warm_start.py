@@ -184,3 +184,22 @@ def test_refine_needs_a_policy(tmp_path: Path, capsys: pytest.CaptureFixture[str
         main(["design", "--refine", "3", "--out", str(tmp_path / "run"), "--no-progress"])
     assert excinfo.value.code == 2
     assert "--refine refines a saved policy's design" in capsys.readouterr().err
+
+
+def test_the_study_loop_and_the_proposal_refuse_bad_input(tmp_path: Path) -> None:
+    from benchmarks.rl.warmstart import run_warm_cmaes, warm_start_proposal
+
+    policy = ContextualPolicy([(0, 1, 0.1)], [(0.2, 0, 0)])
+    kwargs = {"total_episodes": 4, "seed": 0, "goal": GOAL, "box_mass": 0.1}
+    with pytest.raises(ValueError, match="total_episodes must be an int from 1"):
+        run_warm_cmaes(policy, **{**kwargs, "total_episodes": 0})
+    with pytest.raises(TypeError, match="seed must be an int"):
+        run_warm_cmaes(policy, **{**kwargs, "seed": -1})
+    with pytest.raises(ValueError, match="sigma0 must be in"):
+        run_warm_cmaes(policy, sigma0=0.001, **kwargs)
+    with pytest.raises(ValueError, match="popsize must be an int from 2"):
+        run_warm_cmaes(policy, popsize=1, **kwargs)
+    with pytest.raises(TypeError, match="predict"):
+        run_warm_cmaes(object(), **kwargs)
+    with pytest.raises(FileNotFoundError, match="No such file"):
+        warm_start_proposal(tmp_path / "none.json", GOAL, box_mass=0.1)

@@ -437,7 +437,18 @@ def estimate_text(
     """The planned evaluations and the time they take at ``seconds_per_evaluation`` per core.
 
     The estimate counts simulation only: PPO's and SAC's updates come on top.
+
+    Raises:
+        ValueError: ``seconds_per_evaluation`` is not a finite number > 0.
     """
+    if (
+        isinstance(seconds_per_evaluation, bool)
+        or not isinstance(seconds_per_evaluation, (int, float))
+        or not (math.isfinite(seconds_per_evaluation) and seconds_per_evaluation > 0)
+    ):
+        raise ValueError(
+            f"seconds_per_evaluation must be a finite number > 0, got {seconds_per_evaluation!r}"
+        )
     counts = config.planned_evaluations()
     core_seconds = counts["total"] * seconds_per_evaluation
     parts = ", ".join(f"{k} {v:,}" for k, v in counts.items() if k != "total")

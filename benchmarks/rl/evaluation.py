@@ -245,9 +245,20 @@ def action_to_coefficients(action: Any, bounds: Any) -> np.ndarray:
 
     Returns:
         (d,) float64 coefficients, bit for bit the env's.
+
+    Raises:
+        ValueError: bounds that are not one [low, high] row per coordinate, or an action that
+            is not finite or outside [-1, 1].
     """
     a = np.asarray(np.asarray(action, dtype=np.float32), dtype=np.float64).ravel()
     b = np.asarray(bounds, dtype=np.float64)
+    if b.ndim != 2 or b.shape != (a.size, 2):
+        raise ValueError(
+            f"bounds must be ({a.size}, 2) [low, high] rows, one per action coordinate, got "
+            f"shape {b.shape}"
+        )
+    if not (np.all(np.isfinite(a)) and np.all(np.abs(a) <= 1.0)):
+        raise ValueError(f"action must be finite and within [-1, 1], got {a.tolist()}")
     low, high = b[:, 0], b[:, 1]
     return np.asarray(np.clip(low + (a + 1.0) * 0.5 * (high - low), low, high))
 
