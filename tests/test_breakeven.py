@@ -70,6 +70,13 @@ def test_the_full_size_is_the_issues_and_its_estimate_is_printed() -> None:
     assert "47,660 evaluations" in text and "0.99 core-hours" in text
 
 
+def test_the_pages_size_and_estimate_are_the_commands() -> None:
+    page = (Path(__file__).resolve().parents[1] / "docs" / "rl.md").read_text()
+    assert estimate_text(breakeven_config("full")) in page
+    smoke = breakeven_config("smoke").planned_evaluations()["total"]
+    assert f"CI: about {smoke} evaluations" in page
+
+
 def test_bad_study_settings_are_refused_by_name() -> None:
     with pytest.raises(ValueError, match="size must be one of smoke, full"):
         breakeven_config("huge")
