@@ -256,9 +256,10 @@ class BreakevenConfig:
         learned: The learned designers, a subset of :data:`LEARNED_METHODS`.
         configs: The configuration of each learned method.
         mass_range: (low, high) training box masses, kg.
-        workers: Processes that run units at once (1: this process); not a result setting.
-        executor: ``"process"`` or ``"dask"``: where units run when ``workers`` > 1 or a
-            ``scheduler`` is given; not a result setting.
+        workers: Processes that run units at once; not a result setting.
+        executor: ``"process"`` (a pool of ``workers``; with 1, this process) or ``"dask"``
+            (``workers`` in a local cluster, or the cluster of ``scheduler``); not a result
+            setting.
         scheduler: A Dask scheduler's address (with ``executor="dask"``), or None.
         root_seed: Root of every seed.
     """
@@ -825,7 +826,8 @@ def run_breakeven(
         config = breakeven_config(config)
     work = _plan(config)
     planned = {key for w in work for key in w.keys()}
-    parallel = config.workers > 1 or config.scheduler is not None
+    # A process pool of one is this process; Dask was asked for by name, so it is used.
+    parallel = config.workers > 1 or config.executor == "dask"
     if parallel:
         check_main_guard(config.executor, config.scheduler, function="run_breakeven")
     with RunSession(
