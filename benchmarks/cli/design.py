@@ -228,7 +228,12 @@ def _designer(args: argparse.Namespace) -> dict[str, Any]:
     if args.allow_pickle:  # recorded only when given: the runs made without it keep their config
         policy_settings["allow_pickle"] = True
     if refine is not None:
-        from benchmarks.rl.warmstart import WARM_START_DESIGNER
+        from benchmarks.rl.warmstart import (
+            WARM_START_DESIGNER,
+            check_warm_settings,
+            warm_sigma0,
+            warm_start_proposal,
+        )
 
         settings = unique_pairs(args.option, "--option")
         unknown = sorted(set(settings) - set(_WARM_SETTINGS))
@@ -237,10 +242,6 @@ def _designer(args: argparse.Namespace) -> dict[str, Any]:
                 f"--option {unknown[0]}=...: the warm-started design takes "
                 f"{' and '.join(_WARM_SETTINGS)} only"
             )
-        # The step size is recorded as chosen (null: the policy's spread, see docs/rl.md), so
-        # that the run folder says how its CMA-ES started.
-        from benchmarks.rl.warmstart import check_warm_settings
-
         try:
             sigma0, popsize = check_warm_settings(
                 settings.get("sigma0"), settings.get("popsize", 8)
@@ -248,10 +249,8 @@ def _designer(args: argparse.Namespace) -> dict[str, Any]:
         except (TypeError, ValueError) as error:
             raise type(error)(f"--option {error}") from None
         if sigma0 is None:
-            # Resolved here, so that the run folder records the step size its CMA-ES started
-            # with, not only that it came from the policy.
-            from benchmarks.rl.warmstart import warm_sigma0, warm_start_proposal
-
+            # Resolved here from the policy's spread (docs/rl.md), so that the run folder
+            # records the step size its CMA-ES started with, not only where it came from.
             _, spread = warm_start_proposal(
                 policy,
                 task.goal,
