@@ -372,7 +372,7 @@ def test_a_study_with_other_settings_is_not_resumed(smoke_study: Path, tmp_path:
 
 @pytest.mark.slow
 def test_a_users_callable_gets_its_row(
-    smoke_study: Path, capsys: pytest.CaptureFixture[str]
+    smoke_study: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     argv = [
         "rl",
@@ -384,13 +384,21 @@ def test_a_users_callable_gets_its_row(
         "--name",
         "straight",
         "--refine",
+        "--save",
+        str(tmp_path / "mine.parquet"),
     ]
     assert main(argv) == 0
     out = capsys.readouterr().out.splitlines()
     assert out[0] == "| method | 1 | 2 | 4 |"
     assert out[2].startswith("| straight | ") and out[3].startswith("| warm-straight | ")
-    # Its zero-shot regret is the same at every budget's F (one evaluation).
-    assert len(out) == 4
+    assert out[4] == f"evaluations: {tmp_path / 'mine.parquet'}" and len(out) == 5
+    saved = pd.read_parquet(tmp_path / "mine.parquet")
+    assert list(saved.columns) == list(BREAKEVEN_COLUMNS)
+    # The straight tool (a = 0) at both tasks, then 4 warm-started evaluations at each.
+    zero = saved[saved["variant"] == "zero-shot"]
+    assert zero["task"].tolist() == ["i03", "i04"]
+    assert (zero[["c1", "c2", "c3"]].to_numpy() == 0).all()
+    assert (saved["variant"] == "warm").sum() == 8
 
 
 def straight_tool(observation: np.ndarray) -> np.ndarray:
@@ -403,6 +411,7 @@ def test_score_refuses_bad_input(tmp_path: Path, capsys: pytest.CaptureFixture[s
     for argv, message in (
         (["--policy", "x:y", "--study", str(tmp_path / "none")], "no break-even study"),
         (["--policy", "x:y", "--study", str(tmp_path)], "no break-even study"),
+        (["--policy", "x:y", "--study", str(tmp_path), "--save", "a.csv"], "--save must be"),
     ):
         with pytest.raises(SystemExit) as excinfo:
             main(["rl", "score", *argv])

@@ -147,6 +147,13 @@ def _add_score(commands: Any) -> None:
         help="load a Stable-Baselines3 .zip, which is unpickled and so can run any code it "
         "holds; only for a file you trust",
     )
+    score.add_argument(
+        "--save",
+        default=None,
+        metavar="FILE.parquet",
+        help="also write the policy's evaluations there, in the columns of the study's "
+        "evaluations.parquet (load_breakeven's)",
+    )
     score.add_argument("--executor", default="serial", help="serial (default), process or dask")
     score.add_argument("--workers", type=int, default=None, metavar="N")
     score.add_argument("--scheduler", default=None, metavar="ADDR", help="Dask scheduler")
@@ -242,6 +249,8 @@ def _run_score(args: argparse.Namespace) -> int:
     )
     from benchmarks.rl.scoring import score_policy
 
+    if args.save is not None and (not args.save.endswith(".parquet") or Path(args.save).is_dir()):
+        raise ValueError(f"--save must be a file ending in .parquet, got {shown(args.save)}")
     rows, log = score_policy(
         args.policy,
         args.study,
@@ -265,4 +274,12 @@ def _run_score(args: argparse.Namespace) -> int:
     print("|---|" + "|".join("---" for _ in budgets) + "|")
     for row in results_rows(table):
         print("| " + " | ".join(row) + " |")
+    if args.save is not None:
+        import io
+
+        from benchmarks.storage import atomic_write_bytes
+
+        buffer = io.BytesIO()
+        rows.to_parquet(buffer, index=False)
+        print(f"evaluations: {atomic_write_bytes(args.save, buffer.getvalue())}")
     return 0
