@@ -63,6 +63,15 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         "run folder (see docs/rl.md)",
     )
     parser.add_argument(
+        "--refine",
+        type=int,
+        default=None,
+        metavar="N",
+        help="with --policy: refine the policy's design with N more evaluations of CMA-ES "
+        "warm-started from it (mean = the design, step size from the policy's spread or "
+        "--option sigma0=S; --option popsize=L, --seed); 0 is the design alone (see docs/rl.md)",
+    )
+    parser.add_argument(
         "--allow-pickle",
         action="store_true",
         help="with --policy: load a policy card of format 1, whose Stable-Baselines3 .zip is "
@@ -162,6 +171,7 @@ def _designer(args: argparse.Namespace) -> dict[str, Any]:
     if args.policy is None:
         if args.allow_pickle:
             raise ValueError("--allow-pickle applies to a policy's file: give it with --policy")
+        _refine(args)  # refused without --policy
         settings = unique_pairs(args.option, "--option")
         for key in settings:
             if key in HARNESS_SETTINGS:
@@ -185,11 +195,22 @@ def _designer(args: argparse.Namespace) -> dict[str, Any]:
             else args.batch_size,
             "executor": args.executor or "process",
         }
-    given = [flag for key, flag in _DESIGNER_FLAGS.items() if getattr(args, key) not in (None, [])]
+    refine = _refine(args)
+    # With --refine the CMA-ES that refines the design takes a seed and two settings.
+    allowed = {"seed", "option"} if refine is not None else set()
+    given = [
+        flag
+        for key, flag in _DESIGNER_FLAGS.items()
+        if key not in allowed and getattr(args, key) not in (None, [])
+    ]
     if given:
+        what = (
+            "the warm-started design takes --seed and --option sigma0=/popsize= only"
+            if refine is not None
+            else "--policy designs one tool with the saved policy"
+        )
         raise ValueError(
-            f"--policy designs one tool with the saved policy: "
-            f"{', '.join(given)} {'does' if len(given) == 1 else 'do'} not apply"
+            f"{what}: {', '.join(given)} {'does' if len(given) == 1 else 'do'} not apply"
         )
     # The task is checked before the designer's settings hold its goal and mass: a NaN there
     # is refused as "goal must be finite", as without --policy, not as a bad JSON value.
@@ -206,6 +227,47 @@ def _designer(args: argparse.Namespace) -> dict[str, Any]:
     }
     if args.allow_pickle:  # recorded only when given: the runs made without it keep their config
         policy_settings["allow_pickle"] = True
+    if refine is not None:
+        from benchmarks.rl.warmstart import (
+            WARM_START_DESIGNER,
+            check_warm_settings,
+            warm_sigma0,
+            warm_start_proposal,
+        )
+
+        settings = unique_pairs(args.option, "--option")
+        unknown = sorted(set(settings) - set(_WARM_SETTINGS))
+        if unknown:
+            raise ValueError(
+                f"--option {unknown[0]}=...: the warm-started design takes "
+                f"{' and '.join(_WARM_SETTINGS)} only"
+            )
+        try:
+            sigma0, popsize = check_warm_settings(
+                settings.get("sigma0"), settings.get("popsize", 8)
+            )
+        except (TypeError, ValueError) as error:
+            raise type(error)(f"--option {error}") from None
+        if sigma0 is None:
+            # Resolved here from the policy's spread (docs/rl.md), so that the run folder
+            # records the step size its CMA-ES started with, not only where it came from.
+            _, spread = warm_start_proposal(
+                policy,
+                task.goal,
+                box_mass=task.box_mass,
+                sha256=policy_settings["sha256"],
+                allow_pickle=bool(args.allow_pickle),
+            )
+            sigma0 = warm_sigma0(spread)
+        policy_settings.update(sigma0=sigma0, popsize=popsize)
+        return {
+            "optimizer": WARM_START_DESIGNER,
+            "optimizer_settings": policy_settings,
+            "seed": _DEFAULTS["seed"] if args.seed is None else args.seed,
+            "iterations": refine + 1,
+            "batch_size": 1,
+            "executor": args.executor or "serial",
+        }
     return {
         "optimizer": POLICY_DESIGNER,
         "optimizer_settings": policy_settings,
@@ -214,6 +276,26 @@ def _designer(args: argparse.Namespace) -> dict[str, Any]:
         "batch_size": 1,
         "executor": args.executor or "serial",
     }
+
+
+#: The ``--option`` settings of a warm-started design (``--policy CARD --refine N``).
+_WARM_SETTINGS = ("sigma0", "popsize")
+
+#: Most refinement evaluations: the iterations of a design run are not bounded, but a
+#: warm-started design is one evaluation per iteration, serial; 10^5 is hours.
+REFINE_MAX = 100_000
+
+
+def _refine(args: argparse.Namespace) -> int | None:
+    """``--refine N`` checked (None when not given)."""
+    refine = getattr(args, "refine", None)
+    if refine is None:
+        return None
+    if args.policy is None:
+        raise ValueError("--refine refines a saved policy's design: give the policy with --policy")
+    if isinstance(refine, bool) or not isinstance(refine, int) or not 0 <= refine <= REFINE_MAX:
+        raise ValueError(f"--refine must be an int from 0 to {REFINE_MAX}, got {refine!r}")
+    return refine
 
 
 def _tool_and_arm(args: argparse.Namespace) -> tuple[str, dict[str, Any]]:

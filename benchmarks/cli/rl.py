@@ -77,14 +77,96 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         action="store_true",
         help="print the design only (free_energy, normalized_reward and final_distance are null)",
     )
+    _add_breakeven(commands)
+    _add_score(commands)
     parser.set_defaults(run=_run)
     return cast(argparse.ArgumentParser, parser)
+
+
+def _add_breakeven(commands: Any) -> None:
+    study = commands.add_parser(
+        "breakeven",
+        help="the break-even study: learned designers against per-goal CMA-ES at equal budgets",
+        description="Run the break-even study (docs/rl.md) into one run folder, resuming what "
+        "is there, and write its report; --plan prints its size and time estimate only.",
+    )
+    study.add_argument("--size", default="smoke", help="smoke (default, CI) or full (hours)")
+    study.add_argument("--out", type=out_path, default=None, metavar="DIR", help="run folder")
+    study.add_argument(
+        "--learned",
+        nargs="+",
+        default=None,
+        metavar="METHOD",
+        help="learned designers: any of contextual, ppo, sac (default: all)",
+    )
+    study.add_argument(
+        "--workers", type=int, default=1, metavar="N", help="units run at once (default 1)"
+    )
+    study.add_argument(
+        "--executor",
+        default="process",
+        help="where units run with --workers > 1: process (default) or dask",
+    )
+    study.add_argument("--scheduler", default=None, metavar="ADDR", help="Dask scheduler")
+    study.add_argument(
+        "--plan",
+        action="store_true",
+        help="print the planned evaluations and the time estimate, and run nothing",
+    )
+    study.add_argument("--no-progress", action="store_true", help="no progress lines")
+
+
+def _add_score(commands: Any) -> None:
+    score = commands.add_parser(
+        "score",
+        help="score your policy on a break-even study's tasks and print its row of the table",
+        description="Evaluate a policy (a policy card .json, a Stable-Baselines3 .zip with "
+        "--algorithm, or module:callable from the task (x, y, z, box mass) to an action in "
+        "[-1, 1]^3) on the tasks of a break-even study, against the study's references, and "
+        "print its row: mean normalized regret [95 %% interval] per budget (docs/rl.md).",
+    )
+    score.add_argument("--policy", required=True, metavar="SPEC", help="card, .zip or mod:func")
+    score.add_argument(
+        "--study",
+        required=True,
+        metavar="DIR",
+        help="a break-even run folder (tooldesign rl breakeven)",
+    )
+    score.add_argument("--name", default=None, help="the row's name (default: the policy's)")
+    score.add_argument(
+        "--refine",
+        action="store_true",
+        help="also warm-start CMA-ES from the policy's designs (row warm-NAME)",
+    )
+    score.add_argument(
+        "--algorithm", default=None, help="a .zip's algorithm: ppo, sac, td3, a2c or ddpg"
+    )
+    score.add_argument(
+        "--allow-pickle",
+        action="store_true",
+        help="load a Stable-Baselines3 .zip, which is unpickled and so can run any code it "
+        "holds; only for a file you trust",
+    )
+    score.add_argument(
+        "--save",
+        default=None,
+        metavar="FILE.parquet",
+        help="also write the policy's evaluations there, in the columns of the study's "
+        "evaluations.parquet (load_breakeven's)",
+    )
+    score.add_argument("--executor", default="serial", help="serial (default), process or dask")
+    score.add_argument("--workers", type=int, default=None, metavar="N")
+    score.add_argument("--scheduler", default=None, metavar="ADDR", help="Dask scheduler")
 
 
 def _run(args: argparse.Namespace) -> int:
 
     if args.rl_command == "suite":
         return run_rl_command(args, default_size="smoke")
+    if args.rl_command == "breakeven":
+        return _run_breakeven(args)
+    if args.rl_command == "score":
+        return _run_score(args)
     if args.rl_command == "probe":
         from benchmarks.rl.tuning import probe
 
@@ -120,3 +202,84 @@ def _json_value(value: Any) -> Any:
     if isinstance(value, float) and not math.isfinite(value):
         return None
     return value
+
+
+def _run_breakeven(args: argparse.Namespace) -> int:
+    from benchmarks.rl.breakeven import breakeven_config, estimate_text, run_breakeven
+
+    config = breakeven_config(
+        args.size,
+        learned=args.learned or ("contextual", "ppo", "sac"),
+        workers=args.workers,
+        executor=args.executor,
+        scheduler=args.scheduler,
+    )
+    if args.plan:
+        print(estimate_text(config))
+        return 0
+    if args.out is None:
+        raise ValueError("--out DIR is needed to run the study (or --plan to print its size)")
+    from benchmarks.cli._common import check_out_folder
+
+    check_out_folder(args.out)
+    from benchmarks.reports import make_suite_report
+
+    say = None if args.no_progress else (lambda line: print(line, flush=True))
+    result = run_breakeven(config, args.out, progress=say)
+    written = make_suite_report(result.out_dir)  # the study's report, recorded in its manifest
+    print(
+        f"break-even study ({config.size.name}): {len(result.evaluations)} evaluations, "
+        f"{result.units} units ({result.units_run} run now), {result.wall_time:.1f} s\n"
+        f"report: {written[0].parent} (breakeven.md); data: "
+        f"{result.out_dir / 'evaluations.parquet'}"
+    )
+    return 0
+
+
+def _run_score(args: argparse.Namespace) -> int:
+    if not Path(args.study).exists():  # before the simulation is imported (seconds)
+        raise FileNotFoundError(
+            f"no break-even study {shown(args.study)}: give a folder of `tooldesign rl breakeven`"
+        )
+    from benchmarks.reports.breakeven import (
+        regret_curves,
+        regret_table,
+        results_rows,
+        study_references,
+    )
+    from benchmarks.rl.scoring import score_policy
+
+    if args.save is not None and (not args.save.endswith(".parquet") or Path(args.save).is_dir()):
+        raise ValueError(f"--save must be a file ending in .parquet, got {shown(args.save)}")
+    rows, log = score_policy(
+        args.policy,
+        args.study,
+        name=args.name,
+        refine=args.refine,
+        executor=args.executor,
+        workers=args.workers,
+        scheduler=args.scheduler,
+        allow_pickle=args.allow_pickle,
+        algorithm=args.algorithm,
+    )
+    from benchmarks.storage import read_manifest
+
+    study = Path(args.study)
+    budgets = read_manifest(study.parent if study.suffix == ".parquet" else study)["config"][
+        "size"
+    ]["budgets"]
+    curves = regret_curves(rows, max(budgets), references=study_references(log))
+    table = regret_table(curves, budgets)
+    print("| method | " + " | ".join(str(b) for b in budgets) + " |")
+    print("|---|" + "|".join("---" for _ in budgets) + "|")
+    for row in results_rows(table):
+        print("| " + " | ".join(row) + " |")
+    if args.save is not None:
+        import io
+
+        from benchmarks.storage import atomic_write_bytes
+
+        buffer = io.BytesIO()
+        rows.to_parquet(buffer, index=False)
+        print(f"evaluations: {atomic_write_bytes(args.save, buffer.getvalue())}")
+    return 0

@@ -880,7 +880,9 @@ def make_suite_report(
     """Rebuild every report of a run folder from its stored results alone.
 
     An rl suite's folder (:func:`benchmarks.rl.run_rl_suite`) gets its own report,
-    :func:`benchmarks.reports.rl.make_rl_report`.
+    :func:`benchmarks.reports.rl.make_rl_report`, and a break-even study's folder
+    (:func:`benchmarks.rl.run_breakeven`)
+    :func:`benchmarks.reports.breakeven.make_breakeven_report`.
 
     Args:
         run_folder: A suite run folder (:func:`benchmarks.suites.runner.run_suite` or
@@ -916,6 +918,10 @@ def make_suite_report(
     check_write_folder(folder, target)  # a report/ linked to another folder is not written
     if _kind(folder) == RL_SUITE_KIND:
         written = make_rl_report(folder, out_dir=out_dir)
+    elif _kind(folder) == "rl-breakeven":  # benchmarks.rl.breakeven.BREAKEVEN_KIND
+        from benchmarks.reports.breakeven import make_breakeven_report
+
+        written = make_breakeven_report(folder, out_dir=out_dir)
     else:
         written = _checked_suite_report(folder, target, n_boot=n_boot, seed=seed, interval=interval)
     # A reader shows a report file only while it is as written here (html, reproduce).

@@ -3,8 +3,10 @@
 Plain functions, no argument parsing: :func:`train_ppo`, :func:`train_sac`,
 :func:`train_contextual`, :func:`run_random`, :func:`run_cmaes`, :func:`evaluate_design`,
 :func:`rl_suite_config` and :func:`run_rl_suite` (the suite, into a run folder like every
-suite's), :func:`save_policy` and :func:`design_for_goal`. ``tooldesign bench rl`` and
-``tooldesign rl`` are the command line over them; the suite's report is
+suite's), :func:`save_policy` and :func:`design_for_goal`; the break-even study
+(:func:`breakeven_config`, :func:`run_breakeven`, :func:`load_breakeven`) and a policy over many
+tasks through the executors (:func:`evaluate_policy_on_tasks`, :func:`load_designer`).
+``tooldesign bench rl`` and ``tooldesign rl`` are the command line over them; the suite's report is
 :func:`benchmarks.reports.make_suite_report`. Stable-Baselines3 and torch are imported only when
 PPO or SAC is trained or loaded.
 """
@@ -24,6 +26,12 @@ from benchmarks.rl.agents import (
     train_ppo,
     train_sac,
 )
+from benchmarks.rl.breakeven import (
+    BreakevenConfig,
+    breakeven_config,
+    load_breakeven,
+    run_breakeven,
+)
 from benchmarks.rl.configs import (
     ContextualConfig,
     PPOConfig,
@@ -31,6 +39,7 @@ from benchmarks.rl.configs import (
     default_config,
     load_config,
 )
+from benchmarks.rl.evaluation import RLTask, evaluate_policy_on_tasks, load_designer
 from benchmarks.rl.policies import DesignResult, design_for_goal, load_policy, save_policy
 from benchmarks.rl.suite import (
     PARTS,
@@ -51,6 +60,7 @@ __all__ = [
     "RL_SUITE_KIND",
     "RL_SUITE_NAME",
     "SIZES",
+    "BreakevenConfig",
     "ContextualConfig",
     "ContextualPolicy",
     "DesignResult",
@@ -58,18 +68,24 @@ __all__ = [
     "EpisodeRecord",
     "PPOConfig",
     "RLSuiteConfig",
+    "RLTask",
     "RLSuiteResult",
     "SACConfig",
     "SuiteSize",
+    "breakeven_config",
     "default_config",
     "design_for_goal",
     "evaluate_design",
+    "evaluate_policy_on_tasks",
+    "load_breakeven",
     "load_config",
+    "load_designer",
     "load_policy",
     "make_env",
     "rl_suite_config",
     "rl_summary_text",
     "run_cmaes",
+    "run_breakeven",
     "run_random",
     "run_rl_suite",
     "save_policy",

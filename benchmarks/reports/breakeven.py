@@ -1,0 +1,591 @@
+"""The break-even study's report, from its stored evaluations alone (``docs/rl.md``).
+
+Measures (as the benchmark protocol defines them in :mod:`benchmarks.protocol.measures` and
+:mod:`benchmarks.protocol.statistics`; the protocol sits above the reports in the layers of
+docs/architecture.md, so the two formulas used here are restated in this module, and
+``tests/test_breakeven.py`` checks them against the protocol's on the same numbers):
+
+- **Best so far** b(t): the lowest F among a run's first t evaluations. A zero-shot design is
+  one evaluation: its b(t) is its F at every budget (the rest of the budget is unused).
+- **Normalized regret** at budget t: ``(b(t) - F_ref) / (F_random(t) - F_ref)`` per task, with
+  F_ref the lowest F any method of the study found at the task and F_random(t) the expected best
+  of t random designs, computed exactly from the study's random designs at the task
+  (:func:`expected_best_of_random`). 0 is the best design known,
+  1 is as good as random sampling with the same budget. Where F_random(t) equals F_ref (the
+  random pool's best is the reference and t draws it surely) the regret is undefined (NaN) and
+  left out.
+- **Intervals**: a method's score on a task is its mean over replicates; its mean over tasks
+  has a 95 % Student t interval over tasks (:func:`benchmarks.reports.stats.t_interval`).
+- **Paired tests** at each budget: every pair of methods, the two-sided Wilcoxon signed-rank
+  test of the per-task differences, Holm-corrected over the pairs of that budget
+  (:func:`paired_table`, as ``benchmarks.protocol.statistics.paired_comparisons``; alpha 0.05).
+- **Amortization**: for each budget B of cold CMA-ES, the quality q_B it reaches (its mean
+  regret); the smallest budget b at which a learned method's mean regret is <= q_B; the method
+  spends T training episodes once, then b per goal, against B per goal for cold CMA-ES, so it
+  pays for itself after ``ceil(T / (B - b))`` goals (never if b >= B or q_B is not reached).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+from typing import Any, cast
+
+import numpy as np
+import pandas as pd
+
+from benchmarks.reports.comparison import REPORT_DIR, new_figure
+from benchmarks.reports.plots import new_figure_grid, save_png
+from benchmarks.reports.stats import holm_bonferroni, t_interval
+from benchmarks.storage import atomic_write_text, json_text
+from benchmarks.storage.table import csv_text
+
+__all__ = [
+    "ALPHA",
+    "COMPARISON_COLUMNS",
+    "expected_best_of_random",
+    "paired_table",
+    "amortization_table",
+    "comparison_table",
+    "make_breakeven_report",
+    "regret_curves",
+    "regret_table",
+    "results_rows",
+    "score_row",
+    "study_references",
+]
+
+#: Family-wise level of the paired tests at each budget (issue 36: Holm p < 0.05).
+ALPHA = 0.05
+
+
+#: The columns of :func:`paired_table` (those of the protocol's ``paired_comparisons``).
+COMPARISON_COLUMNS: tuple[str, ...] = (
+    "a",
+    "b",
+    "n",
+    "mean_diff",
+    "ci_low",
+    "ci_high",
+    "d_z",
+    "p",
+    "p_holm",
+    "significant",
+)
+
+
+def expected_best_of_random(pool: Any, budgets: Any) -> np.ndarray:
+    """Expected lowest F of t designs drawn without replacement from ``pool``, per t.
+
+    With the pool sorted, x_(1) <= ... <= x_(N), the minimum of t draws is x_(i) with
+    probability C(N - i, t - 1) / C(N, t) (``benchmarks.protocol.measures``' formula).
+
+    Args:
+        pool: (N,) finite F of random designs (NaN dropped).
+        budgets: (k,) ints from 1 to N.
+
+    Raises:
+        ValueError: an empty pool, a non-finite value, or a budget outside 1..N.
+    """
+    from scipy.special import gammaln
+
+    x = np.asarray(pool, dtype=np.float64).ravel()
+    x = np.sort(x[~np.isnan(x)])
+    n = x.size
+    if n == 0 or not np.all(np.isfinite(x)):
+        raise ValueError("pool must hold at least one F, all finite")
+    t = np.asarray(budgets)
+    if t.ndim != 1 or not np.issubdtype(t.dtype, np.integer) or np.any((t < 1) | (t > n)):
+        raise ValueError(f"budgets must be ints from 1 to the pool size {n}, got {t.tolist()}")
+
+    def log_comb(a: np.ndarray, k: int) -> np.ndarray:
+        return np.asarray(gammaln(a + 1) - gammaln(k + 1) - gammaln(a - k + 1))
+
+    i = np.arange(1, n + 1)
+    out = np.empty(t.size)
+    for k, b in enumerate(t.tolist()):
+        valid = n - i >= b - 1
+        log_p = np.full(n, -np.inf)
+        log_p[valid] = (
+            log_comb((n - i[valid]).astype(np.float64), b - 1)
+            - log_comb(np.array([float(n)]), b)[0]
+        )
+        p = np.exp(log_p)
+        out[k] = float(np.dot(p / p.sum(), x))
+    return out
+
+
+def paired_table(means: pd.DataFrame, *, alpha: float = ALPHA, level: float = 0.95) -> pd.DataFrame:
+    """Every pair of methods on the tasks both have, Holm-corrected over the pairs.
+
+    The protocol's paired comparison: the two-sided Wilcoxon signed-rank test of the per-task
+    differences (``zero_method="zsplit"``; 1 when every difference is 0), the mean difference
+    with its Student t interval over tasks, d_z = mean / SD of the differences.
+
+    Args:
+        means: Tasks as rows, methods as columns: a method's score on a task (NaN: none).
+        alpha: Family-wise level of ``significant``.
+        level: Level of the t interval.
+
+    Returns:
+        One row per pair (a < b by name) with :data:`COMPARISON_COLUMNS`; ``mean_diff`` is
+        mean(a - b).
+    """
+    import itertools
+
+    from scipy.stats import wilcoxon
+
+    rows = []
+    for a, b in itertools.combinations(sorted(means.columns), 2):
+        both = means[[a, b]].dropna()
+        diff = (both[a] - both[b]).to_numpy(dtype=np.float64)
+        n = diff.size
+        row: dict[str, Any] = {
+            "a": a,
+            "b": b,
+            "n": n,
+            "mean_diff": float(diff.mean()) if n else math.nan,
+        }
+        if n >= 2:
+            interval = t_interval(diff, level)
+            sd = float(diff.std(ddof=1))
+            row.update(
+                ci_low=interval.low,
+                ci_high=interval.high,
+                d_z=row["mean_diff"] / sd if sd > 0 else math.nan,
+                p=1.0 if np.all(diff == 0) else float(wilcoxon(diff, zero_method="zsplit").pvalue),
+            )
+        else:
+            row.update(ci_low=math.nan, ci_high=math.nan, d_z=math.nan, p=math.nan)
+        rows.append(row)
+    table = pd.DataFrame(rows, columns=list(COMPARISON_COLUMNS[:8]))
+    table["p_holm"] = holm_bonferroni(table["p"].to_numpy(dtype=np.float64))
+    table["significant"] = (table["p_holm"] < alpha).astype(bool)
+    return table[list(COMPARISON_COLUMNS)]
+
+
+def _study_budgets(folder: Path) -> tuple[list[int], list[str], dict[str, Any]]:
+    from benchmarks.storage import read_manifest
+
+    config = read_manifest(folder)["config"]
+    return list(config["size"]["budgets"]), list(config["methods"]), config
+
+
+def _references(log: pd.DataFrame) -> tuple[pd.Series, dict[str, np.ndarray]]:
+    """F_ref per task (lowest finite F of any method there) and the random pool per task."""
+    tested = log[(log["variant"] != "train") & np.isfinite(log["free_energy"])]
+    f_ref = tested.groupby("task")["free_energy"].min()
+    random = tested[tested["method"] == "random"]
+    pools = {task: g["free_energy"].to_numpy() for task, g in random.groupby("task")}
+    return f_ref, pools
+
+
+def study_references(log: pd.DataFrame) -> tuple[pd.Series, dict[str, np.ndarray]]:
+    """The study's scale per task: F_ref (its lowest F there) and its random designs' F.
+
+    Args:
+        log: :func:`benchmarks.rl.breakeven.load_breakeven`'s frame.
+    """
+    return _references(log)
+
+
+def regret_curves(
+    log: pd.DataFrame,
+    max_budget: int | None = None,
+    *,
+    references: tuple[pd.Series, dict[str, np.ndarray]] | None = None,
+) -> pd.DataFrame:
+    """Best so far and normalized regret of every tested run at every budget 1..max.
+
+    Args:
+        log: :func:`benchmarks.rl.breakeven.load_breakeven`'s frame.
+        max_budget: The largest budget (default: the longest run's length).
+        references: F_ref and the random pool per task (:func:`study_references` of the
+            study); default: the log's own. A method scored later against a committed study
+            passes the study's, so that it does not move the reference.
+
+    Returns:
+        One row per (method, task, replicate, evaluation): ``best`` (F) and ``regret``.
+
+    Raises:
+        ValueError: a log without tested runs or random designs (nothing to normalize by).
+    """
+    tested = log[log["variant"] != "train"]
+    if tested.empty:
+        raise ValueError("the log holds no evaluation at a task (only training episodes)")
+    f_ref, pools = _references(log) if references is None else references
+    if not pools:
+        raise ValueError("the log holds no random designs: the regret has no scale")
+    runs = tested[tested["variant"] != "zero-shot"]
+    longest = int(runs["evaluation"].max()) if len(runs) else 1
+    top = longest if max_budget is None else int(max_budget)
+    budgets = np.arange(1, top + 1)
+    frames = []
+    for (method, task, replicate), run in tested.groupby(["method", "task", "replicate"]):
+        run = run.sort_values("evaluation")
+        if (run["variant"] == "zero-shot").all():
+            best = np.full(top, float(run["free_energy"].iloc[0]))
+        else:
+            values = run["free_energy"].to_numpy(dtype=np.float64)
+            values = np.where(np.isnan(values), np.inf, values)
+            running = np.minimum.accumulate(values)
+            best = running[np.minimum(budgets, len(running)) - 1]
+        frames.append(
+            pd.DataFrame(
+                {
+                    "method": method,
+                    "task": task,
+                    "replicate": int(replicate),
+                    "evaluation": budgets,
+                    "best": best,
+                }
+            )
+        )
+    curves = pd.concat(frames, ignore_index=True)
+    regret = np.full(len(curves), np.nan)
+    for task, rows in curves.groupby("task").groups.items():
+        pool = pools.get(str(task))
+        if pool is None or task not in f_ref.index:
+            continue
+        usable = budgets[budgets <= len(pool)]
+        f_random = dict(zip(usable.tolist(), expected_best_of_random(pool, usable), strict=True))
+        ref = float(f_ref[task])
+        index = np.asarray(rows)
+        t = curves.loc[index, "evaluation"].to_numpy()
+        scale = np.array([f_random.get(int(v), np.nan) - ref for v in t])
+        best = curves.loc[index, "best"].to_numpy()
+        with np.errstate(divide="ignore", invalid="ignore"):
+            regret[index] = np.where(scale > 0, (best - ref) / scale, np.nan)
+    curves["regret"] = np.where(np.isfinite(regret), regret, np.nan)
+    return curves
+
+
+def _task_means(curves: pd.DataFrame) -> pd.DataFrame:
+    return curves.groupby(["method", "evaluation", "task"])["regret"].mean().reset_index()
+
+
+def _order(methods: Iterable[str], known: Sequence[str]) -> list[str]:
+    present = list(dict.fromkeys(methods))
+    return [m for m in known if m in present] + sorted(m for m in present if m not in known)
+
+
+def regret_table(
+    curves: pd.DataFrame, budgets: Sequence[int], methods: Sequence[str] = ()
+) -> pd.DataFrame:
+    """Mean normalized regret over tasks with its 95 % t interval, per method and budget.
+
+    Returns:
+        ``method``, ``budget``, ``mean``, ``ci_low``, ``ci_high``, ``tasks`` (with a regret).
+    """
+    means = _task_means(curves)
+    rows = []
+    for method in _order(means["method"], methods):
+        for budget in budgets:
+            values = means[(means["method"] == method) & (means["evaluation"] == budget)]
+            interval = t_interval(values["regret"].to_numpy(dtype=np.float64), 0.95)
+            rows.append(
+                {
+                    "method": method,
+                    "budget": int(budget),
+                    "mean": interval.estimate,
+                    "ci_low": interval.low,
+                    "ci_high": interval.high,
+                    "tasks": interval.n,
+                }
+            )
+    return pd.DataFrame(rows, columns=["method", "budget", "mean", "ci_low", "ci_high", "tasks"])
+
+
+def comparison_table(curves: pd.DataFrame, budgets: Sequence[int]) -> pd.DataFrame:
+    """Paired Wilcoxon tests of every pair of methods at each budget, Holm over the pairs.
+
+    Returns:
+        :data:`COMPARISON_COLUMNS` with ``budget`` first;
+        ``mean_diff`` is mean(a - b) of normalized regret over tasks (< 0: a is better).
+    """
+    tables = []
+    for budget in budgets:
+        at = curves[curves["evaluation"] == budget]
+        means = at.groupby(["task", "method"])["regret"].mean().unstack("method")
+        if means.notna().to_numpy().sum() == 0:
+            continue
+        table = paired_table(means, alpha=ALPHA)
+        table.insert(0, "budget", int(budget))
+        tables.append(table)
+    if not tables:
+        return pd.DataFrame(columns=["budget", *COMPARISON_COLUMNS])
+    return pd.concat(tables, ignore_index=True)
+
+
+def _training_episodes(log: pd.DataFrame) -> dict[str, float]:
+    train = log[log["variant"] == "train"]
+    return {str(m): float(g.groupby("replicate").size().mean()) for m, g in train.groupby("method")}
+
+
+def amortization_table(
+    curves: pd.DataFrame, log: pd.DataFrame, budgets: Sequence[int]
+) -> pd.DataFrame:
+    """After how many goals each learned method's training pays for itself against cold CMA-ES.
+
+    Returns:
+        One row per learned method (zero-shot and warm-started) and budget B > 1 of cold
+        CMA-ES: ``target_regret`` (cold CMA-ES's mean regret at B), ``budget_needed`` (the
+        smallest per-goal budget at which the method's mean regret is <= it; NaN if none),
+        ``training_episodes`` (mean over replicates) and ``breakeven_goals`` (inf: never).
+    """
+    means = _task_means(curves).groupby(["method", "evaluation"])["regret"].mean()
+    training = _training_episodes(log)
+    rows = []
+    cold = means.get("cmaes")
+    if cold is None:
+        return pd.DataFrame(
+            columns=[
+                "method",
+                "reference_budget",
+                "target_regret",
+                "budget_needed",
+                "training_episodes",
+                "breakeven_goals",
+            ]
+        )
+    for base, episodes in sorted(training.items()):
+        for method in (base, f"warm-{base}"):
+            if method not in means.index.get_level_values(0):
+                continue
+            curve = means[method]
+            for budget in budgets:
+                if budget <= 1 or budget not in cold.index:
+                    continue
+                target = float(cold[budget])
+                reached = curve[curve <= target] if math.isfinite(target) else curve.iloc[:0]
+                needed = float(reached.index.min()) if len(reached) else math.nan
+                if math.isnan(needed) or needed >= budget:
+                    goals = math.inf
+                else:
+                    goals = float(math.ceil(episodes / (budget - needed)))
+                rows.append(
+                    {
+                        "method": method,
+                        "reference_budget": int(budget),
+                        "target_regret": target,
+                        "budget_needed": needed,
+                        "training_episodes": episodes,
+                        "breakeven_goals": goals,
+                    }
+                )
+    return pd.DataFrame(rows)
+
+
+def _regret_figure(table: pd.DataFrame, path: Path) -> Path:
+    figure, ax = new_figure((7.0, 4.5))
+    for method in dict.fromkeys(table["method"]):
+        rows = table[table["method"] == method]
+        style = "--" if method in ("random", "cmaes") else "-"
+        ax.plot(rows["budget"], rows["mean"], style, marker="o", label=method)
+        ax.fill_between(rows["budget"], rows["ci_low"], rows["ci_high"], alpha=0.15)
+    ax.set_xscale("log", base=2)
+    ax.set_xlabel("evaluations per task (budget)")
+    ax.set_ylabel("normalized regret (0 best known, 1 random sampling)")
+    ax.axhline(1.0, color="grey", linewidth=0.8)
+    ax.axhline(0.0, color="grey", linewidth=0.8)
+    ax.legend(fontsize="small", ncol=2)
+    ax.set_title("Mean normalized regret over tasks, 95 % t interval")
+    return save_png(figure, path)
+
+
+def _amortization_figure(table: pd.DataFrame, path: Path) -> Path:
+    """One panel per budget B of cold CMA-ES: total episodes against goals, to its quality."""
+    budgets = sorted(set(table["reference_budget"])) if len(table) else []
+    ncols = min(3, max(1, len(budgets)))
+    nrows = max(1, -(-len(budgets) // ncols))
+    figure, axes = new_figure_grid(nrows, ncols, (4.2 * ncols, 3.4 * nrows))
+    for ax in axes.ravel()[len(budgets) :]:
+        ax.set_visible(False)
+    finite = table["breakeven_goals"][np.isfinite(table["breakeven_goals"])] if len(table) else []
+    top = max(10.0, 2.0 * float(np.max(finite))) if len(finite) else 1000.0
+    goals = np.unique(np.geomspace(1, top, 200).round())
+    for ax, budget in zip(axes.ravel(), budgets, strict=False):
+        rows = table[table["reference_budget"] == budget]
+        ax.plot(goals, goals * budget, "k--", label=f"cold CMA-ES ({budget} per goal)")
+        for _, row in rows.iterrows():
+            if math.isnan(row["budget_needed"]):
+                continue  # never reaches cold CMA-ES's quality at any budget of the study
+            total = row["training_episodes"] + goals * row["budget_needed"]
+            ax.plot(goals, total, label=f"{row['method']} ({row['budget_needed']:.0f} per goal)")
+            if math.isfinite(row["breakeven_goals"]):
+                g = float(row["breakeven_goals"])
+                ax.plot([g], [g * budget], "o", color=ax.lines[-1].get_color())
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_title(f"quality of cold CMA-ES at B = {budget}", fontsize="medium")
+        ax.set_xlabel("goals designed for")
+        ax.set_ylabel("episodes in total (training included)")
+        ax.legend(fontsize="x-small")
+    if not budgets:
+        axes[0, 0].set_title("no budget above 1: nothing to amortize")
+    return save_png(figure, path)
+
+
+def _cell(mean: float, low: float, high: float) -> str:
+    if not math.isfinite(mean):
+        return "n/a"
+    if not (math.isfinite(low) and math.isfinite(high)) or low == high:
+        return f"{mean:.3f}"
+    return f"{mean:.3f} [{low:.3f}, {high:.3f}]"
+
+
+def _markdown(header: Sequence[str], rows: Iterable[Sequence[Any]]) -> list[str]:
+    lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
+    lines += ["| " + " | ".join(str(c).replace("|", "\\|") for c in row) + " |" for row in rows]
+    return lines
+
+
+def results_rows(table: pd.DataFrame) -> list[list[str]]:
+    """The results table's rows: a method, then mean [95 % interval] per budget."""
+    budgets = sorted(set(table["budget"]))
+    rows = []
+    for method in dict.fromkeys(table["method"]):
+        mine = table[table["method"] == method].set_index("budget")
+        rows.append(
+            [
+                str(method),
+                *(
+                    _cell(*(float(mine.loc[b, k]) for k in ("mean", "ci_low", "ci_high")))
+                    if b in mine.index
+                    else ""
+                    for b in budgets
+                ),
+            ]
+        )
+    return rows
+
+
+def score_row(name: str, table: pd.DataFrame) -> str:
+    """One Markdown row of the results table, for a method scored by ``tooldesign rl score``."""
+    rows = results_rows(table.assign(method=name))
+    return "| " + " | ".join(rows[0]) + " |"
+
+
+def _warm_row(r: Any) -> list[Any]:
+    """A paired test of a warm-started method against cold CMA-ES, as warm minus cold."""
+    sign = 1.0 if r.a != "cmaes" else -1.0  # mean_diff is a - b
+    low, high = sorted((sign * r.ci_low, sign * r.ci_high))
+    diff = sign * r.mean_diff
+    warm = r.a if r.a != "cmaes" else r.b
+    better = bool(r.significant) and diff < 0
+    interval = f"[{low:.3f}, {high:.3f}]" if math.isfinite(low) else "n/a"
+    return [
+        int(r.budget),
+        warm,
+        int(r.n),
+        f"{diff:.3f}",
+        interval,
+        f"{r.p_holm:.3g}",
+        "yes" if better else "no",
+    ]
+
+
+def make_breakeven_report(
+    run_folder: str | os.PathLike[str], *, out_dir: str | os.PathLike[str] | None = None
+) -> list[Path]:
+    """Write the study's report from its stored files: tables, tests, amortization, figures.
+
+    Args:
+        run_folder: A break-even run folder (:func:`benchmarks.rl.breakeven.run_breakeven`).
+        out_dir: Where to write (default ``<run_folder>/report``).
+
+    Returns:
+        The files written: ``breakeven.md``, ``regret.csv``, ``comparisons.csv``,
+        ``amortization.csv``, ``regret.png``, ``amortization.png`` and ``summary.json``.
+
+    Raises:
+        ValueError: not a break-even run folder, or nothing to report.
+    """
+    from benchmarks.rl.breakeven import load_breakeven
+
+    folder = Path(run_folder)
+    log = load_breakeven(folder)
+    budgets, methods, config = _study_budgets(folder)
+    curves = regret_curves(log, max(budgets))
+    table = regret_table(curves, budgets, methods)
+    tests = comparison_table(curves, budgets)
+    amortization = amortization_table(curves, log, budgets)
+    target = Path(out_dir) if out_dir is not None else folder / REPORT_DIR
+    target.mkdir(parents=True, exist_ok=True)
+    written = [
+        atomic_write_text(target / "regret.csv", csv_text(table)),
+        atomic_write_text(target / "comparisons.csv", csv_text(tests)),
+        atomic_write_text(target / "amortization.csv", csv_text(amortization)),
+        _regret_figure(table, target / "regret.png"),
+        _amortization_figure(amortization, target / "amortization.png"),
+    ]
+    tasks = config["tasks"]
+    page = [
+        f"# Break-even study ({config['size']['name']})",
+        "",
+        f"{len(tasks)} tasks ({sum(t['set'] == 'held-out' for t in tasks)} held-out instances "
+        f"of the protocol, the rest fresh), {config['size']['replicates']} replicate(s), "
+        f"budgets {', '.join(map(str, budgets))}; {len(log):,} evaluations in "
+        "`evaluations.parquet`.",
+        "",
+        "## Normalized regret (mean over tasks, 95 % t interval)",
+        "",
+        *_markdown(["method", *(str(b) for b in budgets)], results_rows(table)),
+        "",
+        "![normalized regret](regret.png)",
+        "",
+        f"## Paired tests (Wilcoxon signed-rank over tasks, Holm over pairs, alpha {ALPHA})",
+        "",
+    ]
+    if len(tests):
+        warm_cold = tests[
+            ((tests["a"] == "cmaes") & tests["b"].str.startswith("warm-"))
+            | ((tests["b"] == "cmaes") & tests["a"].str.startswith("warm-"))
+        ]
+        page += _markdown(
+            [
+                "budget",
+                "warm-started",
+                "tasks",
+                "mean warm - cold",
+                "95 % interval",
+                "p (Holm)",
+                "warm better",
+            ],
+            [_warm_row(r) for r in warm_cold.itertuples()],
+        )
+        page.append("")
+    page += [
+        "All pairs: `comparisons.csv`.",
+        "",
+        "## Amortization (against cold CMA-ES)",
+        "",
+        *_markdown(
+            ["method", "cold budget B", "target regret", "budget needed", "training", "goals"],
+            [
+                [
+                    r.method,
+                    int(r.reference_budget),
+                    f"{r.target_regret:.3f}",
+                    "not reached" if math.isnan(r.budget_needed) else f"{r.budget_needed:.0f}",
+                    f"{r.training_episodes:.0f}",
+                    "never" if not math.isfinite(r.breakeven_goals) else f"{r.breakeven_goals:.0f}",
+                ]
+                for r in amortization.itertuples()
+            ],
+        ),
+        "",
+        "![amortization](amortization.png)",
+        "",
+    ]
+    summary = {
+        "size": config["size"]["name"],
+        "evaluations": len(log),
+        "regret": cast("list[dict[str, Any]]", table.to_dict("records")),
+        "amortization": cast("list[dict[str, Any]]", amortization.to_dict("records")),
+    }
+    written.append(atomic_write_text(target / "summary.json", json_text(summary)))
+    written.append(atomic_write_text(target / "breakeven.md", "\n".join(page)))
+    return written

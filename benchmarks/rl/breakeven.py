@@ -1,0 +1,1002 @@
+"""The break-even study: learned designers against per-goal search at equal per-goal budgets.
+
+Does a designer that learned from many goals beat CMA-ES run afresh at each new goal, at the
+same number of evaluations per goal, and after how many goals do its training episodes pay for
+themselves? (issue 36; ``docs/rl.md``, "The break-even study".)
+
+**Tasks.** The benchmark protocol's 8 held-out instances (``benchmarks/protocol``, instance set
+v1: goal, box mass, box friction), then :data:`FRESH_TASKS`, 12 more drawn once from the same
+distribution with :data:`FRESH_TASK_SEED` and committed here (:data:`HELD_OUT_TASKS` are the
+protocol's, copied): 20 tasks at the ``full`` size.
+The learned designers observe the goal and the mass (``ToolDesignRL-v0``'s observation); the
+friction is part of the scene each task is scored in, which they do not see.
+
+**Methods** at per-goal budgets 1, 4, 8, 16, 32 and 64 evaluations (``full``):
+
+- ``random``: uniform random designs at the task; ``cmaes``: CMA-ES afresh at the task
+  (population 8, step 0.3, mean the box's centre): the cold starts.
+- ``contextual``, ``ppo``, ``sac``: the policy's zero-shot design, one evaluation (the rest of
+  the budget unused); trained on random goals of the paper's range and box masses in
+  :data:`MASS_RANGE` at the default friction, with today's tool and arm.
+- ``warm-contextual``, ``warm-ppo``, ``warm-sac``: the zero-shot design, then CMA-ES from it
+  (:func:`benchmarks.rl.warmstart.run_warm_cmaes`: mean the design, step from the policy's
+  spread), with the same CMA-ES seed as the cold CMA-ES of that task and replicate.
+
+Each learned method trains once per replicate (training seed); replicate k of every method uses
+the same seeds of the cold runs, so every comparison is paired by task and replicate. Runs of
+the largest budget are read at every smaller one (their behaviour does not depend on it).
+
+**Stored** as every suite: one run folder (:class:`benchmarks.storage.RunSession`), one part
+file per run, written atomically and checksummed in ``manifest.json``; the saved policies
+(``policies/<method>-<replicate>.json``, recorded with their SHA-256); at the end every
+evaluation in one Parquet file, ``evaluations.parquet``, read by :func:`load_breakeven` (columns:
+:data:`BREAKEVEN_COLUMNS`). **Resume**: the same command again skips the finished units (a
+training with its zero-shot designs, one cold run, one warm run); an interrupted unit is redone
+whole and must equal what it left on disk. The report (:mod:`benchmarks.reports.breakeven`) is
+made from the stored files alone.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import time
+from collections.abc import Callable, Iterable, Sequence
+from concurrent.futures import FIRST_COMPLETED, Future, wait
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, cast
+
+import numpy as np
+import pandas as pd
+
+from benchmarks.rl.agents import (
+    EpisodeRecord,
+    Trained,
+    make_env,
+    run_cmaes,
+    run_random,
+    train_contextual,
+    train_ppo,
+    train_sac,
+)
+from benchmarks.rl.configs import ContextualConfig, MethodConfig, PPOConfig, SACConfig
+from benchmarks.rl.configs import default_config as _default_config
+from benchmarks.rl.evaluation import RLTask, evaluate_policy_on_tasks
+from benchmarks.storage import (
+    ResultStore,
+    ResumeError,
+    RunSession,
+    json_ready,
+    read_manifest,
+    validate_evaluations,
+)
+from tooldesign_env.schema import (
+    BEST_SO_FAR,
+    DEFAULT_GOAL_PRECISION,
+    GOAL_HIGH,
+    GOAL_LOW,
+    TIMING_COLUMNS,
+)
+
+__all__ = [
+    "BREAKEVEN_COLUMNS",
+    "BREAKEVEN_KIND",
+    "BREAKEVEN_NAME",
+    "BREAKEVEN_SIZES",
+    "COLD_METHODS",
+    "FRESH_TASKS",
+    "FRESH_TASK_SEED",
+    "HELD_OUT_TASKS",
+    "LEARNED_METHODS",
+    "MASS_RANGE",
+    "SECONDS_PER_EVALUATION",
+    "BreakevenConfig",
+    "BreakevenResult",
+    "BreakevenSize",
+    "breakeven_config",
+    "breakeven_tasks",
+    "estimate_text",
+    "load_breakeven",
+    "method_names",
+    "run_breakeven",
+]
+
+BREAKEVEN_NAME = "breakeven"
+"""The ``suite`` column of every row."""
+
+BREAKEVEN_KIND = "rl-breakeven"
+"""``manifest.json`` ``extra.kind`` of a break-even run folder."""
+
+ROOT_SEED = 20261136
+"""Root of the study's seeds (training seeds, cold and warm CMA-ES, random sampling)."""
+
+FRESH_TASK_SEED = 20261136
+"""The seed :data:`FRESH_TASKS` were drawn with (``benchmarks.protocol.instances.draw_instances``
+with ``n=12``, the protocol's distribution; the draw's public/held-out split is ignored)."""
+
+#: The benchmark protocol's held-out instances of set v1 (``benchmarks/protocol/data/
+#: instances-v1.json``): (id, goal x, y, z in m, box mass in kg, box friction). Copied, since
+#: the rl layer sits below the protocol's (docs/architecture.md); a test checks them against
+#: the protocol's file.
+HELD_OUT_TASKS: tuple[tuple[str, tuple[float, float, float], float, float], ...] = (
+    ("i03", (0.1284, 0.7914, 0.1), 0.3416, 0.4447),
+    ("i04", (-0.1223, 0.616, 0.1), 0.2119, 0.405),
+    ("i09", (-0.4312, 1.1645, 0.1), 0.1033, 0.3384),
+    ("i11", (-0.3612, 1.2759, 0.1), 0.7308, 0.3462),
+    ("i12", (0.4696, 0.5461, 0.1), 0.8068, 0.3341),
+    ("i15", (0.1444, 0.6813, 0.1), 0.2251, 0.4053),
+    ("i16", (0.2622, 1.2359, 0.1), 0.5279, 0.3035),
+    ("i22", (0.0948, 0.9725, 0.1), 0.2461, 0.4513),
+)
+
+#: Tasks beyond the protocol's 8 held-out instances: ``draw_instances(FRESH_TASK_SEED, 12)``
+#: (goal x, y, z in m; box mass in kg; box friction), drawn once and committed (a test checks
+#: them against the draw), so that a new NumPy cannot change the study.
+FRESH_TASKS: tuple[tuple[tuple[float, float, float], float, float], ...] = (
+    ((-0.3827, 1.2442, 0.1), 0.5449, 0.4516),
+    ((-0.0472, 0.8915, 0.1), 0.5015, 0.4859),
+    ((-0.0875, 1.4389, 0.1), 0.1795, 0.3108),
+    ((0.132, 1.1826, 0.1), 0.4698, 0.3945),
+    ((-0.08, 0.5294, 0.1), 0.139, 0.4135),
+    ((-0.4672, 1.292, 0.1), 0.1083, 0.4018),
+    ((-0.4886, 0.9361, 0.1), 0.4307, 0.4887),
+    ((0.4853, 0.8488, 0.1), 0.2615, 0.3292),
+    ((0.2734, 1.066, 0.1), 0.872, 0.3541),
+    ((0.1606, 1.4283, 0.1), 0.1138, 0.3121),
+    ((0.0324, 0.9976, 0.1), 0.1806, 0.4589),
+    ((-0.4465, 1.1884, 0.1), 0.1013, 0.4001),
+)
+
+#: Box masses the learned designers train on, kg: the instances' range (they are drawn
+#: log-uniform in it; training draws uniform, which covers it).
+MASS_RANGE: tuple[float, float] = (0.1, 0.9)
+
+LEARNED_METHODS: tuple[str, ...] = ("contextual", "ppo", "sac")
+COLD_METHODS: tuple[str, ...] = ("random", "cmaes")
+
+#: Seconds per evaluation per core the time estimate assumes: a planning figure (docs/rl.md,
+#: "Throughput", measured about 15 episodes/s on one core of the project's loaded machine, 0.067
+#: s; this leaves some room). The integrator measures it (perf/speed/rl_policy_throughput.py).
+SECONDS_PER_EVALUATION = 0.075
+
+#: Most replicates (training seeds) and tasks a size may ask for.
+_REPLICATES_MAX = 1000
+
+Progress = Callable[[str], None]
+
+
+def method_names(learned: Sequence[str] = LEARNED_METHODS) -> tuple[str, ...]:
+    """Every method of a study with these learned designers, in the report's order."""
+    return (*COLD_METHODS, *learned, *(f"warm-{m}" for m in learned))
+
+
+def breakeven_tasks() -> tuple[RLTask, ...]:
+    """The study's 20 tasks in order: the protocol's held-out instances, then the fresh ones."""
+    tasks = [
+        RLTask(id=name, goal=goal, box_mass=mass, box_friction=friction, set="held-out")
+        for name, goal, mass, friction in HELD_OUT_TASKS
+    ]
+    tasks += [
+        RLTask(id=f"f{k + 1:02d}", goal=goal, box_mass=mass, box_friction=friction, set="fresh")
+        for k, (goal, mass, friction) in enumerate(FRESH_TASKS)
+    ]
+    return tuple(tasks)
+
+
+@dataclass(frozen=True, kw_only=True)
+class BreakevenSize:
+    """How big a run of the study is.
+
+    Attributes:
+        name: The size's name.
+        tasks: The first this many of :func:`breakeven_tasks`.
+        replicates: Training seeds of each learned method, and seeds of each cold method per
+            task.
+        budgets: Per-task budgets (evaluations) the report reads; runs go to the largest.
+        train_episodes: Training episodes of PPO and SAC, and of the contextual method (its
+            CMA-ES runs: ``contextual_goals`` tasks of ``train_episodes / contextual_goals``).
+        contextual_goals: Training tasks of the contextual method.
+        popsize: CMA-ES population size (cold, warm and the contextual method's).
+        overrides: Per-method config fields replaced for this size, ``(method, field, value)``.
+    """
+
+    name: str
+    tasks: int
+    replicates: int
+    budgets: tuple[int, ...]
+    train_episodes: int
+    contextual_goals: int
+    popsize: int = 8
+    overrides: tuple[tuple[str, str, Any], ...] = ()
+
+
+BREAKEVEN_SIZES: dict[str, BreakevenSize] = {
+    # CI: 2 tasks, one replicate, budgets up to 4; about 70 evaluations.
+    "smoke": BreakevenSize(
+        name="smoke",
+        tasks=2,
+        replicates=1,
+        budgets=(1, 2, 4),
+        train_episodes=8,
+        contextual_goals=2,
+        popsize=4,
+        overrides=(
+            ("ppo", "n_steps", 8),
+            ("ppo", "batch_size", 8),
+            ("sac", "learning_starts", 4),
+            ("sac", "batch_size", 4),
+        ),
+    ),
+    # The issue's: 20 tasks (8 held-out + 12 fresh), 5 training seeds, budgets 1 to 64.
+    "full": BreakevenSize(
+        name="full",
+        tasks=20,
+        replicates=5,
+        budgets=(1, 4, 8, 16, 32, 64),
+        train_episodes=1024,
+        contextual_goals=16,
+    ),
+}
+"""The sizes: ``smoke`` (CI, seconds) and ``full`` (the issue's study; not run yet)."""
+
+
+def _seeds(root: int, part: int, index: int, n: int) -> list[int]:
+    children = np.random.SeedSequence([root, part, index]).spawn(n)
+    return [int(c.generate_state(1)[0]) for c in children]
+
+
+@dataclass(frozen=True, kw_only=True)
+class BreakevenConfig:
+    """Everything that decides the study's results (see :func:`breakeven_config`).
+
+    Attributes:
+        size: The size.
+        learned: The learned designers, a subset of :data:`LEARNED_METHODS`.
+        configs: The configuration of each learned method.
+        mass_range: (low, high) training box masses, kg.
+        workers: Processes that run units at once; not a result setting.
+        executor: ``"process"`` (a pool of ``workers``; with 1, this process) or ``"dask"``
+            (``workers`` in a local cluster, or the cluster of ``scheduler``); not a result
+            setting.
+        scheduler: A Dask scheduler's address (with ``executor="dask"``), or None.
+        root_seed: Root of every seed.
+    """
+
+    size: BreakevenSize
+    learned: tuple[str, ...]
+    configs: dict[str, MethodConfig]
+    mass_range: tuple[float, float] = MASS_RANGE
+    workers: int = 1
+    executor: str = "process"
+    scheduler: str | None = None
+    root_seed: int = ROOT_SEED
+
+    @property
+    def tasks(self) -> tuple[RLTask, ...]:
+        """The tasks of the study."""
+        return breakeven_tasks()[: self.size.tasks]
+
+    @property
+    def max_budget(self) -> int:
+        """Evaluations of every cold and warm run."""
+        return max(self.size.budgets)
+
+    @property
+    def methods(self) -> tuple[str, ...]:
+        """Every method, in the report's order."""
+        return method_names(self.learned)
+
+    def train_seeds(self) -> list[int]:
+        """The training seed of each replicate (shared by the learned methods)."""
+        return _seeds(self.root_seed, 1, 0, self.size.replicates)
+
+    def run_seeds(self, method: str, task: int) -> list[int]:
+        """Seeds of the cold runs of ``method`` at task ``task``, one per replicate.
+
+        The warm-started runs use the cold CMA-ES's seeds (paired comparisons).
+        """
+        part = 3 if method == "random" else 2
+        return _seeds(self.root_seed, part, task, self.size.replicates)
+
+    def train_episodes(self, method: str) -> int:
+        """Episodes one training of ``method`` simulates (PPO rounds up to whole rollouts)."""
+        config = self.configs[method]
+        if isinstance(config, ContextualConfig):
+            return config.total_episodes
+        steps = getattr(config, "n_steps", 1)
+        return -(-self.size.train_episodes // steps) * steps
+
+    def planned_evaluations(self) -> dict[str, int]:
+        """Evaluations per part of the study and in all (``total``)."""
+        n, r, b = self.size.tasks, self.size.replicates, self.max_budget
+        counts = {
+            "train": r * sum(self.train_episodes(m) for m in self.learned),
+            "zero-shot": r * n * len(self.learned),
+            "cold": len(COLD_METHODS) * r * n * b,
+            "warm": len(self.learned) * r * n * b,
+        }
+        counts["total"] = sum(counts.values())
+        return counts
+
+    def to_json(self) -> dict[str, Any]:
+        """The JSON form stored as the manifest's ``config`` (compared when resuming)."""
+        from benchmarks.rl.suite import _default_merge_fixed_links, _default_section_shape
+
+        return cast(
+            "dict[str, Any]",
+            json_ready(
+                {
+                    "name": BREAKEVEN_NAME,
+                    "size": dataclasses.asdict(self.size),
+                    "learned": list(self.learned),
+                    "methods": list(self.methods),
+                    "configs": {m: dataclasses.asdict(c) for m, c in sorted(self.configs.items())},
+                    "mass_range": list(self.mass_range),
+                    "root_seed": self.root_seed,
+                    "fresh_task_seed": FRESH_TASK_SEED,
+                    "tasks": [dataclasses.asdict(t) for t in self.tasks],
+                    "goal_precision": DEFAULT_GOAL_PRECISION,
+                    "workers": self.workers,
+                    "executor": self.executor,
+                    "scheduler": self.scheduler,
+                    "section_shape": _default_section_shape(),
+                    "merge_fixed_links": _default_merge_fixed_links(),
+                }
+            ),
+        )
+
+
+#: Config fields that do not change the results: a resumed study may set them differently.
+RUNTIME_FIELDS: frozenset[str] = frozenset({"workers", "executor", "scheduler"})
+
+
+def _check_size(size: Any) -> BreakevenSize:
+    if isinstance(size, BreakevenSize):
+        return size
+    if not isinstance(size, str) or size not in BREAKEVEN_SIZES:
+        raise ValueError(
+            f"size must be one of {', '.join(BREAKEVEN_SIZES)} (or a BreakevenSize), got {size!r}"
+        )
+    return BREAKEVEN_SIZES[size]
+
+
+def breakeven_config(
+    size: str | BreakevenSize = "smoke",
+    *,
+    learned: Sequence[str] = LEARNED_METHODS,
+    workers: int = 1,
+    executor: str = "process",
+    scheduler: str | None = None,
+) -> BreakevenConfig:
+    """The configuration of a run of the break-even study, checked.
+
+    Args:
+        size: ``"smoke"`` (CI), ``"full"`` (the issue's study) or a :class:`BreakevenSize`.
+        learned: The learned designers, a non-empty subset of contextual, ppo, sac (each is
+            also warm-started).
+        workers: Processes that run units of work at once, 1 to 1024 (1: this process).
+        executor: ``"process"`` (a local pool of ``workers``) or ``"dask"`` (a LocalCluster of
+            ``workers``, or the scheduler at ``scheduler``; the run folder must be on a file
+            system the workers share).
+        scheduler: A Dask scheduler address (only with ``executor="dask"``).
+
+    Raises:
+        TypeError / ValueError: an unknown size, method or executor, or a bad number; the
+            message names the value and what is allowed.
+    """
+    from benchmarks.execution import WORKERS_MAX
+    from benchmarks.rl.suite import _check_count, _check_subset
+
+    chosen = _check_size(size)
+    for name in ("tasks", "replicates"):
+        limit = len(breakeven_tasks()) if name == "tasks" else _REPLICATES_MAX
+        _check_count(f"size.{name}", getattr(chosen, name), limit)
+    budgets = chosen.budgets
+    if (
+        not budgets
+        or any(isinstance(b, bool) or not isinstance(b, int) or b < 1 for b in budgets)
+        or list(budgets) != sorted(set(budgets))
+    ):
+        raise ValueError(f"size.budgets must be increasing ints >= 1, got {budgets!r}")
+    configs: dict[str, Any] = {m: _default_config(m) for m in ("ppo", "sac")}
+    contextual = _default_config("contextual")
+    assert isinstance(contextual, ContextualConfig)
+    configs["contextual"] = dataclasses.replace(
+        contextual,
+        n_goals=chosen.contextual_goals,
+        episodes_per_goal=max(1, chosen.train_episodes // chosen.contextual_goals),
+        popsize=chosen.popsize,
+    )
+    changes: dict[str, dict[str, Any]] = {}
+    for method, field, value in chosen.overrides:
+        changes.setdefault(method, {})[field] = value
+    for method, fields in changes.items():
+        configs[method] = dataclasses.replace(configs[method], **fields)
+    methods = _check_subset("learned", learned, LEARNED_METHODS)
+    if executor not in ("process", "dask"):
+        raise ValueError(f"executor must be 'process' or 'dask', got {executor!r}")
+    if scheduler is not None and (executor != "dask" or not isinstance(scheduler, str)):
+        raise ValueError(
+            f"scheduler is a Dask scheduler's address and needs executor='dask', got "
+            f"scheduler={scheduler!r} with executor={executor!r}"
+        )
+    return BreakevenConfig(
+        size=chosen,
+        learned=methods,
+        configs={m: configs[m] for m in methods},
+        workers=_check_count("workers", workers, WORKERS_MAX),
+        executor=executor,
+        scheduler=scheduler,
+    )
+
+
+def estimate_text(
+    config: BreakevenConfig, *, seconds_per_evaluation: float = SECONDS_PER_EVALUATION
+) -> str:
+    """The planned evaluations and the time they take at ``seconds_per_evaluation`` per core.
+
+    The estimate counts simulation only: PPO's and SAC's updates come on top.
+
+    Raises:
+        ValueError: ``seconds_per_evaluation`` is not a finite number > 0.
+    """
+    if (
+        isinstance(seconds_per_evaluation, bool)
+        or not isinstance(seconds_per_evaluation, (int, float))
+        or not (math.isfinite(seconds_per_evaluation) and seconds_per_evaluation > 0)
+    ):
+        raise ValueError(
+            f"seconds_per_evaluation must be a finite number > 0, got {seconds_per_evaluation!r}"
+        )
+    counts = config.planned_evaluations()
+    core_seconds = counts["total"] * seconds_per_evaluation
+    parts = ", ".join(f"{k} {v:,}" for k, v in counts.items() if k != "total")
+    return (
+        f"break-even study, size {config.size.name}: {counts['total']:,} evaluations ({parts}); "
+        f"at {seconds_per_evaluation:g} s per evaluation per core: {core_seconds / 3600:.2f} "
+        f"core-hours, {core_seconds / 3600 / config.workers:.2f} h on {config.workers} "
+        f"worker(s) (simulation only; PPO's and SAC's updates come on top)"
+    )
+
+
+# --- units of work -------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class _Work:
+    """One unit of work, redone whole after an interruption.
+
+    ``kind`` is ``"train"`` (a learned method's training, its card, its zero-shot designs),
+    ``"cold"`` (random sampling or CMA-ES at one task) or ``"warm"`` (CMA-ES from a card's
+    design at one task).
+    """
+
+    kind: str
+    method: str
+    seed: int
+    replicate: int
+    task: int = -1
+
+    def keys(self) -> list[tuple[str, str, int]]:
+        """(variant, optimizer, seed) of the parts it writes, the last marking it done."""
+        if self.kind == "train":
+            return [("train", self.method, self.seed), ("zero-shot", self.method, self.seed)]
+        if self.kind == "cold":
+            return [("cold", self.method, self.seed)]
+        return [("warm", f"warm-{self.method}", self.seed)]
+
+    def label(self) -> str:
+        if self.kind == "train":
+            return f"train {self.method} replicate {self.replicate}"
+        name = self.method if self.kind == "cold" else f"warm-{self.method}"
+        return f"{name} task {self.task + 1} replicate {self.replicate}"
+
+
+def _plan(config: BreakevenConfig) -> list[_Work]:
+    work: list[_Work] = []
+    for k, seed in enumerate(config.train_seeds()):
+        work += [_Work("train", m, seed, k) for m in config.learned]
+    for i in range(config.size.tasks):
+        for method in COLD_METHODS:
+            work += [
+                _Work("cold", method, seed, k, i)
+                for k, seed in enumerate(config.run_seeds(method, i))
+            ]
+    for i in range(config.size.tasks):
+        seeds = config.run_seeds("cmaes", i)
+        for method in config.learned:
+            work += [_Work("warm", method, seed, k, i) for k, seed in enumerate(seeds)]
+    return work
+
+
+def _card_path(out: Path, method: str, replicate: int) -> Path:
+    return out / "policies" / f"{method}-{replicate}.json"
+
+
+def _task_env(task: RLTask) -> Any:
+    """``ToolDesignRL-v0`` with the task's scene (its friction); goal and mass come per reset."""
+    from tooldesign_env.specs import SceneSpec
+
+    scene = SceneSpec() if task.box_friction is None else SceneSpec(box_friction=task.box_friction)
+    return make_env(scene=scene)
+
+
+def _frame(
+    records: Sequence[EpisodeRecord],
+    *,
+    work: _Work,
+    key: tuple[str, str, int],
+    seconds: float,
+    task: int,
+    friction: float,
+    sigma0: float = math.nan,
+) -> pd.DataFrame:
+    simulated = sum(r.seconds for r in records)
+    agent = max(seconds - simulated, 0.0) / len(records)
+    rows = []
+    for k, r in enumerate(records):
+        rows.append(
+            {
+                "suite": BREAKEVEN_NAME,
+                "variant": key[0],
+                "optimizer": key[1],
+                "seed": key[2],
+                "iteration": 0,
+                "candidate": k,
+                "eval_id": k,
+                **{f"c{i + 1}": c for i, c in enumerate(r.coefficients)},
+                "free_energy": r.free_energy,
+                "goal_error": r.goal_error,
+                "confidence": r.confidence,
+                "final_distance": r.final_distance,
+                "status": "ok" if r.valid else "invalid",
+                "eval_time": r.seconds,
+                "opt_time": agent,
+                "goal_x": r.goal[0],
+                "goal_y": r.goal[1],
+                "goal_z": r.goal[2],
+                "goal_precision": r.goal_precision,
+                "box_mass": r.box_mass,
+                "normalized_reward": r.reward,
+                **{f"a{i + 1}": a for i, a in enumerate(r.action)},
+                "task_index": task,
+                "replicate": work.replicate,
+                "box_friction": friction,
+                "sigma0": sigma0,
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def _zero_shot_frame(
+    evaluated: pd.DataFrame, *, work: _Work, key: tuple[str, str, int], seconds: float
+) -> pd.DataFrame:
+    rows = []
+    for i, row in evaluated.iterrows():
+        rows.append(
+            {
+                "suite": BREAKEVEN_NAME,
+                "variant": key[0],
+                "optimizer": key[1],
+                "seed": key[2],
+                "iteration": 0,
+                "candidate": int(cast("int", i)),
+                "eval_id": int(cast("int", i)),
+                "c1": row["c1"],
+                "c2": row["c2"],
+                "c3": row["c3"],
+                "free_energy": row["free_energy"],
+                "goal_error": row["goal_error"],
+                "confidence": row["confidence"],
+                "final_distance": row["final_distance"],
+                "status": row["status"],
+                "eval_time": row["eval_time"],
+                "opt_time": max(seconds - float(evaluated["eval_time"].sum()), 0.0)
+                / len(evaluated),
+                "goal_x": row["goal_x"],
+                "goal_y": row["goal_y"],
+                "goal_z": row["goal_z"],
+                "goal_precision": DEFAULT_GOAL_PRECISION,
+                "box_mass": row["box_mass"],
+                "normalized_reward": math.nan,
+                "a1": row["a1"],
+                "a2": row["a2"],
+                "a3": row["a3"],
+                "task_index": int(cast("int", i)),
+                "replicate": work.replicate,
+                "box_friction": row["box_friction"],
+                "sigma0": math.nan,
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def _train(config: MethodConfig, size: BreakevenSize, seed: int, masses: Any) -> Trained:
+    env_kwargs = {"mass_range": masses}
+    if isinstance(config, ContextualConfig):
+        return train_contextual(config, seed=seed, env_kwargs=env_kwargs)
+    common: dict[str, Any] = {
+        "total_episodes": size.train_episodes,
+        "seed": seed,
+        "randomize_goal": True,
+        "env_kwargs": env_kwargs,
+    }
+    if isinstance(config, PPOConfig):
+        return train_ppo(config, **common)
+    if isinstance(config, SACConfig):
+        return train_sac(config, **common)
+    raise TypeError(f"not a learned method's config: {config!r}")
+
+
+def _run_work(work: _Work, config: BreakevenConfig, out: Path) -> list[pd.DataFrame]:
+    """Do one unit of work; the frames of :meth:`_Work.keys`, in order (runs in a worker)."""
+    from benchmarks.rl.policies import load_policy, save_policy
+    from benchmarks.rl.warmstart import run_warm_cmaes
+
+    started = time.perf_counter()
+    keys = work.keys()
+    tasks = config.tasks
+    budget = config.max_budget
+    if work.kind == "train":
+        trained = _train(config.configs[work.method], config.size, work.seed, config.mass_range)
+        card = _card_path(out, work.method, work.replicate)
+        save_policy(
+            trained.model,
+            work.method,
+            card,
+            config=config.configs[work.method],
+            train_episodes=len(trained.records),
+            goal_range=(GOAL_LOW, GOAL_HIGH),
+            mass_range=config.mass_range,
+            extra={"seed": work.seed, "replicate": work.replicate, "study": BREAKEVEN_NAME},
+        )
+        training = _frame(
+            trained.records,
+            work=work,
+            key=keys[0],
+            seconds=time.perf_counter() - started,
+            task=-1,
+            friction=math.nan,
+        )
+        started = time.perf_counter()
+        # The card, as every later unit reads it (not the model in memory): what is scored is
+        # what was saved.
+        policy, saved = load_policy(card)
+        evaluated = evaluate_policy_on_tasks(
+            policy,
+            tasks,
+            executor="serial",
+            section_shape=saved["section_shape"],
+            merge_fixed_links=saved["merge_fixed_links"],
+        )
+        zero = _zero_shot_frame(
+            evaluated, work=work, key=keys[1], seconds=time.perf_counter() - started
+        )
+        return [training, zero]
+    task = tasks[work.task]
+    friction = math.nan if task.box_friction is None else task.box_friction
+    env = _task_env(task)
+    try:
+        if work.kind == "cold":
+            runner = run_random if work.method == "random" else run_cmaes
+            kwargs: dict[str, Any] = (
+                {} if work.method == "random" else {"popsize": config.size.popsize}
+            )
+            records = runner(
+                total_episodes=budget,
+                seed=work.seed,
+                goal=task.goal,
+                box_mass=task.box_mass,
+                env=env,
+                **kwargs,
+            )
+            sigma0 = math.nan if work.method == "random" else 0.3
+        else:
+            policy, _ = load_policy(_card_path(out, work.method, work.replicate))
+            records, sigma0 = run_warm_cmaes(
+                policy,
+                total_episodes=budget,
+                seed=work.seed,
+                goal=task.goal,
+                box_mass=task.box_mass,
+                popsize=config.size.popsize,
+                env=env,
+            )
+    finally:
+        env.close()
+    frame = _frame(
+        records,
+        work=work,
+        key=keys[0],
+        seconds=time.perf_counter() - started,
+        task=work.task,
+        friction=friction,
+        sigma0=sigma0,
+    )
+    return [frame]
+
+
+# --- the run -------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class BreakevenResult:
+    """What :func:`run_breakeven` did.
+
+    Attributes:
+        out_dir: The run folder.
+        config: The study's configuration.
+        evaluations: Every evaluation (:func:`load_breakeven`'s frame).
+        units: Units of work in the study.
+        units_run: Units done by this call (the others were on disk).
+        wall_time: s, summed over the sessions of the folder.
+    """
+
+    out_dir: Path
+    config: BreakevenConfig
+    evaluations: pd.DataFrame
+    units: int
+    units_run: int
+    wall_time: float
+
+
+def _without_timing(frame: pd.DataFrame) -> pd.DataFrame:
+    drop = [c for c in (*TIMING_COLUMNS, BEST_SO_FAR) if c in frame.columns]
+    return frame.drop(columns=drop).reset_index(drop=True)
+
+
+def _stored_keys(
+    store: ResultStore, planned: set[tuple[str, str, int]]
+) -> set[tuple[str, str, int]]:
+    keys = set()
+    for unit in store.completed_units():
+        key = (unit.variant, unit.optimizer, unit.seed)
+        if unit.suite != BREAKEVEN_NAME or unit.iteration != 0 or key not in planned:
+            raise ResumeError(
+                f"cannot resume: {store.parts_dir} holds a part this break-even study does not "
+                f"plan ({unit}); use another folder"
+            )
+        keys.add(key)
+    return keys
+
+
+def _write(
+    session: RunSession,
+    work: _Work,
+    frames: list[pd.DataFrame],
+    stored: set[tuple[str, str, int]],
+) -> None:
+    """Write the parts of a finished unit not on disk; check those that are."""
+    keys = work.keys()
+    if work.kind == "train":
+        # Recorded before its parts: a later session refuses the folder if the card changes.
+        session.record_file(_card_path(session.out, work.method, work.replicate))
+        weights = _card_path(session.out, work.method, work.replicate).with_suffix(".safetensors")
+        if weights.is_file():
+            session.record_file(weights)
+    log = session.store.read(verify=False) if any(k in stored for k in keys) else None
+    for key, frame in zip(keys, frames, strict=True):
+        if key not in stored or log is None:
+            session.write_batch(frame)
+            stored.add(key)
+            continue
+        mine = log[
+            (log["variant"] == key[0]) & (log["optimizer"] == key[1]) & (log["seed"] == key[2])
+        ]
+        fresh = _without_timing(validate_evaluations(frame, source=str(key)))
+        old = _without_timing(mine)[list(fresh.columns)]
+        if not old.equals(fresh):
+            raise ResumeError(
+                f"cannot resume: redoing {work.label()} gave other results than its part on "
+                "disk; the runs are not reproducible here, use a new folder"
+            )
+
+
+def run_breakeven(
+    config: BreakevenConfig | str,
+    out_dir: str | os.PathLike[str],
+    *,
+    resume: bool = True,
+    progress: Progress | None = None,
+) -> BreakevenResult:
+    """Run the break-even study into one run folder, resuming what is there.
+
+    The report is not written here: :func:`benchmarks.reports.breakeven.make_breakeven_report`
+    makes it from the stored files (``tooldesign rl breakeven`` calls both).
+
+    Args:
+        config: From :func:`breakeven_config`, or a size's name.
+        out_dir: The run folder; created if absent.
+        resume: Continue the study in a non-empty ``out_dir`` (made with the same settings
+            apart from ``workers``, ``executor`` and ``scheduler``).
+        progress: Called with a line of text after each unit of work.
+
+    Returns:
+        The evaluations and counts.
+
+    Raises:
+        TypeError / ValueError: a bad configuration or folder; a folder that holds another run
+            or whose parts do not match (:class:`~benchmarks.storage.ResumeError`).
+    """
+    from benchmarks.execution import check_main_guard, make_executor
+
+    if not isinstance(config, BreakevenConfig):
+        config = breakeven_config(config)
+    work = _plan(config)
+    planned = {key for w in work for key in w.keys()}
+    # A process pool of one is this process; Dask was asked for by name, so it is used.
+    parallel = config.workers > 1 or config.executor == "dask"
+    if parallel:
+        check_main_guard(config.executor, config.scheduler, function="run_breakeven")
+    with RunSession(
+        out_dir,
+        kind=BREAKEVEN_KIND,
+        config=config.to_json(),
+        resume=bool(resume),
+        runtime_fields=RUNTIME_FIELDS,
+        extra={
+            "size": config.size.name,
+            "units": len(work),
+            "planned_evaluations": config.planned_evaluations(),
+        },
+        first_fields=("size.name", "learned"),
+    ) as session:
+        stored = _stored_keys(session.store, planned)
+        session.start()
+        pending = [w for w in work if not all(k in stored for k in w.keys())]
+        say = progress or (lambda line: None)
+        say(estimate_text(config))
+        say(f"{len(work) - len(pending)} of {len(work)} units on disk, {len(pending)} to run")
+
+        def finished(item: _Work, frames: list[pd.DataFrame]) -> None:
+            _write(session, item, frames, stored)
+            best = min(float(f["free_energy"].min()) for f in frames)
+            seconds = sum(float(f["eval_time"].sum() + f["opt_time"].sum()) for f in frames)
+            say(
+                f"{item.label()}: {sum(len(f) for f in frames)} evaluations, best F {best:.0f} "
+                f"({seconds:.0f} s)"
+            )
+
+        if not parallel:
+            for item in pending:
+                finished(item, _run_work(item, config, session.out))
+        else:
+            with make_executor(config.executor, config.workers, config.scheduler) as executor:
+                _run_parallel(pending, stored, config, session.out, executor, finished)
+        evaluations = session.store.read(verify=False)
+        session.store.consolidate()
+        manifest = session.finish(evaluations)
+    return BreakevenResult(
+        out_dir=session.out,
+        config=config,
+        evaluations=load_breakeven(session.out),
+        units=len(work),
+        units_run=len(pending),
+        wall_time=float(manifest["wall_time"]),
+    )
+
+
+def _run_parallel(
+    pending: list[_Work],
+    stored: set[tuple[str, str, int]],
+    config: BreakevenConfig,
+    out: Path,
+    executor: Any,
+    finished: Callable[[_Work, list[pd.DataFrame]], None],
+) -> None:
+    """Run the units on the executor; a warm unit goes once its policy's training is stored."""
+    trained = {(w.method, w.replicate) for w in pending if w.kind == "train"}
+    waiting = [w for w in pending if w.kind == "warm" and (w.method, w.replicate) in trained]
+    ready = [w for w in pending if w not in waiting]
+    futures: dict[Future[Any], _Work] = {}
+
+    def submit(items: Iterable[_Work]) -> None:
+        for item in items:
+            futures[executor.submit(_run_work, item, config, out)] = item
+
+    submit(ready)
+    while futures:
+        done, _ = wait(list(futures), return_when=FIRST_COMPLETED)
+        for future in sorted(done, key=lambda f: pending.index(futures[f])):
+            item = futures.pop(future)
+            finished(item, future.result())
+            if item.kind == "train":
+                now = [
+                    w for w in waiting if (w.method, w.replicate) == (item.method, item.replicate)
+                ]
+                waiting = [w for w in waiting if w not in now]
+                submit(now)
+
+
+#: The columns of :func:`load_breakeven`'s frame, documented in docs/rl.md.
+BREAKEVEN_COLUMNS: tuple[str, ...] = (
+    "variant",
+    "method",
+    "replicate",
+    "task",
+    "task_set",
+    "evaluation",
+    "seed",
+    "goal_x",
+    "goal_y",
+    "goal_z",
+    "box_mass",
+    "box_friction",
+    "a1",
+    "a2",
+    "a3",
+    "c1",
+    "c2",
+    "c3",
+    "free_energy",
+    "goal_error",
+    "confidence",
+    "final_distance",
+    "status",
+    "normalized_reward",
+    "sigma0",
+    "best_so_far",
+    "eval_time",
+    "opt_time",
+)
+
+
+def load_breakeven(path: str | os.PathLike[str]) -> pd.DataFrame:
+    """Every evaluation of a break-even study, as one frame (the offline dataset).
+
+    Args:
+        path: The run folder (its checksums are verified) or its ``evaluations.parquet``
+            alone (with ``manifest.json`` beside it, for the task names).
+
+    Returns:
+        :data:`BREAKEVEN_COLUMNS`, one row per evaluation: ``variant`` is ``train``,
+        ``zero-shot``, ``cold`` or ``warm``; ``method`` the method (``random``, ``cmaes``,
+        ``contextual``, ``warm-ppo``, ...); ``replicate`` the training seed's index (0-based;
+        the cold runs of the same index share its seeds); ``task`` the task id (``""`` for
+        training episodes, at random tasks) and ``task_set`` ``held-out``/``fresh``;
+        ``evaluation`` the 1-based count within its run (its budget so far; a zero-shot row
+        is 1); ``seed`` the run's seed; ``sigma0`` the CMA-ES step size (cold 0.3, warm the
+        policy's; NaN otherwise); ``best_so_far`` the lowest F of the run up to the row (for
+        ``zero-shot`` rows, the row's F).
+
+    Raises:
+        FileNotFoundError: no such folder or file.
+        ValueError: not a break-even run folder, or its files do not match their checksums.
+    """
+    if not isinstance(path, (str, os.PathLike)):
+        raise TypeError(f"path must be a run folder or its evaluations.parquet, got {path!r}")
+    target = Path(path)
+    if target.is_file() and target.suffix == ".parquet":
+        folder = target.parent
+        log = validate_evaluations(pd.read_parquet(target), source=str(target))
+    elif target.is_dir():
+        folder = target
+        log = None
+    else:
+        raise FileNotFoundError(f"no break-even run folder or evaluations.parquet at {target}")
+    manifest = read_manifest(folder)
+    extra, config = manifest.get("extra"), manifest.get("config")
+    if not isinstance(extra, dict) or extra.get("kind") != BREAKEVEN_KIND:
+        raise ValueError(
+            f"{folder} is not a break-even run folder (manifest kind is not {BREAKEVEN_KIND})"
+        )
+    assert isinstance(config, dict)
+    if log is None:
+        log = ResultStore(folder).read()
+    log = log[log["suite"] == BREAKEVEN_NAME].copy()
+    ids = [t["id"] for t in config["tasks"]]
+    sets = [t["set"] for t in config["tasks"]]
+    index = log["task_index"].astype(int)
+    log["task"] = [ids[i] if i >= 0 else "" for i in index]
+    log["task_set"] = [sets[i] if i >= 0 else "" for i in index]
+    log["method"] = log["optimizer"]
+    log["replicate"] = log["replicate"].astype(int)
+    zero = log["variant"] == "zero-shot"
+    log["evaluation"] = np.where(zero, 1, log["candidate"] + 1).astype(int)
+    order = ["variant", "optimizer", "seed", "candidate"]
+    log = log.sort_values(order, kind="stable")
+    running = log.groupby(["variant", "optimizer", "seed"], sort=False)["free_energy"].cummin()
+    log["best_so_far"] = np.where(zero, log["free_energy"], running)
+    return log[list(BREAKEVEN_COLUMNS)].reset_index(drop=True)

@@ -1,0 +1,485 @@
+"""The break-even study (issue 36): its tasks, sizes, run folder, loader, report and score row.
+
+The regret, interval and amortization arithmetic is checked on a hand-made log; the ``smoke``
+size runs end to end (slow: about 70 evaluations and two SB3 trainings), is resumed, reported,
+and a user's callable is scored against it from the command line.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from benchmarks.cli import main
+from benchmarks.reports.breakeven import (
+    amortization_table,
+    comparison_table,
+    make_breakeven_report,
+    regret_curves,
+    regret_table,
+    score_row,
+)
+from benchmarks.rl.breakeven import (
+    BREAKEVEN_COLUMNS,
+    FRESH_TASK_SEED,
+    FRESH_TASKS,
+    breakeven_config,
+    breakeven_tasks,
+    estimate_text,
+    load_breakeven,
+    run_breakeven,
+)
+
+# --- tasks and sizes ---------------------------------------------------------------------
+
+
+def test_the_tasks_are_the_held_out_instances_then_the_committed_fresh_draw() -> None:
+    from benchmarks.protocol.instances import draw_instances, load_instances
+
+    tasks = breakeven_tasks()
+    assert len(tasks) == 20
+    held = [i for i in load_instances() if i.set == "held-out"]
+    assert [t.id for t in tasks[:8]] == [i.id for i in held]
+    assert [t.goal for t in tasks[:8]] == [i.goal for i in held]
+    assert [t.box_mass for t in tasks[:8]] == [i.box_mass for i in held]
+    assert [t.box_friction for t in tasks[:8]] == [i.box_friction for i in held]
+    assert {t.set for t in tasks[8:]} == {"fresh"}
+    # The committed fresh tasks are the draw they claim to be (same distribution, same code).
+    drawn = draw_instances(FRESH_TASK_SEED, 12)
+    assert FRESH_TASKS == tuple((i.goal, i.box_mass, i.box_friction) for i in drawn)
+    assert len({t.goal for t in tasks}) == 20
+
+
+def test_the_full_size_is_the_issues_and_its_estimate_is_printed() -> None:
+    config = breakeven_config("full")
+    assert config.size.tasks == 20 and config.size.replicates == 5
+    assert config.size.budgets == (1, 4, 8, 16, 32, 64)
+    counts = config.planned_evaluations()
+    # 5 x 3 trainings of 1,024; 3 x 5 x 20 zero-shot; (2 cold + 3 warm) x 5 x 20 x 64.
+    assert counts == {
+        "train": 15_360,
+        "zero-shot": 300,
+        "cold": 12_800,
+        "warm": 19_200,
+        "total": 47_660,
+    }
+    text = estimate_text(config)
+    assert "47,660 evaluations" in text and "0.99 core-hours" in text
+
+
+def test_the_pages_size_and_estimate_are_the_commands() -> None:
+    page = (Path(__file__).resolve().parents[1] / "docs" / "rl.md").read_text()
+    assert estimate_text(breakeven_config("full")) in page
+    smoke = breakeven_config("smoke").planned_evaluations()["total"]
+    assert f"CI: about {smoke} evaluations" in page
+
+
+def test_bad_study_settings_are_refused_by_name() -> None:
+    with pytest.raises(ValueError, match="size must be one of smoke, full"):
+        breakeven_config("huge")
+    with pytest.raises(ValueError, match="learned must be"):
+        breakeven_config("smoke", learned=["dqn"])
+    with pytest.raises(ValueError, match="executor must be 'process' or 'dask'"):
+        breakeven_config("smoke", executor="threads")
+    with pytest.raises(ValueError, match="needs executor='dask'"):
+        breakeven_config("smoke", scheduler="tcp://x:1")
+    with pytest.raises(ValueError, match="workers must be an int >= 1"):
+        breakeven_config("smoke", workers=0)
+
+
+def test_the_command_prints_the_plan_and_refuses_bad_input(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    assert main(["rl", "breakeven", "--size", "full", "--plan"]) == 0
+    assert "47,660 evaluations" in capsys.readouterr().out
+    for argv, message in (
+        (["--size", "nope", "--plan"], "size must be one of"),
+        (["--size", "smoke"], "--out DIR is needed"),
+        (["--learned", "a2c", "--plan"], "learned must be"),
+    ):
+        with pytest.raises(SystemExit) as excinfo:
+            main(["rl", "breakeven", *argv])
+        assert excinfo.value.code == 2
+        err = capsys.readouterr().err
+        assert message in err and "Traceback" not in err
+
+
+def test_the_report_and_its_measures_refuse_bad_input(tmp_path: Path) -> None:
+    from benchmarks.reports.breakeven import expected_best_of_random
+    from benchmarks.rl.scoring import score_policy
+
+    with pytest.raises(ValueError, match="at least one F"):
+        expected_best_of_random([], np.array([1]))
+    with pytest.raises(ValueError, match="budgets must be ints from 1 to the pool size 2"):
+        expected_best_of_random([1.0, 2.0], np.array([3]))
+    with pytest.raises(FileNotFoundError):
+        make_breakeven_report(tmp_path / "missing")
+    with pytest.raises(ValueError, match="seconds_per_evaluation must be"):
+        estimate_text(breakeven_config("smoke"), seconds_per_evaluation=0)
+    with pytest.raises(ValueError, match="executor must be one of"):
+        score_policy("x:y", tmp_path, executor="threads")
+    with pytest.raises(TypeError, match="refine must be True or False"):
+        score_policy("x:y", tmp_path, refine="yes")  # type: ignore[arg-type]
+    with pytest.raises(FileNotFoundError, match="no break-even study"):
+        score_policy("x:y", tmp_path)
+    with pytest.raises(ValueError, match="size must be one of"):
+        run_breakeven("huge", tmp_path / "run")  # type: ignore[arg-type]
+    assert not (tmp_path / "run").exists()
+
+
+def test_the_loader_refuses_what_is_not_a_study(tmp_path: Path) -> None:
+    with pytest.raises(TypeError, match="path must be"):
+        load_breakeven(3)  # type: ignore[arg-type]
+    with pytest.raises(FileNotFoundError, match="no break-even run folder"):
+        load_breakeven(tmp_path / "missing")
+
+
+# --- the report's arithmetic on a hand-made log ------------------------------------------
+
+
+def _log() -> pd.DataFrame:
+    """One task t, one replicate: random [10, 20], CMA-ES [15, 9], contextual 8, warm [8, 6]."""
+    rows = []
+
+    def add(variant: str, method: str, values: list[float], task: str = "t") -> None:
+        for k, f in enumerate(values):
+            rows.append(
+                {
+                    "variant": variant,
+                    "method": method,
+                    "replicate": 0,
+                    "task": task,
+                    "evaluation": 1 if variant == "zero-shot" else k + 1,
+                    "free_energy": f,
+                }
+            )
+
+    add("cold", "random", [10.0, 20.0])
+    add("cold", "cmaes", [15.0, 9.0])
+    add("zero-shot", "contextual", [8.0])
+    add("warm", "warm-contextual", [8.0, 6.0])
+    add("train", "contextual", [1.0] * 100, task="")
+    return pd.DataFrame(rows)
+
+
+def test_the_restated_formulas_equal_the_protocols() -> None:
+    from benchmarks.protocol.measures import expected_best_of_random as protocol_best
+    from benchmarks.protocol.statistics import paired_comparisons
+    from benchmarks.reports.breakeven import expected_best_of_random, paired_table
+
+    rng = np.random.default_rng(0)
+    pool = rng.normal(100, 10, 30)
+    budgets = np.array([1, 2, 7, 30])
+    assert expected_best_of_random(pool, budgets).tolist() == protocol_best(pool, budgets).tolist()
+    scores = pd.DataFrame(
+        {
+            "instance": np.repeat([f"t{i}" for i in range(12)], 6),
+            "optimizer": np.tile(np.repeat(["a", "b", "c"], 2), 12),
+            "seed": np.tile([0, 1], 36),
+            "score": rng.normal(0, 1, 72),
+        }
+    )
+    means = scores.groupby(["instance", "optimizer"])["score"].mean().unstack("optimizer")
+    mine = paired_table(means, alpha=0.05)
+    theirs = paired_comparisons(scores, alpha=0.05)
+    pd.testing.assert_frame_equal(mine, theirs)
+
+
+def test_normalized_regret_against_hand_computed_values() -> None:
+    curves = regret_curves(_log())
+    # F_ref = 6 (the warm run's best); F_random(1) = 15, F_random(2) = 10 (pool 10, 20).
+    got = curves.set_index(["method", "evaluation"])["regret"]
+    expected = {
+        ("random", 1): 4 / 9,
+        ("random", 2): 1.0,
+        ("cmaes", 1): 1.0,
+        ("cmaes", 2): 0.75,
+        ("contextual", 1): 2 / 9,
+        ("contextual", 2): 0.5,  # one evaluation: the same F at budget 2
+        ("warm-contextual", 1): 2 / 9,
+        ("warm-contextual", 2): 0.0,
+    }
+    for key, value in expected.items():
+        assert got[key] == pytest.approx(value), key
+
+
+def test_the_amortization_counts_goals_until_the_training_pays() -> None:
+    log = _log()
+    curves = regret_curves(log)
+    table = amortization_table(curves, log, [1, 2]).set_index("method")
+    # Cold CMA-ES reaches 0.75 with 2 per goal; the contextual design does better with 1:
+    # 100 training episodes are paid back after 100 goals (1 episode saved per goal).
+    assert table.loc["contextual", "target_regret"] == pytest.approx(0.75)
+    assert table.loc["contextual", "budget_needed"] == 1
+    assert table.loc["contextual", "breakeven_goals"] == 100
+    assert table.loc["warm-contextual", "breakeven_goals"] == 100
+
+
+def test_intervals_and_tests_over_tasks() -> None:
+    # Two tasks with the same values: the t interval over tasks has zero width.
+    log = pd.concat([_log(), _log().assign(task=lambda f: f["task"].replace("t", "u"))])
+    curves = regret_curves(log)
+    table = regret_table(curves, [1, 2]).set_index(["method", "budget"])
+    assert table.loc[("cmaes", 2), "mean"] == pytest.approx(0.75)
+    assert table.loc[("cmaes", 2), "tasks"] == 2
+    assert table.loc[("cmaes", 2), "ci_low"] == pytest.approx(0.75)
+    tests = comparison_table(curves, [2])
+    assert set(tests["budget"]) == {2} and len(tests) == 6  # 4 methods: 6 pairs
+    row = tests[(tests["a"] == "cmaes") & (tests["b"] == "warm-contextual")].iloc[0]
+    assert row["mean_diff"] == pytest.approx(0.75) and not row["significant"]
+    line = score_row("mine", regret_table(curves[curves["method"] == "cmaes"], [1, 2]))
+    assert line == "| mine | 1.000 | 0.750 |"
+
+
+def test_a_log_without_random_designs_has_no_scale() -> None:
+    log = _log()
+    with pytest.raises(ValueError, match="no random designs"):
+        regret_curves(log[log["method"] != "random"])
+
+
+# --- the smoke size end to end -----------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def smoke_study(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    pytest.importorskip("stable_baselines3")
+    out = tmp_path_factory.mktemp("breakeven") / "study"
+    assert main(["rl", "breakeven", "--size", "smoke", "--out", str(out), "--no-progress"]) == 0
+    return out
+
+
+@pytest.mark.slow
+def test_the_smoke_study_runs_resumes_and_reports(smoke_study: Path) -> None:
+    log = load_breakeven(smoke_study)
+    assert list(log.columns) == list(BREAKEVEN_COLUMNS)
+    assert len(log) == breakeven_config("smoke").planned_evaluations()["total"]
+    assert set(log["method"]) == {
+        "random",
+        "cmaes",
+        "contextual",
+        "ppo",
+        "sac",
+        "warm-contextual",
+        "warm-ppo",
+        "warm-sac",
+    }
+    tested = log[log["variant"] != "train"]
+    assert set(tested["task"]) == {"i03", "i04"}
+    # The warm run starts at the zero-shot design (simulated on ToolDesign-v0 through the
+    # executor there, on ToolDesignRL-v0 here): the same F, bit for bit.
+    for method in ("contextual", "ppo", "sac"):
+        for task in ("i03", "i04"):
+            zero = tested[(tested["method"] == method) & (tested["task"] == task)]
+            warm = tested[(tested["method"] == f"warm-{method}") & (tested["task"] == task)]
+            first = warm[warm["evaluation"] == 1]
+            assert zero["free_energy"].tolist() == first["free_energy"].tolist()
+            assert zero[["c1", "c2", "c3"]].to_numpy().tolist() == (
+                first[["c1", "c2", "c3"]].to_numpy().tolist()
+            )
+    # Warm and cold CMA-ES of a task and replicate share their seed (paired).
+    cold = tested[tested["method"] == "cmaes"].groupby("task")["seed"].first()
+    warm = tested[tested["method"] == "warm-ppo"].groupby("task")["seed"].first()
+    assert cold.to_dict() == warm.to_dict()
+    assert (tested[tested["method"] == "cmaes"]["sigma0"] == 0.3).all()
+    assert np.isfinite(tested[tested["method"] == "warm-sac"]["sigma0"]).all()
+    # Each warm start's step size is the rule's, from the saved card's own spread at the task.
+    from benchmarks.rl.policies import load_policy
+    from benchmarks.rl.warmstart import proposal_spread, warm_sigma0
+
+    for method in ("contextual", "ppo", "sac"):
+        policy, _ = load_policy(smoke_study / "policies" / f"{method}-0.json")
+        for task in breakeven_tasks()[:2]:
+            run = tested[(tested["method"] == f"warm-{method}") & (tested["task"] == task.id)]
+            expected = warm_sigma0(proposal_spread(policy, task.observation()))
+            assert run["sigma0"].iloc[0] == pytest.approx(expected, rel=1e-12), (method, task)
+    # The Parquet file alone loads the same frame.
+    alone = load_breakeven(smoke_study / "evaluations.parquet")
+    pd.testing.assert_frame_equal(
+        alone.drop(columns=["eval_time", "opt_time"]), log.drop(columns=["eval_time", "opt_time"])
+    )
+
+    before = (smoke_study / "evaluations.parquet").read_bytes()
+    # The same command again: nothing to run, the same data.
+    assert (
+        main(["rl", "breakeven", "--size", "smoke", "--out", str(smoke_study), "--no-progress"])
+        == 0
+    )
+    assert (smoke_study / "evaluations.parquet").read_bytes() == before
+    report = smoke_study / "report"
+    for name in (
+        "breakeven.md",
+        "regret.csv",
+        "comparisons.csv",
+        "amortization.csv",
+        "regret.png",
+        "amortization.png",
+        "summary.json",
+    ):
+        assert (report / name).is_file(), name
+    # `tooldesign report` rebuilds it from the stored files alone, byte for byte.
+    before_report = {p.name: p.read_bytes() for p in report.iterdir()}
+    assert main(["report", str(smoke_study)]) == 0
+    assert {p.name: p.read_bytes() for p in report.iterdir()} == before_report
+    regret = pd.read_csv(report / "regret.csv")
+    assert set(regret["budget"]) == {1, 2, 4}
+    assert regret[regret["method"] == "random"]["mean"].notna().any()
+
+
+class _Stop(Exception):
+    """Raised by a progress callback: the study stops between two units, as after a kill."""
+
+
+@pytest.mark.slow
+def test_an_interrupted_study_resumes_to_the_same_data(smoke_study: Path, tmp_path: Path) -> None:
+    out = tmp_path / "study"
+    lines: list[str] = []
+
+    def stop_after_five_units(line: str) -> None:
+        lines.append(line)
+        if len(lines) == 2 + 5:  # the estimate, the count on disk, then five units
+            raise _Stop
+
+    with pytest.raises(_Stop):
+        run_breakeven(breakeven_config("smoke"), out, progress=stop_after_five_units)
+    # The three trainings (cards, zero-shot designs) and two cold runs are on disk.
+    assert sorted(p.name for p in (out / "policies").glob("*.json")) == [
+        "contextual-0.json",
+        "ppo-0.json",
+        "sac-0.json",
+    ]
+    result = run_breakeven(breakeven_config("smoke"), out)
+    assert result.units == 13 and result.units_run == 8
+    timing = ["eval_time", "opt_time"]
+    pd.testing.assert_frame_equal(
+        load_breakeven(out).drop(columns=timing), load_breakeven(smoke_study).drop(columns=timing)
+    )
+
+
+@pytest.mark.slow
+def test_a_study_with_other_settings_is_not_resumed(smoke_study: Path, tmp_path: Path) -> None:
+    import shutil
+
+    from benchmarks.storage import ResumeError
+
+    copy = tmp_path / "copy"
+    shutil.copytree(smoke_study, copy)
+    with pytest.raises(ResumeError, match="learned"):
+        run_breakeven(breakeven_config("smoke", learned=["contextual"]), copy)
+
+
+@pytest.mark.slow
+def test_a_users_callable_gets_its_row(
+    smoke_study: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    argv = [
+        "rl",
+        "score",
+        "--policy",
+        f"{__name__}:straight_tool",
+        "--study",
+        str(smoke_study),
+        "--name",
+        "straight",
+        "--refine",
+        "--save",
+        str(tmp_path / "mine.parquet"),
+    ]
+    assert main(argv) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0] == "| method | 1 | 2 | 4 |"
+    assert out[2].startswith("| straight | ") and out[3].startswith("| warm-straight | ")
+    assert out[4] == f"evaluations: {tmp_path / 'mine.parquet'}" and len(out) == 5
+    saved = pd.read_parquet(tmp_path / "mine.parquet")
+    assert list(saved.columns) == list(BREAKEVEN_COLUMNS)
+    # The straight tool (a = 0) at both tasks, then 4 warm-started evaluations at each.
+    zero = saved[saved["variant"] == "zero-shot"]
+    assert zero["task"].tolist() == ["i03", "i04"]
+    assert (zero[["c1", "c2", "c3"]].to_numpy() == 0).all()
+    assert (saved["variant"] == "warm").sum() == 8
+
+
+def straight_tool(observation: np.ndarray) -> np.ndarray:
+    """A user's policy: the straight tool (a = 0) at every task."""
+    assert observation.shape == (4,) and observation.dtype == np.float32
+    return np.zeros(3)
+
+
+def test_score_refuses_bad_input(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    for argv, message in (
+        (["--policy", "x:y", "--study", str(tmp_path / "none")], "no break-even study"),
+        (["--policy", "x:y", "--study", str(tmp_path)], "no break-even study"),
+        (["--policy", "x:y", "--study", str(tmp_path), "--save", "a.csv"], "--save must be"),
+    ):
+        with pytest.raises(SystemExit) as excinfo:
+            main(["rl", "score", *argv])
+        assert excinfo.value.code == 2
+        err = capsys.readouterr().err
+        assert message in err and "Traceback" not in err
+
+
+@pytest.mark.slow
+def test_a_stable_baselines3_zip_is_scored_through_the_process_pool(
+    smoke_study: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    sb3 = pytest.importorskip("stable_baselines3")
+    from tooldesign_env.rl import ToolDesignRLEnv
+
+    env = ToolDesignRLEnv()
+    model = sb3.PPO("MlpPolicy", env, n_steps=8, batch_size=8, device="cpu", seed=0)
+    model.save(tmp_path / "mine.zip")
+    env.close()
+    argv = ["rl", "score", "--policy", str(tmp_path / "mine.zip"), "--study", str(smoke_study)]
+    with pytest.raises(SystemExit) as excinfo:
+        main(argv)
+    assert excinfo.value.code == 2
+    err = capsys.readouterr().err
+    assert "needs its algorithm" in err and "Traceback" not in err
+    with pytest.raises(SystemExit) as excinfo:
+        main([*argv, "--algorithm", "ppo"])
+    assert "unpickling" in capsys.readouterr().err
+    extra = ["--algorithm", "ppo", "--allow-pickle", "--executor", "process", "--workers", "2"]
+    assert main([*argv, *extra]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[2].startswith("| mine | ") and len(out) == 3
+
+
+@pytest.mark.slow
+def test_units_on_dask_or_a_process_pool_give_the_serial_data(tmp_path: Path) -> None:
+    pytest.importorskip("distributed")
+    timing = ["eval_time", "opt_time"]
+    frames = []
+    for executor, workers in (("process", 1), ("dask", 2), ("process", 2)):
+        config = breakeven_config(
+            "smoke", learned=["contextual"], executor=executor, workers=workers
+        )
+        result = run_breakeven(config, tmp_path / f"{executor}-{workers}")
+        frames.append(result.evaluations.drop(columns=timing))
+    pd.testing.assert_frame_equal(frames[0], frames[1])
+    pd.testing.assert_frame_equal(frames[0], frames[2])
+
+
+@pytest.mark.slow
+def test_a_studys_ppo_card_warm_starts_a_design_run(smoke_study: Path, tmp_path: Path) -> None:
+    import json
+
+    from benchmarks.rl.policies import load_policy
+    from benchmarks.rl.warmstart import proposal_spread, warm_sigma0
+
+    card = smoke_study / "policies" / "ppo-0.json"
+    task = breakeven_tasks()[0]
+    goal = [str(v) for v in task.goal]
+    argv = ["design", "--policy", str(card), "--refine", "2", "--goal", *goal]
+    argv += ["--box-mass", str(task.box_mass), "--out", str(tmp_path / "run")]
+    assert main([*argv, "--no-progress", "--no-video"]) == 0
+    settings = json.loads((tmp_path / "run" / "design.json").read_text())["config"][
+        "optimizer_settings"
+    ]
+    policy, _ = load_policy(card)
+    # PPO's spread is its Gaussian's exp(log_std), the step size half of it (in [0.02, 0.3]).
+    spread = float(np.exp(policy.log_std.detach().numpy()).mean())
+    assert proposal_spread(policy, task.observation()) == pytest.approx(spread)
+    assert settings["sigma0"] == pytest.approx(warm_sigma0(spread))
+    assert len(pd.read_csv(tmp_path / "run" / "evaluations.csv")) == 3
