@@ -12,6 +12,7 @@
 from __future__ import annotations
 
 from benchmarks.execution.evaluator import (
+    ENV_CACHE_SIZE,
     EvaluationRequest,
     FinalTest,
     RobustnessRequest,
@@ -56,6 +57,7 @@ __all__ = [
     "WorkerDied",
     "check_main_guard",
     "check_max_retries",
+    "ENV_CACHE_SIZE",
     "clear_env_cache",
     "evaluate_batch",
     "evaluate_design",

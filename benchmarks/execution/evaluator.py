@@ -23,6 +23,7 @@ import math
 import threading
 import time
 import traceback
+from collections import OrderedDict
 from collections.abc import Mapping, Sequence
 from concurrent.futures import Executor
 from concurrent.futures.process import BrokenProcessPool
@@ -232,11 +233,19 @@ def _as_coeffs(coeffs: Any) -> tuple[float, ...]:
 # env (one PyBullet client) for the whole run; threads never share a client.
 _LOCAL = threading.local()
 
+#: Envs a thread keeps at most, the least recently used closed first. Each is a PyBullet client
+#: with its meshes (about 150 MB), and a worker of the benchmark protocol meets a new set of env
+#: settings in every cell (each instance has its own box friction, each nudged scene its own box
+#: start): kept without a bound, a worker of the full references grew by 2.4 GB in 11 of its 72
+#: cells. A suite's runs use one or two settings, so 4 never closes an env a run still needs.
+ENV_CACHE_SIZE = 4
+
 
 def worker_env(task: TaskSettings, *, series: bool = False) -> Any:
     """This thread's ``ToolDesign-v0`` env for ``task``'s settings, reset to its goal and mass.
 
-    Made on first use and kept (one per set of env settings per thread), so the plan's inverse
+    Made on first use and kept (one per set of env settings per thread, at most
+    :data:`ENV_CACHE_SIZE`, the least recently used closed first), so the plan's inverse
     kinematics and the PyBullet client are made once per worker, not once per design.
 
     Args:
@@ -246,9 +255,9 @@ def worker_env(task: TaskSettings, *, series: bool = False) -> Any:
     Returns:
         The env (a Gymnasium wrapper of :class:`~tooldesign_env.ToolDesignEnv`).
     """
-    cache: dict[tuple[Any, ...], Any] | None = getattr(_LOCAL, "envs", None)
+    cache: OrderedDict[tuple[Any, ...], Any] | None = getattr(_LOCAL, "envs", None)
     if cache is None:
-        cache = _LOCAL.envs = {}
+        cache = _LOCAL.envs = OrderedDict()
     key = task.env_key()
     env = cache.get(key)
     if env is None:
@@ -256,6 +265,8 @@ def worker_env(task: TaskSettings, *, series: bool = False) -> Any:
 
         import tooldesign_env  # noqa: F401  (registers ToolDesign-v0)
 
+        while len(cache) >= ENV_CACHE_SIZE:
+            cache.popitem(last=False)[1].close()
         env = gym.make(
             "ToolDesign-v0",
             goal_precision=task.goal_precision,
@@ -264,6 +275,8 @@ def worker_env(task: TaskSettings, *, series: bool = False) -> Any:
             **dict(task.env_kwargs),
         )
         cache[key] = env
+    else:
+        cache.move_to_end(key)
     env.reset(options={"goal": task.goal, "box_mass": task.box_mass})
     env.unwrapped.info_series = bool(series)  # type: ignore[union-attr]
     return env
@@ -274,7 +287,7 @@ def clear_env_cache() -> None:
     cache = getattr(_LOCAL, "envs", None) or {}
     for env in cache.values():
         env.close()
-    _LOCAL.envs = {}
+    _LOCAL.envs = OrderedDict()
 
 
 def _failed_row(message: str, elapsed: float) -> dict[str, Any]:
