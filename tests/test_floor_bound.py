@@ -208,8 +208,9 @@ def test_the_report_prints_both_bounds_and_says_when_the_baseline_is_a_proxy() -
         floor_bound.report({"defaults": rows, "baseline": base}, "baseline", "defaults")
     )
     assert f"{(600 - 100) / 2000:.3f}" in text and "proxy" not in text
-    alone = floor_bound.report({"lower-floor": rows}, None, "lower-floor")
+    alone = floor_bound.report({"lower-floor": rows}, None, "lower-floor", (0.07, 0.05))
     assert any("(a) not counted" in line for line in alone)
+    assert any("(a) in time not estimated" in line for line in alone)
 
 
 def test_the_variants_follow_the_settings_asked() -> None:

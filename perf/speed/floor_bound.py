@@ -11,7 +11,9 @@ as on an idle one:
     accepted, less all of its collision detection) / 062b3a0's whole evaluation.** Whatever else
     changes, an evaluation steps the physics; the settings below are each the cheapest that
     passed tests 1 and 2 (together they were never judged, which can only lower the bound),
-    and collision detection is counted as free, as if cheaper shapes took it all away.
+    and collision detection is counted as free, as if cheaper shapes took it all away. Printed
+    also with the requests of (b) added, which an evaluation makes whatever the physics
+    settings, and, given the baseline's idle-core times (``--seconds``), estimated in time.
 (b) **eval / floor >= (floor + the requests the controller and the estimator cannot do
     without) / floor.** The floor does not ask PyBullet for the arm's state, its inverse
     dynamics, the tool-box contact manifold or the Jacobians and mass matrices of the contact
@@ -33,10 +35,13 @@ own, and a phase's count over N is an evaluation's (or a floor's), without the i
 warm-up. It parses the files itself and prints, per evaluation, (i) the whole evaluation, (ii)
 PyBullet's stepping with its constraint solver and collision detection, (iii) the C control
 loop's work beside stepping: the controller's reads, the contact log and the rest, (iv) what
-lies outside the C loop, and the floor; then the two bounds. About 8 minutes of one core with
-``--designs 4`` (the start-up and the warm-up under valgrind take about a minute a variant)::
+lies outside the C loop, and the floor; then the two bounds. With ``--designs 4`` it took 14
+minutes on a loaded 2-core machine (the start-up and the warm-up under valgrind are about a
+minute of CPU a variant); ``--read`` prints again from the files ``--keep`` kept::
 
     python -m perf.speed.floor_bound /tmp/062b3a0 --designs 4 --keep /tmp/cg
+    python -m perf.speed.floor_bound /tmp/062b3a0 --designs 4 --read /tmp/cg \
+        --seconds 0.0723 0.0554   # 062b3a0's evaluation and floor, s, evaluation_at_floor.py
     python -m perf.speed.floor_bound --designs 2 --settings defaults   # no baseline: a proxy
 
 where /tmp/062b3a0 is a worktree of 062b3a0 with its C loop built (``evaluation_at_floor.py``
@@ -432,7 +437,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument(
         "--designs",
         type=_args.count(1, 12),
-        default=3,
+        default=4,
         help="evaluations counted per variant: the straight tool, the hook, then random "
         "designs; all must be valid (default: %(default)s)",
     )
@@ -617,6 +622,8 @@ def report(
                 f"{seconds_bound(cheap, table['defaults'], share, requests=True):.3f}"
             )
         lines.append(line + "   (target <= 0.5)")
+    elif seconds is not None:
+        lines.append("(a) in time not estimated: it needs --settings defaults (its floor)")
     for label in labels:
         if "floor" not in table[label]:
             continue
