@@ -20,8 +20,6 @@ from gymnasium.vector import VectorEnv
 
 from tooldesign_env.bullet import not_copyable
 from tooldesign_env.env import (
-    GOAL_HIGH,
-    GOAL_LOW,
     WORKSPACE_HIGH,
     WORKSPACE_LOW,
     ToolDesignEnv,
@@ -29,7 +27,7 @@ from tooldesign_env.env import (
 )
 from tooldesign_env.geometry.validation import validate_coefficients
 from tooldesign_env.schema import METRICS
-from tooldesign_env.specs import BOX_MASS_MAX, MASS_RANGE_MIN, TaskSpec
+from tooldesign_env.specs import BOX_MASS_MAX, MASS_RANGE_MIN
 
 __all__ = [
     "MIN_GOAL_DISTANCE",
@@ -70,6 +68,8 @@ _SCALAR_INFO = (
     "estimator",
     "goal_precision",
     "valid",
+    "success",
+    "task",
     "invalid_reason",
     "coefficients",
     "goal",
@@ -191,7 +191,7 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
     def __init__(
         self,
         *,
-        goal: Sequence[float] = TaskSpec().goal,
+        goal: Sequence[float] | None = None,
         randomize_goal: bool = False,
         goal_range: tuple[Sequence[float], Sequence[float]] | None = None,
         box_mass: float | None = None,
@@ -245,7 +245,11 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
         self.full_info = bool(full_info)
         self.randomize_goal = bool(randomize_goal)
         if goal_range is None:
-            self.goal_range = (np.asarray(GOAL_LOW, float), np.asarray(GOAL_HIGH, float))
+            definition = self.base.task_definition
+            self.goal_range = (
+                np.asarray(definition.goal_low, float),
+                np.asarray(definition.goal_high, float),
+            )
         else:
             self.goal_range = self._check_goal_range(goal_range)
         self.mass_range = (

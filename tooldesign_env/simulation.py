@@ -43,6 +43,7 @@ from tooldesign_env.robot_model import (
 )
 from tooldesign_env.rollout import Recording, Rollout, Trajectory
 from tooldesign_env.specs import ControllerSpec, PlanSpec, SceneSpec
+from tooldesign_env.tasks.base import OBJECT_SHAPES, Obstacle
 
 __all__ = [
     "PHASES",
@@ -63,6 +64,12 @@ RECONNECT_EVERY = 100
 #: Why a tool that overlaps the box at the start is not used (``BuildResult.reason``).
 OVERLAP_REASON = "overlaps the box at the start of the sweep"
 
+#: Why a tool that overlaps a fixed obstacle at the start is not used.
+OBSTACLE_REASON = "overlaps a fixed obstacle at the start of the sweep"
+
+#: Colour (r, g, b, a) of the fixed obstacles when rendered.
+OBSTACLE_RGBA = (0.35, 0.35, 0.4, 1.0)
+
 
 @dataclass(frozen=True)
 class BuildResult:
@@ -71,19 +78,24 @@ class BuildResult:
     Attributes:
         overlaps_box: the tool, lowered to the start of the sweep, overlaps the box. Such a
             tool would be pressed down onto the box while lowering: an invalid design.
+        overlaps_obstacle: the tool, lowered to the start of the sweep, overlaps one of the
+            scene's fixed obstacles (a task's posts and walls): invalid as well.
     """
 
     overlaps_box: bool
+    overlaps_obstacle: bool = False
 
     @property
     def usable(self) -> bool:
-        """Whether the tool may be used (it does not overlap the box)."""
-        return not self.overlaps_box
+        """Whether the tool may be used (it overlaps neither the box nor an obstacle)."""
+        return not (self.overlaps_box or self.overlaps_obstacle)
 
     @property
     def reason(self) -> str:
         """Why the tool may not be used, or "" when it may."""
-        return OVERLAP_REASON if self.overlaps_box else ""
+        if self.overlaps_box:
+            return OVERLAP_REASON
+        return OBSTACLE_REASON if self.overlaps_obstacle else ""
 
     def __bool__(self) -> bool:
         # build() answered True for a failure before it returned this: a truth test is
@@ -120,6 +132,10 @@ class ToolSimulator:
             nothing is rendered, else the Python loop; True requires it (an error says why it
             cannot run); False always runs the Python loop. Both give the same results bit for
             bit; the C loop is faster. :attr:`native_status` says which one ran.
+        obstacles: fixed bodies on the floor (a task's posts and walls,
+            :class:`~tooldesign_env.tasks.base.Obstacle`); none by default.
+        object_shape: the shape of the moved object, ``"box"`` (default) or ``"cylinder"``
+            (upright, diameter ``scene.box_size[0]``, height ``scene.box_size[2]``).
     """
 
     def __reduce_ex__(self, protocol: Any) -> Any:
@@ -133,7 +149,16 @@ class ToolSimulator:
         controller: ControllerSpec | None = None,
         render_mode: str | None = None,
         native_loop: bool | None = None,
+        obstacles: tuple[Obstacle, ...] = (),
+        object_shape: str = "box",
     ) -> None:
+        obstacles = tuple(obstacles)
+        if not all(isinstance(o, Obstacle) for o in obstacles):
+            raise TypeError(f"obstacles must be Obstacle specs, got {obstacles!r}")
+        if object_shape not in OBJECT_SHAPES:
+            raise ValueError(f"object_shape must be one of {OBJECT_SHAPES}, got {object_shape!r}")
+        self.obstacles = obstacles
+        self.object_shape = object_shape
         if not (native_loop is None or native_loop is True or native_loop is False):
             raise TypeError(f"native_loop must be None, True or False, got {native_loop!r}")
         if native_loop and render_mode is not None:
@@ -167,6 +192,7 @@ class ToolSimulator:
         # guard (SceneSpec.arm_floor_contacts == "auto") asks for it.
         self._last_build: tuple[ToolGeometry, float | None, Any] | None = None
         self._guarded = False
+        self._overlaps_obstacle = False
         self._guard = FloorGuard(self.scene)
         self._loops = ControlLoops(native_loop)
 
@@ -219,7 +245,7 @@ class ToolSimulator:
         contacts = self.scene.arm_floor_contacts
         self._last_build = (geometry, box_mass, box_offset)
         overlaps = self._build(geometry, box_mass, (dx, dy, dyaw), floor_contacts=contacts is True)
-        return BuildResult(overlaps_box=overlaps)
+        return BuildResult(overlaps_box=overlaps, overlaps_obstacle=self._overlaps_obstacle)
 
     def _build(
         self,
@@ -240,17 +266,12 @@ class ToolSimulator:
         world.reset()
         world.add_floor(friction=scene.floor_friction, arm_contacts=floor_contacts)
         self._box_mass = scene.box_mass if box_mass is None else float(box_mass)
-        self._box = world.add_box(
-            size=scene.box_size,
-            mass=self._box_mass,
-            friction=scene.box_friction,
-            position=(
-                scene.box_position[0] + dx,
-                scene.box_position[1] + dy,
-                scene.box_size[2] / 2.0,
-            ),
-            yaw=scene.box_yaw + dyaw,
+        self._box = self.add_object(
+            self._box_mass,
+            (scene.box_position[0] + dx, scene.box_position[1] + dy),
+            scene.box_yaw + dyaw,
         )
+        blocks = self.add_obstacles()
         world.step(int(round(scene.box_settle_time / scene.time_step)))
         link, diag = tool_link_with_principal_axes(geometry)
         merge = scene.merge_fixed_links
@@ -274,8 +295,48 @@ class ToolSimulator:
         k = min(max(int(round(lowered / self.control_dt)) - 1, 0), len(reference.times) - 1)
         world.set_joint_positions(robot, reference.q[k])
         overlaps = world.overlaps(self._box, robot.body, robot.tool_link)
+        self._overlaps_obstacle = any(
+            world.overlaps(block, robot.body, robot.tool_link) for block in blocks
+        )
         world.set_joint_positions(robot, reference.q0)
         return overlaps
+
+    def add_object(self, mass: float, position: tuple[float, float], yaw: float) -> int:
+        """Put the moved object (box or cylinder) at rest on the floor; its body id.
+
+        Args:
+            mass: kg.
+            position: centre (x, y) on the floor, m.
+            yaw: rad.
+        """
+        scene = self.scene
+        where = (position[0], position[1], scene.box_size[2] / 2.0)
+        if self.object_shape == "cylinder":
+            return self.world.add_cylinder(
+                radius=scene.box_size[0] / 2.0,
+                height=scene.box_size[2],
+                mass=mass,
+                friction=scene.box_friction,
+                position=where,
+                yaw=yaw,
+            )
+        return self.world.add_box(
+            size=scene.box_size, mass=mass, friction=scene.box_friction, position=where, yaw=yaw
+        )
+
+    def add_obstacles(self) -> list[int]:
+        """Put the fixed obstacles into the world; their body ids (none: an empty list)."""
+        return [
+            self.world.add_box(
+                size=o.size,
+                mass=0.0,
+                friction=o.friction,
+                position=(o.position[0], o.position[1], o.size[2] / 2.0),
+                yaw=o.yaw,
+                rgba=OBSTACLE_RGBA,
+            )
+            for o in self.obstacles
+        ]
 
     # -------------------------------------------------------------- rollout
     def rollout(
