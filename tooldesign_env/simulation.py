@@ -502,7 +502,13 @@ class ToolSimulator:
             def arm_matrices(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
                 return self._loops.arm_matrices(self.world, robot, q)
 
-            mobility = mobility_series(record, n, arm_matrices, self._box_mass, self.scene.box_size)
+            size = self.scene.box_size
+            if self.object_shape == "cylinder":
+                # The mobility takes the turning inertia of a box of this footprint; a box
+                # sqrt(3) r wide has the cylinder's m r^2 / 2.
+                side = math.sqrt(3.0) * size[0] / 2.0
+                size = (side, side, size[2])
+            mobility = mobility_series(record, n, arm_matrices, self._box_mass, size)
             if fast_forward_from < n:
                 # The fast-forwarded steps repeat the rest state. Its mobility is the mean over
                 # the steps that found the scene at rest, not the last step alone: one contact

@@ -1,4 +1,10 @@
-"""``puck``: PROVISIONAL."""
+"""``puck``: push a round puck, which slides along a flat tool, to the goal.
+
+The paper's scene and plan with the box replaced by an upright cylinder of the box's width and
+height (diameter 0.1 m, 0.2 m high, 0.1 kg). The push between a flat face and a round one acts
+through the puck's centre, so the puck slides along a straight tool as it is pushed instead of
+being carried square; a tool has to hold it in a bend to carry it along the sweep.
+"""
 
 from __future__ import annotations
 
@@ -13,7 +19,11 @@ PUCK = TaskDefinition(
     title="push a round puck to the goal",
     scene=SceneSpec(),
     plan=PlanSpec(),
-    plan_reason="",
+    plan_reason=(
+        "The paper's pi_0 unchanged, so that the puck task differs from push by the object "
+        "alone: the same sweep, pull and hold, the same goals (the paper's range), and what "
+        "changes is how the object responds to the tool's face."
+    ),
     object_shape="cylinder",
     goal=DEFAULT_GOAL,
     goal_low=GOAL_LOW,
