@@ -233,7 +233,7 @@ def add_task_name_argument(parser: argparse.ArgumentParser) -> None:
     parser.set_defaults(goal=None)
 
 
-def task_goal(args: argparse.Namespace) -> tuple[float, ...]:
+def task_goal(args: argparse.Namespace) -> tuple[float, float, float]:
     """``--goal``, or the default goal of ``--task`` when no goal was given.
 
     Raises:
@@ -247,7 +247,7 @@ def task_goal(args: argparse.Namespace) -> tuple[float, ...]:
     except ValueError as error:
         raise ValueError(f"--task: {error}") from None
     if args.goal is None:
-        return tuple(definition.goal)
+        return definition.goal
     return definition.check_goal(tuple(args.goal), "--goal")
 
 

@@ -65,7 +65,8 @@ def _corners(
     c, s = math.cos(yaw), math.sin(yaw)
     half = np.array([[1, 1], [1, -1], [-1, -1], [-1, 1]], dtype=float) * np.asarray(size) / 2.0
     rotation = np.array([[c, -s], [s, c]])
-    return np.asarray(centre, dtype=float) + half @ rotation.T
+    corners: np.ndarray = np.asarray(centre, dtype=float) + half @ rotation.T
+    return corners
 
 
 def footprints_overlap(
@@ -193,18 +194,18 @@ class TaskDefinition:
             raise ValueError(
                 f"TaskDefinition.name must be a non-empty word (no spaces), got {self.name!r}"
             )
-        for label, value, kind in (
+        for label, spec, kind in (
             ("scene", self.scene, SceneSpec),
             ("plan", self.plan, PlanSpec),
         ):
-            if not isinstance(value, kind):
+            if not isinstance(spec, kind):
                 raise TypeError(
                     f"TaskDefinition.{label} must be a {kind.__name__}, got "
-                    f"{type(value).__name__} {value!r}"
+                    f"{type(spec).__name__} {spec!r}"
                 )
         for name in ("goal", "goal_low", "goal_high"):
-            value = _floats(getattr(self, name), 3, f"TaskDefinition.{name}")
-            object.__setattr__(self, name, value)
+            point = _floats(getattr(self, name), 3, f"TaskDefinition.{name}")
+            object.__setattr__(self, name, point)
         low, high = np.asarray(self.goal_low), np.asarray(self.goal_high)
         limit = np.array([WORKSPACE_HALF_WIDTH, WORKSPACE_HALF_WIDTH, WORKSPACE_HEIGHT])
         if np.any(low > high) or np.any(high > limit) or np.any(low < limit * [-1, -1, 0]):
