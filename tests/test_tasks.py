@@ -289,7 +289,7 @@ def test_a_tool_overlapping_an_obstacle_is_unusable_and_never_succeeds():
 # ------------------------------------------------------------------ the command line
 def _tooldesign(*argv: str) -> subprocess.CompletedProcess[str]:
     return subprocess.run(
-        [sys.executable, "-m", "benchmarks", *argv], capture_output=True, text=True, timeout=900
+        [sys.executable, "-c", "from benchmarks.cli import main; raise SystemExit(main())", *argv], capture_output=True, text=True, timeout=900
     )
 
 
