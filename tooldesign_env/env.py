@@ -522,8 +522,7 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
         world = self.simulator.world
         world.reset()
         world.add_floor(friction=scene.floor_friction)
-        self.simulator.add_object(self._box_mass, scene.box_position, scene.box_yaw)
-        self.simulator.add_obstacles()
+        self.simulator.add_bodies(self._box_mass, scene.box_position, scene.box_yaw)
         self._world_shows_last_step = True
 
     def close(self) -> None:

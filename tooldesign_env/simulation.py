@@ -26,6 +26,7 @@ from typing import Any, cast
 
 import numpy as np
 
+from tooldesign_env import scene_objects
 from tooldesign_env.bullet import BulletWorld, RobotHandles, not_copyable
 from tooldesign_env.control_loop import ControlLoops, LoopSettings, gc_paused
 from tooldesign_env.floor_guard import FloorGuard, floor_clearance_bound
@@ -43,7 +44,7 @@ from tooldesign_env.robot_model import (
 )
 from tooldesign_env.rollout import Recording, Rollout, Trajectory
 from tooldesign_env.specs import ControllerSpec, PlanSpec, SceneSpec
-from tooldesign_env.tasks.base import OBJECT_SHAPES, Obstacle
+from tooldesign_env.tasks.base import Obstacle
 
 __all__ = [
     "PHASES",
@@ -67,9 +68,6 @@ OVERLAP_REASON = "overlaps the box at the start of the sweep"
 #: Why a tool that overlaps a fixed obstacle at the start is not used.
 OBSTACLE_REASON = "overlaps a fixed obstacle at the start of the sweep"
 
-#: Colour (r, g, b, a) of the fixed obstacles when rendered.
-OBSTACLE_RGBA = (0.35, 0.35, 0.4, 1.0)
-
 
 @dataclass(frozen=True)
 class BuildResult:
@@ -78,8 +76,7 @@ class BuildResult:
     Attributes:
         overlaps_box: the tool, lowered to the start of the sweep, overlaps the box. Such a
             tool would be pressed down onto the box while lowering: an invalid design.
-        overlaps_obstacle: the tool, lowered to the start of the sweep, overlaps one of the
-            scene's fixed obstacles (a task's posts and walls): invalid as well.
+        overlaps_obstacle: the same with one of a task's fixed obstacles: invalid as well.
     """
 
     overlaps_box: bool
@@ -93,9 +90,8 @@ class BuildResult:
     @property
     def reason(self) -> str:
         """Why the tool may not be used, or "" when it may."""
-        if self.overlaps_box:
-            return OVERLAP_REASON
-        return OBSTACLE_REASON if self.overlaps_obstacle else ""
+        other = OBSTACLE_REASON if self.overlaps_obstacle else ""
+        return OVERLAP_REASON if self.overlaps_box else other
 
     def __bool__(self) -> bool:
         # build() answered True for a failure before it returned this: a truth test is
@@ -132,10 +128,8 @@ class ToolSimulator:
             nothing is rendered, else the Python loop; True requires it (an error says why it
             cannot run); False always runs the Python loop. Both give the same results bit for
             bit; the C loop is faster. :attr:`native_status` says which one ran.
-        obstacles: fixed bodies on the floor (a task's posts and walls,
-            :class:`~tooldesign_env.tasks.base.Obstacle`); none by default.
-        object_shape: the shape of the moved object, ``"box"`` (default) or ``"cylinder"``
-            (upright, diameter ``scene.box_size[0]``, height ``scene.box_size[2]``).
+        obstacles, object_shape: a task's fixed bodies (``Obstacle``) and the moved object's
+            shape, ``"box"`` or ``"cylinder"`` (:mod:`tooldesign_env.scene_objects`).
     """
 
     def __reduce_ex__(self, protocol: Any) -> Any:
@@ -152,13 +146,7 @@ class ToolSimulator:
         obstacles: tuple[Obstacle, ...] = (),
         object_shape: str = "box",
     ) -> None:
-        obstacles = tuple(obstacles)
-        if not all(isinstance(o, Obstacle) for o in obstacles):
-            raise TypeError(f"obstacles must be Obstacle specs, got {obstacles!r}")
-        if object_shape not in OBJECT_SHAPES:
-            raise ValueError(f"object_shape must be one of {OBJECT_SHAPES}, got {object_shape!r}")
-        self.obstacles = obstacles
-        self.object_shape = object_shape
+        self.obstacles, self.object_shape = scene_objects.checked(obstacles, object_shape)
         if not (native_loop is None or native_loop is True or native_loop is False):
             raise TypeError(f"native_loop must be None, True or False, got {native_loop!r}")
         if native_loop and render_mode is not None:
@@ -266,12 +254,8 @@ class ToolSimulator:
         world.reset()
         world.add_floor(friction=scene.floor_friction, arm_contacts=floor_contacts)
         self._box_mass = scene.box_mass if box_mass is None else float(box_mass)
-        self._box = self.add_object(
-            self._box_mass,
-            (scene.box_position[0] + dx, scene.box_position[1] + dy),
-            scene.box_yaw + dyaw,
-        )
-        blocks = self.add_obstacles()
+        start = (scene.box_position[0] + dx, scene.box_position[1] + dy)
+        self._box, blocks = self.add_bodies(self._box_mass, start, scene.box_yaw + dyaw)
         world.step(int(round(scene.box_settle_time / scene.time_step)))
         link, diag = tool_link_with_principal_axes(geometry)
         merge = scene.merge_fixed_links
@@ -301,42 +285,11 @@ class ToolSimulator:
         world.set_joint_positions(robot, reference.q0)
         return overlaps
 
-    def add_object(self, mass: float, position: tuple[float, float], yaw: float) -> int:
-        """Put the moved object (box or cylinder) at rest on the floor; its body id.
-
-        Args:
-            mass: kg.
-            position: centre (x, y) on the floor, m.
-            yaw: rad.
-        """
-        scene = self.scene
-        where = (position[0], position[1], scene.box_size[2] / 2.0)
-        if self.object_shape == "cylinder":
-            return self.world.add_cylinder(
-                radius=scene.box_size[0] / 2.0,
-                height=scene.box_size[2],
-                mass=mass,
-                friction=scene.box_friction,
-                position=where,
-                yaw=yaw,
-            )
-        return self.world.add_box(
-            size=scene.box_size, mass=mass, friction=scene.box_friction, position=where, yaw=yaw
-        )
-
-    def add_obstacles(self) -> list[int]:
-        """Put the fixed obstacles into the world; their body ids (none: an empty list)."""
-        return [
-            self.world.add_box(
-                size=o.size,
-                mass=0.0,
-                friction=o.friction,
-                position=(o.position[0], o.position[1], o.size[2] / 2.0),
-                yaw=o.yaw,
-                rgba=OBSTACLE_RGBA,
-            )
-            for o in self.obstacles
-        ]
+    def add_bodies(self, mass: float, at: tuple[float, float], yaw: float) -> tuple[int, list[int]]:
+        """Put the moved object (mass kg, at (x, y) m, yaw rad), then the obstacles; their ids."""
+        world, shape = self.world, self.object_shape
+        box = scene_objects.add_moved_object(world, self.scene, shape, mass, at, yaw)
+        return box, scene_objects.add_obstacles(world, self.obstacles)
 
     # -------------------------------------------------------------- rollout
     def rollout(
@@ -502,12 +455,7 @@ class ToolSimulator:
             def arm_matrices(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
                 return self._loops.arm_matrices(self.world, robot, q)
 
-            size = self.scene.box_size
-            if self.object_shape == "cylinder":
-                # The mobility takes the turning inertia of a box of this footprint; a box
-                # sqrt(3) r wide has the cylinder's m r^2 / 2.
-                side = math.sqrt(3.0) * size[0] / 2.0
-                size = (side, side, size[2])
+            size = scene_objects.inertia_footprint(self.scene, self.object_shape)
             mobility = mobility_series(record, n, arm_matrices, self._box_mass, size)
             if fast_forward_from < n:
                 # The fast-forwarded steps repeat the rest state. Its mobility is the mean over
