@@ -288,8 +288,10 @@ def test_a_tool_overlapping_an_obstacle_is_unusable_and_never_succeeds():
 
 # ------------------------------------------------------------------ the command line
 def _tooldesign(*argv: str) -> subprocess.CompletedProcess[str]:
+    """``tooldesign ARGV`` in a fresh process (the dispatcher of the console script)."""
+    code = "from benchmarks.cli import main; raise SystemExit(main())"
     return subprocess.run(
-        [sys.executable, "-c", "from benchmarks.cli import main; raise SystemExit(main())", *argv], capture_output=True, text=True, timeout=900
+        [sys.executable, "-c", code, *argv], capture_output=True, text=True, timeout=900
     )
 
 
@@ -332,3 +334,51 @@ def test_tooldesign_design_takes_a_task(tmp_path):
     assert "task obstacle: " in out.stdout
     manifest = json.loads((tmp_path / "d" / "manifest.json").read_text())
     assert manifest["config"]["task_name"] == "obstacle"
+
+
+# ------------------------------------------------------------------ the design config
+def test_a_design_config_records_its_task_only_when_it_is_not_push():
+    from benchmarks.design import DesignConfig
+
+    push = DesignConfig()
+    assert "task_name" not in push.to_json()  # a push run's manifest is as before
+    assert "task" not in dict(push.task().env_kwargs)
+    hook = DesignConfig(task_name="hook", goal=get_task("hook").goal)
+    assert hook.to_json()["task_name"] == "hook"
+    assert dict(hook.task().env_kwargs)["task"] == "hook"
+    assert "scene" not in dict(hook.task().env_kwargs)  # the task's own scene
+    moved = DesignConfig(
+        task_name="hook", goal=get_task("hook").goal, scene={"box_position": [-0.45, 1.2]}
+    )
+    assert dict(moved.task().env_kwargs)["scene"].box_position == (-0.45, 1.2)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"task_name": "nope"}, "unknown task 'nope'; known tasks: push"),
+        ({"task_name": "hook"}, r"goal \[0.0, 1.5, 0.1\] is outside the hook task's goal range"),
+        (
+            {"task_name": "obstacle", "goal": (-0.25, 1.3, 0.1),
+             "scene": {"box_position": [0.875, 1.5]}},
+            "overlaps the box's start",
+        ),
+    ],
+)
+def test_a_design_config_refuses_bad_task_input(kwargs, match):
+    from benchmarks.design import DesignConfig
+
+    with pytest.raises(ValueError, match=match):
+        DesignConfig(**kwargs)
+
+
+def test_design_with_a_policy_refuses_another_task(tmp_path, capsys):
+    from benchmarks.cli import main
+
+    argv = ["design", "--policy", str(tmp_path / "card.json"), "--task", "hook", "--out",
+            str(tmp_path / "run")]
+    with pytest.raises(SystemExit) as exited:
+        main(argv)
+    assert exited.value.code == 2
+    err = capsys.readouterr().err
+    assert "--policy designs for the push task" in err and len(err.strip().splitlines()) == 1

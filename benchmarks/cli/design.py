@@ -189,8 +189,6 @@ def _designer(args: argparse.Namespace) -> dict[str, Any]:
             "executor": args.executor or "process",
         }
     given = [flag for key, flag in _DESIGNER_FLAGS.items() if getattr(args, key) not in (None, [])]
-    if args.task != "push":
-        given.append(f"--task {args.task}")
     if given:
         raise ValueError(
             f"--policy designs one tool with the saved policy: "
@@ -291,6 +289,12 @@ def _run(args: argparse.Namespace) -> int:
     # pandas and the plotting (seconds on a busy machine): the folder, the optimizer's name,
     # then every setting (DesignConfig).
     check_out_folder(args.out)
+    if args.policy is not None and args.task != "push":
+        # A saved policy was trained on the push task: it has no design for another.
+        raise ValueError(
+            f"--policy designs for the push task its policy was trained on; --task {args.task} "
+            "does not apply (design for another task with an optimizer)"
+        )
     if args.policy is None:
         _check_optimizer(args.optimizer)
     config = config_from_args(args)
