@@ -248,6 +248,10 @@ def task_goal(args: argparse.Namespace) -> tuple[float, float, float]:
         raise ValueError(f"--task: {error}") from None
     if args.goal is None:
         return definition.goal
+    if definition.accepts_any_goal:
+        # As before tasks existed: the goal is checked where it is used, in the same words.
+        x, y, z = args.goal
+        return (x, y, z)
     return definition.check_goal(tuple(args.goal), "--goal")
 
 
