@@ -281,8 +281,9 @@ class TaskDefinition:
             if footprints_overlap(box, obstacle.footprint()):
                 raise ValueError(
                     f"the {self.name} task's obstacle {index} ({obstacle.name} at "
-                    f"{list(obstacle.position)}, {obstacle.size[0]:g} x {obstacle.size[1]:g} m) "
-                    f"overlaps the box's start {list(scene.box_position)}; move the box "
+                    f"{[round(v, 3) for v in obstacle.position]}, {obstacle.size[0]:g} x "
+                    f"{obstacle.size[1]:g} m) overlaps the box's start "
+                    f"{[round(v, 3) for v in scene.box_position]}; move the box "
                     "(scene box_position) or the obstacle"
                 )
 
