@@ -382,3 +382,11 @@ def test_design_with_a_policy_refuses_another_task(tmp_path, capsys):
     assert exited.value.code == 2
     err = capsys.readouterr().err
     assert "--policy designs for the push task" in err and len(err.strip().splitlines()) == 1
+
+
+def test_the_tier_rule_of_docs_tasks():
+    from perf.studies.task_baselines import tier
+
+    assert [tier(p) for p in (0.0, 0.009, 0.01, 0.0999, 0.10, 0.5)] == [
+        "hard", "hard", "medium", "medium", "easy", "easy"
+    ]

@@ -191,9 +191,9 @@ def _print(result: dict[str, Any]) -> None:
     )
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Measure and print the table of each task asked for."""
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """The command line of :func:`main`."""
+    parser = argparse.ArgumentParser(description=(__doc__ or "").split("\n")[0])
     parser.add_argument("--task", action="append", choices=BUILTIN_TASKS, default=None)
     parser.add_argument("--random", type=int, default=64)
     parser.add_argument("--iterations", type=int, default=15)
@@ -201,7 +201,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--floor-designs", type=int, default=8)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--json", default=None, help="also write the figures to this JSON file")
-    args = parser.parse_args(argv)
+    return parser.parse_args(argv)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Measure and print the table of each task asked for."""
+    args = parse_args(argv)
     results = []
     for name in args.task or BUILTIN_TASKS:
         result = measure(

@@ -40,12 +40,17 @@ def scene_png(task: str, path: Path) -> None:
     atomic_write_bytes(path, buffer.getvalue())
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Write each task's scene still and best design's GIF."""
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """The command line of :func:`main`."""
+    parser = argparse.ArgumentParser(description=(__doc__ or "").split("\n")[0])
     parser.add_argument("--baselines", type=Path, required=True)
     parser.add_argument("--out", type=Path, required=True)
-    args = parser.parse_args(argv)
+    return parser.parse_args(argv)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Write each task's scene still and best design's GIF."""
+    args = parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     for result in json.loads(args.baselines.read_text()):
         task = result["task"]
