@@ -384,6 +384,7 @@ def test_design_with_a_policy_refuses_another_task(tmp_path, capsys):
     assert "--policy designs for the push task" in err and len(err.strip().splitlines()) == 1
 
 
+@pytest.mark.slow  # importing the study (the suites' retest, the optimizers) takes about 1 s
 def test_the_tier_rule_of_docs_tasks():
     from perf.studies.task_baselines import tier
 
