@@ -8,11 +8,12 @@ through the sweep and the box stays where the tool left it; a tool bowed toward 
 leads the sweep passes inside the post and carries the box on. The goals are where such tools
 bring the box.
 
-Measured placements (perf/studies/task_baselines.py, docs/tasks.md): a post at radius 1.6 m, 55
-degrees, in the box's own way, squeezed the box between tool and post and shot it away (to 5 m),
-a chaotic outcome; at 45 degrees the straight tool slipped past; at 70 degrees it caught and then
-slid off. At 1.75 m and 60 degrees every tool whose tip passes beyond about 1.65 m there is
-stopped, and the box is never pressed against the post.
+Placements measured with perf/studies/task_placements.py (docs/tasks.md): a post at radius 1.6
+m, 55 degrees, in the box's own way, let the hook (0, 1.5, 0) squeeze the box against it and
+shoot it 4.9 m away, a chaotic outcome; at 45 degrees no tool was held up; at 70 degrees the
+straight tool was held up and still brought the box to 0.07 m of the push goal. At 1.75 m and
+60 degrees the straight tool, a tilted one and one bowed backward are held up (20 to 54 mm off
+their plan), the forward bows and the hooks pass.
 """
 
 from __future__ import annotations
@@ -37,8 +38,8 @@ OBSTACLE = TaskDefinition(
         "The paper's pi_0 unchanged, because its sweep is what the post is placed against: "
         "the tool turns with the grasp point so that it points out from the base, so how far "
         "out it reaches at the post's angle is set by its shape alone. A tool that reaches "
-        "past the post is stopped there (the arm holds it against the post at its torque "
-        "limits until the plan turns away); a tool bowed forward passes inside it, and the "
+        "past the post is held up there (its grasp point pushed centimetres off the plan); a "
+        "tool bowed forward passes inside it, and the "
         "pull and hold that follow are the push task's."
     ),
     obstacles=(
