@@ -114,7 +114,12 @@ RL_ENV_ID = "ToolDesignRL-v0"
 
 
 def register_envs() -> None:
-    """Register ``ToolDesign-v0`` and ``ToolDesignRL-v0`` with Gymnasium (idempotent)."""
+    """Register ``ToolDesign-v0``, ``ToolDesignRL-v0`` and every task's ids (idempotent).
+
+    Each registered task (``tooldesign_env.tasks``) other than ``push`` gets
+    ``ToolDesign-<Name>-v0`` and ``ToolDesignRL-<Name>-v0``: the same envs made with
+    ``task=<name>``. Call it again after ``register_task`` to register a new task's ids.
+    """
     if ENV_ID not in registry:
         register(
             id=ENV_ID,
@@ -131,6 +136,23 @@ def register_envs() -> None:
         register(
             id=RL_ENV_ID, entry_point="tooldesign_env.rl:ToolDesignRLEnv", disable_env_checker=True
         )
+    from tooldesign_env.tasks.registry import DEFAULT_TASK, env_ids, task_names
+
+    for name in task_names():
+        if name == DEFAULT_TASK:
+            continue
+        env_id, rl_id = env_ids(name)
+        for id_, entry_point in (
+            (env_id, "tooldesign_env.env:ToolDesignEnv"),
+            (rl_id, "tooldesign_env.rl:ToolDesignRLEnv"),
+        ):
+            if id_ not in registry:
+                register(
+                    id=id_,
+                    entry_point=entry_point,
+                    kwargs={"task": name},
+                    disable_env_checker=True,
+                )
 
 
 register_envs()

@@ -428,6 +428,30 @@ class BulletWorld:
         c.changeDynamics(body, -1, lateralFriction=friction)
         return cast("int", body)
 
+    def add_cylinder(
+        self,
+        *,
+        radius: float,
+        height: float,
+        mass: float,
+        friction: float,
+        position: tuple[float, float, float],
+        yaw: float,
+        rgba: tuple[float, float, float, float] = (0.8, 0.35, 0.1, 1.0),
+    ) -> int:
+        """A dynamic upright cylinder (axis along z), ``radius`` and ``height`` in m; its id."""
+        c = self.client
+        shape = c.createCollisionShape(pybullet.GEOM_CYLINDER, radius=radius, height=height)
+        visual = -1
+        if self.render_mode is not None:
+            visual = c.createVisualShape(
+                pybullet.GEOM_CYLINDER, radius=radius, length=height, rgbaColor=rgba
+            )
+        orn = c.getQuaternionFromEuler([0.0, 0.0, yaw])
+        body = c.createMultiBody(mass, shape, visual, list(position), orn)
+        c.changeDynamics(body, -1, lateralFriction=friction)
+        return cast("int", body)
+
     def add_marker(self, position: tuple[float, float, float], radius: float = 0.03) -> int:
         """A visual-only sphere (the goal), drawn when rendering; -1 in plain DIRECT mode."""
         if self.render_mode is None:

@@ -38,6 +38,7 @@ from tooldesign_env.specs import (
     TaskSpec,
     is_unordered,
 )
+from tooldesign_env.tasks import DEFAULT_TASK, TaskDefinition, get_task
 
 __all__ = [
     "ACTION_ROUNDING",
@@ -212,7 +213,9 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
 
     reward = -F. ``info`` holds scalars: ``free_energy`` (= -reward), ``goal_error``
     (sum_t E_t), ``confidence`` (sum_t 1/2 log|Pi_U,t|), ``penalty``, ``final_distance``,
-    ``valid`` and the task; F = goal_error - confidence + penalty. With
+    ``valid``, ``success`` (a usable design left the box within the task's tolerance of the
+    goal: 0.1 m for every built-in task), ``task`` (its name) and the goal and box mass;
+    F = goal_error - confidence + penalty. With
     ``ObjectiveSpec(scene_samples=K)`` every term is the mean over K scenes whose box differs by
     a fixed small offset (smoothing the chaos of pushing), ``free_energy_std`` is the standard
     deviation of F over them (0 with K = 1), and the trajectories are the nominal scene's. With
@@ -224,8 +227,9 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
 
     ## Starting State
 
-    The box rests at radius 1.35 m, 30 degrees from the robot's x axis; the arm holds the tool
-    0.25 m above the start of the sweep. Nothing is random except the goal when randomized.
+    The box rests at radius 1.35 m, 30 degrees from the robot's x axis (the push task; other
+    tasks place it elsewhere); the arm holds the tool 0.25 m above the start of the sweep.
+    Nothing is random except the goal when randomized.
 
     ## Episode End
 
@@ -236,10 +240,17 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
 
     ## Arguments
 
-    ``gym.make("ToolDesign-v0", goal=(0, 1.5, 0.1), randomize_goal=False, goal_precision=20.0,
+    ``gym.make("ToolDesign-v0", task="push", goal=None, randomize_goal=False, goal_precision=20.0,
     box_mass=None, estimator="contact", objective_kind=None, bounds=None, tool=ToolSpec(),
     scene=SceneSpec(), plan=PlanSpec(), controller=ControllerSpec(), objective=ObjectiveSpec(),
-    info_series=False, render_mode=None)``. ``goal_precision``, ``estimator``,
+    info_series=False, render_mode=None)``. ``task`` is a registered task's name or a
+    ``tooldesign_env.tasks.TaskDefinition`` (docs/tasks.md): ``"push"``, the paper's, is this
+    id; ``"hook"``, ``"obstacle"`` and ``"puck"`` are also ``ToolDesign-Hook-v0``,
+    ``ToolDesign-Obstacle-v0`` and ``ToolDesign-Puck-v0``. The task supplies the scene, the
+    plan, the fixed obstacles, the default goal (``goal=None``) and the goal range that
+    ``randomize_goal`` draws from; ``scene`` and ``plan`` given here replace the task's. A
+    goal outside the range of a task other than push, an unknown task, or a scene whose box
+    starts inside an obstacle is refused (``ValueError``). ``goal_precision``, ``estimator``,
     ``objective_kind`` and ``box_mass`` are shortcuts for the fields of ``objective`` and
     ``scene``; ``objective_kind=
     "expected-goal-error"`` scores the robust-design baseline instead of F (see
@@ -257,7 +268,8 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
 
     ## Version History
 
-    * v0: the initial version.
+    * v0: the initial version. ``info["success"]`` and ``info["task"]`` and the ``task``
+      argument were added on 2026-11-27; nothing a push episode computes changed.
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 4}
@@ -268,7 +280,8 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
     def __init__(
         self,
         *,
-        goal: Sequence[float] = TaskSpec().goal,
+        task: str | TaskDefinition = DEFAULT_TASK,
+        goal: Sequence[float] | None = None,
         randomize_goal: bool = False,
         goal_precision: float | None = None,
         box_mass: float | None = None,
@@ -311,7 +324,14 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
                     f"{type(value).__name__} {value!r}; e.g. {name}={kind.__name__}(...)"
                 )
         self.tool_spec = tool or ToolSpec()
-        scene = scene or SceneSpec()
+        # The task supplies the scene, the plan, the goal and the obstacles; a scene or plan
+        # given here replaces the task's (a nudged scene of the noise floor, a study's plan).
+        definition = self.task_definition = get_task(task)
+        scene = scene or definition.scene
+        plan = plan or definition.plan
+        definition.check_scene(scene)
+        if goal is None:
+            goal = definition.goal
         if box_mass is not None:
             scene = replace(scene, box_mass=box_mass)
         objective = objective or ObjectiveSpec()
@@ -330,6 +350,7 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
                 f"got {type(goal).__name__} {goal!r}"
             )
         self.task = TaskSpec(goal=goal)  # type: ignore[arg-type]
+        definition.check_goal(self.task.goal, "goal")
         if not isinstance(randomize_goal, (bool, np.bool_)):
             # bool("no") is True: a string or number here is a mistake, not a choice.
             raise TypeError(f"randomize_goal must be True or False, got {randomize_goal!r}")
@@ -359,7 +380,12 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
         self.check_goal(np.asarray(self.task.goal, dtype=float), "goal")
 
         self.simulator = ToolSimulator(
-            scene=scene, plan=plan, controller=controller, render_mode=render_mode
+            scene=scene,
+            plan=plan,
+            controller=controller,
+            render_mode=render_mode,
+            obstacles=definition.obstacles,
+            object_shape=definition.object_shape,
         )
         # The objective and its estimator, behind one interface: step never asks which.
         self._scoring = make_objective(objective)
@@ -397,8 +423,9 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
             raise ValueError(f"unknown reset options {sorted(unknown)}; allowed: goal, box_mass")
         if "goal" in options:
             self._goal = self.check_goal(options["goal"], "options['goal']")
+            self.task_definition.check_goal(self._goal, "options['goal']")
         elif self.randomize_goal:
-            self._goal = self.np_random.uniform(GOAL_LOW, GOAL_HIGH)
+            self._goal = self.task_definition.sample_goal(self.np_random)
         else:
             self._goal = np.asarray(self.task.goal, dtype=float)
         mass = options.get("box_mass", self.simulator.scene.box_mass)
@@ -495,13 +522,7 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
         world = self.simulator.world
         world.reset()
         world.add_floor(friction=scene.floor_friction)
-        world.add_box(
-            size=scene.box_size,
-            mass=self._box_mass,
-            friction=scene.box_friction,
-            position=(*scene.box_position, scene.box_size[2] / 2.0),
-            yaw=scene.box_yaw,
-        )
+        self.simulator.add_bodies(self._box_mass, scene.box_position, scene.box_yaw)
         self._world_shows_last_step = True
 
     def close(self) -> None:
@@ -628,8 +649,18 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
         dist2 = float(np.sum((self.box_start() - self._goal) ** 2))
         return steps * 0.5 * self.objective.goal_precision * dist2
 
+    def success(self, final_distance: float, valid: bool) -> bool:
+        """Whether an episode succeeded: a usable tool left the box within the task's tolerance.
+
+        Args:
+            final_distance: the box's final distance to the goal, m.
+            valid: whether the design was usable (an unusable one never succeeds).
+        """
+        return bool(valid) and final_distance <= self.task_definition.tolerance
+
     def _common_info(self, geometry: ToolGeometry) -> dict[str, Any]:
         return {
+            "task": self.task_definition.name,
             "coefficients": np.asarray(geometry.coeffs, dtype=float).copy(),
             "goal": self._goal.copy(),
             "box_mass": self._box_mass,
@@ -650,6 +681,7 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
             confidence=terms.confidence,
             penalty=0.0,
             final_distance=terms.final_distance,
+            success=self.success(terms.final_distance, True),
             times=traj.times,
             box_trajectory=traj.box_position,
             torques=traj.torques,
@@ -680,6 +712,7 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
             confidence=0.0,
             penalty=penalty,
             final_distance=float(np.linalg.norm(self.box_start() - self._goal)),
+            success=False,
             times=np.zeros(0),
             box_trajectory=np.zeros((0, 3)),
             torques=np.zeros((0, 7)),

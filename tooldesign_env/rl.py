@@ -20,8 +20,6 @@ from gymnasium.vector import VectorEnv
 
 from tooldesign_env.bullet import not_copyable
 from tooldesign_env.env import (
-    GOAL_HIGH,
-    GOAL_LOW,
     WORKSPACE_HIGH,
     WORKSPACE_LOW,
     ToolDesignEnv,
@@ -29,7 +27,7 @@ from tooldesign_env.env import (
 )
 from tooldesign_env.geometry.validation import validate_coefficients
 from tooldesign_env.schema import METRICS
-from tooldesign_env.specs import BOX_MASS_MAX, MASS_RANGE_MIN, TaskSpec
+from tooldesign_env.specs import BOX_MASS_MAX, MASS_RANGE_MIN
 
 __all__ = [
     "MIN_GOAL_DISTANCE",
@@ -70,6 +68,8 @@ _SCALAR_INFO = (
     "estimator",
     "goal_precision",
     "valid",
+    "success",
+    "task",
     "invalid_reason",
     "coefficients",
     "goal",
@@ -165,19 +165,25 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
 
     ## Arguments
 
-    ``gym.make("ToolDesignRL-v0", goal=(0, 1.5, 0.1), randomize_goal=False, goal_range=None,
+    ``gym.make("ToolDesignRL-v0", goal=None, randomize_goal=False, goal_range=None,
     box_mass=None, mass_range=None, reward="normalized", full_info=False, render_mode=None,
-    **base_kwargs)``; ``base_kwargs`` go to ``ToolDesign-v0`` (``goal_precision``,
+    **base_kwargs)``; ``base_kwargs`` go to ``ToolDesign-v0`` (``task``, ``goal_precision``,
     ``estimator``, ``objective_kind``, ``bounds``, ``tool``, ``scene``, ``plan``, ``controller``,
-    ``objective``). ``reset(options={"goal": (x, y, z), "box_mass": m})`` sets one episode's
-    task. ``render_mode="rgb_array"`` renders headless as ``ToolDesign-v0`` does; ``"human"``
+    ``objective``). ``task`` (default ``"push"``, the paper's) picks the registered task
+    (docs/tasks.md); ``ToolDesignRL-Hook-v0``, ``-Obstacle-v0`` and ``-Puck-v0`` are this env
+    with ``task`` set. ``goal=None`` is the task's default goal and ``goal_range=None`` its
+    goal range ((0, 1.5, 0.1) and the paper's range for push).
+    ``reset(options={"goal": (x, y, z), "box_mass": m})`` sets one episode's task.
+    ``render_mode="rgb_array"`` renders headless as ``ToolDesign-v0`` does; ``"human"``
     is not offered (it needs a display).
 
     ## Version History
 
-    * v0: the initial version. On 2026-11-26 an unusable design was put at the reward floor at
-      every goal, as this docstring always said; before, at goals whose F_idle exceeded the
-      invalid penalty (beyond about 2.4 m from the box at p^X = 20) it got -1e5 / F_idle. The
+    * v0: the initial version. On 2026-11-27 ``task`` and ``info``'s ``success`` and ``task``
+      were added (a push episode is unchanged). On 2026-11-26 an unusable design was put at
+      the reward floor at every goal, as this docstring always said; before, at goals whose
+      F_idle exceeded the invalid penalty (beyond about 2.4 m from the box at p^X = 20) it
+      got -1e5 / F_idle. The
       id stayed v0: the documented reward did not change, and every committed rl result ran
       at p^X = 20, where no goal of the paper's range is that far (at p^X = 50 its corner
       (-0.5, 1.5, 0.1) is: there an unusable design had scored -0.68, now -1).
@@ -191,7 +197,7 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
     def __init__(
         self,
         *,
-        goal: Sequence[float] = TaskSpec().goal,
+        goal: Sequence[float] | None = None,
         randomize_goal: bool = False,
         goal_range: tuple[Sequence[float], Sequence[float]] | None = None,
         box_mass: float | None = None,
@@ -245,7 +251,11 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
         self.full_info = bool(full_info)
         self.randomize_goal = bool(randomize_goal)
         if goal_range is None:
-            self.goal_range = (np.asarray(GOAL_LOW, float), np.asarray(GOAL_HIGH, float))
+            definition = self.base.task_definition
+            self.goal_range = (
+                np.asarray(definition.goal_low, float),
+                np.asarray(definition.goal_high, float),
+            )
         else:
             self.goal_range = self._check_goal_range(goal_range)
         self.mass_range = (

@@ -26,6 +26,7 @@ from typing import Any, cast
 
 import numpy as np
 
+from tooldesign_env import scene_objects
 from tooldesign_env.bullet import BulletWorld, RobotHandles, not_copyable
 from tooldesign_env.control_loop import ControlLoops, LoopSettings, gc_paused
 from tooldesign_env.floor_guard import FloorGuard, floor_clearance_bound
@@ -43,6 +44,7 @@ from tooldesign_env.robot_model import (
 )
 from tooldesign_env.rollout import Recording, Rollout, Trajectory
 from tooldesign_env.specs import ControllerSpec, PlanSpec, SceneSpec
+from tooldesign_env.tasks.base import Obstacle
 
 __all__ = [
     "PHASES",
@@ -63,6 +65,9 @@ RECONNECT_EVERY = 100
 #: Why a tool that overlaps the box at the start is not used (``BuildResult.reason``).
 OVERLAP_REASON = "overlaps the box at the start of the sweep"
 
+#: Why a tool that overlaps a fixed obstacle at the start is not used.
+OBSTACLE_REASON = "overlaps a fixed obstacle at the start of the sweep"
+
 
 @dataclass(frozen=True)
 class BuildResult:
@@ -71,19 +76,22 @@ class BuildResult:
     Attributes:
         overlaps_box: the tool, lowered to the start of the sweep, overlaps the box. Such a
             tool would be pressed down onto the box while lowering: an invalid design.
+        overlaps_obstacle: the same with one of a task's fixed obstacles: invalid as well.
     """
 
     overlaps_box: bool
+    overlaps_obstacle: bool = False
 
     @property
     def usable(self) -> bool:
-        """Whether the tool may be used (it does not overlap the box)."""
-        return not self.overlaps_box
+        """Whether the tool may be used (it overlaps neither the box nor an obstacle)."""
+        return not (self.overlaps_box or self.overlaps_obstacle)
 
     @property
     def reason(self) -> str:
         """Why the tool may not be used, or "" when it may."""
-        return OVERLAP_REASON if self.overlaps_box else ""
+        other = OBSTACLE_REASON if self.overlaps_obstacle else ""
+        return OVERLAP_REASON if self.overlaps_box else other
 
     def __bool__(self) -> bool:
         # build() answered True for a failure before it returned this: a truth test is
@@ -120,6 +128,8 @@ class ToolSimulator:
             nothing is rendered, else the Python loop; True requires it (an error says why it
             cannot run); False always runs the Python loop. Both give the same results bit for
             bit; the C loop is faster. :attr:`native_status` says which one ran.
+        obstacles, object_shape: a task's fixed bodies (``Obstacle``) and the moved object's
+            shape, ``"box"`` or ``"cylinder"`` (:mod:`tooldesign_env.scene_objects`).
     """
 
     def __reduce_ex__(self, protocol: Any) -> Any:
@@ -133,7 +143,10 @@ class ToolSimulator:
         controller: ControllerSpec | None = None,
         render_mode: str | None = None,
         native_loop: bool | None = None,
+        obstacles: tuple[Obstacle, ...] = (),
+        object_shape: str = "box",
     ) -> None:
+        self.obstacles, self.object_shape = scene_objects.checked(obstacles, object_shape)
         if not (native_loop is None or native_loop is True or native_loop is False):
             raise TypeError(f"native_loop must be None, True or False, got {native_loop!r}")
         if native_loop and render_mode is not None:
@@ -167,6 +180,7 @@ class ToolSimulator:
         # guard (SceneSpec.arm_floor_contacts == "auto") asks for it.
         self._last_build: tuple[ToolGeometry, float | None, Any] | None = None
         self._guarded = False
+        self._overlaps_obstacle = False
         self._guard = FloorGuard(self.scene)
         self._loops = ControlLoops(native_loop)
 
@@ -219,7 +233,7 @@ class ToolSimulator:
         contacts = self.scene.arm_floor_contacts
         self._last_build = (geometry, box_mass, box_offset)
         overlaps = self._build(geometry, box_mass, (dx, dy, dyaw), floor_contacts=contacts is True)
-        return BuildResult(overlaps_box=overlaps)
+        return BuildResult(overlaps_box=overlaps, overlaps_obstacle=self._overlaps_obstacle)
 
     def _build(
         self,
@@ -240,17 +254,8 @@ class ToolSimulator:
         world.reset()
         world.add_floor(friction=scene.floor_friction, arm_contacts=floor_contacts)
         self._box_mass = scene.box_mass if box_mass is None else float(box_mass)
-        self._box = world.add_box(
-            size=scene.box_size,
-            mass=self._box_mass,
-            friction=scene.box_friction,
-            position=(
-                scene.box_position[0] + dx,
-                scene.box_position[1] + dy,
-                scene.box_size[2] / 2.0,
-            ),
-            yaw=scene.box_yaw + dyaw,
-        )
+        start = (scene.box_position[0] + dx, scene.box_position[1] + dy)
+        self._box, blocks = self.add_bodies(self._box_mass, start, scene.box_yaw + dyaw)
         world.step(int(round(scene.box_settle_time / scene.time_step)))
         link, diag = tool_link_with_principal_axes(geometry)
         merge = scene.merge_fixed_links
@@ -274,8 +279,17 @@ class ToolSimulator:
         k = min(max(int(round(lowered / self.control_dt)) - 1, 0), len(reference.times) - 1)
         world.set_joint_positions(robot, reference.q[k])
         overlaps = world.overlaps(self._box, robot.body, robot.tool_link)
+        self._overlaps_obstacle = any(
+            world.overlaps(block, robot.body, robot.tool_link) for block in blocks
+        )
         world.set_joint_positions(robot, reference.q0)
         return overlaps
+
+    def add_bodies(self, mass: float, at: tuple[float, float], yaw: float) -> tuple[int, list[int]]:
+        """Put the moved object (mass kg, at (x, y) m, yaw rad), then the obstacles; their ids."""
+        world, shape = self.world, self.object_shape
+        box = scene_objects.add_moved_object(world, self.scene, shape, mass, at, yaw)
+        return box, scene_objects.add_obstacles(world, self.obstacles)
 
     # -------------------------------------------------------------- rollout
     def rollout(
@@ -441,7 +455,8 @@ class ToolSimulator:
             def arm_matrices(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
                 return self._loops.arm_matrices(self.world, robot, q)
 
-            mobility = mobility_series(record, n, arm_matrices, self._box_mass, self.scene.box_size)
+            size = scene_objects.inertia_footprint(self.scene, self.object_shape)
+            mobility = mobility_series(record, n, arm_matrices, self._box_mass, size)
             if fast_forward_from < n:
                 # The fast-forwarded steps repeat the rest state. Its mobility is the mean over
                 # the steps that found the scene at rest, not the last step alone: one contact

@@ -217,6 +217,44 @@ def add_task_arguments(parser: argparse.ArgumentParser, *, section_default: str 
     add_scene_argument(parser, "for every evaluation")
 
 
+def add_task_name_argument(parser: argparse.ArgumentParser) -> None:
+    """Add ``--task NAME`` (the registered task, docs/tasks.md); ``--goal`` then defaults to it.
+
+    Read the goal with :func:`task_goal`: without ``--goal`` it is the task's default goal.
+    """
+    parser.add_argument(
+        "--task",
+        default="push",
+        metavar="NAME",
+        help="the task (docs/tasks.md): push (the paper's, the default), hook, obstacle, puck, "
+        "or a registered one; it sets the scene, the plan, the fixed obstacles and the goal "
+        "range (without --goal, the task's default goal)",
+    )
+    parser.set_defaults(goal=None)
+
+
+def task_goal(args: argparse.Namespace) -> tuple[float, float, float]:
+    """``--goal``, or the default goal of ``--task`` when no goal was given.
+
+    Raises:
+        ValueError: ``--task`` names no registered task (the message lists the known ones), or
+            the goal is outside the task's goal range.
+    """
+    from tooldesign_env.tasks import get_task
+
+    try:
+        definition = get_task(args.task)
+    except ValueError as error:
+        raise ValueError(f"--task: {error}") from None
+    if args.goal is None:
+        return definition.goal
+    if definition.accepts_any_goal:
+        # As before tasks existed: the goal is checked where it is used, in the same words.
+        x, y, z = args.goal
+        return (x, y, z)
+    return definition.check_goal(tuple(args.goal), "--goal")
+
+
 def check_out_folder(out: Path, *, empty: bool = False) -> None:
     """Refuse an ``--out`` that is a file (or, with ``empty``, a folder with files) up front.
 

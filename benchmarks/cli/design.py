@@ -11,8 +11,10 @@ from benchmarks.cli._common import (
     DEFAULT_SECTION_SHAPE,
     add_max_retries_argument,
     add_task_arguments,
+    add_task_name_argument,
     check_out_folder,
     out_path,
+    task_goal,
     unique_pairs,
 )
 from benchmarks.design import DesignConfig
@@ -125,6 +127,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
             f"{DEFAULT_SECTION_SHAPE}; with --policy, the one the policy was trained with"
         ),
     )
+    add_task_name_argument(parser)
     # With --policy the tool's section is the policy's unless given: None tells the two apart
     # (_tool_and_arm falls back to DEFAULT_SECTION_SHAPE without a policy).
     parser.set_defaults(section_shape=None)
@@ -214,7 +217,7 @@ def _designer(args: argparse.Namespace) -> dict[str, Any]:
         )
     # The task is checked before the designer's settings hold its goal and mass: a NaN there
     # is refused as "goal must be finite", as without --policy, not as a bad JSON value.
-    task = TaskSettings(goal=tuple(args.goal), box_mass=args.box_mass)
+    task = TaskSettings(goal=task_goal(args), box_mass=args.box_mass)
     from benchmarks.rl.designer import POLICY_DESIGNER
     from benchmarks.rl.policies import policy_digest
 
@@ -318,7 +321,7 @@ def config_from_args(args: argparse.Namespace) -> DesignConfig:
         workers=args.workers,
         scheduler=args.scheduler,
         max_retries=args.max_retries,
-        goal=tuple(args.goal),
+        goal=task_goal(args),
         goal_precision=args.goal_precision,
         box_mass=args.box_mass,
         estimator=args.estimator,
@@ -326,6 +329,7 @@ def config_from_args(args: argparse.Namespace) -> DesignConfig:
         scene_samples=args.scene_samples,
         section_shape=section_shape,
         scene=scene,
+        task_name=args.task,
     )
 
 
@@ -367,6 +371,12 @@ def _run(args: argparse.Namespace) -> int:
     # pandas and the plotting (seconds on a busy machine): the folder, the optimizer's name,
     # then every setting (DesignConfig).
     check_out_folder(args.out)
+    if args.policy is not None and args.task != "push":
+        # A saved policy was trained on the push task: it has no design for another.
+        raise ValueError(
+            f"--policy designs for the push task its policy was trained on; --task {args.task} "
+            "does not apply (design for another task with an optimizer)"
+        )
     if args.policy is None:
         _check_optimizer(args.optimizer)
     config = config_from_args(args)
@@ -387,11 +397,18 @@ def _run(args: argparse.Namespace) -> int:
     ):
         write_design_report(result.out_dir)
     coeffs = ", ".join(repr(float(c)) for c in result.coefficients)
+    from tooldesign_env.tasks import get_task
+
+    tolerance = get_task(config.task_name).tolerance
+    succeeded = result.status == "ok" and result.final_distance <= tolerance
     print(
         f"best design: C = ({coeffs}), F = {result.free_energy!r} "
         f"(goal error {result.goal_error:.6g}, confidence {result.confidence:.6g}, "
         f"final distance {result.final_distance:.4g} m), iteration {result.iteration}, "
-        f"candidate {result.candidate}\n{_counts_text(result.card['evaluations'])}\n"
+        f"candidate {result.candidate}\n"
+        f"task {config.task_name}: {'success' if succeeded else 'no success'} (the box ends "
+        f"{result.final_distance:.3f} m from the goal; success within {tolerance:g} m)\n"
+        f"{_counts_text(result.card['evaluations'])}\n"
         f"{_straight_text(result.free_energy, result.straight_tool)}"
         f"run folder: {result.out_dir} (open report.html there)"
     )

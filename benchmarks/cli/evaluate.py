@@ -8,9 +8,11 @@ from typing import Any
 
 from benchmarks.cli._common import (
     add_task_arguments,
+    add_task_name_argument,
     check_in_default_bounds,
     check_out_folder,
     out_path,
+    task_goal,
     unique_pairs,
 )
 
@@ -36,6 +38,7 @@ def add_parser(subparsers: Any) -> None:
         "--out", type=out_path, required=True, metavar="DIR", help="output folder (created)"
     )
     add_task_arguments(p)
+    add_task_name_argument(p)
     p.add_argument(
         "--robustness",
         action="store_true",
@@ -60,6 +63,7 @@ def _run(args: argparse.Namespace) -> int:
     # Bad input is refused in well under a second, before the simulation and the plotting are
     # imported (seconds on a busy machine); the library checks everything again.
     check_out_folder(args.out, empty=True)
+    goal = task_goal(args)  # an unknown task, or a goal outside its range: refused now
     if not args.outside_bounds:
         check_in_default_bounds(args.coeffs)
     import numpy as np
@@ -70,7 +74,7 @@ def _run(args: argparse.Namespace) -> int:
     info = evaluate_coefficients(
         args.coeffs,
         args.out,
-        goal=tuple(args.goal),
+        goal=goal,
         goal_precision=args.goal_precision,
         box_mass=args.box_mass,
         estimator=args.estimator,
@@ -81,6 +85,7 @@ def _run(args: argparse.Namespace) -> int:
         robustness=args.robustness,
         outside_bounds=args.outside_bounds,
         video=args.video,
+        task=args.task,
     )
     write_evaluation_report(args.out)
     status = "valid" if info["valid"] else f"INVALID ({info['invalid_reason']})"
@@ -94,7 +99,8 @@ def _run(args: argparse.Namespace) -> int:
         f"design {np.round(info['coefficients'], 6).tolist()}: {status}\n"
         f"  free energy F = {info['free_energy']:.6g}  (goal error {info['goal_error']:.6g}, "
         f"confidence {info['confidence']:.6g}, penalty {info['penalty']:.6g})\n"
-        f"  final distance to the goal: {info['final_distance']:.3f} m\n"
+        f"  final distance to the goal: {info['final_distance']:.3f} m "
+        f"({'success' if info['success'] else 'no success'} on the {info['task']} task)\n"
         f"  written to {args.out}"
     )
     return 0

@@ -349,6 +349,10 @@ class DesignConfig(TaskConfig):
             once more alone first, so the others' designs are not failed with it.
         goal, goal_precision, box_mass, estimator, objective, scene_samples, bounds, scene,
             robustness_masses, section_shape: The task (see :class:`TaskConfig`).
+        task_name: The registered task (``tooldesign_env.tasks``, docs/tasks.md): ``"push"`` (the
+            paper's, the default) or another, e.g. ``"hook"``. It supplies the scene (which
+            ``scene`` overrides field by field), the plan, the obstacles and the goal range,
+            which ``goal`` must lie in. A suite has no such field: suites run the push task.
     """
 
     optimizer: str = "cmaes"
@@ -360,8 +364,12 @@ class DesignConfig(TaskConfig):
     executor: str = "process"
     scheduler: str | None = None
     max_retries: int = 0
+    task_name: str = "push"
 
     def __post_init__(self) -> None:
+        from tooldesign_env.tasks import get_task
+
+        definition = get_task(self.task_name)  # an unknown name: the error lists the known ones
         if not isinstance(self.optimizer, str) or not self.optimizer.strip():
             raise ValueError(f"optimizer must be a non-empty name, got {self.optimizer!r}")
         object.__setattr__(self, "optimizer_settings", _settings(self.optimizer_settings))
@@ -386,6 +394,14 @@ class DesignConfig(TaskConfig):
                 )
         object.__setattr__(self, "max_retries", check_max_retries(self.max_retries))
         self._check_task()
+        definition.check_goal(self.goal, "goal")
+        definition.check_scene(self.task_scene())
+
+    def task_scene(self) -> SceneSpec:
+        """The scene of the run: the task's, with the ``scene`` overrides applied."""
+        from tooldesign_env.tasks import get_task
+
+        return dataclasses.replace(get_task(self.task_name).scene, **dict(self.scene))
 
     def task(self) -> TaskSettings:
         """The task and env settings every design of the run is scored with."""
@@ -398,7 +414,14 @@ class DesignConfig(TaskConfig):
             extra["bounds"] = self.bounds
         if self.scene_samples != 1:
             extra["scene_samples"] = self.scene_samples
-        scene = scene_spec(self.scene)
+        if self.task_name == "push":
+            scene = scene_spec(self.scene)
+        else:
+            from tooldesign_env.tasks import get_task
+
+            extra["task"] = self.task_name
+            scene = self.task_scene()
+            scene = None if scene == get_task(self.task_name).scene else scene
         if scene is not None:
             extra["scene"] = scene
         return TaskSettings(
@@ -421,4 +444,8 @@ class DesignConfig(TaskConfig):
         data.update(task)
         data["optimizer_settings"] = dict(self.optimizer_settings)
         data["scene"] = dict(self.scene)
+        if data["task_name"] == "push":
+            # A push run's config stays what it was before tasks existed: older run folders
+            # resume and compare as they did, and a config without the field is the push task.
+            del data["task_name"]
         return cast("dict[str, Any]", json.loads(json.dumps(data, allow_nan=False)))

@@ -19,6 +19,7 @@ The figures and ``report.html`` are drawn from the files written here by
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 from typing import Any
 
@@ -47,12 +48,12 @@ from tooldesign_env.env import COEFFICIENT_MAX
 from tooldesign_env.geometry import validate_coefficients
 from tooldesign_env.schema import (
     DEFAULT_BOX_MASS,
-    DEFAULT_GOAL,
     DEFAULT_GOAL_PRECISION,
     ROBUSTNESS_MASSES,
     rounded_path,
 )
 from tooldesign_env.simulation import PHASES
+from tooldesign_env.tasks import DEFAULT_TASK, get_task
 
 __all__ = ["evaluate_coefficients", "trajectory_frame"]
 
@@ -83,7 +84,7 @@ def evaluate_coefficients(
     coeffs: Any,
     out: Path | str,
     *,
-    goal: tuple[float, float, float] = DEFAULT_GOAL,
+    goal: tuple[float, float, float] | None = None,
     goal_precision: float = DEFAULT_GOAL_PRECISION,
     box_mass: float = DEFAULT_BOX_MASS,
     estimator: str = "contact",
@@ -94,6 +95,7 @@ def evaluate_coefficients(
     robustness: bool = False,
     outside_bounds: bool = False,
     video: bool = False,
+    task: str = "push",
 ) -> dict[str, Any]:
     """Evaluate one design and write the files listed in the module docstring.
 
@@ -107,7 +109,8 @@ def evaluate_coefficients(
     Args:
         coeffs: the design (c1, ..., cn), highest power first.
         out: output folder (created).
-        goal: goal X^g (x, y, z) in m.
+        goal: goal X^g (x, y, z) in m; None is the task's default goal (the paper's
+            (0, 1.5, 0.1) for ``push``).
         goal_precision: p^X.
         box_mass: box mass in kg.
         estimator: estimator of dX/dU.
@@ -121,6 +124,8 @@ def evaluate_coefficients(
             include it).
         video: also write ``rollout.gif``, the rollout rendered headless (valid designs only;
             about 20 s more).
+        task: the registered task (docs/tasks.md): its scene (which ``scene`` overrides field
+            by field), plan, obstacles and goal range. ``"push"`` is the paper's.
 
     Returns:
         The env's step ``info``.
@@ -140,7 +145,13 @@ def evaluate_coefficients(
             "own: give a new folder, or delete this one first"
         )
     scene_pairs = recorded_scene(scene or {})  # checked: a bad field or value is refused here
-    scene_override = scene_spec(scene_pairs)
+    definition = get_task(task)
+    goal = definition.check_goal(definition.goal if goal is None else goal, "goal")
+    if definition.name == DEFAULT_TASK:
+        scene_override = scene_spec(scene_pairs)
+    else:
+        scene_override = dataclasses.replace(definition.scene, **dict(scene_pairs))
+        definition.check_scene(scene_override)
     spec = ToolSpec(
         degree=int(np.size(coeffs)) if np.ndim(coeffs) == 1 else 3, section_shape=section_shape
     )
@@ -175,6 +186,8 @@ def evaluate_coefficients(
         "bounds": bounds,
         "tool": spec,
     }
+    if definition.name != DEFAULT_TASK:
+        settings["task"] = definition.name
     if scene_override is not None:
         settings["scene"] = scene_override
     env = ToolDesignEnv(**settings, info_series=True)
@@ -201,6 +214,7 @@ def evaluate_coefficients(
                 "scene_samples": scene_samples,
                 "section_shape": section_shape,
                 "scene": dict(scene_pairs),
+                **({"task": definition.name} if definition.name != DEFAULT_TASK else {}),
             },
             "versions": package_versions(),
         }

@@ -1,0 +1,65 @@
+"""The pictures of docs/tasks.md: each task's scene, and its best measured design's rollout.
+
+For every task in ``--baselines`` (the JSON ``perf.studies.task_baselines --json`` writes), this
+renders headless (PyBullet's software renderer, as ``tooldesign design`` does):
+
+* ``<task>-scene.png``: the start scene, the box, the fixed obstacles (grey) and the goal (the
+  green sphere), from the env's camera (``ToolDesignEnv.render``);
+* ``<task>-best.gif``: the rollout of the CMA-ES design the baselines found, with the goal and
+  the box path (``benchmarks.design.video.rollout_gif``, the GIF ``tooldesign design`` writes).
+
+Run: ``python -m perf.studies.task_pictures --baselines FILE --out docs/images/tasks``. About 20 s
+per task.
+"""
+
+from __future__ import annotations
+
+import argparse
+import io
+import json
+from pathlib import Path
+
+from benchmarks.design.video import rollout_gif
+from benchmarks.storage import atomic_write_bytes
+from tooldesign_env import ToolDesignEnv
+
+
+def scene_png(task: str, path: Path) -> None:
+    """Render the task's start scene with its goal, and write it as a PNG."""
+    from PIL import Image
+
+    env = ToolDesignEnv(task=task, render_mode="rgb_array")
+    try:
+        env.reset(seed=0)
+        frame = env.render()
+    finally:
+        env.close()
+    assert frame is not None
+    buffer = io.BytesIO()
+    Image.fromarray(frame).save(buffer, format="PNG", optimize=True)
+    atomic_write_bytes(path, buffer.getvalue())
+
+
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """The command line of :func:`main`."""
+    parser = argparse.ArgumentParser(description=(__doc__ or "").split("\n")[0])
+    parser.add_argument("--baselines", type=Path, required=True)
+    parser.add_argument("--out", type=Path, required=True)
+    return parser.parse_args(argv)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Write each task's scene still and best design's GIF."""
+    args = parse_args(argv)
+    args.out.mkdir(parents=True, exist_ok=True)
+    for result in json.loads(args.baselines.read_text()):
+        task = result["task"]
+        scene_png(task, args.out / f"{task}-scene.png")
+        design = result["cmaes"]["best"]["design"]
+        rollout_gif(design, args.out / f"{task}-best.gif", task=task, frames=24)
+        print(f"{task}: {args.out / f'{task}-scene.png'}, {args.out / f'{task}-best.gif'}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,393 @@
+"""Tasks (issue 35): the registry, each task's ids and both checkers, success, bad input, the CLI.
+
+Parametrized over the registry, so a task registered later is tested without new test code.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+import warnings
+from dataclasses import replace
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import tooldesign_env
+from tooldesign_env import ToolDesignEnv
+from tooldesign_env.specs import SceneSpec
+from tooldesign_env.tasks import (
+    BUILTIN_TASKS,
+    Obstacle,
+    footprints_overlap,
+    get_task,
+    register_task,
+    task_names,
+    unregister_task,
+)
+from tooldesign_env.tasks.registry import env_ids
+
+NEW_TASKS = [name for name in BUILTIN_TASKS if name != "push"]
+
+
+# ------------------------------------------------------------------ the registry (fast)
+def test_at_least_three_tasks_beside_push_are_registered_with_their_ids():
+    assert task_names()[: len(BUILTIN_TASKS)] == BUILTIN_TASKS
+    assert {"push", "hook", "obstacle"} <= set(BUILTIN_TASKS) and len(NEW_TASKS) >= 3
+    for name in task_names():
+        env_id, rl_id = env_ids(name)
+        assert env_id in gym.registry and rl_id in gym.registry
+        if name != "push":
+            assert gym.registry[env_id].kwargs == {"task": name}
+            assert gym.registry[rl_id].kwargs == {"task": name}
+    assert env_ids("push") == ("ToolDesign-v0", "ToolDesignRL-v0")
+    assert env_ids("hook") == ("ToolDesign-Hook-v0", "ToolDesignRL-Hook-v0")
+    assert gym.registry["ToolDesign-v0"].kwargs == {}  # the paper's id takes nothing new
+
+
+@pytest.mark.parametrize("name", BUILTIN_TASKS)
+def test_every_task_is_defined_in_full(name):
+    task = get_task(name)
+    assert task.name == name and task.title and task.plan_reason
+    assert 0 < task.tolerance <= 1.0
+    task.check_goal(task.goal)
+    low, high = np.asarray(task.goal_low), np.asarray(task.goal_high)
+    assert np.all(low <= high)
+    # Every goal of the range is farther from the box's start than the success radius: leaving
+    # the box alone never succeeds.
+    nearest = np.clip(task.box_start(), low, high)
+    assert np.linalg.norm(nearest - task.box_start()) > task.tolerance
+
+
+def test_the_push_task_is_the_papers_defaults():
+    from tooldesign_env.schema import DEFAULT_GOAL, GOAL_HIGH, GOAL_LOW
+    from tooldesign_env.specs import PlanSpec
+
+    push = get_task("push")
+    assert push.scene == SceneSpec() and push.plan == PlanSpec() and push.obstacles == ()
+    assert push.goal == DEFAULT_GOAL and push.goal_low == GOAL_LOW and push.goal_high == GOAL_HIGH
+    assert push.accepts_any_goal and push.object_shape == "box"
+    push.check_goal((2.0, -2.0, 0.5))  # ToolDesign-v0 always took any goal in the workspace
+
+
+def test_an_unknown_task_names_the_known_ones():
+    with pytest.raises(ValueError, match=r"unknown task 'pushh'; known tasks: push, hook, obst"):
+        get_task("pushh")
+    with pytest.raises(TypeError, match="task must be a task name"):
+        get_task(3)
+
+
+def test_a_goal_outside_the_range_is_refused_in_one_line():
+    hook = get_task("hook")
+    with pytest.raises(ValueError, match=r"outside the hook task's goal range \(x in") as err:
+        hook.check_goal((0.0, 1.5, 0.1))
+    assert "\n" not in str(err.value)
+
+
+def test_registering_a_task_refuses_duplicates_and_mismatched_names():
+    mine = replace(get_task("hook"), name="my-hook")
+    register_task("my-hook", mine)
+    try:
+        assert get_task("my-hook") is mine
+        with pytest.raises(ValueError, match="registered already"):
+            register_task("my-hook", mine)
+        tooldesign_env.register_envs()
+        assert gym.registry["ToolDesign-MyHook-v0"].kwargs == {"task": "my-hook"}
+    finally:
+        unregister_task("my-hook")
+        gym.registry.pop("ToolDesign-MyHook-v0", None)
+        gym.registry.pop("ToolDesignRL-MyHook-v0", None)
+    with pytest.raises(ValueError, match="named 'hook'"):
+        register_task("other", get_task("hook"))
+    with pytest.raises(TypeError, match="needs a TaskDefinition"):
+        register_task("other", 42)
+    with pytest.raises(ValueError, match="cannot be unregistered"):
+        unregister_task("push")
+
+
+def test_footprints_overlap_by_the_separating_axes():
+    square = ((0.0, 0.0), (0.1, 0.1), 0.0)
+    assert footprints_overlap(square, ((0.09, 0.0), (0.1, 0.1), 0.0))
+    assert not footprints_overlap(square, ((0.11, 0.0), (0.1, 0.1), 0.0))
+    # A diamond whose corner reaches 0.0707 m from its centre: apart at 0.125, touching at 0.12.
+    assert not footprints_overlap(square, ((0.125, 0.0), (0.1, 0.1), math.pi / 4))
+    assert footprints_overlap(square, ((0.12, 0.0), (0.1, 0.1), math.pi / 4))
+    assert footprints_overlap(square, ((0.11, 0.0), (0.1, 0.1), 0.0), clearance=0.02)
+
+
+def test_an_obstacle_overlapping_the_box_start_is_refused():
+    hook = get_task("hook")
+    post = Obstacle(name="post", position=(-0.42, 1.2), size=(0.1, 0.1, 0.3))
+    with pytest.raises(ValueError, match=r"obstacle 0 \(post at \[-0.42, 1.2\].*overlaps the box"):
+        replace(hook, obstacles=(post,))
+    obstacle = get_task("obstacle")
+    where = obstacle.obstacles[0].position
+    with pytest.raises(ValueError, match="overlaps the box's start"):
+        obstacle.check_scene(replace(obstacle.scene, box_position=where))
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "match"),
+    [
+        ({"name": "post", "position": (0, 0), "size": (0.1, 0.1, 0.0)}, ValueError, "extents"),
+        ({"name": "post", "position": (3.0, 0), "size": (0.1, 0.1, 0.3)}, ValueError, "workspace"),
+        ({"name": "post", "position": (0, 0), "size": (0.1, 0.1, 0.3), "yaw": 30}, ValueError,
+         "yaw"),
+        ({"name": "", "position": (0, 0), "size": (0.1, 0.1, 0.3)}, ValueError, "name"),
+        ({"name": "post", "position": {0, 1}, "size": (0.1, 0.1, 0.3)}, TypeError, "in order"),
+        ({"name": "post", "position": (0, math.nan), "size": (0.1, 0.1, 0.3)}, ValueError,
+         "finite"),
+    ],
+)
+def test_an_obstacle_refuses_bad_fields(kwargs, error, match):
+    with pytest.raises(error, match=match):
+        Obstacle(**kwargs)
+
+
+@pytest.mark.parametrize(
+    ("change", "match"),
+    [
+        ({"tolerance": 0.0}, "tolerance"),
+        ({"tolerance": 2.0}, "tolerance"),
+        ({"goal_low": (0.0, 1.0, 0.1), "goal_high": (-0.1, 1.0, 0.1)}, "low <= high"),
+        ({"goal": (0.0, 0.0, 0.1)}, "outside the hook task's goal range"),
+        ({"object_shape": "sphere"}, "object_shape"),
+        ({"name": "two words"}, "name"),
+    ],
+)
+def test_a_task_definition_refuses_bad_fields(change, match):
+    with pytest.raises(ValueError, match=match):
+        replace(get_task("hook"), **change)
+
+
+# ------------------------------------------------------------------ the envs
+def test_the_env_refuses_bad_task_input_before_simulating():
+    with pytest.raises(ValueError, match="unknown task 'nope'; known tasks: push"):
+        ToolDesignEnv(task="nope")
+    with pytest.raises(ValueError, match="outside the hook task's goal range"):
+        ToolDesignEnv(task="hook", goal=(0.0, 1.5, 0.1))
+    obstacle = get_task("obstacle")
+    with pytest.raises(ValueError, match="overlaps the box's start"):
+        ToolDesignEnv(
+            task="obstacle",
+            scene=replace(obstacle.scene, box_position=obstacle.obstacles[0].position),
+        )
+
+
+@pytest.mark.slow
+def test_a_reset_goal_outside_the_task_range_is_refused():
+    env = ToolDesignEnv(task="hook")
+    try:
+        with pytest.raises(ValueError, match=r"options\['goal'\] .* outside the hook task"):
+            env.reset(options={"goal": (0.0, 1.5, 0.1)})
+        obs, _ = env.reset(seed=3)
+        np.testing.assert_array_equal(obs, get_task("hook").goal)
+    finally:
+        env.close()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", BUILTIN_TASKS)
+def test_randomized_goals_come_from_the_task_range(name):
+    task = get_task(name)
+    env = ToolDesignEnv(task=name, randomize_goal=True)
+    try:
+        for seed in range(4):
+            obs, _ = env.reset(seed=seed)
+            assert np.all(obs >= task.goal_low) and np.all(obs <= task.goal_high)
+    finally:
+        env.close()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", NEW_TASKS)
+def test_both_checkers_pass_on_the_task_env(name):
+    from gymnasium.utils.env_checker import check_env as gym_check_env
+    from stable_baselines3.common.env_checker import check_env as sb3_check_env
+
+    env_id, _ = env_ids(name)
+    env = gym.make(env_id)
+    try:
+        # As ToolDesign-v0's (tests/test_env.py): its physical action box draws SB3's advice
+        # to normalize, which the RL variant follows.
+        gym_check_env(env.unwrapped, skip_render_check=True)
+        sb3_check_env(env.unwrapped, warn=True)
+    finally:
+        env.close()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", NEW_TASKS)
+def test_both_checkers_pass_on_the_rl_variant(name):
+    from gymnasium.utils.env_checker import check_env as gym_check_env
+    from stable_baselines3.common.env_checker import check_env as sb3_check_env
+
+    _, rl_id = env_ids(name)
+    env = gym.make(rl_id, randomize_goal=True)
+    try:
+        task = get_task(name)
+        np.testing.assert_array_equal(env.unwrapped.goal_range[0], task.goal_low)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            gym_check_env(env.unwrapped)  # render check included: rgb_array is headless
+            sb3_check_env(env.unwrapped, warn=True)
+        obs, _ = env.reset(seed=0)
+        _, reward, _, _, info = env.step(np.zeros(3, np.float32))
+        assert info["task"] == name and isinstance(info["success"], bool)
+        assert -1.0 <= reward <= 1.0
+    finally:
+        env.close()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", BUILTIN_TASKS)
+def test_success_is_the_final_distance_within_the_tolerance(name):
+    task = get_task(name)
+    env = ToolDesignEnv(task=name)
+    try:
+        env.reset(seed=0)
+        info = env.step(np.zeros(3))[4]
+        assert info["task"] == name
+        assert info["success"] is (info["valid"] and info["final_distance"] <= task.tolerance)
+        assert env.success(task.tolerance, True) and not env.success(task.tolerance, False)
+        assert not env.success(task.tolerance + 1e-9, True)
+    finally:
+        env.close()
+
+
+@pytest.mark.slow
+def test_the_push_task_is_toolDesign_v0_to_the_bit():
+    """The paper's id and an env made with task='push' give the same F, bit for bit."""
+    design = np.array([0.4, 1.4, 0.18])
+    rewards = []
+    for kwargs in ({}, {"task": "push"}, {"task": get_task("push")}):
+        env = gym.make("ToolDesign-v0", **kwargs)
+        env.reset(seed=0)
+        rewards.append(env.step(design)[1])
+        env.close()
+    assert rewards[0] == rewards[1] == rewards[2]
+
+
+@pytest.mark.slow
+def test_a_tool_overlapping_an_obstacle_is_unusable_and_never_succeeds():
+    obstacle = get_task("obstacle")
+    # A post where the straight tool lies at the start of the sweep: along +x at y = 0.
+    post = Obstacle(name="post", position=(1.3, 0.0), size=(0.1, 0.1, 0.4))
+    env = ToolDesignEnv(task=replace(obstacle, name="blocked", obstacles=(post,)))
+    try:
+        env.reset(seed=0)
+        info = env.step(np.zeros(3))[4]
+        assert info["valid"] is False and info["success"] is False  # never a success
+        assert info["invalid_reason"] == "overlaps a fixed obstacle at the start of the sweep"
+    finally:
+        env.close()
+
+
+# ------------------------------------------------------------------ the command line
+def _tooldesign(*argv: str) -> subprocess.CompletedProcess[str]:
+    """``tooldesign ARGV`` in a fresh process (the dispatcher of the console script)."""
+    code = "from benchmarks.cli import main; raise SystemExit(main())"
+    return subprocess.run(
+        [sys.executable, "-c", code, *argv], capture_output=True, text=True, timeout=900
+    )
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--task", "pushh"], "--task: unknown task 'pushh'; known tasks: push, hook"),
+        (["--task", "hook", "--goal", "0", "1.5", "0.1"], "outside the hook task's goal range"),
+    ],
+)
+@pytest.mark.parametrize("command", ["design", "evaluate"])
+def test_the_cli_refuses_bad_task_input_in_one_line(tmp_path, command, argv, message):
+    extra = ["--coeffs", "0", "0", "0"] if command == "evaluate" else []
+    out = _tooldesign(command, *extra, "--out", str(tmp_path / "run"), *argv)
+    assert out.returncode != 0
+    assert message in out.stderr
+    assert len(out.stderr.strip().splitlines()) == 1, out.stderr
+
+
+@pytest.mark.slow
+def test_tooldesign_evaluate_takes_a_task(tmp_path):
+    out = _tooldesign(
+        "evaluate", "--coeffs", "0", "1.5", "0", "--task", "hook", "--out", str(tmp_path / "e")
+    )
+    assert out.returncode == 0, out.stderr
+    assert "on the hook task" in out.stdout
+    terms = json.loads((tmp_path / "e" / "terms.json").read_text())
+    assert terms["task"] == "hook" and terms["settings"]["task"] == "hook"
+    assert terms["goal"] == list(get_task("hook").goal)
+
+
+@pytest.mark.slow
+def test_tooldesign_design_takes_a_task(tmp_path):
+    out = _tooldesign(
+        "design", "--task", "obstacle", "--iterations", "1", "--batch-size", "2",
+        "--workers", "1", "--no-video", "--no-progress", "--out", str(tmp_path / "d"),
+    )
+    assert out.returncode == 0, out.stderr
+    assert "task obstacle: " in out.stdout
+    manifest = json.loads((tmp_path / "d" / "manifest.json").read_text())
+    assert manifest["config"]["task_name"] == "obstacle"
+
+
+# ------------------------------------------------------------------ the design config
+def test_a_design_config_records_its_task_only_when_it_is_not_push():
+    from benchmarks.design import DesignConfig
+
+    push = DesignConfig()
+    assert "task_name" not in push.to_json()  # a push run's manifest is as before
+    assert "task" not in dict(push.task().env_kwargs)
+    hook = DesignConfig(task_name="hook", goal=get_task("hook").goal)
+    assert hook.to_json()["task_name"] == "hook"
+    assert dict(hook.task().env_kwargs)["task"] == "hook"
+    assert "scene" not in dict(hook.task().env_kwargs)  # the task's own scene
+    moved = DesignConfig(
+        task_name="hook", goal=get_task("hook").goal, scene={"box_position": [-0.45, 1.2]}
+    )
+    assert dict(moved.task().env_kwargs)["scene"].box_position == (-0.45, 1.2)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"task_name": "nope"}, "unknown task 'nope'; known tasks: push"),
+        ({"task_name": "hook"}, r"goal \[0.0, 1.5, 0.1\] is outside the hook task's goal range"),
+        (
+            {"task_name": "obstacle", "goal": (-0.25, 1.3, 0.1),
+             "scene": {"box_position": [0.875, 1.5]}},
+            "overlaps the box's start",
+        ),
+    ],
+)
+def test_a_design_config_refuses_bad_task_input(kwargs, match):
+    from benchmarks.design import DesignConfig
+
+    with pytest.raises(ValueError, match=match):
+        DesignConfig(**kwargs)
+
+
+def test_design_with_a_policy_refuses_another_task(tmp_path, capsys):
+    from benchmarks.cli import main
+
+    argv = ["design", "--policy", str(tmp_path / "card.json"), "--task", "hook", "--out",
+            str(tmp_path / "run")]
+    with pytest.raises(SystemExit) as exited:
+        main(argv)
+    assert exited.value.code == 2
+    err = capsys.readouterr().err
+    assert "--policy designs for the push task" in err and len(err.strip().splitlines()) == 1
+
+
+@pytest.mark.slow  # importing the study (the suites' retest, the optimizers) takes about 1 s
+def test_the_tier_rule_of_docs_tasks():
+    from perf.studies.task_baselines import tier
+
+    assert [tier(p) for p in (0.0, 0.009, 0.01, 0.0999, 0.10, 0.5)] == [
+        "hard", "hard", "medium", "medium", "easy", "easy"
+    ]

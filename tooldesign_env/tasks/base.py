@@ -1,0 +1,297 @@
+"""What a task is: the scene's objects, the fixed plan, the goal range and the success radius.
+
+A :class:`TaskDefinition` is the unit the task registry (:mod:`tooldesign_env.tasks.registry`)
+holds and the env composes: ``ToolDesignEnv(task="hook")`` takes the task's scene, plan, goal
+and fixed obstacles, and scores the tool with the same F as every other task. Pure data and
+arithmetic: nothing here imports PyBullet.
+
+Units are SI: metres and radians; positions are in the world frame, whose origin is the robot's
+base on the floor, z up.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from tooldesign_env.specs import (
+    FRICTION_MAX,
+    WORKSPACE_HALF_WIDTH,
+    WORKSPACE_HEIGHT,
+    PlanSpec,
+    SceneSpec,
+    check_real,
+    is_unordered,
+)
+
+__all__ = [
+    "OBJECT_SHAPES",
+    "Obstacle",
+    "TaskDefinition",
+    "footprints_overlap",
+]
+
+#: The shapes of the object the tool moves: ``"box"`` (``SceneSpec.box_size``) or
+#: ``"cylinder"`` (upright: diameter ``box_size[0]``, height ``box_size[2]``).
+OBJECT_SHAPES = ("box", "cylinder")
+
+#: Largest success radius accepted, m: past it "success" no longer says the box reached its goal.
+TOLERANCE_MAX = 1.0
+
+#: Extents of an obstacle accepted, m (a 1 cm post to a 3 m wall).
+OBSTACLE_SIZE_MIN = 0.01
+OBSTACLE_SIZE_MAX = 3.0
+
+
+def _floats(value: Any, length: int, label: str) -> tuple[float, ...]:
+    """``value`` as ``length`` finite floats in order, or an error naming ``label``."""
+    if is_unordered(value) or isinstance(value, (str, bytes)) or not isinstance(
+        value, (Sequence, np.ndarray)
+    ):
+        raise TypeError(f"{label} must be {length} numbers in order, got {value!r}")
+    if len(value) != length:
+        raise ValueError(f"{label} must be {length} numbers, got {len(value)}: {value!r}")
+    return tuple(check_real(v, label) for v in value)
+
+
+def _corners(
+    centre: tuple[float, float], size: tuple[float, float], yaw: float
+) -> np.ndarray:
+    """The 4 corners (4, 2) in m of a rectangle of full extents ``size`` turned by ``yaw``."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    half = np.array([[1, 1], [1, -1], [-1, -1], [-1, 1]], dtype=float) * np.asarray(size) / 2.0
+    rotation = np.array([[c, -s], [s, c]])
+    corners: np.ndarray = np.asarray(centre, dtype=float) + half @ rotation.T
+    return corners
+
+
+def footprints_overlap(
+    a: tuple[tuple[float, float], tuple[float, float], float],
+    b: tuple[tuple[float, float], tuple[float, float], float],
+    *,
+    clearance: float = 0.0,
+) -> bool:
+    """Whether two rectangles on the floor overlap, or come closer than ``clearance`` (m).
+
+    Each is ``(centre (x, y), extents (sx, sy), yaw)`` in m and rad. Separating-axis test on
+    the four edge normals; ``clearance`` grows both rectangles by half of it on every side.
+    """
+    grown = [
+        (centre, (size[0] + clearance, size[1] + clearance), yaw) for centre, size, yaw in (a, b)
+    ]
+    pa, pb = (_corners(*r) for r in grown)
+    for yaw in (grown[0][2], grown[1][2]):
+        for axis in ((math.cos(yaw), math.sin(yaw)), (-math.sin(yaw), math.cos(yaw))):
+            da, db = pa @ np.asarray(axis), pb @ np.asarray(axis)
+            if da.max() <= db.min() or db.max() <= da.min():
+                return False
+    return True
+
+
+@dataclass(frozen=True, kw_only=True)
+class Obstacle:
+    """A fixed box standing on the floor (a post or a wall): it moves for nothing.
+
+    Attributes:
+        name: what the docs and errors call it, e.g. ``"post"``.
+        position: centre of its footprint (x, y), m.
+        size: full extents (x, y, z), m; z is its height above the floor.
+        yaw: turn about z, rad.
+        friction: lateral friction coefficient (PyBullet multiplies the pair's).
+
+    Limits (a ValueError names the field otherwise): ``position`` inside the workspace (x, y
+    within +-2.5 m), each extent 0.01 to 3 m, ``yaw`` within +-2 pi rad, ``friction`` 0 to 10.
+    """
+
+    name: str
+    position: tuple[float, float]
+    size: tuple[float, float, float]
+    yaw: float = 0.0
+    friction: float = 0.5
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not self.name.strip():
+            raise ValueError(f"Obstacle.name must be a non-empty string, got {self.name!r}")
+        position = _floats(self.position, 2, "Obstacle.position")
+        size = _floats(self.size, 3, "Obstacle.size")
+        if not all(abs(v) <= WORKSPACE_HALF_WIDTH for v in position):
+            raise ValueError(
+                f"Obstacle.position must be inside the workspace: x, y in "
+                f"[-{WORKSPACE_HALF_WIDTH:g}, {WORKSPACE_HALF_WIDTH:g}] m, got {self.position!r}"
+            )
+        if not all(OBSTACLE_SIZE_MIN <= v <= OBSTACLE_SIZE_MAX for v in size):
+            raise ValueError(
+                f"Obstacle.size must be three extents from {OBSTACLE_SIZE_MIN:g} to "
+                f"{OBSTACLE_SIZE_MAX:g} m, got {self.size!r}"
+            )
+        yaw = check_real(self.yaw, "Obstacle.yaw")
+        if abs(yaw) > 2.0 * math.pi:
+            raise ValueError(f"Obstacle.yaw must be within +-2 pi rad, got {self.yaw!r}")
+        friction = check_real(self.friction, "Obstacle.friction")
+        if not 0.0 <= friction <= FRICTION_MAX:
+            raise ValueError(
+                f"Obstacle.friction must be a number in [0, {FRICTION_MAX:g}], got "
+                f"{self.friction!r}"
+            )
+        object.__setattr__(self, "position", position)
+        object.__setattr__(self, "size", size)
+        object.__setattr__(self, "yaw", yaw)
+        object.__setattr__(self, "friction", friction)
+
+    def footprint(self) -> tuple[tuple[float, float], tuple[float, float], float]:
+        """``(centre, (sx, sy), yaw)`` on the floor, for :func:`footprints_overlap`."""
+        return (self.position[0], self.position[1]), (self.size[0], self.size[1]), self.yaw
+
+
+@dataclass(frozen=True, kw_only=True)
+class TaskDefinition:
+    """A task: what is in the scene, how the arm moves, where the box should go, what succeeds.
+
+    Every task is scored with the same F (goal error and control confidence, ``ObjectiveSpec``),
+    so optimizers, the harness and the RL ids work with any of them unchanged.
+
+    Attributes:
+        name: the registry's name, e.g. ``"hook"``; ``tooldesign design --task NAME``.
+        title: one line saying what the tool must do.
+        scene: the physical world: the box's start, its size, friction (``SceneSpec``).
+        plan: the fixed plan pi_0 of this task (``PlanSpec``).
+        plan_reason: why this plan: what the arm's motion lets a tool do here.
+        goal: the default goal X^g (x, y, z), m.
+        goal_low: the low corner of the goal range (x, y, z), m: where goals are drawn
+            (``randomize_goal=True``) and, unless ``accepts_any_goal``, the only goals taken.
+        goal_high: its high corner, m.
+        tolerance: success radius, m: an episode succeeds when the box ends within it of the
+            goal (``info["success"]``).
+        obstacles: fixed bodies on the floor (:class:`Obstacle`).
+        object_shape: the moved object's shape, one of :data:`OBJECT_SHAPES`.
+        accepts_any_goal: take a goal anywhere in the workspace (the paper's push task, as
+            ``ToolDesign-v0`` always did), not only in the goal range.
+
+    Raises:
+        ValueError: a field out of its range, a default goal outside the goal range, or an
+            obstacle overlapping the box's start.
+    """
+
+    name: str
+    title: str
+    scene: SceneSpec = field(default_factory=SceneSpec)
+    plan: PlanSpec = field(default_factory=PlanSpec)
+    plan_reason: str = ""
+    goal: tuple[float, float, float]
+    goal_low: tuple[float, float, float]
+    goal_high: tuple[float, float, float]
+    tolerance: float
+    obstacles: tuple[Obstacle, ...] = ()
+    object_shape: str = "box"
+    accepts_any_goal: bool = False
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not self.name.strip() or " " in self.name:
+            raise ValueError(
+                f"TaskDefinition.name must be a non-empty word (no spaces), got {self.name!r}"
+            )
+        for label, spec, kind in (
+            ("scene", self.scene, SceneSpec),
+            ("plan", self.plan, PlanSpec),
+        ):
+            if not isinstance(spec, kind):
+                raise TypeError(
+                    f"TaskDefinition.{label} must be a {kind.__name__}, got "
+                    f"{type(spec).__name__} {spec!r}"
+                )
+        for name in ("goal", "goal_low", "goal_high"):
+            point = _floats(getattr(self, name), 3, f"TaskDefinition.{name}")
+            object.__setattr__(self, name, point)
+        low, high = np.asarray(self.goal_low), np.asarray(self.goal_high)
+        limit = np.array([WORKSPACE_HALF_WIDTH, WORKSPACE_HALF_WIDTH, WORKSPACE_HEIGHT])
+        if np.any(low > high) or np.any(high > limit) or np.any(low < limit * [-1, -1, 0]):
+            raise ValueError(
+                f"the {self.name} task's goal range must have low <= high per axis, inside the "
+                f"workspace, got low {list(self.goal_low)}, high {list(self.goal_high)}"
+            )
+        tolerance = check_real(self.tolerance, "TaskDefinition.tolerance")
+        if not 0.0 < tolerance <= TOLERANCE_MAX:
+            raise ValueError(
+                f"TaskDefinition.tolerance must be a number of metres in (0, {TOLERANCE_MAX:g}], "
+                f"got {self.tolerance!r}"
+            )
+        object.__setattr__(self, "tolerance", tolerance)
+        obstacles = tuple(self.obstacles)
+        for item in obstacles:
+            if not isinstance(item, Obstacle):
+                raise TypeError(
+                    f"TaskDefinition.obstacles must hold Obstacle specs, got "
+                    f"{type(item).__name__} {item!r}"
+                )
+        object.__setattr__(self, "obstacles", obstacles)
+        if self.object_shape not in OBJECT_SHAPES:
+            raise ValueError(
+                f"TaskDefinition.object_shape must be one of {OBJECT_SHAPES}, got "
+                f"{self.object_shape!r}"
+            )
+        object.__setattr__(self, "accepts_any_goal", bool(self.accepts_any_goal))
+        self.check_goal(self.goal, "TaskDefinition.goal")
+        self.check_scene(self.scene)
+
+    # ------------------------------------------------------------------ checks
+    def goal_range_text(self) -> str:
+        """The goal range in words, for messages and docs."""
+        (x0, y0, z0), (x1, y1, z1) = self.goal_low, self.goal_high
+        return f"x in [{x0:g}, {x1:g}], y in [{y0:g}, {y1:g}], z in [{z0:g}, {z1:g}] m"
+
+    def check_goal(self, goal: Any, label: str = "goal") -> tuple[float, float, float]:
+        """``goal`` as (x, y, z) if this task takes it, else a one-line error.
+
+        A task that ``accepts_any_goal`` takes every goal of the workspace (the env checks
+        that); the others only goals in their goal range, where the box can be brought.
+
+        Raises:
+            TypeError: not 3 numbers.
+            ValueError: outside the goal range.
+        """
+        x, y, z = _floats(goal, 3, label)
+        if not self.accepts_any_goal:
+            inside = all(
+                lo - 1e-12 <= v <= hi + 1e-12
+                for v, lo, hi in zip((x, y, z), self.goal_low, self.goal_high, strict=True)
+            )
+            if not inside:
+                raise ValueError(
+                    f"{label} {[x, y, z]} is outside the {self.name} task's goal range "
+                    f"({self.goal_range_text()})"
+                )
+        return x, y, z
+
+    def check_scene(self, scene: SceneSpec) -> None:
+        """Refuse a scene whose box starts inside (or touching) one of the task's obstacles.
+
+        Raises:
+            ValueError: an obstacle overlaps the box's footprint at the start.
+        """
+        box = (
+            (scene.box_position[0], scene.box_position[1]),
+            (scene.box_size[0], scene.box_size[1]),
+            scene.box_yaw,
+        )
+        for index, obstacle in enumerate(self.obstacles):
+            if footprints_overlap(box, obstacle.footprint()):
+                raise ValueError(
+                    f"the {self.name} task's obstacle {index} ({obstacle.name} at "
+                    f"{[round(v, 3) for v in obstacle.position]}, {obstacle.size[0]:g} x "
+                    f"{obstacle.size[1]:g} m) overlaps the box's start "
+                    f"{[round(v, 3) for v in scene.box_position]}; move the box "
+                    "(scene box_position) or the obstacle"
+                )
+
+    def sample_goal(self, rng: np.random.Generator) -> np.ndarray:
+        """A goal (3,) m drawn uniformly from the goal range with ``rng``."""
+        return rng.uniform(self.goal_low, self.goal_high)
+
+    def box_start(self, scene: SceneSpec | None = None) -> np.ndarray:
+        """The box centre's start (x, y, z), m, in ``scene`` (default: the task's)."""
+        scene = self.scene if scene is None else scene
+        return np.array([*scene.box_position, scene.box_size[2] / 2.0])
