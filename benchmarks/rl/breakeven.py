@@ -4,10 +4,12 @@ Does a designer that learned from many goals beat CMA-ES run afresh at each new 
 same number of evaluations per goal, and after how many goals do its training episodes pay for
 themselves? (issue 36; ``docs/rl.md``, "The break-even study".)
 
-**Tasks.** The benchmark protocol's 8 held-out instances (``benchmarks/protocol``, instance set
-v1: goal, box mass, box friction), then :data:`FRESH_TASKS`, 12 more drawn once from the same
-distribution with :data:`FRESH_TASK_SEED` and committed here (:data:`HELD_OUT_TASKS` are the
-protocol's, copied): 20 tasks at the ``full`` size.
+**Tasks.** The benchmark protocol's 8 held-out instances (instance set
+:data:`INSTANCE_SET_VERSION`: goal, box mass, box friction, read from the committed
+``benchmarks/protocol/data/instances-v1.json`` by
+:func:`benchmarks.design.instances.load_instances`), then :data:`FRESH_TASKS`, 12 more drawn
+once from the same distribution with :data:`FRESH_TASK_SEED` and committed here: 20 tasks at
+the ``full`` size.
 The learned designers observe the goal and the mass (``ToolDesignRL-v0``'s observation); the
 friction is part of the scene each task is scored in, which they do not see.
 
@@ -51,6 +53,7 @@ from typing import Any, cast
 import numpy as np
 import pandas as pd
 
+from benchmarks.design.instances import load_instances, select_instances
 from benchmarks.rl.agents import (
     EpisodeRecord,
     Trained,
@@ -88,7 +91,7 @@ __all__ = [
     "COLD_METHODS",
     "FRESH_TASKS",
     "FRESH_TASK_SEED",
-    "HELD_OUT_TASKS",
+    "INSTANCE_SET_VERSION",
     "LEARNED_METHODS",
     "MASS_RANGE",
     "SECONDS_PER_EVALUATION",
@@ -116,20 +119,9 @@ FRESH_TASK_SEED = 20261136
 """The seed :data:`FRESH_TASKS` were drawn with (``benchmarks.protocol.instances.draw_instances``
 with ``n=12``, the protocol's distribution; the draw's public/held-out split is ignored)."""
 
-#: The benchmark protocol's held-out instances of set v1 (``benchmarks/protocol/data/
-#: instances-v1.json``): (id, goal x, y, z in m, box mass in kg, box friction). Copied, since
-#: the rl layer sits below the protocol's (docs/architecture.md); a test checks them against
-#: the protocol's file.
-HELD_OUT_TASKS: tuple[tuple[str, tuple[float, float, float], float, float], ...] = (
-    ("i03", (0.1284, 0.7914, 0.1), 0.3416, 0.4447),
-    ("i04", (-0.1223, 0.616, 0.1), 0.2119, 0.405),
-    ("i09", (-0.4312, 1.1645, 0.1), 0.1033, 0.3384),
-    ("i11", (-0.3612, 1.2759, 0.1), 0.7308, 0.3462),
-    ("i12", (0.4696, 0.5461, 0.1), 0.8068, 0.3341),
-    ("i15", (0.1444, 0.6813, 0.1), 0.2251, 0.4053),
-    ("i16", (0.2622, 1.2359, 0.1), 0.5279, 0.3035),
-    ("i22", (0.0948, 0.9725, 0.1), 0.2461, 0.4513),
-)
+#: The version of the protocol's instance set whose held-out instances are the study's first
+#: tasks (recorded in the run folder's config with the tasks themselves).
+INSTANCE_SET_VERSION = 1
 
 #: Tasks beyond the protocol's 8 held-out instances: ``draw_instances(FRESH_TASK_SEED, 12)``
 #: (goal x, y, z in m; box mass in kg; box friction), drawn once and committed (a test checks
@@ -174,9 +166,10 @@ def method_names(learned: Sequence[str] = LEARNED_METHODS) -> tuple[str, ...]:
 
 def breakeven_tasks() -> tuple[RLTask, ...]:
     """The study's 20 tasks in order: the protocol's held-out instances, then the fresh ones."""
+    held_out = select_instances(load_instances(INSTANCE_SET_VERSION), sets=("held-out",))
     tasks = [
-        RLTask(id=name, goal=goal, box_mass=mass, box_friction=friction, set="held-out")
-        for name, goal, mass, friction in HELD_OUT_TASKS
+        RLTask(id=i.id, goal=i.goal, box_mass=i.box_mass, box_friction=i.box_friction, set=i.set)
+        for i in held_out
     ]
     tasks += [
         RLTask(id=f"f{k + 1:02d}", goal=goal, box_mass=mass, box_friction=friction, set="fresh")
