@@ -64,23 +64,26 @@ from benchmarks.rl.agents import (
     train_ppo,
     train_sac,
 )
-from benchmarks.rl.configs import ContextualConfig, MethodConfig, PPOConfig, SACConfig
-from benchmarks.rl.configs import default_config as _default_config
+from benchmarks.rl.configs import (
+    ContextualConfig,
+    MethodConfig,
+    PPOConfig,
+    SACConfig,
+    learned_configs,
+    training_episodes,
+)
 from benchmarks.rl.evaluation import RLTask, evaluate_policy_on_tasks
 from benchmarks.storage import (
     ResultStore,
-    ResumeError,
     RunSession,
     json_ready,
     read_manifest,
     validate_evaluations,
 )
 from tooldesign_env.schema import (
-    BEST_SO_FAR,
     DEFAULT_GOAL_PRECISION,
     GOAL_HIGH,
     GOAL_LOW,
-    TIMING_COLUMNS,
 )
 
 __all__ = [
@@ -295,11 +298,7 @@ class BreakevenConfig:
 
     def train_episodes(self, method: str) -> int:
         """Episodes one training of ``method`` simulates (PPO rounds up to whole rollouts)."""
-        config = self.configs[method]
-        if isinstance(config, ContextualConfig):
-            return config.total_episodes
-        steps = getattr(config, "n_steps", 1)
-        return -(-self.size.train_episodes // steps) * steps
+        return training_episodes(self.configs[method], self.size.train_episodes)
 
     def planned_evaluations(self) -> dict[str, int]:
         """Evaluations per part of the study and in all (``total``)."""
@@ -393,20 +392,12 @@ def breakeven_config(
         or list(budgets) != sorted(set(budgets))
     ):
         raise ValueError(f"size.budgets must be increasing ints >= 1, got {budgets!r}")
-    configs: dict[str, Any] = {m: _default_config(m) for m in ("ppo", "sac")}
-    contextual = _default_config("contextual")
-    assert isinstance(contextual, ContextualConfig)
-    configs["contextual"] = dataclasses.replace(
-        contextual,
-        n_goals=chosen.contextual_goals,
-        episodes_per_goal=max(1, chosen.train_episodes // chosen.contextual_goals),
+    configs = learned_configs(
+        train_episodes=chosen.train_episodes,
+        contextual_goals=chosen.contextual_goals,
         popsize=chosen.popsize,
+        overrides=chosen.overrides,
     )
-    changes: dict[str, dict[str, Any]] = {}
-    for method, field, value in chosen.overrides:
-        changes.setdefault(method, {})[field] = value
-    for method, fields in changes.items():
-        configs[method] = dataclasses.replace(configs[method], **fields)
     methods = _check_subset("learned", learned, LEARNED_METHODS)
     if executor not in ("process", "dask"):
         raise ValueError(f"executor must be 'process' or 'dask', got {executor!r}")
@@ -735,26 +726,6 @@ class BreakevenResult:
     wall_time: float
 
 
-def _without_timing(frame: pd.DataFrame) -> pd.DataFrame:
-    drop = [c for c in (*TIMING_COLUMNS, BEST_SO_FAR) if c in frame.columns]
-    return frame.drop(columns=drop).reset_index(drop=True)
-
-
-def _stored_keys(
-    store: ResultStore, planned: set[tuple[str, str, int]]
-) -> set[tuple[str, str, int]]:
-    keys = set()
-    for unit in store.completed_units():
-        key = (unit.variant, unit.optimizer, unit.seed)
-        if unit.suite != BREAKEVEN_NAME or unit.iteration != 0 or key not in planned:
-            raise ResumeError(
-                f"cannot resume: {store.parts_dir} holds a part this break-even study does not "
-                f"plan ({unit}); use another folder"
-            )
-        keys.add(key)
-    return keys
-
-
 def _write(
     session: RunSession,
     work: _Work,
@@ -762,29 +733,15 @@ def _write(
     stored: set[tuple[str, str, int]],
 ) -> None:
     """Write the parts of a finished unit not on disk; check those that are."""
-    keys = work.keys()
+    from benchmarks.rl.suite import _write_parts
+
     if work.kind == "train":
         # Recorded before its parts: a later session refuses the folder if the card changes.
         session.record_file(_card_path(session.out, work.method, work.replicate))
         weights = _card_path(session.out, work.method, work.replicate).with_suffix(".safetensors")
         if weights.is_file():
             session.record_file(weights)
-    log = session.store.read(verify=False) if any(k in stored for k in keys) else None
-    for key, frame in zip(keys, frames, strict=True):
-        if key not in stored or log is None:
-            session.write_batch(frame)
-            stored.add(key)
-            continue
-        mine = log[
-            (log["variant"] == key[0]) & (log["optimizer"] == key[1]) & (log["seed"] == key[2])
-        ]
-        fresh = _without_timing(validate_evaluations(frame, source=str(key)))
-        old = _without_timing(mine)[list(fresh.columns)]
-        if not old.equals(fresh):
-            raise ResumeError(
-                f"cannot resume: redoing {work.label()} gave other results than its part on "
-                "disk; the runs are not reproducible here, use a new folder"
-            )
+    _write_parts(session, work.label(), work.keys(), frames, stored, suite=BREAKEVEN_NAME)
 
 
 def run_breakeven(
@@ -814,6 +771,7 @@ def run_breakeven(
             or whose parts do not match (:class:`~benchmarks.storage.ResumeError`).
     """
     from benchmarks.execution import check_main_guard, make_executor
+    from benchmarks.rl.suite import _stored_keys
 
     if not isinstance(config, BreakevenConfig):
         config = breakeven_config(config)
@@ -836,7 +794,7 @@ def run_breakeven(
         },
         first_fields=("size.name", "learned"),
     ) as session:
-        stored = _stored_keys(session.store, planned)
+        stored = _stored_keys(session.store, planned, BREAKEVEN_NAME, "break-even study")
         session.start()
         pending = [w for w in work if not all(k in stored for k in w.keys())]
         say = progress or (lambda line: None)
