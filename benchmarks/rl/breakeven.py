@@ -507,6 +507,19 @@ def _task_env(task: RLTask) -> Any:
     return make_env(scene=scene)
 
 
+def _unit_fields(key: tuple[str, str, int], k: int) -> dict[str, Any]:
+    """The part's columns of its k-th evaluation: one iteration, evaluations in order."""
+    return {
+        "suite": BREAKEVEN_NAME,
+        "variant": key[0],
+        "optimizer": key[1],
+        "seed": key[2],
+        "iteration": 0,
+        "candidate": k,
+        "eval_id": k,
+    }
+
+
 def _frame(
     records: Sequence[EpisodeRecord],
     *,
@@ -523,13 +536,7 @@ def _frame(
     for k, r in enumerate(records):
         rows.append(
             {
-                "suite": BREAKEVEN_NAME,
-                "variant": key[0],
-                "optimizer": key[1],
-                "seed": key[2],
-                "iteration": 0,
-                "candidate": k,
-                "eval_id": k,
+                **_unit_fields(key, k),
                 **{f"c{i + 1}": c for i, c in enumerate(r.coefficients)},
                 "free_energy": r.free_energy,
                 "goal_error": r.goal_error,
@@ -561,13 +568,7 @@ def _zero_shot_frame(
     for i, row in evaluated.iterrows():
         rows.append(
             {
-                "suite": BREAKEVEN_NAME,
-                "variant": key[0],
-                "optimizer": key[1],
-                "seed": key[2],
-                "iteration": 0,
-                "candidate": int(cast("int", i)),
-                "eval_id": int(cast("int", i)),
+                **_unit_fields(key, int(cast("int", i))),
                 "c1": row["c1"],
                 "c2": row["c2"],
                 "c3": row["c3"],
