@@ -44,13 +44,6 @@ COMPARISON_COLUMNS: tuple[str, ...] = (
 )
 
 
-def _vector(values: ArrayLike, name: str) -> np.ndarray:
-    array = np.asarray(values, dtype=np.float64)
-    if array.ndim != 1:
-        raise ValueError(f"{name} must be 1-D, got shape {array.shape}")
-    return array
-
-
 def _log_comb(n: np.ndarray, k: int) -> np.ndarray:
     from scipy.special import gammaln
 
@@ -74,7 +67,10 @@ def expected_best_of_random(pool: ArrayLike, budgets: ArrayLike) -> np.ndarray:
     Raises:
         ValueError: An empty pool or a budget outside 1..N.
     """
-    x = np.sort(_vector(pool, "pool")[~np.isnan(_vector(pool, "pool"))])
+    x = np.asarray(pool, dtype=np.float64)
+    if x.ndim != 1:
+        raise ValueError(f"pool must be 1-D, got shape {x.shape}")
+    x = np.sort(x[~np.isnan(x)])
     n = x.size
     if n == 0:
         raise ValueError("pool must hold at least one F (at least one finite once NaN is dropped)")
