@@ -15,38 +15,20 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from policy_runs import GOAL, contextual_card, design_with_card, refused_design_error
 
-from benchmarks.cli import main
 from benchmarks.rl import ContextualConfig, ContextualPolicy, save_policy
 from benchmarks.rl.designer import POLICY_DESIGNER, PolicyDesigner
 from benchmarks.rl.policies import design_for_goal, policy_digest
 from benchmarks.storage import read_manifest
 from tooldesign_env import default_bounds
 
-# A goal no training goal of the policies below is at.
-GOAL = (0.15, 1.05, 0.1)
-
-
-def _policy(path: Path, action: tuple[float, float, float] = (0.3, -0.2, 0.5)) -> Path:
-    """A contextual policy of two training goals, saved as ``path``."""
-    goals = [(-0.3, 0.8, 0.1), (0.4, 1.3, 0.1)]
-    actions = [action, tuple(-a for a in action)]
-    policy = ContextualPolicy(goals, actions)
-    config = dataclasses.replace(ContextualConfig(), n_goals=2)
-    return save_policy(policy, "contextual", path, config=config, train_episodes=2)
-
-
-def _design(card: Path, out: Path, *extra: str) -> int:
-    goal = [str(v) for v in GOAL]
-    args = ["design", "--policy", str(card), "--goal", *goal, "--out", str(out)]
-    return main([*args, "--no-progress", "--no-video", *extra])
-
 
 @pytest.mark.slow
 def test_a_policy_designs_into_the_run_folder_of_any_design(tmp_path: Path) -> None:
-    card = _policy(tmp_path / "policy.json")
+    card = contextual_card(tmp_path / "policy.json")
     out = tmp_path / "run"
-    assert _design(card, out) == 0
+    assert design_with_card(card, out) == 0
 
     expected = design_for_goal(card, GOAL)  # the tool and F of `tooldesign rl design`
     log = pd.read_csv(out / "evaluations.csv")
@@ -67,11 +49,11 @@ def test_a_policy_designs_into_the_run_folder_of_any_design(tmp_path: Path) -> N
 
     # Resuming the finished run changes nothing; resuming with a changed policy is refused.
     before = (out / "evaluations.csv").read_bytes()
-    assert _design(card, out, "--resume") == 0
+    assert design_with_card(card, out, "--resume") == 0
     assert (out / "evaluations.csv").read_bytes() == before
-    _policy(card, action=(0.9, 0.9, 0.9))
+    contextual_card(card, action=(0.9, 0.9, 0.9))
     with pytest.raises(SystemExit) as excinfo:
-        _design(card, out, "--resume")
+        design_with_card(card, out, "--resume")
     assert excinfo.value.code == 2
 
 
@@ -80,7 +62,7 @@ def test_a_saved_ppo_policy_designs_from_the_command_line(rl_smoke: Path, tmp_pa
     pytest.importorskip("stable_baselines3")
     card = rl_smoke / "policies" / "ppo.json"
     out = tmp_path / "run"
-    assert _design(card, out) == 0
+    assert design_with_card(card, out) == 0
     expected = design_for_goal(card, GOAL)
     log = pd.read_csv(out / "evaluations.csv")
     assert log["free_energy"].iloc[0] == expected.free_energy
@@ -128,13 +110,8 @@ def test_the_command_shows_the_policys_warnings_as_warning_lines(tmp_path: Path)
 def test_designer_options_are_refused_with_a_policy(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], extra: list[str], named: str
 ) -> None:
-    card = _policy(tmp_path / "policy.json")
-    with pytest.raises(SystemExit) as excinfo:
-        _design(card, tmp_path / "run", *extra)
-    assert excinfo.value.code == 2
-    err = capsys.readouterr().err
-    assert named in err and "does not apply" in err and "Traceback" not in err
-    assert not (tmp_path / "run").exists()
+    err = refused_design_error(tmp_path, capsys, extra)
+    assert named in err and "does not apply" in err
 
 
 @pytest.mark.parametrize(
@@ -153,14 +130,14 @@ def test_a_bad_policy_is_one_line_and_exit_2(
     if content is not None:
         card.write_text(content)
     with pytest.raises(SystemExit) as excinfo:
-        _design(card, tmp_path / "run")
+        design_with_card(card, tmp_path / "run")
     assert excinfo.value.code == 2
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err and err.count("\n") == 1
 
 
 def test_the_designer_refuses_a_changed_policy_and_bad_batches(tmp_path: Path) -> None:
-    card = _policy(tmp_path / "policy.json")
+    card = contextual_card(tmp_path / "policy.json")
     bounds = default_bounds(3)
     kwargs = {"policy": card, "goal": GOAL, "box_mass": 0.1, "sha256": policy_digest(card)}
     designer = PolicyDesigner(bounds, **kwargs)

@@ -7,16 +7,16 @@ is the zero-shot design, its settings the card's SHA-256 and the step size, resu
 
 from __future__ import annotations
 
-import dataclasses
 import json
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
+from policy_runs import GOAL, contextual_card, design_with_card, refused_design_error
 
 from benchmarks.cli import main
-from benchmarks.rl import ContextualConfig, ContextualPolicy, save_policy
+from benchmarks.rl import ContextualPolicy
 from benchmarks.rl.policies import design_for_goal, policy_digest
 from benchmarks.rl.warmstart import (
     DEFAULT_SIGMA0,
@@ -29,15 +29,6 @@ from benchmarks.rl.warmstart import (
     warm_sigma0,
 )
 from tooldesign_env import default_bounds
-
-GOAL = (0.15, 1.05, 0.1)
-
-
-def _policy(path: Path) -> Path:
-    goals = [(-0.3, 0.8, 0.1), (0.4, 1.3, 0.1)]
-    policy = ContextualPolicy(goals, [(0.3, -0.2, 0.5), (-0.3, 0.2, -0.5)])
-    config = dataclasses.replace(ContextualConfig(), n_goals=2)
-    return save_policy(policy, "contextual", path, config=config, train_episodes=2)
 
 
 def test_the_contextual_spread_is_the_kernel_weighted_rms_around_the_proposal() -> None:
@@ -73,7 +64,7 @@ def test_the_step_size_rule() -> None:
 
 @pytest.mark.slow
 def test_the_designer_asks_the_proposal_then_cmaes_from_it(tmp_path: Path) -> None:
-    card = _policy(tmp_path / "policy.json")
+    card = contextual_card(tmp_path / "policy.json")
     bounds = default_bounds(3)
     kwargs = {"policy": card, "goal": GOAL, "box_mass": 0.1, "sha256": policy_digest(card)}
     designer = WarmStartDesigner(bounds, seed=3, popsize=4, **kwargs)
@@ -99,7 +90,7 @@ def test_the_designer_asks_the_proposal_then_cmaes_from_it(tmp_path: Path) -> No
 
 
 def test_the_designer_refuses_bad_settings(tmp_path: Path) -> None:
-    card = _policy(tmp_path / "policy.json")
+    card = contextual_card(tmp_path / "policy.json")
     bounds = default_bounds(3)
     kwargs = {"policy": card, "goal": GOAL, "box_mass": 0.1, "sha256": policy_digest(card)}
     with pytest.raises(ValueError, match="batch_size must be 1"):
@@ -112,17 +103,11 @@ def test_the_designer_refuses_bad_settings(tmp_path: Path) -> None:
         WarmStartDesigner(np.array([[-0.01, 0.01]] * 3), **kwargs)
 
 
-def _design(card: Path, out: Path, *extra: str) -> int:
-    goal = [str(v) for v in GOAL]
-    args = ["design", "--policy", str(card), "--goal", *goal, "--out", str(out)]
-    return main([*args, "--no-progress", "--no-video", *extra])
-
-
 @pytest.mark.slow
 def test_refine_designs_into_a_run_folder_and_resumes(tmp_path: Path) -> None:
-    card = _policy(tmp_path / "policy.json")
+    card = contextual_card(tmp_path / "policy.json")
     out = tmp_path / "run"
-    assert _design(card, out, "--refine", "3", "--seed", "2", "--option", "popsize=2") == 0
+    assert design_with_card(card, out, "--refine", "3", "--seed", "2", "--option", "popsize=2") == 0
     log = pd.read_csv(out / "evaluations.csv")
     assert len(log) == 4
     zero = design_for_goal(card, GOAL)
@@ -136,7 +121,10 @@ def test_refine_designs_into_a_run_folder_and_resumes(tmp_path: Path) -> None:
     assert config["iterations"] == 4 and config["batch_size"] == 1 and config["seed"] == 2
     # More refinement continues the run: the first four evaluations are kept as they were.
     assert (
-        _design(card, out, "--refine", "5", "--seed", "2", "--option", "popsize=2", "--resume") == 0
+        design_with_card(
+            card, out, "--refine", "5", "--seed", "2", "--option", "popsize=2", "--resume"
+        )
+        == 0
     )
     longer = pd.read_csv(out / "evaluations.csv")
     assert len(longer) == 6
@@ -148,9 +136,9 @@ def test_refine_designs_into_a_run_folder_and_resumes(tmp_path: Path) -> None:
 
 @pytest.mark.slow
 def test_refine_zero_is_the_zero_shot_design(tmp_path: Path) -> None:
-    card = _policy(tmp_path / "policy.json")
+    card = contextual_card(tmp_path / "policy.json")
     out = tmp_path / "run"
-    assert _design(card, out, "--refine", "0") == 0
+    assert design_with_card(card, out, "--refine", "0") == 0
     log = pd.read_csv(out / "evaluations.csv")
     assert len(log) == 1 and log["free_energy"].iloc[0] == design_for_goal(card, GOAL).free_energy
 
@@ -170,13 +158,7 @@ def test_refine_zero_is_the_zero_shot_design(tmp_path: Path) -> None:
 def test_bad_refine_options_are_one_line_and_exit_2(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], extra: list[str], named: str
 ) -> None:
-    card = _policy(tmp_path / "policy.json")
-    with pytest.raises(SystemExit) as excinfo:
-        _design(card, tmp_path / "run", *extra)
-    assert excinfo.value.code == 2
-    err = capsys.readouterr().err
-    assert named in err and "Traceback" not in err
-    assert not (tmp_path / "run").exists()
+    assert named in refused_design_error(tmp_path, capsys, extra)
 
 
 def test_refine_needs_a_policy(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

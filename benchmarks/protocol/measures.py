@@ -6,7 +6,8 @@ All functions are pure NumPy on arrays (no simulation, no files); F is minimized
   evaluation, NaN, improves nothing; an invalid one has the env's finite penalty F).
 - **Random sampling at a budget** ``F_random(t)``: the expected best of t designs drawn
   uniformly in the bounds, computed exactly from a pool of N such designs' F (the expected
-  minimum of t draws without replacement from the pool, :func:`expected_best_of_random`).
+  minimum of t draws without replacement from the pool, :func:`expected_best_of_random`,
+  shared with the study reports from :mod:`benchmarks.reports.measures`).
 - **Normalized regret** at budget t: ``(b_r(t) - F_ref) / (F_random(t) - F_ref)``. 0 is the
   reference, 1 is as good as random sampling with the same budget, > 1 worse than random. It is
   negative when a run beats the reference (the reference is then to be lowered).
@@ -35,6 +36,8 @@ from collections.abc import Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike
+
+from benchmarks.reports.measures import expected_best_of_random
 
 __all__ = [
     "best_so_far",
@@ -73,50 +76,6 @@ def best_so_far(values: ArrayLike) -> np.ndarray:
     """
     f = _vector(values, "values")
     return np.minimum.accumulate(np.where(np.isnan(f), np.inf, f)) if f.size else f
-
-
-def expected_best_of_random(pool: ArrayLike, budgets: ArrayLike) -> np.ndarray:
-    """Expected lowest F of t designs drawn at random without replacement from ``pool``.
-
-    With the pool sorted, x_(1) <= ... <= x_(N), the minimum of t draws is x_(i) with
-    probability C(N - i, t - 1) / C(N, t).
-
-    Args:
-        pool: (N,) F of random designs (finite; NaN values are dropped).
-        budgets: (k,) t values, each an int from 1 to N.
-
-    Returns:
-        (k,) expected minima.
-
-    Raises:
-        ValueError: An empty pool or a budget outside 1..N.
-    """
-    x = np.sort(_vector(pool, "pool")[~np.isnan(_vector(pool, "pool"))])
-    n = x.size
-    if n == 0:
-        raise ValueError("pool must hold at least one finite F")
-    if not np.all(np.isfinite(x)):
-        raise ValueError("pool must hold finite F values")
-    t = np.asarray(budgets)
-    if t.ndim != 1 or not np.issubdtype(t.dtype, np.integer) or np.any((t < 1) | (t > n)):
-        raise ValueError(f"budgets must be ints from 1 to the pool size {n}, got {t.tolist()}")
-    i = np.arange(1, n + 1)
-    out = np.empty(t.size)
-    for k, b in enumerate(t.tolist()):
-        valid = n - i >= b - 1
-        log_p = np.full(n, -np.inf)
-        m = n - i[valid]
-        log_p[valid] = _log_comb(m, b - 1) - _log_comb(np.array([n]), b)[0]
-        p = np.exp(log_p)
-        out[k] = float(np.dot(p / p.sum(), x))
-    return out
-
-
-def _log_comb(n: np.ndarray, k: int) -> np.ndarray:
-    from scipy.special import gammaln
-
-    n = np.asarray(n, dtype=np.float64)
-    return np.asarray(gammaln(n + 1) - gammaln(k + 1) - gammaln(n - k + 1))
 
 
 def normalized_regret(best: ArrayLike, f_ref: float, f_random: ArrayLike) -> np.ndarray:

@@ -55,7 +55,7 @@ from collections.abc import Sequence
 import numpy as np
 import pandas as pd
 
-from benchmarks.reports.stats import holm_bonferroni, t_interval
+from benchmarks.reports.measures import COMPARISON_COLUMNS, paired_table
 
 __all__ = [
     "COMPARISON_COLUMNS",
@@ -67,19 +67,6 @@ __all__ = [
     "power_analysis",
     "rank_stability",
 ]
-
-COMPARISON_COLUMNS: tuple[str, ...] = (
-    "a",
-    "b",
-    "n",
-    "mean_diff",
-    "ci_low",
-    "ci_high",
-    "d_z",
-    "p",
-    "p_holm",
-    "significant",
-)
 
 #: Asymptotic relative efficiency of the signed-rank test to the t test for normal data.
 WILCOXON_ARE = 3.0 / math.pi
@@ -311,33 +298,10 @@ def paired_comparisons(
         instances, ``ci_low``/``ci_high`` its t interval
         (:func:`benchmarks.reports.stats.t_interval`).
     """
-    from scipy.stats import wilcoxon
-
     scores = _check_scores(scores)
     _check_level("alpha", alpha)
     _check_level("level", level)
-    means = _instance_means(scores)
-    rows = []
-    for a, b in itertools.combinations(sorted(means.columns), 2):
-        both = means[[a, b]].dropna()
-        diff = (both[a] - both[b]).to_numpy()
-        n = diff.size
-        row = {"a": a, "b": b, "n": n, "mean_diff": float(diff.mean()) if n else math.nan}
-        if n >= 2:
-            interval = t_interval(diff, level)
-            row["ci_low"], row["ci_high"] = interval.low, interval.high
-            sd = float(diff.std(ddof=1))
-            row["d_z"] = row["mean_diff"] / sd if sd > 0 else math.nan
-            row["p"] = (
-                1.0 if np.all(diff == 0) else float(wilcoxon(diff, zero_method="zsplit").pvalue)
-            )
-        else:
-            row.update(ci_low=math.nan, ci_high=math.nan, d_z=math.nan, p=math.nan)
-        rows.append(row)
-    table = pd.DataFrame(rows, columns=[c for c in COMPARISON_COLUMNS[:8]])
-    table["p_holm"] = holm_bonferroni(table["p"].to_numpy(dtype=np.float64))
-    table["significant"] = (table["p_holm"] < alpha).astype(bool)
-    return table[list(COMPARISON_COLUMNS)]
+    return paired_table(_instance_means(scores), alpha=alpha, level=level)
 
 
 def rank_stability(

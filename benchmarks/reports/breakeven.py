@@ -1,9 +1,9 @@
 """The break-even study's report, from its stored evaluations alone (``docs/rl.md``).
 
 Measures (as the benchmark protocol defines them in :mod:`benchmarks.protocol.measures` and
-:mod:`benchmarks.protocol.statistics`; the protocol sits above the reports in the layers of
-docs/architecture.md, so the two formulas used here are restated in this module, and
-``tests/test_breakeven.py`` checks them against the protocol's on the same numbers):
+:mod:`benchmarks.protocol.statistics`; the two formulas used here, the expected best of random
+designs and the paired comparison, are the protocol's own code, which lives in
+:mod:`benchmarks.reports.measures`, below the protocol in the layers of docs/architecture.md):
 
 - **Best so far** b(t): the lowest F among a run's first t evaluations. A zero-shot design is
   one evaluation: its b(t) is its F at every budget (the rest of the budget is unused).
@@ -18,7 +18,8 @@ docs/architecture.md, so the two formulas used here are restated in this module,
   has a 95 % Student t interval over tasks (:func:`benchmarks.reports.stats.t_interval`).
 - **Paired tests** at each budget: every pair of methods, the two-sided Wilcoxon signed-rank
   test of the per-task differences, Holm-corrected over the pairs of that budget
-  (:func:`paired_table`, as ``benchmarks.protocol.statistics.paired_comparisons``; alpha 0.05).
+  (:func:`benchmarks.reports.measures.paired_table`, the code of
+  ``benchmarks.protocol.statistics.paired_comparisons``; alpha 0.05).
 - **Amortization**: for each budget B of cold CMA-ES, the quality q_B it reaches (its mean
   regret); the smallest budget b at which a learned method's mean regret is <= q_B; the method
   spends T training episodes once, then b per goal, against B per goal for cold CMA-ES, so it
@@ -37,8 +38,9 @@ import numpy as np
 import pandas as pd
 
 from benchmarks.reports.comparison import REPORT_DIR, new_figure
+from benchmarks.reports.measures import COMPARISON_COLUMNS, expected_best_of_random, paired_table
 from benchmarks.reports.plots import new_figure_grid, save_png
-from benchmarks.reports.stats import holm_bonferroni, t_interval
+from benchmarks.reports.stats import t_interval
 from benchmarks.storage import atomic_write_text, json_text
 from benchmarks.storage.table import csv_text
 
@@ -59,111 +61,6 @@ __all__ = [
 
 #: Family-wise level of the paired tests at each budget (issue 36: Holm p < 0.05).
 ALPHA = 0.05
-
-
-#: The columns of :func:`paired_table` (those of the protocol's ``paired_comparisons``).
-COMPARISON_COLUMNS: tuple[str, ...] = (
-    "a",
-    "b",
-    "n",
-    "mean_diff",
-    "ci_low",
-    "ci_high",
-    "d_z",
-    "p",
-    "p_holm",
-    "significant",
-)
-
-
-def expected_best_of_random(pool: Any, budgets: Any) -> np.ndarray:
-    """Expected lowest F of t designs drawn without replacement from ``pool``, per t.
-
-    With the pool sorted, x_(1) <= ... <= x_(N), the minimum of t draws is x_(i) with
-    probability C(N - i, t - 1) / C(N, t) (``benchmarks.protocol.measures``' formula).
-
-    Args:
-        pool: (N,) finite F of random designs (NaN dropped).
-        budgets: (k,) ints from 1 to N.
-
-    Raises:
-        ValueError: an empty pool, a non-finite value, or a budget outside 1..N.
-    """
-    from scipy.special import gammaln
-
-    x = np.asarray(pool, dtype=np.float64).ravel()
-    x = np.sort(x[~np.isnan(x)])
-    n = x.size
-    if n == 0 or not np.all(np.isfinite(x)):
-        raise ValueError("pool must hold at least one F, all finite")
-    t = np.asarray(budgets)
-    if t.ndim != 1 or not np.issubdtype(t.dtype, np.integer) or np.any((t < 1) | (t > n)):
-        raise ValueError(f"budgets must be ints from 1 to the pool size {n}, got {t.tolist()}")
-
-    def log_comb(a: np.ndarray, k: int) -> np.ndarray:
-        return np.asarray(gammaln(a + 1) - gammaln(k + 1) - gammaln(a - k + 1))
-
-    i = np.arange(1, n + 1)
-    out = np.empty(t.size)
-    for k, b in enumerate(t.tolist()):
-        valid = n - i >= b - 1
-        log_p = np.full(n, -np.inf)
-        log_p[valid] = (
-            log_comb((n - i[valid]).astype(np.float64), b - 1)
-            - log_comb(np.array([float(n)]), b)[0]
-        )
-        p = np.exp(log_p)
-        out[k] = float(np.dot(p / p.sum(), x))
-    return out
-
-
-def paired_table(means: pd.DataFrame, *, alpha: float = ALPHA, level: float = 0.95) -> pd.DataFrame:
-    """Every pair of methods on the tasks both have, Holm-corrected over the pairs.
-
-    The protocol's paired comparison: the two-sided Wilcoxon signed-rank test of the per-task
-    differences (``zero_method="zsplit"``; 1 when every difference is 0), the mean difference
-    with its Student t interval over tasks, d_z = mean / SD of the differences.
-
-    Args:
-        means: Tasks as rows, methods as columns: a method's score on a task (NaN: none).
-        alpha: Family-wise level of ``significant``.
-        level: Level of the t interval.
-
-    Returns:
-        One row per pair (a < b by name) with :data:`COMPARISON_COLUMNS`; ``mean_diff`` is
-        mean(a - b).
-    """
-    import itertools
-
-    from scipy.stats import wilcoxon
-
-    rows = []
-    for a, b in itertools.combinations(sorted(means.columns), 2):
-        both = means[[a, b]].dropna()
-        diff = (both[a] - both[b]).to_numpy(dtype=np.float64)
-        n = diff.size
-        row: dict[str, Any] = {
-            "a": a,
-            "b": b,
-            "n": n,
-            "mean_diff": float(diff.mean()) if n else math.nan,
-        }
-        if n >= 2:
-            interval = t_interval(diff, level)
-            sd = float(diff.std(ddof=1))
-            row.update(
-                ci_low=interval.low,
-                ci_high=interval.high,
-                d_z=row["mean_diff"] / sd if sd > 0 else math.nan,
-                p=1.0 if np.all(diff == 0) else float(wilcoxon(diff, zero_method="zsplit").pvalue),
-            )
-        else:
-            row.update(ci_low=math.nan, ci_high=math.nan, d_z=math.nan, p=math.nan)
-        rows.append(row)
-    table = pd.DataFrame(rows, columns=list(COMPARISON_COLUMNS[:8]))
-    table["p_holm"] = holm_bonferroni(table["p"].to_numpy(dtype=np.float64))
-    table["significant"] = (table["p_holm"] < alpha).astype(bool)
-    return table[list(COMPARISON_COLUMNS)]
 
 
 def _study_budgets(folder: Path) -> tuple[list[int], list[str], dict[str, Any]]:

@@ -362,6 +362,28 @@ def _task_options(goal: Sequence[float] | None, box_mass: float | None) -> dict[
     return options or None
 
 
+def _run_generations(
+    opt: Any, logged: EpisodeLog, options: dict[str, Any] | None, total: int
+) -> None:
+    """Simulate ``opt``'s generations, one episode each design, until ``total`` are logged.
+
+    The last generation is cut short if needed (and not told). Shared by the cold CMA-ES and
+    the warm-started one (:func:`benchmarks.rl.warmstart.run_warm_cmaes`).
+    """
+    while len(logged.records) < total:
+        batch = opt.ask()
+        values = []
+        for x in batch.x:
+            if len(logged.records) >= total:
+                break
+            logged.reset(options=options)
+            logged.step(np.asarray(x, dtype=np.float32))
+            values.append(logged.records[-1].free_energy)
+        if len(values) < len(batch):
+            break
+        opt.tell(batch.ids, values)
+
+
 def run_cmaes(
     *,
     total_episodes: int,
@@ -392,18 +414,7 @@ def run_cmaes(
     opt = optimizers.make(
         "cmaes", bounds=[[-1.0, 1.0]] * 3, batch_size=popsize, seed=seed, sigma0=sigma0
     )
-    while len(logged.records) < total:
-        batch = opt.ask()
-        values = []
-        for x in batch.x:
-            if len(logged.records) >= total:
-                break
-            logged.reset(options=options)
-            logged.step(np.asarray(x, dtype=np.float32))
-            values.append(logged.records[-1].free_energy)
-        if len(values) < len(batch):
-            break
-        opt.tell(batch.ids, values)
+    _run_generations(opt, logged, options, total)
     if own:
         logged.close()
     return logged.records

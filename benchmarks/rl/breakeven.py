@@ -4,10 +4,12 @@ Does a designer that learned from many goals beat CMA-ES run afresh at each new 
 same number of evaluations per goal, and after how many goals do its training episodes pay for
 themselves? (issue 36; ``docs/rl.md``, "The break-even study".)
 
-**Tasks.** The benchmark protocol's 8 held-out instances (``benchmarks/protocol``, instance set
-v1: goal, box mass, box friction), then :data:`FRESH_TASKS`, 12 more drawn once from the same
-distribution with :data:`FRESH_TASK_SEED` and committed here (:data:`HELD_OUT_TASKS` are the
-protocol's, copied): 20 tasks at the ``full`` size.
+**Tasks.** The benchmark protocol's 8 held-out instances (instance set
+:data:`INSTANCE_SET_VERSION`: goal, box mass, box friction, read from the committed
+``benchmarks/protocol/data/instances-v1.json`` by
+:func:`benchmarks.design.instances.load_instances`), then :data:`FRESH_TASKS`, 12 more drawn
+once from the same distribution with :data:`FRESH_TASK_SEED` and committed here: 20 tasks at
+the ``full`` size.
 The learned designers observe the goal and the mass (``ToolDesignRL-v0``'s observation); the
 friction is part of the scene each task is scored in, which they do not see.
 
@@ -51,6 +53,7 @@ from typing import Any, cast
 import numpy as np
 import pandas as pd
 
+from benchmarks.design.instances import load_instances, select_instances
 from benchmarks.rl.agents import (
     EpisodeRecord,
     Trained,
@@ -61,23 +64,26 @@ from benchmarks.rl.agents import (
     train_ppo,
     train_sac,
 )
-from benchmarks.rl.configs import ContextualConfig, MethodConfig, PPOConfig, SACConfig
-from benchmarks.rl.configs import default_config as _default_config
+from benchmarks.rl.configs import (
+    ContextualConfig,
+    MethodConfig,
+    PPOConfig,
+    SACConfig,
+    learned_configs,
+    training_episodes,
+)
 from benchmarks.rl.evaluation import RLTask, evaluate_policy_on_tasks
 from benchmarks.storage import (
     ResultStore,
-    ResumeError,
     RunSession,
     json_ready,
     read_manifest,
     validate_evaluations,
 )
 from tooldesign_env.schema import (
-    BEST_SO_FAR,
     DEFAULT_GOAL_PRECISION,
     GOAL_HIGH,
     GOAL_LOW,
-    TIMING_COLUMNS,
 )
 
 __all__ = [
@@ -88,7 +94,7 @@ __all__ = [
     "COLD_METHODS",
     "FRESH_TASKS",
     "FRESH_TASK_SEED",
-    "HELD_OUT_TASKS",
+    "INSTANCE_SET_VERSION",
     "LEARNED_METHODS",
     "MASS_RANGE",
     "SECONDS_PER_EVALUATION",
@@ -116,20 +122,9 @@ FRESH_TASK_SEED = 20261136
 """The seed :data:`FRESH_TASKS` were drawn with (``benchmarks.protocol.instances.draw_instances``
 with ``n=12``, the protocol's distribution; the draw's public/held-out split is ignored)."""
 
-#: The benchmark protocol's held-out instances of set v1 (``benchmarks/protocol/data/
-#: instances-v1.json``): (id, goal x, y, z in m, box mass in kg, box friction). Copied, since
-#: the rl layer sits below the protocol's (docs/architecture.md); a test checks them against
-#: the protocol's file.
-HELD_OUT_TASKS: tuple[tuple[str, tuple[float, float, float], float, float], ...] = (
-    ("i03", (0.1284, 0.7914, 0.1), 0.3416, 0.4447),
-    ("i04", (-0.1223, 0.616, 0.1), 0.2119, 0.405),
-    ("i09", (-0.4312, 1.1645, 0.1), 0.1033, 0.3384),
-    ("i11", (-0.3612, 1.2759, 0.1), 0.7308, 0.3462),
-    ("i12", (0.4696, 0.5461, 0.1), 0.8068, 0.3341),
-    ("i15", (0.1444, 0.6813, 0.1), 0.2251, 0.4053),
-    ("i16", (0.2622, 1.2359, 0.1), 0.5279, 0.3035),
-    ("i22", (0.0948, 0.9725, 0.1), 0.2461, 0.4513),
-)
+#: The version of the protocol's instance set whose held-out instances are the study's first
+#: tasks (recorded in the run folder's config with the tasks themselves).
+INSTANCE_SET_VERSION = 1
 
 #: Tasks beyond the protocol's 8 held-out instances: ``draw_instances(FRESH_TASK_SEED, 12)``
 #: (goal x, y, z in m; box mass in kg; box friction), drawn once and committed (a test checks
@@ -174,9 +169,10 @@ def method_names(learned: Sequence[str] = LEARNED_METHODS) -> tuple[str, ...]:
 
 def breakeven_tasks() -> tuple[RLTask, ...]:
     """The study's 20 tasks in order: the protocol's held-out instances, then the fresh ones."""
+    held_out = select_instances(load_instances(INSTANCE_SET_VERSION), sets=("held-out",))
     tasks = [
-        RLTask(id=name, goal=goal, box_mass=mass, box_friction=friction, set="held-out")
-        for name, goal, mass, friction in HELD_OUT_TASKS
+        RLTask(id=i.id, goal=i.goal, box_mass=i.box_mass, box_friction=i.box_friction, set=i.set)
+        for i in held_out
     ]
     tasks += [
         RLTask(id=f"f{k + 1:02d}", goal=goal, box_mass=mass, box_friction=friction, set="fresh")
@@ -302,11 +298,7 @@ class BreakevenConfig:
 
     def train_episodes(self, method: str) -> int:
         """Episodes one training of ``method`` simulates (PPO rounds up to whole rollouts)."""
-        config = self.configs[method]
-        if isinstance(config, ContextualConfig):
-            return config.total_episodes
-        steps = getattr(config, "n_steps", 1)
-        return -(-self.size.train_episodes // steps) * steps
+        return training_episodes(self.configs[method], self.size.train_episodes)
 
     def planned_evaluations(self) -> dict[str, int]:
         """Evaluations per part of the study and in all (``total``)."""
@@ -400,20 +392,12 @@ def breakeven_config(
         or list(budgets) != sorted(set(budgets))
     ):
         raise ValueError(f"size.budgets must be increasing ints >= 1, got {budgets!r}")
-    configs: dict[str, Any] = {m: _default_config(m) for m in ("ppo", "sac")}
-    contextual = _default_config("contextual")
-    assert isinstance(contextual, ContextualConfig)
-    configs["contextual"] = dataclasses.replace(
-        contextual,
-        n_goals=chosen.contextual_goals,
-        episodes_per_goal=max(1, chosen.train_episodes // chosen.contextual_goals),
+    configs = learned_configs(
+        train_episodes=chosen.train_episodes,
+        contextual_goals=chosen.contextual_goals,
         popsize=chosen.popsize,
+        overrides=chosen.overrides,
     )
-    changes: dict[str, dict[str, Any]] = {}
-    for method, field, value in chosen.overrides:
-        changes.setdefault(method, {})[field] = value
-    for method, fields in changes.items():
-        configs[method] = dataclasses.replace(configs[method], **fields)
     methods = _check_subset("learned", learned, LEARNED_METHODS)
     if executor not in ("process", "dask"):
         raise ValueError(f"executor must be 'process' or 'dask', got {executor!r}")
@@ -523,6 +507,19 @@ def _task_env(task: RLTask) -> Any:
     return make_env(scene=scene)
 
 
+def _unit_fields(key: tuple[str, str, int], k: int) -> dict[str, Any]:
+    """The part's columns of its k-th evaluation: one iteration, evaluations in order."""
+    return {
+        "suite": BREAKEVEN_NAME,
+        "variant": key[0],
+        "optimizer": key[1],
+        "seed": key[2],
+        "iteration": 0,
+        "candidate": k,
+        "eval_id": k,
+    }
+
+
 def _frame(
     records: Sequence[EpisodeRecord],
     *,
@@ -539,13 +536,7 @@ def _frame(
     for k, r in enumerate(records):
         rows.append(
             {
-                "suite": BREAKEVEN_NAME,
-                "variant": key[0],
-                "optimizer": key[1],
-                "seed": key[2],
-                "iteration": 0,
-                "candidate": k,
-                "eval_id": k,
+                **_unit_fields(key, k),
                 **{f"c{i + 1}": c for i, c in enumerate(r.coefficients)},
                 "free_energy": r.free_energy,
                 "goal_error": r.goal_error,
@@ -577,13 +568,7 @@ def _zero_shot_frame(
     for i, row in evaluated.iterrows():
         rows.append(
             {
-                "suite": BREAKEVEN_NAME,
-                "variant": key[0],
-                "optimizer": key[1],
-                "seed": key[2],
-                "iteration": 0,
-                "candidate": int(cast("int", i)),
-                "eval_id": int(cast("int", i)),
+                **_unit_fields(key, int(cast("int", i))),
                 "c1": row["c1"],
                 "c2": row["c2"],
                 "c3": row["c3"],
@@ -742,26 +727,6 @@ class BreakevenResult:
     wall_time: float
 
 
-def _without_timing(frame: pd.DataFrame) -> pd.DataFrame:
-    drop = [c for c in (*TIMING_COLUMNS, BEST_SO_FAR) if c in frame.columns]
-    return frame.drop(columns=drop).reset_index(drop=True)
-
-
-def _stored_keys(
-    store: ResultStore, planned: set[tuple[str, str, int]]
-) -> set[tuple[str, str, int]]:
-    keys = set()
-    for unit in store.completed_units():
-        key = (unit.variant, unit.optimizer, unit.seed)
-        if unit.suite != BREAKEVEN_NAME or unit.iteration != 0 or key not in planned:
-            raise ResumeError(
-                f"cannot resume: {store.parts_dir} holds a part this break-even study does not "
-                f"plan ({unit}); use another folder"
-            )
-        keys.add(key)
-    return keys
-
-
 def _write(
     session: RunSession,
     work: _Work,
@@ -769,29 +734,15 @@ def _write(
     stored: set[tuple[str, str, int]],
 ) -> None:
     """Write the parts of a finished unit not on disk; check those that are."""
-    keys = work.keys()
+    from benchmarks.rl.suite import _write_parts
+
     if work.kind == "train":
         # Recorded before its parts: a later session refuses the folder if the card changes.
         session.record_file(_card_path(session.out, work.method, work.replicate))
         weights = _card_path(session.out, work.method, work.replicate).with_suffix(".safetensors")
         if weights.is_file():
             session.record_file(weights)
-    log = session.store.read(verify=False) if any(k in stored for k in keys) else None
-    for key, frame in zip(keys, frames, strict=True):
-        if key not in stored or log is None:
-            session.write_batch(frame)
-            stored.add(key)
-            continue
-        mine = log[
-            (log["variant"] == key[0]) & (log["optimizer"] == key[1]) & (log["seed"] == key[2])
-        ]
-        fresh = _without_timing(validate_evaluations(frame, source=str(key)))
-        old = _without_timing(mine)[list(fresh.columns)]
-        if not old.equals(fresh):
-            raise ResumeError(
-                f"cannot resume: redoing {work.label()} gave other results than its part on "
-                "disk; the runs are not reproducible here, use a new folder"
-            )
+    _write_parts(session, work.label(), work.keys(), frames, stored, suite=BREAKEVEN_NAME)
 
 
 def run_breakeven(
@@ -821,6 +772,7 @@ def run_breakeven(
             or whose parts do not match (:class:`~benchmarks.storage.ResumeError`).
     """
     from benchmarks.execution import check_main_guard, make_executor
+    from benchmarks.rl.suite import _stored_keys
 
     if not isinstance(config, BreakevenConfig):
         config = breakeven_config(config)
@@ -843,7 +795,7 @@ def run_breakeven(
         },
         first_fields=("size.name", "learned"),
     ) as session:
-        stored = _stored_keys(session.store, planned)
+        stored = _stored_keys(session.store, planned, BREAKEVEN_NAME, "break-even study")
         session.start()
         pending = [w for w in work if not all(k in stored for k in w.keys())]
         say = progress or (lambda line: None)

@@ -9,7 +9,8 @@ from __future__ import annotations
 import math
 import os
 import sys
-from dataclasses import dataclass, fields
+from collections.abc import Iterable
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Any
 
@@ -25,7 +26,9 @@ __all__ = [
     "PPOConfig",
     "SACConfig",
     "default_config",
+    "learned_configs",
     "load_config",
+    "training_episodes",
 ]
 
 #: The committed, tuned configurations.
@@ -221,3 +224,49 @@ def default_config(method: str) -> MethodConfig:
     if method not in _CLASSES:
         raise ValueError(f"method must be one of {sorted(_CLASSES)}, got {method!r}")
     return load_config(CONFIG_DIR / f"{method}.toml")
+
+
+def learned_configs(
+    *,
+    train_episodes: int,
+    contextual_goals: int,
+    popsize: int,
+    overrides: Iterable[tuple[str, str, Any]] = (),
+) -> dict[str, MethodConfig]:
+    """The committed configurations of PPO, SAC and the contextual method, sized for a run.
+
+    The contextual method spreads ``train_episodes`` over ``contextual_goals`` CMA-ES runs (at
+    least one episode each) of population ``popsize``; then each ``(method, field, value)`` of
+    ``overrides`` replaces that field (a small size's tiny rollouts). The rl suite and the
+    break-even study size their learned methods this way.
+
+    Raises:
+        TypeError / ValueError: an override naming an unknown method or field, or a bad value.
+    """
+    configs: dict[str, MethodConfig] = {m: default_config(m) for m in ("ppo", "sac")}
+    contextual = default_config("contextual")
+    assert isinstance(contextual, ContextualConfig)
+    configs["contextual"] = replace(
+        contextual,
+        n_goals=contextual_goals,
+        episodes_per_goal=max(1, train_episodes // contextual_goals),
+        popsize=popsize,
+    )
+    changes: dict[str, dict[str, Any]] = {}
+    for method, name, value in overrides:
+        changes.setdefault(method, {})[name] = value
+    for method, fields_ in changes.items():
+        configs[method] = replace(configs[method], **fields_)
+    return configs
+
+
+def training_episodes(config: MethodConfig, episodes: int) -> int:
+    """Episodes one training with ``config`` simulates when asked for ``episodes``.
+
+    The contextual method runs its own count (``total_episodes``); PPO rounds up to whole
+    rollouts of ``n_steps``; SAC runs ``episodes``.
+    """
+    if isinstance(config, ContextualConfig):
+        return config.total_episodes
+    steps = getattr(config, "n_steps", 1)
+    return -(-episodes // steps) * steps

@@ -26,6 +26,19 @@ POLICY_DESIGNER = "benchmarks.rl.designer:PolicyDesigner"
 """The optimizer name (``module:Class``) of a design run made with a saved policy."""
 
 
+def _check_in_bounds(c: np.ndarray, low: np.ndarray, high: np.ndarray) -> None:
+    """Refuse a policy's design (physical coefficients) outside a run's bounds ``low``-``high``.
+
+    Raises:
+        ValueError: Another shape than the bounds', or a coefficient outside them.
+    """
+    if c.shape != low.shape or np.any(c < low) or np.any(c > high):
+        raise ValueError(
+            f"the policy's design {c.tolist()} is outside the run's bounds "
+            f"{np.stack([low, high], axis=1).tolist()}; give the bounds it was trained with"
+        )
+
+
 class PolicyDesigner(Optimizer):
     """Asks the tool a saved policy designs for ``goal`` and ``box_mass``; learns nothing.
 
@@ -78,14 +91,9 @@ class PolicyDesigner(Optimizer):
             sha256=sha256,
         )
         c = np.asarray(design.coefficients, dtype=np.float64)
-        low, high = self._low, self._high
-        if c.shape != low.shape or np.any(c < low) or np.any(c > high):
-            raise ValueError(
-                f"the policy's design {c.tolist()} is outside the run's bounds "
-                f"{np.stack([low, high], axis=1).tolist()}; give the bounds it was trained with"
-            )
+        _check_in_bounds(c, self._low, self._high)
         self.coefficients: np.ndarray = c
-        self._unit = (c - low) / self._span
+        self._unit = (c - self._low) / self._span
 
     def _ask(self, ids: tuple[int, ...]) -> np.ndarray:
         return np.tile(self._unit, (len(ids), 1))

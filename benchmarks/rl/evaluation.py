@@ -88,6 +88,21 @@ class RLTask:
         """What ``ToolDesignRL-v0`` observes for this task: (x, y, z, box mass) float32."""
         return np.array([*self.goal, self.box_mass], dtype=np.float32)
 
+    def row_fields(self) -> dict[str, Any]:
+        """The task's columns of an evaluation row.
+
+        ``task`` (the id), ``goal_x``, ``goal_y``, ``goal_z`` (m), ``box_mass`` (kg) and
+        ``box_friction`` (NaN for the scene's default).
+        """
+        return {
+            "task": self.id,
+            "goal_x": self.goal[0],
+            "goal_y": self.goal[1],
+            "goal_z": self.goal[2],
+            "box_mass": self.box_mass,
+            "box_friction": math.nan if self.box_friction is None else self.box_friction,
+        }
+
 
 class CallablePolicy:
     """A function from the task's observation to an action, with a ``predict`` as SB3's.
@@ -389,12 +404,7 @@ def evaluate_policy_on_tasks(
         result = outcome_row(*outcome)
         rows.append(
             {
-                "task": task.id,
-                "goal_x": task.goal[0],
-                "goal_y": task.goal[1],
-                "goal_z": task.goal[2],
-                "box_mass": task.box_mass,
-                "box_friction": math.nan if task.box_friction is None else task.box_friction,
+                **task.row_fields(),
                 **{f"a{i + 1}": float(v) for i, v in enumerate(action)},
                 **{f"c{i + 1}": float(v) for i, v in enumerate(c)},
                 "free_energy": float(result["free_energy"]),

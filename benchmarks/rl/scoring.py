@@ -208,12 +208,4 @@ def score_policy(
 
 
 def _common(task: RLTask) -> dict[str, Any]:
-    return {
-        "task": task.id,
-        "task_set": task.set,
-        "goal_x": task.goal[0],
-        "goal_y": task.goal[1],
-        "goal_z": task.goal[2],
-        "box_mass": task.box_mass,
-        "box_friction": math.nan if task.box_friction is None else task.box_friction,
-    }
+    return {**task.row_fields(), "task_set": task.set}

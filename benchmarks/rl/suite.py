@@ -58,7 +58,8 @@ from benchmarks.rl.configs import (
     MethodConfig,
     PPOConfig,
     SACConfig,
-    default_config,
+    learned_configs,
+    training_episodes,
 )
 from benchmarks.rl.policies import save_policy
 from benchmarks.storage import (
@@ -327,11 +328,7 @@ class RLSuiteConfig:
         return total
 
     def _train_episodes(self, method: str) -> int:
-        config = self.configs[method]
-        if isinstance(config, ContextualConfig):
-            return config.total_episodes
-        steps = getattr(config, "n_steps", 1)
-        return -(-self.size.train_episodes // steps) * steps
+        return training_episodes(self.configs[method], self.size.train_episodes)
 
     def to_json(self) -> dict[str, Any]:
         """The JSON form stored as the manifest's ``config`` (compared when resuming)."""
@@ -462,20 +459,12 @@ def rl_suite_config(
     suite = _check_size(size)
     if seeds is not None:
         suite = dataclasses.replace(suite, seeds=_check_count("seeds", seeds, SEEDS_MAX))
-    configs: dict[str, Any] = {m: default_config(m) for m in ("ppo", "sac")}
-    contextual = default_config("contextual")
-    assert isinstance(contextual, ContextualConfig)
-    configs["contextual"] = dataclasses.replace(
-        contextual,
-        n_goals=suite.contextual_goals,
-        episodes_per_goal=max(1, suite.train_episodes // suite.contextual_goals),
+    configs = learned_configs(
+        train_episodes=suite.train_episodes,
+        contextual_goals=suite.contextual_goals,
         popsize=suite.popsize,
+        overrides=suite.overrides,
     )
-    changes: dict[str, dict[str, Any]] = {}
-    for method, name, value in suite.overrides:
-        changes.setdefault(method, {})[name] = value
-    for method, fields_ in changes.items():
-        configs[method] = dataclasses.replace(configs[method], **fields_)
     return RLSuiteConfig(
         size=suite,
         methods=_check_subset("methods", methods, FIXED_METHODS),
@@ -757,23 +746,26 @@ class RLSuiteResult:
 
 
 def _stored_keys(
-    store: ResultStore, planned: set[tuple[str, str, int]]
+    store: ResultStore,
+    planned: set[tuple[str, str, int]],
+    suite: str = RL_SUITE_NAME,
+    what: str = "rl suite",
 ) -> set[tuple[str, str, int]]:
-    """(variant, optimizer, seed) of the stored parts, refusing parts this suite does not plan."""
+    """(variant, optimizer, seed) of the stored parts, refusing parts the ``what`` does not plan.
+
+    Shared with the break-even study (``suite`` and ``what`` name it), which stores its units of
+    work the same way.
+    """
     keys = set()
     for unit in store.completed_units():
         key = (unit.variant, unit.optimizer, unit.seed)
-        if unit.suite != RL_SUITE_NAME or unit.iteration != 0 or key not in planned:
+        if unit.suite != suite or unit.iteration != 0 or key not in planned:
             raise ResumeError(
-                f"cannot resume: {store.parts_dir} holds a part this rl suite does not plan "
+                f"cannot resume: {store.parts_dir} holds a part this {what} does not plan "
                 f"({unit}); use another folder"
             )
         keys.add(key)
     return keys
-
-
-def _unit(key: tuple[str, str, int]) -> Unit:
-    return Unit(suite=RL_SUITE_NAME, variant=key[0], optimizer=key[1], seed=key[2], iteration=0)
 
 
 def _without_timing(frame: pd.DataFrame) -> pd.DataFrame:
@@ -781,14 +773,24 @@ def _without_timing(frame: pd.DataFrame) -> pd.DataFrame:
     return frame.drop(columns=drop).reset_index(drop=True)
 
 
-def _write(
+def _write_parts(
     session: RunSession,
-    work: _Work,
-    frames: list[pd.DataFrame],
+    label: str,
+    keys: Sequence[tuple[str, str, int]],
+    frames: Sequence[pd.DataFrame],
     stored: set[tuple[str, str, int]],
+    suite: str = RL_SUITE_NAME,
 ) -> None:
-    """Write the parts of a finished unit that are not on disk; check the ones that are."""
-    keys = work.keys()
+    """Write the parts of a finished unit that are not on disk; check the ones that are.
+
+    Args:
+        session: The open run folder.
+        label: The unit, as the error names it.
+        keys: (variant, optimizer, seed) of each part of the unit.
+        frames: The unit's evaluation rows, one frame per key.
+        stored: Keys on disk; the written ones are added.
+        suite: The ``suite`` of the parts (the rl suite's or the break-even study's).
+    """
     # Verified by the session when it opened the folder: not hashed again for every unit.
     log = session.store.read(verify=False) if any(k in stored for k in keys) else None
     for key, frame in zip(keys, frames, strict=True):
@@ -802,9 +804,10 @@ def _write(
         fresh = _without_timing(validate_evaluations(frame, source=str(key)))
         old = _without_timing(mine)[list(fresh.columns)]
         if not old.equals(fresh):
+            unit = Unit(suite=suite, variant=key[0], optimizer=key[1], seed=key[2], iteration=0)
             raise ResumeError(
-                f"cannot resume: redoing {work.label()} gave other results than its part "
-                f"{_unit(key)} on disk; the runs are not reproducible here, use a new folder"
+                f"cannot resume: redoing {label} gave other results than its part "
+                f"{unit} on disk; the runs are not reproducible here, use a new folder"
             )
 
 
@@ -921,7 +924,7 @@ def run_rl_suite(
         )
 
         def finished(item: _Work, frames: list[pd.DataFrame]) -> None:
-            _write(session, item, frames, stored)
+            _write_parts(session, item.label(), item.keys(), frames, stored)
             best = min(float(f["free_energy"].min()) for f in frames)
             episodes = sum(len(f) for f in frames)
             # The unit's own time (simulation and agent), wherever it ran: not its queue wait.

@@ -37,6 +37,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from benchmarks.rl.agents import ContextualPolicy, EpisodeLog, EpisodeRecord, make_env
+from benchmarks.rl.designer import _check_in_bounds
 from optimizers.base import Optimizer
 
 __all__ = [
@@ -251,11 +252,7 @@ class WarmStartDesigner(Optimizer):
             policy, goal, box_mass=box_mass, sha256=sha256, allow_pickle=allow_pickle
         )
         low, high = self._low, self._high
-        if c.shape != low.shape or np.any(c < low) or np.any(c > high):
-            raise ValueError(
-                f"the policy's design {c.tolist()} is outside the run's bounds "
-                f"{np.stack([low, high], axis=1).tolist()}; give the bounds it was trained with"
-            )
+        _check_in_bounds(c, low, high)
         self.coefficients: np.ndarray = c
         self._proposal_unit: np.ndarray = np.asarray((c - low) / self._span)
         self.sigma0 = warm_sigma0(self.spread) if chosen_sigma is None else chosen_sigma
@@ -356,7 +353,7 @@ def run_warm_cmaes(
         TypeError / ValueError: bad ``total_episodes``, ``seed``, ``sigma0`` or ``popsize``.
     """
     import optimizers
-    from benchmarks.rl.agents import _check_episodes, _check_seed
+    from benchmarks.rl.agents import _check_episodes, _check_seed, _run_generations
 
     total = _check_episodes(total_episodes)
     seed = _check_seed(seed)
@@ -381,18 +378,7 @@ def run_warm_cmaes(
             sigma0=step,
             x0=proposal.astype(np.float64),
         )
-        while len(logged.records) < total:
-            batch = opt.ask()
-            values = []
-            for x in batch.x:
-                if len(logged.records) >= total:
-                    break
-                logged.reset(options=options)
-                logged.step(np.asarray(x, dtype=np.float32))
-                values.append(logged.records[-1].free_energy)
-            if len(values) < len(batch):
-                break
-            opt.tell(batch.ids, values)
+        _run_generations(opt, logged, options, total)
     finally:
         if own:
             logged.close()
