@@ -218,6 +218,55 @@ def test_the_amortization_counts_goals_until_the_training_pays() -> None:
     assert table.loc["warm-contextual", "breakeven_goals"] == 100
 
 
+def _rows(variant: str, method: str, values: list[float], task: str = "t") -> list[dict]:
+    return [
+        {
+            "variant": variant,
+            "method": method,
+            "replicate": 0,
+            "task": task,
+            "evaluation": 1 if variant == "zero-shot" else k + 1,
+            "free_energy": f,
+        }
+        for k, f in enumerate(values)
+    ]
+
+
+def _worse_zero_shot_log() -> pd.DataFrame:
+    """The reviewer's case: random pool 0..100, cold CMA-ES F = 8 throughout, zero-shot 30."""
+    return pd.DataFrame(
+        _rows("cold", "random", [float(v) for v in range(101)])
+        + _rows("cold", "cmaes", [8.0] * 64)
+        + _rows("zero-shot", "contextual", [30.0])
+        + _rows("warm", "warm-contextual", [30.0] * 10 + [4.0] * 54)
+        + _rows("train", "contextual", [1.0] * 100, task="")
+    )
+
+
+def test_a_worse_zero_shot_design_never_reaches_cold_cmaes() -> None:
+    log = _worse_zero_shot_log()
+    curves = regret_curves(log)
+    budgets = [1, 4, 8, 16, 32, 64]
+    table = amortization_table(curves, log, budgets).set_index(["method", "reference_budget"])
+    # An F of 30 never reaches cold CMA-ES's 8, whatever budget B it is judged at: the
+    # regret of 30 at b = 1 (30 / 50) is below 8's at B = 64 on their own scales, but both are
+    # read on B's scale here.
+    for budget in budgets[1:]:
+        row = table.loc[("contextual", budget)]
+        assert np.isnan(row["budget_needed"]) and row["breakeven_goals"] == np.inf, budget
+    # The warm start reaches 4 < 8 at its 11th evaluation: it pays where B - 11 > 0.
+    warm = table.loc["warm-contextual"]
+    assert warm.loc[[4, 8], "breakeven_goals"].tolist() == [np.inf, np.inf]
+    assert warm.loc[[16, 32, 64], "budget_needed"].tolist() == [11, 11, 11]
+    assert warm.loc[[16, 32, 64], "breakeven_goals"].tolist() == [20, 5, 2]
+    # The target is cold CMA-ES's own regret at B: (8 - 0) / (F_random(B) - 0).
+    from benchmarks.reports.breakeven import expected_best_of_random
+
+    pool = np.arange(101.0)
+    expected = 8.0 / expected_best_of_random(pool, np.array([64]))[0]
+    assert table.loc[("contextual", 64), "target_regret"] == pytest.approx(expected)
+
+
 def test_intervals_and_tests_over_tasks() -> None:
     # Two tasks with the same values: the t interval over tasks has zero width.
     log = pd.concat([_log(), _log().assign(task=lambda f: f["task"].replace("t", "u"))])

@@ -221,43 +221,97 @@ def _training_episodes(log: pd.DataFrame) -> dict[str, float]:
     return {str(m): float(g.groupby("replicate").size().mean()) for m, g in train.groupby("method")}
 
 
+_AMORTIZATION_COLUMNS = [
+    "method",
+    "reference_budget",
+    "target_regret",
+    "budget_needed",
+    "training_episodes",
+    "breakeven_goals",
+]
+
+
+def _task_best(curves: pd.DataFrame) -> pd.Series:
+    """Best so far per (method, task, evaluation): the mean over replicates, in F."""
+    return curves.groupby(["method", "task", "evaluation"])["best"].mean()
+
+
+def _scale_at(
+    references: tuple[pd.Series, dict[str, np.ndarray]], budget: int
+) -> dict[str, tuple[float, float]]:
+    """(F_ref, F_random(budget) - F_ref) per task where that scale is defined and > 0."""
+    f_ref, pools = references
+    out = {}
+    for task, pool in pools.items():
+        finite = pool[np.isfinite(pool)]
+        if task not in f_ref.index or finite.size < budget:
+            continue
+        ref = float(f_ref[task])
+        scale = float(expected_best_of_random(finite, np.array([budget]))[0]) - ref
+        if scale > 0:
+            out[str(task)] = (ref, scale)
+    return out
+
+
 def amortization_table(
-    curves: pd.DataFrame, log: pd.DataFrame, budgets: Sequence[int]
+    curves: pd.DataFrame,
+    log: pd.DataFrame,
+    budgets: Sequence[int],
+    *,
+    references: tuple[pd.Series, dict[str, np.ndarray]] | None = None,
 ) -> pd.DataFrame:
     """After how many goals each learned method's training pays for itself against cold CMA-ES.
 
+    Every comparison with cold CMA-ES at budget B is on one scale: a method's best so far at
+    any budget b, per task, is normalized by ``F_random(B) - F_ref`` of that task (not by
+    ``F_random(b) - F_ref``, which shrinks with b: a worse F at a small b would then look as
+    good as a better F at B). On that scale the order of two F values is their order, so
+    reaching cold CMA-ES's quality means a lower mean best F, task by task normalized alike.
+    The tasks are those where the scale is defined (> 0) and both methods have a value.
+
+    Args:
+        curves: :func:`regret_curves` of the study.
+        log: The study's frame (its training episodes give T).
+        budgets: The reference budgets B of cold CMA-ES (B = 1 is skipped: nothing to save).
+        references: F_ref and the random pool per task (default: the log's own).
+
     Returns:
         One row per learned method (zero-shot and warm-started) and budget B > 1 of cold
-        CMA-ES: ``target_regret`` (cold CMA-ES's mean regret at B), ``budget_needed`` (the
-        smallest per-goal budget at which the method's mean regret is <= it; NaN if none),
-        ``training_episodes`` (mean over replicates) and ``breakeven_goals`` (inf: never).
+        CMA-ES: ``target_regret`` (cold CMA-ES's mean regret at B, on B's scale),
+        ``budget_needed`` (the smallest per-goal budget b at which the method's mean regret on
+        B's scale is <= it; NaN if none), ``training_episodes`` (mean over replicates) and
+        ``breakeven_goals`` (inf: never).
     """
-    means = _task_means(curves).groupby(["method", "evaluation"])["regret"].mean()
+    refs = _references(log) if references is None else references
+    best = _task_best(curves)
     training = _training_episodes(log)
+    methods = set(best.index.get_level_values(0))
+    if "cmaes" not in methods:
+        return pd.DataFrame(columns=_AMORTIZATION_COLUMNS)
+    cold = best["cmaes"].unstack("evaluation")
     rows = []
-    cold = means.get("cmaes")
-    if cold is None:
-        return pd.DataFrame(
-            columns=[
-                "method",
-                "reference_budget",
-                "target_regret",
-                "budget_needed",
-                "training_episodes",
-                "breakeven_goals",
-            ]
-        )
     for base, episodes in sorted(training.items()):
         for method in (base, f"warm-{base}"):
-            if method not in means.index.get_level_values(0):
+            if method not in methods:
                 continue
-            curve = means[method]
+            mine = best[method].unstack("evaluation")
             for budget in budgets:
-                if budget <= 1 or budget not in cold.index:
+                if budget <= 1 or budget not in cold.columns:
                     continue
-                target = float(cold[budget])
-                reached = curve[curve <= target] if math.isfinite(target) else curve.iloc[:0]
-                needed = float(reached.index.min()) if len(reached) else math.nan
+                scales = _scale_at(refs, int(budget))
+                tasks = [
+                    t
+                    for t in mine.index
+                    if t in scales and t in cold.index and math.isfinite(cold.loc[t, budget])
+                ]
+                if not tasks:
+                    continue
+                ref = np.array([scales[t][0] for t in tasks])
+                scale = np.array([scales[t][1] for t in tasks])
+                target = float(np.mean((cold.loc[tasks, budget].to_numpy() - ref) / scale))
+                regret = ((mine.loc[tasks].to_numpy() - ref[:, None]) / scale[:, None]).mean(0)
+                reached = np.flatnonzero(regret <= target)
+                needed = float(mine.columns[reached[0]]) if reached.size else math.nan
                 if math.isnan(needed) or needed >= budget:
                     goals = math.inf
                 else:
@@ -272,7 +326,7 @@ def amortization_table(
                         "breakeven_goals": goals,
                     }
                 )
-    return pd.DataFrame(rows)
+    return pd.DataFrame(rows, columns=_AMORTIZATION_COLUMNS)
 
 
 def _regret_figure(table: pd.DataFrame, path: Path) -> Path:
