@@ -267,6 +267,66 @@ def test_a_worse_zero_shot_design_never_reaches_cold_cmaes() -> None:
     assert table.loc[("contextual", 64), "target_regret"] == pytest.approx(expected)
 
 
+def _warm_cold_log(margin: dict[int, float], tasks: int = 8) -> pd.DataFrame:
+    """Tasks with F_ref near 1000: cold CMA-ES at 1000 + 50 / t, warm lower by margin[t] F."""
+    rows = []
+    for k in range(tasks):
+        task = f"t{k}"
+        jitter = 0.1 * k  # the differences are not all equal: Wilcoxon ranks them
+        rows += _rows("cold", "random", [1100.0 + 10 * v for v in range(8)], task)
+        cold = [1000.0 + 50.0 / t for t in range(1, 9)]
+        warm = [f - margin.get(t, 0.0) * (1 + jitter) for t, f in enumerate(cold, start=1)]
+        rows += _rows("cold", "cmaes", cold, task)
+        rows += _rows("warm", "warm-contextual", warm, task)
+    return pd.DataFrame(rows)
+
+
+def test_the_verdict_is_one_holm_family_over_budgets_and_needs_the_noise_floor() -> None:
+    from benchmarks.reports.breakeven import warm_cold_table
+
+    # Warm is better on every one of 8 tasks at budgets 2 and 8, by 3 F at 2 and by 20 F at 8.
+    log = _warm_cold_log({2: 3.0, 8: 20.0})
+    curves = regret_curves(log)
+    f_ref = log.groupby("task")["free_energy"].min()
+    budgets = [1, 2, 4, 8]
+    table = warm_cold_table(curves, budgets, f_ref=f_ref, floor_fraction=0.006)
+    table = table.set_index("budget")
+    # 8 tasks all one way: Wilcoxon's exact two-sided p = 2 / 2^8; one family of the 4
+    # budgets with a test (budget 1 and 4: every difference 0, p = 1).
+    p = 2 / 2**8
+    assert table.loc[2, "p"] == pytest.approx(p) and table.loc[8, "p"] == pytest.approx(p)
+    assert table.loc[1, "p"] == 1.0
+    assert table.loc[2, "p_holm"] == pytest.approx(4 * p)  # Holm over budgets, not per budget
+    assert table.loc[2, "significant"] and table.loc[8, "significant"]
+    # A floor is 0.006 x ~1000 = ~6 F: 3 F better is within the noise, 20 F is beyond it.
+    assert -1 < table.loc[2, "mean_floors"] < 0 and not table.loc[2, "beats_cold"]
+    assert table.loc[8, "mean_floors"] < -1 and table.loc[8, "beats_cold"]
+    assert not table.loc[[1, 4], "beats_cold"].any()
+    # With 7 tasks, p = 2 / 2^7: per budget alone (the secondary table, Holm over the 3 pairs
+    # of random, cmaes and warm-contextual) budget 8 is significant, 3 p = 0.047; in the one
+    # family of the 4 budgets tested it is not, 4 p = 0.0625: no win.
+    seven = _warm_cold_log({2: 3.0, 8: 20.0}, tasks=7)
+    curves = regret_curves(seven)
+    p = 2 / 2**7
+    pairs = comparison_table(curves, [8])
+    pair = pairs[(pairs["a"] == "cmaes") & (pairs["b"] == "warm-contextual")].iloc[0]
+    assert pair["p_holm"] == pytest.approx(3 * p) and pair["significant"]
+    f_ref = seven.groupby("task")["free_energy"].min()
+    family = warm_cold_table(curves, budgets, f_ref=f_ref, floor_fraction=0.006)
+    row = family.set_index("budget").loc[8]
+    assert row["p_holm"] == pytest.approx(4 * p) and row["mean_floors"] < -1
+    assert not row["significant"] and not family["beats_cold"].any()
+    with pytest.raises(ValueError, match="floor_fraction must be a number > 0, got 0"):
+        warm_cold_table(curves, budgets, f_ref=f_ref, floor_fraction=0)
+
+
+def test_the_noise_floor_fraction_is_the_protocols() -> None:
+    from benchmarks.protocol.references import floor_min_fraction
+    from benchmarks.reports.breakeven import noise_floor_fraction
+
+    assert noise_floor_fraction() == floor_min_fraction()
+
+
 def test_intervals_and_tests_over_tasks() -> None:
     # Two tasks with the same values: the t interval over tasks has zero width.
     log = pd.concat([_log(), _log().assign(task=lambda f: f["task"].replace("t", "u"))])
@@ -361,6 +421,7 @@ def test_the_smoke_study_runs_resumes_and_reports(smoke_study: Path) -> None:
     for name in (
         "breakeven.md",
         "regret.csv",
+        "warm_vs_cold.csv",
         "comparisons.csv",
         "amortization.csv",
         "regret.png",
@@ -374,6 +435,13 @@ def test_the_smoke_study_runs_resumes_and_reports(smoke_study: Path) -> None:
     assert {p.name: p.read_bytes() for p in report.iterdir()} == before_report
     regret = pd.read_csv(report / "regret.csv")
     assert set(regret["budget"]) == {1, 2, 4}
+    # The verdict: 3 warm-started methods x 3 budgets in one Holm family; every pair apart.
+    verdict = pd.read_csv(report / "warm_vs_cold.csv")
+    assert sorted(set(verdict["method"])) == ["warm-contextual", "warm-ppo", "warm-sac"]
+    assert len(verdict) == 9 and set(verdict["budget"]) == {1, 2, 4}
+    page = (report / "breakeven.md").read_text()
+    assert "## Does warm-started CMA-ES beat cold CMA-ES?" in page
+    assert "## Secondary: every pair of methods, each budget apart" in page
     assert regret[regret["method"] == "random"]["mean"].notna().any()
 
 
