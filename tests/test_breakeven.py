@@ -77,6 +77,20 @@ def test_the_pages_size_and_estimate_are_the_commands() -> None:
     assert f"CI: about {smoke} evaluations" in page
 
 
+def test_the_page_describes_the_reports_measures_as_the_code_draws_them() -> None:
+    import inspect
+
+    from benchmarks.reports import breakeven as report
+
+    page = " ".join((Path(__file__).resolve().parents[1] / "docs" / "rl.md").read_text().split())
+    # The amortization figure has one panel per budget B (not one for B = 64).
+    assert "One panel per budget B" in inspect.getdoc(report._amortization_figure)
+    assert "in one panel per budget B" in page and "for B = 64" not in page
+    # The verdict and the secondary table are the report's sections.
+    assert "**The verdict: does warm-started CMA-ES beat cold CMA-ES?**" in page
+    assert "Holm-corrected over every warm-started method at every budget together" in page
+
+
 def test_bad_study_settings_are_refused_by_name() -> None:
     with pytest.raises(ValueError, match="size must be one of smoke, full"):
         breakeven_config("huge")
@@ -325,6 +339,10 @@ def test_the_noise_floor_fraction_is_the_protocols() -> None:
     from benchmarks.reports.breakeven import noise_floor_fraction
 
     assert noise_floor_fraction() == floor_min_fraction()
+    page = (Path(__file__).resolve().parents[1] / "docs" / "rl.md").read_text()
+    assert f"units of the task's noise floor: {100 * noise_floor_fraction():.2f} % of |F_ref|" in (
+        " ".join(page.split())
+    )
 
 
 def test_intervals_and_tests_over_tasks() -> None:
