@@ -77,6 +77,20 @@ def test_the_pages_size_and_estimate_are_the_commands() -> None:
     assert f"CI: about {smoke} evaluations" in page
 
 
+def test_the_page_describes_the_reports_measures_as_the_code_draws_them() -> None:
+    import inspect
+
+    from benchmarks.reports import breakeven as report
+
+    page = " ".join((Path(__file__).resolve().parents[1] / "docs" / "rl.md").read_text().split())
+    # The amortization figure has one panel per budget B (not one for B = 64).
+    assert "One panel per budget B" in inspect.getdoc(report._amortization_figure)
+    assert "in one panel per budget B" in page and "for B = 64" not in page
+    # The verdict and the secondary table are the report's sections.
+    assert "**The verdict: does warm-started CMA-ES beat cold CMA-ES?**" in page
+    assert "Holm-corrected over every warm-started method at every budget together" in page
+
+
 def test_bad_study_settings_are_refused_by_name() -> None:
     with pytest.raises(ValueError, match="size must be one of smoke, full"):
         breakeven_config("huge")
@@ -218,6 +232,119 @@ def test_the_amortization_counts_goals_until_the_training_pays() -> None:
     assert table.loc["warm-contextual", "breakeven_goals"] == 100
 
 
+def _rows(variant: str, method: str, values: list[float], task: str = "t") -> list[dict]:
+    return [
+        {
+            "variant": variant,
+            "method": method,
+            "replicate": 0,
+            "task": task,
+            "evaluation": 1 if variant == "zero-shot" else k + 1,
+            "free_energy": f,
+        }
+        for k, f in enumerate(values)
+    ]
+
+
+def _worse_zero_shot_log() -> pd.DataFrame:
+    """The reviewer's case: random pool 0..100, cold CMA-ES F = 8 throughout, zero-shot 30."""
+    return pd.DataFrame(
+        _rows("cold", "random", [float(v) for v in range(101)])
+        + _rows("cold", "cmaes", [8.0] * 64)
+        + _rows("zero-shot", "contextual", [30.0])
+        + _rows("warm", "warm-contextual", [30.0] * 10 + [4.0] * 54)
+        + _rows("train", "contextual", [1.0] * 100, task="")
+    )
+
+
+def test_a_worse_zero_shot_design_never_reaches_cold_cmaes() -> None:
+    log = _worse_zero_shot_log()
+    curves = regret_curves(log)
+    budgets = [1, 4, 8, 16, 32, 64]
+    table = amortization_table(curves, log, budgets).set_index(["method", "reference_budget"])
+    # An F of 30 never reaches cold CMA-ES's 8, whatever budget B it is judged at: the
+    # regret of 30 at b = 1 (30 / 50) is below 8's at B = 64 on their own scales, but both are
+    # read on B's scale here.
+    for budget in budgets[1:]:
+        row = table.loc[("contextual", budget)]
+        assert np.isnan(row["budget_needed"]) and row["breakeven_goals"] == np.inf, budget
+    # The warm start reaches 4 < 8 at its 11th evaluation: it pays where B - 11 > 0.
+    warm = table.loc["warm-contextual"]
+    assert warm.loc[[4, 8], "breakeven_goals"].tolist() == [np.inf, np.inf]
+    assert warm.loc[[16, 32, 64], "budget_needed"].tolist() == [11, 11, 11]
+    assert warm.loc[[16, 32, 64], "breakeven_goals"].tolist() == [20, 5, 2]
+    # The target is cold CMA-ES's own regret at B: (8 - 0) / (F_random(B) - 0).
+    from benchmarks.reports.breakeven import expected_best_of_random
+
+    pool = np.arange(101.0)
+    expected = 8.0 / expected_best_of_random(pool, np.array([64]))[0]
+    assert table.loc[("contextual", 64), "target_regret"] == pytest.approx(expected)
+
+
+def _warm_cold_log(margin: dict[int, float], tasks: int = 8) -> pd.DataFrame:
+    """Tasks with F_ref near 1000: cold CMA-ES at 1000 + 50 / t, warm lower by margin[t] F."""
+    rows = []
+    for k in range(tasks):
+        task = f"t{k}"
+        jitter = 0.1 * k  # the differences are not all equal: Wilcoxon ranks them
+        rows += _rows("cold", "random", [1100.0 + 10 * v for v in range(8)], task)
+        cold = [1000.0 + 50.0 / t for t in range(1, 9)]
+        warm = [f - margin.get(t, 0.0) * (1 + jitter) for t, f in enumerate(cold, start=1)]
+        rows += _rows("cold", "cmaes", cold, task)
+        rows += _rows("warm", "warm-contextual", warm, task)
+    return pd.DataFrame(rows)
+
+
+def test_the_verdict_is_one_holm_family_over_budgets_and_needs_the_noise_floor() -> None:
+    from benchmarks.reports.breakeven import warm_cold_table
+
+    # Warm is better on every one of 8 tasks at budgets 2 and 8, by 3 F at 2 and by 20 F at 8.
+    log = _warm_cold_log({2: 3.0, 8: 20.0})
+    curves = regret_curves(log)
+    f_ref = log.groupby("task")["free_energy"].min()
+    budgets = [1, 2, 4, 8]
+    table = warm_cold_table(curves, budgets, f_ref=f_ref, floor_fraction=0.006)
+    table = table.set_index("budget")
+    # 8 tasks all one way: Wilcoxon's exact two-sided p = 2 / 2^8; one family of the 4
+    # budgets with a test (budget 1 and 4: every difference 0, p = 1).
+    p = 2 / 2**8
+    assert table.loc[2, "p"] == pytest.approx(p) and table.loc[8, "p"] == pytest.approx(p)
+    assert table.loc[1, "p"] == 1.0
+    assert table.loc[2, "p_holm"] == pytest.approx(4 * p)  # Holm over budgets, not per budget
+    assert table.loc[2, "significant"] and table.loc[8, "significant"]
+    # A floor is 0.006 x ~1000 = ~6 F: 3 F better is within the noise, 20 F is beyond it.
+    assert -1 < table.loc[2, "mean_floors"] < 0 and not table.loc[2, "beats_cold"]
+    assert table.loc[8, "mean_floors"] < -1 and table.loc[8, "beats_cold"]
+    assert not table.loc[[1, 4], "beats_cold"].any()
+    # With 7 tasks, p = 2 / 2^7: per budget alone (the secondary table, Holm over the 3 pairs
+    # of random, cmaes and warm-contextual) budget 8 is significant, 3 p = 0.047; in the one
+    # family of the 4 budgets tested it is not, 4 p = 0.0625: no win.
+    seven = _warm_cold_log({2: 3.0, 8: 20.0}, tasks=7)
+    curves = regret_curves(seven)
+    p = 2 / 2**7
+    pairs = comparison_table(curves, [8])
+    pair = pairs[(pairs["a"] == "cmaes") & (pairs["b"] == "warm-contextual")].iloc[0]
+    assert pair["p_holm"] == pytest.approx(3 * p) and pair["significant"]
+    f_ref = seven.groupby("task")["free_energy"].min()
+    family = warm_cold_table(curves, budgets, f_ref=f_ref, floor_fraction=0.006)
+    row = family.set_index("budget").loc[8]
+    assert row["p_holm"] == pytest.approx(4 * p) and row["mean_floors"] < -1
+    assert not row["significant"] and not family["beats_cold"].any()
+    with pytest.raises(ValueError, match="floor_fraction must be a number > 0, got 0"):
+        warm_cold_table(curves, budgets, f_ref=f_ref, floor_fraction=0)
+
+
+def test_the_noise_floor_fraction_is_the_protocols() -> None:
+    from benchmarks.protocol.references import floor_min_fraction
+    from benchmarks.reports.breakeven import noise_floor_fraction
+
+    assert noise_floor_fraction() == floor_min_fraction()
+    page = (Path(__file__).resolve().parents[1] / "docs" / "rl.md").read_text()
+    assert f"units of the task's noise floor: {100 * noise_floor_fraction():.2f} % of |F_ref|" in (
+        " ".join(page.split())
+    )
+
+
 def test_intervals_and_tests_over_tasks() -> None:
     # Two tasks with the same values: the t interval over tasks has zero width.
     log = pd.concat([_log(), _log().assign(task=lambda f: f["task"].replace("t", "u"))])
@@ -312,6 +439,7 @@ def test_the_smoke_study_runs_resumes_and_reports(smoke_study: Path) -> None:
     for name in (
         "breakeven.md",
         "regret.csv",
+        "warm_vs_cold.csv",
         "comparisons.csv",
         "amortization.csv",
         "regret.png",
@@ -325,6 +453,13 @@ def test_the_smoke_study_runs_resumes_and_reports(smoke_study: Path) -> None:
     assert {p.name: p.read_bytes() for p in report.iterdir()} == before_report
     regret = pd.read_csv(report / "regret.csv")
     assert set(regret["budget"]) == {1, 2, 4}
+    # The verdict: 3 warm-started methods x 3 budgets in one Holm family; every pair apart.
+    verdict = pd.read_csv(report / "warm_vs_cold.csv")
+    assert sorted(set(verdict["method"])) == ["warm-contextual", "warm-ppo", "warm-sac"]
+    assert len(verdict) == 9 and set(verdict["budget"]) == {1, 2, 4}
+    page = (report / "breakeven.md").read_text()
+    assert "## Does warm-started CMA-ES beat cold CMA-ES?" in page
+    assert "## Secondary: every pair of methods, each budget apart" in page
     assert regret[regret["method"] == "random"]["mean"].notna().any()
 
 

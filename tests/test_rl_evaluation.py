@@ -41,10 +41,43 @@ def test_a_task_is_checked() -> None:
         RLTask(id="", goal=(0, 1, 0.1), box_mass=0.1)
     with pytest.raises(ValueError, match="goal must be 3 finite"):
         RLTask(id="x", goal=(0, float("nan"), 0.1), box_mass=0.1)
-    with pytest.raises(ValueError, match="box_mass must be > 0"):
+    with pytest.raises(ValueError, match=r"box_mass must be a number of kg in \(0, 1000\], got 0"):
         RLTask(id="x", goal=(0, 1, 0.1), box_mass=0)
-    with pytest.raises(ValueError, match="box_friction must be >= 0"):
+    with pytest.raises(ValueError, match="box_friction must be None"):
         RLTask(id="x", goal=(0, 1, 0.1), box_mass=0.1, box_friction=-1)
+
+
+@pytest.mark.parametrize(
+    ("fields", "message"),
+    [
+        ({"box_friction": True}, r"box_friction must be None .* in \[0, 10\], got True"),
+        ({"box_friction": "0.4"}, r"box_friction must be .*got '0.4'"),
+        ({"box_friction": 11.0}, r"box_friction must be .*\[0, 10\], got 11.0"),
+        ({"box_mass": "0.5"}, r"box_mass must be a number of kg in \(0, 1000\], got '0.5'"),
+        ({"box_mass": True}, r"box_mass must be .*got True"),
+        ({"box_mass": 2000.0}, r"box_mass must be .*got 2000.0"),
+        ({"box_mass": float("inf")}, r"box_mass must be .*got inf"),
+        ({"goal": (0, 1, "0.1")}, r"goal must be 3 finite numbers"),
+        ({"goal": (0, True, 0.1)}, r"goal must be 3 finite numbers"),
+        ({"goal": 0.1}, r"goal must be 3 finite numbers \(m\), got 0.1"),
+        ({"goal": (0, 1)}, r"goal must be 3 finite numbers"),
+        ({"goal": (0, 3.0, 0.1)}, r"goal must lie in the workspace .*got \(0.0, 3.0, 0.1\)"),
+        ({"goal": (0, 1, -0.1)}, r"goal must lie in the workspace"),
+    ],
+)
+def test_a_task_refuses_bad_types_and_ranges_before_any_policy_runs(
+    fields: dict[str, object], message: str
+) -> None:
+    task = {"id": "x", "goal": (0, 1, 0.1), "box_mass": 0.1, **fields}
+    with pytest.raises(ValueError, match=message) as excinfo:
+        RLTask(**task)  # type: ignore[arg-type]
+    assert "task x:" in str(excinfo.value) and "\n" not in str(excinfo.value)
+    with pytest.raises(TypeError, match="set must be a string"):
+        RLTask(id="x", goal=(0, 1, 0.1), box_mass=0.1, set=3)  # type: ignore[arg-type]
+    # NumPy numbers are numbers: a task built from an array is accepted as floats.
+    goal = np.array([0, 1, 0.1])
+    ok = RLTask(id="x", goal=goal, box_mass=np.float32(0.5), box_friction=np.int64(0))  # type: ignore[arg-type]
+    assert ok.goal == (0.0, 1.0, 0.1) and ok.box_mass == 0.5 and ok.box_friction == 0.0
 
 
 def test_load_designer_takes_a_callable_and_refuses_the_rest(tmp_path: Path) -> None:

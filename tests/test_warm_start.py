@@ -31,18 +31,45 @@ from benchmarks.rl.warmstart import (
 from tooldesign_env import default_bounds
 
 
-def test_the_contextual_spread_is_the_kernel_weighted_rms_around_the_proposal() -> None:
+def test_a_kernel_cards_spread_is_the_kernel_weighted_rms_around_the_proposal() -> None:
     policy = ContextualPolicy(
-        [(0, 1, 0.1), (0, 1.2, 0.1)], [(0.2, 0, 0), (-0.2, 0, 0)], bandwidth=0.25, mode="nearest"
+        [(0, 1, 0.1), (0, 1.2, 0.1)], [(0.2, 0, 0), (-0.2, 0, 0)], bandwidth=0.25, mode="kernel"
     )
     obs = np.array([0.0, 1.0, 0.1, 0.1], np.float32)
-    # Nearest: the proposal is (0.2, 0, 0); weights 1 and exp(-0.04 / 0.125).
+    # Weights 1 and w = exp(-0.04 / 0.125); the proposal is their weighted mean p (first
+    # coordinate), the spread the weighted RMS of (0.2 - p, -0.2 - p) over 3 coordinates.
     w = np.exp(-(0.2**2) / (2 * 0.25**2))
-    expected = np.sqrt(w * 0.4**2 / ((1 + w) * 3))
+    p = (0.2 - 0.2 * w) / (1 + w)
+    expected = np.sqrt(((0.2 - p) ** 2 + w * (-0.2 - p) ** 2) / ((1 + w) * 3))
     assert proposal_spread(policy, obs) == pytest.approx(expected, rel=1e-6)
     one = ContextualPolicy([(0, 1, 0.1)], [(0.2, 0, 0)])
     assert proposal_spread(one, obs) == pytest.approx(0.0, abs=1e-6)  # float32 proposal
     assert proposal_spread(object(), obs) is None  # no spread to read
+
+
+def test_a_nearest_cards_spread_is_its_runner_ups_distance_not_the_kernels() -> None:
+    goals = [(0, 1, 0.1), (0, 1.2, 0.1), (0, 1.5, 0.1)]
+    actions = [(0.2, 0, 0), (-0.2, 0, 0), (0.9, 0.9, 0.9)]
+    obs = np.array([0.0, 1.0, 0.1, 0.1], np.float32)
+    # The proposal is the nearest task's (0.2, 0, 0); the runner-up's design is 0.4 away in one
+    # coordinate of 3, whatever the bandwidth (the kernel's weights are not the proposal's).
+    expected = np.sqrt(0.4**2 / 3)
+    for bandwidth in (0.05, 0.25, 10.0):
+        policy = ContextualPolicy(goals, actions, bandwidth=bandwidth, mode="nearest")
+        assert policy.predict(obs)[0].tolist() == pytest.approx([0.2, 0, 0])
+        assert proposal_spread(policy, obs) == pytest.approx(expected, rel=1e-6)
+    # Nearer the second task, the roles swap: the same distance, from (-0.2, 0, 0).
+    near_second = np.array([0.0, 1.15, 0.1, 0.1], np.float32)
+    assert proposal_spread(policy, near_second) == pytest.approx(expected, rel=1e-6)
+    # The mass counts in the task distance as the card's predict counts it: 0.8 kg away, the
+    # second task falls behind the third (0.68 against 0.25 m^2), the third is the runner-up.
+    with_mass = ContextualPolicy(goals, actions, mode="nearest", masses=[0.1, 0.9, 0.1])
+    third = np.sqrt((0.7**2 + 0.9**2 + 0.9**2) / 3)
+    assert proposal_spread(with_mass, obs) == pytest.approx(third, rel=1e-6)
+    # One training task has no runner-up: no spread, the default step size.
+    one = ContextualPolicy([(0, 1, 0.1)], [(0.2, 0, 0)], mode="nearest")
+    assert proposal_spread(one, obs) is None
+    assert warm_sigma0(proposal_spread(one, obs)) == DEFAULT_SIGMA0
 
 
 def test_the_step_size_rule() -> None:

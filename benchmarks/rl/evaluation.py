@@ -24,12 +24,13 @@ import os
 from collections.abc import Callable, Sequence
 from concurrent.futures import Executor
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import pandas as pd
 
 from tooldesign_env.schema import DEFAULT_GOAL_PRECISION
+from tooldesign_env.specs import BOX_MASS_MAX, FRICTION_MAX, WORKSPACE_HALF_WIDTH, WORKSPACE_HEIGHT
 
 __all__ = [
     "POLICY_EVALUATION_COLUMNS",
@@ -46,17 +47,32 @@ __all__ = [
 SB3_ALGORITHMS: tuple[str, ...] = ("ppo", "sac", "td3", "a2c", "ddpg")
 
 
+def _real(value: Any) -> float | None:
+    """``value`` as a float if it is a real number (not a bool, a string or an array), else None."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        return None
+    return float(value)
+
+
 @dataclasses.dataclass(frozen=True, kw_only=True)
 class RLTask:
     """One task of ``ToolDesignRL-v0``: what a policy observes, and the scene it is scored in.
 
     Attributes:
         id: A name for tables (``"i03"``, ``"f01"``).
-        goal: X^g, (x, y, z) in m.
-        box_mass: kg (the policy observes it).
-        box_friction: The box's lateral friction, or None for the scene's default (0.4). The
-            policy does not observe it: ``ToolDesignRL-v0``'s observation is the goal and mass.
+        goal: X^g, (x, y, z) in m, inside the env's workspace [-2.5, 2.5] x [-2.5, 2.5] x
+            [0, 1] m.
+        box_mass: kg, in (0, 1000] (the policy observes it).
+        box_friction: The box's lateral friction, in [0, 10], or None for the scene's default
+            (0.4). The policy does not observe it: ``ToolDesignRL-v0``'s observation is the goal
+            and mass.
         set: Where the task comes from (``"held-out"``, ``"fresh"``, ...), free text.
+
+    Raises:
+        ValueError: A value of the wrong type (a bool, a string, ...) or outside its range, named
+            in the message with what is allowed; checked here, before any policy runs, with the
+            limits the scene itself applies (``tooldesign_env.specs``).
+        TypeError: ``set`` not a string.
     """
 
     id: str
@@ -68,21 +84,37 @@ class RLTask:
     def __post_init__(self) -> None:
         if not isinstance(self.id, str) or not self.id:
             raise ValueError(f"task id must be a non-empty string, got {self.id!r}")
-        goal = tuple(float(v) for v in self.goal)
-        if len(goal) != 3 or not all(math.isfinite(v) for v in goal):
-            raise ValueError(f"task {self.id}: goal must be 3 finite numbers (m), got {self.goal}")
+        name = f"task {self.id}"
+        half, height = WORKSPACE_HALF_WIDTH, WORKSPACE_HEIGHT
+        workspace = f"[-{half:g}, {half:g}] x [-{half:g}, {half:g}] x [0, {height:g}] m"
+        try:
+            values = list(self.goal)
+        except TypeError:
+            values = []
+        goal = tuple(_real(v) for v in values)
+        if len(goal) != 3 or not all(v is not None and math.isfinite(v) for v in goal):
+            raise ValueError(f"{name}: goal must be 3 finite numbers (m), got {self.goal!r}")
+        x, y, z = cast("tuple[float, float, float]", goal)
+        if not (abs(x) <= half and abs(y) <= half and 0.0 <= z <= height):
+            raise ValueError(f"{name}: goal must lie in the workspace {workspace}, got {goal}")
         object.__setattr__(self, "goal", goal)
-        mass = float(self.box_mass)
-        if not (math.isfinite(mass) and mass > 0):
-            raise ValueError(f"task {self.id}: box_mass must be > 0 kg, got {self.box_mass!r}")
+        mass = _real(self.box_mass)
+        if mass is None or not (math.isfinite(mass) and 0 < mass <= BOX_MASS_MAX):
+            raise ValueError(
+                f"{name}: box_mass must be a number of kg in (0, {BOX_MASS_MAX:g}], "
+                f"got {self.box_mass!r}"
+            )
         object.__setattr__(self, "box_mass", mass)
         if self.box_friction is not None:
-            friction = float(self.box_friction)
-            if not (math.isfinite(friction) and friction >= 0):
+            friction = _real(self.box_friction)
+            if friction is None or not (math.isfinite(friction) and 0 <= friction <= FRICTION_MAX):
                 raise ValueError(
-                    f"task {self.id}: box_friction must be >= 0 or None, got {self.box_friction!r}"
+                    f"{name}: box_friction must be None (the scene's default) or a number in "
+                    f"[0, {FRICTION_MAX:g}], got {self.box_friction!r}"
                 )
             object.__setattr__(self, "box_friction", friction)
+        if not isinstance(self.set, str):
+            raise TypeError(f"{name}: set must be a string, got {self.set!r}")
 
     def observation(self) -> np.ndarray:
         """What ``ToolDesignRL-v0`` observes for this task: (x, y, z, box mass) float32."""

@@ -6,10 +6,19 @@ but starts from nothing. Warm-starting joins them (Amos, "Tutorial on amortized 
 2022): the policy's design is evaluated first, then CMA-ES runs at the task with its mean at
 that design and a step size from the policy's own spread:
 
-- **contextual** cards: the kernel-weighted RMS distance of the training tasks' best designs
-  from the proposal, per coordinate, with the card's bandwidth as the kernel width and its task
-  distance (:func:`proposal_spread`): where the training optima near the task disagree, the
-  search starts wide.
+- **contextual** cards, by the card's ``mode``, as its proposal is made
+  (:func:`proposal_spread`):
+
+  - ``"kernel"`` (the proposal is the kernel-weighted mean of the training tasks' best
+    designs): the kernel-weighted RMS distance of those designs from the proposal, per
+    coordinate, with the card's bandwidth as the kernel width and its task distance: where the
+    training optima near the task disagree, the search starts wide.
+  - ``"nearest"`` (the proposal is the best design of the nearest training task; the study's
+    cards): the RMS distance, per coordinate, of the second-nearest training task's best design
+    from the proposal, with the same task distance: how far the rule's answer jumps if the
+    task were a little nearer its runner-up. A card of one training task has no runner-up: no
+    spread (:data:`DEFAULT_SIGMA0`). The kernel's weights are not used, as the proposal does
+    not use them.
 - **PPO**: the policy's Gaussian standard deviation exp(log_std), the mean over coordinates.
 - **SAC**: the actor's squashed-Gaussian standard deviation at the task, std * (1 - tanh(mu)^2)
   (the spread of tanh(u) to first order), the mean over coordinates.
@@ -71,6 +80,26 @@ def _inner(policy: Any) -> Any:
     return getattr(policy, "policy", policy)
 
 
+def _contextual_spread(policy: ContextualPolicy, obs: np.ndarray) -> float | None:
+    """A contextual card's spread, by the rule of its ``mode`` (the module docstring)."""
+    d2 = np.sum((policy.goals - obs[:3]) ** 2, axis=1)
+    if policy.masses is not None and obs.size >= 4:
+        d2 = d2 + (policy.mass_scale * (policy.masses - obs[3])) ** 2
+    proposal, _ = policy.predict(obs)
+    deviation = np.sum((policy.actions - np.asarray(proposal, dtype=np.float64)) ** 2, axis=1)
+    width = policy.actions.shape[1]
+    if policy.mode == "nearest":
+        if len(d2) < 2:
+            return None  # one training task: no runner-up to measure the rule's change by
+        # The proposal is the nearest training task's optimum (argmin takes the first of ties,
+        # as predict does); the runner-up is the next in the same order.
+        runner_up = int(np.argsort(d2, kind="stable")[1])
+        return float(math.sqrt(float(deviation[runner_up]) / width))
+    logw = -d2 / (2.0 * policy.bandwidth**2)
+    w = np.exp(logw - logw.max())
+    return float(math.sqrt(float(np.dot(w, deviation)) / (w.sum() * width)))
+
+
 def proposal_spread(policy: Any, observation: Any) -> float | None:
     """How uncertain ``policy`` is about its design for ``observation``, in action units.
 
@@ -86,14 +115,7 @@ def proposal_spread(policy: Any, observation: Any) -> float | None:
     """
     obs = np.asarray(observation, dtype=np.float64).ravel()
     if isinstance(policy, ContextualPolicy):
-        d2 = np.sum((policy.goals - obs[:3]) ** 2, axis=1)
-        if policy.masses is not None and obs.size >= 4:
-            d2 = d2 + (policy.mass_scale * (policy.masses - obs[3])) ** 2
-        logw = -d2 / (2.0 * policy.bandwidth**2)
-        w = np.exp(logw - logw.max())
-        proposal, _ = policy.predict(obs)
-        deviation = np.sum((policy.actions - np.asarray(proposal, dtype=np.float64)) ** 2, axis=1)
-        return float(math.sqrt(float(np.dot(w, deviation)) / (w.sum() * policy.actions.shape[1])))
+        return _contextual_spread(policy, obs)
     net = _inner(policy)
     log_std = getattr(net, "log_std", None)
     if log_std is not None and hasattr(log_std, "detach"):  # PPO: state-independent Gaussian
