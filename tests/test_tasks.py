@@ -108,6 +108,39 @@ def test_registering_a_task_refuses_duplicates_and_mismatched_names():
         unregister_task("push")
 
 
+def test_two_tasks_never_share_a_gymnasium_id():
+    walled = replace(get_task("hook"), name="walled-hook")
+    register_task("walled-hook", walled)
+    try:
+        for twin in ("walled_hook", "Walled-hook", "walled-Hook"):
+            with pytest.raises(ValueError, match=rf"'{twin}' would have the Gymnasium id "
+                               r"ToolDesign-WalledHook-v0, which is the task 'walled-hook'"):
+                register_task(twin, replace(walled, name=twin))
+            assert twin not in task_names()
+        tooldesign_env.register_envs()
+        assert gym.registry["ToolDesign-WalledHook-v0"].kwargs == {"task": "walled-hook"}
+    finally:
+        unregister_task("walled-hook")
+        gym.registry.pop("ToolDesign-WalledHook-v0", None)
+        gym.registry.pop("ToolDesignRL-WalledHook-v0", None)
+    with pytest.raises(ValueError, match="which is the task 'hook'"):
+        register_task("Hook", replace(get_task("hook"), name="Hook"))
+
+
+def test_register_envs_refuses_an_id_that_makes_another_env():
+    gym.register(id="ToolDesign-Stray-v0", entry_point="tooldesign_env.env:ToolDesignEnv",
+                 kwargs={"task": "hook"})
+    register_task("stray", replace(get_task("hook"), name="stray"))
+    try:
+        with pytest.raises(ValueError, match=r"ToolDesign-Stray-v0 of the task 'stray' is "
+                           r"registered already for 'hook'"):
+            tooldesign_env.register_envs()
+    finally:
+        unregister_task("stray")
+        gym.registry.pop("ToolDesign-Stray-v0", None)
+        gym.registry.pop("ToolDesignRL-Stray-v0", None)
+
+
 def test_footprints_overlap_by_the_separating_axes():
     square = ((0.0, 0.0), (0.1, 0.1), 0.0)
     assert footprints_overlap(square, ((0.09, 0.0), (0.1, 0.1), 0.0))
