@@ -151,6 +151,23 @@ def test_footprints_overlap_by_the_separating_axes():
     assert footprints_overlap(square, ((0.11, 0.0), (0.1, 0.1), 0.0), clearance=0.02)
 
 
+def test_footprints_that_touch_overlap_as_check_scene_says():
+    square = ((0.0, 0.0), (0.1, 0.1), 0.0)
+    # Edge to edge, exactly (0.1 - 0.05 is 0.05 in binary): touching, no gap.
+    assert footprints_overlap(square, ((0.1, 0.0), (0.1, 0.1), 0.0))
+    assert footprints_overlap(square, ((0.0, -0.1), (0.1, 0.1), 0.0))
+    assert not footprints_overlap(square, ((0.1 + 1e-9, 0.0), (0.1, 0.1), 0.0))
+    # The box's start, edge to edge against the obstacle task's post: refused.
+    obstacle = get_task("obstacle")
+    post = obstacle.obstacles[0]
+    assert post.yaw == 0.0 and obstacle.scene.box_yaw == 0.0
+    x = post.position[0] + (post.size[0] + obstacle.scene.box_size[0]) / 2
+    touching = replace(obstacle.scene, box_position=(x, post.position[1]))
+    with pytest.raises(ValueError, match="overlaps the box's start"):
+        obstacle.check_scene(touching)
+    obstacle.check_scene(replace(touching, box_position=(x + 1e-6, post.position[1])))
+
+
 def test_an_obstacle_overlapping_the_box_start_is_refused():
     hook = get_task("hook")
     post = Obstacle(name="post", position=(-0.42, 1.2), size=(0.1, 0.1, 0.3))
