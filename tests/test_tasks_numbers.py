@@ -1,9 +1,10 @@
 """docs/tasks.md quotes what the committed results in docs/results/tasks/ hold (no rerun here).
 
-Every measured figure of the page comes from one of three files: ``baselines.json`` (written by
+Every measured figure of the page comes from one of four files: ``baselines.json`` (written by
 ``python -m perf.studies.task_baselines --json``), ``noise-floor.json`` (its
-``--noise-floor-only``, which keeps each design's F per nudged scene) and
-``placements-output.txt`` (``python -m perf.studies.task_placements``). The results table is
+``--noise-floor-only``, which keeps each design's F per nudged scene), and
+``placements-output.txt`` and ``walls-output.txt`` (``python -m perf.studies.task_placements``,
+the second with ``--walls``). The results table is
 rebuilt from baselines.json and compared line by line; each figure of the prose is formatted
 from its file and looked for on the page, so a rerun that moves a number fails here until the
 page says the new one.
@@ -40,10 +41,15 @@ def _floors() -> dict[str, dict[str, Any]]:
 
 
 def _placements() -> dict[str, dict[str, list[str]]]:
-    """placements-output.txt's tables: {placement: {design: [cells]}}, and the puck lines."""
+    """placements-output.txt's tables: {placement: {design: [cells]}}."""
+    return _tables("placements-output.txt")
+
+
+def _tables(name: str) -> dict[str, dict[str, list[str]]]:
+    """The tables of a study's output: {heading: {design: [cells after the design]}}."""
     out: dict[str, dict[str, list[str]]] = {}
     current = ""
-    for line in (RESULTS / "placements-output.txt").read_text(encoding="utf-8").splitlines():
+    for line in (RESULTS / name).read_text(encoding="utf-8").splitlines():
         if line.startswith("## "):
             current = line[3:]
             out[current] = {}
@@ -183,6 +189,29 @@ def _claims() -> list[str]:
     claims.append(f"With the box's friction 0.4 the puck's noise floor was {friction['0.4']} of F")
     claims.append(f"with 0.2 it is {friction['0.2']}")
     assert friction["0.2"] == _pct(puck["noise_floor"]["median_relative_range"], 2)
+    # The walls tried in the box's way (walls-output.txt).
+    walls = _tables("walls-output.txt")
+    tall = walls["wall at 60 degrees from radius 1.3 to 1.7 m, 0.4 m high"]
+    off = [1000 * float(r[-1]) for r in tall.values()]
+    claims.append(f"all {len(tall)} designs {min(off):.0f} to {max(off):.0f} mm off their plan")
+    curb = walls["wall at 60 degrees from radius 1.3 to 1.7 m, 0.04 m high"]
+    tipped = [float(curb[k][1]) for k in ("straight", "bow (0, 0.2, 0)", "tilt (0, 0, 0.2)")]
+    assert max(tipped) < 0.09 and float(curb["bow (0, 0.6, 0)"][1]) == 0.1
+    claims.append(f"its centre {min(tipped):.3f} to {max(tipped):.3f} m high instead of 0.1 m")
+    claims.append(f"carries it inside the curb to {float(curb['bow (0, 0.6, 0)'][3]):.3f} m of "
+                  "this task's goal")
+    text = (RESULTS / "walls-output.txt").read_text(encoding="utf-8")
+    noise = re.findall(r"relative range of F over 5 nudged scenes: (.*)", text)[1]
+    spreads = {k: float(v) for k, v in re.findall(r"(\S.*?) ([\d.]+) %(?:, |$)", noise)}
+    assert len(spreads) == len(curb)
+    ordered = sorted(spreads.values())
+    middle = (ordered[3] + ordered[4]) / 2
+    top = max(spreads, key=lambda k: spreads[k])
+    claims.append(f"a median {middle:.2f} % over the {len(spreads)} designs (largest "
+                  f"{spreads[top]:.2f} %, the tilted tool)")
+    assert top == "tilt (0, 0, 0.2)"
+    inner = walls["wall at 60 degrees from radius 1.2 to 1.6 m, 0.04 m high"]
+    assert float(inner["bow (0, 0.6, 0)"][1]) < 0.09  # "from radius 1.2 m the curb stops it"
     # The shape decides.
     for task, row in b.items():
         best = row["cmaes"]["best"]["free_energy"]
