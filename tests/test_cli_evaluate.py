@@ -187,3 +187,47 @@ def test_reproduce_help_explains_every_option(capsys):
         assert option in text
     assert "docs/results" in text and "docs/reproduction.md" in text
     assert text.count("(default:") >= 2
+
+
+# The words of 1dfee38, before tasks existed (recorded, not computed): push's bad goals are still
+# refused in them, by the env, before anything is simulated or written.
+_PUSH_GOAL_ERRORS = [
+    ((float("nan"), 1.5, 0.1), ValueError, "TaskSpec.goal must be a finite number, got nan"),
+    ((0.0, float("inf"), 0.1), ValueError, "TaskSpec.goal must be a finite number, got inf"),
+    (
+        (0.0, 1.5),
+        ValueError,
+        "TaskSpec.goal must be 3 finite numbers in order (a list, tuple or 1-D array), "
+        "got (0.0, 1.5)",
+    ),
+    (
+        "abc",
+        TypeError,
+        "goal must be 3 numbers (x, y, z) in m, in order (a list, tuple or 1-D array), "
+        "got str 'abc'",
+    ),
+    (("a", 1.5, 0.1), TypeError, "TaskSpec.goal must be a real number, got 'a' (str)"),
+    (
+        (9.0, 1.5, 0.1),
+        ValueError,
+        "goal [9.0, 1.5, 0.1] is outside the workspace: x, y in [-2.5, 2.5] m, z in [0, 1] m",
+    ),
+]
+
+
+@pytest.mark.parametrize(("goal", "error", "message"), _PUSH_GOAL_ERRORS)
+def test_the_api_refuses_a_bad_push_goal_in_its_old_words(tmp_path, goal, error, message):
+    from benchmarks.design.evaluate import evaluate_coefficients
+
+    with pytest.raises(error) as refused:
+        evaluate_coefficients([0.0, 0.0, 0.0], tmp_path / "out", goal=goal)
+    assert str(refused.value) == message
+    assert not (tmp_path / "out").exists()
+
+
+def test_the_api_refuses_a_goal_outside_another_tasks_range(tmp_path):
+    from benchmarks.design.evaluate import evaluate_coefficients
+
+    with pytest.raises(ValueError, match=r"^goal \[0.0, 1.5, 0.1\] is outside the hook task's"):
+        evaluate_coefficients([0.0, 0.0, 0.0], tmp_path / "out", goal=(0.0, 1.5, 0.1), task="hook")
+    assert not (tmp_path / "out").exists()

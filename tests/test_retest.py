@@ -165,3 +165,45 @@ def test_a_retest_that_broke_is_tried_again_and_an_invalid_design_is_kept(
         again = json.loads(target.read_text(encoding="utf-8"))
         assert retest_outcome(again) == ("ok" if redone else "invalid")
     write_retest(suite_folder, target, json.dumps(record))
+
+
+@pytest.mark.parametrize("task_name", ["hook", "obstacle", "push"])
+def test_the_nudged_scenes_of_a_task_design_start_from_the_tasks_box(
+    task_name: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """DesignConfig.task() leaves out a task's own scene: the retest must not use push's."""
+    import benchmarks.suites.retest as retest
+    from benchmarks.design import DesignConfig
+    from benchmarks.suites.retest import RetestItem, retest_design
+    from tooldesign_env.tasks import get_task
+
+    definition = get_task(task_name)
+    task = DesignConfig(task_name=task_name, goal=definition.goal).task()
+    assert task.task_scene() == definition.scene
+    seen = []
+
+    def rollout(settings, scene, coeffs, **changes):  # records the scene instead of simulating
+        seen.append(scene)
+        return {"final_distance": 0.0, **{name: 0.0 for name in retest.METRICS}}
+
+    monkeypatch.setattr(retest, "_rollout", rollout)
+    config = RetestConfig(nudges=4, repeats=1)  # no masses or frictions: no stress rollouts
+    retest_design(RetestItem(coeffs=(0.0, 0.0, 0.0), task=task, config=config))
+    assert seen[0] == definition.scene and len(seen) == 4
+    start = np.asarray(definition.scene.box_position)
+    for scene in seen[1:]:
+        assert 0 < np.linalg.norm(np.asarray(scene.box_position) - start) <= config.shift
+        assert scene.box_friction == definition.scene.box_friction
+
+
+def test_a_task_settings_scene_is_its_own_else_its_tasks() -> None:
+    from benchmarks.execution import TaskSettings
+    from tooldesign_env.specs import SceneSpec
+    from tooldesign_env.tasks import get_task
+
+    assert TaskSettings().task_scene() == SceneSpec()
+    puck = get_task("puck")
+    assert TaskSettings(env_kwargs={"task": "puck"}).task_scene() == puck.scene
+    assert TaskSettings(env_kwargs={"task": puck}).task_scene() == puck.scene
+    moved = SceneSpec(box_position=(1.0, 0.5))
+    assert TaskSettings(env_kwargs={"task": "hook", "scene": moved}).task_scene() == moved

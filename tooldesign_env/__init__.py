@@ -153,6 +153,13 @@ def register_envs() -> None:
                     kwargs={"task": name},
                     disable_env_checker=True,
                 )
+            elif registry[id_].kwargs != {"task": name}:
+                # Skipping it would leave the id making another env than the task named.
+                raise ValueError(
+                    f"the Gymnasium id {id_} of the task {name!r} is registered already for "
+                    f"{registry[id_].kwargs.get('task', registry[id_].entry_point)!r}; "
+                    f"rename the task or gymnasium.registry.pop({id_!r})"
+                )
 
 
 register_envs()

@@ -421,6 +421,8 @@ class DesignConfig(TaskConfig):
 
             extra["task"] = self.task_name
             scene = self.task_scene()
+            # The task's own scene is not stored (the env builds it): read the scene of a run
+            # with TaskSettings.task_scene(), never env_kwargs' "scene" or SceneSpec().
             scene = None if scene == get_task(self.task_name).scene else scene
         if scene is not None:
             extra["scene"] = scene

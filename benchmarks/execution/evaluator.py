@@ -28,7 +28,7 @@ from collections.abc import Mapping, Sequence
 from concurrent.futures import Executor
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
-from typing import Any, cast
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -42,6 +42,9 @@ from tooldesign_env.schema import (
     ROBUSTNESS_METRICS,
     rounded_path,
 )
+
+if TYPE_CHECKING:
+    from tooldesign_env.specs import SceneSpec
 
 #: The built-in estimators and objectives, as the command line offers them (it reads these names
 #: without importing the env); TaskSettings takes any registered name.
@@ -153,6 +156,21 @@ class TaskSettings:
         except TypeError:
             raise TypeError("env_kwargs values must be hashable (e.g. frozen specs)") from None
         object.__setattr__(self, "env_kwargs", pairs)
+
+    def task_scene(self) -> SceneSpec:
+        """The ``SceneSpec`` the env builds for these settings.
+
+        ``env_kwargs``' ``scene`` if given, else the scene of ``env_kwargs``' ``task`` (a name or
+        a ``TaskDefinition``; ``push``, the default scene, without one). Code that derives
+        scenes from the run's (the retest's nudges) must start here: a plain ``SceneSpec()``
+        is push's box start, not a hook's.
+        """
+        kwargs = dict(self.env_kwargs)
+        if kwargs.get("scene") is not None:
+            return cast("SceneSpec", kwargs["scene"])
+        from tooldesign_env.tasks import DEFAULT_TASK, get_task
+
+        return get_task(kwargs.get("task", DEFAULT_TASK)).scene
 
     def env_key(self) -> tuple[Any, ...]:
         """The settings that need a separate env; goal and box mass are set per episode."""

@@ -233,10 +233,13 @@ def _evaluate_chunk(chunk: _Chunk) -> list[dict[str, Any]]:
     import gymnasium as gym
 
     import tooldesign_env  # noqa: F401  (registers the envs)
-    from tooldesign_env import SceneSpec, ToolSpec
+    from tooldesign_env import ToolSpec
+    from tooldesign_env.tasks import DEFAULT_TASK, get_task
 
     changes = dict(chunk.changes)
-    base = changes.pop("scene", None) or SceneSpec()
+    # The nudges start from the scene of the task the id makes (push's default for ToolDesign-v0).
+    own_task = changes.get("task", gym.spec(chunk.task.env_id).kwargs.get("task", DEFAULT_TASK))
+    base = changes.pop("scene", None) or get_task(own_task).scene
     scene = base if chunk.config is None else chunk.config.scenes(base)[chunk.scene_index]
     tool = dataclasses.replace(changes.pop("tool", None) or ToolSpec(), degree=chunk.degree)
     kwargs: dict[str, Any] = {

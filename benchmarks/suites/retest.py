@@ -160,11 +160,9 @@ def _rollout(
 
 def retest_design(item: RetestItem) -> dict[str, Any]:
     """Noise and stress rows of one design (see the module docstring); runs in a worker."""
-    from tooldesign_env import SceneSpec
-
     start = time.perf_counter()
     config, task, coeffs = item.config, item.task, item.coeffs
-    base = dict(task.env_kwargs).get("scene") or SceneSpec()
+    base = task.task_scene()
     scenes = config.scenes(base)
     goal = np.asarray(task.goal, dtype=np.float64)
     noise, stress = [], []

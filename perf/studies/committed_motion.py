@@ -64,10 +64,8 @@ FIELDS = (
 def _rollouts(item: tuple[Any, Any, tuple[float, ...], int]) -> list[dict[str, Any]]:
     """The 13-link rollouts in the nudged scenes and the merged hand's in the design's scene."""
     from benchmarks.suites.retest import _rollout
-    from tooldesign_env import SceneSpec
-
     task, config, coeffs, nudges = item
-    base = dict(task.env_kwargs).get("scene") or SceneSpec()
+    base = task.task_scene()
     scenes = config.scenes(base)[:nudges]
     runs = [("13 links", k, scene) for k, scene in enumerate(scenes)]
     runs.append(("hand merged", 0, dataclasses.replace(base, merge_fixed_links=True)))

@@ -12,7 +12,10 @@ docs/tasks.md reports:
 3. **Noise floor**: the first ``--floor-designs`` (8) usable random designs and the straight
    tool, each in the 5 scenes of ``tooldesign retest``'s nudges (``RetestConfig().scenes``: the
    box start moved by at most 0.1 mm and turned by at most 1e-4 rad, the first scene the task's
-   own): the relative range (max - min) / |mean| of F per design, and its median.
+   own): the relative range (max - min) / |mean| of F per design, and its median. Each
+   design's F in every scene is kept (``noise_floor.per_design``), and, in a task with
+   obstacles, its F in the task's own scene with the obstacles removed: equal to its F with
+   them, the design never touched an obstacle.
 4. **CMA-ES**: ``--iterations`` x ``--batch`` (15 x 8) evaluations of the library's CMA-ES
    (``optimizers.make("cmaes")``, seed ``--seed``), invalid designs told as failures (the
    harness tells them their penalized F): its best design, F, final distance and success.
@@ -23,7 +26,9 @@ docs/tasks.md reports:
 
 Run: ``python -m perf.studies.task_baselines [--task hook] [--random 64] [--iterations 15]
 [--batch 8] [--seed 0] [--json FILE]``. One evaluation takes 0.2 to 0.6 s on one core; a task
-takes about 200 evaluations (2 to 4 minutes).
+takes about 240 evaluations (2 to 4 minutes). ``--noise-floor-only`` measures 2 and 3 alone
+(about 120 evaluations a task; the floor's designs are the same, as they come from the same
+random draw): docs/results/tasks/noise-floor.json, whose summary must equal baselines.json's.
 """
 
 from __future__ import annotations
@@ -32,6 +37,7 @@ import argparse
 import json
 import statistics
 import time
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -80,6 +86,80 @@ def _relative_range(values: list[float]) -> float:
     return (max(values) - min(values)) / abs(statistics.fmean(values))
 
 
+def _random_rows(env: ToolDesignEnv, random: int, seed: int) -> list[dict[str, Any]]:
+    """``random`` designs drawn uniformly in the d = 3 bounds with ``seed``, scored."""
+    bounds = default_bounds(3)
+    rng = np.random.default_rng(np.random.SeedSequence(seed))
+    designs = rng.uniform(bounds[:, 0], bounds[:, 1], size=(random, 3))
+    return [_score(env, c) for c in designs]
+
+
+def noise_floor(name: str, floor_set: list[Any]) -> dict[str, Any]:
+    """F of each design of ``floor_set`` in the 5 nudged scenes of the task's own scene.
+
+    Returns the summary docs/tasks.md quotes and ``per_design``: each design, its F per scene,
+    relative range and range, and (a task with obstacles) its F in the task's own scene with
+    the obstacles removed.
+    """
+    task = get_task(name)
+    scenes = RetestConfig().scenes(task.scene)
+    envs = [ToolDesignEnv(task=name, scene=scene) for scene in scenes]
+    bare = None
+    if task.obstacles:
+        bare = ToolDesignEnv(task=replace(task, name=f"{name}-without-obstacles", obstacles=()))
+    per_design = []
+    try:
+        for design in floor_set:
+            values = []
+            for scene_env in envs:
+                scene_env.reset(seed=0)
+                values.append(_score(scene_env, design)["free_energy"])
+            row: dict[str, Any] = {
+                "design": [float(c) for c in design],
+                "free_energy": values,
+                "relative_range": _relative_range(values),
+                "range": max(values) - min(values),
+            }
+            if bare is not None:
+                bare.reset(seed=0)
+                row["free_energy_without_obstacles"] = _score(bare, design)["free_energy"]
+            per_design.append(row)
+    finally:
+        for scene_env in envs:
+            scene_env.close()
+        if bare is not None:
+            bare.close()
+    ranges = [r["relative_range"] for r in per_design]
+    spans = [r["range"] for r in per_design]
+    return {
+        "designs": len(floor_set),
+        "scenes": len(scenes),
+        "median_relative_range": float(np.median(ranges)),
+        "max_relative_range": float(np.max(ranges)),
+        "median_range": float(np.median(spans)),
+        "max_range": float(np.max(spans)),
+        "per_design": per_design,
+    }
+
+
+def _floor_set(usable: list[dict[str, Any]], floor_designs: int) -> list[Any]:
+    """The straight tool and the first ``floor_designs`` usable random designs."""
+    return [NAMED["straight"]] + [r["design"] for r in usable[:floor_designs]]
+
+
+def measure_noise_floor(name: str, *, random: int, seed: int, floor_designs: int
+                        ) -> dict[str, Any]:
+    """Only the noise floor of :func:`measure` (its random draw picks the same designs)."""
+    env = ToolDesignEnv(task=name)
+    env.reset(seed=0)
+    try:
+        rows = _random_rows(env, random, seed)
+    finally:
+        env.close()
+    usable = [r for r in rows if r["valid"]]
+    return {"task": name, "noise_floor": noise_floor(name, _floor_set(usable, floor_designs))}
+
+
 def measure(name: str, *, random: int, iterations: int, batch: int, seed: int,
             floor_designs: int) -> dict[str, Any]:
     """Every figure of one task's row in docs/tasks.md (see the module docstring)."""
@@ -92,9 +172,7 @@ def measure(name: str, *, random: int, iterations: int, batch: int, seed: int,
     try:
         named = {label: _score(env, c) for label, c in NAMED.items()}
         evaluations += len(named)
-        rng = np.random.default_rng(np.random.SeedSequence(seed))
-        designs = rng.uniform(bounds[:, 0], bounds[:, 1], size=(random, 3))
-        rows = [_score(env, c) for c in designs]
+        rows = _random_rows(env, random, seed)
         evaluations += len(rows)
         usable = [r for r in rows if r["valid"]]
         energies = np.array([r["free_energy"] for r in usable])
@@ -110,22 +188,8 @@ def measure(name: str, *, random: int, iterations: int, batch: int, seed: int,
         env.close()
     best = min((r for r in cmaes if r["valid"]), key=lambda r: r["free_energy"])
     # The noise floor: every design in the same 5 nudged scenes of the task's own scene.
-    floor_set = [NAMED["straight"]] + [r["design"] for r in usable[:floor_designs]]
-    scenes = RetestConfig().scenes(task.scene)
-    ranges, spans = [], []
-    per_scene = [ToolDesignEnv(task=name, scene=scene) for scene in scenes]
-    try:
-        for design in floor_set:
-            values = []
-            for scene_env in per_scene:
-                scene_env.reset(seed=0)
-                values.append(_score(scene_env, design)["free_energy"])
-            evaluations += len(values)
-            ranges.append(_relative_range(values))
-            spans.append(max(values) - min(values))
-    finally:
-        for scene_env in per_scene:
-            scene_env.close()
+    floor = noise_floor(name, _floor_set(usable, floor_designs))
+    evaluations += floor["designs"] * (floor["scenes"] + bool(task.obstacles))
     everything = [r["free_energy"] for r in (*named.values(), *usable, *cmaes) if r["valid"]]
     random_success = sum(r["success"] for r in rows) / len(rows)
     return {
@@ -140,14 +204,7 @@ def measure(name: str, *, random: int, iterations: int, batch: int, seed: int,
             "free_energy_quantiles": np.quantile(energies, [0, 0.25, 0.5, 0.75, 1]).tolist(),
             "final_distance_median": float(np.median([r["final_distance"] for r in usable])),
         },
-        "noise_floor": {
-            "designs": len(floor_set),
-            "scenes": len(scenes),
-            "median_relative_range": float(np.median(ranges)),
-            "max_relative_range": float(np.max(ranges)),
-            "median_range": float(np.median(spans)),
-            "max_range": float(np.max(spans)),
-        },
+        "noise_floor": floor,
         "cmaes": {
             "evaluations": len(cmaes),
             "best": best,
@@ -158,6 +215,23 @@ def measure(name: str, *, random: int, iterations: int, batch: int, seed: int,
         "evaluations": evaluations,
         "seconds": time.perf_counter() - start,
     }
+
+
+def _print_floor(n: dict[str, Any]) -> None:
+    print(
+        f"noise floor: median relative range of F {100 * n['median_relative_range']:.2f} % "
+        f"(max {100 * n['max_relative_range']:.2f} %), in F units median {n['median_range']:.1f}"
+        f" (max {n['max_range']:.1f}), over {n['designs']} designs x {n['scenes']} nudged scenes"
+    )
+    for row in n.get("per_design", ()):
+        design = ", ".join(f"{v:.3f}" for v in row["design"])
+        without = row.get("free_energy_without_obstacles")
+        extra = "" if without is None else (
+            f"; without obstacles F {without:.1f}"
+            f" ({'the same' if without == row['free_energy'][0] else 'not the same'})"
+        )
+        print(f"  ({design}): {100 * row['relative_range']:.2f} % (F {row['free_energy'][0]:.1f},"
+              f" range {row['range']:.1f}){extra}")
 
 
 def _print(result: dict[str, Any]) -> None:
@@ -178,11 +252,7 @@ def _print(result: dict[str, Any]) -> None:
         f"F min {q[0]:.0f}, quartiles {q[1]:.0f} / {q[2]:.0f} / {q[3]:.0f}, max {q[4]:.0f}, "
         f"median final distance {r['final_distance_median']:.3f} m"
     )
-    print(
-        f"noise floor: median relative range of F {100 * n['median_relative_range']:.2f} % "
-        f"(max {100 * n['max_relative_range']:.2f} %), in F units median {n['median_range']:.1f}"
-        f" (max {n['max_range']:.1f}), over {n['designs']} designs x {n['scenes']} nudged scenes"
-    )
+    _print_floor(n)
     print(
         f"CMA-ES {c['evaluations']} evaluations: best F {best['free_energy']:.0f}, regret "
         f"{c['regret']:.0f}, {100 * c['success_rate_of_its_evaluations']:.1f} % of its "
@@ -201,6 +271,11 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--floor-designs", type=int, default=8)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--json", default=None, help="also write the figures to this JSON file")
+    parser.add_argument(
+        "--noise-floor-only",
+        action="store_true",
+        help="measure the random designs and the noise floor alone (no named designs, no CMA-ES)",
+    )
     return parser.parse_args(argv)
 
 
@@ -209,15 +284,22 @@ def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
     results = []
     for name in args.task or BUILTIN_TASKS:
-        result = measure(
-            name,
-            random=args.random,
-            iterations=args.iterations,
-            batch=args.batch,
-            seed=args.seed,
-            floor_designs=args.floor_designs,
-        )
-        _print(result)
+        if args.noise_floor_only:
+            result = measure_noise_floor(
+                name, random=args.random, seed=args.seed, floor_designs=args.floor_designs
+            )
+            print(f"## {name}")
+            _print_floor(result["noise_floor"])
+        else:
+            result = measure(
+                name,
+                random=args.random,
+                iterations=args.iterations,
+                batch=args.batch,
+                seed=args.seed,
+                floor_designs=args.floor_designs,
+            )
+            _print(result)
         results.append(result)
     if args.json:
         from benchmarks.storage.atomic import atomic_write_text

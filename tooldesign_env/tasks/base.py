@@ -75,10 +75,13 @@ def footprints_overlap(
     *,
     clearance: float = 0.0,
 ) -> bool:
-    """Whether two rectangles on the floor overlap, or come closer than ``clearance`` (m).
+    """Whether two rectangles on the floor overlap or touch, or come closer than ``clearance`` (m).
 
     Each is ``(centre (x, y), extents (sx, sy), yaw)`` in m and rad. Separating-axis test on
     the four edge normals; ``clearance`` grows both rectangles by half of it on every side.
+    Rectangles that touch (a gap of exactly 0 along some axis) count as overlapping: a box
+    starting against a wall is already in contact with it, which is not the free start a task's
+    plan assumes.
     """
     grown = [
         (centre, (size[0] + clearance, size[1] + clearance), yaw) for centre, size, yaw in (a, b)
@@ -87,7 +90,7 @@ def footprints_overlap(
     for yaw in (grown[0][2], grown[1][2]):
         for axis in ((math.cos(yaw), math.sin(yaw)), (-math.sin(yaw), math.cos(yaw))):
             da, db = pa @ np.asarray(axis), pb @ np.asarray(axis)
-            if da.max() <= db.min() or db.max() <= da.min():
+            if da.max() < db.min() or db.max() < da.min():  # a gap: apart; none: touching
                 return False
     return True
 

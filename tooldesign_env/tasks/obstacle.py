@@ -10,10 +10,10 @@ bring the box.
 
 Placements measured with perf/studies/task_placements.py (docs/tasks.md): a post at radius 1.6
 m, 55 degrees, in the box's own way, let the hook (0, 1.5, 0) squeeze the box against it and
-shoot it 4.9 m away, a chaotic outcome; at 45 degrees no tool was held up; at 70 degrees the
-straight tool was held up and still brought the box to 0.07 m of the push goal. At 1.75 m and
-60 degrees the straight tool, a tilted one and one bowed backward are held up (20 to 54 mm off
-their plan), the forward bows and the hooks pass.
+shoot it 5.3 m from its start, a chaotic outcome; at 45 degrees no tool was held up; at 70
+degrees the straight tool was held up and still brought the box to 0.07 m of the push goal.
+At 1.75 m and 60 degrees the straight tool, a tilted one and one bowed backward are held up (20
+to 54 mm off their plan), the forward bows and the hooks pass.
 """
 
 from __future__ import annotations

@@ -38,8 +38,9 @@ def register_task(name: str, definition: TaskDefinition | str) -> None:
             ``"module:attribute"``.
 
     Raises:
-        ValueError: ``name`` is taken (registries never replace silently), empty, or not the
-            definition's own name.
+        ValueError: ``name`` is taken (registries never replace silently), empty, not the
+            definition's own name, or its Gymnasium ids (:func:`env_ids`) are another task's
+            (``walled-hook`` and ``walled_hook`` would both be ``ToolDesign-WalledHook-v0``).
         TypeError: ``definition`` is neither a TaskDefinition nor a ``"module:attribute"``.
     """
     if not isinstance(name, str) or not name.strip() or name != name.strip() or " " in name:
@@ -59,6 +60,13 @@ def register_task(name: str, definition: TaskDefinition | str) -> None:
             f"a task named {name!r} is registered already; pick another name, or "
             f"unregister_task({name!r}) first"
         )
+    ids = env_ids(name)
+    for other in _TASKS:
+        if env_ids(other) == ids:
+            raise ValueError(
+                f"the task {name!r} would have the Gymnasium id {ids[0]}, which is the task "
+                f"{other!r}'s already; pick a name that differs by more than case or - and _"
+            )
     _TASKS[name] = definition
 
 
