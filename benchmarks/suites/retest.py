@@ -160,11 +160,14 @@ def _rollout(
 
 def retest_design(item: RetestItem) -> dict[str, Any]:
     """Noise and stress rows of one design (see the module docstring); runs in a worker."""
-    from tooldesign_env import SceneSpec
+    from tooldesign_env.tasks import DEFAULT_TASK, get_task
 
     start = time.perf_counter()
     config, task, coeffs = item.config, item.task, item.coeffs
-    base = dict(task.env_kwargs).get("scene") or SceneSpec()
+    # Nudged from the task's own scene when the run left it as it is (a hook run's box starts
+    # where the hook task puts it, not where push does); push's is SceneSpec().
+    kwargs = dict(task.env_kwargs)
+    base = kwargs.get("scene") or get_task(kwargs.get("task", DEFAULT_TASK)).scene
     scenes = config.scenes(base)
     goal = np.asarray(task.goal, dtype=np.float64)
     noise, stress = [], []
