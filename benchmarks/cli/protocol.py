@@ -8,7 +8,8 @@ DIR2 (the committed built-ins), which are not run again. ``--references`` comput
 references of the size into the file ``--out`` instead; ``--with-references`` computes them into
 DIR/references.json after the runs when the size has none committed (the full benchmark in
 one resumable command); ``--buildable N`` prints the fraction of
-N random designs per degree that can be built and used.
+N random designs per degree that can be built and used. ``--tasks hook obstacle`` (or
+``--tasks all``) adds the task axis: every named task's cells (push alone by default).
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ __all__ = ["PROTOCOL_ONLY_OPTIONS", "add_protocol_arguments", "run_protocol_comm
 
 #: Options that only the protocol suite takes.
 PROTOCOL_ONLY_OPTIONS: tuple[str, ...] = (
+    "tasks",
     "optimizer",
     "baseline",
     "references",
@@ -33,6 +35,14 @@ PROTOCOL_ONLY_OPTIONS: tuple[str, ...] = (
 def add_protocol_arguments(parser: argparse.ArgumentParser | Any, *, title: str) -> None:
     """Add the protocol suite's options to ``tooldesign bench``."""
     group = parser.add_argument_group(title)
+    group.add_argument(
+        "--tasks",
+        nargs="+",
+        default=None,
+        metavar="TASK",
+        help="the tasks to run (push, hook, obstacle, puck, ... or all; default: push alone); "
+        "each other task runs at d = 3 on its own committed instances",
+    )
     group.add_argument(
         "--optimizer",
         default=None,
@@ -120,7 +130,10 @@ def run_protocol_command(args: argparse.Namespace) -> int:
     size = args.size or "full"
     if size not in PROTOCOL_SIZES:
         raise ValueError(f"unknown size {size!r}; protocol sizes: {', '.join(PROTOCOL_SIZES)}")
-    config = protocol_config(size, optimizer=args.optimizer)
+    try:
+        config = protocol_config(size, optimizer=args.optimizer, tasks=args.tasks)
+    except ValueError as err:
+        raise ValueError(f"--tasks: {err}" if args.tasks is not None else str(err)) from None
     changes: dict[str, Any] = {}
     if args.workers is not None:
         changes["workers"] = args.workers
