@@ -36,6 +36,7 @@ from benchmarks.protocol.instances import (
 from benchmarks.protocol.suite import (
     PROTOCOL_FILE,
     cell_folder,
+    extends,
     resolve_tasks,
     write_protocol_record,
 )
@@ -143,6 +144,15 @@ def test_references_of_1dfee38_load_and_the_committed_smoke_ones_cover_the_task_
         assert cell["f_ref"] <= min(cell["random_pool"]) and cell["f_ref"] <= cell["f_straight"]
 
 
+def test_a_run_of_more_tasks_extends_a_push_run_and_nothing_else_does():
+    push = protocol_config("smoke")
+    more = protocol_config("smoke", tasks=["all"])
+    assert extends(push, more) and extends(more, more)
+    assert not extends(more, push)  # it would leave the other tasks' cells behind
+    assert not extends(push, more.replace(root_seed=1))
+    assert not extends(push, protocol_config("quick", tasks=["all"]))
+
+
 @pytest.mark.parametrize(
     ("call", "match"),
     [
@@ -207,10 +217,12 @@ def test_an_old_push_folder_resumes_and_reports_unchanged(protocol_smoke, tmp_pa
 def test_tasks_end_to_end_with_a_users_optimizer_merged(protocol_smoke, tmp_path):
     config = protocol_config("smoke", tasks=["push", "hook"]).replace(executor="serial")
     builtins = tmp_path / "builtins"
-    # Its push cells are the session's smoke cells (the same suites): they resume without work.
-    shutil.copytree(protocol_smoke / "cells", builtins / "cells")
-    write_protocol_record(builtins, config)
+    # A push run's folder extended with a task: its push cells resume without work.
+    shutil.copytree(protocol_smoke, builtins)
+    table = builtins / "cells" / "d3" / "i01" / "evaluations.parquet"
+    before = table.read_bytes()
     run_protocol(config, builtins, progress=False)
+    assert table.read_bytes() == before
     assert (builtins / "cells" / "hook" / "d3" / "i01" / "manifest.json").is_file()
     assert json.loads((builtins / PROTOCOL_FILE).read_text())["config"]["tasks"] == [
         "push",
@@ -246,3 +258,19 @@ def test_tasks_end_to_end_with_a_users_optimizer_merged(protocol_smoke, tmp_path
     export_ioh(runs, tmp_path / "ioh")
     assert (tmp_path / "ioh" / "cmaes" / "IOHprofiler_f2_hook.json").is_file()
     assert (tmp_path / "ioh" / "cmaes" / "IOHprofiler_f1_push.json").is_file()
+
+
+def test_with_references_adds_the_cells_an_extended_folders_references_lack(tmp_path):
+    from benchmarks.cli.protocol import _lacks_cells
+    from benchmarks.protocol.report import REFERENCES_IN_FOLDER, record_references
+
+    push = protocol_config("smoke")
+    write_protocol_record(tmp_path, push)
+    assert not _lacks_cells(tmp_path, push)  # no references in the folder: nothing to extend
+    shutil.copy(OLD / "references-smoke.json", tmp_path / REFERENCES_IN_FOLDER)
+    record_references(tmp_path)
+    assert not _lacks_cells(tmp_path, push)
+    assert _lacks_cells(tmp_path, protocol_config("smoke", tasks=["all"]))
+    (tmp_path / REFERENCES_IN_FOLDER).write_text("{}")  # changed since recorded: refused
+    with pytest.raises(ValueError, match="is not the references this run folder recorded"):
+        _lacks_cells(tmp_path, push)

@@ -7,7 +7,8 @@ name or ``module:Class``), and ``--baseline DIR2`` puts it in one report beside 
 DIR2 (the committed built-ins), which are not run again. ``--references`` computes the
 references of the size into the file ``--out`` instead; ``--with-references`` computes them into
 DIR/references.json after the runs when the size has none committed (the full benchmark in
-one resumable command); ``--buildable N`` prints the fraction of
+one resumable command; in a push run's folder extended by ``--tasks``, the other tasks' cells
+are added to its references); ``--buildable N`` prints the fraction of
 N random designs per degree that can be built and used. ``--tasks hook obstacle`` (or
 ``--tasks all``) adds the task axis: every named task's cells (push alone by default).
 """
@@ -87,6 +88,22 @@ def add_protocol_arguments(parser: argparse.ArgumentParser | Any, *, title: str)
         help="print the fraction of N random designs per degree that can be built and used, "
         "and exit",
     )
+
+
+def _lacks_cells(folder: Path, config: Any) -> bool:
+    """Whether the folder's own (recorded, checked) references lack some cell of ``config``.
+
+    A push run's folder extended with ``--tasks`` has references of its push cells only:
+    ``--with-references`` then adds the other tasks' to them (keeping the push cells).
+    """
+    from benchmarks.protocol import load_references
+    from benchmarks.protocol.report import folder_references
+
+    found = folder_references(folder)
+    if found is None:
+        return False
+    cells = load_references(found[0], expected_sha256=found[1])
+    return any((i.label, d) not in cells for i, d in config.cells())
 
 
 def run_protocol_command(args: argparse.Namespace) -> int:
@@ -170,7 +187,7 @@ def run_protocol_command(args: argparse.Namespace) -> int:
     if (
         args.with_references
         and args.reference_file is None
-        and find_references(folders, size) is None
+        and (find_references(folders, size) is None or _lacks_cells(out, config))
     ):
         path = compute_references(config, out / REFERENCES_IN_FOLDER, say=say)
         digest = record_references(out)  # a report checks the file against this SHA-256

@@ -21,12 +21,13 @@ task), so an optimizer run later, alone (a user's), gets the seeds the committed
 and its results merge with theirs in one report.
 
 The task axis: ``tasks`` names the registered tasks (``tooldesign_env.tasks``) to run, push
-alone by default. Push cells are ``instances`` x ``degrees``, as before tasks existed; every
-other task's cells are ``task_instances`` of its own committed set
+alone by default (``tooldesign bench protocol --tasks``; ``--tasks all`` into a push run's
+folder extends it, :func:`extends`). Push cells are ``instances`` x ``degrees``, as before
+tasks existed; every other task's cells are ``task_instances`` of its own committed set
 (:func:`~benchmarks.protocol.instances.load_instances` with ``task``) x ``task_degrees`` (d = 3:
-its references and runs at d = 5 and 8 would double and quadruple its cost). A config of push
-alone writes no task field to ``protocol.json``, so a folder made before the axis existed
-reads, resumes and reports unchanged, and one made now is the same file.
+at d = 5 and 8 its references and runs would cost about 1.5 and 2.5 times as much again each).
+A config of push alone writes no task field to ``protocol.json``, so a folder made before the
+axis existed reads, resumes and reports unchanged, and one made now is the same file.
 
 The folder is data (``benchmarks.storage.runfiles``): :func:`run_protocol` refuses to start or
 resume in one that holds a symbolic link anywhere below it, and ``protocol.json`` is read
@@ -82,6 +83,7 @@ __all__ = [
     "TASK_DEGREES",
     "ProtocolConfig",
     "cell_folder",
+    "extends",
     "protocol_config",
     "protocol_record",
     "read_protocol",
@@ -484,6 +486,21 @@ def _comparable(config: ProtocolConfig) -> dict[str, Any]:
     return {k: v for k, v in config.to_json().items() if k not in _RUNTIME}
 
 
+def extends(old: ProtocolConfig, new: ProtocolConfig) -> bool:
+    """Whether ``new`` runs every cell of ``old`` as ``old`` did, and maybe more.
+
+    True when the two differ at most in the task axis and ``new``'s cells include ``old``'s:
+    ``--tasks all`` into a push run's folder keeps its cells (the same suites, seeds and
+    budgets) and adds the other tasks'.
+    """
+    axis = set(_TASK_FIELDS)
+    same = {k: v for k, v in _comparable(old).items() if k not in axis} == {
+        k: v for k, v in _comparable(new).items() if k not in axis
+    }
+    cells = {(i.label, d) for i, d in new.cells()}
+    return same and all((i.label, d) in cells for i, d in old.cells())
+
+
 def run_protocol(
     config: ProtocolConfig,
     out_dir: str | os.PathLike[str],
@@ -495,7 +512,9 @@ def run_protocol(
 
     Args:
         config: The protocol.
-        out_dir: The run folder; a folder of another protocol config is refused.
+        out_dir: The run folder; a folder of another protocol config is refused, unless
+            ``config`` only adds tasks to it (:func:`extends`): its cells are kept and the
+            new tasks' run, and ``protocol.json`` then records the tasks.
         progress: Progress bars of the cells.
         say: Called with one line per cell started.
 
@@ -519,10 +538,11 @@ def run_protocol(
     if os.path.lexists(path):
         record = protocol_record(out)
         old = read_protocol(out)
-        if _comparable(old) != _comparable(config):
+        if _comparable(old) != _comparable(config) and not extends(old, config):
             raise ValueError(
                 f"{out} holds a protocol run of another configuration (size {old.size}, "
-                f"optimizers {[o.column for o in old.optimizers]}); use another folder"
+                f"optimizers {[o.column for o in old.optimizers]}, tasks "
+                f"{', '.join(old.tasks)}); use another folder"
             )
         digest = record.get("references_sha256")
     elif out.is_dir() and any(out.iterdir()):
