@@ -274,3 +274,30 @@ def test_with_references_adds_the_cells_an_extended_folders_references_lack(tmp_
     (tmp_path / REFERENCES_IN_FOLDER).write_text("{}")  # changed since recorded: refused
     with pytest.raises(ValueError, match="is not the references this run folder recorded"):
         _lacks_cells(tmp_path, push)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    ("args", "match"),
+    [
+        (["protocol", "--tasks", "pushh"], "--tasks: unknown task 'pushh'; known tasks: push"),
+        (["protocol", "--tasks", "all", "hook"], "--tasks: --tasks all stands alone"),
+        (["protocol", "--tasks", "hook", "--seeds", "2"], "--seeds: for the rl suite only"),
+        (["optimizers", "--tasks", "hook"], "--tasks: for the protocol suite only"),
+    ],
+)
+def test_cli_bad_tasks_are_one_line(args, match, tmp_path):
+    import subprocess
+    import sys
+
+    main = "import sys; from benchmarks.cli import main; sys.exit(main(sys.argv[1:]))"
+    out = tmp_path / "x"
+    done = subprocess.run(
+        [sys.executable, "-c", main, "bench", *args, "--out", str(out)],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+    )
+    assert done.returncode == 2, done.stderr
+    assert match in done.stderr and len(done.stderr.strip().splitlines()) == 1
+    assert not out.exists()
