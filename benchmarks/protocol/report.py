@@ -174,7 +174,8 @@ def measure_runs(
 
     Returns:
         ``(runtimes, scores)``: one row per (optimizer, instance, d, seed, target) with
-        ``target``, ``runtime`` (inf if censored), ``budget``; one row per run with ``score``
+        ``task`` (push where ``runs`` has no such column), ``target``, ``runtime`` (inf if
+        censored), ``budget``; one row per run with ``score``
         (the area under its ECDF), ``final_f`` and ``regret_<fraction>`` per fraction of the
         budget in :data:`REGRET_FRACTIONS`.
 

@@ -85,6 +85,12 @@ def _statistics(
     return lines, tagged
 
 
+def _in_task_order(table: pd.DataFrame, tasks: tuple[str, ...]) -> pd.DataFrame:
+    """Rows ordered as the run's tasks are (push first), not alphabetically."""
+    order = {task: k for k, task in enumerate(tasks)}
+    return table.sort_values("task", key=lambda s: s.map(order), kind="stable")
+
+
 def task_sections(
     config: ProtocolConfig,
     times: pd.DataFrame,
@@ -126,11 +132,12 @@ def task_sections(
         f"Tasks {', '.join(config.tasks)}. Each task's instances are its own committed set "
         f"(v{config.instance_version}); a task other than push runs at d = "
         f"{', '.join(map(str, config.task_degrees))} on {len(config.task_instances)} "
-        "instances. Scores are ECDF areas (0 to 1), comparable across tasks.",
+        f"instance{'s' if len(config.task_instances) != 1 else ''} of its set. Scores are ECDF "
+        "areas (0 to 1), comparable across tasks.",
         "",
         "## Area under the ECDF per task (mean over instances x d, 95 % Student t interval)",
         "",
-        md_table(auc_table(scores, "task")),
+        md_table(_in_task_order(auc_table(scores, "task"), config.tasks)),
         "",
     ]
     tables: list[list[pd.DataFrame]] = [[], [], []]
