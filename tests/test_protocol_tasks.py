@@ -144,6 +144,12 @@ def test_references_of_1dfee38_load_and_the_committed_smoke_ones_cover_the_task_
         assert cell["f_ref"] <= min(cell["random_pool"]) and cell["f_ref"] <= cell["f_straight"]
 
 
+def test_tasks_come_in_the_registrys_order_whatever_the_command_lines():
+    assert resolve_tasks(["puck", "push", "hook"]) == ("push", "hook", "puck")
+    assert resolve_tasks(None) == ("push",)
+    assert resolve_tasks(["all"]) == ("push", *NEW_TASKS)
+
+
 def test_a_run_of_more_tasks_extends_a_push_run_and_nothing_else_does():
     push = protocol_config("smoke")
     more = protocol_config("smoke", tasks=["all"])
@@ -159,6 +165,7 @@ def test_a_run_of_more_tasks_extends_a_push_run_and_nothing_else_does():
         (lambda: protocol_config("smoke", tasks=["pushh"]), "unknown task 'pushh'; known tasks"),
         (lambda: resolve_tasks(["all", "hook"]), "--tasks all stands alone"),
         (lambda: resolve_tasks(["hook", "hook"]), "distinct tasks"),
+        (lambda: make_protocol_report([]), "at least one protocol run folder"),
         (lambda: protocol_config("smoke").replace(tasks=("sweep",)), "known tasks: push, hook"),
         (lambda: protocol_config("smoke").replace(tasks=()), "at least one"),
         (lambda: protocol_config("smoke").replace(tasks="hook"), "sequence of task names"),
@@ -240,6 +247,8 @@ def test_tasks_end_to_end_with_a_users_optimizer_merged(protocol_smoke, tmp_path
         progress=False,
     )
     make_protocol_report([mine, builtins], mine / "report")
+    with pytest.raises(ValueError, match="differ in tasks, task_instances"):
+        make_protocol_report([mine, protocol_smoke], tmp_path / "refused")  # push alone
     report = mine / "report"
     text = (report / "report.md").read_text()
     assert "# Tasks" in text and "## Task hook" in text and "all tasks pooled" in text

@@ -259,7 +259,8 @@ def _merge(folders: Sequence[str | os.PathLike[str]]) -> tuple[ProtocolConfig, p
             if differ:
                 raise ValueError(
                     f"{folder} is a protocol run of another plan than {folders[0]} "
-                    f"(they differ in {', '.join(differ)}): runs merge only at the same size"
+                    f"(they differ in {', '.join(differ)}): runs merge only at the same size and "
+                    "tasks"
                 )
         for name in runs["optimizer"].unique():
             if name in seen:

@@ -316,7 +316,8 @@ class ProtocolConfig:
 def resolve_tasks(tasks: Sequence[str] | None) -> tuple[str, ...]:
     """Task names as the command line gives them.
 
-    ``None`` is push alone, ``["all"]`` every task with a committed instance set (push first).
+    ``None`` is push alone, ``["all"]`` every task with a committed instance set; the names
+    come back in the task registry's order (push first).
 
     Raises:
         ValueError: An unknown task (naming the known ones), ``all`` beside other names, or a
@@ -338,7 +339,9 @@ def resolve_tasks(tasks: Sequence[str] | None) -> tuple[str, ...]:
             )
     if not names or len(set(names)) != len(names):
         raise ValueError(f"--tasks must name distinct tasks, got {names}")
-    return tuple(names)
+    # In the registry's order (push first), whatever order they were given in: the same tasks
+    # make the same config, so runs of them merge.
+    return tuple(t for t in task_names() if t in names)
 
 
 def protocol_config(
