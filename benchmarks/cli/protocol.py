@@ -7,8 +7,10 @@ name or ``module:Class``), and ``--baseline DIR2`` puts it in one report beside 
 DIR2 (the committed built-ins), which are not run again. ``--references`` computes the
 references of the size into the file ``--out`` instead; ``--with-references`` computes them into
 DIR/references.json after the runs when the size has none committed (the full benchmark in
-one resumable command); ``--buildable N`` prints the fraction of
-N random designs per degree that can be built and used.
+one resumable command; in a push run's folder extended by ``--tasks``, the other tasks' cells
+are added to its references); ``--buildable N`` prints the fraction of
+N random designs per degree that can be built and used. ``--tasks hook obstacle`` (or
+``--tasks all``) adds the task axis: every named task's cells (push alone by default).
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ __all__ = ["PROTOCOL_ONLY_OPTIONS", "add_protocol_arguments", "run_protocol_comm
 
 #: Options that only the protocol suite takes.
 PROTOCOL_ONLY_OPTIONS: tuple[str, ...] = (
+    "tasks",
     "optimizer",
     "baseline",
     "references",
@@ -33,6 +36,14 @@ PROTOCOL_ONLY_OPTIONS: tuple[str, ...] = (
 def add_protocol_arguments(parser: argparse.ArgumentParser | Any, *, title: str) -> None:
     """Add the protocol suite's options to ``tooldesign bench``."""
     group = parser.add_argument_group(title)
+    group.add_argument(
+        "--tasks",
+        nargs="+",
+        default=None,
+        metavar="TASK",
+        help="the tasks to run (push, hook, obstacle, puck, ... or all; default: push alone); "
+        "each other task runs at d = 3 on its own committed instances",
+    )
     group.add_argument(
         "--optimizer",
         default=None,
@@ -79,6 +90,22 @@ def add_protocol_arguments(parser: argparse.ArgumentParser | Any, *, title: str)
     )
 
 
+def _lacks_cells(folder: Path, config: Any) -> bool:
+    """Whether the folder's own (recorded, checked) references lack some cell of ``config``.
+
+    A push run's folder extended with ``--tasks`` has references of its push cells only:
+    ``--with-references`` then adds the other tasks' to them (keeping the push cells).
+    """
+    from benchmarks.protocol import load_references
+    from benchmarks.protocol.report import folder_references
+
+    found = folder_references(folder)
+    if found is None:
+        return False
+    cells = load_references(found[0], expected_sha256=found[1])
+    return any((i.label, d) not in cells for i, d in config.cells())
+
+
 def run_protocol_command(args: argparse.Namespace) -> int:
     """Run the protocol as the parsed ``tooldesign bench`` arguments ask.
 
@@ -120,7 +147,10 @@ def run_protocol_command(args: argparse.Namespace) -> int:
     size = args.size or "full"
     if size not in PROTOCOL_SIZES:
         raise ValueError(f"unknown size {size!r}; protocol sizes: {', '.join(PROTOCOL_SIZES)}")
-    config = protocol_config(size, optimizer=args.optimizer)
+    try:
+        config = protocol_config(size, optimizer=args.optimizer, tasks=args.tasks)
+    except ValueError as err:
+        raise ValueError(f"--tasks: {err}" if args.tasks is not None else str(err)) from None
     changes: dict[str, Any] = {}
     if args.workers is not None:
         changes["workers"] = args.workers
@@ -157,7 +187,7 @@ def run_protocol_command(args: argparse.Namespace) -> int:
     if (
         args.with_references
         and args.reference_file is None
-        and find_references(folders, size) is None
+        and (find_references(folders, size) is None or _lacks_cells(out, config))
     ):
         path = compute_references(config, out / REFERENCES_IN_FOLDER, say=say)
         digest = record_references(out)  # a report checks the file against this SHA-256

@@ -22,6 +22,16 @@ same distribution: methods that learn or are tuned use the public set and are ju
 so tuning to the public set shows as a gap. Reachability is not assumed: the references record
 the final distance of each instance's best known design (:mod:`benchmarks.protocol.references`).
 
+The other tasks (``tooldesign_env.tasks``: hook, obstacle, puck) have instance sets of their own,
+``data/instances-<task>-v1.json``, drawn once by :func:`draw_task_instances`: 16 goals uniform
+in the task's goal range (``TaskDefinition.goal_low``/``goal_high``) from
+``SeedSequence(INSTANCE_SEED, spawn_key=(task_key(task),))``, 12 public and 4 held out by one
+permutation shared by every task (the same ids are held out in each). The box mass and friction are
+the task's own (0.1 kg, the task scene's friction), not drawn: each task's post placement, puck
+friction and noise floor were measured at those values only (docs/tasks.md), and a drawn mass
+or friction would leave what was measured. An instance's ``task`` names its task; its ``label``
+(``"i01"`` for push, ``"hook/i01"`` for the others) is its name in references and tables.
+
 The module lives in the design layer (an instance is a task to design a tool for), below the
 protocol and the rl layer, so that the break-even study (:mod:`benchmarks.rl.breakeven`) reads
 the same held-out instances from the committed file; :mod:`benchmarks.protocol.instances`
@@ -31,6 +41,7 @@ re-exports its names.
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import json
 import math
 from collections.abc import Sequence
@@ -44,11 +55,17 @@ __all__ = [
     "INSTANCE_SEED",
     "INSTANCE_SETS",
     "INSTANCE_VERSION",
+    "PUSH_TASK",
+    "TASK_INSTANCES",
     "Instance",
+    "committed_tasks",
     "draw_instances",
+    "draw_task_instances",
+    "instance_file_name",
     "instances_json",
     "load_instances",
     "select_instances",
+    "task_key",
 ]
 
 #: The version of the committed instance set the protocol uses.
@@ -68,6 +85,19 @@ _FRICTION = (0.3, 0.5)
 _N_INSTANCES = 24
 _N_HELD_OUT = 8
 
+#: The push task: the instance set of ``instances-v<version>.json`` (the protocol's first).
+PUSH_TASK = "push"
+
+#: Instances of each other task's set, and how many of them are held out.
+TASK_INSTANCES = 16
+_TASK_HELD_OUT = 4
+
+#: The name whose :func:`task_key` keys the held-out split shared by every other task's set.
+_SPLIT = "held-out split"
+
+#: Box mass of every other task's instances, kg: the tasks' nominal (``DEFAULT_BOX_MASS``).
+_TASK_BOX_MASS = 0.1
+
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
 class Instance:
@@ -81,6 +111,8 @@ class Instance:
         box_mass: kg.
         box_friction: lateral friction coefficient of the box (PyBullet multiplies it by the
             floor's 1.0 and the tool's 0.5 at their contacts).
+        task: The registered task (``tooldesign_env.tasks``) it is an instance of; ``"push"``,
+            the protocol's first, by default.
     """
 
     id: str
@@ -89,6 +121,7 @@ class Instance:
     goal: tuple[float, float, float]
     box_mass: float
     box_friction: float
+    task: str = PUSH_TASK
 
     def __post_init__(self) -> None:
         if not isinstance(self.number, int) or isinstance(self.number, bool) or self.number < 1:
@@ -101,15 +134,33 @@ class Instance:
         if len(goal) != 3 or not all(math.isfinite(v) for v in goal):
             raise ValueError(f"instance goal must be 3 finite numbers (m), got {self.goal!r}")
         object.__setattr__(self, "goal", goal)
-        for name, (low, high) in (("box_mass", _MASS), ("box_friction", _FRICTION)):
+        if self.task == PUSH_TASK:
+            ranges = (("box_mass", _MASS), ("box_friction", _FRICTION))
+        else:
+            from tooldesign_env.specs import BOX_MASS_MAX, FRICTION_MAX
+            from tooldesign_env.tasks import get_task
+
+            get_task(self.task).check_goal(goal, f"instance {self.id} goal")
+            ranges = (("box_mass", (1e-3, BOX_MASS_MAX)), ("box_friction", (0.0, FRICTION_MAX)))
+        for name, (low, high) in ranges:
             value = getattr(self, name)
             if not isinstance(value, (int, float)) or not low <= float(value) <= high:
                 raise ValueError(f"instance {name} must be in [{low}, {high}], got {value!r}")
             object.__setattr__(self, name, float(value))
 
+    @property
+    def label(self) -> str:
+        """Its name in references, run tables and reports: ``"i01"`` (push), ``"hook/i01"``."""
+        return self.id if self.task == PUSH_TASK else f"{self.task}/{self.id}"
+
     def scene(self) -> dict[str, Any]:
         """The ``SceneSpec`` overrides of the instance (the box friction)."""
         return {"box_friction": self.box_friction}
+
+
+def task_key(task: str) -> int:
+    """A task's stable number for seed streams: the first 4 bytes of SHA-256 of its name."""
+    return int.from_bytes(hashlib.sha256(task.encode()).digest()[:4], "little")
 
 
 def draw_instances(seed: int = INSTANCE_SEED, n: int = _N_INSTANCES) -> tuple[Instance, ...]:
@@ -145,53 +196,146 @@ def draw_instances(seed: int = INSTANCE_SEED, n: int = _N_INSTANCES) -> tuple[In
     )
 
 
-def instances_json(instances: Sequence[Instance], version: int = INSTANCE_VERSION) -> str:
+def draw_task_instances(
+    task: str, seed: int = INSTANCE_SEED, n: int = TASK_INSTANCES
+) -> tuple[Instance, ...]:
+    """Draw the instance set of a task other than push (used once to make its committed file).
+
+    Goals uniform in the task's goal range (an axis whose range is one value keeps it), from
+    ``SeedSequence(seed, spawn_key=(task_key(task),))``; the box mass is 0.1 kg and the friction
+    the task scene's (not drawn, see the module doc); a quarter of them (at least one) are held
+    out by the permutation every task shares.
+
+    Raises:
+        ValueError: ``task`` is push (its set is :func:`draw_instances`'s) or not registered,
+            or ``n`` < 2.
+    """
+    from tooldesign_env.tasks import get_task
+
+    if task == PUSH_TASK:
+        raise ValueError("the push task's instances are draw_instances()'s, not a task set")
+    definition = get_task(task)
+    if isinstance(n, bool) or not isinstance(n, int) or n < 2:
+        raise ValueError(f"n must be an int >= 2, got {n!r}")
+    goal_stream = np.random.SeedSequence(seed, spawn_key=(task_key(task),))
+    # One split for every task: an id is public in every task's set or in none, so a size's
+    # public ids are the same in every task.
+    split_stream = np.random.SeedSequence(seed, spawn_key=(task_key(_SPLIT),))
+    goals = np.random.default_rng(goal_stream).uniform(
+        definition.goal_low, definition.goal_high, size=(n, 3)
+    )
+    held = max(1, round(n * _TASK_HELD_OUT / TASK_INSTANCES))
+    held_out = set(np.random.default_rng(split_stream).permutation(n)[:held].tolist())
+    return tuple(
+        Instance(
+            id=f"i{k + 1:02d}",
+            number=k + 1,
+            set="held-out" if k in held_out else "public",
+            goal=tuple(round(float(v), 4) for v in goals[k]),  # type: ignore[arg-type]
+            box_mass=_TASK_BOX_MASS,
+            box_friction=definition.scene.box_friction,
+            task=task,
+        )
+        for k in range(n)
+    )
+
+
+def instances_json(
+    instances: Sequence[Instance], version: int = INSTANCE_VERSION, *, task: str = PUSH_TASK
+) -> str:
     """The text of an instance file: version, distribution, seed and the instances."""
-    data = {
-        "version": version,
-        "seed": INSTANCE_SEED,
-        "distribution": {
+    if task == PUSH_TASK:
+        distribution: dict[str, Any] = {
             "goal_x_m": list(_GOAL_X),
             "goal_y_m": list(_GOAL_Y),
             "goal_z_m": _GOAL_Z,
             "box_mass_kg_log_uniform": list(_MASS),
             "box_friction_uniform": list(_FRICTION),
             "held_out": f"{_N_HELD_OUT} of {_N_INSTANCES}, a random permutation of the same seed",
-        },
-        "instances": [dataclasses.asdict(i) for i in instances],
-    }
+        }
+    else:
+        from tooldesign_env.tasks import get_task
+
+        definition = get_task(task)
+        distribution = {
+            "goal_uniform_in_m": [list(definition.goal_low), list(definition.goal_high)],
+            "seed_spawn_key": [task_key(task)],
+            "box_mass_kg": _TASK_BOX_MASS,
+            "box_friction": definition.scene.box_friction,
+            "held_out": f"{_TASK_HELD_OUT} of {TASK_INSTANCES}, a random permutation shared by "
+            "every task's set",
+        }
+    rows = []
+    for instance in instances:
+        row = dataclasses.asdict(instance)
+        if row["task"] == PUSH_TASK:
+            del row["task"]  # the push set's file is as it was before tasks existed
+        rows.append(row)
+    data: dict[str, Any] = {"version": version, "seed": INSTANCE_SEED}
+    if task != PUSH_TASK:
+        data["task"] = task
+    data.update(distribution=distribution, instances=rows)
     return json.dumps(data, indent=2) + "\n"
 
 
-def _data_file(version: int) -> Any:
+def instance_file_name(version: int, task: str = PUSH_TASK) -> str:
+    """``instances-v<version>.json`` (push) or ``instances-<task>-v<version>.json``."""
+    return (
+        f"instances-v{version}.json" if task == PUSH_TASK else f"instances-{task}-v{version}.json"
+    )
+
+
+def _data_file(version: int, task: str = PUSH_TASK) -> Any:
     # Named from the top package: importing benchmarks.protocol would load the layers above.
-    return resources.files("benchmarks").joinpath(f"protocol/data/instances-v{version}.json")
+    return resources.files("benchmarks").joinpath(
+        f"protocol/data/{instance_file_name(version, task)}"
+    )
+
+
+def committed_tasks(version: int = INSTANCE_VERSION) -> tuple[str, ...]:
+    """The registered tasks that have a committed instance set of ``version``, push first."""
+    from tooldesign_env.tasks import task_names
+
+    return tuple(t for t in task_names() if _data_file(version, t).is_file())
 
 
 def load_instances(
-    version: int = INSTANCE_VERSION, *, path: str | Path | None = None
+    version: int = INSTANCE_VERSION,
+    *,
+    path: str | Path | None = None,
+    task: str = PUSH_TASK,
 ) -> tuple[Instance, ...]:
-    """The committed instance set of a version (or the set in ``path``).
+    """The committed instance set of a version and task (or the set in ``path``).
 
     Raises:
-        ValueError: If no such version is committed, or the file is malformed.
+        ValueError: If no such version is committed for the task, or the file is malformed.
     """
     if path is None:
         if isinstance(version, bool) or not isinstance(version, int):
             raise ValueError(f"instance set version must be an int, got {version!r}")
-        source = _data_file(version)
+        source = _data_file(version, task)
         if not source.is_file():
+            if task != PUSH_TASK:
+                raise ValueError(
+                    f"the task {task!r} has no committed instance set of version {version}; "
+                    f"tasks with one: {', '.join(committed_tasks(version)) or 'none'}"
+                )
             raise ValueError(
                 f"no committed instance set of version {version}; committed: {INSTANCE_VERSION}"
             )
-        text, where = source.read_text(), f"instances-v{version}.json"
+        text, where = source.read_text(), instance_file_name(version, task)
     else:
         text, where = Path(path).read_text(), str(path)
     try:
         data = json.loads(text)
         if data["version"] != version and path is None:
             raise ValueError(f"holds version {data['version']}, not {version}")
-        instances = tuple(Instance(**{**i, "goal": tuple(i["goal"])}) for i in data["instances"])
+        if data.get("task", PUSH_TASK) != task and path is None:
+            raise ValueError(f"holds the task {data.get('task', PUSH_TASK)!r}, not {task!r}")
+        instances = tuple(
+            Instance(**{"task": data.get("task", PUSH_TASK), **i, "goal": tuple(i["goal"])})
+            for i in data["instances"]
+        )
     except (KeyError, TypeError, ValueError) as err:
         raise ValueError(f"{where} is not an instance file: {err}") from None
     numbers = [i.number for i in instances]

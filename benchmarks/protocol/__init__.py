@@ -2,23 +2,26 @@
 
 Submodules, by responsibility (lower ones never import higher ones):
 
-- :mod:`~benchmarks.protocol.instances`: the committed, versioned instance set (goals, box
-  masses and frictions), public and held-out.
+- :mod:`~benchmarks.protocol.instances`: the committed, versioned instance sets (goals, box
+  masses and frictions), public and held-out: push's, and one per other task.
 - :mod:`~benchmarks.protocol.dimensions`: the degree axis d = 3, 5, 8, its bounds, and how many
   random designs are buildable.
-- :mod:`~benchmarks.protocol.suite`: :class:`ProtocolConfig` at the sizes smoke, quick, full;
-  :func:`run_protocol` runs every (instance, d) cell as a resumable suite.
+- :mod:`~benchmarks.protocol.suite`: :class:`ProtocolConfig` at the sizes smoke, quick, full,
+  with its task axis; :func:`run_protocol` runs every (task, instance, d) cell as a resumable
+  suite.
 - :mod:`~benchmarks.protocol.references`: the best F known per cell, its noise floor, the
   straight tool and a random pool; the command that computes them.
 - :mod:`~benchmarks.protocol.measures`: regret, targets, runtimes, ERT, ECDFs and their area.
 - :mod:`~benchmarks.protocol.statistics`: paired Holm-corrected comparisons, ranking stability,
   power.
 - :mod:`~benchmarks.protocol.ioh_export`: runs in the IOHprofiler format.
-- :mod:`~benchmarks.protocol.report`: the report of one or more run folders, merged.
+- :mod:`~benchmarks.protocol.report`: the report of one or more run folders, merged;
+  :mod:`~benchmarks.protocol.task_report` its sections per task and pooled over tasks.
 - :mod:`~benchmarks.protocol.claims`: the paper's claim (a) judged from a run's report, for
   the reproduction page (``tooldesign reproduce``).
 
-Command: ``tooldesign bench protocol --size smoke|quick|full --out DIR`` (docs/protocol.md).
+Command: ``tooldesign bench protocol --size smoke|quick|full [--tasks TASK...|all] --out DIR``
+(docs/protocol.md).
 """
 
 from __future__ import annotations
@@ -27,6 +30,7 @@ from benchmarks.protocol.dimensions import DEGREES, bounds_of, buildable_fractio
 from benchmarks.protocol.instances import (
     INSTANCE_VERSION,
     Instance,
+    draw_task_instances,
     load_instances,
     select_instances,
 )
@@ -45,6 +49,7 @@ from benchmarks.protocol.suite import (
     ProtocolConfig,
     protocol_config,
     read_protocol,
+    resolve_tasks,
     run_protocol,
 )
 
@@ -59,6 +64,7 @@ __all__ = [
     "bounds_of",
     "buildable_fraction",
     "compute_references",
+    "draw_task_instances",
     "export_ioh",
     "load_instances",
     "load_references",
@@ -69,6 +75,7 @@ __all__ = [
     "protocol_config",
     "read_protocol",
     "reference_plan",
+    "resolve_tasks",
     "run_protocol",
     "select_instances",
 ]

@@ -2,13 +2,16 @@
 
 The format is the one the ``ioh`` package's ``logger.Analyzer`` writes (its documented layout,
 written here directly so that exporting needs no extra package; a test reads it back with
-``iohinspector``). In IOHprofiler's terms the push task is one **function** (id 1, ``push``),
-a protocol instance is an IOH **instance** (its number, 1-24), the tool degree d is the
-**dimension**, and each (instance, seed) run of an optimizer is one **run**::
+``iohinspector``). In IOHprofiler's terms a task is one **function** (push id 1, then hook
+2, obstacle 3, puck 4: its place in the task registry, ``tooldesign_env.tasks.task_names``, plus
+one), a protocol instance is an IOH **instance** (its number in its task's set), the tool
+degree d is the **dimension**, and each (instance, seed) run of an optimizer is one **run**::
 
     ioh/<optimizer>/IOHprofiler_f1_push.json            meta: algorithm, scenarios, runs
                                                         (<optimizer> percent-encoded)
     ioh/<optimizer>/data_f1_push/IOHprofiler_f1_DIM<d>.dat
+    ioh/<optimizer>/IOHprofiler_f2_hook.json            another task's (the task axis)
+    ioh/<optimizer>/data_f2_hook/IOHprofiler_f2_DIM<d>.dat
 
 Each ``.dat`` holds, per run in the order of the JSON's ``runs``, a header line
 ``evaluations raw_y`` and one line per improvement of the best-so-far F (the first evaluation
@@ -34,8 +37,16 @@ import pandas as pd
 __all__ = ["IOH_FOLDER", "export_ioh"]
 
 IOH_FOLDER = "ioh"
-_FUNCTION_ID = 1
-_FUNCTION_NAME = "push"
+
+
+def function_id(task: str) -> int:
+    """The IOH function id of a task: its place in the task registry plus one (push is 1)."""
+    from tooldesign_env.tasks import task_names
+
+    names = task_names()
+    if task not in names:
+        raise ValueError(f"unknown task {task!r}; known tasks: {', '.join(names)}")
+    return names.index(task) + 1
 
 
 def _number(value: float) -> str:
@@ -54,7 +65,7 @@ def export_ioh(
     Args:
         runs: One row per evaluation: ``optimizer``, ``instance_number``, ``degree``, ``seed``,
             ``evaluation`` (1-based order within its run), ``free_energy`` and the coefficient
-            columns ``c1..cd`` (for the best point).
+            columns ``c1..cd`` (for the best point); ``task`` if not push alone.
         out_dir: The folder to write (``<run folder>/ioh``); files in it are replaced.
         algorithm_info: Per optimizer, the text of the meta's ``algorithm.info``.
         run_folder: The run folder ``out_dir`` lies in (its parent if ``None``): nothing is
@@ -66,7 +77,7 @@ def export_ioh(
             for a linked folder.
 
     Returns:
-        The meta files written, one per optimizer.
+        The meta files written, one per optimizer and task.
     """
     from benchmarks.storage import atomic_write_text, check_write_folder
 
@@ -78,9 +89,12 @@ def export_ioh(
     root = Path(run_folder) if run_folder is not None else out.parent
     check_write_folder(root, out)
     written = []
-    for optimizer, frame in runs.groupby("optimizer", sort=True):
+    if "task" not in runs.columns:
+        runs = runs.assign(task="push")
+    for (optimizer, task), frame in runs.groupby(["optimizer", "task"], sort=True):
         folder = out / urllib.parse.quote(str(optimizer), safe="")  # a module:Class label too
-        data_dir = folder / f"data_f{_FUNCTION_ID}_{_FUNCTION_NAME}"
+        fid, fname = function_id(str(task)), str(task)
+        data_dir = folder / f"data_f{fid}_{fname}"
         check_write_folder(root, data_dir)
         data_dir.mkdir(parents=True, exist_ok=True)
         check_write_folder(root, data_dir)
@@ -114,7 +128,7 @@ def export_ioh(
                         "x": x,
                     }
                 meta_runs.append(entry)
-            path = data_dir / f"IOHprofiler_f{_FUNCTION_ID}_DIM{int(degree)}.dat"
+            path = data_dir / f"IOHprofiler_f{fid}_DIM{int(degree)}.dat"
             atomic_write_text(path, "\n".join(lines) + "\n")
             scenarios.append(
                 {
@@ -126,8 +140,8 @@ def export_ioh(
         meta = {
             "version": "0.3.22",
             "suite": "tooldesign-protocol",
-            "function_id": _FUNCTION_ID,
-            "function_name": _FUNCTION_NAME,
+            "function_id": fid,
+            "function_name": fname,
             "maximization": False,
             "algorithm": {
                 "name": str(optimizer),
@@ -136,7 +150,7 @@ def export_ioh(
             "attributes": ["evaluations", "raw_y"],
             "scenarios": scenarios,
         }
-        target = folder / f"IOHprofiler_f{_FUNCTION_ID}_{_FUNCTION_NAME}.json"
+        target = folder / f"IOHprofiler_f{fid}_{fname}.json"
         atomic_write_text(target, json.dumps(meta, indent=1) + "\n")
         written.append(target)
     return written

@@ -1,4 +1,4 @@
-"""References per (instance, d): the best F known, its noise floor, the straight tool, random F.
+"""References per (task, instance, d): the best F known, its noise floor, straight and random F.
 
 A references file is JSON::
 
@@ -11,7 +11,13 @@ A references file is JSON::
                 "floor_min_fraction": ...,               # range of F over nudged scenes
                 "f_straight": ...,                       # C = 0
                 "random_pool": [...]},                   # F of random designs, sorted
+               {"task": "hook", "instance": "i01", "degree": 3, ...},
                ...]}
+
+A cell of the push task has no ``task`` key (files written before the task axis existed are
+read unchanged); a cell of another task names it. :func:`load_references` keys the cells by
+(instance label, d): ``("i01", 3)`` for push, ``("hook/i01", 3)`` for another task
+(``Instance.label``).
 
 How each reference is found (:class:`ReferencePlan`): the best F among (a) the straight tool,
 (b) a pool of random designs drawn uniformly in the bounds (also the source of ``F_random(t)``,
@@ -31,7 +37,8 @@ following a link (with ``expected_sha256``, only if it has that SHA-256: a run f
 the one of its ``references.json``).
 
 ``tooldesign bench protocol --references --size full --out FILE`` computes them, cell by cell:
-each finished cell is written to ``FILE.cells/d<d>-<instance>.json`` at once, so an interrupted
+each finished cell is written to ``FILE.cells/d<d>-<instance>.json`` (another task's to
+``FILE.cells/<task>-d<d>-<instance>.json``) at once, so an interrupted
 computation resumes at the next cell (the folder is removed once FILE is written; its
 ``plan.json`` records the plan, and cells of another plan are refused). The full
 plan is about 189,000 evaluations (24 instances:
@@ -57,7 +64,7 @@ from typing import Any
 import numpy as np
 
 from benchmarks.protocol.dimensions import bounds_of
-from benchmarks.protocol.instances import Instance
+from benchmarks.protocol.instances import PUSH_TASK, Instance, task_key
 from benchmarks.protocol.suite import ProtocolConfig
 
 __all__ = [
@@ -182,8 +189,24 @@ def reference_plan(size: str) -> ReferencePlan:
     return ReferencePlan()
 
 
-def _cell_key(instance_id: str, degree: int) -> tuple[str, int]:
-    return (instance_id, int(degree))
+def _cell_key(instance_id: str, degree: int, task: str = PUSH_TASK) -> tuple[str, int]:
+    """(instance label, d): ``Instance.label`` is the id for push, ``task/id`` otherwise."""
+    label = instance_id if task == PUSH_TASK else f"{task}/{instance_id}"
+    return (label, int(degree))
+
+
+def _part_name(instance: Instance, degree: int) -> str:
+    """The file of a finished cell in a computation's ``.cells`` folder."""
+    prefix = "" if instance.task == PUSH_TASK else f"{instance.task}-"
+    return f"{prefix}d{degree}-{instance.id}.json"
+
+
+def _stream(plan: ReferencePlan, instance: Instance, degree: int, purpose: int) -> Any:
+    """The seed stream of a cell's random pool (1) or restarts (2); another task's its own."""
+    key: tuple[int, ...] = (instance.number, degree, purpose)
+    if instance.task != PUSH_TASK:
+        key += (task_key(instance.task),)
+    return np.random.SeedSequence(plan.seed, spawn_key=key)
 
 
 def packaged_references(size: str) -> Path | None:
@@ -233,9 +256,10 @@ def check_references_match(
     """
     plan = plan or reference_plan(config.size)
     sizes = sizes or tuple(dict.fromkeys((config.size, references_size(config.size))))
+    tasks = "" if config.tasks == (PUSH_TASK,) else f" --tasks {' '.join(config.tasks)}"
     hint = (
         f"compute references for this run (`tooldesign bench protocol --references --size "
-        f"{config.size} --out FILE.json`) or give the ones it was made with"
+        f"{config.size}{tasks} --out FILE.json`) or give the ones it was made with"
     )
     for field, want in (
         ("instance_version", config.instance_version),
@@ -269,7 +293,7 @@ def load_references(
     config: ProtocolConfig | None = None,
     expected_sha256: str | None = None,
 ) -> dict[tuple[str, int], dict[str, Any]]:
-    """The cells of a references file, by (instance id, d).
+    """The cells of a references file, by (instance label, d): ``("i01", 3)``, ``("hook/i01", 3)``.
 
     The file is read without following a symbolic link (a run folder's ``references.json`` may
     come from someone else: ``benchmarks.storage.read_run_file``), and with
@@ -317,7 +341,10 @@ def load_references(
             pool = np.asarray(cell["random_pool"], dtype=float)
             if pool.size == 0 or not np.all(np.isfinite(pool)):
                 raise ValueError(f"random_pool of {cell['instance']} must be finite F values")
-            cells[_cell_key(cell["instance"], cell["degree"])] = cell
+            task = cell.get("task", PUSH_TASK)
+            if not isinstance(task, str) or not task:
+                raise ValueError(f"task of {cell['instance']} must be a task name, got {task!r}")
+            cells[_cell_key(cell["instance"], cell["degree"], task)] = cell
     except (KeyError, TypeError, ValueError, UnicodeDecodeError) as err:
         raise ValueError(f"{path} is not a protocol references file: {err}") from None
     if config is not None:
@@ -346,7 +373,7 @@ def _cmaes_runs(
 
     base = config.cell_suite(instance, degree).runs()[0].design
     iterations = math.ceil(plan.restart_evaluations_per_degree * degree / 8)
-    seeds = np.random.SeedSequence(plan.seed, spawn_key=(instance.number, degree, 2))
+    seeds = _stream(plan, instance, degree, 2)
     designs, rows = [], []
     for child in seeds.spawn(plan.restarts):
         run = dataclasses.replace(
@@ -378,9 +405,7 @@ def compute_cell(
 
     task = _task(config, instance, degree)
     bounds = np.asarray(bounds_of(degree))
-    rng = np.random.default_rng(
-        np.random.SeedSequence(plan.seed, spawn_key=(instance.number, degree, 1))
-    )
+    rng = np.random.default_rng(_stream(plan, instance, degree, 1))
     n_pool = plan.pool_size(degree, config.budget(degree))
     random_x = rng.uniform(bounds[:, 0], bounds[:, 1], size=(n_pool, degree))
     random_rows = _evaluate(pool, random_x, task)
@@ -401,19 +426,21 @@ def compute_cell(
     rows = random_rows + straight_rows + search_rows
     f = np.array([r["free_energy"] if r["status"] == "ok" else math.inf for r in rows])
     if not np.isfinite(f).any():
-        raise RuntimeError(f"no valid design for instance {instance.id} at d = {degree}")
+        raise RuntimeError(f"no valid design for instance {instance.label} at d = {degree}")
     best = int(np.argmin(f))
     fraction = floor_min_fraction() if plan.floor_min_fraction is None else plan.floor_min_fraction
     retest = RetestConfig(nudges=plan.nudges, seed=plan.seed, repeats=1)  # noise only
     item = RetestItem(coeffs=tuple(designs[best].tolist()), task=task, config=retest)
     ((result, exc, _),) = map_robust(pool, retest_design, [item])
     if exc is not None:
-        raise RuntimeError(f"noise floor of {instance.id} at d = {degree}: {exc}") from exc
+        raise RuntimeError(f"noise floor of {instance.label} at d = {degree}: {exc}") from exc
     noise = np.array([row["free_energy"] for row in result["noise"]])
     f_ref = float(f[best])
     floor = max(float(noise.max() - noise.min()), fraction * abs(f_ref))
     pool_f = np.array([r["free_energy"] for r in random_rows], dtype=float)
+    task = {} if instance.task == PUSH_TASK else {"task": instance.task}
     return {
+        **task,
         "instance": instance.id,
         "degree": degree,
         "f_ref": f_ref,
@@ -443,7 +470,8 @@ def compute_references(
         config: The protocol whose cells need references (its executor and workers are used).
         out_file: The references file (JSON), written atomically at the end; finished cells
             wait in ``<out_file>.cells/``. The cells of an existing file are kept, not
-            computed again (a rerun adds the cells it lacks).
+            computed again, also those of tasks ``config`` does not run (a rerun adds the cells
+            it lacks: ``--tasks all`` over a push-only file adds the other tasks' cells).
         plan: How; :func:`reference_plan` (config.size) if ``None``.
         say: Called with one line per cell.
 
@@ -498,20 +526,28 @@ def compute_references(
         )
     else:
         atomic_write_text(plan_file, json.dumps(header, indent=1) + "\n")
-    for (instance_id, degree), cell in done.items():
-        target = parts / f"d{degree}-{instance_id}.json"
+    for cell in done.values():
+        task = cell.get("task", PUSH_TASK)
+        prefix = "" if task == PUSH_TASK else f"{task}-"
+        target = parts / f"{prefix}d{cell['degree']}-{cell['instance']}.json"
         if not os.path.lexists(target):
             atomic_write_text(target, json.dumps(cell) + "\n")
-    cells = []
+    # The file's cells first, in its order (those of another task selection too: a rerun with
+    # more tasks adds theirs), then the run's that it lacks.
+    cells = list(done.values())
     with make_executor(config.executor, config.workers, config.scheduler) as pool:
         for k, (instance, degree) in enumerate(config.cells(), 1):
-            name = f"d{degree}-{instance.id}.json"
+            if (instance.label, degree) in done:
+                continue
+            name = _part_name(instance, degree)
             part = parts / name
             if os.path.lexists(part):
                 cells.append(json.loads(read_run_file(parts, name, max_bytes=64 << 20)))
                 continue
             if say is not None:
-                say(f"references {k}/{len(config.cells())}: d = {degree}, instance {instance.id}")
+                say(
+                    f"references {k}/{len(config.cells())}: d = {degree}, instance {instance.label}"
+                )
             cell = compute_cell(pool, config, instance, degree, plan)
             atomic_write_text(part, json.dumps(cell) + "\n")
             cells.append(cell)

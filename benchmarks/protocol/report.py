@@ -20,6 +20,11 @@ A run's score is the area under its own ECDF over its instance's targets (in [0,
 is better); the comparisons, the ranking and the power analysis use it
 (:mod:`benchmarks.protocol.statistics`). Pooled over dimensions, an (instance, d) pair is the
 block of the paired comparison.
+
+With the task axis (``ProtocolConfig.tasks``), the sections above are the first task's (push,
+when it is run), as before; :mod:`benchmarks.protocol.task_report` adds a section per other
+task and one pooled over tasks, ``ecdf_<task>.png`` and ``ecdf_tasks.png``, and the tables gain
+a ``task`` column. A push-only report is what it was before the axis existed.
 """
 
 from __future__ import annotations
@@ -88,6 +93,9 @@ _SHARED = (
     "evaluations_per_degree",
     "goal_precision",
     "root_seed",
+    "tasks",  # the task axis's fields: absent from a push-only protocol.json
+    "task_instances",
+    "task_degrees",
 )
 
 
@@ -95,9 +103,10 @@ def load_runs(folder: str | os.PathLike[str]) -> tuple[ProtocolConfig, pd.DataFr
     """The evaluations of every cell of a protocol run folder, one row per evaluation.
 
     Returns:
-        The config, and a frame with ``optimizer``, ``instance``, ``instance_number``, ``set``,
-        ``degree``, ``seed``, ``evaluation`` (1-based within its run), ``free_energy`` (NaN if
-        failed), ``status`` and ``c1..cd``.
+        The config, and a frame with ``optimizer``, ``task``, ``instance`` (its label:
+        ``"i01"``, ``"hook/i01"``), ``instance_number``, ``set``, ``degree``, ``seed``,
+        ``evaluation`` (1-based within its run), ``free_energy`` (NaN if failed), ``status``
+        and ``c1..cd``.
 
     Raises:
         ValueError: If the folder is not a protocol run folder or a cell has no results.
@@ -132,7 +141,8 @@ def load_runs(folder: str | os.PathLike[str]) -> tuple[ProtocolConfig, pd.DataFr
             pd.DataFrame(
                 {
                     "optimizer": log["optimizer"].astype(str).to_numpy(),
-                    "instance": instance.id,
+                    "task": instance.task,
+                    "instance": instance.label,
                     "instance_number": instance.number,
                     "set": instance.set,
                     "degree": degree,
@@ -164,7 +174,8 @@ def measure_runs(
 
     Returns:
         ``(runtimes, scores)``: one row per (optimizer, instance, d, seed, target) with
-        ``target``, ``runtime`` (inf if censored), ``budget``; one row per run with ``score``
+        ``task`` (push where ``runs`` has no such column), ``target``, ``runtime`` (inf if
+        censored), ``budget``; one row per run with ``score``
         (the area under its ECDF), ``final_f`` and ``regret_<fraction>`` per fraction of the
         budget in :data:`REGRET_FRACTIONS`.
 
@@ -191,12 +202,14 @@ def measure_runs(
         targets = target_ladder(f_ref, float(np.median(pool)), float(ref["noise_floor"]), n_targets)
         checkpoints = [max(1, round(fr * budget)) for fr in REGRET_FRACTIONS]
         f_random = expected_best_of_random(pool, np.array(checkpoints))
+        task = str(cell["task"].iloc[0]) if "task" in cell.columns else "push"
         for (optimizer, seed), run in cell.groupby(["optimizer", "seed"], sort=True):
             f = run.sort_values("evaluation")["free_energy"].to_numpy(dtype=float)
             times = runtimes(f, targets)
             best = best_so_far(f)
             record: dict[str, Any] = {
                 "optimizer": optimizer,
+                "task": task,
                 "instance": instance,
                 "set": run["set"].iloc[0],
                 "degree": int(degree),
@@ -218,6 +231,7 @@ def measure_runs(
                 rows.append(
                     {
                         "optimizer": optimizer,
+                        "task": task,
                         "instance": instance,
                         "degree": int(degree),
                         "seed": int(seed),
@@ -241,11 +255,12 @@ def _merge(folders: Sequence[str | os.PathLike[str]]) -> tuple[ProtocolConfig, p
         if configs:
             first = configs[0].to_json()
             other = config.to_json()
-            differ = [k for k in _SHARED if first[k] != other[k]]
+            differ = [k for k in _SHARED if first.get(k) != other.get(k)]
             if differ:
                 raise ValueError(
                     f"{folder} is a protocol run of another plan than {folders[0]} "
-                    f"(they differ in {', '.join(differ)}): runs merge only at the same size"
+                    f"(they differ in {', '.join(differ)}): runs merge only at the same size and "
+                    "tasks"
                 )
         for name in runs["optimizer"].unique():
             if name in seen:
@@ -320,14 +335,15 @@ def _reference_table(
 ) -> pd.DataFrame:
     rows = []
     for instance, degree in config.cells():
-        ref = refs.get((instance.id, degree))
+        ref = refs.get((instance.label, degree))
         if ref is None:
             continue  # measure_runs has refused a run without a reference already
         pool = np.asarray(ref["random_pool"], dtype=float)
         rows.append(
             {
+                "task": instance.task,
                 "d": degree,
-                "instance": instance.id,
+                "instance": instance.label,
                 "set": instance.set,
                 "F_ref": float(ref["f_ref"]),
                 "noise floor": float(ref["noise_floor"]),
@@ -457,9 +473,22 @@ def make_protocol_report(
             "FILE.json`, then --reference-file FILE.json)"
         )
     refs = load_references(ref_path, config=config, expected_sha256=expected)
-    budgets = {d: config.budget(d) for d in config.degrees}
-    times, scores = measure_runs(runs, refs, budgets)
-    reference_table = _reference_table(refs, config, budgets)
+    budgets = {d: config.budget(d) for d in config.all_degrees()}
+    all_times, all_scores = measure_runs(runs, refs, budgets)
+    all_references = _reference_table(refs, config, budgets)
+    # The sections below are the first task's (push's when it runs); the other tasks' and the
+    # pooled ones follow (task_report). One task alone: the tables as before the task axis.
+    first, degrees = config.tasks[0], config.task_degrees_of(config.tasks[0])
+    if len(config.tasks) == 1:
+        all_times, all_scores, all_references = (
+            f.drop(columns="task") for f in (all_times, all_scores, all_references)
+        )
+        times, scores, reference_table = all_times, all_scores, all_references
+    else:
+        times, scores, reference_table = (
+            f[f["task"] == first].drop(columns="task")
+            for f in (all_times, all_scores, all_references)
+        )
     digest = run_file_sha256(Path(ref_path).parent, Path(ref_path).name)[:16]
     out = Path(out_dir) if out_dir is not None else Path(folders[0]) / "report"
     # report/ inside a run folder is never written through a link (it could lead anywhere).
@@ -467,10 +496,14 @@ def make_protocol_report(
     out.mkdir(parents=True, exist_ok=True)
     check_write_folder(folders[0], out)  # and not swapped for one while it was made
     written = []
-    tables = (("runtimes.csv", times), ("runs.csv", scores), ("references.csv", reference_table))
+    tables = (
+        ("runtimes.csv", all_times),
+        ("runs.csv", all_scores),
+        ("references.csv", all_references),
+    )
     for name, frame in tables:
         written.append(atomic_write_text(out / name, frame.to_csv(index=False)))
-    for degree in config.degrees:
+    for degree in degrees:
         path = out / f"ecdf_d{degree}.png"
         _ecdf_figure(times[times["degree"] == degree], f"d = {degree}", path)
         written.append(path)
@@ -482,11 +515,20 @@ def make_protocol_report(
         "# Protocol report",
         "",
         f"Size `{config.size}`, instance set v{config.instance_version}, degrees "
-        f"{list(config.degrees)}, {config.n_seeds} seed(s), budgets "
+        f"{list(degrees)}, {config.n_seeds} seed(s), budgets "
         f"{', '.join(f'd = {d}: {b}' for d, b in budgets.items())} evaluations, p^X = "
         f"{config.goal_precision:g}. Run folders: {', '.join(str(f) for f in folders)}. "
         f"References: `{ref_path}` (SHA-256 {digest}...).",
         "",
+        *(
+            []
+            if len(config.tasks) == 1
+            else [
+                f"Tasks {', '.join(config.tasks)}: the sections up to the ECDFs are the "
+                f"{first} task's; each other task's, and all tasks pooled, follow them.",
+                "",
+            ]
+        ),
         f"Targets: {N_TARGETS} per (instance, d), from the median F of a random design down to "
         "F_ref + noise floor. Score of a run: the area under its ECDF over its targets (0 to 1, "
         "higher is better). Regret: (F - F_ref) / (F_random(budget) - F_ref), 1 = random "
@@ -515,7 +557,7 @@ def make_protocol_report(
         "",
     ]
     comparisons, ranks, powers = [], [], []
-    groups = [(str(d), scores[scores["degree"] == d]) for d in config.degrees]
+    groups = [(str(d), scores[scores["degree"] == d]) for d in degrees]
     groups.append(
         ("all", scores.assign(instance=scores["instance"] + "/d" + scores["degree"].astype(str)))
     )
@@ -538,8 +580,8 @@ def make_protocol_report(
             frame.assign(score=frame["final_f"].replace([np.inf, -np.inf], np.nan)), alpha=alpha
         )
         in_f = in_f.assign(d=label, measure="final F")
-        degrees = [int(label)] if label != "all" else list(config.degrees)
-        floors = reference_table[reference_table["d"].isin(degrees)]["noise floor"]
+        at = [int(label)] if label != "all" else list(degrees)
+        floors = reference_table[reference_table["d"].isin(at)]["noise floor"]
         comparisons.append(table)
         ranks.append(rank)
         powers.append(power)
@@ -553,10 +595,10 @@ def make_protocol_report(
                 f"fewer than {floor} {unit}. The detectable differences below are therefore "
                 "inf; more seeds do not help, more instances do."
             )
-            if label != "all" and len(config.degrees) > 1:
+            if label != "all" and len(degrees) > 1:
                 verdict += (
                     " The pooled section (all dimensions) has "
-                    f"{blocks * len(config.degrees)} blocks: read the comparisons there."
+                    f"{blocks * len(degrees)} blocks: read the comparisons there."
                 )
         else:
             verdict = (
@@ -602,7 +644,23 @@ def make_protocol_report(
     ):
         if parts:
             written.append(atomic_write_text(out / name, pd.concat(parts).to_csv(index=False)))
-    figures = [f"ecdf_d{d}.png" for d in config.degrees] + ["ecdf_pooled.png"]
+    figures = [f"ecdf_d{d}.png" for d in degrees] + ["ecdf_pooled.png"]
     sections += ["## ECDFs", ""] + [f"![{f}]({f})" for f in figures] + [""]
+    if len(config.tasks) > 1:
+        from benchmarks.protocol.task_report import task_sections
+
+        more, files = task_sections(
+            config,
+            all_times,
+            all_scores,
+            all_references,
+            out,
+            alpha,
+            md_table=_md_table,
+            auc_table=_auc_table,
+            ecdf_figure=_ecdf_figure,
+        )
+        sections += more
+        written += files
     written.append(atomic_write_text(out / "report.md", "\n".join(sections)))
     return written

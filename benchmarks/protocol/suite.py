@@ -5,8 +5,9 @@ A protocol run folder::
     run_folder/
         protocol.json                 the ProtocolConfig, the instance-set version, the sizes,
                                       and the SHA-256 of references.json once computed here
-        cells/d<d>/<instance>/        one suite run folder per cell (benchmarks.suites.runner:
+        cells/d<d>/<instance>/        one suite run folder per push cell (benchmarks.suites.runner:
                                       manifest, parts, designs; resumable on its own)
+        cells/<task>/d<d>/<instance>/ the same for a cell of another task (the task axis)
         ioh/                          the trajectories in the IOHprofiler format (ioh_export)
         report/                       tables, ECDF figures, report.md (benchmarks.protocol.report)
 
@@ -15,8 +16,18 @@ Each cell is a :class:`~benchmarks.suites.SuiteConfig` run by
 so resuming, checksums and seeds are those of every suite: a rerun of the same command skips the
 finished cells and runs, and replays unfinished ones. Every optimizer sees the same seeds in a
 cell: the cell's root seed is the first state word of ``SeedSequence(root_seed,
-spawn_key=(instance number, d))``, so an optimizer run later, alone (a user's), gets the seeds
-the committed built-ins had, and its results merge with theirs in one report.
+spawn_key=(instance number, d))`` (push) or ``(instance number, d, task_key(task))`` (another
+task), so an optimizer run later, alone (a user's), gets the seeds the committed built-ins had,
+and its results merge with theirs in one report.
+
+The task axis: ``tasks`` names the registered tasks (``tooldesign_env.tasks``) to run, push
+alone by default (``tooldesign bench protocol --tasks``; ``--tasks all`` into a push run's
+folder extends it, :func:`extends`). Push cells are ``instances`` x ``degrees``, as before
+tasks existed; every other task's cells are ``task_instances`` of its own committed set
+(:func:`~benchmarks.protocol.instances.load_instances` with ``task``) x ``task_degrees`` (d = 3:
+at d = 5 and 8 its references and runs would cost about 1.5 and 2.5 times as much again each).
+A config of push alone writes no task field to ``protocol.json``, so a folder made before the
+axis existed reads, resumes and reports unchanged, and one made now is the same file.
 
 The folder is data (``benchmarks.storage.runfiles``): :func:`run_protocol` refuses to start or
 resume in one that holds a symbolic link anywhere below it, and ``protocol.json`` is read
@@ -24,8 +35,8 @@ without following a link.
 
 Budgets grow with the dimension, as COCO's: a run has ``iterations(d) x batch_size`` evaluations.
 
-Sizes (:data:`PROTOCOL_SIZES`, estimated at 0.12 s per evaluation per core; the integrator
-measures):
+Sizes (:data:`PROTOCOL_SIZES`, push alone, estimated at 0.12 s per evaluation per core; the
+integrator measures):
 
 ======  ==========================  =====  =======  =====  ===============  ==================
 size    instances                   d      seeds    batch  evaluations/run  evaluations in all
@@ -34,6 +45,10 @@ smoke   i01, i02 (public)           3, 5   1        4      8, 12            80 (
 quick   6 public                    3,5,8  2        8      32, 56, 80       8,064 (~8 min)
 full    all 24 (16 public, 8 held)  3,5,8  3        8      120, 200, 320    184,320 (~3.1 h)
 ======  ==========================  =====  =======  =====  ===============  ==================
+
+Each other task adds (``--tasks``; d = 3 only): smoke its i01 (8 evaluations per optimizer),
+quick 6 public instances (2 seeds x 4 optimizers x 32: 1,536 evaluations), full all 16 (3 x 4 x
+120: 5,760); docs/protocol.md has the time estimates.
 """
 
 from __future__ import annotations
@@ -42,7 +57,7 @@ import dataclasses
 import json
 import math
 import os
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -51,9 +66,12 @@ import numpy as np
 from benchmarks.protocol.dimensions import DEGREES, bounds_of
 from benchmarks.protocol.instances import (
     INSTANCE_VERSION,
+    PUSH_TASK,
     Instance,
+    committed_tasks,
     load_instances,
     select_instances,
+    task_key,
 )
 from benchmarks.suites.config import OptimizerSpec, SuiteConfig
 
@@ -62,8 +80,10 @@ __all__ = [
     "PROTOCOL_FILE",
     "PROTOCOL_SIZES",
     "PROTOCOL_SUITE_NAME",
+    "TASK_DEGREES",
     "ProtocolConfig",
     "cell_folder",
+    "extends",
     "protocol_config",
     "protocol_record",
     "read_protocol",
@@ -82,6 +102,13 @@ BUILTIN_OPTIMIZERS: tuple[str, ...] = ("cmaes", "bo", "pso", "random")
 #: Fields that do not change results: a resumed protocol may set them differently.
 _RUNTIME = frozenset({"executor", "workers", "scheduler", "max_retries"})
 
+#: The degrees of the tasks other than push (d = 3, the paper's cubic).
+TASK_DEGREES: tuple[int, ...] = (3,)
+
+#: The task axis's fields and their defaults: left out of the JSON when at their default, so a
+#: push-only config's ``protocol.json`` is the one written before the axis existed.
+_TASK_FIELDS: dict[str, Any] = {"tasks": (PUSH_TASK,), "task_instances": (), "task_degrees": (3,)}
+
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
 class ProtocolConfig:
@@ -99,6 +126,12 @@ class ProtocolConfig:
         goal_precision: p^X, 1/m^2.
         root_seed: The protocol's root seed.
         executor, workers, scheduler, max_retries: As ``SuiteConfig``'s (not results).
+        tasks: The registered tasks run (``tooldesign_env.tasks``), distinct; push alone by
+            default. Every task must have a committed instance set of ``instance_version``.
+        task_instances: Instance ids of each task other than push, in its own set (every set
+            numbers its instances i01 upward); ``instances`` are push's. Needed when ``tasks``
+            has a task other than push.
+        task_degrees: Tool degrees d of the tasks other than push.
     """
 
     size: str
@@ -115,6 +148,9 @@ class ProtocolConfig:
     workers: int | None = None
     scheduler: str | None = None
     max_retries: int = 0
+    tasks: tuple[str, ...] = (PUSH_TASK,)
+    task_instances: tuple[str, ...] = ()
+    task_degrees: tuple[int, ...] = TASK_DEGREES
 
     def __post_init__(self) -> None:
         if self.size not in PROTOCOL_SIZES:
@@ -123,12 +159,14 @@ class ProtocolConfig:
         select_instances(self.instance_set(), self.instances)  # unknown ids are refused
         if len(set(self.instances)) != len(self.instances):
             raise ValueError(f"instances must be distinct, got {list(self.instances)}")
-        degrees = tuple(self.degrees)
-        for d in degrees:
-            bounds_of(d)
-        if not degrees or len(set(degrees)) != len(degrees):
-            raise ValueError(f"degrees must be distinct and at least one, got {degrees}")
-        object.__setattr__(self, "degrees", degrees)
+        for field in ("degrees", "task_degrees"):
+            degrees = tuple(getattr(self, field))
+            for d in degrees:
+                bounds_of(d)
+            if not degrees or len(set(degrees)) != len(degrees):
+                raise ValueError(f"{field} must be distinct and at least one, got {degrees}")
+            object.__setattr__(self, field, degrees)
+        self._check_tasks()
         specs = tuple(
             o if isinstance(o, OptimizerSpec) else OptimizerSpec(name=o) for o in self.optimizers
         )
@@ -142,9 +180,53 @@ class ProtocolConfig:
         for cell in self.cells():
             self.cell_suite(*cell)  # SuiteConfig checks the rest with its own messages
 
-    def instance_set(self) -> tuple[Instance, ...]:
-        """The committed instances of ``instance_version``."""
-        return load_instances(self.instance_version)
+    def _check_tasks(self) -> None:
+        from tooldesign_env.tasks import get_task, task_names
+
+        if isinstance(self.tasks, str):
+            raise ValueError(f"tasks must be a sequence of task names, got {self.tasks!r}")
+        tasks = tuple(self.tasks)
+        if not tasks or len(set(tasks)) != len(tasks):
+            raise ValueError(f"tasks must be distinct and at least one, got {list(tasks)}")
+        for task in tasks:
+            if not isinstance(task, str) or task not in task_names():
+                raise ValueError(f"unknown task {task!r}; known tasks: {', '.join(task_names())}")
+            get_task(task)
+            if task != PUSH_TASK:
+                load_instances(self.instance_version, task=task)  # a task without a set: refused
+        object.__setattr__(self, "tasks", tasks)
+        ids = tuple(self.task_instances)
+        object.__setattr__(self, "task_instances", ids)
+        others = [t for t in tasks if t != PUSH_TASK]
+        if others and not ids:
+            raise ValueError(
+                f"task_instances must name the instances of the tasks {others} (e.g. ('i01',))"
+            )
+        if len(set(ids)) != len(ids):
+            raise ValueError(f"task_instances must be distinct, got {list(ids)}")
+        for task in others:
+            select_instances(self.instance_set(task), ids)
+
+    def instance_set(self, task: str = PUSH_TASK) -> tuple[Instance, ...]:
+        """The committed instances of ``instance_version`` of a task (push's by default)."""
+        return load_instances(self.instance_version, task=task)
+
+    def task_cells(self, task: str) -> list[tuple[Instance, int]]:
+        """(instance, d) of the cells of one task, d by d."""
+        if task == PUSH_TASK:
+            chosen, degrees = select_instances(self.instance_set(), self.instances), self.degrees
+        else:
+            chosen = select_instances(self.instance_set(task), self.task_instances)
+            degrees = self.task_degrees
+        return [(i, d) for d in degrees for i in chosen]
+
+    def task_degrees_of(self, task: str) -> tuple[int, ...]:
+        """The degrees a task is run at."""
+        return self.degrees if task == PUSH_TASK else self.task_degrees
+
+    def all_degrees(self) -> tuple[int, ...]:
+        """Every degree some task is run at, ascending."""
+        return tuple(sorted({d for t in self.tasks for d in self.task_degrees_of(t)}))
 
     def iterations(self, degree: int) -> int:
         """Iterations of a run at degree d: ``ceil(evaluations_per_degree * d / batch_size)``."""
@@ -155,20 +237,32 @@ class ProtocolConfig:
         return self.iterations(degree) * self.batch_size
 
     def cells(self) -> list[tuple[Instance, int]]:
-        """(instance, d) of every cell, d by d."""
-        chosen = select_instances(self.instance_set(), self.instances)
-        return [(i, d) for d in self.degrees for i in chosen]
+        """(instance, d) of every cell: task by task (in ``tasks``' order), d by d.
+
+        An instance knows its task (``Instance.task``).
+        """
+        return [cell for task in self.tasks for cell in self.task_cells(task)]
 
     def cell_seed(self, instance: Instance, degree: int) -> int:
         """The root seed of a cell's suite (the same for every optimizer)."""
-        seq = np.random.SeedSequence(self.root_seed, spawn_key=(instance.number, degree))
+        key: tuple[int, ...] = (instance.number, degree)
+        if instance.task != PUSH_TASK:
+            key += (task_key(instance.task),)
+        seq = np.random.SeedSequence(self.root_seed, spawn_key=key)
         return int(seq.generate_state(1, dtype=np.uint32)[0])
 
     def cell_suite(self, instance: Instance, degree: int) -> SuiteConfig:
         """The suite of one cell."""
+        if instance.task == PUSH_TASK:
+            name = f"{PROTOCOL_SUITE_NAME}-d{degree}-{instance.id}"
+            what = f"instance {instance.id}"
+        else:
+            name = f"{PROTOCOL_SUITE_NAME}-{instance.task}-d{degree}-{instance.id}"
+            what = f"task {instance.task}, instance {instance.id}"
         return SuiteConfig(
-            name=f"{PROTOCOL_SUITE_NAME}-d{degree}-{instance.id}",
-            description=f"protocol cell: instance {instance.id}, degree {degree}",
+            name=name,
+            description=f"protocol cell: {what}, degree {degree}",
+            task_name=instance.task,
             goal=instance.goal,
             goal_precision=self.goal_precision,
             box_mass=instance.box_mass,
@@ -190,19 +284,27 @@ class ProtocolConfig:
         return sum(self.cell_suite(i, d).evaluations() for i, d in self.cells())
 
     def to_json(self) -> dict[str, Any]:
-        """JSON values of the config."""
+        """JSON values of the config.
+
+        The task axis's fields are left out where they have their defaults (push alone), so a
+        push-only config is written as before the axis existed; :meth:`from_json` reads a
+        missing one as its default.
+        """
         data = dataclasses.asdict(self)
         data["optimizers"] = [
             {**dataclasses.asdict(o), "settings": dict(o.settings)} for o in self.optimizers
         ]
+        for field, default in _TASK_FIELDS.items():
+            if tuple(data[field]) == default:
+                del data[field]
         return json.loads(json.dumps(data))  # type: ignore[no-any-return]
 
     @classmethod
     def from_json(cls, data: Mapping[str, Any]) -> ProtocolConfig:
-        """The config of :meth:`to_json`'s values."""
+        """The config of :meth:`to_json`'s values (a missing task field: its default)."""
         fields = dict(data)
         fields["optimizers"] = tuple(OptimizerSpec(**o) for o in fields.get("optimizers", ()))
-        for key in ("instances", "degrees"):
+        for key in ("instances", "degrees", *(k for k in _TASK_FIELDS if k in fields)):
             fields[key] = tuple(fields[key])
         return cls(**fields)
 
@@ -211,16 +313,74 @@ class ProtocolConfig:
         return dataclasses.replace(self, **changes)
 
 
-def protocol_config(size: str, *, optimizer: str | None = None) -> ProtocolConfig:
-    """The protocol at a size; with ``optimizer`` that one optimizer alone (a user's run).
+def resolve_tasks(tasks: Sequence[str] | None) -> tuple[str, ...]:
+    """Task names as the command line gives them.
+
+    ``None`` is push alone, ``["all"]`` every task with a committed instance set; the names
+    come back in the task registry's order (push first).
 
     Raises:
-        ValueError: An unknown size.
+        ValueError: An unknown task (naming the known ones), ``all`` beside other names, or a
+            repeated name.
+    """
+    from tooldesign_env.tasks import task_names
+
+    if tasks is None:
+        return (PUSH_TASK,)
+    names = list(tasks)
+    if "all" in names:
+        if len(names) > 1:
+            raise ValueError(f"--tasks all stands alone, got {names}")
+        return committed_tasks()
+    for name in names:
+        if name not in task_names():
+            raise ValueError(
+                f"unknown task {name!r}; known tasks: {', '.join(task_names())} (or all)"
+            )
+    if not names or len(set(names)) != len(names):
+        raise ValueError(f"--tasks must name distinct tasks, got {names}")
+    # In the registry's order (push first), whatever order they were given in: the same tasks
+    # make the same config, so runs of them merge.
+    return tuple(t for t in task_names() if t in names)
+
+
+def protocol_config(
+    size: str, *, optimizer: str | None = None, tasks: Sequence[str] | None = None
+) -> ProtocolConfig:
+    """The protocol at a size; with ``optimizer`` that one optimizer alone (a user's run).
+
+    Args:
+        size: ``smoke``, ``quick`` or ``full``.
+        optimizer: Run this optimizer alone.
+        tasks: The tasks (:func:`resolve_tasks`: ``None`` push alone, ``["all"]`` every one).
+            Push's cells are the size's as before; every other task's are d = 3 and, of its own
+            set, i01 (smoke), the first 6 public instances (quick) or all 16 (full).
+
+    Raises:
+        ValueError: An unknown size or task.
     """
     if not isinstance(size, str) or size not in PROTOCOL_SIZES:
         raise ValueError(f"unknown size {size!r}; sizes: {', '.join(PROTOCOL_SIZES)}")
+    chosen_tasks = resolve_tasks(tasks)
     instances = load_instances()
     public = [i.id for i in instances if i.set == "public"]
+    task_instances: tuple[str, ...] = ()
+    others = [t for t in chosen_tasks if t != PUSH_TASK]
+    if others:
+        # The tasks' sets share their held-out split (draw_task_instances): the ids public in
+        # all of them are the size's (a task registered with a set of its own may differ).
+        sets = [load_instances(task=t) for t in others]
+        size_of = min(len(s) for s in sets)
+        shared = [
+            f"i{k:02d}"
+            for k in range(1, size_of + 1)
+            if all(s[k - 1].set == "public" for s in sets)
+        ]
+        task_instances = {
+            "smoke": tuple(shared[:1]),
+            "quick": tuple(shared[:6]),
+            "full": tuple(f"i{k:02d}" for k in range(1, size_of + 1)),
+        }[size]
     if size == "smoke":
         config = ProtocolConfig(
             size=size,
@@ -239,12 +399,17 @@ def protocol_config(size: str, *, optimizer: str | None = None) -> ProtocolConfi
         config = ProtocolConfig(size=size, instances=tuple(i.id for i in instances), n_seeds=3)
     if optimizer is not None:
         config = config.replace(optimizers=(OptimizerSpec(name=optimizer),))
+    if chosen_tasks != (PUSH_TASK,):
+        config = config.replace(tasks=chosen_tasks, task_instances=task_instances)
     return config
 
 
 def cell_folder(run_folder: str | os.PathLike[str], instance: Instance, degree: int) -> Path:
-    """The suite run folder of a cell."""
-    return Path(run_folder) / "cells" / f"d{degree}" / instance.id
+    """The suite run folder of a cell: ``cells/d<d>/<id>`` (push), ``cells/<task>/d<d>/<id>``."""
+    cells = Path(run_folder) / "cells"
+    if instance.task != PUSH_TASK:
+        cells = cells / instance.task
+    return cells / f"d{degree}" / instance.id
 
 
 def protocol_record(run_folder: str | os.PathLike[str]) -> dict[str, Any]:
@@ -324,6 +489,21 @@ def _comparable(config: ProtocolConfig) -> dict[str, Any]:
     return {k: v for k, v in config.to_json().items() if k not in _RUNTIME}
 
 
+def extends(old: ProtocolConfig, new: ProtocolConfig) -> bool:
+    """Whether ``new`` runs every cell of ``old`` as ``old`` did, and maybe more.
+
+    True when the two differ at most in the task axis and ``new``'s cells include ``old``'s:
+    ``--tasks all`` into a push run's folder keeps its cells (the same suites, seeds and
+    budgets) and adds the other tasks'.
+    """
+    axis = set(_TASK_FIELDS)
+    same = {k: v for k, v in _comparable(old).items() if k not in axis} == {
+        k: v for k, v in _comparable(new).items() if k not in axis
+    }
+    cells = {(i.label, d) for i, d in new.cells()}
+    return same and all((i.label, d) in cells for i, d in old.cells())
+
+
 def run_protocol(
     config: ProtocolConfig,
     out_dir: str | os.PathLike[str],
@@ -335,7 +515,9 @@ def run_protocol(
 
     Args:
         config: The protocol.
-        out_dir: The run folder; a folder of another protocol config is refused.
+        out_dir: The run folder; a folder of another protocol config is refused, unless
+            ``config`` only adds tasks to it (:func:`extends`): its cells are kept and the
+            new tasks' run, and ``protocol.json`` then records the tasks.
         progress: Progress bars of the cells.
         say: Called with one line per cell started.
 
@@ -359,10 +541,11 @@ def run_protocol(
     if os.path.lexists(path):
         record = protocol_record(out)
         old = read_protocol(out)
-        if _comparable(old) != _comparable(config):
+        if _comparable(old) != _comparable(config) and not extends(old, config):
             raise ValueError(
                 f"{out} holds a protocol run of another configuration (size {old.size}, "
-                f"optimizers {[o.column for o in old.optimizers]}); use another folder"
+                f"optimizers {[o.column for o in old.optimizers]}, tasks "
+                f"{', '.join(old.tasks)}); use another folder"
             )
         digest = record.get("references_sha256")
     elif out.is_dir() and any(out.iterdir()):
@@ -377,7 +560,7 @@ def run_protocol(
         )
     for k, (instance, degree) in enumerate(cells, 1):
         if say is not None:
-            say(f"cell {k}/{len(cells)}: d = {degree}, instance {instance.id}")
+            say(f"cell {k}/{len(cells)}: d = {degree}, instance {instance.label}")
         run_suite(
             config.cell_suite(instance, degree),
             cell_folder(out, instance, degree),

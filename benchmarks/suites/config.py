@@ -410,6 +410,10 @@ class SuiteConfig(TaskConfig):
         max_retries: With ``executor="process"``: further evaluations, each alone in a fresh
             pool, of a design whose worker process died while it was evaluated alone, before it
             is logged as ``"failed"``; an int from 0 to 100 (see ``DesignConfig.max_retries``).
+        task_name: The registered task every run is scored on (``DesignConfig.task_name``):
+            ``"push"`` (the default; then not written to the suite's JSON, so a push suite's
+            manifest is as before the field existed) or another, e.g. ``"hook"``, whose goal
+            range ``goal`` must lie in (the benchmark protocol's task axis uses it).
     """
 
     name: str
@@ -429,6 +433,7 @@ class SuiteConfig(TaskConfig):
     workers: int | None = None
     scheduler: str | None = None
     max_retries: int = 0
+    task_name: str = "push"
 
     def __post_init__(self) -> None:
         _name("name", self.name)
@@ -540,6 +545,7 @@ class SuiteConfig(TaskConfig):
             executor=self.executor,
             scheduler=self.scheduler,
             max_retries=self.max_retries,
+            task_name=self.task_name,
             **task,
         )
 
@@ -596,6 +602,8 @@ class SuiteConfig(TaskConfig):
             {**dataclasses.asdict(o), "settings": dict(o.settings)} for o in self.optimizers
         ]
         data["scene"] = dict(self.scene)
+        if self.task_name != "push":
+            data["task_name"] = self.task_name
         return cast("dict[str, Any]", json.loads(json.dumps(data, allow_nan=False)))
 
     def replace(self, **changes: Any) -> SuiteConfig:

@@ -1,0 +1,192 @@
+"""The protocol report's task axis: a section per task and one pooled over tasks.
+
+:func:`~benchmarks.protocol.report.make_protocol_report` writes the first task's sections
+(push's, when it is run) as it always did, and, when a run has more than one task, appends what
+this module writes::
+
+    report/
+        ecdf_<task>.png           ECDF of each task other than the first, all its degrees
+        ecdf_tasks.png            ECDF pooled over every task and degree
+        task_comparisons.csv, task_ranks.csv, task_power.csv
+                                  the statistics per task and pooled ("all tasks"), column task
+
+and in ``report.md`` the AUC per task, then per task its AUC, references, public and held-out
+scores and statistics, then the statistics of all tasks pooled. Pooled, the blocks of the
+paired comparison are the (task, instance, d) cells: a score is an ECDF area in [0, 1] on every
+task, so tasks whose F differ in scale pool without weighting one over another.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from benchmarks.protocol.suite import ProtocolConfig
+
+__all__ = ["POOLED_TASKS", "task_sections"]
+
+#: The ``task`` label of the statistics pooled over every task.
+POOLED_TASKS = "all tasks"
+
+
+def _statistics(
+    frame: pd.DataFrame, label: str, unit: str, alpha: float, md_table: Callable[..., str]
+) -> tuple[list[str], list[pd.DataFrame]]:
+    """The markdown and the (comparisons, ranks, power) tables of one group of runs."""
+    from benchmarks.protocol.statistics import (
+        min_instances,
+        paired_comparisons,
+        power_analysis,
+        rank_stability,
+    )
+
+    frame = frame.dropna(subset=["score"])
+    if frame["optimizer"].nunique() < 2 or frame["instance"].nunique() < 2:
+        return ["Fewer than two optimizers or instances: no comparison.", ""], []
+    table = paired_comparisons(frame, alpha=alpha)
+    pairs = len(table)
+    floor = min_instances(alpha, max(1, pairs))
+    blocks = int(frame["instance"].nunique())
+    rank = rank_stability(frame, resamples=500).reset_index(names="optimizer")
+    power = power_analysis(frame, alpha=alpha)
+    if blocks < floor:
+        verdict = (
+            f"**This section cannot separate any pair**: with {blocks} {unit}, fewer than the "
+            f"{floor} the Wilcoxon-Holm comparison of {pairs} pair(s) at alpha = {alpha:g} needs "
+            "(docs/protocol.md, Statistics)."
+        )
+    else:
+        verdict = (
+            f"With {blocks} {unit} (at least {floor} are needed for any pair to be significant "
+            f"at Holm alpha = {alpha:g} over {pairs} pair(s)), a pair can be told apart; the "
+            "power table says how large a difference must be."
+        )
+    lines = [
+        verdict,
+        "",
+        "Paired comparisons (Wilcoxon signed-rank, Holm-corrected; mean_diff with a 95 % "
+        f"Student t interval over {unit}):",
+        "",
+        md_table(table),
+        "",
+        "Ranking and its stability:",
+        "",
+        md_table(rank),
+        "",
+        "Power (score):",
+        "",
+        md_table(power),
+        "",
+    ]
+    tagged = [t.assign(task=label) for t in (table, rank, power)]
+    return lines, tagged
+
+
+def _in_task_order(table: pd.DataFrame, tasks: tuple[str, ...]) -> pd.DataFrame:
+    """Rows ordered as the run's tasks are (push first), not alphabetically."""
+    order = {task: k for k, task in enumerate(tasks)}
+    return table.sort_values("task", key=lambda s: s.map(order), kind="stable")
+
+
+def task_sections(
+    config: ProtocolConfig,
+    times: pd.DataFrame,
+    scores: pd.DataFrame,
+    references: pd.DataFrame,
+    out: Path,
+    alpha: float,
+    *,
+    md_table: Callable[..., str],
+    auc_table: Callable[[pd.DataFrame, str], pd.DataFrame],
+    ecdf_figure: Callable[[pd.DataFrame, str, Path], Any],
+) -> tuple[list[str], list[Path]]:
+    """The report's sections per task and pooled over tasks, and the files they need.
+
+    The report's own table and figure makers are passed in (this module sits beside
+    :mod:`~benchmarks.protocol.report`, which calls it, and does not import it).
+
+    Args:
+        config: The run's config (more than one task).
+        times: Runtimes of every task (``measure_runs``, with its ``task`` column).
+        scores: Per-run scores of every task.
+        references: The references table of every task (with ``task``).
+        out: The report folder (checked by the caller).
+        alpha: Family-wise level of the comparisons.
+        md_table: A frame as a markdown table (``floatfmt`` keyword).
+        auc_table: The AUC table of scores grouped by a column.
+        ecdf_figure: Draws the ECDF of runtimes with a title into a PNG.
+
+    Returns:
+        The markdown lines, and the files written.
+    """
+    from benchmarks.storage import atomic_write_text
+    from tooldesign_env.tasks import get_task
+
+    written: list[Path] = []
+    sections = [
+        "# Tasks",
+        "",
+        f"Tasks {', '.join(config.tasks)}. Each task's instances are its own committed set "
+        f"(v{config.instance_version}); a task other than push runs at d = "
+        f"{', '.join(map(str, config.task_degrees))} on {len(config.task_instances)} "
+        f"instance{'s' if len(config.task_instances) != 1 else ''} of its set. Scores are ECDF "
+        "areas (0 to 1), comparable across tasks.",
+        "",
+        "## Area under the ECDF per task (mean over instances x d, 95 % Student t interval)",
+        "",
+        md_table(_in_task_order(auc_table(scores, "task"), config.tasks)),
+        "",
+    ]
+    tables: list[list[pd.DataFrame]] = [[], [], []]
+    figures = []
+    for task in config.tasks[1:]:
+        mine = scores[scores["task"] == task]
+        definition = get_task(task)
+        refs = references[references["task"] == task].drop(columns="task")
+        sections += [
+            f"## Task {task}",
+            "",
+            f"{definition.title[:1].upper()}{definition.title[1:]} "
+            f"(success radius {definition.tolerance:g} m; docs/tasks.md).",
+            "",
+            md_table(auc_table(mine, "degree")),
+            "",
+            "References (F_random at the full budget):",
+            "",
+            md_table(refs, ".6g"),
+            "",
+            "Public and held-out instances (mean score):",
+            "",
+            md_table(
+                mine.groupby(["optimizer", "set"])["score"].mean().unstack("set").reset_index()
+            ),
+            "",
+        ]
+        blocks = mine.assign(instance=mine["instance"] + "/d" + mine["degree"].astype(str))
+        lines, tagged = _statistics(blocks, task, "(instance, d) blocks", alpha, md_table)
+        sections += [f"### Statistics, task {task}", "", *lines]
+        for k, table in enumerate(tagged):
+            tables[k].append(table)
+        path = out / f"ecdf_{task}.png"
+        ecdf_figure(times[times["task"] == task], f"task {task}", path)
+        written.append(path)
+        figures.append(path.name)
+    pooled = scores.assign(instance=scores["instance"] + "/d" + scores["degree"].astype(str))
+    lines, tagged = _statistics(pooled, POOLED_TASKS, "(task, instance, d) blocks", alpha, md_table)
+    sections += ["## Statistics, all tasks pooled (blocks: task x instance x d)", "", *lines]
+    for k, table in enumerate(tagged):
+        tables[k].append(table)
+    path = out / "ecdf_tasks.png"
+    ecdf_figure(times, "all tasks and dimensions", path)
+    written.append(path)
+    figures.append(path.name)
+    for name, parts in zip(
+        ("task_comparisons.csv", "task_ranks.csv", "task_power.csv"), tables, strict=True
+    ):
+        if parts:
+            written.append(atomic_write_text(out / name, pd.concat(parts).to_csv(index=False)))
+    sections += ["## Task ECDFs", ""] + [f"![{f}]({f})" for f in figures] + [""]
+    return sections, written
