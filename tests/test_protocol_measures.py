@@ -368,3 +368,67 @@ def test_detectable_difference_has_its_power_through_the_real_wilcoxon_holm_step
         p = np.array([wilcoxon(d).pvalue for d in draws])
         power = float(np.mean(6 * p < 0.01))
         assert 0.72 <= power <= 0.88, (n, shift, power)
+
+
+# ------------------------------------------------------------ a reference valid in every scene
+def _fake_cell(monkeypatch, invalid_first: int):
+    """compute_cell on made-up F values; the ``invalid_first`` best designs break when nudged."""
+    import benchmarks.protocol.references as refs
+    import benchmarks.suites.retest as retest
+    from benchmarks.execution import make_executor
+    from benchmarks.protocol.instances import load_instances
+    from benchmarks.protocol.suite import protocol_config
+    from benchmarks.storage.designs import INVALID_IN_SCENE
+
+    def evaluate(pool, designs, task):
+        # F of a design: 100 + the sum of its coefficients; the straight tool 150.
+        return [
+            {
+                "status": "ok",
+                "free_energy": 150.0 if not x.any() else 100.0 + float(x.sum()),
+                "final_distance": 0.2,
+            }
+            for x in designs
+        ]
+
+    ranked = []
+
+    def fake_retest(item):
+        ranked.append(item.coeffs)
+        if len(ranked) <= invalid_first:
+            raise ValueError(f"{INVALID_IN_SCENE}: overlaps the box at the start of the sweep")
+        f = 100.0 + sum(item.coeffs)
+        return {"noise": [{"free_energy": f + k} for k in range(3)]}
+
+    monkeypatch.setattr(refs, "_evaluate", evaluate)
+    monkeypatch.setattr(retest, "retest_design", fake_retest)
+    config = protocol_config("smoke")
+    instance = next(i for i in load_instances() if i.id == config.instances[0])
+    plan = refs.ReferencePlan(
+        grid_points=0, restarts=0, pool_per_degree=4, nudges=3, floor_min_fraction=1e-6
+    )
+    with make_executor("serial") as pool:
+        return refs.compute_cell(pool, config, instance, 3, plan), ranked
+
+
+def test_the_reference_is_the_best_design_valid_in_every_nudged_scene(monkeypatch):
+    cell, tried = _fake_cell(monkeypatch, invalid_first=2)
+    assert len(tried) == 3  # the two best broke when nudged; the third is the reference
+    sums = sorted(sum(c) for c in tried)
+    assert tried[2] == tuple(cell["design"]) and sum(tried[2]) == sums[2]
+    assert cell["f_ref"] == 100.0 + sum(tried[2])
+    assert cell["unstable_better"] == [100.0 + sum(tried[0]), 100.0 + sum(tried[1])]
+    assert cell["noise_range"] == 2.0
+
+
+def test_a_cell_whose_best_design_is_stable_records_no_unstable_ones(monkeypatch):
+    cell, tried = _fake_cell(monkeypatch, invalid_first=0)
+    assert len(tried) == 1 and "unstable_better" not in cell
+
+
+def test_a_cell_gives_up_after_max_reference_candidates(monkeypatch):
+    import benchmarks.protocol.references as refs
+
+    monkeypatch.setattr(refs, "MAX_REFERENCE_CANDIDATES", 2)
+    with pytest.raises(RuntimeError, match="the 2 best designs are all invalid in a nudged scene"):
+        _fake_cell(monkeypatch, invalid_first=5)
