@@ -802,7 +802,8 @@ def _evaluate_page(folder: Path, files: list[Path], terms: dict[str, Any]) -> st
         f"<strong>The tool:</strong> C = ({_esc(coeffs)}), "
         f"{'valid' if valid else 'not valid: ' + _esc(terms.get('invalid_reason', ''))}."
     ]
-    settings = terms.get("settings") if isinstance(terms.get("settings"), dict) else {}
+    stored = terms.get("settings")
+    settings: dict[str, Any] = stored if isinstance(stored, dict) else {}
     lines.append(
         _success_line(
             "ok" if valid else "invalid",
