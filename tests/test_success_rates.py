@@ -342,3 +342,34 @@ def test_committed_success_rates_are_those_of_the_rows(folder: Path) -> None:
         table = pd.read_csv(designs)
         hit = (table["status"] == "ok") & (table["final_distance"] <= PUSH)
         assert table["success"].astype(bool).tolist() == hit.tolist()
+
+
+@pytest.mark.slow
+def test_the_protocol_reports_the_success_its_cells_give(
+    protocol_smoke: Path, tmp_path: Path
+) -> None:
+    from benchmarks.protocol import make_protocol_report
+    from benchmarks.protocol.report import load_runs
+
+    make_protocol_report([protocol_smoke], tmp_path / "report")
+    runs = pd.read_csv(tmp_path / "report" / "runs.csv")
+    _, rows = load_runs(protocol_smoke)
+    # Each run's lowest F (a failed evaluation has none), the first of equal ones.
+    rows = rows[rows["free_energy"].notna()].sort_values("evaluation", kind="stable")
+    best = rows.loc[
+        rows.groupby(["optimizer", "instance", "degree", "seed"])["free_energy"].idxmin()
+    ]
+    best = best.assign(hit=(best["status"] == "ok") & (best["final_distance"] <= PUSH))
+    expected = best.set_index(["optimizer", "instance", "degree", "seed"])["hit"]
+    got = runs.set_index(["optimizer", "instance", "degree", "seed"])["success_1"].astype(bool)
+    assert got.sort_index().to_dict() == expected.sort_index().to_dict()
+    text = (tmp_path / "report" / "report.md").read_text()
+    assert "| final regret (median) | success | runs |" in text
+    for (optimizer, degree), hits in expected.groupby(level=["optimizer", "degree"]):
+        k, n = int(hits.sum()), len(hits)
+        low, high = wilson_interval(k, n)
+        cell = f"{100 * k / n:.0f} % ({k}/{n}) [{100 * low:.0f} %, {100 * high:.0f} %]"
+        assert any(
+            line.startswith(f"| {degree} | {optimizer} |") and cell in line
+            for line in text.splitlines()
+        ), (optimizer, degree, cell)
