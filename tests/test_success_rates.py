@@ -176,6 +176,7 @@ def test_rates_at_the_edges_show_their_wilson_bounds() -> None:
     assert success_cell(success_rate([])) == "n/a"
 
 
+@pytest.mark.slow
 def test_a_folder_whose_distances_were_not_stored_still_reports(tmp_path: Path) -> None:
     # The store keeps a final_distance column; an old or partial writer may leave it empty.
     store = ResultStore(tmp_path / "run")
@@ -373,3 +374,60 @@ def test_the_protocol_reports_the_success_its_cells_give(
             line.startswith(f"| {degree} | {optimizer} |") and cell in line
             for line in text.splitlines()
         ), (optimizer, degree, cell)
+
+
+# --- the rl suite's report -------------------------------------------------------------------
+
+
+def test_the_rl_fixed_goal_table_gives_success_at_each_budget() -> None:
+    from benchmarks.reports.rl import fixed_goal_table
+
+    # 16 episodes per seed; seed 0's best design is close from episode 3 on, seed 1's best is
+    # far until its last episode, seed 2 never stores a distance, seed 3 is invalid then far.
+    def run(seed: int, f: list[float], d: list[float], status: list[str]) -> list[dict[str, Any]]:
+        return [
+            {
+                "variant": "fixed",
+                "optimizer": "cmaes",
+                "seed": seed,
+                "candidate": k,
+                "free_energy": f[k],
+                "final_distance": d[k],
+                "status": status[k],
+            }
+            for k in range(16)
+        ]
+
+    ok = ["ok"] * 16
+    rows = run(0, [9.0, 9.0, 5.0] + [6.0] * 13, [0.5, 0.5, 0.05] + [0.01] * 13, ok)
+    rows += run(1, [9.0] * 15 + [1.0], [0.5] * 15 + [0.02], ok)
+    rows += run(2, [9.0] * 16, [np.nan] * 16, ok)
+    rows += run(3, [1.0] + [9.0] * 15, [0.0] + [0.4] * 15, ["invalid"] + ["ok"] * 15)
+    table = fixed_goal_table(pd.DataFrame(rows), 0.015).set_index("episodes")
+    row = table.loc[16]
+    # Seed 3's lowest F is its invalid design (the log keeps the env's penalty-free F here):
+    # an unusable design never succeeds.
+    assert (row["successes"], row["success_seeds"]) == (2, 3)
+    assert (row["success_low"], row["success_high"]) == pytest.approx(wilson_interval(2, 3))
+
+
+@pytest.mark.slow
+def test_the_committed_rl_report_gives_the_success_its_rows_give() -> None:
+    folder = RESULTS / "rl"
+    rows = ResultStore(folder).read()
+    fixed = rows[rows["variant"] == "fixed"]
+    table = pd.read_csv(folder / "report" / "fixed-goal.csv")
+    for method, group in fixed.groupby("optimizer"):
+        last = table[table["method"] == method].sort_values("episodes").iloc[-1]
+        hits = 0
+        for _, seed_rows in group.groupby("seed"):
+            seed_rows = seed_rows.iloc[: int(last["episodes"])]
+            best = seed_rows.loc[seed_rows["free_energy"].idxmin()]
+            hits += int(best["status"] == "ok" and best["final_distance"] <= PUSH)
+        assert (int(last["successes"]), int(last["success_seeds"])) == (hits, last["seeds"])
+    held_out = pd.read_csv(folder / "report" / "held-out-per-goal.csv")
+    hit = (held_out["final_distance"] <= PUSH).tolist()
+    assert held_out["success"].astype(bool).tolist() == hit
+    summary = pd.read_csv(folder / "report" / "held-out.csv").set_index("approach")
+    counts = held_out.groupby("approach")["success"].sum()
+    assert summary["successes"].to_dict() == counts.astype(int).to_dict()
