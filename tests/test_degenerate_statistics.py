@@ -71,7 +71,9 @@ def test_a_one_seed_interval_is_na_in_summary_md_and_kept_in_the_csv() -> None:
     assert (summary["final_free_energy_low"] == summary["final_free_energy_high"]).all()
     text = _summary_markdown(summary, 0.95)
     cmaes = _table_rows(text, "cmaes")[0]
-    assert cmaes[3] == "8 [n/a]" and cmaes[4] == "9 [n/a]"
+    assert cmaes[3] == "8 [n/a]" and cmaes[5] == "9 [n/a]"
+    # The log stores no final distance: the success rate is unknown, never 0 %.
+    assert cmaes[4] == "n/a (1 run(s) without a final distance)"
     assert "[8, 8]" not in text
     assert "fewer than 2 runs with a value" in text
 

@@ -63,6 +63,13 @@ from benchmarks.protocol.suite import (
     read_protocol,
     write_protocol_record,
 )
+from benchmarks.reports.success import (
+    design_succeeded,
+    success_cell,
+    success_rate,
+    success_sentence,
+    task_tolerance,
+)
 
 __all__ = [
     "N_TARGETS",
@@ -105,8 +112,8 @@ def load_runs(folder: str | os.PathLike[str]) -> tuple[ProtocolConfig, pd.DataFr
     Returns:
         The config, and a frame with ``optimizer``, ``task``, ``instance`` (its label:
         ``"i01"``, ``"hook/i01"``), ``instance_number``, ``set``, ``degree``, ``seed``,
-        ``evaluation`` (1-based within its run), ``free_energy`` (NaN if failed), ``status``
-        and ``c1..cd``.
+        ``evaluation`` (1-based within its run), ``free_energy`` (NaN if failed), ``status``,
+        ``final_distance`` (m, NaN where not stored) and ``c1..cd``.
 
     Raises:
         ValueError: If the folder is not a protocol run folder or a cell has no results.
@@ -150,6 +157,11 @@ def load_runs(folder: str | os.PathLike[str]) -> tuple[ProtocolConfig, pd.DataFr
                     "evaluation": log["evaluation"].to_numpy(),
                     "free_energy": f.to_numpy(dtype=float),
                     "status": log["status"].astype(str).to_numpy(),
+                    "final_distance": (
+                        log["final_distance"].to_numpy(dtype=float)
+                        if "final_distance" in log.columns
+                        else np.full(len(log), np.nan)
+                    ),
                     **{c: log[c].to_numpy(dtype=float) for c in columns},
                 }
             )
@@ -175,9 +187,11 @@ def measure_runs(
     Returns:
         ``(runtimes, scores)``: one row per (optimizer, instance, d, seed, target) with
         ``task`` (push where ``runs`` has no such column), ``target``, ``runtime`` (inf if
-        censored), ``budget``; one row per run with ``score``
-        (the area under its ECDF), ``final_f`` and ``regret_<fraction>`` per fraction of the
-        budget in :data:`REGRET_FRACTIONS`.
+        censored), ``budget``; one row per run with ``score`` (the area under its ECDF),
+        ``final_f``, and per fraction of the budget in :data:`REGRET_FRACTIONS`
+        ``regret_<fraction>`` and ``success_<fraction>``: whether the best design so far
+        succeeded (True, False, or None where ``final_distance`` is not stored;
+        :mod:`benchmarks.reports.success`, the tolerance of the run's task).
 
     Raises:
         ValueError: If a cell has no reference.
@@ -203,8 +217,10 @@ def measure_runs(
         checkpoints = [max(1, round(fr * budget)) for fr in REGRET_FRACTIONS]
         f_random = expected_best_of_random(pool, np.array(checkpoints))
         task = str(cell["task"].iloc[0]) if "task" in cell.columns else "push"
+        tolerance = task_tolerance(task)
         for (optimizer, seed), run in cell.groupby(["optimizer", "seed"], sort=True):
-            f = run.sort_values("evaluation")["free_energy"].to_numpy(dtype=float)
+            run = run.sort_values("evaluation")
+            f = run["free_energy"].to_numpy(dtype=float)
             times = runtimes(f, targets)
             best = best_so_far(f)
             record: dict[str, Any] = {
@@ -226,6 +242,8 @@ def measure_runs(
                 regret[scaled] = normalized_regret(at[scaled], f_ref, f_random[scaled])
             for fraction, value in zip(REGRET_FRACTIONS, regret, strict=True):
                 record[f"regret_{fraction:g}"] = float(value)
+            for fraction, checkpoint in zip(REGRET_FRACTIONS, checkpoints, strict=True):
+                record[f"success_{fraction:g}"] = _best_succeeded(run, checkpoint, tolerance)
             scores.append(record)
             for k, (target, time) in enumerate(zip(targets, times, strict=True)):
                 rows.append(
@@ -242,6 +260,18 @@ def measure_runs(
                     }
                 )
     return pd.DataFrame(rows), pd.DataFrame(scores)
+
+
+def _best_succeeded(run: pd.DataFrame, evaluations: int, tolerance: float) -> bool | None:
+    """Whether the lowest-F design among a run's first ``evaluations`` succeeded."""
+    f = run["free_energy"].to_numpy(dtype=float)[:evaluations]
+    finite = np.where(np.isnan(f), np.inf, f)
+    if not f.size or np.isinf(finite).all():
+        return False  # no design with an F: nothing usable
+    best = int(np.argmin(finite))  # the first of equal lowest F, as best_so_far keeps it
+    status = run["status"].iloc[best] if "status" in run.columns else "ok"
+    distance = run["final_distance"].iloc[best] if "final_distance" in run.columns else None
+    return design_succeeded(status, distance, tolerance)
 
 
 def _merge(folders: Sequence[str | os.PathLike[str]]) -> tuple[ProtocolConfig, pd.DataFrame]:
@@ -324,6 +354,7 @@ def _auc_table(scores: pd.DataFrame, by: str) -> pd.DataFrame:
                 "95% low": interval.low,
                 "95% high": interval.high,
                 "final regret (median)": frame["regret_1"].median(),
+                "success": success_cell(success_rate(frame["success_1"])),
                 "runs": len(frame),
             }
         )
@@ -532,7 +563,9 @@ def make_protocol_report(
         f"Targets: {N_TARGETS} per (instance, d), from the median F of a random design down to "
         "F_ref + noise floor. Score of a run: the area under its ECDF over its targets (0 to 1, "
         "higher is better). Regret: (F - F_ref) / (F_random(budget) - F_ref), 1 = random "
-        "sampling, 0 = the reference. See docs/protocol.md.",
+        "sampling, 0 = the reference. "
+        + success_sentence("push", task_tolerance(), what="run")
+        + " See docs/protocol.md.",
         "",
         "## Area under the ECDF (mean over instances, 95 % Student t interval over instances)",
         "",

@@ -43,6 +43,15 @@ from benchmarks.reports.stats import (
     mean_interval,
     run_metrics,
 )
+from benchmarks.reports.success import (
+    SuccessRate,
+    run_successes,
+    success_cell,
+    success_rate,
+    success_sentence,
+    task_of_manifest,
+    task_tolerance,
+)
 from benchmarks.storage import ResultStore, atomic_write_bytes, atomic_write_text
 from benchmarks.storage.table import csv_text
 
@@ -198,8 +207,9 @@ def summary_table(
     n_boot: int = 10_000,
     seed: int = 0,
     interval: str = "t",
+    tolerance: float | None = None,
 ) -> pd.DataFrame:
-    """Final best F and normalised AUC per optimizer, mean over seeds with its interval.
+    """Final best F, normalised AUC and success rate per optimizer over its runs (seeds).
 
     Args:
         evaluations: The evaluation log.
@@ -207,13 +217,19 @@ def summary_table(
         n_boot: Bootstrap resamples per interval (``interval="bootstrap"``).
         seed: Root seed of the bootstrap (``interval="bootstrap"``).
         interval: The interval of a mean, one of :data:`~benchmarks.reports.stats.INTERVALS`.
+        tolerance: The task's success radius in m; None is the push task's.
 
     Returns:
         One row per (suite, variant, optimizer) in report order with ``runs``,
         ``iterations_min``/``iterations_max`` (stored iterations per run), and for ``m`` in
         ``final_free_energy``, ``auc``: ``m`` (mean), ``m_low``, ``m_high`` and ``m_excluded``
-        (runs without a finite value).
+        (runs without a finite value); then ``successes`` (runs whose final design succeeded,
+        :func:`~benchmarks.reports.success.run_successes`), ``success_runs`` (runs whose
+        outcome is known), ``success_rate`` and its Wilson interval ``success_low``,
+        ``success_high`` (NaN when no run's outcome is known).
     """
+    tolerance = task_tolerance() if tolerance is None else float(tolerance)
+    outcomes = run_successes(evaluations, tolerance)
     metrics = run_metrics(best_so_far_curves(evaluations))
     group_names = [k for k in GROUP_KEYS if k in metrics.columns]
     rows = []
@@ -240,6 +256,19 @@ def summary_table(
                         f"{metric}_excluded": ci.n_excluded,
                     }
                 )
+            mine = outcomes[outcomes["optimizer"] == name]
+            for column, value in zip(group_names, group_key, strict=True):
+                mine = mine[mine[column] == value]
+            rate = success_rate(mine["success"], level)
+            row.update(
+                {
+                    "successes": rate.successes,
+                    "success_runs": rate.n,
+                    "success_rate": rate.rate,
+                    "success_low": rate.low,
+                    "success_high": rate.high,
+                }
+            )
             rows.append(row)
     return pd.DataFrame(rows)
 
@@ -538,7 +567,29 @@ def _heading(frame: pd.DataFrame) -> str:
     return " / ".join(p for p in parts if p) or "results"
 
 
-def _summary_markdown(summary: pd.DataFrame, level: float, interval: str = "t") -> str:
+def _success_of_row(row: pd.Series, level: float) -> str:
+    n = int(row["success_runs"])
+    rate = SuccessRate(
+        successes=int(row["successes"]),
+        n=n,
+        unknown=int(row["runs"]) - n,
+        rate=float(row["success_rate"]),
+        low=float(row["success_low"]),
+        high=float(row["success_high"]),
+        level=level,
+    )
+    return success_cell(rate)
+
+
+def _summary_markdown(
+    summary: pd.DataFrame,
+    level: float,
+    interval: str = "t",
+    *,
+    task: str = "push",
+    tolerance: float | None = None,
+) -> str:
+    tolerance = task_tolerance(task) if tolerance is None else tolerance
     lines = [
         "# Optimizer comparison",
         "",
@@ -546,6 +597,8 @@ def _summary_markdown(summary: pd.DataFrame, level: float, interval: str = "t") 
         "Final F: best finite free energy after the last stored iteration of a run.",
         "AUC: mean height of the best-so-far curve over iterations (trapezoid, divided by the",
         "number of iteration steps), in units of F; lower means F dropped sooner.",
+        success_sentence(task, tolerance, level=level)
+        + " A run's final design is the one its final F is of.",
     ]
     for _, group in _groups(summary):
         lines += ["", f"## {_heading(group)}", ""]
@@ -557,11 +610,12 @@ def _summary_markdown(summary: pd.DataFrame, level: float, interval: str = "t") 
                 if row["iterations_min"] == row["iterations_max"]
                 else f"{row['iterations_min']}-{row['iterations_max']}",
                 _interval(row, "final_free_energy"),
+                _success_of_row(row, level),
                 _interval(row, "auc"),
             ]
             for _, row in group.iterrows()
         ]
-        header = ["optimizer", "runs", "iterations", "final F", "AUC"]
+        header = ["optimizer", "runs", "iterations", "final F", "success", "AUC"]
         lines += _markdown(header, rows)
     if _short_of_values(summary):
         lines += ["", no_interval_note("runs")]
@@ -668,6 +722,7 @@ def make_report(
     alpha: float = 0.05,
     noise_floor: float | Mapping[str, float] | None = None,
     notice: str | None = None,
+    task: str | None = None,
 ) -> list[Path]:
     """Rebuild the figures and tables of a run folder from its stored results alone.
 
@@ -685,6 +740,8 @@ def make_report(
             not measured.
         notice: What is missing from an incomplete run; it leads every ``.md`` page, as a
             quote (see :func:`with_notice`). None for a complete run.
+        task: The registered task the runs were scored on, whose tolerance says which final
+            designs succeeded; None reads it from the folder's manifest (push without one).
 
     Returns:
         The files written: one ``convergence-*.png`` per (suite, variant), then
@@ -722,13 +779,20 @@ def make_report(
         png = target / f"convergence-{_slug(*map(str, key))}.png"
         written.append(atomic_write_bytes(png, figure_png_bytes(figure)))
 
-    summary = summary_table(evaluations, level=level, n_boot=n_boot, seed=seed, interval=interval)
-    written.append(atomic_write_text(target / "summary.csv", csv_text(summary)))
-    written.append(
-        atomic_write_text(
-            target / "summary.md", with_notice(_summary_markdown(summary, level, interval), notice)
-        )
+    if task is None:
+        task = task_of_manifest(_manifest_or_none(run_folder))
+    tolerance = task_tolerance(task)
+    summary = summary_table(
+        evaluations,
+        level=level,
+        n_boot=n_boot,
+        seed=seed,
+        interval=interval,
+        tolerance=tolerance,
     )
+    markdown = _summary_markdown(summary, level, interval, task=task, tolerance=tolerance)
+    written.append(atomic_write_text(target / "summary.csv", csv_text(summary)))
+    written.append(atomic_write_text(target / "summary.md", with_notice(markdown, notice)))
     pairwise = pairwise_table(evaluations, alpha=alpha, noise_floor=noise_floor)
     written.append(atomic_write_text(target / "pairwise.csv", csv_text(pairwise)))
     written.append(
@@ -738,3 +802,13 @@ def make_report(
         )
     )
     return written
+
+
+def _manifest_or_none(run_folder: str | os.PathLike[str]) -> dict[str, Any] | None:
+    """The folder's manifest, or None for a bare store (no manifest, or none readable)."""
+    from benchmarks.storage import read_manifest
+
+    try:
+        return read_manifest(run_folder)
+    except (FileNotFoundError, ValueError):
+        return None

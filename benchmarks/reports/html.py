@@ -580,6 +580,37 @@ def _robustness_sentence(card: Mapping[str, Any], paths: Mapping[str, Any] | Non
     return sentence + "."
 
 
+def _success_line(
+    status: Any, distance: Any, task: Any, straight: Mapping[str, Any] | None = None
+) -> str:
+    """Whether the design succeeded on its task, from its stored status and final distance."""
+    from benchmarks.reports.success import design_succeeded, task_tolerance
+
+    name = task if isinstance(task, str) and task else "push"
+    try:
+        tolerance = task_tolerance(name)
+    except ValueError:  # a task of a plugin that is not installed here
+        return f"<strong>Success:</strong> n/a (the task {_esc(name)} is not registered here)."
+    outcome = design_succeeded(status, _number(distance), tolerance)
+    rule = f"within {tolerance:g} m of the goal, the {_esc(name)} task's tolerance"
+    if outcome is None:
+        text = f"<strong>Success:</strong> n/a (no final distance stored; success is {rule})"
+    elif status != "ok":
+        text = f"<strong>Success: no</strong> (the design is not usable; success is {rule})"
+    else:
+        word = "yes" if outcome else "no"
+        text = (
+            f"<strong>Success: {word}</strong> (the box ends {_num(_number(distance), 3)} m "
+            f"from the goal; success is {rule})"
+        )
+    if straight is not None:
+        theirs = design_succeeded(
+            straight.get("status"), _number(straight.get("final_distance")), tolerance
+        )
+        text += "; the straight tool: " + {True: "yes", False: "no", None: "n/a"}[theirs]
+    return text + "."
+
+
 def _card_html(
     folder: Path,
     picture: Path | None,
@@ -720,7 +751,13 @@ def _design_page(folder: Path, files: list[Path], card: dict[str, Any]) -> str:
         f'<span class="note">({_esc(card.get("polynomial", ""))})</span>, '
         f"status {_esc(card.get('status'))}."
     )
-    lines = [first, _robustness_sentence(card, paths)]
+    success = _success_line(
+        card.get("status"),
+        card.get("final_distance"),
+        config.get("task_name"),
+        card.get("straight_tool"),
+    )
+    lines = [first, success, _robustness_sentence(card, paths)]
     body = [_card_html(folder, present("fig3d"), card, card.get("straight_tool"), lines)]
     shown: set[Path] = set()
     for head, keys in (
@@ -765,6 +802,15 @@ def _evaluate_page(folder: Path, files: list[Path], terms: dict[str, Any]) -> st
         f"<strong>The tool:</strong> C = ({_esc(coeffs)}), "
         f"{'valid' if valid else 'not valid: ' + _esc(terms.get('invalid_reason', ''))}."
     ]
+    stored = terms.get("settings")
+    settings: dict[str, Any] = stored if isinstance(stored, dict) else {}
+    lines.append(
+        _success_line(
+            "ok" if valid else "invalid",
+            terms.get("final_distance"),
+            terms.get("task") or settings.get("task"),
+        )
+    )
     if "robustness" in terms:
         paths = _read_json(folder, folder / "box_paths.json")
         card = {"robustness": terms["robustness"], "config": {"goal": terms.get("goal")}}

@@ -49,6 +49,12 @@ from benchmarks.reports.retest import (
     unmeasured_noise,
 )
 from benchmarks.reports.stats import t_interval
+from benchmarks.reports.success import (
+    SuccessRate,
+    success_cell,
+    success_sentence,
+    task_tolerance,
+)
 from benchmarks.reports.suite import designs_table
 from benchmarks.storage import (
     read_designs,
@@ -229,6 +235,23 @@ def _comparison_noise(
     return float(max(known)), note
 
 
+def _success_of_summary_row(row: pd.Series) -> str:
+    """The success cell of a ``summary.csv`` row; n/a for a summary written without one."""
+    if "success_runs" not in row.index or not math.isfinite(float(row["success_runs"])):
+        return "n/a"
+    n = int(row["success_runs"])
+    return success_cell(
+        SuccessRate(
+            successes=int(row["successes"]),
+            n=n,
+            unknown=int(row["runs"]) - n,
+            rate=float(row["success_rate"]),
+            low=float(row["success_low"]),
+            high=float(row["success_high"]),
+        )
+    )
+
+
 def _claim_a(folder: Path) -> tuple[str, str, list[str]]:
     summary = _read_csv(folder, "report/summary.csv")
     pairwise = _read_csv(folder, "report/pairwise.csv")
@@ -244,8 +267,8 @@ def _claim_a(folder: Path) -> tuple[str, str, list[str]]:
         f"({percent_cell(floor['free_energy_relative'])}, median range over nudged scenes, "
         "`noise.md`).",
         "",
-        "| optimizer | final F [95 % CI] | AUC [95 % CI] |",
-        "|---|---|---|",
+        "| optimizer | final F [95 % CI] | success [95 % Wilson CI] | AUC [95 % CI] |",
+        "|---|---|---|---|",
     ]
     short = False
     for _, row in summary.iterrows():
@@ -255,7 +278,9 @@ def _claim_a(folder: Path) -> tuple[str, str, list[str]]:
             short |= n < MIN_INTERVAL_VALUES
             bounds = interval_bounds(row[f"{metric}_low"], row[f"{metric}_high"], n, _fmt)
             cells.append(f"{_fmt(row[metric])} {bounds}")
+        cells.insert(2, _success_of_summary_row(row))
         lines.append("| " + " | ".join(cells) + " |")
+    lines += ["", success_sentence("push", task_tolerance())]
     if short:
         lines += ["", no_interval_note("seeds")]
     lines += ["", "| a vs b | metric | mean a - b | beyond noise | p (Holm) | significant |"]

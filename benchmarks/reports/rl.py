@@ -39,6 +39,12 @@ from matplotlib.ticker import FixedLocator, FuncFormatter, NullLocator
 from benchmarks.reports.comparison import REPORT_DIR, new_figure
 from benchmarks.reports.plots import save_png
 from benchmarks.reports.stats import holm_bonferroni, vargha_delaney_a12
+from benchmarks.reports.success import (
+    design_succeeded,
+    success_cell,
+    success_rate,
+    task_tolerance,
+)
 from benchmarks.rl.suite import RL_SUITE_KIND, RL_SUITE_NAME
 from benchmarks.storage import ResultStore, atomic_write_text, json_text, read_manifest
 from benchmarks.storage.table import csv_text
@@ -122,6 +128,34 @@ def _best_so_far(log: pd.DataFrame) -> dict[str, np.ndarray]:
     return curves
 
 
+def _best_successes(log: pd.DataFrame) -> dict[str, list[list[bool | None]]]:
+    """Per method, per seed, whether the best design so far succeeded after each episode."""
+    fixed = _rows(log, "fixed")
+    tolerance = task_tolerance()  # the rl suite's ToolDesignRL-v0 is the push task
+    outcomes: dict[str, list[list[bool | None]]] = {}
+    for method, rows in fixed.groupby("optimizer", sort=False):
+        runs = []
+        for _, run in rows.groupby("seed"):
+            f = run["free_energy"].to_numpy(dtype=np.float64)
+            f = np.where(np.isnan(f), np.inf, f)  # a failed episode has no F
+            # A log without the columns (hand-made, or written by other code) has unknown
+            # outcomes: n/a, never a failure.
+            status = run["status"].to_numpy() if "status" in run else np.full(len(f), "ok")
+            distance = (
+                run["final_distance"].to_numpy(dtype=np.float64)
+                if "final_distance" in run
+                else np.full(len(f), np.nan)
+            )
+            best, seen = 0, []
+            for i in range(len(f)):
+                best = i if f[i] < f[best] else best  # the first of equal lowest F
+                seen.append(design_succeeded(status[best], distance[best], tolerance))
+            runs.append(seen)
+        n = min(len(r) for r in runs)
+        outcomes[str(method)] = [r[:n] for r in runs]
+    return outcomes
+
+
 def fixed_goal_table(log: pd.DataFrame, noise_floor: float) -> pd.DataFrame:
     """Best F so far at the fixed goal per method and number of episodes, against random.
 
@@ -138,9 +172,12 @@ def fixed_goal_table(log: pd.DataFrame, noise_floor: float) -> pd.DataFrame:
         of the method ends above one of random sampling's, ties counting half; below 0.5 the
         method tends to be better), ``p_holm`` (two-sided Mann-Whitney U, Holm-corrected over
         the methods at that number of episodes; NaN with fewer than 2 seeds) and
-        ``significant`` (``p_holm < 0.05``).
+        ``significant`` (``p_holm < 0.05``); then ``successes``, ``success_seeds``,
+        ``success_rate``, ``success_low`` and ``success_high``: the seeds whose best design so
+        far succeeded (:mod:`benchmarks.reports.success`), with a 95 % Wilson interval.
     """
     curves = _best_so_far(log)
+    outcomes = _best_successes(log)
     rows = []
     for method in _method_order(curves):
         runs = curves[method]
@@ -158,6 +195,14 @@ def fixed_goal_table(log: pd.DataFrame, noise_floor: float) -> pd.DataFrame:
                 "relative_to_random": math.nan,
                 "verdict": "",
             }
+            rate = success_rate(r[episodes - 1] for r in outcomes[method])
+            row.update(
+                successes=rate.successes,
+                success_seeds=rate.n,
+                success_rate=rate.rate,
+                success_low=rate.low,
+                success_high=rate.high,
+            )
             reference = curves.get("random")
             if reference is not None and method != "random" and episodes <= reference.shape[1]:
                 ref = float(np.median(reference[:, episodes - 1]))
@@ -284,6 +329,22 @@ def _fixed_markdown(
             cells.append(cell)
         body.append(cells)
     lines += _markdown(header, body)
+    lines += [
+        "",
+        "Success at each number of episodes: the share of seeds whose best design so far was "
+        f"usable and left the box within {task_tolerance():g} m of the goal (the push task's "
+        "tolerance; from the stored status and final distance), with a 95 % Wilson interval; "
+        "n/a where no final distance was stored.",
+        "",
+    ]
+    rows_ = []
+    for episodes in sorted(set(table["episodes"])):
+        cells = [str(episodes)]
+        for method in methods:
+            row = table[(table["method"] == method) & (table["episodes"] == episodes)]
+            cells.append("" if row.empty else _success_of(row.iloc[0], "success_seeds", "seeds"))
+        rows_.append(cells)
+    lines += _markdown(header, rows_)
     tested = table[table["p_holm"].notna()]
     if not tested.empty:
         others = [m for m in methods if m in set(tested["method"])]
@@ -321,6 +382,22 @@ def _fixed_markdown(
     return lines
 
 
+def _success_of(row: Any, known: str, total: str) -> str:
+    from benchmarks.reports.success import SuccessRate
+
+    n = int(row[known])
+    return success_cell(
+        SuccessRate(
+            successes=int(row["successes"]),
+            n=n,
+            unknown=int(row[total]) - n,
+            rate=float(row["success_rate"]),
+            low=float(row["success_low"]),
+            high=float(row["success_high"]),
+        )
+    )
+
+
 # --- held-out tasks -------------------------------------------------------------------------
 
 
@@ -344,8 +421,11 @@ def held_out_per_goal(log: pd.DataFrame, config: Mapping[str, Any], part: str) -
         One row per (approach, seed, goal_index): ``approach``, ``method``, ``seed``,
         ``budget_per_goal``, ``goal_index``, ``goal_x/y/z`` (m), ``box_mass`` (kg),
         ``train_episodes``, ``total_episodes``, ``free_energy``, ``straight_F``,
-        ``F_over_straight``; empty if the part was not run.
+        ``F_over_straight``, ``final_distance`` (m) and ``success`` (the design was usable and
+        left the box within the push task's tolerance; None without a stored distance); empty
+        if the part was not run.
     """
+    tolerance = task_tolerance()
     prefix = _prefix(part)
     zero = _rows(log, f"{prefix}zero-shot")
     if zero.empty:
@@ -375,6 +455,10 @@ def held_out_per_goal(log: pd.DataFrame, config: Mapping[str, Any], part: str) -
                 "free_energy": f,
                 "straight_F": reference,
                 "F_over_straight": f / reference,
+                "final_distance": float(r.get("final_distance", math.nan)),
+                "success": design_succeeded(
+                    r.get("status", "ok"), r.get("final_distance"), tolerance
+                ),
             }
         )
 
@@ -412,7 +496,9 @@ def held_out_table(per_goal: pd.DataFrame, config: Mapping[str, Any]) -> pd.Data
         ``goals``, ``median_F``, ``median_F_over_straight``, ``better_than_straight`` (tasks
         where F is lower than the straight tool's by more than the noise floor), and for the
         zero-shot approaches ``vs_random_<b>`` and ``vs_cmaes_<b>`` at the equal budget ``b``:
-        ``better/within/worse`` counts over (seed, task).
+        ``better/within/worse`` counts over (seed, task); ``successes``, ``success_tasks``
+        (tasks whose outcome is known), ``success_rate``, ``success_low``, ``success_high``
+        (95 % Wilson interval) over (seed, task).
     """
     if per_goal.empty:
         return pd.DataFrame()
@@ -438,6 +524,14 @@ def held_out_table(per_goal: pd.DataFrame, config: Mapping[str, Any]) -> pd.Data
             "median_F_over_straight": float(np.median(ratio)),
             "better_than_straight": int(np.sum(ratio < 1.0 - floor)),
         }
+        rate = success_rate(group["success"])
+        row.update(
+            successes=rate.successes,
+            success_tasks=rate.n,
+            success_rate=rate.rate,
+            success_low=rate.low,
+            success_high=rate.high,
+        )
         if "@" not in str(approach):
             for method, ref in refs.items():
                 if ref.empty:
@@ -465,13 +559,18 @@ def _held_out_markdown(
         "divided by the straight tool's F at the same task; episodes in total, training "
         f"included. The zero-shot approaches are compared per {task} with random sampling and "
         f"CMA-ES afresh at {equal} episodes per task, the budget of equal total episodes "
-        "(better / within the noise floor / worse, counted over training seeds and tasks).",
+        "(better / within the noise floor / worse, counted over training seeds and tasks). "
+        + f"Success: the share of tasks (once per training seed) whose design was usable and "
+        f"left the box within {task_tolerance():g} m of the goal (the push task's tolerance; "
+        "from the stored status and final distance), with a 95 % Wilson interval; n/a where no "
+        "final distance was stored.",
         "",
     ]
     header = [
         "approach",
         "episodes in total",
         "median F",
+        "success",
         "median F / straight",
         "better than straight",
         f"vs random@{equal}",
@@ -494,6 +593,7 @@ def _held_out_markdown(
                 label,
                 total + seeds,
                 f"{r['median_F']:.0f}",
+                _success_of(r, "success_tasks", "tasks"),
                 f"{r['median_F_over_straight']:.2f}",
                 f"{r['better_than_straight']} of {r['tasks']}",
                 _text(r.get(f"vs_random_{equal}")),

@@ -6,8 +6,9 @@
   convergence figure
   per (suite, variant), ``summary.csv/md`` (final F and AUC per optimizer with 95% intervals
   of the mean, Student t by default) and ``pairwise.csv/md`` (Mann-Whitney U, Holm, A12);
-- ``designs.csv`` / ``designs.md``: one row per run: its design, F and its terms, the shape of
-  the tool (straightness, turning angle, tip offset) and its final test;
+- ``designs.csv`` / ``designs.md``: one row per run: its design, F and its terms, whether it
+  succeeded (:mod:`benchmarks.reports.success`), the shape of the tool (straightness, turning
+  angle, tip offset) and its final test;
 - the figures the suite asks for (``SuiteConfig.figures``):
 
   - ``tool-shapes``: ``tool-shapes.png`` (per variant, the lowest-F design's tool above its box
@@ -51,6 +52,7 @@ from benchmarks.reports.comparison import (
 from benchmarks.reports.retest import make_retest_report, noise_floor
 from benchmarks.reports.rl import make_rl_report
 from benchmarks.reports.stats import INTERVAL_NAMES, Interval, check_interval, mean_interval
+from benchmarks.reports.success import design_succeeded, task_of_manifest, task_tolerance
 from benchmarks.rl.suite import RL_SUITE_KIND
 from benchmarks.storage import (
     MANIFEST_NAME,
@@ -184,14 +186,19 @@ _TEST_FIELDS = (
 )
 
 
-def designs_table(designs: Sequence[Mapping[str, Any]]) -> pd.DataFrame:
-    """One row per run: keys, task, design, F and its terms, tool shape, final test.
+def designs_table(
+    designs: Sequence[Mapping[str, Any]], *, tolerance: float | None = None
+) -> pd.DataFrame:
+    """One row per run: keys, task, design, F and its terms, success, tool shape, final test.
 
     Args:
         designs: Design records from :func:`benchmarks.suites.runner.read_designs`.
+        tolerance: The task's success radius in m; None is the push task's.
 
     Returns:
-        The table, in the records' order; missing values are NaN.
+        The table, in the records' order; missing values are NaN. ``success`` is True when
+        the design was usable and its ``final_distance`` is within ``tolerance``, False when
+        not, and None (an empty CSV cell) when no final distance was stored.
 
     Raises:
         TypeError: ``designs`` is not a sequence of mappings.
@@ -200,6 +207,7 @@ def designs_table(designs: Sequence[Mapping[str, Any]]) -> pd.DataFrame:
         raise TypeError(f"designs must be a sequence of design records, got {designs!r:.80}")
     if not all(isinstance(record, Mapping) for record in designs):
         raise TypeError("designs must be a sequence of design records (mappings)")
+    tolerance = task_tolerance() if tolerance is None else float(tolerance)
     rows = []
     for record in designs:
         row: dict[str, Any] = {
@@ -215,6 +223,7 @@ def designs_table(designs: Sequence[Mapping[str, Any]]) -> pd.DataFrame:
         for name in METRICS:
             row[name] = _float(record.get(name))
         row["status"] = record.get("status") or "failed"
+        row["success"] = design_succeeded(row["status"], row["final_distance"], tolerance)
         shape = tool_shape(coeffs) if coeffs else {}
         for name in ("straightness", "turning_angle", "tip_offset", "min_radius_of_curvature"):
             row[name] = _float(shape.get(name))
@@ -230,7 +239,14 @@ def _float(value: Any) -> float:
     return math.nan if value is None else float(value)
 
 
-def _designs_markdown(table: pd.DataFrame) -> str:
+def _success_word(value: Any) -> str:
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return "n/a"
+    return "yes" if value else "no"
+
+
+def _designs_markdown(table: pd.DataFrame, task: str = "push") -> str:
+    tolerance = task_tolerance(task)
     lines = [
         "# Designs",
         "",
@@ -241,10 +257,13 @@ def _designs_markdown(table: pd.DataFrame) -> str:
         "(1 = straight); the turning angle is the centreline's total absolute turn in degrees.",
         "Robustness (m) is -sum_i sum_t |X(m_i, t) - X(m, t)| over the altered box masses; the",
         "squared goal error (m^2) is sum_t |X(m, t) - X^g|^2 at the nominal mass.",
+        f"Success: the design was usable and its final distance is within {tolerance:g} m (the",
+        f"{task} task's tolerance); n/a where no final distance was stored. The success rate",
+        "per optimizer, with its Wilson interval, is in `summary.md`.",
         "",
     ]
     # The status column is always there: a table of invalid designs alone must say so.
-    header = ["variant", "optimizer", "seed", "status", "C", "F", "final dist. (m)"]
+    header = ["variant", "optimizer", "seed", "status", "C", "F", "final dist. (m)", "success"]
     header += ["straightness"]
     header += ["turn (deg)", "robustness (m)", "sq. goal error (m^2)"]
     coefficient_columns = [c for c in table.columns if c.startswith("c") and c[1:].isdigit()]
@@ -260,6 +279,7 @@ def _designs_markdown(table: pd.DataFrame) -> str:
                 f"({coeffs})",
                 _fmt(row["free_energy"]),
                 _fmt(row["final_distance"], 3),
+                _success_word(row["success"]),
                 _fmt(row["straightness"], 3),
                 _fmt(row["turning_angle"], 3),
                 _fmt(row["robustness"]),
@@ -1018,8 +1038,9 @@ def _suite_report(
         return written  # not a suite folder: the generic report is all there is
     if not designs:
         return written
-    table = designs_table(designs)
-    written += _write_table(target, "designs", table, _designs_markdown(table), notice)
+    task = task_of_manifest(read_manifest(folder))
+    table = designs_table(designs, tolerance=task_tolerance(task))
+    written += _write_table(target, "designs", table, _designs_markdown(table, task), notice)
     for figure in config.figures:
         written += _FIGURES[figure](designs, config, target, seed, interval, notice=notice)
     return written
