@@ -10,7 +10,8 @@ A references file is JSON::
                 "noise_floor": ..., "noise_range": ..., "noise_nudges": 16,
                 "floor_min_fraction": ...,               # range of F over nudged scenes
                 "unstable_better": [...],                # only if any: F of better designs
-                                                         # invalid in a nudged scene
+                                                         # invalid in a nudged scene (their
+                                                         # retests are not in "evaluations")
                 "f_straight": ...,                       # C = 0
                 "random_pool": [...]},                   # F of random designs, sorted
                {"task": "hook", "instance": "i01", "degree": 3, ...},
