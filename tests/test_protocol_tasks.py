@@ -270,20 +270,94 @@ def test_tasks_end_to_end_with_a_users_optimizer_merged(protocol_smoke, tmp_path
     assert (tmp_path / "ioh" / "cmaes" / "IOHprofiler_f1_push.json").is_file()
 
 
-def test_with_references_adds_the_cells_an_extended_folders_references_lack(tmp_path):
+def test_with_references_adds_the_cells_an_extended_folders_references_lack(tmp_path, monkeypatch):
     from benchmarks.cli.protocol import _lacks_cells
+    from benchmarks.protocol import report
     from benchmarks.protocol.report import REFERENCES_IN_FOLDER, record_references
 
     push = protocol_config("smoke")
     write_protocol_record(tmp_path, push)
-    assert not _lacks_cells(tmp_path, push)  # no references in the folder: nothing to extend
+    monkeypatch.setattr(report, "packaged_references", lambda size: None)
+    assert _lacks_cells([tmp_path], "smoke", push)  # no references at all: compute them
     shutil.copy(OLD / "references-smoke.json", tmp_path / REFERENCES_IN_FOLDER)
     record_references(tmp_path)
-    assert not _lacks_cells(tmp_path, push)
-    assert _lacks_cells(tmp_path, protocol_config("smoke", tasks=["all"]))
+    assert not _lacks_cells([tmp_path], "smoke", push)
+    assert _lacks_cells([tmp_path], "smoke", protocol_config("smoke", tasks=["all"]))
     (tmp_path / REFERENCES_IN_FOLDER).write_text("{}")  # changed since recorded: refused
     with pytest.raises(ValueError, match="is not the references this run folder recorded"):
-        _lacks_cells(tmp_path, push)
+        _lacks_cells([tmp_path], "smoke", push)
+
+
+def _push_only_packaged(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    """Committed smoke references of push cells only (as before the task axis), patched in."""
+    from benchmarks.protocol import report
+
+    path = packaged_references("smoke")
+    assert path is not None
+    data = json.loads(path.read_text())
+    data["cells"] = [c for c in data["cells"] if c.get("task", "push") == "push"]
+    packaged = tmp_path / "references-smoke.json"
+    packaged.write_text(json.dumps(data, indent=1) + "\n")
+    monkeypatch.setattr(report, "packaged_references", lambda size: packaged)
+    return packaged
+
+
+def test_committed_push_only_references_lack_the_other_tasks_cells(tmp_path, monkeypatch):
+    from benchmarks.cli.protocol import _lacks_cells
+
+    _push_only_packaged(tmp_path, monkeypatch)
+    folder = tmp_path / "run"
+    write_protocol_record(folder, protocol_config("smoke"))  # no references of its own
+    assert not _lacks_cells([folder], "smoke", protocol_config("smoke"))
+    assert _lacks_cells([folder], "smoke", protocol_config("smoke", tasks=["hook"]))
+
+
+@pytest.mark.slow
+def test_with_references_extends_committed_push_only_references(
+    protocol_smoke, tmp_path, monkeypatch, capsys
+):
+    from benchmarks.cli import main
+    from benchmarks.protocol.report import REFERENCES_IN_FOLDER
+
+    packaged = _push_only_packaged(tmp_path, monkeypatch)
+    folder = tmp_path / "run"
+    shutil.copytree(protocol_smoke, folder)
+    args = ["bench", "protocol", "--size", "smoke", "--tasks", "push", "hook"]
+    args += ["--executor", "serial", "--no-progress", "--out", str(folder)]
+    # Without --with-references the report names the command that computes the hook cells.
+    with pytest.raises(SystemExit) as exited:
+        main(args)
+    assert exited.value.code == 2
+    error = capsys.readouterr().err
+    assert "no reference for instance hook/i01 at d = 3" in error
+    assert "--tasks push hook --out FILE.json` and pass --reference-file FILE.json" in error
+    assert main([*args, "--with-references"]) == 0
+    own = folder / REFERENCES_IN_FOLDER
+    cells = load_references(own)
+    kept = load_references(packaged)
+    assert {k: cells[k] for k in kept} == kept  # the committed cells, not computed again
+    assert set(cells) == set(kept) | {("hook/i01", 3)}
+    record = json.loads((folder / PROTOCOL_FILE).read_text())
+    assert record["references_sha256"] == __import__("hashlib").sha256(own.read_bytes()).hexdigest()
+    text = (folder / "report" / "report.md").read_text()
+    assert "## Task hook" in text and REFERENCES_IN_FOLDER in text
+
+
+def test_a_missing_reference_names_the_tasks_and_the_reference_file_option():
+    from benchmarks.protocol.report import measure_runs
+
+    runs = pd.DataFrame(
+        {"task": ["push", "hook"], "instance": ["i01", "hook/i01"], "degree": [3, 3]}
+    )
+    with pytest.raises(ValueError) as err:
+        measure_runs(runs, {}, {3: 8})
+    message = str(err.value)
+    assert "no reference for instance hook/i01 at d = 3" in message
+    assert "--size SIZE --tasks push hook --out FILE.json` and pass --reference-file FILE.json" in (
+        message
+    )
+    with pytest.raises(ValueError, match=r"--size SIZE --out FILE.json` and pass --reference-file"):
+        measure_runs(runs[runs["task"] == "push"], {}, {3: 8})
 
 
 @pytest.mark.slow
@@ -291,7 +365,7 @@ def test_with_references_adds_the_cells_an_extended_folders_references_lack(tmp_
     ("args", "match"),
     [
         (["protocol", "--tasks", "pushh"], "--tasks: unknown task 'pushh'; known tasks: push"),
-        (["protocol", "--tasks", "all", "hook"], "--tasks: --tasks all stands alone"),
+        (["protocol", "--tasks", "all", "hook"], "--tasks: all stands alone (every task"),
         (["protocol", "--tasks", "hook", "--seeds", "2"], "--seeds: for the rl suite only"),
         (["optimizers", "--tasks", "hook"], "--tasks: for the protocol suite only"),
     ],

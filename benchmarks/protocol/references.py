@@ -463,6 +463,7 @@ def compute_references(
     *,
     plan: ReferencePlan | None = None,
     say: Callable[[str], None] | None = None,
+    seed_from: str | os.PathLike[str] | None = None,
 ) -> Path:
     """Compute the references of every cell of ``config`` into ``out_file``, resumably.
 
@@ -474,6 +475,9 @@ def compute_references(
             it lacks: ``--tasks all`` over a push-only file adds the other tasks' cells).
         plan: How; :func:`reference_plan` (config.size) if ``None``.
         say: Called with one line per cell.
+        seed_from: References whose cells are kept, not computed again, while ``out_file``
+            does not exist (the committed ones of the size, which ``--with-references`` extends
+            with the cells of other tasks); they must match ``config`` like ``out_file``.
 
     Returns:
         ``out_file``.
@@ -499,6 +503,11 @@ def compute_references(
         done = load_references(out)
         data = json.loads(read_run_file(out.parent, out.name))
         check_references_match(data, config, out, plan=plan, sizes=(config.size,))
+    elif seed_from is not None:
+        done = load_references(seed_from)
+        seed = Path(seed_from)
+        data = json.loads(read_run_file(seed.parent, seed.name, max_bytes=256 << 20))
+        check_references_match(data, config, seed, plan=plan)
     else:
         done = {}
     parts.mkdir(parents=True, exist_ok=True)

@@ -186,10 +186,12 @@ def measure_runs(
     for (instance, degree), cell in runs.groupby(["instance", "degree"], sort=True):
         ref = references.get((str(instance), int(degree)))
         if ref is None:
+            tasks = [str(t) for t in dict.fromkeys(runs["task"])] if "task" in runs else []
+            named = "" if set(tasks) <= {"push"} else f" --tasks {' '.join(tasks)}"
             raise ValueError(
                 f"no reference for instance {instance} at d = {degree}; compute them with "
-                "`tooldesign bench protocol --references --size SIZE --out FILE` and pass "
-                "--references FILE"
+                f"`tooldesign bench protocol --references --size SIZE{named} --out FILE.json` "
+                "and pass --reference-file FILE.json (or run with --with-references)"
             )
         f_ref = float(ref["f_ref"])
         pool = np.asarray(ref["random_pool"], dtype=float)
