@@ -163,8 +163,22 @@ def test_a_run_of_more_tasks_extends_a_push_run_and_nothing_else_does():
     ("call", "match"),
     [
         (lambda: protocol_config("smoke", tasks=["pushh"]), "unknown task 'pushh'; known tasks"),
-        (lambda: resolve_tasks(["all", "hook"]), "--tasks all stands alone"),
-        (lambda: resolve_tasks(["hook", "hook"]), "distinct tasks"),
+        (lambda: resolve_tasks(["all", "hook"]), r"^all stands alone \(every task"),
+        (lambda: resolve_tasks(["hook", "hook"]), "tasks must be distinct"),
+        (lambda: protocol_config("smoke", tasks="hook"), "sequence of task names, got 'hook'"),
+        (lambda: resolve_tasks("all"), "sequence of task names, got 'all'"),
+        (
+            lambda: protocol_config("smoke", tasks=["hook"]).replace(task_instances="i01"),
+            "task_instances must be a sequence of instance ids, got 'i01'",
+        ),
+        (
+            lambda: protocol_config("smoke").replace(task_instances=("i01",)),
+            r"task_instances \['i01'\] and task_degrees \[3\] are for tasks other than push",
+        ),
+        (
+            lambda: protocol_config("smoke").replace(task_degrees=(5,)),
+            "with tasks \\('push',\\) leave them at",
+        ),
         (lambda: make_protocol_report([]), "at least one protocol run folder"),
         (lambda: protocol_config("smoke").replace(tasks=("sweep",)), "known tasks: push, hook"),
         (lambda: protocol_config("smoke").replace(tasks=()), "at least one"),
