@@ -399,3 +399,25 @@ def test_cli_bad_tasks_are_one_line(args, match, tmp_path):
     assert done.returncode == 2, done.stderr
     assert match in done.stderr and len(done.stderr.strip().splitlines()) == 1
     assert not out.exists()
+
+
+def test_an_auc_interval_of_one_block_is_printed_as_not_available():
+    from benchmarks.protocol.report import _auc_table, _md_table
+
+    scores = pd.DataFrame(
+        {
+            "task": ["hook", "hook", "push", "push"],
+            "optimizer": ["cmaes"] * 4,
+            "instance": ["hook/i01", "hook/i01", "i01", "i02"],
+            "degree": [3] * 4,
+            "seed": [0, 1, 0, 0],
+            "score": [0.2, 0.4, 0.5, 0.7],
+            "regret_1": [0.1] * 4,
+        }
+    )
+    table = _auc_table(scores, "task").set_index("task")
+    # hook: one (instance, d) block, its two seeds averaged: a mean but no interval.
+    assert table.loc["hook", "AUC"] == pytest.approx(0.3)
+    assert table.loc["hook", "95% low"] == "n/a" and table.loc["hook", "95% high"] == "n/a"
+    assert float(table.loc["push", "95% low"]) < 0.6 < float(table.loc["push", "95% high"])
+    assert "| hook | cmaes | 0.3 | n/a | n/a |" in _md_table(table.reset_index())

@@ -318,13 +318,15 @@ def _auc_table(scores: pd.DataFrame, by: str) -> pd.DataFrame:
     for (group, optimizer), frame in scores.groupby([by, "optimizer"], sort=True):
         per = frame.groupby(["instance", "degree"])["score"].mean().to_numpy()
         interval = t_interval(per, 0.95)  # the percentile bootstrap under-covers few instances
+        # One block has no interval (t_interval gives low = high = the value): say so.
+        bounds = (interval.low, interval.high) if interval.n >= 2 else ("n/a", "n/a")
         rows.append(
             {
                 by: group,
                 "optimizer": optimizer,
                 "AUC": interval.estimate,
-                "95% low": interval.low,
-                "95% high": interval.high,
+                "95% low": bounds[0],
+                "95% high": bounds[1],
                 "final regret (median)": frame["regret_1"].median(),
                 "runs": len(frame),
             }
