@@ -122,7 +122,7 @@ def test_a_protocol_json_of_1dfee38_reads_as_push_and_is_rewritten_unchanged(tmp
     shutil.copy(OLD / PROTOCOL_FILE, tmp_path / PROTOCOL_FILE)
     config = read_protocol(tmp_path)
     assert config.tasks == ("push",) and config.task_instances == ()
-    assert config == protocol_config("smoke").replace(workers=2)
+    assert config == protocol_config("smoke").replace(workers=1)
     # Resuming rewrites protocol.json: the same bytes as 1dfee38 wrote.
     write_protocol_record(tmp_path, config)
     assert (tmp_path / PROTOCOL_FILE).read_bytes() == (OLD / PROTOCOL_FILE).read_bytes()
@@ -215,23 +215,57 @@ def test_a_task_without_an_instance_set_is_refused_naming_the_ones_with_one():
         unregister_task("walled-hook")
 
 
+def _masked(report_md: str, folder: Path) -> str:
+    """report.md without the paths of its run folder and references file (they differ per run)."""
+    import re
+
+    text = report_md.replace(str(folder), "FOLDER")
+    return re.sub(r"References: `[^`]*`", "References: `FILE`", text)
+
+
 @pytest.mark.slow
-def test_an_old_push_folder_resumes_and_reports_unchanged(protocol_smoke, tmp_path):
-    # The session's smoke run has 1dfee38's layout; give it 1dfee38's protocol.json.
+def test_an_old_push_folder_resumes_and_reports_unchanged(tmp_path, monkeypatch):
+    """A smoke run folder written by 1dfee38's code resumes without work and reports the same.
+
+    The fixture's cells, protocol.json and report were made by ``tooldesign bench protocol
+    --size smoke --workers 1`` with the code of 1dfee38 (tests/fixtures/protocol-1dfee38).
+    """
+    from benchmarks.suites import runner
+
     folder = tmp_path / "old"
-    shutil.copytree(protocol_smoke, folder)
-    shutil.copy(OLD / PROTOCOL_FILE, folder / PROTOCOL_FILE)
+    shutil.copytree(
+        OLD, folder, ignore=shutil.ignore_patterns("report", "README.md", "references-*")
+    )
+    tables = {p.relative_to(folder): p.read_bytes() for p in folder.rglob("evaluations.parquet")}
+    manifests = {p.relative_to(folder): p for p in folder.rglob("manifest.json")}
+    suites = {k: json.loads(p.read_text())["config"] for k, p in manifests.items()}
+    assert len(tables) == len(manifests) == 4
+
+    class NoEvaluation:  # every evaluation of run_suite goes through its Scheduler
+        def __init__(self, *args: object, **kwargs: object) -> None:
+            raise AssertionError("a cell of the finished old folder was evaluated again")
+
+    monkeypatch.setattr(runner, "Scheduler", NoEvaluation)
     config, runs = load_runs(folder)
     assert config.tasks == ("push",) and set(runs["task"]) == {"push"}
     run_protocol(config, folder, progress=False)  # no work left (the same command)
     assert (folder / PROTOCOL_FILE).read_bytes() == (OLD / PROTOCOL_FILE).read_bytes()
+    for name, data in tables.items():
+        assert (folder / name).read_bytes() == data, name
+    for name, path in manifests.items():
+        assert json.loads(path.read_text())["config"] == suites[name], name
     pd.testing.assert_frame_equal(load_runs(folder)[1], runs)
     make_protocol_report([folder], references=OLD / "references-smoke.json")
-    report = folder / "report"
-    for name in ("runs.csv", "runtimes.csv", "references.csv"):
-        assert "task" not in pd.read_csv(report / name).columns  # the tables of before
-    assert "# Tasks" not in (report / "report.md").read_text()
-    assert not list(report.glob("task_*.csv"))
+    report, old_report = folder / "report", OLD / "report"
+    old_tables = sorted(p.name for p in old_report.glob("*.csv"))
+    assert old_tables == sorted(p.name for p in report.glob("*.csv"))
+    assert len(old_tables) == 6
+    for name in old_tables:  # the tables of before, byte for byte (no task column, no task_*)
+        assert (report / name).read_bytes() == (old_report / name).read_bytes(), name
+    old_md = (old_report / "report.md").read_text()
+    assert _masked((report / "report.md").read_text(), folder) == _masked(
+        old_md, Path("/tmp/oldsmoke")
+    )
 
 
 @pytest.mark.slow
