@@ -455,3 +455,16 @@ def test_an_auc_interval_of_one_block_is_printed_as_not_available():
     assert table.loc["hook", "95% low"] == "n/a" and table.loc["hook", "95% high"] == "n/a"
     assert float(table.loc["push", "95% low"]) < 0.6 < float(table.loc["push", "95% high"])
     assert "| hook | cmaes | 0.3 | n/a | n/a |" in _md_table(table.reset_index())
+
+
+def test_ioh_function_ids_are_fixed_for_built_ins_and_follow_registration_for_a_users_task():
+    from benchmarks.protocol.ioh_export import function_id
+
+    assert [function_id(t) for t in ("push", *NEW_TASKS)] == [1, 2, 3, 4]
+    register_task("walled-hook", dataclasses.replace(get_task("hook"), name="walled-hook"))
+    try:
+        assert function_id("walled-hook") == 5  # the next place in the registry (docs/protocol.md)
+    finally:
+        unregister_task("walled-hook")
+    with pytest.raises(ValueError, match="unknown task 'walled-hook'; known tasks: push"):
+        function_id("walled-hook")

@@ -35,15 +35,15 @@ without following a link.
 
 Budgets grow with the dimension, as COCO's: a run has ``iterations(d) x batch_size`` evaluations.
 
-Sizes (:data:`PROTOCOL_SIZES`, push alone, estimated at 0.12 s per evaluation per core; the
-integrator measures):
+Sizes (:data:`PROTOCOL_SIZES`, push alone; times estimated at 0.072 s per evaluation per core,
+the rate measured on one idle core, docs/protocol.md "Time estimates"):
 
 ======  ==========================  =====  =======  =====  ===============  ==================
 size    instances                   d      seeds    batch  evaluations/run  evaluations in all
 ======  ==========================  =====  =======  =====  ===============  ==================
 smoke   i01, i02 (public)           3, 5   1        4      8, 12            80 (2 optimizers)
-quick   6 public                    3,5,8  2        8      32, 56, 80       8,064 (~8 min)
-full    all 24 (16 public, 8 held)  3,5,8  3        8      120, 200, 320    184,320 (~3.1 h)
+quick   6 public                    3,5,8  2        8      32, 56, 80       8,064 (~5 min)
+full    all 24 (16 public, 8 held)  3,5,8  3        8      120, 200, 320    184,320 (~1.8 h)
 ======  ==========================  =====  =======  =====  ===============  ==================
 
 Each other task adds (``--tasks``; d = 3 only): smoke its i01 (8 evaluations per optimizer),
