@@ -468,3 +468,20 @@ def test_ioh_function_ids_are_fixed_for_built_ins_and_follow_registration_for_a_
         unregister_task("walled-hook")
     with pytest.raises(ValueError, match="unknown task 'walled-hook'; known tasks: push"):
         function_id("walled-hook")
+
+
+def test_references_seeded_from_another_run_or_a_missing_file_are_refused(tmp_path):
+    from benchmarks.protocol import compute_references
+
+    path = packaged_references("smoke")
+    assert path is not None
+    data = json.loads(path.read_text())
+    data["goal_precision"] = 10.0
+    other = tmp_path / "other.json"
+    other.write_text(json.dumps(data))
+    config = protocol_config("smoke", tasks=["hook"])
+    with pytest.raises(ValueError, match="was computed with goal_precision = 10.0, this run has"):
+        compute_references(config, tmp_path / "out.json", seed_from=other)
+    with pytest.raises(ValueError, match="references file .*missing.json does not exist"):
+        compute_references(config, tmp_path / "out.json", seed_from=tmp_path / "missing.json")
+    assert not (tmp_path / "out.json").exists()
