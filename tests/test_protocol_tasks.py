@@ -122,7 +122,7 @@ def test_a_protocol_json_of_1dfee38_reads_as_push_and_is_rewritten_unchanged(tmp
     shutil.copy(OLD / PROTOCOL_FILE, tmp_path / PROTOCOL_FILE)
     config = read_protocol(tmp_path)
     assert config.tasks == ("push",) and config.task_instances == ()
-    assert config == protocol_config("smoke").replace(workers=2)
+    assert config == protocol_config("smoke").replace(workers=1)
     # Resuming rewrites protocol.json: the same bytes as 1dfee38 wrote.
     write_protocol_record(tmp_path, config)
     assert (tmp_path / PROTOCOL_FILE).read_bytes() == (OLD / PROTOCOL_FILE).read_bytes()
@@ -163,8 +163,22 @@ def test_a_run_of_more_tasks_extends_a_push_run_and_nothing_else_does():
     ("call", "match"),
     [
         (lambda: protocol_config("smoke", tasks=["pushh"]), "unknown task 'pushh'; known tasks"),
-        (lambda: resolve_tasks(["all", "hook"]), "--tasks all stands alone"),
-        (lambda: resolve_tasks(["hook", "hook"]), "distinct tasks"),
+        (lambda: resolve_tasks(["all", "hook"]), r"^all stands alone \(every task"),
+        (lambda: resolve_tasks(["hook", "hook"]), "tasks must be distinct"),
+        (lambda: protocol_config("smoke", tasks="hook"), "sequence of task names, got 'hook'"),
+        (lambda: resolve_tasks("all"), "sequence of task names, got 'all'"),
+        (
+            lambda: protocol_config("smoke", tasks=["hook"]).replace(task_instances="i01"),
+            "task_instances must be a sequence of instance ids, got 'i01'",
+        ),
+        (
+            lambda: protocol_config("smoke").replace(task_instances=("i01",)),
+            r"task_instances \['i01'\] and task_degrees \[3\] are for tasks other than push",
+        ),
+        (
+            lambda: protocol_config("smoke").replace(task_degrees=(5,)),
+            "with tasks \\('push',\\) leave them at",
+        ),
         (lambda: make_protocol_report([]), "at least one protocol run folder"),
         (lambda: protocol_config("smoke").replace(tasks=("sweep",)), "known tasks: push, hook"),
         (lambda: protocol_config("smoke").replace(tasks=()), "at least one"),
@@ -201,23 +215,57 @@ def test_a_task_without_an_instance_set_is_refused_naming_the_ones_with_one():
         unregister_task("walled-hook")
 
 
+def _masked(report_md: str, folder: Path) -> str:
+    """report.md without the paths of its run folder and references file (they differ per run)."""
+    import re
+
+    text = report_md.replace(str(folder), "FOLDER")
+    return re.sub(r"References: `[^`]*`", "References: `FILE`", text)
+
+
 @pytest.mark.slow
-def test_an_old_push_folder_resumes_and_reports_unchanged(protocol_smoke, tmp_path):
-    # The session's smoke run has 1dfee38's layout; give it 1dfee38's protocol.json.
+def test_an_old_push_folder_resumes_and_reports_unchanged(tmp_path, monkeypatch):
+    """A smoke run folder written by 1dfee38's code resumes without work and reports the same.
+
+    The fixture's cells, protocol.json and report were made by ``tooldesign bench protocol
+    --size smoke --workers 1`` with the code of 1dfee38 (tests/fixtures/protocol-1dfee38).
+    """
+    from benchmarks.suites import runner
+
     folder = tmp_path / "old"
-    shutil.copytree(protocol_smoke, folder)
-    shutil.copy(OLD / PROTOCOL_FILE, folder / PROTOCOL_FILE)
+    shutil.copytree(
+        OLD, folder, ignore=shutil.ignore_patterns("report", "README.md", "references-*")
+    )
+    tables = {p.relative_to(folder): p.read_bytes() for p in folder.rglob("evaluations.parquet")}
+    manifests = {p.relative_to(folder): p for p in folder.rglob("manifest.json")}
+    suites = {k: json.loads(p.read_text())["config"] for k, p in manifests.items()}
+    assert len(tables) == len(manifests) == 4
+
+    class NoEvaluation:  # every evaluation of run_suite goes through its Scheduler
+        def __init__(self, *args: object, **kwargs: object) -> None:
+            raise AssertionError("a cell of the finished old folder was evaluated again")
+
+    monkeypatch.setattr(runner, "Scheduler", NoEvaluation)
     config, runs = load_runs(folder)
     assert config.tasks == ("push",) and set(runs["task"]) == {"push"}
     run_protocol(config, folder, progress=False)  # no work left (the same command)
     assert (folder / PROTOCOL_FILE).read_bytes() == (OLD / PROTOCOL_FILE).read_bytes()
+    for name, data in tables.items():
+        assert (folder / name).read_bytes() == data, name
+    for name, path in manifests.items():
+        assert json.loads(path.read_text())["config"] == suites[name], name
     pd.testing.assert_frame_equal(load_runs(folder)[1], runs)
     make_protocol_report([folder], references=OLD / "references-smoke.json")
-    report = folder / "report"
-    for name in ("runs.csv", "runtimes.csv", "references.csv"):
-        assert "task" not in pd.read_csv(report / name).columns  # the tables of before
-    assert "# Tasks" not in (report / "report.md").read_text()
-    assert not list(report.glob("task_*.csv"))
+    report, old_report = folder / "report", OLD / "report"
+    old_tables = sorted(p.name for p in old_report.glob("*.csv"))
+    assert old_tables == sorted(p.name for p in report.glob("*.csv"))
+    assert len(old_tables) == 6
+    for name in old_tables:  # the tables of before, byte for byte (no task column, no task_*)
+        assert (report / name).read_bytes() == (old_report / name).read_bytes(), name
+    old_md = (old_report / "report.md").read_text()
+    assert _masked((report / "report.md").read_text(), folder) == _masked(
+        old_md, Path("/tmp/oldsmoke")
+    )
 
 
 @pytest.mark.slow
@@ -270,20 +318,94 @@ def test_tasks_end_to_end_with_a_users_optimizer_merged(protocol_smoke, tmp_path
     assert (tmp_path / "ioh" / "cmaes" / "IOHprofiler_f1_push.json").is_file()
 
 
-def test_with_references_adds_the_cells_an_extended_folders_references_lack(tmp_path):
+def test_with_references_adds_the_cells_an_extended_folders_references_lack(tmp_path, monkeypatch):
     from benchmarks.cli.protocol import _lacks_cells
+    from benchmarks.protocol import report
     from benchmarks.protocol.report import REFERENCES_IN_FOLDER, record_references
 
     push = protocol_config("smoke")
     write_protocol_record(tmp_path, push)
-    assert not _lacks_cells(tmp_path, push)  # no references in the folder: nothing to extend
+    monkeypatch.setattr(report, "packaged_references", lambda size: None)
+    assert _lacks_cells([tmp_path], "smoke", push)  # no references at all: compute them
     shutil.copy(OLD / "references-smoke.json", tmp_path / REFERENCES_IN_FOLDER)
     record_references(tmp_path)
-    assert not _lacks_cells(tmp_path, push)
-    assert _lacks_cells(tmp_path, protocol_config("smoke", tasks=["all"]))
+    assert not _lacks_cells([tmp_path], "smoke", push)
+    assert _lacks_cells([tmp_path], "smoke", protocol_config("smoke", tasks=["all"]))
     (tmp_path / REFERENCES_IN_FOLDER).write_text("{}")  # changed since recorded: refused
     with pytest.raises(ValueError, match="is not the references this run folder recorded"):
-        _lacks_cells(tmp_path, push)
+        _lacks_cells([tmp_path], "smoke", push)
+
+
+def _push_only_packaged(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    """Committed smoke references of push cells only (as before the task axis), patched in."""
+    from benchmarks.protocol import report
+
+    path = packaged_references("smoke")
+    assert path is not None
+    data = json.loads(path.read_text())
+    data["cells"] = [c for c in data["cells"] if c.get("task", "push") == "push"]
+    packaged = tmp_path / "references-smoke.json"
+    packaged.write_text(json.dumps(data, indent=1) + "\n")
+    monkeypatch.setattr(report, "packaged_references", lambda size: packaged)
+    return packaged
+
+
+def test_committed_push_only_references_lack_the_other_tasks_cells(tmp_path, monkeypatch):
+    from benchmarks.cli.protocol import _lacks_cells
+
+    _push_only_packaged(tmp_path, monkeypatch)
+    folder = tmp_path / "run"
+    write_protocol_record(folder, protocol_config("smoke"))  # no references of its own
+    assert not _lacks_cells([folder], "smoke", protocol_config("smoke"))
+    assert _lacks_cells([folder], "smoke", protocol_config("smoke", tasks=["hook"]))
+
+
+@pytest.mark.slow
+def test_with_references_extends_committed_push_only_references(
+    protocol_smoke, tmp_path, monkeypatch, capsys
+):
+    from benchmarks.cli import main
+    from benchmarks.protocol.report import REFERENCES_IN_FOLDER
+
+    packaged = _push_only_packaged(tmp_path, monkeypatch)
+    folder = tmp_path / "run"
+    shutil.copytree(protocol_smoke, folder)
+    args = ["bench", "protocol", "--size", "smoke", "--tasks", "push", "hook"]
+    args += ["--executor", "serial", "--no-progress", "--out", str(folder)]
+    # Without --with-references the report names the command that computes the hook cells.
+    with pytest.raises(SystemExit) as exited:
+        main(args)
+    assert exited.value.code == 2
+    error = capsys.readouterr().err
+    assert "no reference for instance hook/i01 at d = 3" in error
+    assert "--tasks push hook --out FILE.json` and pass --reference-file FILE.json" in error
+    assert main([*args, "--with-references"]) == 0
+    own = folder / REFERENCES_IN_FOLDER
+    cells = load_references(own)
+    kept = load_references(packaged)
+    assert {k: cells[k] for k in kept} == kept  # the committed cells, not computed again
+    assert set(cells) == set(kept) | {("hook/i01", 3)}
+    record = json.loads((folder / PROTOCOL_FILE).read_text())
+    assert record["references_sha256"] == __import__("hashlib").sha256(own.read_bytes()).hexdigest()
+    text = (folder / "report" / "report.md").read_text()
+    assert "## Task hook" in text and REFERENCES_IN_FOLDER in text
+
+
+def test_a_missing_reference_names_the_tasks_and_the_reference_file_option():
+    from benchmarks.protocol.report import measure_runs
+
+    runs = pd.DataFrame(
+        {"task": ["push", "hook"], "instance": ["i01", "hook/i01"], "degree": [3, 3]}
+    )
+    with pytest.raises(ValueError) as err:
+        measure_runs(runs, {}, {3: 8})
+    message = str(err.value)
+    assert "no reference for instance hook/i01 at d = 3" in message
+    assert "--size SIZE --tasks push hook --out FILE.json` and pass --reference-file FILE.json" in (
+        message
+    )
+    with pytest.raises(ValueError, match=r"--size SIZE --out FILE.json` and pass --reference-file"):
+        measure_runs(runs[runs["task"] == "push"], {}, {3: 8})
 
 
 @pytest.mark.slow
@@ -291,7 +413,7 @@ def test_with_references_adds_the_cells_an_extended_folders_references_lack(tmp_
     ("args", "match"),
     [
         (["protocol", "--tasks", "pushh"], "--tasks: unknown task 'pushh'; known tasks: push"),
-        (["protocol", "--tasks", "all", "hook"], "--tasks: --tasks all stands alone"),
+        (["protocol", "--tasks", "all", "hook"], "--tasks: all stands alone (every task"),
         (["protocol", "--tasks", "hook", "--seeds", "2"], "--seeds: for the rl suite only"),
         (["optimizers", "--tasks", "hook"], "--tasks: for the protocol suite only"),
     ],
@@ -311,3 +433,55 @@ def test_cli_bad_tasks_are_one_line(args, match, tmp_path):
     assert done.returncode == 2, done.stderr
     assert match in done.stderr and len(done.stderr.strip().splitlines()) == 1
     assert not out.exists()
+
+
+def test_an_auc_interval_of_one_block_is_printed_as_not_available():
+    from benchmarks.protocol.report import _auc_table, _md_table
+
+    scores = pd.DataFrame(
+        {
+            "task": ["hook", "hook", "push", "push"],
+            "optimizer": ["cmaes"] * 4,
+            "instance": ["hook/i01", "hook/i01", "i01", "i02"],
+            "degree": [3] * 4,
+            "seed": [0, 1, 0, 0],
+            "score": [0.2, 0.4, 0.5, 0.7],
+            "regret_1": [0.1] * 4,
+        }
+    )
+    table = _auc_table(scores, "task").set_index("task")
+    # hook: one (instance, d) block, its two seeds averaged: a mean but no interval.
+    assert table.loc["hook", "AUC"] == pytest.approx(0.3)
+    assert table.loc["hook", "95% low"] == "n/a" and table.loc["hook", "95% high"] == "n/a"
+    assert float(table.loc["push", "95% low"]) < 0.6 < float(table.loc["push", "95% high"])
+    assert "| hook | cmaes | 0.3 | n/a | n/a |" in _md_table(table.reset_index())
+
+
+def test_ioh_function_ids_are_fixed_for_built_ins_and_follow_registration_for_a_users_task():
+    from benchmarks.protocol.ioh_export import function_id
+
+    assert [function_id(t) for t in ("push", *NEW_TASKS)] == [1, 2, 3, 4]
+    register_task("walled-hook", dataclasses.replace(get_task("hook"), name="walled-hook"))
+    try:
+        assert function_id("walled-hook") == 5  # the next place in the registry (docs/protocol.md)
+    finally:
+        unregister_task("walled-hook")
+    with pytest.raises(ValueError, match="unknown task 'walled-hook'; known tasks: push"):
+        function_id("walled-hook")
+
+
+def test_references_seeded_from_another_run_or_a_missing_file_are_refused(tmp_path):
+    from benchmarks.protocol import compute_references
+
+    path = packaged_references("smoke")
+    assert path is not None
+    data = json.loads(path.read_text())
+    data["goal_precision"] = 10.0
+    other = tmp_path / "other.json"
+    other.write_text(json.dumps(data))
+    config = protocol_config("smoke", tasks=["hook"])
+    with pytest.raises(ValueError, match="was computed with goal_precision = 10.0, this run has"):
+        compute_references(config, tmp_path / "out.json", seed_from=other)
+    with pytest.raises(ValueError, match="references file .*missing.json does not exist"):
+        compute_references(config, tmp_path / "out.json", seed_from=tmp_path / "missing.json")
+    assert not (tmp_path / "out.json").exists()

@@ -6,9 +6,10 @@ writes the report to DIR/report. With ``--optimizer NAME`` only that optimizer r
 name or ``module:Class``), and ``--baseline DIR2`` puts it in one report beside the runs of
 DIR2 (the committed built-ins), which are not run again. ``--references`` computes the
 references of the size into the file ``--out`` instead; ``--with-references`` computes them into
-DIR/references.json after the runs when the size has none committed (the full benchmark in
-one resumable command; in a push run's folder extended by ``--tasks``, the other tasks' cells
-are added to its references); ``--buildable N`` prints the fraction of
+DIR/references.json after the runs when the references a report would use (the folder's,
+else the committed ones of the size) are none or lack a cell of the run (the full benchmark in
+one resumable command; with ``--tasks``, the other tasks' cells are added to the folder's
+references, or to a copy of the committed ones); ``--buildable N`` prints the fraction of
 N random designs per degree that can be built and used. ``--tasks hook obstacle`` (or
 ``--tasks all``) adds the task axis: every named task's cells (push alone by default).
 """
@@ -77,8 +78,9 @@ def add_protocol_arguments(parser: argparse.ArgumentParser | Any, *, title: str)
         "--with-references",
         action="store_true",
         default=None,
-        help="if the size has no committed references, compute them into OUT/references.json "
-        "after the runs (resumable) and report against them: the whole benchmark in one command",
+        help="if the references of the run (OUT's, else the committed ones of the size) are "
+        "none or lack a cell of it, compute the missing ones into OUT/references.json after the "
+        "runs (resumable) and report against them: the whole benchmark in one command",
     )
     group.add_argument(
         "--buildable",
@@ -90,19 +92,27 @@ def add_protocol_arguments(parser: argparse.ArgumentParser | Any, *, title: str)
     )
 
 
-def _lacks_cells(folder: Path, config: Any) -> bool:
-    """Whether the folder's own (recorded, checked) references lack some cell of ``config``.
+def _lacks_cells(folders: list[Path], size: str, config: Any) -> bool:
+    """Whether the references a report would use lack some cell of ``config``, or are none.
 
-    A push run's folder extended with ``--tasks`` has references of its push cells only:
-    ``--with-references`` then adds the other tasks' to them (keeping the push cells).
+    They are :func:`~benchmarks.protocol.report.find_references`'s: a run folder's own
+    (recorded, checked) ``references.json``, else the committed ones of the size. A push run's
+    folder extended with ``--tasks`` has references of its push cells only, and the committed
+    ones may hold push cells only: ``--with-references`` then adds the other tasks' cells.
     """
     from benchmarks.protocol import load_references
-    from benchmarks.protocol.report import folder_references
+    from benchmarks.protocol.report import find_references, folder_references
 
-    found = folder_references(folder)
-    if found is None:
-        return False
-    cells = load_references(found[0], expected_sha256=found[1])
+    path = find_references(folders, size)
+    if path is None:
+        return True
+    expected = None
+    for folder in folders:
+        found = folder_references(folder)
+        if found is not None:
+            expected = found[1]
+            break
+    cells = load_references(path, expected_sha256=expected)
     return any((i.label, d) not in cells for i, d in config.cells())
 
 
@@ -184,12 +194,13 @@ def run_protocol_command(args: argparse.Namespace) -> int:
     export_ioh(runs, out / "ioh", algorithm_info=info, run_folder=out)
     print(f"IOHprofiler data: {out / 'ioh'}")
     folders = [out, *(args.baseline or [])]
-    if (
-        args.with_references
-        and args.reference_file is None
-        and (find_references(folders, size) is None or _lacks_cells(out, config))
-    ):
-        path = compute_references(config, out / REFERENCES_IN_FOLDER, say=say)
+    if args.with_references and args.reference_file is None and _lacks_cells(folders, size, config):
+        # The folder's own references are extended in place; others (the committed ones, a
+        # baseline's) seed the folder's new file, which the report then uses.
+        own = out / REFERENCES_IN_FOLDER
+        found = find_references(folders, size)
+        seed = None if found is None or Path(found) == own else found
+        path = compute_references(config, own, say=say, seed_from=seed)
         digest = record_references(out)  # a report checks the file against this SHA-256
         print(f"references: {path} (sha256 {digest[:16]}..., recorded in protocol.json)")
     try:

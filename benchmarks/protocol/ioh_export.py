@@ -4,8 +4,10 @@ The format is the one the ``ioh`` package's ``logger.Analyzer`` writes (its docu
 written here directly so that exporting needs no extra package; a test reads it back with
 ``iohinspector``). In IOHprofiler's terms a task is one **function** (push id 1, then hook
 2, obstacle 3, puck 4: its place in the task registry, ``tooldesign_env.tasks.task_names``, plus
-one), a protocol instance is an IOH **instance** (its number in its task's set), the tool
-degree d is the **dimension**, and each (instance, seed) run of an optimizer is one **run**::
+one; a user's task gets 5, 6, ... in the order tasks were registered in the process, so its id
+may differ between processes, while its file names carry its name), a protocol instance is an
+IOH **instance** (its number in its task's set), the tool degree d is the **dimension**, and
+each (instance, seed) run of an optimizer is one **run**::
 
     ioh/<optimizer>/IOHprofiler_f1_push.json            meta: algorithm, scenarios, runs
                                                         (<optimizer> percent-encoded)

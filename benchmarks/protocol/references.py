@@ -49,8 +49,9 @@ computation resumes at the next cell (the folder is removed once FILE is written
 ``plan.json`` records the plan, and cells of another plan are refused). The full
 plan is about 189,000 evaluations (24 instances:
 1331 grid + 240 random at d = 3, 5 x 400 CMA-ES + 400 random at d = 5, 5 x 640 + 640 at d = 8,
-plus 16 nudges and the straight tool per cell): about 3.1 hours on 2 cores at 0.12 s an
-evaluation (the integrator measures). The smoke size's small references are committed in
+plus 16 nudges and the straight tool per cell): 188,688 evaluations, about 1.9 hours on 2
+cores at 0.072 s an evaluation per core (an estimate; docs/protocol.md "Time estimates").
+The smoke size's small references are committed in
 ``benchmarks/protocol/data/references-smoke.json``.
 """
 
@@ -492,6 +493,7 @@ def compute_references(
     *,
     plan: ReferencePlan | None = None,
     say: Callable[[str], None] | None = None,
+    seed_from: str | os.PathLike[str] | None = None,
 ) -> Path:
     """Compute the references of every cell of ``config`` into ``out_file``, resumably.
 
@@ -503,6 +505,9 @@ def compute_references(
             it lacks: ``--tasks all`` over a push-only file adds the other tasks' cells).
         plan: How; :func:`reference_plan` (config.size) if ``None``.
         say: Called with one line per cell.
+        seed_from: References whose cells are kept, not computed again, while ``out_file``
+            does not exist (the committed ones of the size, which ``--with-references`` extends
+            with the cells of other tasks); they must match ``config`` like ``out_file``.
 
     Returns:
         ``out_file``.
@@ -528,6 +533,11 @@ def compute_references(
         done = load_references(out)
         data = json.loads(read_run_file(out.parent, out.name))
         check_references_match(data, config, out, plan=plan, sizes=(config.size,))
+    elif seed_from is not None:
+        done = load_references(seed_from)
+        seed = Path(seed_from)
+        data = json.loads(read_run_file(seed.parent, seed.name, max_bytes=256 << 20))
+        check_references_match(data, config, seed, plan=plan)
     else:
         done = {}
     parts.mkdir(parents=True, exist_ok=True)

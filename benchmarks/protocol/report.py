@@ -200,10 +200,12 @@ def measure_runs(
     for (instance, degree), cell in runs.groupby(["instance", "degree"], sort=True):
         ref = references.get((str(instance), int(degree)))
         if ref is None:
+            tasks = [str(t) for t in dict.fromkeys(runs["task"])] if "task" in runs else []
+            named = "" if set(tasks) <= {"push"} else f" --tasks {' '.join(tasks)}"
             raise ValueError(
                 f"no reference for instance {instance} at d = {degree}; compute them with "
-                "`tooldesign bench protocol --references --size SIZE --out FILE` and pass "
-                "--references FILE"
+                f"`tooldesign bench protocol --references --size SIZE{named} --out FILE.json` "
+                "and pass --reference-file FILE.json (or run with --with-references)"
             )
         f_ref = float(ref["f_ref"])
         pool = np.asarray(ref["random_pool"], dtype=float)
@@ -346,13 +348,15 @@ def _auc_table(scores: pd.DataFrame, by: str) -> pd.DataFrame:
     for (group, optimizer), frame in scores.groupby([by, "optimizer"], sort=True):
         per = frame.groupby(["instance", "degree"])["score"].mean().to_numpy()
         interval = t_interval(per, 0.95)  # the percentile bootstrap under-covers few instances
+        # One block has no interval (t_interval gives low = high = the value): say so.
+        bounds = (interval.low, interval.high) if interval.n >= 2 else ("n/a", "n/a")
         rows.append(
             {
                 by: group,
                 "optimizer": optimizer,
                 "AUC": interval.estimate,
-                "95% low": interval.low,
-                "95% high": interval.high,
+                "95% low": bounds[0],
+                "95% high": bounds[1],
                 "final regret (median)": frame["regret_1"].median(),
                 "success": success_cell(success_rate(frame["success_1"])),
                 "runs": len(frame),

@@ -35,15 +35,15 @@ without following a link.
 
 Budgets grow with the dimension, as COCO's: a run has ``iterations(d) x batch_size`` evaluations.
 
-Sizes (:data:`PROTOCOL_SIZES`, push alone, estimated at 0.12 s per evaluation per core; the
-integrator measures):
+Sizes (:data:`PROTOCOL_SIZES`, push alone; times estimated at 0.072 s per evaluation per core,
+the rate measured on one idle core, docs/protocol.md "Time estimates"):
 
 ======  ==========================  =====  =======  =====  ===============  ==================
 size    instances                   d      seeds    batch  evaluations/run  evaluations in all
 ======  ==========================  =====  =======  =====  ===============  ==================
 smoke   i01, i02 (public)           3, 5   1        4      8, 12            80 (2 optimizers)
-quick   6 public                    3,5,8  2        8      32, 56, 80       8,064 (~8 min)
-full    all 24 (16 public, 8 held)  3,5,8  3        8      120, 200, 320    184,320 (~3.1 h)
+quick   6 public                    3,5,8  2        8      32, 56, 80       8,064 (~5 min)
+full    all 24 (16 public, 8 held)  3,5,8  3        8      120, 200, 320    184,320 (~1.8 h)
 ======  ==========================  =====  =======  =====  ===============  ==================
 
 Each other task adds (``--tasks``; d = 3 only): smoke its i01 (8 evaluations per optimizer),
@@ -195,9 +195,20 @@ class ProtocolConfig:
             if task != PUSH_TASK:
                 load_instances(self.instance_version, task=task)  # a task without a set: refused
         object.__setattr__(self, "tasks", tasks)
+        if isinstance(self.task_instances, str):  # tuple("i01") would be ('i', '0', '1')
+            raise ValueError(
+                f"task_instances must be a sequence of instance ids, got {self.task_instances!r}"
+            )
         ids = tuple(self.task_instances)
         object.__setattr__(self, "task_instances", ids)
         others = [t for t in tasks if t != PUSH_TASK]
+        if not others and (ids or self.task_degrees != TASK_DEGREES):
+            # They would be written into protocol.json: a push-only record is the file of before.
+            raise ValueError(
+                f"task_instances {list(ids)} and task_degrees {list(self.task_degrees)} are for "
+                "tasks other than push; with tasks ('push',) leave them at () and "
+                f"{TASK_DEGREES}"
+            )
         if others and not ids:
             raise ValueError(
                 f"task_instances must name the instances of the tasks {others} (e.g. ('i01',))"
@@ -327,10 +338,12 @@ def resolve_tasks(tasks: Sequence[str] | None) -> tuple[str, ...]:
 
     if tasks is None:
         return (PUSH_TASK,)
+    if isinstance(tasks, str):  # list("hook") would be ['h', 'o', 'o', 'k']
+        raise ValueError(f"tasks must be a sequence of task names, got {tasks!r}")
     names = list(tasks)
     if "all" in names:
         if len(names) > 1:
-            raise ValueError(f"--tasks all stands alone, got {names}")
+            raise ValueError(f"all stands alone (every task with an instance set), got {names}")
         return committed_tasks()
     for name in names:
         if name not in task_names():
@@ -338,7 +351,7 @@ def resolve_tasks(tasks: Sequence[str] | None) -> tuple[str, ...]:
                 f"unknown task {name!r}; known tasks: {', '.join(task_names())} (or all)"
             )
     if not names or len(set(names)) != len(names):
-        raise ValueError(f"--tasks must name distinct tasks, got {names}")
+        raise ValueError(f"tasks must be distinct and at least one, got {names}")
     # In the registry's order (push first), whatever order they were given in: the same tasks
     # make the same config, so runs of them merge.
     return tuple(t for t in task_names() if t in names)
