@@ -477,6 +477,7 @@ def test_an_auc_interval_of_one_block_is_printed_as_not_available():
             "seed": [0, 1, 0, 0],
             "score": [0.2, 0.4, 0.5, 0.7],
             "regret_1": [0.1] * 4,
+            "success_1": [True, False, True, None],
         }
     )
     table = _auc_table(scores, "task").set_index("task")
