@@ -183,16 +183,11 @@ def draw_instances(seed: int = INSTANCE_SEED, n: int = _N_INSTANCES) -> tuple[In
     friction = rng.uniform(*_FRICTION, size=n)
     held = max(1, round(n * _N_HELD_OUT / _N_INSTANCES))
     held_out = set(np.random.default_rng(split_stream).permutation(n)[:held].tolist())
-    return tuple(
-        Instance(
-            id=f"i{k + 1:02d}",
-            number=k + 1,
-            set="held-out" if k in held_out else "public",
-            goal=(round(float(xy[k, 0]), 4), round(float(xy[k, 1]), 4), _GOAL_Z),
-            box_mass=round(float(mass[k]), 4),
-            box_friction=round(float(friction[k]), 4),
-        )
-        for k in range(n)
+    return _numbered(
+        [(round(float(x), 4), round(float(y), 4), _GOAL_Z) for x, y in xy],
+        held_out,
+        [round(float(m), 4) for m in mass],
+        [round(float(f), 4) for f in friction],
     )
 
 
@@ -226,17 +221,34 @@ def draw_task_instances(
     )
     held = max(1, round(n * _TASK_HELD_OUT / TASK_INSTANCES))
     held_out = set(np.random.default_rng(split_stream).permutation(n)[:held].tolist())
+    return _numbered(
+        [(round(float(x), 4), round(float(y), 4), round(float(z), 4)) for x, y, z in goals],
+        held_out,
+        [_TASK_BOX_MASS] * n,
+        [definition.scene.box_friction] * n,
+        task,
+    )
+
+
+def _numbered(
+    goals: Sequence[tuple[float, float, float]],
+    held_out: set[int],
+    masses: Sequence[float],
+    frictions: Sequence[float],
+    task: str = PUSH_TASK,
+) -> tuple[Instance, ...]:
+    """The instances i01, i02, ... of a drawn set; those whose index is in ``held_out`` held out."""
     return tuple(
         Instance(
             id=f"i{k + 1:02d}",
             number=k + 1,
             set="held-out" if k in held_out else "public",
-            goal=tuple(round(float(v), 4) for v in goals[k]),  # type: ignore[arg-type]
-            box_mass=_TASK_BOX_MASS,
-            box_friction=definition.scene.box_friction,
+            goal=goal,
+            box_mass=mass,
+            box_friction=friction,
             task=task,
         )
-        for k in range(n)
+        for k, (goal, mass, friction) in enumerate(zip(goals, masses, frictions, strict=True))
     )
 
 
