@@ -255,3 +255,63 @@ def test_a_plan_refuses_a_bad_floor_fraction():
 
 def test_links_are_not_followed_on_this_platform():
     assert hasattr(os, "symlink")
+
+
+# --- the committed references evaluate again to what they say -------------------------------------
+
+
+@pytest.mark.slow
+def test_the_committed_smoke_references_evaluate_again_within_their_noise_floor():
+    from benchmarks.protocol import verify_references
+
+    table = verify_references(packaged_references("smoke"), SMOKE)
+    assert len(table) == 2 * len(SMOKE.cells())
+    assert set(table["value"]) == {"reference", "straight"}
+    # Bit for bit only on a CPU like the one that computed them; the noise floor on any x86-64.
+    assert table["within_floor"].all(), table
+    assert (table["difference"].abs() <= table["noise_floor"]).all()
+
+
+def test_verify_references_refuses_a_file_of_another_run_or_of_none_of_its_cells(tmp_path):
+    from benchmarks.protocol import verify_references
+
+    data = json.loads(packaged_references("smoke").read_text())
+    path = tmp_path / "refs.json"
+    path.write_text(json.dumps({**data, "goal_precision": 5.0}))
+    with pytest.raises(ValueError, match="goal_precision = 5.0"):
+        verify_references(path, SMOKE)
+    path.write_text(json.dumps({**data, "cells": [c for c in data["cells"] if "task" in c]}))
+    with pytest.raises(ValueError, match="has no cell of this run"):
+        verify_references(path, SMOKE)
+    path.write_text("[]")
+    with pytest.raises(ValueError, match="not a protocol references file"):
+        verify_references(path, SMOKE)
+
+
+@pytest.mark.slow
+def test_cli_verify_references_fails_on_a_value_moved_beyond_its_noise_floor(tmp_path):
+    import subprocess
+    import sys
+
+    data = json.loads(packaged_references("smoke").read_text())
+    cell = data["cells"][0]
+    cell["f_straight"] += 2 * cell["noise_floor"]  # as if the physics had changed under it
+    path = tmp_path / "refs.json"
+    path.write_text(json.dumps(data))
+    command = [sys.executable, "-m", "benchmarks", "protocol", "--size", "smoke", "--no-progress"]
+    done = subprocess.run(
+        [*command, "--verify-references", "--reference-file", str(path)],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert done.returncode == 1, done.stderr
+    assert "8 values of 4 cells" in done.stdout and "7 within their cell's noise" in done.stdout
+    assert f"{cell['instance']}" in done.stdout.split("beyond the noise floor:")[1]
+    bad = subprocess.run(
+        [*command, "--verify-references", "--optimizer", "random"],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert bad.returncode == 2 and "no --optimizer" in bad.stderr

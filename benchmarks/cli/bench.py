@@ -61,7 +61,13 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         f"its own; the rl suite: {', '.join(RL_SIZES)}; the protocol: "
         f"{', '.join(PROTOCOL_SIZES)})",
     )
-    parser.add_argument("--out", type=out_path, required=True, metavar="DIR", help="run folder")
+    parser.add_argument(
+        "--out",
+        type=out_path,
+        default=None,
+        metavar="DIR",
+        help="run folder (required, but by the protocol's --buildable and --verify-references)",
+    )
     parser.add_argument(
         "--config",
         type=Path,
@@ -143,6 +149,11 @@ def config_from_args(args: argparse.Namespace) -> SuiteConfig:
 
 
 def _run(args: argparse.Namespace) -> int:
+    checks_only = args.suite == PROTOCOL_SUITE_NAME and (
+        args.buildable is not None or args.verify_references
+    )
+    if args.out is None and not checks_only:
+        raise ValueError("--out DIR is required: the run folder (see tooldesign bench --help)")
     if args.suite == RL_SUITE_NAME:
         if args.section_shape is not None:
             raise ValueError(

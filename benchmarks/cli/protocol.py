@@ -9,8 +9,11 @@ references of the size into the file ``--out`` instead; ``--with-references`` co
 DIR/references.json after the runs when the references a report would use (the folder's,
 else the committed ones of the size) are none or lack a cell of the run (the full benchmark in
 one resumable command; with ``--tasks``, the other tasks' cells are added to the folder's
-references, or to a copy of the committed ones); ``--buildable N`` prints the fraction of
-N random designs per degree that can be built and used. ``--tasks hook obstacle`` (or
+references, or to a copy of the committed ones); ``--verify-references`` evaluates the
+reference design and the straight tool of every cell of the size's references again on this
+machine and compares them with the file (bit for bit, and within the cell's noise floor);
+``--buildable N`` prints the fraction of N random designs per degree that can be built and
+used. ``--tasks hook obstacle`` (or
 ``--tasks all``) adds the task axis: every named task's cells (push alone by default).
 """
 
@@ -30,6 +33,7 @@ PROTOCOL_ONLY_OPTIONS: tuple[str, ...] = (
     "references",
     "reference_file",
     "with_references",
+    "verify_references",
     "buildable",
 )
 
@@ -83,6 +87,14 @@ def add_protocol_arguments(parser: argparse.ArgumentParser | Any, *, title: str)
         "runs (resumable) and report against them: the whole benchmark in one command",
     )
     group.add_argument(
+        "--verify-references",
+        action="store_true",
+        default=None,
+        help="evaluate the reference design and the straight tool of every cell of the size's "
+        "references (--reference-file, else the committed ones) again on this machine, print "
+        "how far each F moved against its noise floor, and exit (1 if one moved beyond it)",
+    )
+    group.add_argument(
         "--buildable",
         type=int,
         default=None,
@@ -114,6 +126,34 @@ def _lacks_cells(folders: list[Path], size: str, config: Any) -> bool:
             break
     cells = load_references(path, expected_sha256=expected)
     return any((i.label, d) not in cells for i, d in config.cells())
+
+
+def _verify(args: argparse.Namespace, config: Any, size: str, say: Any) -> int:
+    """``--verify-references``: 0 if every value is within its cell's noise floor, else 1."""
+    from benchmarks.protocol import packaged_references, verify_references
+
+    for name in ("references", "with_references", "optimizer", "baseline", "buildable"):
+        if getattr(args, name, None) is not None:
+            raise ValueError(
+                f"--verify-references checks references only: no --{name.replace('_', '-')}"
+            )
+    path = args.reference_file or packaged_references(size)
+    if path is None:
+        raise ValueError(f"no committed references of size {size!r}: give --reference-file")
+    table = verify_references(path, config, say=say)
+    identical = int(table["identical"].sum())
+    beyond = table[~table["within_floor"]]
+    n_cells = len(table[["task", "instance", "d"]].drop_duplicates())
+    print(
+        f"{path}: {len(table)} values of {n_cells} "
+        f"cells evaluated again: {identical} identical to the bit, "
+        f"{len(table) - len(beyond)} within their cell's noise floor"
+    )
+    if len(beyond):
+        print("beyond the noise floor:")
+        print(beyond.to_string(index=False))
+        return 1
+    return 0
 
 
 def run_protocol_command(args: argparse.Namespace) -> int:
@@ -173,6 +213,8 @@ def run_protocol_command(args: argparse.Namespace) -> int:
     if changes:
         config = config.replace(**changes)
     say = None if args.no_progress else (lambda line: print(line, flush=True))
+    if args.verify_references:
+        return _verify(args, config, size, say)
     if args.references:
         if args.with_references:
             raise ValueError("--references and --with-references: give one")

@@ -41,6 +41,7 @@ from benchmarks.protocol.references import (
     load_references,
     packaged_references,
     reference_plan,
+    verify_references,
 )
 from benchmarks.protocol.report import load_runs, make_protocol_report, measure_runs
 from benchmarks.protocol.suite import (
@@ -78,4 +79,5 @@ __all__ = [
     "resolve_tasks",
     "run_protocol",
     "select_instances",
+    "verify_references",
 ]

@@ -81,6 +81,7 @@ __all__ = [
     "load_references",
     "packaged_references",
     "reference_plan",
+    "verify_references",
 ]
 
 REFERENCE_FORMAT = "tooldesign-protocol-references"
@@ -599,3 +600,80 @@ def compute_references(
     atomic_write_text(out, json.dumps(record, indent=1) + "\n")
     shutil.rmtree(parts)  # every cell is in the file now
     return out
+
+
+def verify_references(
+    path: str | os.PathLike[str],
+    config: ProtocolConfig,
+    *,
+    say: Callable[[str], None] | None = None,
+) -> Any:
+    """Evaluate every cell's reference design and straight tool again, on this machine and tree.
+
+    A references file is computed once and committed, so that no user recomputes it; this is
+    how a user checks it cheaply (two evaluations a cell, seconds for the smoke size, about a
+    minute for the full one). Each value is compared with the file's: ``identical`` is bit for
+    bit (what the same tree gives on the same CPU), ``within_floor`` is the project's
+    equivalence rule, a difference no larger than the cell's noise floor (what another x86-64
+    CPU or a change that moves F inside its noise may give).
+
+    Args:
+        path: The references file.
+        config: The run whose cells are checked (its instance set, p^X, size and plan must
+            match the file's: :func:`check_references_match`); cells of the file that
+            ``config`` does not run are not checked.
+        say: Called with one line per cell.
+
+    Returns:
+        A ``pandas.DataFrame``, a row per (cell, value): ``task``, ``instance``, ``d``,
+        ``value`` (``"reference"`` or ``"straight"``), ``f_file``, ``f_now`` (NaN if the design
+        is no longer usable), ``difference``, ``noise_floor``, ``identical``, ``within_floor``.
+
+    Raises:
+        ValueError: The file is not a references file of ``config`` (naming the field), or it
+            has none of ``config``'s cells.
+    """
+    import pandas as pd
+
+    from benchmarks.execution import make_executor
+
+    cells = load_references(path, config=config)
+    todo = [(i, d) for i, d in config.cells() if (i.label, d) in cells]
+    if not todo:
+        raise ValueError(f"{path} has no cell of this run ({len(config.cells())} cells)")
+    rows: list[dict[str, Any]] = []
+    with make_executor(config.executor, config.workers, config.scheduler) as pool:
+        for instance, degree in todo:
+            cell = cells[(instance.label, degree)]
+            task = _task(config, instance, degree)
+            designs = np.array([cell["design"], np.zeros(degree)], dtype=float)
+            now = _evaluate(pool, designs, task)
+            floor = float(cell["noise_floor"])
+            for value, key, row in zip(
+                ("reference", "straight"), ("f_ref", "f_straight"), now, strict=True
+            ):
+                f_file = float(cell[key])
+                f_now = float(row["free_energy"]) if row["status"] == "ok" else math.nan
+                difference = f_now - f_file
+                rows.append(
+                    {
+                        "task": instance.task,
+                        "instance": instance.id,
+                        "d": degree,
+                        "value": value,
+                        "f_file": f_file,
+                        "f_now": f_now,
+                        "difference": difference,
+                        "noise_floor": floor,
+                        "identical": f_now == f_file,
+                        "within_floor": bool(abs(difference) <= floor),  # NaN: False
+                    }
+                )
+            if say is not None:
+                last = rows[-2:]
+                say(
+                    f"verified {instance.label} d = {degree}: reference "
+                    f"{last[0]['difference']:+.6g}, straight {last[1]['difference']:+.6g} "
+                    f"(noise floor {floor:.4g})"
+                )
+    return pd.DataFrame(rows)
