@@ -516,3 +516,31 @@ def test_references_seeded_from_another_run_or_a_missing_file_are_refused(tmp_pa
     with pytest.raises(ValueError, match="references file .*missing.json does not exist"):
         compute_references(config, tmp_path / "out.json", seed_from=tmp_path / "missing.json")
     assert not (tmp_path / "out.json").exists()
+
+
+@pytest.mark.slow
+def test_tooldesign_report_rebuilds_a_protocol_folder_kept_without_its_part_files(tmp_path):
+    """Committed protocol results keep the cells' tables, not their part files: they cannot
+    be resumed, but ``tooldesign report`` rebuilds their report, the same as the run's."""
+    from benchmarks.cli import main
+    from benchmarks.protocol.report import record_references
+
+    folder = tmp_path / "old"
+    shutil.copytree(
+        OLD, folder, ignore=shutil.ignore_patterns("report", "README.md", "references-*")
+    )
+    references = OLD / "references-smoke.json"
+    make_protocol_report([folder], tmp_path / "with-parts", references=references)
+    for parts in list(folder.rglob("parts")):
+        shutil.rmtree(parts)
+    with pytest.raises(ValueError, match="missing"):  # not resumable any more
+        run_protocol(load_runs(folder)[0], folder, progress=False)
+    (folder / "references.json").write_bytes(references.read_bytes())
+    record_references(folder)  # the references a report finds first: the folder's own
+    assert main(["report", str(folder)]) == 0
+    for name in sorted(p.name for p in (tmp_path / "with-parts").glob("*.csv")):
+        assert (folder / "report" / name).read_text() == (
+            tmp_path / "with-parts" / name
+        ).read_text(), name
+    assert main(["report", str(folder), "--out", str(tmp_path / "elsewhere")]) == 0
+    assert (tmp_path / "elsewhere" / "report.md").is_file()

@@ -19,7 +19,8 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
             "suite's own figures and tables, or a design run's Figure 3 and robustness plot) "
             "from its stored results alone; nothing is simulated. A report.html in the run "
             "folder (tooldesign html) is rebuilt too, so it shows the new figures (not with "
-            "--out, whose figures it does not embed). See docs/benchmarks.md."
+            "--out, whose figures it does not embed). A protocol run folder gets its protocol "
+            "report (docs/protocol.md). See docs/benchmarks.md."
         ),
     )
     parser.add_argument("run_folder", type=Path, metavar="RUN_FOLDER", help="the run folder")
@@ -33,6 +34,10 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 def _run(args: argparse.Namespace) -> int:
     if not Path(args.run_folder).is_dir():  # before the imports (seconds)
         raise FileNotFoundError(f"run folder {shown(args.run_folder)} does not exist")
+    from benchmarks.protocol.suite import PROTOCOL_FILE
+
+    if (Path(args.run_folder) / PROTOCOL_FILE).is_file():
+        return _protocol_report(args)
     from benchmarks.reports import make_suite_report, write_design_report, write_html_report
     from benchmarks.reports.design_figures import read_design_run
     from benchmarks.reports.html import REPORT_FILE
@@ -67,6 +72,25 @@ def _run(args: argparse.Namespace) -> int:
             print(f"{write_html_report(args.run_folder)} rebuilt")
         except UnsafeRunFileError as error:  # a page of the user's own: theirs, kept
             print(f"{page} left as it is: {error}")
+    return 0
+
+
+def _protocol_report(args: argparse.Namespace) -> int:
+    """A protocol run folder's report, from its cells' stored evaluations.
+
+    A finished run's folder kept without its cells' part files, as committed results are,
+    cannot be resumed, but its report can be rebuilt, with the references it would use (its
+    own recorded ``references.json``, else the committed ones of its size).
+    """
+    from benchmarks.protocol import make_protocol_report
+    from benchmarks.reports import write_html_report
+    from benchmarks.reports.html import REPORT_FILE
+
+    files = make_protocol_report([args.run_folder], args.out)
+    folder = files[0].parent if files else args.run_folder
+    print(f"{len(files)} protocol report files written to {folder}")
+    if args.out is None and (Path(args.run_folder) / REPORT_FILE).is_file():
+        print(f"{write_html_report(args.run_folder)} rebuilt")
     return 0
 
 

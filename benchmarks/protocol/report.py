@@ -465,6 +465,18 @@ def find_references(
     return packaged_references(size)
 
 
+def _shown_references(path: str | os.PathLike[str], size: str) -> str:
+    """The references' path as a report shows it.
+
+    The committed ones by their place in the package (``benchmarks/protocol/data/...``), not by
+    where it is installed on this machine.
+    """
+    packaged = packaged_references(size)
+    if packaged is not None and Path(path).resolve() == packaged.resolve():
+        return f"benchmarks/protocol/data/{packaged.name}"
+    return str(path)
+
+
 def make_protocol_report(
     folders: Sequence[str | os.PathLike[str]],
     out_dir: str | os.PathLike[str] | None = None,
@@ -553,7 +565,7 @@ def make_protocol_report(
         f"{list(degrees)}, {config.n_seeds} seed(s), budgets "
         f"{', '.join(f'd = {d}: {b}' for d, b in budgets.items())} evaluations, p^X = "
         f"{config.goal_precision:g}. Run folders: {', '.join(str(f) for f in folders)}. "
-        f"References: `{ref_path}` (SHA-256 {digest}...).",
+        f"References: `{_shown_references(ref_path, config.size)}` (SHA-256 {digest}...).",
         "",
         *(
             []
