@@ -29,6 +29,7 @@ from tooldesign_env.specs import (
 )
 
 __all__ = [
+    "HEIGHT_TOLERANCE",
     "OBJECT_SHAPES",
     "Obstacle",
     "TaskDefinition",
@@ -41,6 +42,12 @@ OBJECT_SHAPES = ("box", "cylinder")
 
 #: Largest success radius accepted, m: past it "success" no longer says the box reached its goal.
 TOLERANCE_MAX = 1.0
+
+#: Default of :attr:`TaskDefinition.height_tolerance`, m: a box or puck standing on the floor
+#: ends within a millimetre of its resting height; one lying on its side (a 0.1 x 0.1 x 0.2 m
+#: box: 0.05 m) or tipped onto an obstacle (measured 0.067 to 0.084 m on the obstacle task's
+#: curb) is 0.016 m or more below it.
+HEIGHT_TOLERANCE = 0.01
 
 #: Extents of an obstacle accepted, m (a 1 cm post to a 3 m wall).
 OBSTACLE_SIZE_MIN = 0.01
@@ -168,7 +175,11 @@ class TaskDefinition:
             (``randomize_goal=True``) and, unless ``accepts_any_goal``, the only goals taken.
         goal_high: its high corner, m.
         tolerance: success radius, m: an episode succeeds when the box ends within it of the
-            goal (``info["success"]``).
+            goal (``info["success"]``) and stands as it started (``height_tolerance``).
+        height_tolerance: the largest distance, m, of the box centre's final height from its
+            resting height (half the box's height, where it starts) that still counts as
+            standing on the floor: a box that ends lying on its side or tipped onto an obstacle
+            is not at the goal, wherever its centre is. Default :data:`HEIGHT_TOLERANCE`.
         obstacles: fixed bodies on the floor (:class:`Obstacle`).
         object_shape: the moved object's shape, one of :data:`OBJECT_SHAPES`.
         accepts_any_goal: take a goal anywhere in the workspace (the paper's push task, as
@@ -188,6 +199,7 @@ class TaskDefinition:
     goal_low: tuple[float, float, float]
     goal_high: tuple[float, float, float]
     tolerance: float
+    height_tolerance: float = HEIGHT_TOLERANCE
     obstacles: tuple[Obstacle, ...] = ()
     object_shape: str = "box"
     accepts_any_goal: bool = False
@@ -223,6 +235,13 @@ class TaskDefinition:
                 f"got {self.tolerance!r}"
             )
         object.__setattr__(self, "tolerance", tolerance)
+        height_tolerance = check_real(self.height_tolerance, "TaskDefinition.height_tolerance")
+        if not 0.0 < height_tolerance <= TOLERANCE_MAX:
+            raise ValueError(
+                f"TaskDefinition.height_tolerance must be a number of metres in "
+                f"(0, {TOLERANCE_MAX:g}], got {self.height_tolerance!r}"
+            )
+        object.__setattr__(self, "height_tolerance", height_tolerance)
         obstacles = tuple(self.obstacles)
         for item in obstacles:
             if not isinstance(item, Obstacle):
@@ -289,6 +308,27 @@ class TaskDefinition:
                     f"{[round(v, 3) for v in scene.box_position]}; move the box "
                     "(scene box_position) or the obstacle"
                 )
+
+    def succeeded(
+        self, final_distance: float, final_height: float, scene: SceneSpec | None = None
+    ) -> bool:
+        """Whether a box that ended so far from the goal, at this height, is at the goal.
+
+        Args:
+            final_distance: the box centre's final distance to the goal, m.
+            final_height: the box centre's final height above the floor, m.
+            scene: the scene whose box it is (default: the task's): its resting height is half
+                its height.
+
+        Returns:
+            ``final_distance <= tolerance`` and the height within ``height_tolerance`` of
+            the resting height.
+        """
+        rest = self.box_start(scene)[2]
+        return bool(
+            final_distance <= self.tolerance
+            and abs(final_height - rest) <= self.height_tolerance
+        )
 
     def sample_goal(self, rng: np.random.Generator) -> np.ndarray:
         """A goal (3,) m drawn uniformly from the goal range with ``rng``."""
