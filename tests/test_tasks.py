@@ -207,6 +207,9 @@ def test_an_obstacle_refuses_bad_fields(kwargs, error, match):
         ({"height_tolerance": -0.01}, r"height_tolerance .* got -0\.01"),
         ({"height_tolerance": 2.0}, r"height_tolerance .* got 2\.0"),
         ({"height_tolerance": float("nan")}, "height_tolerance must be a finite number"),
+        ({"max_tilt": 0.0}, r"max_tilt must be an angle in \(0, pi/2\] rad, got 0\.0"),
+        ({"max_tilt": 2.0}, r"max_tilt .* got 2\.0"),
+        ({"max_tilt": float("inf")}, "max_tilt must be a finite number"),
         ({"goal_low": (0.0, 1.0, 0.1), "goal_high": (-0.1, 1.0, 0.1)}, "low <= high"),
         ({"goal": (0.0, 0.0, 0.1)}, "outside the hook task's goal range"),
         ({"object_shape": "sphere"}, "object_shape"),
@@ -231,13 +234,39 @@ def test_success_needs_the_box_standing_at_the_goal(name):
     assert task.succeeded(task.tolerance, rest)
     assert task.succeeded(0.0, rest + task.height_tolerance)
     assert not task.succeeded(task.tolerance + 1e-9, rest)
-    # Lying on its side (0.05 m) or tipped onto the obstacle task's curb (0.067 to 0.084 m,
-    # docs/tasks.md): not at the goal, however near its centre is.
-    for height in (0.05, 0.067, 0.084, rest - task.height_tolerance - 1e-9):
+    # Lying on its side (0.05 m) or tipped onto a curb (about 0.08 m): not at the goal,
+    # however near its centre is.
+    for height in (0.05, 0.08, rest - task.height_tolerance - 1e-9):
         assert not task.succeeded(0.0, height)
     # The resting height is the scene's box's: a taller box rests higher.
     tall = replace(task.scene, box_size=(0.1, 0.1, 0.3))
     assert task.succeeded(0.0, 0.15, tall) and not task.succeeded(0.0, rest, tall)
+    # Leaning by 45 degrees its centre is 0.106 m high, within the height tolerance: the tilt
+    # tells it from a standing box.
+    assert task.max_tilt == pytest.approx(math.radians(10.0))
+    assert task.succeeded(0.0, rest, final_tilt=task.max_tilt)
+    assert not task.succeeded(0.0, 0.106, final_tilt=math.radians(45.0))
+    assert not task.succeeded(0.0, rest, final_tilt=math.nextafter(task.max_tilt, 4.0))
+
+
+def test_the_final_tilt_is_the_angle_of_the_box_up_axis():
+    from tooldesign_env.rollout import Trajectory
+
+    def tilt(quaternion: tuple[float, ...] | None) -> float | None:
+        empty = np.zeros(1)
+        return Trajectory(
+            times=empty, box_position=np.zeros((1, 3)), torques=np.zeros((1, 7)),
+            joint_positions=np.zeros((1, 7)), tool_position=np.zeros((1, 3)), tool_yaw=empty,
+            contact=np.zeros(1, dtype=bool), phase=np.zeros(1, dtype=np.int8),
+            tracking_error=empty, fast_forward_from=1, box_final_orientation=quaternion,
+        ).box_final_tilt
+
+    half = math.sqrt(0.5)
+    assert tilt(None) is None
+    assert tilt((0.0, 0.0, 0.0, 1.0)) == 0.0
+    assert tilt((0.0, 0.0, half, half)) == 0.0  # a turn about z is no tilt
+    assert tilt((half, 0.0, 0.0, half)) == pytest.approx(math.pi / 2)  # on its side
+    assert tilt((0.0, 1.0, 0.0, 0.0)) == pytest.approx(math.pi)  # upside down
 
 
 # ------------------------------------------------------------------ the envs
@@ -328,7 +357,10 @@ def test_success_is_the_final_distance_within_the_tolerance_standing(name):
         env.reset(seed=0)
         info = env.step(np.zeros(3))[4]
         assert info["task"] == name
-        standing = abs(info["final_height"] - task.box_start()[2]) <= task.height_tolerance
+        standing = (
+            abs(info["final_height"] - task.box_start()[2]) <= task.height_tolerance
+            and info["final_tilt"] <= task.max_tilt
+        )
         assert info["success"] is (
             info["valid"] and info["final_distance"] <= task.tolerance and standing
         )
@@ -337,6 +369,7 @@ def test_success_is_the_final_distance_within_the_tolerance_standing(name):
         rest = task.box_start()[2]
         assert env.success(task.tolerance, True, rest)
         assert not env.success(0.0, True, 0.079)  # tipped: not a success at the goal itself
+        assert not env.success(0.0, True, rest, math.radians(45.0))  # leaning
     finally:
         env.close()
 

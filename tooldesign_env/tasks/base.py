@@ -30,6 +30,7 @@ from tooldesign_env.specs import (
 
 __all__ = [
     "HEIGHT_TOLERANCE",
+    "MAX_TILT",
     "OBJECT_SHAPES",
     "Obstacle",
     "TaskDefinition",
@@ -48,6 +49,11 @@ TOLERANCE_MAX = 1.0
 #: box: 0.05 m) or tipped onto an obstacle (measured 0.067 to 0.084 m on the obstacle task's
 #: curb) is 0.016 m or more below it.
 HEIGHT_TOLERANCE = 0.01
+
+#: Default of :attr:`TaskDefinition.max_tilt`, rad (10 degrees): a box standing on the floor
+#: ends upright to a fraction of a degree; one tipped onto an obstacle or leaning on it leans by
+#: tens of degrees (measured about 60 to 75 on the obstacle task's curb), one lying by 90.
+MAX_TILT = math.radians(10.0)
 
 #: Extents of an obstacle accepted, m (a 1 cm post to a 3 m wall).
 OBSTACLE_SIZE_MIN = 0.01
@@ -175,11 +181,16 @@ class TaskDefinition:
             (``randomize_goal=True``) and, unless ``accepts_any_goal``, the only goals taken.
         goal_high: its high corner, m.
         tolerance: success radius, m: an episode succeeds when the box ends within it of the
-            goal (``info["success"]``) and stands as it started (``height_tolerance``).
+            goal (``info["success"]``) and stands on the floor (``max_tilt`` and
+            ``height_tolerance``).
+        max_tilt: the largest angle of the box's up axis from the vertical at the end, rad,
+            that still counts as standing: a box that ends lying on its side, tipped onto an
+            obstacle or leaning on one is not at the goal, wherever its centre is. Default
+            :data:`MAX_TILT` (10 degrees).
         height_tolerance: the largest distance, m, of the box centre's final height from its
             resting height (half the box's height, where it starts) that still counts as
-            standing on the floor: a box that ends lying on its side or tipped onto an obstacle
-            is not at the goal, wherever its centre is. Default :data:`HEIGHT_TOLERANCE`.
+            standing on the floor (not on an obstacle, nor lying). Default
+            :data:`HEIGHT_TOLERANCE`.
         obstacles: fixed bodies on the floor (:class:`Obstacle`).
         object_shape: the moved object's shape, one of :data:`OBJECT_SHAPES`.
         accepts_any_goal: take a goal anywhere in the workspace (the paper's push task, as
@@ -199,6 +210,7 @@ class TaskDefinition:
     goal_low: tuple[float, float, float]
     goal_high: tuple[float, float, float]
     tolerance: float
+    max_tilt: float = MAX_TILT
     height_tolerance: float = HEIGHT_TOLERANCE
     obstacles: tuple[Obstacle, ...] = ()
     object_shape: str = "box"
@@ -242,6 +254,13 @@ class TaskDefinition:
                 f"(0, {TOLERANCE_MAX:g}], got {self.height_tolerance!r}"
             )
         object.__setattr__(self, "height_tolerance", height_tolerance)
+        max_tilt = check_real(self.max_tilt, "TaskDefinition.max_tilt")
+        if not 0.0 < max_tilt <= math.pi / 2:
+            raise ValueError(
+                f"TaskDefinition.max_tilt must be an angle in (0, pi/2] rad, got "
+                f"{self.max_tilt!r}"
+            )
+        object.__setattr__(self, "max_tilt", max_tilt)
         obstacles = tuple(self.obstacles)
         for item in obstacles:
             if not isinstance(item, Obstacle):
@@ -310,24 +329,32 @@ class TaskDefinition:
                 )
 
     def succeeded(
-        self, final_distance: float, final_height: float, scene: SceneSpec | None = None
+        self,
+        final_distance: float,
+        final_height: float,
+        scene: SceneSpec | None = None,
+        *,
+        final_tilt: float | None = None,
     ) -> bool:
-        """Whether a box that ended so far from the goal, at this height, is at the goal.
+        """Whether a box that ended so far from the goal, this high and this tilted, is at it.
 
         Args:
             final_distance: the box centre's final distance to the goal, m.
             final_height: the box centre's final height above the floor, m.
             scene: the scene whose box it is (default: the task's): its resting height is half
                 its height.
+            final_tilt: the final angle of the box's up axis from the vertical, rad; None
+                checks the height alone.
 
         Returns:
-            ``final_distance <= tolerance`` and the height within ``height_tolerance`` of
-            the resting height.
+            ``final_distance <= tolerance``, the height within ``height_tolerance`` of the
+            resting height and the tilt at most ``max_tilt``.
         """
         rest = self.box_start(scene)[2]
         return bool(
             final_distance <= self.tolerance
             and abs(final_height - rest) <= self.height_tolerance
+            and (final_tilt is None or final_tilt <= self.max_tilt)
         )
 
     def sample_goal(self, rng: np.random.Generator) -> np.ndarray:
