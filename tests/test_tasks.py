@@ -158,15 +158,20 @@ def test_footprints_that_touch_overlap_as_check_scene_says():
     assert footprints_overlap(square, ((0.1, 0.0), (0.1, 0.1), 0.0))
     assert footprints_overlap(square, ((0.0, -0.1), (0.1, 0.1), 0.0))
     assert not footprints_overlap(square, ((0.1 + 1e-9, 0.0), (0.1, 0.1), 0.0))
-    # The box's start, edge to edge against the obstacle task's post: refused.
+    # The box's start, turned with the obstacle task's curb and end to end against it (to
+    # within 1e-9 m): refused; 1e-6 m beyond its end: accepted.
     obstacle = get_task("obstacle")
-    post = obstacle.obstacles[0]
-    assert post.yaw == 0.0 and obstacle.scene.box_yaw == 0.0
-    x = post.position[0] + (post.size[0] + obstacle.scene.box_size[0]) / 2
-    touching = replace(obstacle.scene, box_position=(x, post.position[1]))
-    with pytest.raises(ValueError, match="overlaps the box's start"):
-        obstacle.check_scene(touching)
-    obstacle.check_scene(replace(touching, box_position=(x + 1e-6, post.position[1])))
+    (curb,) = obstacle.obstacles
+    along = np.array([math.cos(curb.yaw), math.sin(curb.yaw)])
+    reach = (curb.size[0] + obstacle.scene.box_size[0]) / 2
+    for gap, refused in ((-1e-9, True), (1e-6, False)):
+        x, y = np.asarray(curb.position) + (reach + gap) * along
+        scene = replace(obstacle.scene, box_position=(float(x), float(y)), box_yaw=curb.yaw)
+        if refused:
+            with pytest.raises(ValueError, match="overlaps the box's start"):
+                obstacle.check_scene(scene)
+        else:
+            obstacle.check_scene(scene)
 
 
 def test_an_obstacle_overlapping_the_box_start_is_refused():
@@ -510,8 +515,8 @@ def test_a_design_config_records_its_task_only_when_it_is_not_push():
         ({"task_name": "nope"}, "unknown task 'nope'; known tasks: push"),
         ({"task_name": "hook"}, r"goal \[0.0, 1.5, 0.1\] is outside the hook task's goal range"),
         (
-            {"task_name": "obstacle", "goal": (-0.25, 1.3, 0.1),
-             "scene": {"box_position": [0.875, 1.5]}},
+            {"task_name": "obstacle", "goal": (-0.25, 0.75, 0.1),
+             "scene": {"box_position": [0.75, 1.3]}},  # on the curb
             "overlaps the box's start",
         ),
     ],
