@@ -275,7 +275,9 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
     * v0: the initial version. ``info["success"]`` and ``info["task"]`` and the ``task``
       argument were added on 2026-11-27; nothing a push episode computes changed. The same
       day ``info["final_height"]`` and ``info["final_tilt"]`` were added and ``success``
-      also asks the box to end standing (``TaskDefinition.max_tilt``, ``height_tolerance``).
+      also asks the box to end standing (``TaskDefinition.max_tilt``, ``height_tolerance``),
+      and the obstacle task (``ToolDesign-Obstacle-v0``, not yet released) had its post
+      beyond the box's way replaced by a curb across it, with goals beyond the curb.
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 4}
