@@ -51,8 +51,9 @@ TOLERANCE_MAX = 1.0
 HEIGHT_TOLERANCE = 0.01
 
 #: Default of :attr:`TaskDefinition.max_tilt`, rad (10 degrees): a box standing on the floor
-#: ends upright to a fraction of a degree; one tipped onto an obstacle or leaning on it leans by
-#: tens of degrees (measured about 60 to 75 on the obstacle task's curb), one lying by 90.
+#: ends upright to a hundredth of a degree (at most 0.012 over the baselines of push, hook and
+#: puck); one lying on its side is turned by 90 degrees, one tipped onto the obstacle task's
+#: curb by 90 to 112 (docs/results/tasks/walls-output.txt).
 MAX_TILT = math.radians(10.0)
 
 #: Extents of an obstacle accepted, m (a 1 cm post to a 3 m wall).
