@@ -547,3 +547,34 @@ def test_the_tier_rule_of_docs_tasks():
     assert [tier(p) for p in (0.0, 0.009, 0.01, 0.0999, 0.10, 0.5)] == [
         "hard", "hard", "medium", "medium", "easy", "easy"
     ]
+
+
+@pytest.mark.slow  # importing the studies takes about 1 s
+def test_the_studies_refuse_bad_input_and_merge_one_task(tmp_path):
+    import argparse
+
+    from perf.studies.task_baselines import merge_results
+    from perf.studies.task_pictures import main as pictures
+    from perf.studies.task_placements import _wall
+
+    assert _wall("60:1.3:1.7:0.04") == (60.0, 1.3, 1.7, 0.04, 0.5)
+    assert _wall("60:1.3:1.7:0.04:1.0")[-1] == 1.0
+    for text in ("60:1.3:1.7", "60:1.7:1.3:0.04", "60:1.3:1.7:0", "60:1.3:1.7:0.04:-1",
+                 "60:a:1.7:0.04"):
+        with pytest.raises(argparse.ArgumentTypeError, match="a wall"):
+            _wall(text)
+    # --merge replaces the measured task's entry in place and keeps the others as they were.
+    path = tmp_path / "baselines.json"
+    path.write_text(json.dumps([{"task": "push", "x": 1}, {"task": "obstacle", "x": 2},
+                                {"task": "puck", "x": 3}]))
+    merged = merge_results(str(path), [{"task": "obstacle", "x": 9}, {"task": "new", "x": 4}])
+    assert merged == [{"task": "push", "x": 1}, {"task": "obstacle", "x": 9},
+                      {"task": "puck", "x": 3}, {"task": "new", "x": 4}]
+    assert merge_results(str(tmp_path / "none.json"), [{"task": "a"}]) == [{"task": "a"}]
+    path.write_text(json.dumps({"task": "push"}))
+    with pytest.raises(ValueError, match="--merge: .* is not a list of task entries"):
+        merge_results(str(path), [])
+    path.write_text(json.dumps([{"task": "push"}]))
+    with pytest.raises(SystemExit, match="--task: nope not in"):
+        pictures(["--baselines", str(path), "--out", str(tmp_path / "out"), "--task", "nope"])
+    assert not (tmp_path / "out").exists()  # refused before anything is written

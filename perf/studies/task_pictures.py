@@ -57,12 +57,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 def main(argv: list[str] | None = None) -> int:
     """Write each task's scene still and best design's GIF."""
     args = parse_args(argv)
-    args.out.mkdir(parents=True, exist_ok=True)
     results = json.loads(args.baselines.read_text())
     known = [result["task"] for result in results]
     unknown = sorted(set(args.task or ()) - set(known))
     if unknown:
         raise SystemExit(f"--task: {', '.join(unknown)} not in {args.baselines} ({known})")
+    args.out.mkdir(parents=True, exist_ok=True)
     for result in results:
         task = result["task"]
         if args.task and task not in args.task:
