@@ -58,8 +58,10 @@ OBSTACLE = TaskDefinition(
         "way: the sweep pushes the box along an arc around the base into the curb, so a tool "
         "that only pushes leaves it there, and a tool must hold the box in a bend to carry it "
         "on a smaller radius around the curb's inner end; the pull that follows brings the "
-        "box toward the base, to the goals, which only a tool holding it can do. The curb is "
-        "lower than the grasp height (0.08 m), so the tool passes over it."
+        "box toward the base, to the goals, which only a tool holding it can do. The grasp "
+        "height stays 0.08 m: the tool's underside, 0.065 m up, passes over the 0.04 m curb, "
+        "and a grasp high enough to pass over a wall taller than the box would pass over the "
+        "box too."
     ),
     obstacles=(
         Obstacle(
