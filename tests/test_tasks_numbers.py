@@ -1,13 +1,14 @@
 """docs/tasks.md quotes what the committed results in docs/results/tasks/ hold (no rerun here).
 
-Every measured figure of the page comes from one of four files: ``baselines.json`` (written by
+Every measured figure of the page comes from one of five files: ``baselines.json`` (written by
 ``python -m perf.studies.task_baselines --json``), ``noise-floor.json`` (its
-``--noise-floor-only``, which keeps each design's F per nudged scene), and
+``--noise-floor-only``, which keeps each design's F per nudged scene),
 ``placements-output.txt`` and ``walls-output.txt`` (``python -m perf.studies.task_placements``,
-the second with ``--walls``). The results table is
-rebuilt from baselines.json and compared line by line; each figure of the prose is formatted
-from its file and looked for on the page, so a rerun that moves a number fails here until the
-page says the new one.
+the second with ``--walls``) and ``success-standing-output.txt`` (``python -m
+perf.studies.task_success_standing``); the figures that are definitions come from the task
+registry. The results table is rebuilt from baselines.json and compared line by line; each
+figure of the prose is formatted from its file and looked for on the page, so a rerun that
+moves a number fails here until the page says the new one.
 """
 
 from __future__ import annotations
@@ -225,6 +226,28 @@ def _wall_claims() -> list[str]:
     angles = re.search(r"corners are at ([\d.]+) to ([\d.]+) degrees", sections[chosen])
     claims.append(f"lie beyond it along that way ({angles[1]} to {angles[2]} degrees)")
     return claims
+
+
+def test_the_standing_test_changed_no_success_of_the_baselines():
+    """success-standing-output.txt: every task's 191 baseline evaluations, both rules."""
+    text = (RESULTS / "success-standing-output.txt").read_text(encoding="utf-8")
+    lines = dict(re.findall(r"^(\w+): (.*)$", text, flags=re.MULTILINE))
+    assert sorted(lines) == sorted(TASKS)
+    tilts = {}
+    for task, line in lines.items():
+        assert "191 evaluations" in line and "differing 0;" in line, task
+        tilts[task] = float(re.search(r"largest final tilt ([\d.]+) degrees", line)[1])
+    upright = max(tilts[t] for t in ("push", "hook", "puck"))
+    assert upright < 1.0
+    assert f"(largest tilt {upright:.3f} degrees)" in _page()
+    baselines = _baselines()
+    successes = int(re.search(r"standing too (\d+)", lines["obstacle"])[1])
+    row = baselines["obstacle"]
+    from_json = (sum(r["success"] for r in row["named"].values())
+                 + round(row["random"]["success_rate"] * row["random"]["n"])
+                 + round(row["cmaes"]["success_rate_of_its_evaluations"]
+                         * row["cmaes"]["evaluations"]))
+    assert successes == from_json  # the same evaluations as baselines.json's
 
 
 def _claims() -> list[str]:
