@@ -299,7 +299,7 @@ def test_an_old_push_folder_resumes_and_reports_unchanged(tmp_path, monkeypatch)
 
 
 @pytest.mark.slow
-# The obstacle task's tools caught on the post are simulated twice, with a warning (docs/tasks.md).
+# A tool held up by an obstacle is simulated twice, with a warning (the floor guard).
 @pytest.mark.filterwarnings("ignore:the arm or the tool may have come within:RuntimeWarning")
 def test_tasks_end_to_end_with_a_users_optimizer_merged(protocol_smoke, tmp_path):
     config = protocol_config("smoke", tasks=["all"]).replace(executor="serial")

@@ -158,15 +158,20 @@ def test_footprints_that_touch_overlap_as_check_scene_says():
     assert footprints_overlap(square, ((0.1, 0.0), (0.1, 0.1), 0.0))
     assert footprints_overlap(square, ((0.0, -0.1), (0.1, 0.1), 0.0))
     assert not footprints_overlap(square, ((0.1 + 1e-9, 0.0), (0.1, 0.1), 0.0))
-    # The box's start, edge to edge against the obstacle task's post: refused.
+    # The box's start, turned with the obstacle task's curb and end to end against it (to
+    # within 1e-9 m): refused; 1e-6 m beyond its end: accepted.
     obstacle = get_task("obstacle")
-    post = obstacle.obstacles[0]
-    assert post.yaw == 0.0 and obstacle.scene.box_yaw == 0.0
-    x = post.position[0] + (post.size[0] + obstacle.scene.box_size[0]) / 2
-    touching = replace(obstacle.scene, box_position=(x, post.position[1]))
-    with pytest.raises(ValueError, match="overlaps the box's start"):
-        obstacle.check_scene(touching)
-    obstacle.check_scene(replace(touching, box_position=(x + 1e-6, post.position[1])))
+    (curb,) = obstacle.obstacles
+    along = np.array([math.cos(curb.yaw), math.sin(curb.yaw)])
+    reach = (curb.size[0] + obstacle.scene.box_size[0]) / 2
+    for gap, refused in ((-1e-9, True), (1e-6, False)):
+        x, y = np.asarray(curb.position) + (reach + gap) * along
+        scene = replace(obstacle.scene, box_position=(float(x), float(y)), box_yaw=curb.yaw)
+        if refused:
+            with pytest.raises(ValueError, match="overlaps the box's start"):
+                obstacle.check_scene(scene)
+        else:
+            obstacle.check_scene(scene)
 
 
 def test_an_obstacle_overlapping_the_box_start_is_refused():
@@ -203,6 +208,13 @@ def test_an_obstacle_refuses_bad_fields(kwargs, error, match):
     [
         ({"tolerance": 0.0}, "tolerance"),
         ({"tolerance": 2.0}, "tolerance"),
+        ({"height_tolerance": 0.0}, r"height_tolerance must be a number of metres .* got 0\.0"),
+        ({"height_tolerance": -0.01}, r"height_tolerance .* got -0\.01"),
+        ({"height_tolerance": 2.0}, r"height_tolerance .* got 2\.0"),
+        ({"height_tolerance": float("nan")}, "height_tolerance must be a finite number"),
+        ({"max_tilt": 0.0}, r"max_tilt must be an angle in \(0, pi/2\] rad, got 0\.0"),
+        ({"max_tilt": 2.0}, r"max_tilt .* got 2\.0"),
+        ({"max_tilt": float("inf")}, "max_tilt must be a finite number"),
         ({"goal_low": (0.0, 1.0, 0.1), "goal_high": (-0.1, 1.0, 0.1)}, "low <= high"),
         ({"goal": (0.0, 0.0, 0.1)}, "outside the hook task's goal range"),
         ({"object_shape": "sphere"}, "object_shape"),
@@ -212,6 +224,54 @@ def test_an_obstacle_refuses_bad_fields(kwargs, error, match):
 def test_a_task_definition_refuses_bad_fields(change, match):
     with pytest.raises(ValueError, match=match):
         replace(get_task("hook"), **change)
+
+
+def test_a_task_definition_refuses_a_height_tolerance_that_is_not_a_number():
+    with pytest.raises(TypeError, match="height_tolerance must be a real number, got '0.01'"):
+        replace(get_task("hook"), height_tolerance="0.01")
+
+
+@pytest.mark.parametrize("name", BUILTIN_TASKS)
+def test_success_needs_the_box_standing_at_the_goal(name):
+    task = get_task(name)
+    rest = task.box_start()[2]  # half the box's height: 0.1 m
+    assert task.height_tolerance == 0.01
+    assert task.succeeded(task.tolerance, rest)
+    assert task.succeeded(0.0, rest + task.height_tolerance)
+    assert not task.succeeded(task.tolerance + 1e-9, rest)
+    # Lying on its side (0.05 m) or tipped onto a curb (about 0.08 m): not at the goal,
+    # however near its centre is.
+    for height in (0.05, 0.08, rest - task.height_tolerance - 1e-9):
+        assert not task.succeeded(0.0, height)
+    # The resting height is the scene's box's: a taller box rests higher.
+    tall = replace(task.scene, box_size=(0.1, 0.1, 0.3))
+    assert task.succeeded(0.0, 0.15, tall) and not task.succeeded(0.0, rest, tall)
+    # Leaning by 45 degrees its centre is 0.106 m high, within the height tolerance: the tilt
+    # tells it from a standing box.
+    assert task.max_tilt == pytest.approx(math.radians(10.0))
+    assert task.succeeded(0.0, rest, final_tilt=task.max_tilt)
+    assert not task.succeeded(0.0, 0.106, final_tilt=math.radians(45.0))
+    assert not task.succeeded(0.0, rest, final_tilt=math.nextafter(task.max_tilt, 4.0))
+
+
+def test_the_final_tilt_is_the_angle_of_the_box_up_axis():
+    from tooldesign_env.rollout import Trajectory
+
+    def tilt(quaternion: tuple[float, ...] | None) -> float | None:
+        empty = np.zeros(1)
+        return Trajectory(
+            times=empty, box_position=np.zeros((1, 3)), torques=np.zeros((1, 7)),
+            joint_positions=np.zeros((1, 7)), tool_position=np.zeros((1, 3)), tool_yaw=empty,
+            contact=np.zeros(1, dtype=bool), phase=np.zeros(1, dtype=np.int8),
+            tracking_error=empty, fast_forward_from=1, box_final_orientation=quaternion,
+        ).box_final_tilt
+
+    half = math.sqrt(0.5)
+    assert tilt(None) is None
+    assert tilt((0.0, 0.0, 0.0, 1.0)) == 0.0
+    assert tilt((0.0, 0.0, half, half)) == 0.0  # a turn about z is no tilt
+    assert tilt((half, 0.0, 0.0, half)) == pytest.approx(math.pi / 2)  # on its side
+    assert tilt((0.0, 1.0, 0.0, 0.0)) == pytest.approx(math.pi)  # upside down
 
 
 # ------------------------------------------------------------------ the envs
@@ -295,16 +355,26 @@ def test_both_checkers_pass_on_the_rl_variant(name):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", BUILTIN_TASKS)
-def test_success_is_the_final_distance_within_the_tolerance(name):
+def test_success_is_the_final_distance_within_the_tolerance_standing(name):
     task = get_task(name)
     env = ToolDesignEnv(task=name)
     try:
         env.reset(seed=0)
         info = env.step(np.zeros(3))[4]
         assert info["task"] == name
-        assert info["success"] is (info["valid"] and info["final_distance"] <= task.tolerance)
+        standing = (
+            abs(info["final_height"] - task.box_start()[2]) <= task.height_tolerance
+            and info["final_tilt"] <= task.max_tilt
+        )
+        assert info["success"] is (
+            info["valid"] and info["final_distance"] <= task.tolerance and standing
+        )
         assert env.success(task.tolerance, True) and not env.success(task.tolerance, False)
         assert not env.success(task.tolerance + 1e-9, True)
+        rest = task.box_start()[2]
+        assert env.success(task.tolerance, True, rest)
+        assert not env.success(0.0, True, 0.079)  # tipped: not a success at the goal itself
+        assert not env.success(0.0, True, rest, math.radians(45.0))  # leaning
     finally:
         env.close()
 
@@ -445,8 +515,8 @@ def test_a_design_config_records_its_task_only_when_it_is_not_push():
         ({"task_name": "nope"}, "unknown task 'nope'; known tasks: push"),
         ({"task_name": "hook"}, r"goal \[0.0, 1.5, 0.1\] is outside the hook task's goal range"),
         (
-            {"task_name": "obstacle", "goal": (-0.25, 1.3, 0.1),
-             "scene": {"box_position": [0.875, 1.5]}},
+            {"task_name": "obstacle", "goal": (-0.25, 0.75, 0.1),
+             "scene": {"box_position": [0.75, 1.3]}},  # on the curb
             "overlaps the box's start",
         ),
     ],
@@ -477,3 +547,34 @@ def test_the_tier_rule_of_docs_tasks():
     assert [tier(p) for p in (0.0, 0.009, 0.01, 0.0999, 0.10, 0.5)] == [
         "hard", "hard", "medium", "medium", "easy", "easy"
     ]
+
+
+@pytest.mark.slow  # importing the studies takes about 1 s
+def test_the_studies_refuse_bad_input_and_merge_one_task(tmp_path):
+    import argparse
+
+    from perf.studies.task_baselines import merge_results
+    from perf.studies.task_pictures import main as pictures
+    from perf.studies.task_placements import _wall
+
+    assert _wall("60:1.3:1.7:0.04") == (60.0, 1.3, 1.7, 0.04, 0.5)
+    assert _wall("60:1.3:1.7:0.04:1.0")[-1] == 1.0
+    for text in ("60:1.3:1.7", "60:1.7:1.3:0.04", "60:1.3:1.7:0", "60:1.3:1.7:0.04:-1",
+                 "60:a:1.7:0.04"):
+        with pytest.raises(argparse.ArgumentTypeError, match="a wall"):
+            _wall(text)
+    # --merge replaces the measured task's entry in place and keeps the others as they were.
+    path = tmp_path / "baselines.json"
+    path.write_text(json.dumps([{"task": "push", "x": 1}, {"task": "obstacle", "x": 2},
+                                {"task": "puck", "x": 3}]))
+    merged = merge_results(str(path), [{"task": "obstacle", "x": 9}, {"task": "new", "x": 4}])
+    assert merged == [{"task": "push", "x": 1}, {"task": "obstacle", "x": 9},
+                      {"task": "puck", "x": 3}, {"task": "new", "x": 4}]
+    assert merge_results(str(tmp_path / "none.json"), [{"task": "a"}]) == [{"task": "a"}]
+    path.write_text(json.dumps({"task": "push"}))
+    with pytest.raises(ValueError, match="--merge: .* is not a list of task entries"):
+        merge_results(str(path), [])
+    path.write_text(json.dumps([{"task": "push"}]))
+    with pytest.raises(SystemExit, match="--task: nope not in"):
+        pictures(["--baselines", str(path), "--out", str(tmp_path / "out"), "--task", "nope"])
+    assert not (tmp_path / "out").exists()  # refused before anything is written

@@ -1,13 +1,14 @@
 """docs/tasks.md quotes what the committed results in docs/results/tasks/ hold (no rerun here).
 
-Every measured figure of the page comes from one of four files: ``baselines.json`` (written by
+Every measured figure of the page comes from one of five files: ``baselines.json`` (written by
 ``python -m perf.studies.task_baselines --json``), ``noise-floor.json`` (its
-``--noise-floor-only``, which keeps each design's F per nudged scene), and
+``--noise-floor-only``, which keeps each design's F per nudged scene),
 ``placements-output.txt`` and ``walls-output.txt`` (``python -m perf.studies.task_placements``,
-the second with ``--walls``). The results table is
-rebuilt from baselines.json and compared line by line; each figure of the prose is formatted
-from its file and looked for on the page, so a rerun that moves a number fails here until the
-page says the new one.
+the second with ``--walls``) and ``success-standing-output.txt`` (``python -m
+perf.studies.task_success_standing``); the figures that are definitions come from the task
+registry. The results table is rebuilt from baselines.json and compared line by line; each
+figure of the prose is formatted from its file and looked for on the page, so a rerun that
+moves a number fails here until the page says the new one.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ import re
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -53,8 +55,10 @@ def _tables(name: str) -> dict[str, dict[str, list[str]]]:
         if line.startswith("## "):
             current = line[3:]
             out[current] = {}
-        elif line.startswith("| ") and not line.startswith(("| design", "|---")):
+        elif line.startswith("| ") and not line.startswith(("| design", "|---", "| y ")):
             cells = [c.strip() for c in line.strip("|").split("|")]
+            if re.fullmatch(r"-?[\d.]+", cells[0]):  # a row of the goal grid, not a design
+                continue
             out[current][cells[0]] = cells[1:]
     return out
 
@@ -142,6 +146,110 @@ def _of(floor: dict[str, Any], design: list[float]) -> dict[str, Any]:
     return row
 
 
+def _wall_claims() -> list[str]:
+    """The figures of *How the curb was chosen*, from walls-output.txt."""
+    from tooldesign_env.tasks import get_task
+
+    walls = _tables("walls-output.txt")
+    text = (RESULTS / "walls-output.txt").read_text(encoding="utf-8")
+    sections = dict(re.findall(r"## (.*)\n((?:.|\n)*?)(?=\n## |\Z)", text))
+
+    def floor(heading: str) -> tuple[str, str]:
+        median, largest = re.search(
+            r"noise floor of task_baselines' set .*: median ([\d.]+ %), largest ([\d.]+ %)",
+            sections[heading],
+        ).groups()
+        return median, largest
+
+    claims = []
+    way = re.search(r"carried at ([\d.]+) to ([\d.]+) m \(.*?([\d.]+) m at 60 degrees", text)
+    claims.append(f"the straight tool carries the box at radius {way[1]} to {way[2]} m, "
+                  f"{way[3]} m at 60 degrees")
+    tall = walls["wall at 60 degrees from radius 1.3 to 1.7 m, 0.4 m high, friction 0.5"]
+    off = [1000 * float(r[-1]) for r in tall.values()]
+    assert min(off) > 20  # every tool held up
+    claims.append(f"all {len(tall)} designs {min(off):.0f} to {max(off):.0f} mm off their plan")
+    chosen = "wall at 60 degrees from radius 1.3 to 1.7 m, 0.04 m high, friction 1"
+    curb = walls[chosen]
+    claims.append(f"to {float(curb['bow (0, 0.6, 0)'][3]):.3f} m of the goal")
+    assert float(curb["bow (0, 0.6, 0)"][1]) == 0.1
+    inner = "wall at 60 degrees from radius 1.2 to 1.6 m, 0.04 m high, friction 0.5"
+    assert float(walls[inner]["bow (0, 0.6, 0)"][1]) < 0.09  # "from 1.2 m the curb stops it"
+    assert "not standing but within 0.1 m of a goal of the range: 1" in sections[inner]
+    mild = "wall at 60 degrees from radius 1.3 to 1.7 m, 0.04 m high, friction 0.5"
+    slippery = "wall at 60 degrees from radius 1.3 to 1.7 m, 0.04 m high, friction 0.2"
+
+    def named_ranges(heading: str) -> dict[str, str]:
+        line = re.search(r"relative range of F over 5 nudged scenes: (.*)", sections[heading])
+        return dict(re.findall(r"(\S.*?) ([\d.]+ %)(?:, |$)", line[1]))
+
+    r05, r10 = named_ranges(mild), named_ranges(chosen)
+    f05, f02, f10 = floor(mild), floor(slippery), floor(chosen)
+    claims.append(f"F's relative range {r05['straight']} for the straight tool and "
+                  f"{r05['tilt (0, 0, 0.2)']} for the tilted one; over the noise-floor set of "
+                  f"the baselines a median of {f05[0]}, largest {f05[1]}")
+    outcome = re.search(r"tipped (\d+) .*?lying (\d+)", sections[slippery])
+    assert int(outcome[2]) > int(outcome[1])  # "most slid off and fell"
+    claims.append(f"with 0.2 most slid off and fell (median {f02[0]}, largest {f02[1]})")
+    claims.append(f"they stay ({r10['straight']} and {r10['tilt (0, 0, 0.2)']}; median "
+                  f"{f10[0]}, largest {f10[1]}, the S-shaped tool")
+    f03 = floor("wall at 60 degrees from radius 1.3 to 1.7 m, 0.03 m high, friction 1")
+    f05h = floor("wall at 60 degrees from radius 1.3 to 1.7 m, 0.05 m high, friction 1")
+    at70 = "wall at 70 degrees from radius 1.25 to 1.8 m, 0.04 m high, friction 1"
+    f70 = floor(at70)
+    claims.append(f"Heights 0.03 and 0.05 m (medians {f03[0]} and {f05h[0]}) and the curb at 70 "
+                  f"degrees ({f70[0]})")
+    highest = float(re.search(r"its centre [\d.]+ to ([\d.]+) m high", sections[at70])[1])
+    assert abs(highest - 0.1) <= get_task("obstacle").height_tolerance  # caught by its tilt
+    claims.append(f"ended lying across the curb, its centre {highest:.3f} m high")
+    tipped = [float(curb[k][1]) for k in ("straight", "tilt (0, 0, 0.2)")]
+    lying = [float(curb[k][1]) for k in ("bow (0, 0.2, 0)", "bow back (0, -0.6, 0)")]
+    assert max(tipped) < 0.09 and min(tipped) > 0.06 and lying == [0.05, 0.05]
+    claims.append(f"(its centre {min(tipped):.3f} to {max(tipped):.3f} m high instead of 0.1 m)")
+    counts = re.search(
+        r"64 random designs \(seed 0\): (\d+) usable; the box ends standing (\d+), tipped (\d+) "
+        r"\(its centre [\d.]+ to [\d.]+ m high, its up axis (\d+) to (\d+) degrees from the "
+        r"vertical\), lying (\d+); shot away \(> 2 m from the base\) 0",
+        sections[chosen],
+    )
+    assert counts is not None
+    _, stand, tip, low, high, lie = counts.groups()
+    claims.append(f"{stand} end with the box standing, {tip} tipped (up axis {low} to {high} "
+                  f"degrees from the vertical), {lie} lying, none shot away")
+    task = get_task("obstacle")
+    (x0, y0, _), (x1, y1, _) = task.goal_low, task.goal_high
+    in_range = [int(v) for v in re.findall(r"(\d+)\*", sections[chosen])]
+    assert len(in_range) == round((x1 - x0) / 0.05 + 1) * round((y1 - y0) / 0.05 + 1)
+    claims.append(f"at every goal of the range {min(in_range)} to {max(in_range)} of them succeed")
+    assert min(in_range) >= 1
+    assert "between the start and every goal" in sections[chosen]
+    angles = re.search(r"corners are at ([\d.]+) to ([\d.]+) degrees", sections[chosen])
+    claims.append(f"lie beyond it along that way ({angles[1]} to {angles[2]} degrees)")
+    return claims
+
+
+def test_the_standing_test_changed_no_success_of_the_baselines():
+    """success-standing-output.txt: every task's 191 baseline evaluations, both rules."""
+    text = (RESULTS / "success-standing-output.txt").read_text(encoding="utf-8")
+    lines = dict(re.findall(r"^(\w+): (.*)$", text, flags=re.MULTILINE))
+    assert sorted(lines) == sorted(TASKS)
+    tilts = {}
+    for task, line in lines.items():
+        assert "191 evaluations" in line and "differing 0;" in line, task
+        tilts[task] = float(re.search(r"largest final tilt ([\d.]+) degrees", line)[1])
+    upright = max(tilts[t] for t in ("push", "hook", "puck"))
+    assert upright < 1.0
+    assert f"(largest tilt {upright:.3f} degrees)" in _page()
+    baselines = _baselines()
+    successes = int(re.search(r"standing too (\d+)", lines["obstacle"])[1])
+    row = baselines["obstacle"]
+    from_json = (sum(r["success"] for r in row["named"].values())
+                 + round(row["random"]["success_rate"] * row["random"]["n"])
+                 + round(row["cmaes"]["success_rate_of_its_evaluations"]
+                         * row["cmaes"]["evaluations"]))
+    assert successes == from_json  # the same evaluations as baselines.json's
+
+
 def _claims() -> list[str]:
     """Each figure the prose quotes, formatted from its file, as the page words it."""
     b, floors, places = _baselines(), _floors(), _placements()
@@ -157,31 +265,27 @@ def _claims() -> list[str]:
     missing = [hook["named"][k]["final_distance"]
                for k in ("straight", "bow back (0, -0.6, 0)", "bow (0, 0.6, 0)")]
     claims.append(f"({min(missing):.2f} to {max(missing):.2f} m from the goal)")
+    obstacle_named = obstacle["named"]
+    claims.append(f"The straight tool leaves the box tipped onto the curb, "
+                  f"{obstacle_named['straight']['final_distance']:.3f} m from the goal")
+    claims.append(f"the hooks (0.4, 1.4, 0.18) and (0, 1.5, 0) carry it around and end "
+                  f"{obstacle_named['hook (0.4, 1.4, 0.18)']['final_distance']:.3f} and "
+                  f"{obstacle_named['hook (0, 1.5, 0)']['final_distance']:.3f} m from it")
+    assert not obstacle_named["straight"]["success"]
+    assert obstacle_named["hook (0.4, 1.4, 0.18)"]["success"]
+    assert obstacle_named["hook (0, 1.5, 0)"]["success"]
+    # The first design, the post (placements-output.txt).
     post = places["post at radius 1.75 m, 60 degrees"]
-    claims.append(f"pushed up to {1000 * float(post['straight'][-1]):.0f} mm off its plan, "
-                  f"against {1000 * float(post['hook (0.4, 1.4, 0.18)'][-1]):.0f} mm")
-    claims.append(f"the box stays {obstacle['named']['straight']['final_distance']:.2f} m from "
-                  "the goal")
-    # How the post was placed.
     in_way = places["post at radius 1.6 m, 55 degrees"]["hook (0, 1.5, 0)"]
     x, y = (float(v) for v in in_way[0].strip("()").split(","))
     start = (1.169, 0.675)  # the push box's start, SceneSpec()
     claims.append(f"shot it {((x - start[0]) ** 2 + (y - start[1]) ** 2) ** 0.5:.1f} m away "
                   f"(F {int(in_way[3]):,}), to {in_way[0]}")
-    at45 = places["post at radius 1.75 m, 45 degrees"]["straight"]
-    claims.append(f"the straight tool, {1000 * float(at45[-1]):.0f} mm off its plan, ends "
-                  f"{float(at45[1]):.2f} m from the push goal")
-    at70 = places["post at radius 1.75 m, 70 degrees"]["straight"]
-    claims.append(f"held up ({1000 * float(at70[-1]):.0f} mm) and still brings the box to "
-                  f"{float(at70[1]):.2f} m of the push goal")
     held = [post[k] for k in ("straight", "tilt (0, 0, 0.2)", "bow back (0, -0.6, 0)")]
     off = [1000 * float(r[-1]) for r in held]
     to_goal = [float(r[2]) for r in held]
-    claims.append(f"({min(off):.0f} to {max(off):.0f} mm off their plan) and leave the box "
-                  f"{min(to_goal):.2f} to {max(to_goal):.2f} m from the task's goal")
-    claims.append(f"the bow (0, 0.2, 0) ends {float(post['bow (0, 0.2, 0)'][2]):.3f} m")
-    claims.append(f"the largest F of the {obstacle['random']['n']} random designs, "
-                  f"{obstacle['random']['free_energy_quantiles'][-1]:,.0f}")
+    claims.append(f"({min(off):.0f} to {max(off):.0f} mm off their plan) and left the box "
+                  f"{min(to_goal):.2f} to {max(to_goal):.2f} m from that design's goal")
     claims.append(f"brings the box to {push['named']['straight']['final_distance']:.3f} m of the "
                   f"goal, leaves the puck {puck['named']['straight']['final_distance']:.3f} m off")
     puck_lines = (RESULTS / "placements-output.txt").read_text(encoding="utf-8")
@@ -189,29 +293,8 @@ def _claims() -> list[str]:
     claims.append(f"With the box's friction 0.4 the puck's noise floor was {friction['0.4']} of F")
     claims.append(f"with 0.2 it is {friction['0.2']}")
     assert friction["0.2"] == _pct(puck["noise_floor"]["median_relative_range"], 2)
-    # The walls tried in the box's way (walls-output.txt).
-    walls = _tables("walls-output.txt")
-    tall = walls["wall at 60 degrees from radius 1.3 to 1.7 m, 0.4 m high"]
-    off = [1000 * float(r[-1]) for r in tall.values()]
-    claims.append(f"all {len(tall)} designs {min(off):.0f} to {max(off):.0f} mm off their plan")
-    curb = walls["wall at 60 degrees from radius 1.3 to 1.7 m, 0.04 m high"]
-    tipped = [float(curb[k][1]) for k in ("straight", "bow (0, 0.2, 0)", "tilt (0, 0, 0.2)")]
-    assert max(tipped) < 0.09 and float(curb["bow (0, 0.6, 0)"][1]) == 0.1
-    claims.append(f"its centre {min(tipped):.3f} to {max(tipped):.3f} m high instead of 0.1 m")
-    claims.append(f"carries it inside the curb to {float(curb['bow (0, 0.6, 0)'][3]):.3f} m of "
-                  "this task's goal")
-    text = (RESULTS / "walls-output.txt").read_text(encoding="utf-8")
-    noise = re.findall(r"relative range of F over 5 nudged scenes: (.*)", text)[1]
-    spreads = {k: float(v) for k, v in re.findall(r"(\S.*?) ([\d.]+) %(?:, |$)", noise)}
-    assert len(spreads) == len(curb)
-    ordered = sorted(spreads.values())
-    middle = (ordered[3] + ordered[4]) / 2
-    top = max(spreads, key=lambda k: spreads[k])
-    claims.append(f"a median {middle:.2f} % over the {len(spreads)} designs (largest "
-                  f"{spreads[top]:.2f} %, the tilted tool)")
-    assert top == "tilt (0, 0, 0.2)"
-    inner = walls["wall at 60 degrees from radius 1.2 to 1.6 m, 0.04 m high"]
-    assert float(inner["bow (0, 0.6, 0)"][1]) < 0.09  # "from radius 1.2 m the curb stops it"
+    # The walls and curbs tried in the box's way (walls-output.txt).
+    claims.extend(_wall_claims())
     # The shape decides.
     for task, row in b.items():
         best = row["cmaes"]["best"]["free_energy"]
@@ -237,17 +320,20 @@ def _claims() -> list[str]:
                   f"{_design(hook_top['design'])}'s, a bow that moves the box")
     assert hook_top["free_energy"][0] < min(hook["random"]["free_energy_quantiles"][2:])
     top = _largest(floors["obstacle"])
-    claims.append(f"Obstacle's largest, {_pct(top['relative_range'])}, is an S-shaped tool, "
-                  f"{_design(top['design'])}, that never touches the post")
-    assert top["free_energy_without_obstacles"] == top["free_energy"][0]
-    claims.append("its F with the post removed is the same, to the bit")
+    claims.append(f"Obstacle's largest, {_pct(top['relative_range'], 2)}, is an S-shaped tool, "
+                  f"{_design(top['design'])}, whose box reaches the curb")
+    assert top["free_energy_without_obstacles"] != top["free_energy"][0]  # it touches the curb
     push_top = _largest(floors["push"])
     claims.append(f"(largest {_pct(push_top['relative_range'])}, the same design)")
     assert push_top["design"] == top["design"]
     straight = _of(floors["obstacle"], [0.0, 0.0, 0.0])
-    assert straight["free_energy_without_obstacles"] != straight["free_energy"][0]  # caught
-    claims.append(f"the straight tool, caught on the post, moves by "
+    assert straight["free_energy_without_obstacles"] != straight["free_energy"][0]  # stopped
+    claims.append(f"the straight tool, whose box tips onto the curb, moves by "
                   f"{_pct(straight['relative_range'], 2)}")
+    untouched = [r for r in floors["obstacle"]["per_design"]
+                 if r["free_energy_without_obstacles"] == r["free_energy"][0]]
+    claims.append(f"{len(untouched)} of the {len(floors['obstacle']['per_design'])} designs "
+                  "never touch the curb (their F with it removed is the same, to the bit)")
     # F's lowest design is not a success.
     curl, named_hook = hook["cmaes"]["best"], hook["named"]["hook (0.4, 1.4, 0.18)"]
     claims.append(f"whose F is {named_hook['free_energy'] - curl['free_energy']:.0f} below the "
@@ -257,7 +343,14 @@ def _claims() -> list[str]:
                   f"{puck['cmaes']['best']['final_distance']:.2f} m off")
     claims.append(f"which ends {push['named']['straight']['final_distance']:.2f} m off in push")
     claims.append(f"({_pct(push['cmaes']['success_rate_of_its_evaluations'], 0)} in push, "
-                  f"{_pct(hook['cmaes']['success_rate_of_its_evaluations'], 0)} in hook)")
+                  f"{_pct(hook['cmaes']['success_rate_of_its_evaluations'], 0)} in hook, "
+                  f"{_pct(obstacle['cmaes']['success_rate_of_its_evaluations'], 0)} in obstacle)")
+    cma, hooked = obstacle["cmaes"]["best"], obstacle["named"]["hook (0.4, 1.4, 0.18)"]
+    claims.append(f"in obstacle it is a hook, {_design(cma['design'])}, that carries the box "
+                  f"around the curb and ends {cma['final_distance']:.3f} m off, its F "
+                  f"{hooked['free_energy'] - cma['free_energy']:.0f} below that of the hook "
+                  f"(0.4, 1.4, 0.18), which ends {hooked['final_distance']:.3f} m off")
+    assert not cma["success"] and hooked["success"]
     # The tier rule and the limits.
     shares = [_pct(b[t]["random"]["success_rate"])[:-2] for t in TASKS]
     claims.append(f"With p = {', '.join(shares[:-1])} and {shares[-1]} %")
@@ -283,16 +376,32 @@ def _definition_claims() -> list[str]:
         return f"x in [{x0:g}, {x1:g}], y in [{y0:g}, {y1:g}] m"
 
     push, hook, obstacle, puck = (get_task(t) for t in TASKS)
-    (post,) = obstacle.obstacles
-    radius = math.hypot(*post.position)
-    angle = math.degrees(math.atan2(post.position[1], post.position[0]))
+    (curb,) = obstacle.obstacles
+    middle = math.hypot(*curb.position)
+    angle = math.degrees(math.atan2(curb.position[1], curb.position[0]))
+    assert math.isclose(math.degrees(curb.yaw), angle)  # radial
+    # Where the straight line from the box's start to each goal of the range crosses the
+    # curb's angle: inside its inner end.
+    start = obstacle.box_start()[:2]
+    along = np.array([math.cos(curb.yaw), math.sin(curb.yaw)])
+    crossings = []
+    for x in np.linspace(obstacle.goal_low[0], obstacle.goal_high[0], 11):
+        for y in np.linspace(obstacle.goal_low[1], obstacle.goal_high[1], 11):
+            d = np.array([x, y]) - start
+            t = (along[0] * start[1] - along[1] * start[0]) / (along[1] * d[0] - along[0] * d[1])
+            crossings.append(float(np.hypot(*(start + t * d))))
+    assert max(crossings) < middle - curb.size[0] / 2
     return [
+        f"The straight line from the start to a goal crosses {angle:.0f} degrees "
+        f"{min(crossings):.2f} to {max(crossings):.2f} m from the base, inside the curb's inner "
+        "end",
         f"the goal ({', '.join(f'{v:g}' for v in push.goal)}), drawn in {ranges(push)}",
         f"The box at ({', '.join(f'{v:g}' for v in hook.scene.box_position)})",
         f"Goals {ranges(hook)}",
         f"default ({', '.join(f'{v:g}' for v in hook.goal[:2])})",
-        f"a post {' x '.join(f'{v:g}' for v in post.size)} m at radius {radius:.2f} m, "
-        f"{angle:.0f} degrees",
+        f"a curb {' x '.join(f'{v:g}' for v in curb.size)} m standing radially at "
+        f"{angle:.0f} degrees, from radius {middle - curb.size[0] / 2:g} to "
+        f"{middle + curb.size[0] / 2:g} m, with the floor's friction ({curb.friction:.1f})",
         f"Goals {ranges(obstacle)}, default ({', '.join(f'{v:g}' for v in obstacle.goal[:2])})",
         f"(diameter {puck.scene.box_size[0]:g} m, {puck.scene.box_size[2]:g} m high, "
         f"{puck.scene.box_mass:g} kg) and half its friction ({puck.scene.box_friction:g})",
@@ -300,12 +409,12 @@ def _definition_claims() -> list[str]:
     ]
 
 
-@pytest.mark.parametrize("index", range(8))
+@pytest.mark.parametrize("index", range(9))
 def test_each_definition_the_page_quotes_is_the_tasks(index):
     claims = _definition_claims()
-    assert len(claims) == 8
+    assert len(claims) == 9
     assert claims[index] in _page(), f"docs/tasks.md does not say {claims[index]!r}"
-    if index == 7:
+    if index == 8:
         from tooldesign_env.tasks import get_task
 
         assert {get_task(t).tolerance for t in TASKS} == {0.1}  # "in every task"

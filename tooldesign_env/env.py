@@ -214,7 +214,11 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
     reward = -F. ``info`` holds scalars: ``free_energy`` (= -reward), ``goal_error``
     (sum_t E_t), ``confidence`` (sum_t 1/2 log|Pi_U,t|), ``penalty``, ``final_distance``,
     ``valid``, ``success`` (a usable design left the box within the task's tolerance of the
-    goal: 0.1 m for every built-in task), ``task`` (its name) and the goal and box mass;
+    goal, 0.1 m for every built-in task, and standing: its up axis at most the task's
+    ``max_tilt``, 10 degrees, from the vertical at the end, ``final_tilt`` in rad, and its
+    centre's final height, ``final_height``, within the task's ``height_tolerance``, 0.01 m, of
+    its resting height),
+    ``task`` (its name) and the goal and box mass;
     F = goal_error - confidence + penalty. With
     ``ObjectiveSpec(scene_samples=K)`` every term is the mean over K scenes whose box differs by
     a fixed small offset (smoothing the chaos of pushing), ``free_energy_std`` is the standard
@@ -269,7 +273,11 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
     ## Version History
 
     * v0: the initial version. ``info["success"]`` and ``info["task"]`` and the ``task``
-      argument were added on 2026-11-27; nothing a push episode computes changed.
+      argument were added on 2026-11-27; nothing a push episode computes changed. The same
+      day ``info["final_height"]`` and ``info["final_tilt"]`` were added and ``success``
+      also asks the box to end standing (``TaskDefinition.max_tilt``, ``height_tolerance``),
+      and the obstacle task (``ToolDesign-Obstacle-v0``, not yet released) had its post
+      beyond the box's way replaced by a curb across it, with goals beyond the curb.
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 4}
@@ -649,14 +657,33 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
         dist2 = float(np.sum((self.box_start() - self._goal) ** 2))
         return steps * 0.5 * self.objective.goal_precision * dist2
 
-    def success(self, final_distance: float, valid: bool) -> bool:
-        """Whether an episode succeeded: a usable tool left the box within the task's tolerance.
+    def success(
+        self,
+        final_distance: float,
+        valid: bool,
+        final_height: float | None = None,
+        final_tilt: float | None = None,
+    ) -> bool:
+        """Whether an episode succeeded: a usable tool left the box at the goal, standing.
 
         Args:
             final_distance: the box's final distance to the goal, m.
             valid: whether the design was usable (an unusable one never succeeds).
+            final_height: the box centre's final height, m. Given, it must be within the task's
+                ``height_tolerance`` of the box's resting height; None checks the distance
+                alone.
+            final_tilt: the final angle of the box's up axis from the vertical, rad. Given
+                (with ``final_height``), it must be at most the task's ``max_tilt``: a box
+                lying on its side or tipped onto an obstacle is not at the goal.
         """
-        return bool(valid) and final_distance <= self.task_definition.tolerance
+        task = self.task_definition
+        if not valid:
+            return False
+        if final_height is None:
+            return final_distance <= task.tolerance
+        return task.succeeded(
+            final_distance, final_height, self.simulator.scene, final_tilt=final_tilt
+        )
 
     def _common_info(self, geometry: ToolGeometry) -> dict[str, Any]:
         return {
@@ -681,7 +708,11 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
             confidence=terms.confidence,
             penalty=0.0,
             final_distance=terms.final_distance,
-            success=self.success(terms.final_distance, True),
+            final_height=float(traj.box_position[-1, 2]),
+            final_tilt=traj.box_final_tilt,
+            success=self.success(
+                terms.final_distance, True, float(traj.box_position[-1, 2]), traj.box_final_tilt
+            ),
             times=traj.times,
             box_trajectory=traj.box_position,
             torques=traj.torques,
@@ -712,6 +743,8 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
             confidence=0.0,
             penalty=penalty,
             final_distance=float(np.linalg.norm(self.box_start() - self._goal)),
+            final_height=float(self.box_start()[2]),
+            final_tilt=0.0,
             success=False,
             times=np.zeros(0),
             box_trajectory=np.zeros((0, 3)),

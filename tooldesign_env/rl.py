@@ -69,6 +69,8 @@ _SCALAR_INFO = (
     "goal_precision",
     "valid",
     "success",
+    "final_height",
+    "final_tilt",
     "task",
     "invalid_reason",
     "coefficients",
@@ -180,7 +182,9 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
     ## Version History
 
     * v0: the initial version. On 2026-11-27 ``task`` and ``info``'s ``success`` and ``task``
-      were added (a push episode is unchanged). On 2026-11-26 an unusable design was put at
+      were added (a push episode is unchanged), then ``final_height`` and ``final_tilt``,
+      with ``success`` also asking the box to end standing (no committed result had a box
+      lying or tipped within 0.1 m of its goal). On 2026-11-26 an unusable design was put at
       the reward floor at every goal, as this docstring always said; before, at goals whose
       F_idle exceeded the invalid penalty (beyond about 2.4 m from the box at p^X = 20) it
       got -1e5 / F_idle. The

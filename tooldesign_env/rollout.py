@@ -52,6 +52,8 @@ class Trajectory:
         floor_clearance: with ``arm_floor_contacts="auto"``, a lower bound on how close the arm
             and the tool came to the floor in the rollout without those contacts, m (see
             :func:`floor_clearance_bound`); None otherwise.
+        box_final_orientation: the box's orientation at the end of the rollout, a quaternion
+            (x, y, z, w); None when the rollout did not read it.
     """
 
     times: np.ndarray
@@ -67,9 +69,18 @@ class Trajectory:
     contact_mobility: np.ndarray | None = None
     floor_contacts: bool = True
     floor_clearance: float | None = None
+    box_final_orientation: tuple[float, ...] | None = None
 
     def __len__(self) -> int:
         return int(self.times.shape[0])
+
+    @property
+    def box_final_tilt(self) -> float | None:
+        """Angle of the box's up axis from the world's z axis at the end, rad (None unread)."""
+        if self.box_final_orientation is None:
+            return None
+        x, y, _, _ = self.box_final_orientation
+        return float(math.acos(min(1.0, max(-1.0, 1.0 - 2.0 * (x * x + y * y)))))
 
 
 @dataclass(frozen=True, kw_only=True)

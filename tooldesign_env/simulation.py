@@ -414,6 +414,9 @@ class ToolSimulator:
         robot, box = self._robot, self._box
         assert robot is not None and box is not None
         record = self._loops.rollout(self.world, robot, box, ref, scene, self.controller, loop)
+        # The box's pose now is its final one (a fast-forward repeats the rest state): read
+        # once, it costs no step and changes nothing simulated.
+        box_orientation = tuple(float(v) for v in self.world.body_pose(box)[1])
         if snapshot_every:
             ids = record.snapshots
             snapshots = _Snapshots(snapshot_every)
@@ -423,9 +426,14 @@ class ToolSimulator:
                 snapshots.ids[record.fast_forward_from] = ids[-1]
                 snapshots.rest_from = record.fast_forward_from
             self._snapshots = snapshots
-        return self._trajectory(record, loop)
+        return self._trajectory(record, loop, box_orientation)
 
-    def _trajectory(self, record: LoopRecord, loop: LoopSettings) -> Trajectory:
+    def _trajectory(
+        self,
+        record: LoopRecord,
+        loop: LoopSettings,
+        box_orientation: tuple[float, ...] | None = None,
+    ) -> Trajectory:
         """The :class:`Trajectory` of a loop's record: the fast-forward, the guard, the mobility."""
         ref = self.reference
         n = len(ref.times)
@@ -477,6 +485,7 @@ class ToolSimulator:
             contact_mobility=mobility,
             floor_contacts=self._floor_contacts,
             floor_clearance=clearance,
+            box_final_orientation=box_orientation,
         )
 
     def replay_open_loop(

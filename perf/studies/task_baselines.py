@@ -25,10 +25,12 @@ docs/tasks.md reports:
    seen in all of this task's evaluations).
 
 Run: ``python -m perf.studies.task_baselines [--task hook] [--random 64] [--iterations 15]
-[--batch 8] [--seed 0] [--json FILE]``. One evaluation takes 0.2 to 0.6 s on one core; a task
-takes about 240 evaluations (2 to 4 minutes). ``--noise-floor-only`` measures 2 and 3 alone
-(about 120 evaluations a task; the floor's designs are the same, as they come from the same
-random draw): docs/results/tasks/noise-floor.json, whose summary must equal baselines.json's.
+[--batch 8] [--seed 0] [--json FILE [--merge]]``; ``--merge`` replaces only the measured
+tasks' entries of an existing FILE (a task re-measured alone). One evaluation takes 0.2 to
+0.6 s on one core; a task takes about 240 evaluations (2 to 4 minutes). ``--noise-floor-only``
+measures 2 and 3 alone (about 120 evaluations a task; the floor's designs are the same, as they
+come from the same random draw): docs/results/tasks/noise-floor.json, whose summary must equal
+baselines.json's.
 """
 
 from __future__ import annotations
@@ -272,6 +274,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--json", default=None, help="also write the figures to this JSON file")
     parser.add_argument(
+        "--merge",
+        action="store_true",
+        help="with --json: replace the measured tasks' entries of an existing file, keeping "
+        "the others and their order (one task re-measured alone)",
+    )
+    parser.add_argument(
         "--noise-floor-only",
         action="store_true",
         help="measure the random designs and the noise floor alone (no named designs, no CMA-ES)",
@@ -304,8 +312,33 @@ def main(argv: list[str] | None = None) -> int:
     if args.json:
         from benchmarks.storage.atomic import atomic_write_text
 
+        if args.merge:
+            results = merge_results(args.json, results)
         atomic_write_text(args.json, json.dumps(results, indent=1) + "\n")
     return 0
+
+
+def merge_results(path: str, results: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The entries of the JSON file ``path`` with those of ``results``' tasks replaced.
+
+    A task the file lacks is appended; the file's other entries keep their place and content.
+
+    Raises:
+        ValueError: the file is not a list of task entries.
+    """
+    from pathlib import Path
+
+    try:
+        before = json.loads(Path(path).read_text())
+    except FileNotFoundError:
+        return results
+    if not isinstance(before, list) or not all(
+        isinstance(entry, dict) and "task" in entry for entry in before
+    ):
+        raise ValueError(f"--merge: {path} is not a list of task entries")
+    new = {entry["task"]: entry for entry in results}
+    merged = [new.pop(entry["task"], entry) for entry in before]
+    return merged + list(new.values())
 
 
 if __name__ == "__main__":

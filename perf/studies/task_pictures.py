@@ -8,8 +8,8 @@ renders headless (PyBullet's software renderer, as ``tooldesign design`` does):
 * ``<task>-best.gif``: the rollout of the CMA-ES design the baselines found, with the goal and
   the box path (``benchmarks.design.video.rollout_gif``, the GIF ``tooldesign design`` writes).
 
-Run: ``python -m perf.studies.task_pictures --baselines FILE --out docs/images/tasks``. About 20 s
-per task.
+Run: ``python -m perf.studies.task_pictures --baselines FILE --out docs/images/tasks [--task
+NAME ...]``. About 20 s per task.
 """
 
 from __future__ import annotations
@@ -45,15 +45,28 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=(__doc__ or "").split("\n")[0])
     parser.add_argument("--baselines", type=Path, required=True)
     parser.add_argument("--out", type=Path, required=True)
+    parser.add_argument(
+        "--task",
+        action="append",
+        default=None,
+        help="render only this task of --baselines (repeatable; default every one)",
+    )
     return parser.parse_args(argv)
 
 
 def main(argv: list[str] | None = None) -> int:
     """Write each task's scene still and best design's GIF."""
     args = parse_args(argv)
+    results = json.loads(args.baselines.read_text())
+    known = [result["task"] for result in results]
+    unknown = sorted(set(args.task or ()) - set(known))
+    if unknown:
+        raise SystemExit(f"--task: {', '.join(unknown)} not in {args.baselines} ({known})")
     args.out.mkdir(parents=True, exist_ok=True)
-    for result in json.loads(args.baselines.read_text()):
+    for result in results:
         task = result["task"]
+        if args.task and task not in args.task:
+            continue
         scene_png(task, args.out / f"{task}-scene.png")
         design = result["cmaes"]["best"]["design"]
         rollout_gif(design, args.out / f"{task}-best.gif", task=task, frames=24)

@@ -29,6 +29,8 @@ from tooldesign_env.specs import (
 )
 
 __all__ = [
+    "HEIGHT_TOLERANCE",
+    "MAX_TILT",
     "OBJECT_SHAPES",
     "Obstacle",
     "TaskDefinition",
@@ -41,6 +43,18 @@ OBJECT_SHAPES = ("box", "cylinder")
 
 #: Largest success radius accepted, m: past it "success" no longer says the box reached its goal.
 TOLERANCE_MAX = 1.0
+
+#: Default of :attr:`TaskDefinition.height_tolerance`, m: a box or puck standing on the floor
+#: ends within a millimetre of its resting height; one lying on its side (a 0.1 x 0.1 x 0.2 m
+#: box: 0.05 m) or tipped onto an obstacle (measured 0.067 to 0.084 m on the obstacle task's
+#: curb) is 0.016 m or more below it.
+HEIGHT_TOLERANCE = 0.01
+
+#: Default of :attr:`TaskDefinition.max_tilt`, rad (10 degrees): a box standing on the floor
+#: ends upright to a hundredth of a degree (at most 0.012 over the baselines of push, hook and
+#: puck); one lying on its side is turned by 90 degrees, one tipped onto the obstacle task's
+#: curb by 90 to 112 (docs/results/tasks/walls-output.txt).
+MAX_TILT = math.radians(10.0)
 
 #: Extents of an obstacle accepted, m (a 1 cm post to a 3 m wall).
 OBSTACLE_SIZE_MIN = 0.01
@@ -168,7 +182,16 @@ class TaskDefinition:
             (``randomize_goal=True``) and, unless ``accepts_any_goal``, the only goals taken.
         goal_high: its high corner, m.
         tolerance: success radius, m: an episode succeeds when the box ends within it of the
-            goal (``info["success"]``).
+            goal (``info["success"]``) and stands on the floor (``max_tilt`` and
+            ``height_tolerance``).
+        max_tilt: the largest angle of the box's up axis from the vertical at the end, rad,
+            that still counts as standing: a box that ends lying on its side, tipped onto an
+            obstacle or leaning on one is not at the goal, wherever its centre is. Default
+            :data:`MAX_TILT` (10 degrees).
+        height_tolerance: the largest distance, m, of the box centre's final height from its
+            resting height (half the box's height, where it starts) that still counts as
+            standing on the floor (not on an obstacle, nor lying). Default
+            :data:`HEIGHT_TOLERANCE`.
         obstacles: fixed bodies on the floor (:class:`Obstacle`).
         object_shape: the moved object's shape, one of :data:`OBJECT_SHAPES`.
         accepts_any_goal: take a goal anywhere in the workspace (the paper's push task, as
@@ -188,6 +211,8 @@ class TaskDefinition:
     goal_low: tuple[float, float, float]
     goal_high: tuple[float, float, float]
     tolerance: float
+    max_tilt: float = MAX_TILT
+    height_tolerance: float = HEIGHT_TOLERANCE
     obstacles: tuple[Obstacle, ...] = ()
     object_shape: str = "box"
     accepts_any_goal: bool = False
@@ -223,6 +248,20 @@ class TaskDefinition:
                 f"got {self.tolerance!r}"
             )
         object.__setattr__(self, "tolerance", tolerance)
+        height_tolerance = check_real(self.height_tolerance, "TaskDefinition.height_tolerance")
+        if not 0.0 < height_tolerance <= TOLERANCE_MAX:
+            raise ValueError(
+                f"TaskDefinition.height_tolerance must be a number of metres in "
+                f"(0, {TOLERANCE_MAX:g}], got {self.height_tolerance!r}"
+            )
+        object.__setattr__(self, "height_tolerance", height_tolerance)
+        max_tilt = check_real(self.max_tilt, "TaskDefinition.max_tilt")
+        if not 0.0 < max_tilt <= math.pi / 2:
+            raise ValueError(
+                f"TaskDefinition.max_tilt must be an angle in (0, pi/2] rad, got "
+                f"{self.max_tilt!r}"
+            )
+        object.__setattr__(self, "max_tilt", max_tilt)
         obstacles = tuple(self.obstacles)
         for item in obstacles:
             if not isinstance(item, Obstacle):
@@ -289,6 +328,35 @@ class TaskDefinition:
                     f"{[round(v, 3) for v in scene.box_position]}; move the box "
                     "(scene box_position) or the obstacle"
                 )
+
+    def succeeded(
+        self,
+        final_distance: float,
+        final_height: float,
+        scene: SceneSpec | None = None,
+        *,
+        final_tilt: float | None = None,
+    ) -> bool:
+        """Whether a box that ended so far from the goal, this high and this tilted, is at it.
+
+        Args:
+            final_distance: the box centre's final distance to the goal, m.
+            final_height: the box centre's final height above the floor, m.
+            scene: the scene whose box it is (default: the task's): its resting height is half
+                its height.
+            final_tilt: the final angle of the box's up axis from the vertical, rad; None
+                checks the height alone.
+
+        Returns:
+            ``final_distance <= tolerance``, the height within ``height_tolerance`` of the
+            resting height and the tilt at most ``max_tilt``.
+        """
+        rest = self.box_start(scene)[2]
+        return bool(
+            final_distance <= self.tolerance
+            and abs(final_height - rest) <= self.height_tolerance
+            and (final_tilt is None or final_tilt <= self.max_tilt)
+        )
 
     def sample_goal(self, rng: np.random.Generator) -> np.ndarray:
         """A goal (3,) m drawn uniformly from the goal range with ``rng``."""
