@@ -95,27 +95,47 @@ def _table(baselines: dict[str, dict[str, Any]]) -> list[str]:
         "| | " + " | ".join(TASKS) + " |",
         "|---|" + "---|" * len(TASKS),
         line("goal", goal),
-        line("noise floor of F, median relative range",
-             [_pct(f["median_relative_range"], 2) for f in floor]),
-        line(f"... its largest, over the {designs.pop()} designs",
-             [_pct(f["max_relative_range"], 2) for f in floor]),
+        line(
+            "noise floor of F, median relative range",
+            [_pct(f["median_relative_range"], 2) for f in floor],
+        ),
+        line(
+            f"... its largest, over the {designs.pop()} designs",
+            [_pct(f["max_relative_range"], 2) for f in floor],
+        ),
         line("... median range in F units", [short(f["median_range"]) for f in floor]),
-        line("F of random designs: min / quartiles / max",
-             [" / ".join(f"{q:.0f}" for q in r["random"]["free_energy_quantiles"]) for r in rows]),
-        line("usable random designs",
-             [f"{r['random']['usable']} / {r['random']['n']}" for r in rows]),
-        line("success of random designs",
-             [f"{_pct(r['random']['success_rate'])} "
-              f"({round(r['random']['success_rate'] * r['random']['n'])})" for r in rows]),
-        line("straight tool: F, final distance, success",
-             [f"{s['free_energy']:.0f}, {s['final_distance']:.3f} m, {yes[s['success']]}"
-              for s in straight]),
+        line(
+            "F of random designs: min / quartiles / max",
+            [" / ".join(f"{q:.0f}" for q in r["random"]["free_energy_quantiles"]) for r in rows],
+        ),
+        line(
+            "usable random designs", [f"{r['random']['usable']} / {r['random']['n']}" for r in rows]
+        ),
+        line(
+            "success of random designs",
+            [
+                f"{_pct(r['random']['success_rate'])} "
+                f"({round(r['random']['success_rate'] * r['random']['n'])})"
+                for r in rows
+            ],
+        ),
+        line(
+            "straight tool: F, final distance, success",
+            [
+                f"{s['free_energy']:.0f}, {s['final_distance']:.3f} m, {yes[s['success']]}"
+                for s in straight
+            ],
+        ),
         line(f"CMA-ES ({n_cmaes} evaluations): best F", [f"{b['free_energy']:.0f}" for b in best]),
         line("... its design (c1, c2, c3)", [_design(b["design"]) for b in best]),
-        line("... its final distance, success",
-             [f"{b['final_distance']:.3f} m, {yes[b['success']]}" for b in best]),
-        line(f"... share of its {n_cmaes} evaluations that succeed",
-             [_pct(r["cmaes"]["success_rate_of_its_evaluations"]) for r in rows]),
+        line(
+            "... its final distance, success",
+            [f"{b['final_distance']:.3f} m, {yes[b['success']]}" for b in best],
+        ),
+        line(
+            f"... share of its {n_cmaes} evaluations that succeed",
+            [_pct(r["cmaes"]["success_rate_of_its_evaluations"]) for r in rows],
+        ),
         line("tier", [r["tier"] for r in rows]),
     ]
 
@@ -132,8 +152,9 @@ def test_the_noise_floor_file_is_the_baselines_noise_floor():
     baselines, floors = _baselines(), _floors()
     for task in TASKS:
         summary = {k: v for k, v in floors[task].items() if k != "per_design"}
-        assert summary == {k: v for k, v in baselines[task]["noise_floor"].items()
-                           if k != "per_design"}, task
+        assert summary == {
+            k: v for k, v in baselines[task]["noise_floor"].items() if k != "per_design"
+        }, task
 
 
 def _largest(floor: dict[str, Any]) -> dict[str, Any]:
@@ -163,8 +184,10 @@ def _wall_claims() -> list[str]:
 
     claims = []
     way = re.search(r"carried at ([\d.]+) to ([\d.]+) m \(.*?([\d.]+) m at 60 degrees", text)
-    claims.append(f"the straight tool carries the box at radius {way[1]} to {way[2]} m, "
-                  f"{way[3]} m at 60 degrees")
+    claims.append(
+        f"the straight tool carries the box at radius {way[1]} to {way[2]} m, "
+        f"{way[3]} m at 60 degrees"
+    )
     tall = walls["wall at 60 degrees from radius 1.3 to 1.7 m, 0.4 m high, friction 0.5"]
     off = [1000 * float(r[-1]) for r in tall.values()]
     assert min(off) > 20  # every tool held up
@@ -185,20 +208,26 @@ def _wall_claims() -> list[str]:
 
     r05, r10 = named_ranges(mild), named_ranges(chosen)
     f05, f02, f10 = floor(mild), floor(slippery), floor(chosen)
-    claims.append(f"F's relative range {r05['straight']} for the straight tool and "
-                  f"{r05['tilt (0, 0, 0.2)']} for the tilted one; over the noise-floor set of "
-                  f"the baselines a median of {f05[0]}, largest {f05[1]}")
+    claims.append(
+        f"F's relative range {r05['straight']} for the straight tool and "
+        f"{r05['tilt (0, 0, 0.2)']} for the tilted one; over the noise-floor set of "
+        f"the baselines a median of {f05[0]}, largest {f05[1]}"
+    )
     outcome = re.search(r"tipped (\d+) .*?lying (\d+)", sections[slippery])
     assert int(outcome[2]) > int(outcome[1])  # "most slid off and fell"
     claims.append(f"with 0.2 most slid off and fell (median {f02[0]}, largest {f02[1]})")
-    claims.append(f"they stay ({r10['straight']} and {r10['tilt (0, 0, 0.2)']}; median "
-                  f"{f10[0]}, largest {f10[1]}, the S-shaped tool")
+    claims.append(
+        f"they stay ({r10['straight']} and {r10['tilt (0, 0, 0.2)']}; median "
+        f"{f10[0]}, largest {f10[1]}, the S-shaped tool"
+    )
     f03 = floor("wall at 60 degrees from radius 1.3 to 1.7 m, 0.03 m high, friction 1")
     f05h = floor("wall at 60 degrees from radius 1.3 to 1.7 m, 0.05 m high, friction 1")
     at70 = "wall at 70 degrees from radius 1.25 to 1.8 m, 0.04 m high, friction 1"
     f70 = floor(at70)
-    claims.append(f"Heights 0.03 and 0.05 m (medians {f03[0]} and {f05h[0]}) and the curb at 70 "
-                  f"degrees ({f70[0]})")
+    claims.append(
+        f"Heights 0.03 and 0.05 m (medians {f03[0]} and {f05h[0]}) and the curb at 70 "
+        f"degrees ({f70[0]})"
+    )
     highest = float(re.search(r"its centre [\d.]+ to ([\d.]+) m high", sections[at70])[1])
     assert abs(highest - 0.1) <= get_task("obstacle").height_tolerance  # caught by its tilt
     claims.append(f"ended lying across the curb, its centre {highest:.3f} m high")
@@ -214,8 +243,10 @@ def _wall_claims() -> list[str]:
     )
     assert counts is not None
     _, stand, tip, low, high, lie = counts.groups()
-    claims.append(f"{stand} end with the box standing, {tip} tipped (up axis {low} to {high} "
-                  f"degrees from the vertical), {lie} lying, none shot away")
+    claims.append(
+        f"{stand} end with the box standing, {tip} tipped (up axis {low} to {high} "
+        f"degrees from the vertical), {lie} lying, none shot away"
+    )
     task = get_task("obstacle")
     (x0, y0, _), (x1, y1, _) = task.goal_low, task.goal_high
     in_range = [int(v) for v in re.findall(r"(\d+)\*", sections[chosen])]
@@ -243,10 +274,11 @@ def test_the_standing_test_changed_no_success_of_the_baselines():
     baselines = _baselines()
     successes = int(re.search(r"standing too (\d+)", lines["obstacle"])[1])
     row = baselines["obstacle"]
-    from_json = (sum(r["success"] for r in row["named"].values())
-                 + round(row["random"]["success_rate"] * row["random"]["n"])
-                 + round(row["cmaes"]["success_rate_of_its_evaluations"]
-                         * row["cmaes"]["evaluations"]))
+    from_json = (
+        sum(r["success"] for r in row["named"].values())
+        + round(row["random"]["success_rate"] * row["random"]["n"])
+        + round(row["cmaes"]["success_rate_of_its_evaluations"] * row["cmaes"]["evaluations"])
+    )
     assert successes == from_json  # the same evaluations as baselines.json's
 
 
@@ -262,15 +294,21 @@ def _claims() -> list[str]:
         f"{hook['named']['hook (0.4, 1.4, 0.18)']['final_distance']:.3f} and "
         f"{hook['named']['hook (0, 1.5, 0)']['final_distance']:.3f} m from it"
     )
-    missing = [hook["named"][k]["final_distance"]
-               for k in ("straight", "bow back (0, -0.6, 0)", "bow (0, 0.6, 0)")]
+    missing = [
+        hook["named"][k]["final_distance"]
+        for k in ("straight", "bow back (0, -0.6, 0)", "bow (0, 0.6, 0)")
+    ]
     claims.append(f"({min(missing):.2f} to {max(missing):.2f} m from the goal)")
     obstacle_named = obstacle["named"]
-    claims.append(f"The straight tool leaves the box tipped onto the curb, "
-                  f"{obstacle_named['straight']['final_distance']:.3f} m from the goal")
-    claims.append(f"the hooks (0.4, 1.4, 0.18) and (0, 1.5, 0) carry it around and end "
-                  f"{obstacle_named['hook (0.4, 1.4, 0.18)']['final_distance']:.3f} and "
-                  f"{obstacle_named['hook (0, 1.5, 0)']['final_distance']:.3f} m from it")
+    claims.append(
+        f"The straight tool leaves the box tipped onto the curb, "
+        f"{obstacle_named['straight']['final_distance']:.3f} m from the goal"
+    )
+    claims.append(
+        f"the hooks (0.4, 1.4, 0.18) and (0, 1.5, 0) carry it around and end "
+        f"{obstacle_named['hook (0.4, 1.4, 0.18)']['final_distance']:.3f} and "
+        f"{obstacle_named['hook (0, 1.5, 0)']['final_distance']:.3f} m from it"
+    )
     assert not obstacle_named["straight"]["success"]
     assert obstacle_named["hook (0.4, 1.4, 0.18)"]["success"]
     assert obstacle_named["hook (0, 1.5, 0)"]["success"]
@@ -279,15 +317,21 @@ def _claims() -> list[str]:
     in_way = places["post at radius 1.6 m, 55 degrees"]["hook (0, 1.5, 0)"]
     x, y = (float(v) for v in in_way[0].strip("()").split(","))
     start = (1.169, 0.675)  # the push box's start, SceneSpec()
-    claims.append(f"shot it {((x - start[0]) ** 2 + (y - start[1]) ** 2) ** 0.5:.1f} m away "
-                  f"(F {int(in_way[3]):,}), to {in_way[0]}")
+    claims.append(
+        f"shot it {((x - start[0]) ** 2 + (y - start[1]) ** 2) ** 0.5:.1f} m away "
+        f"(F {int(in_way[3]):,}), to {in_way[0]}"
+    )
     held = [post[k] for k in ("straight", "tilt (0, 0, 0.2)", "bow back (0, -0.6, 0)")]
     off = [1000 * float(r[-1]) for r in held]
     to_goal = [float(r[2]) for r in held]
-    claims.append(f"({min(off):.0f} to {max(off):.0f} mm off their plan) and left the box "
-                  f"{min(to_goal):.2f} to {max(to_goal):.2f} m from that design's goal")
-    claims.append(f"brings the box to {push['named']['straight']['final_distance']:.3f} m of the "
-                  f"goal, leaves the puck {puck['named']['straight']['final_distance']:.3f} m off")
+    claims.append(
+        f"({min(off):.0f} to {max(off):.0f} mm off their plan) and left the box "
+        f"{min(to_goal):.2f} to {max(to_goal):.2f} m from that design's goal"
+    )
+    claims.append(
+        f"brings the box to {push['named']['straight']['final_distance']:.3f} m of the "
+        f"goal, leaves the puck {puck['named']['straight']['final_distance']:.3f} m off"
+    )
     puck_lines = (RESULTS / "placements-output.txt").read_text(encoding="utf-8")
     friction = dict(re.findall(r"puck friction ([\d.]+): .*? median ([\d.]+ %)", puck_lines))
     claims.append(f"With the box's friction 0.4 the puck's noise floor was {friction['0.4']} of F")
@@ -302,60 +346,88 @@ def _claims() -> list[str]:
         noise = row["noise_floor"]["median_range"]
         noise_text = f"{noise:.0f}" if noise >= 10 else f"{noise:.1f}"
         if task == "push":
-            claims.append(f"push {best:.0f} against a median random F of {median:.0f} "
-                          f"({median - best:.0f}, about {(median - best) / noise:.0f} times the "
-                          f"median noise of {noise_text})")
+            claims.append(
+                f"push {best:.0f} against a median random F of {median:.0f} "
+                f"({median - best:.0f}, about {(median - best) / noise:.0f} times the "
+                f"median noise of {noise_text})"
+            )
         else:
-            claims.append(f"{task} {best:.0f} against {median:.0f} ({median - best:.0f}; noise "
-                          f"{noise_text})")
-    claims.append(f"({hook['named']['straight']['final_distance']:.2f} and "
-                  f"{obstacle['named']['straight']['final_distance']:.2f} m from the goal)")
-    claims.append(f"in puck it misses by {puck['named']['straight']['final_distance']:.2f} m "
-                  f"where it brings the box to {push['named']['straight']['final_distance']:.2f} m")
+            claims.append(
+                f"{task} {best:.0f} against {median:.0f} ({median - best:.0f}; noise {noise_text})"
+            )
+    claims.append(
+        f"({hook['named']['straight']['final_distance']:.2f} and "
+        f"{obstacle['named']['straight']['final_distance']:.2f} m from the goal)"
+    )
+    claims.append(
+        f"in puck it misses by {puck['named']['straight']['final_distance']:.2f} m "
+        f"where it brings the box to {push['named']['straight']['final_distance']:.2f} m"
+    )
     # The noise floor, per design (noise-floor.json).
     medians = [b[t]["noise_floor"]["median_relative_range"] for t in TASKS]
     claims.append(f"at most {_pct(max(medians), 2)} of F (median)")
     hook_top = _largest(floors["hook"])
-    claims.append(f"its largest, {_pct(hook_top['relative_range'], 2)}, is "
-                  f"{_design(hook_top['design'])}'s, a bow that moves the box")
+    claims.append(
+        f"its largest, {_pct(hook_top['relative_range'], 2)}, is "
+        f"{_design(hook_top['design'])}'s, a bow that moves the box"
+    )
     assert hook_top["free_energy"][0] < min(hook["random"]["free_energy_quantiles"][2:])
     top = _largest(floors["obstacle"])
-    claims.append(f"Obstacle's largest, {_pct(top['relative_range'], 2)}, is an S-shaped tool, "
-                  f"{_design(top['design'])}, whose box reaches the curb")
+    claims.append(
+        f"Obstacle's largest, {_pct(top['relative_range'], 2)}, is an S-shaped tool, "
+        f"{_design(top['design'])}, whose box reaches the curb"
+    )
     assert top["free_energy_without_obstacles"] != top["free_energy"][0]  # it touches the curb
     push_top = _largest(floors["push"])
     claims.append(f"(largest {_pct(push_top['relative_range'])}, the same design)")
     assert push_top["design"] == top["design"]
     straight = _of(floors["obstacle"], [0.0, 0.0, 0.0])
     assert straight["free_energy_without_obstacles"] != straight["free_energy"][0]  # stopped
-    claims.append(f"the straight tool, whose box tips onto the curb, moves by "
-                  f"{_pct(straight['relative_range'], 2)}")
-    untouched = [r for r in floors["obstacle"]["per_design"]
-                 if r["free_energy_without_obstacles"] == r["free_energy"][0]]
-    claims.append(f"{len(untouched)} of the {len(floors['obstacle']['per_design'])} designs "
-                  "never touch the curb (their F with it removed is the same, to the bit)")
+    claims.append(
+        f"the straight tool, whose box tips onto the curb, moves by "
+        f"{_pct(straight['relative_range'], 2)}"
+    )
+    untouched = [
+        r
+        for r in floors["obstacle"]["per_design"]
+        if r["free_energy_without_obstacles"] == r["free_energy"][0]
+    ]
+    claims.append(
+        f"{len(untouched)} of the {len(floors['obstacle']['per_design'])} designs "
+        "never touch the curb (their F with it removed is the same, to the bit)"
+    )
     # F's lowest design is not a success.
     curl, named_hook = hook["cmaes"]["best"], hook["named"]["hook (0.4, 1.4, 0.18)"]
-    claims.append(f"whose F is {named_hook['free_energy'] - curl['free_energy']:.0f} below the "
-                  f"hook (0.4, 1.4, 0.18)'s while it leaves the box {curl['final_distance']:.3f} "
-                  f"m from the goal instead of {named_hook['final_distance']:.3f} m")
-    claims.append(f"ends {push['cmaes']['best']['final_distance']:.2f} and "
-                  f"{puck['cmaes']['best']['final_distance']:.2f} m off")
+    claims.append(
+        f"whose F is {named_hook['free_energy'] - curl['free_energy']:.0f} below the "
+        f"hook (0.4, 1.4, 0.18)'s while it leaves the box {curl['final_distance']:.3f} "
+        f"m from the goal instead of {named_hook['final_distance']:.3f} m"
+    )
+    claims.append(
+        f"ends {push['cmaes']['best']['final_distance']:.2f} and "
+        f"{puck['cmaes']['best']['final_distance']:.2f} m off"
+    )
     claims.append(f"which ends {push['named']['straight']['final_distance']:.2f} m off in push")
-    claims.append(f"({_pct(push['cmaes']['success_rate_of_its_evaluations'], 0)} in push, "
-                  f"{_pct(hook['cmaes']['success_rate_of_its_evaluations'], 0)} in hook, "
-                  f"{_pct(obstacle['cmaes']['success_rate_of_its_evaluations'], 0)} in obstacle)")
+    claims.append(
+        f"({_pct(push['cmaes']['success_rate_of_its_evaluations'], 0)} in push, "
+        f"{_pct(hook['cmaes']['success_rate_of_its_evaluations'], 0)} in hook, "
+        f"{_pct(obstacle['cmaes']['success_rate_of_its_evaluations'], 0)} in obstacle)"
+    )
     cma, hooked = obstacle["cmaes"]["best"], obstacle["named"]["hook (0.4, 1.4, 0.18)"]
-    claims.append(f"in obstacle it is a hook, {_design(cma['design'])}, that carries the box "
-                  f"around the curb and ends {cma['final_distance']:.3f} m off, its F "
-                  f"{hooked['free_energy'] - cma['free_energy']:.0f} below that of the hook "
-                  f"(0.4, 1.4, 0.18), which ends {hooked['final_distance']:.3f} m off")
+    claims.append(
+        f"in obstacle it is a hook, {_design(cma['design'])}, that carries the box "
+        f"around the curb and ends {cma['final_distance']:.3f} m off, its F "
+        f"{hooked['free_energy'] - cma['free_energy']:.0f} below that of the hook "
+        f"(0.4, 1.4, 0.18), which ends {hooked['final_distance']:.3f} m off"
+    )
     assert not cma["success"] and hooked["success"]
     # The tier rule and the limits.
     shares = [_pct(b[t]["random"]["success_rate"])[:-2] for t in TASKS]
     claims.append(f"With p = {', '.join(shares[:-1])} and {shares[-1]} %")
-    claims.append(f"the success rates of {_pct(puck['random']['success_rate'])} and "
-                  f"{_pct(push['random']['success_rate'])[:-2]} % are one and two designs")
+    claims.append(
+        f"the success rates of {_pct(puck['random']['success_rate'])} and "
+        f"{_pct(push['random']['success_rate'])[:-2]} % are one and two designs"
+    )
     return claims
 
 
@@ -418,3 +490,53 @@ def test_each_definition_the_page_quotes_is_the_tasks(index):
         from tooldesign_env.tasks import get_task
 
         assert {get_task(t).tolerance for t in TASKS} == {0.1}  # "in every task"
+
+
+# --- tiers per (task, d): docs/results/tasks/tiers.json (python -m perf.studies.task_tiers) ---
+
+
+def _tiers() -> dict[tuple[str, int], dict[str, Any]]:
+    record = json.loads((RESULTS / "tiers.json").read_text(encoding="utf-8"))
+    return {(c["task"], c["degree"]): c for c in record["cells"]}
+
+
+def test_the_tiers_follow_the_rule_and_their_d3_cells_are_the_baselines():
+    from benchmarks.reports.success import wilson_interval
+    from perf.studies.task_baselines import tier
+
+    tiers, baselines = _tiers(), _baselines()
+    assert set(tiers) == {(t, d) for t in TASKS for d in (3, 5, 8)}
+    for (task, degree), cell in tiers.items():
+        assert cell["success_rate"] == cell["successes"] / cell["n"]
+        assert cell["tier"] == tier(cell["success_rate"]), (task, degree)
+        assert cell["success_95"] == list(wilson_interval(cell["successes"], cell["n"]))
+        if degree == 3:  # the same draw as the baselines' (same seed sequence and bounds)
+            random = baselines[task]["random"]
+            assert (cell["n"], cell["usable"]) == (random["n"], random["usable"]), task
+            assert cell["success_rate"] == random["success_rate"], task
+            assert cell["tier"] == baselines[task]["tier"], task
+
+
+def test_the_tier_table_of_the_page_is_tiers_json():
+    rows = []
+    for task in TASKS:
+        cells = []
+        for degree in (3, 5, 8):
+            c = _tiers()[(task, degree)]
+            low, high = c["success_95"]
+            cells.append(
+                f"{c['successes']}/{c['n']} ({100 * c['success_rate']:.1f} %, "
+                f"[{100 * low:.1f}, {100 * high:.1f}] %): **{c['tier']}**"
+            )
+        rows.append(f"| {task} | " + " | ".join(cells) + " |")
+    text = PAGE.read_text(encoding="utf-8")
+    for row in rows:
+        assert row in text, row
+
+
+def test_the_tier_study_refuses_bad_options():
+    from perf.studies.task_tiers import parse_args
+
+    for argv in (["--degrees", "4"], ["--random", "0"], ["--workers", "0"], ["--task", "pushh"]):
+        with pytest.raises(SystemExit):
+            parse_args(argv)
