@@ -334,6 +334,39 @@ def test_the_verdict_is_one_holm_family_over_budgets_and_needs_the_noise_floor()
         warm_cold_table(curves, budgets, f_ref=f_ref, floor_fraction=0)
 
 
+def test_warm_worse_on_most_tasks_does_not_beat_cold_whatever_its_mean() -> None:
+    from benchmarks.reports.breakeven import warm_cold_table
+
+    # 18 of 20 tasks: warm worse by 3-5 F (under a floor of ~6 F); 2 tasks: better by 600 F.
+    # The mean is far below -1 floor and the two-sided test is significant, but its ranks
+    # say warm is worse: the significance is on cold's side, so warm does not beat cold.
+    rows = []
+    for k in range(20):
+        task = f"t{k}"
+        shift = -600.0 if k < 2 else 3.0 + 0.1 * k
+        rows += _rows("cold", "random", [1100.0 + 10 * v for v in range(8)], task)
+        rows += _rows("cold", "cmaes", [1000.0] * 8, task)
+        rows += _rows("warm", "warm-contextual", [1000.0 + shift] * 8, task)
+    log = pd.DataFrame(rows)
+    f_ref = log.groupby("task")["free_energy"].min()
+    table = warm_cold_table(regret_curves(log), [8], f_ref=f_ref, floor_fraction=0.006)
+    row = table.iloc[0]
+    assert row["mean_floors"] < -1 and row["significant"]
+    assert not row["ranks_favour_warm"] and not row["beats_cold"]
+    # The same tasks mirrored (warm better on 18 by 3-5 F, worse on 2 by 600 F): the ranks
+    # favour warm, but the mean is above 0: no win either.
+    mirrored = log.assign(
+        free_energy=np.where(
+            log["method"] == "warm-contextual", 2000.0 - log["free_energy"], log["free_energy"]
+        )
+    )
+    f_ref = mirrored.groupby("task")["free_energy"].min()
+    table = warm_cold_table(regret_curves(mirrored), [8], f_ref=f_ref, floor_fraction=0.006)
+    row = table.iloc[0]
+    assert row["significant"] and row["ranks_favour_warm"] and row["mean_floors"] > 0
+    assert not row["beats_cold"]
+
+
 def test_the_noise_floor_fraction_is_the_protocols() -> None:
     from benchmarks.protocol.references import floor_min_fraction
     from benchmarks.reports.breakeven import noise_floor_fraction

@@ -25,7 +25,8 @@ designs and the paired comparison, are the protocol's own code, which lives in
   nudge its tasks to measure floors of its own, so that least value is its floor). Over tasks:
   the mean with its 95 % t interval and the two-sided Wilcoxon signed-rank test, Holm-corrected
   over every warm-started method at every budget as one family. Warm beats cold where Holm
-  p < :data:`ALPHA` and the mean is below -1 floor.
+  p < :data:`ALPHA` on warm's side (the test's signed ranks favour warm: a two-sided test is
+  as significant when warm is worse on most tasks) and the mean is below -1 floor.
 - **Paired tests of every pair** at each budget (secondary, not the verdict): the two-sided
   Wilcoxon signed-rank test of the per-task differences of normalized regret, Holm-corrected
   over the pairs of that budget only (:func:`benchmarks.reports.measures.paired_table`, the
@@ -242,6 +243,7 @@ WARM_COLD_COLUMNS: tuple[str, ...] = (
     "p",
     "p_holm",
     "significant",
+    "ranks_favour_warm",
     "beats_cold",
 )
 
@@ -283,9 +285,13 @@ def warm_cold_table(
     cold, in units of the task's noise floor ``floor_fraction * |F_ref|`` (< 0: warm is
     better). Over the tasks both have: the mean with its 95 % t interval, the two-sided
     Wilcoxon signed-rank test (p = 1 when every difference is 0), and one Holm correction over
-    every row (all warm-started methods at all budgets: one family). A row ``beats_cold``
-    when its Holm p is below :data:`ALPHA` and warm is better by more than one noise floor
-    on average (``mean_floors < -1``).
+    every row (all warm-started methods at all budgets: one family). ``ranks_favour_warm``:
+    the test's rank sum of the differences below 0 exceeds that of those above (zeros split
+    between them, as ``zero_method="zsplit"`` does), so a significant test says warm is
+    better, not worse; the mean alone cannot say it (warm worse by a little on most tasks and
+    better by much on a few has a mean below 0 and a test significant on cold's side). A row
+    ``beats_cold`` when its Holm p is below :data:`ALPHA`, the ranks favour warm, and warm is
+    better by more than one noise floor on average (``mean_floors < -1``).
 
     Args:
         curves: :func:`regret_curves` of the study.
@@ -331,12 +337,32 @@ def warm_cold_table(
                     )
                 else:
                     row["p"] = math.nan
+                row["ranks_favour_warm"] = _ranks_favour_warm(z)
                 rows.append(row)
-    table = pd.DataFrame(rows, columns=list(WARM_COLD_COLUMNS[:7]))
+    columns = [*WARM_COLD_COLUMNS[:7], "ranks_favour_warm"]
+    table = pd.DataFrame(rows, columns=columns)
     table["p_holm"] = holm_bonferroni(table["p"].to_numpy(dtype=np.float64))
     table["significant"] = (table["p_holm"] < ALPHA).astype(bool)
-    table["beats_cold"] = table["significant"] & (table["mean_floors"] < -1.0)
+    table["ranks_favour_warm"] = table["ranks_favour_warm"].astype(bool)
+    table["beats_cold"] = (
+        table["significant"] & table["ranks_favour_warm"] & (table["mean_floors"] < -1.0)
+    )
     return table[list(WARM_COLD_COLUMNS)]
+
+
+def _ranks_favour_warm(z: np.ndarray) -> bool:
+    """Whether the signed-rank sum of ``z`` (warm - cold) is on warm's side (below 0).
+
+    The ranks of |z| (ties averaged; zeros ranked with the rest and split evenly between the
+    sides, as ``zero_method="zsplit"``, so they favour neither): the side with the larger rank
+    sum is the one a significant two-sided Wilcoxon test points to.
+    """
+    from scipy.stats import rankdata
+
+    if z.size == 0:
+        return False
+    ranks = rankdata(np.abs(z))
+    return bool(ranks[z < 0].sum() > ranks[z > 0].sum())
 
 
 def _training_episodes(log: pd.DataFrame) -> dict[str, float]:
@@ -555,6 +581,7 @@ def _verdict_row(r: Any) -> list[Any]:
         mean,
         interval,
         p_holm,
+        "warm" if r.ranks_favour_warm else "cold",
         "yes" if r.beats_cold else "no",
     ]
 
@@ -641,8 +668,9 @@ def make_breakeven_report(
         f"noise floors of the task ({fraction:.4g} x |F_ref|, the project's median relative "
         "floor); the mean over tasks with its 95 % t interval; the two-sided Wilcoxon "
         "signed-rank test over tasks, Holm-corrected over every row of this table (one "
-        f"family). Warm beats cold where Holm p < {ALPHA} and the mean is below -1 (better by "
-        "more than one noise floor).",
+        f"family). Warm beats cold where Holm p < {ALPHA} with the test's signed ranks on "
+        "warm's side (a two-sided test is as significant when warm is worse on most tasks) and "
+        "the mean is below -1 (better by more than one noise floor).",
         "",
         *_markdown(
             [
@@ -652,6 +680,7 @@ def make_breakeven_report(
                 "mean warm - cold (floors)",
                 "95 % interval",
                 "p (Holm)",
+                "signed ranks favour",
                 "warm beats cold",
             ],
             [_verdict_row(r) for r in verdict.itertuples()],
