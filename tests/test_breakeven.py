@@ -394,6 +394,63 @@ def test_intervals_and_tests_over_tasks() -> None:
     assert line == "| mine | 1.000 | 0.750 |"
 
 
+class _FixedDesigner:
+    """A policy that proposes one action at every task (no spread: the default step size)."""
+
+    def predict(self, obs: object, deterministic: bool = True) -> tuple[np.ndarray, None]:
+        return np.array([0.4, -0.3, 0.2], dtype=np.float32), None
+
+
+@pytest.mark.slow
+def test_a_run_of_the_largest_budget_read_at_a_smaller_one_is_the_run_of_that_budget() -> None:
+    # The study runs every cold and warm run to the largest budget and reads it at the smaller
+    # ones; that holds only if the first n evaluations of a long run are the run of budget n.
+    # Budgets that end inside a generation and at its end (population 4; the warm run's first
+    # evaluation is the proposal, so its generations end one later).
+    from benchmarks.rl.agents import run_cmaes
+    from benchmarks.rl.breakeven import _task_env
+    from benchmarks.rl.warmstart import run_warm_cmaes
+
+    task = breakeven_tasks()[0]
+
+    def cold(n: int) -> list[float]:
+        env = _task_env(task)
+        try:
+            records = run_cmaes(
+                total_episodes=n,
+                seed=11,
+                goal=task.goal,
+                box_mass=task.box_mass,
+                popsize=4,
+                env=env,
+            )
+        finally:
+            env.close()
+        return [r.free_energy for r in records]
+
+    def warm(n: int) -> list[float]:
+        env = _task_env(task)
+        try:
+            records, _ = run_warm_cmaes(
+                _FixedDesigner(),
+                total_episodes=n,
+                seed=11,
+                goal=task.goal,
+                box_mass=task.box_mass,
+                popsize=4,
+                env=env,
+            )
+        finally:
+            env.close()
+        return [r.free_energy for r in records]
+
+    for run in (cold, warm):
+        longest = run(9)
+        assert len(longest) == 9 and len(set(longest)) > 1
+        for n in (2, 5):
+            assert run(n) == longest[:n], (run.__name__, n)
+
+
 def test_a_log_without_random_designs_has_no_scale() -> None:
     log = _log()
     with pytest.raises(ValueError, match="no random designs"):
