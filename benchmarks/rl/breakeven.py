@@ -181,9 +181,13 @@ LEARNED_METHODS: tuple[str, ...] = ("contextual", "ppo", "sac")
 FLOOR_METHOD = "noise-floor"
 COLD_METHODS: tuple[str, ...] = ("random", "cmaes")
 
-#: Seconds per evaluation per core the time estimate assumes: a planning figure (docs/rl.md,
-#: "Throughput", measured about 15 episodes/s on one core of the project's loaded machine, 0.067
-#: s; this leaves some room). The integrator measures it (perf/speed/rl_policy_throughput.py).
+#: Seconds per evaluation per idle core the time estimate assumes: the protocol's 0.072 s
+#: (docs/protocol.md) with some room. An evaluation of the study costs what the protocol's does:
+#: ``perf/speed/breakeven_evaluation.py`` times both side by side in one process (the same
+#: designs and tasks; ratio study / protocol 0.97-1.03 on the project's machine, and making a
+#: unit's env costs under one evaluation per 64), so a higher figure measured on a loaded
+#: machine (0.2-0.37 s at load 6 on 2 cores) is the load's, not the study's. The integrator
+#: measures it on an idle machine.
 SECONDS_PER_EVALUATION = 0.075
 
 #: Folder of the run folder with the messages of failed evaluations, one JSON per part that
@@ -468,7 +472,9 @@ def estimate_text(
 ) -> str:
     """The planned evaluations and the time they take at ``seconds_per_evaluation`` per core.
 
-    The estimate counts simulation only: PPO's and SAC's updates come on top.
+    The estimate counts simulation only, on idle cores: PPO's and SAC's updates come on top,
+    and a core shared with other work is slower in proportion (measure the rate with
+    ``python -m perf.speed.breakeven_evaluation``).
 
     Raises:
         ValueError: ``seconds_per_evaluation`` is not a finite number > 0.
@@ -486,7 +492,7 @@ def estimate_text(
     parts = ", ".join(f"{k} {v:,}" for k, v in counts.items() if k != "total")
     return (
         f"break-even study, size {config.size.name}: {counts['total']:,} evaluations ({parts}); "
-        f"at {seconds_per_evaluation:g} s per evaluation per core: {core_seconds / 3600:.2f} "
+        f"at {seconds_per_evaluation:g} s per evaluation per idle core: {core_seconds / 3600:.2f} "
         f"core-hours, {core_seconds / 3600 / config.workers:.2f} h on {config.workers} "
         f"worker(s) (simulation only; PPO's and SAC's updates come on top)"
     )
