@@ -98,7 +98,7 @@ def test_the_page_describes_the_reports_measures_as_the_code_draws_them() -> Non
         page
     )
     assert "Holm-corrected over every warm-started method at every budget together" in page
-    assert "one-sided" in inspect.getdoc(report.warm_cold_table)
+    assert "one-sided" in (inspect.getdoc(report.warm_cold_table) or "")
     assert "The test is of the claim itself, one-sided" in page
     assert "**The noise floor of each task** is measured" in page
 
@@ -781,7 +781,7 @@ def test_a_simulation_error_in_a_run_is_a_failed_evaluation_and_the_study_goes_o
                 raise RuntimeError("injected: the physics server went away")
             return step(action)
 
-        env.step = broken  # type: ignore[method-assign]
+        env.step = broken
         return env
 
     monkeypatch.setattr(breakeven, "_task_env", failing_env)
