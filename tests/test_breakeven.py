@@ -1,12 +1,13 @@
 """The break-even study (issue 36): its tasks, sizes, run folder, loader, report and score row.
 
 The regret, interval and amortization arithmetic is checked on a hand-made log; the ``smoke``
-size runs end to end (slow: about 70 evaluations and two SB3 trainings), is resumed, reported,
+size runs end to end (slow: about 80 evaluations and two SB3 trainings), is resumed, reported,
 and a user's callable is scored against it from the command line.
 """
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -15,6 +16,7 @@ import pytest
 
 from benchmarks.cli import main
 from benchmarks.reports.breakeven import (
+    TESTED,
     amortization_table,
     comparison_table,
     make_breakeven_report,
@@ -24,12 +26,15 @@ from benchmarks.reports.breakeven import (
 )
 from benchmarks.rl.breakeven import (
     BREAKEVEN_COLUMNS,
+    FAILURES_DIR,
+    FLOOR_METHOD,
     FRESH_TASK_SEED,
     FRESH_TASKS,
     breakeven_config,
     breakeven_tasks,
     estimate_text,
     load_breakeven,
+    noise_floors,
     run_breakeven,
 )
 
@@ -58,16 +63,18 @@ def test_the_full_size_is_the_issues_and_its_estimate_is_printed() -> None:
     assert config.size.tasks == 20 and config.size.replicates == 5
     assert config.size.budgets == (1, 4, 8, 16, 32, 64)
     counts = config.planned_evaluations()
-    # 5 x 3 trainings of 1,024; 3 x 5 x 20 zero-shot; (2 cold + 3 warm) x 5 x 20 x 64.
+    # 5 x 3 trainings of 1,024; 3 x 5 x 20 zero-shot; (2 cold + 3 warm) x 5 x 20 x 64; a
+    # noise floor of 16 scenes per task.
     assert counts == {
         "train": 15_360,
         "zero-shot": 300,
         "cold": 12_800,
+        "floor": 320,
         "warm": 19_200,
-        "total": 47_660,
+        "total": 47_980,
     }
     text = estimate_text(config)
-    assert "47,660 evaluations" in text and "0.99 core-hours" in text
+    assert "47,980 evaluations" in text and "1.00 core-hours" in text
 
 
 def test_the_pages_size_and_estimate_are_the_commands() -> None:
@@ -87,8 +94,13 @@ def test_the_page_describes_the_reports_measures_as_the_code_draws_them() -> Non
     assert "One panel per budget B" in inspect.getdoc(report._amortization_figure)
     assert "in one panel per budget B" in page and "for B = 64" not in page
     # The verdict and the secondary table are the report's sections.
-    assert "**The verdict: does warm-started CMA-ES beat cold CMA-ES?**" in page
+    assert "**The verdict: does warm-started CMA-ES beat cold CMA-ES beyond the noise floor?**" in (
+        page
+    )
     assert "Holm-corrected over every warm-started method at every budget together" in page
+    assert "one-sided" in (inspect.getdoc(report.warm_cold_table) or "")
+    assert "The test is of the claim itself, one-sided" in page
+    assert "**The noise floor of each task** is measured" in page
 
 
 def test_bad_study_settings_are_refused_by_name() -> None:
@@ -108,7 +120,7 @@ def test_the_command_prints_the_plan_and_refuses_bad_input(
     capsys: pytest.CaptureFixture[str],
 ) -> None:
     assert main(["rl", "breakeven", "--size", "full", "--plan"]) == 0
-    assert "47,660 evaluations" in capsys.readouterr().out
+    assert "47,980 evaluations" in capsys.readouterr().out
     for argv, message in (
         (["--size", "nope", "--plan"], "size must be one of"),
         (["--size", "smoke"], "--out DIR is needed"),
@@ -295,43 +307,83 @@ def _warm_cold_log(margin: dict[int, float], tasks: int = 8) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def test_the_verdict_is_one_holm_family_over_budgets_and_needs_the_noise_floor() -> None:
+def _floors(log: pd.DataFrame, floor: float = 6.0) -> pd.Series:
+    return pd.Series(floor, index=sorted(set(log["task"]) - {""}))
+
+
+def test_the_verdict_is_one_sided_beyond_the_floor_and_one_holm_family() -> None:
     from benchmarks.reports.breakeven import warm_cold_table
 
-    # Warm is better on every one of 8 tasks at budgets 2 and 8, by 3 F at 2 and by 20 F at 8.
+    # Warm is better on every one of 8 tasks at budgets 2 and 8, by 3 F at 2 and by 20 F at 8;
+    # the floor is 6 F: 3 F better is within the noise, 20 F beyond it.
     log = _warm_cold_log({2: 3.0, 8: 20.0})
     curves = regret_curves(log)
-    f_ref = log.groupby("task")["free_energy"].min()
     budgets = [1, 2, 4, 8]
-    table = warm_cold_table(curves, budgets, f_ref=f_ref, floor_fraction=0.006)
-    table = table.set_index("budget")
-    # 8 tasks all one way: Wilcoxon's exact two-sided p = 2 / 2^8; one family of the 4
-    # budgets with a test (budget 1 and 4: every difference 0, p = 1).
-    p = 2 / 2**8
-    assert table.loc[2, "p"] == pytest.approx(p) and table.loc[8, "p"] == pytest.approx(p)
-    assert table.loc[1, "p"] == 1.0
-    assert table.loc[2, "p_holm"] == pytest.approx(4 * p)  # Holm over budgets, not per budget
-    assert table.loc[2, "significant"] and table.loc[8, "significant"]
-    # A floor is 0.006 x ~1000 = ~6 F: 3 F better is within the noise, 20 F is beyond it.
-    assert -1 < table.loc[2, "mean_floors"] < 0 and not table.loc[2, "beats_cold"]
-    assert table.loc[8, "mean_floors"] < -1 and table.loc[8, "beats_cold"]
+    table = warm_cold_table(curves, budgets, floors=_floors(log)).set_index("budget")
+    # Budget 8: every (warm - cold) / floor + 1 is below 0: Wilcoxon's exact one-sided
+    # p = 1 / 2^8; one Holm family of the 4 budgets tested.
+    p = 1 / 2**8
+    assert table.loc[8, "p"] == pytest.approx(p)
+    assert table.loc[8, "p_holm"] == pytest.approx(4 * p) and table.loc[8, "beats_cold"]
+    assert table.loc[8, "mean_floors"] < -1 and table.loc[8, "pairs"] == 8
+    # Budget 2: better on every task, but by less than a floor: every difference + 1 is above
+    # 0, so the test of "beyond the floor" says nothing (a two-sided test of the raw
+    # differences would have had p = 2 / 2^8). Budgets 1 and 4: warm equals cold.
+    assert table.loc[2, "p"] == pytest.approx(1.0) and not table.loc[2, "beats_cold"]
+    assert -1 < table.loc[2, "mean_floors"] < 0
     assert not table.loc[[1, 4], "beats_cold"].any()
-    # With 7 tasks, p = 2 / 2^7: per budget alone (the secondary table, Holm over the 3 pairs
-    # of random, cmaes and warm-contextual) budget 8 is significant, 3 p = 0.047; in the one
-    # family of the 4 budgets tested it is not, 4 p = 0.0625: no win.
-    seven = _warm_cold_log({2: 3.0, 8: 20.0}, tasks=7)
-    curves = regret_curves(seven)
-    p = 2 / 2**7
-    pairs = comparison_table(curves, [8])
-    pair = pairs[(pairs["a"] == "cmaes") & (pairs["b"] == "warm-contextual")].iloc[0]
-    assert pair["p_holm"] == pytest.approx(3 * p) and pair["significant"]
-    f_ref = seven.groupby("task")["free_energy"].min()
-    family = warm_cold_table(curves, budgets, f_ref=f_ref, floor_fraction=0.006)
+    # With 5 tasks, p = 1 / 2^5 = 0.031: alone it would be a win, in the one family of the 4
+    # budgets it is not (4 p = 0.125).
+    five = _warm_cold_log({2: 3.0, 8: 20.0}, tasks=5)
+    family = warm_cold_table(regret_curves(five), budgets, floors=_floors(five))
     row = family.set_index("budget").loc[8]
-    assert row["p_holm"] == pytest.approx(4 * p) and row["mean_floors"] < -1
-    assert not row["significant"] and not family["beats_cold"].any()
+    assert row["p"] == pytest.approx(1 / 2**5) and row["p_holm"] == pytest.approx(4 / 2**5)
+    assert not family["beats_cold"].any()
+    # A larger floor (30 F) puts the 20 F of budget 8 inside the noise.
+    wide = warm_cold_table(curves, [8], floors=_floors(log, 30.0))
+    assert -1 < wide.loc[0, "mean_floors"] < 0 and not wide.loc[0, "beats_cold"]
+    with pytest.raises(ValueError, match="floors must be finite numbers > 0"):
+        warm_cold_table(curves, budgets, floors=_floors(log, 0.0))
+
+
+def test_warm_better_by_much_on_a_few_tasks_only_does_not_beat_cold() -> None:
+    from benchmarks.reports.breakeven import warm_cold_table
+
+    # 18 of 20 tasks: warm worse by 3-5 F (under a floor of 6 F); 2 tasks: better by 600 F.
+    # The mean is far below -1 floor, and a two-sided test of the raw differences is
+    # significant (on cold's side); the one-sided test of "beyond the floor" is not.
+    rows = []
+    for k in range(20):
+        task = f"t{k}"
+        shift = -600.0 if k < 2 else 3.0 + 0.1 * k
+        rows += _rows("cold", "random", [1100.0 + 10 * v for v in range(8)], task)
+        rows += _rows("cold", "cmaes", [1000.0] * 8, task)
+        rows += _rows("warm", "warm-contextual", [1000.0 + shift] * 8, task)
+    log = pd.DataFrame(rows)
+    row = warm_cold_table(regret_curves(log), [8], floors=_floors(log)).iloc[0]
+    assert row["mean_floors"] < -1 and row["median_floors"] > 0
+    assert row["p"] > 0.5 and not row["beats_cold"]
+    # Mirrored (warm better on 18 by 3-5 F, within the floor; worse on 2 by 600 F): no win.
+    mirrored = log.assign(
+        free_energy=np.where(
+            log["method"] == "warm-contextual", 2000.0 - log["free_energy"], log["free_energy"]
+        )
+    )
+    row = warm_cold_table(regret_curves(mirrored), [8], floors=_floors(log)).iloc[0]
+    assert row["p"] > 0.99 and not row["beats_cold"]
+
+
+def test_the_floor_is_the_larger_of_the_measured_range_and_the_least_floor() -> None:
+    from benchmarks.reports.breakeven import task_floors
+
+    f_ref = pd.Series({"a": 1000.0, "b": -2000.0, "c": 500.0})
+    measured = pd.DataFrame({"task": ["a", "b"], "noise_range": [9.0, 3.0], "status": ["ok", "ok"]})
+    table = task_floors(f_ref, measured, floor_fraction=0.006)
+    # a: measured 9 > 6; b: measured 3 < 0.006 x 2000 = 12; c: no floor unit, the least one.
+    assert table["floor"].tolist() == pytest.approx([9.0, 12.0, 3.0])
+    assert table["measured"].tolist() == [True, True, False]
     with pytest.raises(ValueError, match="floor_fraction must be a number > 0, got 0"):
-        warm_cold_table(curves, budgets, f_ref=f_ref, floor_fraction=0)
+        task_floors(f_ref, measured, floor_fraction=0)
 
 
 def test_the_noise_floor_fraction_is_the_protocols() -> None:
@@ -340,7 +392,7 @@ def test_the_noise_floor_fraction_is_the_protocols() -> None:
 
     assert noise_floor_fraction() == floor_min_fraction()
     page = (Path(__file__).resolve().parents[1] / "docs" / "rl.md").read_text()
-    assert f"units of the task's noise floor: {100 * noise_floor_fraction():.2f} % of |F_ref|" in (
+    assert f"the least floor {100 * noise_floor_fraction():.2f} % of |F_ref|" in (
         " ".join(page.split())
     )
 
@@ -359,6 +411,63 @@ def test_intervals_and_tests_over_tasks() -> None:
     assert row["mean_diff"] == pytest.approx(0.75) and not row["significant"]
     line = score_row("mine", regret_table(curves[curves["method"] == "cmaes"], [1, 2]))
     assert line == "| mine | 1.000 | 0.750 |"
+
+
+class _FixedDesigner:
+    """A policy that proposes one action at every task (no spread: the default step size)."""
+
+    def predict(self, obs: object, deterministic: bool = True) -> tuple[np.ndarray, None]:
+        return np.array([0.4, -0.3, 0.2], dtype=np.float32), None
+
+
+@pytest.mark.slow
+def test_a_run_of_the_largest_budget_read_at_a_smaller_one_is_the_run_of_that_budget() -> None:
+    # The study runs every cold and warm run to the largest budget and reads it at the smaller
+    # ones; that holds only if the first n evaluations of a long run are the run of budget n.
+    # Budgets that end inside a generation and at its end (population 4; the warm run's first
+    # evaluation is the proposal, so its generations end one later).
+    from benchmarks.rl.agents import run_cmaes
+    from benchmarks.rl.breakeven import _task_env
+    from benchmarks.rl.warmstart import run_warm_cmaes
+
+    task = breakeven_tasks()[0]
+
+    def cold(n: int) -> list[float]:
+        env = _task_env(task)
+        try:
+            records = run_cmaes(
+                total_episodes=n,
+                seed=11,
+                goal=task.goal,
+                box_mass=task.box_mass,
+                popsize=4,
+                env=env,
+            )
+        finally:
+            env.close()
+        return [r.free_energy for r in records]
+
+    def warm(n: int) -> list[float]:
+        env = _task_env(task)
+        try:
+            records, _ = run_warm_cmaes(
+                _FixedDesigner(),
+                total_episodes=n,
+                seed=11,
+                goal=task.goal,
+                box_mass=task.box_mass,
+                popsize=4,
+                env=env,
+            )
+        finally:
+            env.close()
+        return [r.free_energy for r in records]
+
+    for run in (cold, warm):
+        longest = run(9)
+        assert len(longest) == 9 and len(set(longest)) > 1
+        for n in (2, 5):
+            assert run(n) == longest[:n], (run.__name__, n)
 
 
 def test_a_log_without_random_designs_has_no_scale() -> None:
@@ -392,9 +501,24 @@ def test_the_smoke_study_runs_resumes_and_reports(smoke_study: Path) -> None:
         "warm-contextual",
         "warm-ppo",
         "warm-sac",
+        FLOOR_METHOD,
     }
-    tested = log[log["variant"] != "train"]
+    tested = log[log["variant"].isin(TESTED)]
     assert set(tested["task"]) == {"i03", "i04"}
+    # Each task's noise floor: the best design of its cold CMA-ES runs in 4 nudged scenes, the
+    # first the task's own, where its F is the run's, bit for bit (the same simulation).
+    floors = noise_floors(log)
+    assert floors["task"].tolist() == ["i03", "i04"] and (floors["scenes"] == 4).all()
+    for row in floors.itertuples():
+        cold = tested[(tested["method"] == "cmaes") & (tested["task"] == row.task)]
+        best = cold.loc[cold["free_energy"].idxmin()]
+        assert (row.c1, row.c2, row.c3) == (best["c1"], best["c2"], best["c3"])
+        assert row.f_design == best["free_energy"]
+        scenes = log[(log["variant"] == "floor") & (log["task"] == row.task)]
+        assert scenes["evaluation"].tolist() == [1, 2, 3, 4]
+        assert row.noise_range == scenes["free_energy"].max() - scenes["free_energy"].min() > 0
+    assert (log[log["variant"] == "floor"]["replicate"] == -1).all()
+    assert not (smoke_study / FAILURES_DIR).exists()
     # The warm run starts at the zero-shot design (simulated on ToolDesign-v0 through the
     # executor there, on ToolDesignRL-v0 here): the same F, bit for bit.
     for method in ("contextual", "ppo", "sac"):
@@ -439,6 +563,7 @@ def test_the_smoke_study_runs_resumes_and_reports(smoke_study: Path) -> None:
     for name in (
         "breakeven.md",
         "regret.csv",
+        "noise_floors.csv",
         "warm_vs_cold.csv",
         "comparisons.csv",
         "amortization.csv",
@@ -457,6 +582,10 @@ def test_the_smoke_study_runs_resumes_and_reports(smoke_study: Path) -> None:
     verdict = pd.read_csv(report / "warm_vs_cold.csv")
     assert sorted(set(verdict["method"])) == ["warm-contextual", "warm-ppo", "warm-sac"]
     assert len(verdict) == 9 and set(verdict["budget"]) == {1, 2, 4}
+    assert (verdict["pairs"] == 2).all() and (verdict["tasks"] == 2).all()
+    floor = pd.read_csv(report / "noise_floors.csv")
+    assert floor["task"].tolist() == ["i03", "i04"] and floor["measured"].all()
+    assert (floor["floor"] == np.fmax(floor["noise_range"], floor["least_floor"])).all()
     page = (report / "breakeven.md").read_text()
     assert "## Does warm-started CMA-ES beat cold CMA-ES?" in page
     assert "## Secondary: every pair of methods, each budget apart" in page
@@ -486,7 +615,7 @@ def test_an_interrupted_study_resumes_to_the_same_data(smoke_study: Path, tmp_pa
         "sac-0.json",
     ]
     result = run_breakeven(breakeven_config("smoke"), out)
-    assert result.units == 13 and result.units_run == 8
+    assert result.units == 15 and result.units_run == 10
     timing = ["eval_time", "opt_time"]
     pd.testing.assert_frame_equal(
         load_breakeven(out).drop(columns=timing), load_breakeven(smoke_study).drop(columns=timing)
@@ -594,6 +723,89 @@ def test_units_on_dask_or_a_process_pool_give_the_serial_data(tmp_path: Path) ->
         frames.append(result.evaluations.drop(columns=timing))
     pd.testing.assert_frame_equal(frames[0], frames[1])
     pd.testing.assert_frame_equal(frames[0], frames[2])
+
+
+def test_a_failed_zero_shot_design_counts_as_an_unusable_one() -> None:
+    from benchmarks.rl.breakeven import _Work, _zero_shot_frame, unusable_free_energy
+
+    tasks = breakeven_tasks()[:2]
+    evaluated = pd.DataFrame(
+        [
+            {
+                **t.row_fields(),
+                **dict.fromkeys(("a1", "a2", "a3", "c1", "c2", "c3"), 0.0),
+                "free_energy": math.nan if k == 1 else 5000.0,
+                **dict.fromkeys(("goal_error", "confidence", "final_distance"), math.nan),
+                "status": "failed" if k == 1 else "ok",
+                "message": "RuntimeError: boom" if k == 1 else "",
+                "eval_time": 0.1,
+            }
+            for k, t in enumerate(tasks)
+        ]
+    )
+    work = _Work("train", "contextual", 7, 0)
+    frame = _zero_shot_frame(evaluated, work=work, key=work.keys()[1], seconds=1.0, tasks=tasks)
+    penalty = unusable_free_energy(tasks[1])
+    # F_idle (the box never moves) + the invalid penalty 1e5, finite: the worst design.
+    assert math.isfinite(penalty) and penalty > 1e5
+    assert frame["free_energy"].tolist() == [5000.0, penalty]
+    assert frame["status"].tolist() == ["ok", "failed"]
+    # In the report it is a regret like any other (worse than random), not a missing value.
+    rows = _rows("cold", "random", [4000.0 + 100 * v for v in range(16)], "t1")
+    rows += _rows("cold", "cmaes", [4200.0] * 8, "t1")
+    rows += _rows("zero-shot", "contextual", [penalty], "t1")
+    curves = regret_curves(pd.DataFrame(rows), 8)
+    regret = curves[curves["method"] == "contextual"]["regret"]
+    assert regret.notna().all() and (regret > 1).all()
+
+
+@pytest.mark.slow
+def test_a_simulation_error_in_a_run_is_a_failed_evaluation_and_the_study_goes_on(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import json
+
+    from benchmarks.rl import breakeven
+    from benchmarks.storage import read_manifest
+
+    real = breakeven._task_env
+    steps = {"n": 0}
+
+    def failing_env(task: object) -> object:
+        env = real(task)  # type: ignore[arg-type]
+        step = env.step
+
+        def broken(action: object) -> object:
+            steps["n"] += 1
+            if steps["n"] == 3:  # the third evaluation of the cold and warm runs
+                raise RuntimeError("injected: the physics server went away")
+            return step(action)
+
+        env.step = broken
+        return env
+
+    monkeypatch.setattr(breakeven, "_task_env", failing_env)
+    out = tmp_path / "study"
+    result = run_breakeven(breakeven_config("smoke", learned=["contextual"]), out)
+    log = result.evaluations
+    failed = log[log["status"] == "failed"]
+    assert len(failed) == 1
+    row = failed.iloc[0]
+    # The first unit run at a task is random sampling at task 1: its third design failed.
+    assert (row["method"], row["task"], row["evaluation"]) == ("random", "i03", 3)
+    task = breakeven_tasks()[0]
+    monkeypatch.setattr(breakeven, "_task_env", real)
+    assert row["free_energy"] == breakeven.unusable_free_energy(task)
+    # The run went on to its budget, and so did the study.
+    run = log[(log["method"] == "random") & (log["task"] == "i03")]
+    assert run["evaluation"].tolist() == [1, 2, 3, 4] and (run["status"] != "failed").sum() == 3
+    assert result.units_run == result.units
+    messages = out / FAILURES_DIR / f"cold-random-{int(row['seed'])}.json"
+    data = json.loads(messages.read_text())
+    assert data["failed"] == [
+        {"evaluation": 3, "message": "RuntimeError: injected: the physics server went away"}
+    ]
+    assert any(FAILURES_DIR in name for name in read_manifest(out)["extra"]["file_sha256"])
 
 
 @pytest.mark.slow

@@ -28,13 +28,32 @@ Each learned method trains once per replicate (training seed); replicate k of ev
 the same seeds of the cold runs, so every comparison is paired by task and replicate. Runs of
 the largest budget are read at every smaller one (their behaviour does not depend on it).
 
+**The noise floor of each task**, measured as the benchmark protocol measures a cell's
+(``compute_cell`` of :mod:`benchmarks.protocol.references`): a unit per task, after its cold
+runs, evaluates the task's reference design in ``floor_scenes`` nudged scenes
+(:class:`benchmarks.suites.retest.RetestConfig`: 16 at ``full``, the protocol's
+:data:`~benchmarks.protocol.references.FLOOR_SCENES`; 4 at ``smoke``; the first is the task's
+own scene). The design is the best of the task's cold CMA-ES runs (every replicate, the largest
+budget), passing over one invalid in a nudged scene for the next best, as the protocol does:
+where the compared runs end, the same for every warm-started method, and fixed before any
+warm-started run (the study's F_ref would let the tested methods pick their own floor).
+:func:`noise_floors` reads the measured range per task; the report's floor is the larger of
+it and the least floor ``floor_min_fraction() x |F_ref|``.
+
+**Failures.** A simulation error inside a cold or warm run does not end the study: the
+evaluation is stored with status ``failed`` and the F of an unusable design at the task
+(:func:`unusable_free_energy`, what CMA-ES is told), its message in ``failures/``
+(:data:`FAILURES_DIR`), and the run goes on in a new env. A zero-shot design whose evaluation
+failed is stored the same way, so it counts against its method.
+
 **Stored** as every suite: one run folder (:class:`benchmarks.storage.RunSession`), one part
 file per run, written atomically and checksummed in ``manifest.json``; the saved policies
 (``policies/<method>-<replicate>.json``, recorded with their SHA-256); at the end every
 evaluation in one Parquet file, ``evaluations.parquet``, read by :func:`load_breakeven` (columns:
-:data:`BREAKEVEN_COLUMNS`). **Resume**: the same command again skips the finished units (a
-training with its zero-shot designs, one cold run, one warm run); an interrupted unit is redone
-whole and must equal what it left on disk. The report (:mod:`benchmarks.reports.breakeven`) is
+:data:`BREAKEVEN_COLUMNS`; the noise floor's rows have variant ``floor``). **Resume**: the same
+command again skips the finished units (a training with its zero-shot designs, one cold run,
+one task's noise floor, one warm run); an interrupted unit is redone whole and must equal what
+it left on disk. The report (:mod:`benchmarks.reports.breakeven`) is
 made from the stored files alone.
 """
 
@@ -50,10 +69,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, cast
 
+import gymnasium as gym
 import numpy as np
 import pandas as pd
 
 from benchmarks.design.instances import load_instances, select_instances
+from benchmarks.protocol.references import FLOOR_SCENES, MAX_REFERENCE_CANDIDATES
 from benchmarks.rl.agents import (
     EpisodeRecord,
     Trained,
@@ -80,6 +101,7 @@ from benchmarks.storage import (
     read_manifest,
     validate_evaluations,
 )
+from tooldesign_env.rl import REWARD_FLOOR, ToolDesignRLEnv
 from tooldesign_env.schema import (
     DEFAULT_GOAL_PRECISION,
     GOAL_HIGH,
@@ -93,6 +115,8 @@ __all__ = [
     "BREAKEVEN_SIZES",
     "COLD_METHODS",
     "FRESH_TASKS",
+    "FAILURES_DIR",
+    "FLOOR_METHOD",
     "FRESH_TASK_SEED",
     "INSTANCE_SET_VERSION",
     "LEARNED_METHODS",
@@ -105,6 +129,9 @@ __all__ = [
     "breakeven_tasks",
     "estimate_text",
     "load_breakeven",
+    "noise_floors",
+    "NOISE_FLOOR_COLUMNS",
+    "unusable_free_energy",
     "method_names",
     "run_breakeven",
 ]
@@ -149,12 +176,23 @@ FRESH_TASKS: tuple[tuple[tuple[float, float, float], float, float], ...] = (
 MASS_RANGE: tuple[float, float] = (0.1, 0.9)
 
 LEARNED_METHODS: tuple[str, ...] = ("contextual", "ppo", "sac")
+
+#: The ``method`` of the noise floor's rows (variant ``floor``): not a method that is compared.
+FLOOR_METHOD = "noise-floor"
 COLD_METHODS: tuple[str, ...] = ("random", "cmaes")
 
-#: Seconds per evaluation per core the time estimate assumes: a planning figure (docs/rl.md,
-#: "Throughput", measured about 15 episodes/s on one core of the project's loaded machine, 0.067
-#: s; this leaves some room). The integrator measures it (perf/speed/rl_policy_throughput.py).
+#: Seconds per evaluation per idle core the time estimate assumes: the protocol's 0.072 s
+#: (docs/protocol.md) with some room. An evaluation of the study costs what the protocol's does:
+#: ``perf/speed/breakeven_evaluation.py`` times both side by side in one process (the same
+#: designs and tasks; ratio study / protocol 0.97-1.03 on the project's machine, and making a
+#: unit's env costs under one evaluation per 64), so a higher figure measured on a loaded
+#: machine (0.2-0.37 s at load 6 on 2 cores) is the load's, not the study's. The integrator
+#: measures it on an idle machine.
 SECONDS_PER_EVALUATION = 0.075
+
+#: Folder of the run folder with the messages of failed evaluations, one JSON per part that
+#: has any (``<variant>-<method>-<seed>.json``), recorded with its SHA-256 in the manifest.
+FAILURES_DIR = "failures"
 
 #: Most replicates (training seeds) and tasks a size may ask for.
 _REPLICATES_MAX = 1000
@@ -195,6 +233,8 @@ class BreakevenSize:
             CMA-ES runs: ``contextual_goals`` tasks of ``train_episodes / contextual_goals``).
         contextual_goals: Training tasks of the contextual method.
         popsize: CMA-ES population size (cold, warm and the contextual method's).
+        floor_scenes: Scenes of each task's noise floor (the first is the task's own scene):
+            the protocol's :data:`~benchmarks.protocol.references.FLOOR_SCENES`, 16.
         overrides: Per-method config fields replaced for this size, ``(method, field, value)``.
     """
 
@@ -205,11 +245,13 @@ class BreakevenSize:
     train_episodes: int
     contextual_goals: int
     popsize: int = 8
+    floor_scenes: int = FLOOR_SCENES
     overrides: tuple[tuple[str, str, Any], ...] = ()
 
 
 BREAKEVEN_SIZES: dict[str, BreakevenSize] = {
-    # CI: 2 tasks, one replicate, budgets up to 4; about 70 evaluations.
+    # CI: 2 tasks, one replicate, budgets up to 4, noise floors of 4 scenes; about 80
+    # evaluations.
     "smoke": BreakevenSize(
         name="smoke",
         tasks=2,
@@ -218,6 +260,7 @@ BREAKEVEN_SIZES: dict[str, BreakevenSize] = {
         train_episodes=8,
         contextual_goals=2,
         popsize=4,
+        floor_scenes=4,
         overrides=(
             ("ppo", "n_steps", 8),
             ("ppo", "batch_size", 8),
@@ -296,6 +339,10 @@ class BreakevenConfig:
         part = 3 if method == "random" else 2
         return _seeds(self.root_seed, part, task, self.size.replicates)
 
+    def floor_seed(self, task: int) -> int:
+        """Seed of task ``task``'s nudged scenes (its noise floor unit)."""
+        return _seeds(self.root_seed, 4, task, 1)[0]
+
     def train_episodes(self, method: str) -> int:
         """Episodes one training of ``method`` simulates (PPO rounds up to whole rollouts)."""
         return training_episodes(self.configs[method], self.size.train_episodes)
@@ -307,6 +354,7 @@ class BreakevenConfig:
             "train": r * sum(self.train_episodes(m) for m in self.learned),
             "zero-shot": r * n * len(self.learned),
             "cold": len(COLD_METHODS) * r * n * b,
+            "floor": n * self.size.floor_scenes,
             "warm": len(self.learned) * r * n * b,
         }
         counts["total"] = sum(counts.values())
@@ -385,6 +433,9 @@ def breakeven_config(
     for name in ("tasks", "replicates"):
         limit = len(breakeven_tasks()) if name == "tasks" else _REPLICATES_MAX
         _check_count(f"size.{name}", getattr(chosen, name), limit)
+    scenes = chosen.floor_scenes
+    if isinstance(scenes, bool) or not isinstance(scenes, int) or not 2 <= scenes <= 100:
+        raise ValueError(f"size.floor_scenes must be an int from 2 to 100, got {scenes!r}")
     budgets = chosen.budgets
     if (
         not budgets
@@ -421,7 +472,9 @@ def estimate_text(
 ) -> str:
     """The planned evaluations and the time they take at ``seconds_per_evaluation`` per core.
 
-    The estimate counts simulation only: PPO's and SAC's updates come on top.
+    The estimate counts simulation only, on idle cores: PPO's and SAC's updates come on top,
+    and a core shared with other work is slower in proportion (measure the rate with
+    ``python -m perf.speed.breakeven_evaluation``).
 
     Raises:
         ValueError: ``seconds_per_evaluation`` is not a finite number > 0.
@@ -439,7 +492,7 @@ def estimate_text(
     parts = ", ".join(f"{k} {v:,}" for k, v in counts.items() if k != "total")
     return (
         f"break-even study, size {config.size.name}: {counts['total']:,} evaluations ({parts}); "
-        f"at {seconds_per_evaluation:g} s per evaluation per core: {core_seconds / 3600:.2f} "
+        f"at {seconds_per_evaluation:g} s per evaluation per idle core: {core_seconds / 3600:.2f} "
         f"core-hours, {core_seconds / 3600 / config.workers:.2f} h on {config.workers} "
         f"worker(s) (simulation only; PPO's and SAC's updates come on top)"
     )
@@ -453,8 +506,9 @@ class _Work:
     """One unit of work, redone whole after an interruption.
 
     ``kind`` is ``"train"`` (a learned method's training, its card, its zero-shot designs),
-    ``"cold"`` (random sampling or CMA-ES at one task) or ``"warm"`` (CMA-ES from a card's
-    design at one task).
+    ``"cold"`` (random sampling or CMA-ES at one task), ``"floor"`` (the noise floor of one
+    task: the best design of its cold CMA-ES runs in nudged scenes; after those runs) or
+    ``"warm"`` (CMA-ES from a card's design at one task).
     """
 
     kind: str
@@ -469,11 +523,15 @@ class _Work:
             return [("train", self.method, self.seed), ("zero-shot", self.method, self.seed)]
         if self.kind == "cold":
             return [("cold", self.method, self.seed)]
+        if self.kind == "floor":
+            return [("floor", FLOOR_METHOD, self.seed)]
         return [("warm", f"warm-{self.method}", self.seed)]
 
     def label(self) -> str:
         if self.kind == "train":
             return f"train {self.method} replicate {self.replicate}"
+        if self.kind == "floor":
+            return f"noise floor task {self.task + 1}"
         name = self.method if self.kind == "cold" else f"warm-{self.method}"
         return f"{name} task {self.task + 1} replicate {self.replicate}"
 
@@ -488,6 +546,10 @@ def _plan(config: BreakevenConfig) -> list[_Work]:
                 _Work("cold", method, seed, k, i)
                 for k, seed in enumerate(config.run_seeds(method, i))
             ]
+    # After every cold run (the floor's design is the best of the task's cold CMA-ES runs).
+    work += [
+        _Work("floor", FLOOR_METHOD, config.floor_seed(i), -1, i) for i in range(config.size.tasks)
+    ]
     for i in range(config.size.tasks):
         seeds = config.run_seeds("cmaes", i)
         for method in config.learned:
@@ -529,7 +591,9 @@ def _frame(
     task: int,
     friction: float,
     sigma0: float = math.nan,
+    failed: Iterable[int] = (),
 ) -> pd.DataFrame:
+    failed = set(failed)
     simulated = sum(r.seconds for r in records)
     agent = max(seconds - simulated, 0.0) / len(records)
     rows = []
@@ -542,7 +606,7 @@ def _frame(
                 "goal_error": r.goal_error,
                 "confidence": r.confidence,
                 "final_distance": r.final_distance,
-                "status": "ok" if r.valid else "invalid",
+                "status": "failed" if k in failed else "ok" if r.valid else "invalid",
                 "eval_time": r.seconds,
                 "opt_time": agent,
                 "goal_x": r.goal[0],
@@ -562,17 +626,26 @@ def _frame(
 
 
 def _zero_shot_frame(
-    evaluated: pd.DataFrame, *, work: _Work, key: tuple[str, str, int], seconds: float
+    evaluated: pd.DataFrame,
+    *,
+    work: _Work,
+    key: tuple[str, str, int],
+    seconds: float,
+    tasks: Sequence[RLTask],
 ) -> pd.DataFrame:
+    """The zero-shot rows; a failed design (an error, F NaN) gets the F of an unusable one."""
     rows = []
     for i, row in evaluated.iterrows():
+        free_energy = float(row["free_energy"])
+        if row["status"] == "failed":
+            free_energy = unusable_free_energy(tasks[int(cast("int", i))])
         rows.append(
             {
                 **_unit_fields(key, int(cast("int", i))),
                 "c1": row["c1"],
                 "c2": row["c2"],
                 "c3": row["c3"],
-                "free_energy": row["free_energy"],
+                "free_energy": free_energy,
                 "goal_error": row["goal_error"],
                 "confidence": row["confidence"],
                 "final_distance": row["final_distance"],
@@ -593,6 +666,186 @@ def _zero_shot_frame(
                 "replicate": work.replicate,
                 "box_friction": row["box_friction"],
                 "sigma0": math.nan,
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def unusable_free_energy(task: RLTask) -> float:
+    """F of an unusable design at ``task``: F_idle (the box never moves) + the invalid penalty.
+
+    What the env scores a design it cannot build or use, and what the study counts for a
+    design whose evaluation failed (an error in the simulation): a failure counts against its
+    method like the worst design, not as a missing value.
+    """
+    env = _task_env(task)
+    try:
+        env.reset(options={"goal": task.goal, "box_mass": task.box_mass})
+        return float(env.idle_free_energy() + env.base.objective.invalid_penalty)
+    finally:
+        env.close()
+
+
+class _Guarded(gym.Wrapper[np.ndarray, np.ndarray, np.ndarray, np.ndarray]):
+    """The task's env; an exception in a step becomes a failed evaluation, not the study's end.
+
+    The failed step returns what an unusable design gets (F_idle + the invalid penalty, the
+    lowest normalized reward), so CMA-ES is told a finite F and goes on; the env is made
+    again (its simulation may be in any state) and reset to the episode's task. ``failures``
+    maps the step's index (0-based, in order) to the error's message.
+    """
+
+    def __init__(self, task: RLTask) -> None:
+        super().__init__(_task_env(task))
+        self.task = task
+        self.failures: dict[int, str] = {}
+        self.steps = 0
+        self._options: dict[str, Any] | None = None
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        self._options = None if options is None else dict(options)
+        return self.env.reset(seed=seed, options=options)
+
+    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        index = self.steps
+        self.steps += 1
+        rl = cast("ToolDesignRLEnv", self.env.unwrapped)
+        coefficients = rl.to_coefficients(action)  # a bad action is an error, not a failure
+        try:
+            obs, reward, terminated, truncated, info = self.env.step(action)
+            return obs, float(reward), terminated, truncated, info
+        except Exception as error:  # noqa: BLE001 - any error of the simulation is recorded
+            self.failures[index] = f"{type(error).__name__}: {error}"
+        self.env.close()
+        self.env = _task_env(self.task)
+        obs, task = self.env.reset(options=self._options)
+        rl = cast("ToolDesignRLEnv", self.env.unwrapped)
+        idle = float(rl.idle_free_energy())
+        goal = np.asarray(task["goal"], dtype=float)
+        info = {
+            "goal": goal,
+            "box_mass": float(task["box_mass"]),
+            "coefficients": np.asarray(coefficients, dtype=float),
+            "free_energy": idle + float(rl.base.objective.invalid_penalty),
+            "normalized_reward": REWARD_FLOOR,
+            "valid": False,
+            "final_distance": float(np.linalg.norm(rl.base.box_start() - goal)),
+            "goal_error": idle,
+            "confidence": 0.0,
+            "failed": self.failures[index],
+        }
+        return obs, REWARD_FLOOR, True, False, info
+
+
+def _failures_path(out: Path, key: tuple[str, str, int]) -> Path:
+    return out / FAILURES_DIR / f"{key[0]}-{key[1]}-{key[2]}.json"
+
+
+def _record_failures(out: Path, key: tuple[str, str, int], failures: dict[int, str]) -> None:
+    """Write the messages of a part's failed evaluations (or remove a stale file: none)."""
+    from benchmarks.storage import atomic_write_text, json_text
+
+    path = _failures_path(out, key)
+    if failures:
+        messages = [{"evaluation": k + 1, "message": m} for k, m in sorted(failures.items())]
+        atomic_write_text(path, json_text({"part": list(key), "failed": messages}))
+    elif path.exists():
+        path.unlink()
+
+
+def _floor_candidates(out: Path, config: BreakevenConfig, task: int) -> pd.DataFrame:
+    """The task's cold CMA-ES designs, best first: the usable ones, each design once."""
+    from benchmarks.storage import Unit
+
+    seeds = config.run_seeds("cmaes", task)
+    units = [
+        Unit(suite=BREAKEVEN_NAME, variant="cold", optimizer="cmaes", seed=s, iteration=0)
+        for s in seeds
+    ]
+    rows = ResultStore(out)._read_parts(units)
+    rows = rows[(rows["status"] == "ok") & np.isfinite(rows["free_energy"])].copy()
+    rows["replicate"] = rows["seed"].map({s: k for k, s in enumerate(seeds)})
+    rows = rows.sort_values(["free_energy", "replicate", "candidate"], kind="stable")
+    return rows.drop_duplicates(["c1", "c2", "c3"]).head(MAX_REFERENCE_CANDIDATES)
+
+
+def _floor_frame(work: _Work, config: BreakevenConfig, out: Path) -> pd.DataFrame:
+    """The noise floor unit of a task: its reference design in ``floor_scenes`` nudged scenes.
+
+    The design is the best of the task's cold CMA-ES runs (all replicates, largest budget):
+    where the compared runs end, and the same for every warm-started method. As the
+    protocol's ``compute_cell`` does, a design invalid in a nudged scene has no floor and the
+    next best is tried (at most ``MAX_REFERENCE_CANDIDATES``). One row per scene (candidate k
+    is scene k, the first the task's own); no usable design or an error: one failed row (F
+    NaN), and the report falls back to the least floor.
+    """
+    from benchmarks.rl.evaluation import _task_settings
+    from benchmarks.storage import INVALID_IN_SCENE
+    from benchmarks.suites.retest import RetestConfig, RetestItem, retest_design
+
+    started = time.perf_counter()
+    task = config.tasks[work.task]
+    key = work.keys()[0]
+    settings = _task_settings(task, section_shape=None, merge_fixed_links=None)
+    retest = RetestConfig(nudges=config.size.floor_scenes, seed=work.seed, repeats=1)
+    chosen, noise, message = None, [], "no usable design in the cold CMA-ES runs"
+    for row in _floor_candidates(out, config, work.task).itertuples():
+        item = RetestItem(coeffs=(row.c1, row.c2, row.c3), task=settings, config=retest)
+        try:
+            noise = retest_design(item)["noise"]
+        except Exception as error:  # noqa: BLE001 - recorded; the study goes on
+            message = f"{type(error).__name__}: {error}"
+            if INVALID_IN_SCENE in str(error):
+                continue
+            break
+        chosen = row
+        break
+    friction = math.nan if task.box_friction is None else task.box_friction
+    seconds = time.perf_counter() - started
+    common = {
+        "goal_x": task.goal[0],
+        "goal_y": task.goal[1],
+        "goal_z": task.goal[2],
+        "goal_precision": DEFAULT_GOAL_PRECISION,
+        "box_mass": task.box_mass,
+        "normalized_reward": math.nan,
+        "task_index": work.task,
+        "replicate": -1,
+        "box_friction": friction,
+        "sigma0": math.nan,
+        "opt_time": 0.0,
+    }
+    if chosen is None:
+        _record_failures(out, key, {0: message})
+        nan = dict.fromkeys(("c1", "c2", "c3", "a1", "a2", "a3"), math.nan)
+        metrics = dict.fromkeys(("free_energy", "goal_error", "confidence", "final_distance"))
+        return pd.DataFrame(
+            [
+                {
+                    **_unit_fields(key, 0),
+                    **nan,
+                    **{k: math.nan for k in metrics},
+                    "status": "failed",
+                    "eval_time": seconds,
+                    **common,
+                }
+            ]
+        )
+    _record_failures(out, key, {})
+    rows = []
+    for k, scene in enumerate(noise):
+        rows.append(
+            {
+                **_unit_fields(key, k),
+                **{f"c{i}": getattr(chosen, f"c{i}") for i in (1, 2, 3)},
+                **{f"a{i}": getattr(chosen, f"a{i}") for i in (1, 2, 3)},
+                **{m: float(scene[m]) for m in ("free_energy", "goal_error", "confidence")},
+                "final_distance": float(scene["final_distance"]),
+                "status": "ok",
+                "eval_time": seconds / len(noise),
+                **common,
             }
         )
     return pd.DataFrame(rows)
@@ -656,13 +909,22 @@ def _run_work(work: _Work, config: BreakevenConfig, out: Path) -> list[pd.DataFr
             section_shape=saved["section_shape"],
             merge_fixed_links=saved["merge_fixed_links"],
         )
+        failed = evaluated["status"] == "failed"
+        _record_failures(
+            out,
+            keys[1],
+            {int(i): str(evaluated.loc[i, "message"]) for i in evaluated.index[failed]},
+        )
         zero = _zero_shot_frame(
-            evaluated, work=work, key=keys[1], seconds=time.perf_counter() - started
+            evaluated, work=work, key=keys[1], seconds=time.perf_counter() - started, tasks=tasks
         )
         return [training, zero]
+    if work.kind == "floor":
+        return [_floor_frame(work, config, out)]
     task = tasks[work.task]
     friction = math.nan if task.box_friction is None else task.box_friction
-    env = _task_env(task)
+    guarded = _Guarded(task)
+    env = cast("ToolDesignRLEnv", guarded)
     try:
         if work.kind == "cold":
             runner = run_random if work.method == "random" else run_cmaes
@@ -691,6 +953,7 @@ def _run_work(work: _Work, config: BreakevenConfig, out: Path) -> list[pd.DataFr
             )
     finally:
         env.close()
+    _record_failures(out, keys[0], guarded.failures)
     frame = _frame(
         records,
         work=work,
@@ -699,6 +962,7 @@ def _run_work(work: _Work, config: BreakevenConfig, out: Path) -> list[pd.DataFr
         task=work.task,
         friction=friction,
         sigma0=sigma0,
+        failed=guarded.failures,
     )
     return [frame]
 
@@ -742,6 +1006,10 @@ def _write(
         weights = _card_path(session.out, work.method, work.replicate).with_suffix(".safetensors")
         if weights.is_file():
             session.record_file(weights)
+    for key in work.keys():
+        failures = _failures_path(session.out, key)
+        if failures.is_file():
+            session.record_file(failures)
     _write_parts(session, work.label(), work.keys(), frames, stored, suite=BREAKEVEN_NAME)
 
 
@@ -830,6 +1098,16 @@ def run_breakeven(
     )
 
 
+def _needs(item: _Work, config: BreakevenConfig) -> set[tuple[str, str, int]]:
+    """The parts a unit reads: a warm run its card's training, a floor its task's cold CMA-ES."""
+    if item.kind == "warm":
+        seed = config.train_seeds()[item.replicate]
+        return {("zero-shot", item.method, seed)}
+    if item.kind == "floor":
+        return {("cold", "cmaes", s) for s in config.run_seeds("cmaes", item.task)}
+    return set()
+
+
 def _run_parallel(
     pending: list[_Work],
     stored: set[tuple[str, str, int]],
@@ -838,28 +1116,26 @@ def _run_parallel(
     executor: Any,
     finished: Callable[[_Work, list[pd.DataFrame]], None],
 ) -> None:
-    """Run the units on the executor; a warm unit goes once its policy's training is stored."""
-    trained = {(w.method, w.replicate) for w in pending if w.kind == "train"}
-    waiting = [w for w in pending if w.kind == "warm" and (w.method, w.replicate) in trained]
-    ready = [w for w in pending if w not in waiting]
+    """Run the units on the executor; a unit goes once the parts it reads are stored."""
+    waiting = list(pending)
     futures: dict[Future[Any], _Work] = {}
 
-    def submit(items: Iterable[_Work]) -> None:
-        for item in items:
+    def submit() -> None:
+        nonlocal waiting
+        ready = [w for w in waiting if _needs(w, config) <= stored]
+        waiting = [w for w in waiting if w not in ready]
+        for item in ready:
             futures[executor.submit(_run_work, item, config, out)] = item
 
-    submit(ready)
+    submit()
     while futures:
         done, _ = wait(list(futures), return_when=FIRST_COMPLETED)
         for future in sorted(done, key=lambda f: pending.index(futures[f])):
             item = futures.pop(future)
             finished(item, future.result())
-            if item.kind == "train":
-                now = [
-                    w for w in waiting if (w.method, w.replicate) == (item.method, item.replicate)
-                ]
-                waiting = [w for w in waiting if w not in now]
-                submit(now)
+        submit()
+    if waiting:  # cannot happen: every unit's needs come before it in the plan
+        raise RuntimeError(f"units never ready: {[w.label() for w in waiting][:3]}")
 
 
 #: The columns of :func:`load_breakeven`'s frame, documented in docs/rl.md.
@@ -952,3 +1228,51 @@ def load_breakeven(path: str | os.PathLike[str]) -> pd.DataFrame:
     running = log.groupby(["variant", "optimizer", "seed"], sort=False)["free_energy"].cummin()
     log["best_so_far"] = np.where(zero, log["free_energy"], running)
     return log[list(BREAKEVEN_COLUMNS)].reset_index(drop=True)
+
+
+#: The columns of :func:`noise_floors`, one row per task.
+NOISE_FLOOR_COLUMNS: tuple[str, ...] = (
+    "task",
+    "c1",
+    "c2",
+    "c3",
+    "f_design",
+    "noise_range",
+    "scenes",
+    "status",
+)
+
+
+def noise_floors(evaluations: pd.DataFrame | str | os.PathLike[str]) -> pd.DataFrame:
+    """Each task's measured noise of F: its reference design's range over nudged scenes.
+
+    Args:
+        evaluations: :func:`load_breakeven`'s frame, or a run folder (loaded with it).
+
+    Returns:
+        :data:`NOISE_FLOOR_COLUMNS`, one row per task with a floor unit: the design (the best
+        of the task's cold CMA-ES runs that is usable in every nudged scene), ``f_design`` its
+        F in the task's own scene, ``noise_range`` max - min of F over the ``scenes`` scenes
+        (NaN when ``status`` is ``failed``: no design had a floor). The floor the report uses
+        is the larger of ``noise_range`` and the least floor ``fraction x |F_ref|``
+        (:func:`benchmarks.reports.breakeven.task_floors`).
+    """
+    log = evaluations if isinstance(evaluations, pd.DataFrame) else load_breakeven(evaluations)
+    rows = []
+    floor = log[log["variant"] == "floor"]
+    for task, g in floor.groupby("task", sort=False):
+        g = g.sort_values("evaluation")
+        ok = g[g["status"] == "ok"]
+        f = ok["free_energy"].to_numpy(dtype=np.float64)
+        failed = ok.empty
+        rows.append(
+            {
+                "task": task,
+                **{c: float(g[c].iloc[0]) for c in ("c1", "c2", "c3")},
+                "f_design": math.nan if failed else float(f[0]),
+                "noise_range": math.nan if failed else float(f.max() - f.min()),
+                "scenes": len(ok),
+                "status": "failed" if failed else "ok",
+            }
+        )
+    return pd.DataFrame(rows, columns=list(NOISE_FLOOR_COLUMNS))

@@ -9,10 +9,13 @@ random designs per task), so its row reads like the study's rows:
 
 - zero-shot: its design for each task, one evaluation (the same regret at every budget); the
   designs are simulated through an executor (:func:`~benchmarks.rl.evaluation.
-  evaluate_policy_on_tasks`);
+  evaluate_policy_on_tasks`); a design whose evaluation failed (an error in the simulation)
+  counts as an unusable design (:func:`~benchmarks.rl.breakeven.unusable_free_energy`), as in
+  the study, not as a missing value;
 - with ``refine=True``: also warm-started CMA-ES from its design at each task and replicate,
   with the seeds of the study's cold CMA-ES there, for the study's largest budget (one unit
-  per run on the executor).
+  per run on the executor); a simulation error inside a run is a failed evaluation with an
+  unusable design's F, and the run goes on, as in the study.
 """
 
 from __future__ import annotations
@@ -27,8 +30,9 @@ import pandas as pd
 
 from benchmarks.rl.breakeven import (
     BREAKEVEN_COLUMNS,
-    _task_env,
+    _Guarded,
     load_breakeven,
+    unusable_free_energy,
 )
 from benchmarks.rl.evaluation import RLTask, evaluate_policy_on_tasks, load_designer
 
@@ -58,7 +62,7 @@ def _warm_unit(item: tuple[Any, ...]) -> list[dict[str, Any]]:
 
     spec, allow_pickle, algorithm, task, seed, budget, popsize = item
     policy, _ = load_designer(spec, allow_pickle=allow_pickle, algorithm=algorithm)
-    env = _task_env(task)
+    env = _Guarded(task)  # a simulation error is a failed evaluation, as in the study
     try:
         records, sigma0 = run_warm_cmaes(
             policy,
@@ -77,14 +81,14 @@ def _warm_unit(item: tuple[Any, ...]) -> list[dict[str, Any]]:
             "goal_error": r.goal_error,
             "confidence": r.confidence,
             "final_distance": r.final_distance,
-            "status": "ok" if r.valid else "invalid",
+            "status": "failed" if k in env.failures else "ok" if r.valid else "invalid",
             "normalized_reward": r.reward,
             "eval_time": r.seconds,
             **{f"a{i + 1}": a for i, a in enumerate(r.action)},
             **{f"c{i + 1}": c for i, c in enumerate(r.coefficients)},
             "sigma0": sigma0,
         }
-        for r in records
+        for k, r in enumerate(records)
     ]
 
 
@@ -153,13 +157,15 @@ def score_policy(
     )
     rows = []
     for task, (_, row) in zip(tasks, evaluated.iterrows(), strict=True):
+        metrics = {c: row[c] for c in ("free_energy", "goal_error", "confidence", "final_distance")}
+        if row["status"] == "failed":
+            # Counted against the policy as an unusable design, as in the study, not left out.
+            metrics["free_energy"] = unusable_free_energy(task)
         rows.append(
             {
                 **_common(task),
                 **{c: row[c] for c in ("a1", "a2", "a3", "c1", "c2", "c3", "eval_time")},
-                **{
-                    c: row[c] for c in ("free_energy", "goal_error", "confidence", "final_distance")
-                },
+                **metrics,
                 "status": row["status"],
                 "variant": "zero-shot",
                 "method": method,
@@ -168,7 +174,7 @@ def score_policy(
                 "seed": 0,
                 "normalized_reward": math.nan,
                 "sigma0": math.nan,
-                "best_so_far": row["free_energy"],
+                "best_so_far": metrics["free_energy"],
                 "opt_time": 0.0,
             }
         )
