@@ -381,6 +381,9 @@ def test_success_is_the_final_distance_within_the_tolerance_standing(name):
         assert env.success(task.tolerance, True, rest)
         assert not env.success(0.0, True, 0.079)  # tipped: not a success at the goal itself
         assert not env.success(0.0, True, rest, math.radians(45.0))  # leaning
+        # The tilt alone is checked too, not dropped for want of a height.
+        assert not env.success(0.0, True, final_tilt=math.radians(45.0))
+        assert env.success(0.0, True, final_tilt=0.0)
     finally:
         env.close()
 
