@@ -114,6 +114,22 @@ def test_bad_study_settings_are_refused_by_name() -> None:
         breakeven_config("smoke", scheduler="tcp://x:1")
     with pytest.raises(ValueError, match="workers must be an int >= 1"):
         breakeven_config("smoke", workers=0)
+    from dataclasses import replace
+
+    from benchmarks.rl.breakeven import BREAKEVEN_SIZES
+
+    for scenes in (1, 101, True, 4.0):
+        size = replace(BREAKEVEN_SIZES["smoke"], floor_scenes=scenes)
+        with pytest.raises(
+            ValueError, match=rf"floor_scenes must be an int from 2 to 100, got {scenes!r}"
+        ):
+            breakeven_config(size)
+
+
+def test_noise_floors_refuses_a_frame_that_is_not_the_study_log() -> None:
+    missing = r"lacks the columns \['c1', 'c2', 'c3', 'evaluation', 'status', 'variant'\]"
+    with pytest.raises(ValueError, match=missing):
+        noise_floors(pd.DataFrame({"task": ["a"], "free_energy": [1.0]}))
 
 
 def test_the_command_prints_the_plan_and_refuses_bad_input(
