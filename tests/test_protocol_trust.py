@@ -319,6 +319,17 @@ def test_verify_references_refuses_a_file_of_another_run_or_of_none_of_its_cells
         verify_references(path, SMOKE)
 
 
+def test_cli_verify_references_refuses_out_before_evaluating(tmp_path, capsys):
+    from benchmarks.cli import main
+
+    command = ["bench", "protocol", "--size", "smoke", "--verify-references"]
+    with pytest.raises(SystemExit) as done:
+        main([*command, "--out", str(tmp_path / "run")])
+    assert done.value.code == 2
+    assert "no --out (it writes nothing)" in capsys.readouterr().err
+    assert not (tmp_path / "run").exists()
+
+
 @pytest.mark.slow
 def test_cli_verify_references_fails_on_a_value_moved_beyond_its_noise_floor(tmp_path):
     import subprocess
@@ -346,3 +357,16 @@ def test_cli_verify_references_fails_on_a_value_moved_beyond_its_noise_floor(tmp
         check=False,
     )
     assert bad.returncode == 2 and "no --optimizer" in bad.stderr
+    # A file without the cells of some of the run's tasks: said, not passed over in silence.
+    data["cells"] = [c for c in data["cells"] if "task" not in c or c["task"] == "hook"]
+    cell["f_ref"] -= 2 * cell["noise_floor"]
+    path.write_text(json.dumps(data))
+    partial = subprocess.run(
+        [*command, "--verify-references", "--reference-file", str(path), "--tasks", "all"],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert partial.returncode == 0, partial.stderr
+    assert "10 values of 5 cells" in partial.stdout
+    assert "no cell for 2 of the run's cells (not checked)" in partial.stdout

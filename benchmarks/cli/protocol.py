@@ -132,10 +132,11 @@ def _verify(args: argparse.Namespace, config: Any, size: str, say: Any) -> int:
     """``--verify-references``: 0 if every value is within its noise floor, else 1."""
     from benchmarks.protocol import packaged_references, verify_references
 
-    for name in ("references", "with_references", "optimizer", "baseline", "buildable"):
+    for name in ("references", "with_references", "optimizer", "baseline", "buildable", "out"):
         if getattr(args, name, None) is not None:
             raise ValueError(
-                f"--verify-references checks references only: no --{name.replace('_', '-')}"
+                f"--verify-references checks references only: no --{name.replace('_', '-')} "
+                "(it writes nothing)"
             )
     path = args.reference_file or packaged_references(size)
     if path is None:
@@ -144,10 +145,16 @@ def _verify(args: argparse.Namespace, config: Any, size: str, say: Any) -> int:
     identical = int(table["identical"].sum())
     beyond = table[~table["within_floor"]]
     n_cells = len(table[["task", "instance", "d"]].drop_duplicates())
+    lacking = len(config.cells()) - n_cells
     print(
         f"{path}: {len(table)} values of {n_cells} "
         f"cells evaluated again: {identical} identical to the bit, "
         f"{len(table) - len(beyond)} within their noise floor"
+        + (
+            f"; the file has no cell for {lacking} of the run's cells (not checked)"
+            if lacking
+            else ""
+        )
     )
     if len(beyond):
         print("beyond the noise floor:")
