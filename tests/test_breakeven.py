@@ -822,6 +822,11 @@ def test_a_simulation_error_in_a_run_is_a_failed_evaluation_and_the_study_goes_o
         {"evaluation": 3, "message": "RuntimeError: injected: the physics server went away"}
     ]
     assert any(FAILURES_DIR in name for name in read_manifest(out)["extra"]["file_sha256"])
+    # The report says so, not only the log.
+    make_breakeven_report(out)
+    page = (out / "report" / "breakeven.md").read_text()
+    assert "**1 evaluation(s) failed**" in page and "cold random 1" in page
+    assert json.loads((out / "report" / "summary.json").read_text())["failed"] == {"cold random": 1}
 
 
 @pytest.mark.slow
