@@ -118,8 +118,9 @@ def test_bad_study_settings_are_refused_by_name() -> None:
 
     from benchmarks.rl.breakeven import BREAKEVEN_SIZES
 
-    for scenes in (1, 101, True, 4.0):
-        size = replace(BREAKEVEN_SIZES["smoke"], floor_scenes=scenes)
+    bad: tuple[object, ...] = (1, 101, True, 4.0)
+    for scenes in bad:
+        size = replace(BREAKEVEN_SIZES["smoke"], floor_scenes=scenes)  # type: ignore[arg-type]
         with pytest.raises(
             ValueError, match=rf"floor_scenes must be an int from 2 to 100, got {scenes!r}"
         ):

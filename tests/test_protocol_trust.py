@@ -276,13 +276,15 @@ def test_the_committed_smoke_references_evaluate_again_within_their_noise_floor(
 
 
 @pytest.mark.slow
-def test_the_straight_tool_is_judged_against_its_own_noise_floor(tmp_path):
+def test_the_straight_tool_is_judged_against_its_own_noise_floor(tmp_path: Path) -> None:
     """Not the reference design's: at push i01 the straight tool's F ranges over 500 across
     the nudges, its cell's floor is 32, so another CPU's last bits would fail it there."""
     from benchmarks.protocol import verify_references
 
     one = SMOKE.replace(instances=("i01",), degrees=(3,))
-    data = json.loads(packaged_references("smoke").read_text())
+    source = packaged_references("smoke")
+    assert source is not None
+    data = json.loads(source.read_text())
     (cell,) = [
         c for c in data["cells"] if "task" not in c and c["instance"] == "i01" and c["degree"] == 3
     ]
@@ -319,7 +321,9 @@ def test_verify_references_refuses_a_file_of_another_run_or_of_none_of_its_cells
         verify_references(path, SMOKE)
 
 
-def test_cli_verify_references_refuses_out_before_evaluating(tmp_path, capsys):
+def test_cli_verify_references_refuses_out_before_evaluating(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     from benchmarks.cli import main
 
     command = ["bench", "protocol", "--size", "smoke", "--verify-references"]
