@@ -114,6 +114,23 @@ def test_bad_study_settings_are_refused_by_name() -> None:
         breakeven_config("smoke", scheduler="tcp://x:1")
     with pytest.raises(ValueError, match="workers must be an int >= 1"):
         breakeven_config("smoke", workers=0)
+    from dataclasses import replace
+
+    from benchmarks.rl.breakeven import BREAKEVEN_SIZES
+
+    bad: tuple[object, ...] = (1, 101, True, 4.0)
+    for scenes in bad:
+        size = replace(BREAKEVEN_SIZES["smoke"], floor_scenes=scenes)  # type: ignore[arg-type]
+        with pytest.raises(
+            ValueError, match=rf"floor_scenes must be an int from 2 to 100, got {scenes!r}"
+        ):
+            breakeven_config(size)
+
+
+def test_noise_floors_refuses_a_frame_that_is_not_the_study_log() -> None:
+    missing = r"lacks the columns \['c1', 'c2', 'c3', 'evaluation', 'status', 'variant'\]"
+    with pytest.raises(ValueError, match=missing):
+        noise_floors(pd.DataFrame({"task": ["a"], "free_energy": [1.0]}))
 
 
 def test_the_command_prints_the_plan_and_refuses_bad_input(
@@ -806,6 +823,11 @@ def test_a_simulation_error_in_a_run_is_a_failed_evaluation_and_the_study_goes_o
         {"evaluation": 3, "message": "RuntimeError: injected: the physics server went away"}
     ]
     assert any(FAILURES_DIR in name for name in read_manifest(out)["extra"]["file_sha256"])
+    # The report says so, not only the log.
+    make_breakeven_report(out)
+    page = (out / "report" / "breakeven.md").read_text()
+    assert "**1 evaluation(s) failed**" in page and "cold random 1" in page
+    assert json.loads((out / "report" / "summary.json").read_text())["failed"] == {"cold random": 1}
 
 
 @pytest.mark.slow

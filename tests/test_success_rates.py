@@ -298,6 +298,25 @@ def test_the_html_card_says_success_from_the_stored_distance() -> None:
     assert "not registered here" in _success_line("ok", 0.0, "someones-plugin-task")
 
 
+def test_an_evaluation_page_says_no_success_where_the_env_said_the_box_does_not_stand(
+    tmp_path: Path,
+) -> None:
+    """terms.json holds the env's success, which also asks the box to stand: the page agrees
+    with it (and with tooldesign evaluate's line) for a box lying within the radius."""
+    from benchmarks.reports.html import _evaluate_page, _success_line
+
+    lying = {"success": False, "final_tilt": math.pi / 2, "final_height": 0.05}
+    line = _success_line("ok", 0.04, "obstacle", standing=lying)
+    assert "Success: no" in line and "does not stand" in line, line
+    assert "90.0 degrees" in line and "0.050 m high" in line
+    # Standing, or no verdict of the env stored (an older folder): the distance decides.
+    upright = {"success": True, "final_tilt": 0.0, "final_height": 0.1}
+    assert "Success: yes" in _success_line("ok", 0.04, "obstacle", standing=upright)
+    assert "Success: yes" in _success_line("ok", 0.04, "obstacle", standing={})
+    terms = {"valid": True, "final_distance": 0.04, "task": "obstacle", **lying}
+    assert "does not stand" in _evaluate_page(tmp_path, [], terms)
+
+
 # --- the committed reports -------------------------------------------------------------------
 
 

@@ -369,12 +369,21 @@ def test_success_is_the_final_distance_within_the_tolerance_standing(name):
         assert info["success"] is (
             info["valid"] and info["final_distance"] <= task.tolerance and standing
         )
+        # The tilt is read from the box itself: the obstacle task's straight tool leaves it
+        # tipped onto the curb (90 to 112 degrees, docs/results/tasks/walls-output.txt), the
+        # other tasks' leave it upright.
+        tipped = name == "obstacle"
+        assert (info["final_tilt"] > math.radians(45.0)) is tipped, info["final_tilt"]
+        assert standing is not tipped
         assert env.success(task.tolerance, True) and not env.success(task.tolerance, False)
         assert not env.success(task.tolerance + 1e-9, True)
         rest = task.box_start()[2]
         assert env.success(task.tolerance, True, rest)
         assert not env.success(0.0, True, 0.079)  # tipped: not a success at the goal itself
         assert not env.success(0.0, True, rest, math.radians(45.0))  # leaning
+        # The tilt alone is checked too, not dropped for want of a height.
+        assert not env.success(0.0, True, final_tilt=math.radians(45.0))
+        assert env.success(0.0, True, final_tilt=0.0)
     finally:
         env.close()
 

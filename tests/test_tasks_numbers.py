@@ -540,3 +540,20 @@ def test_the_tier_study_refuses_bad_options():
     for argv in (["--degrees", "4"], ["--random", "0"], ["--workers", "0"], ["--task", "pushh"]):
         with pytest.raises(SystemExit):
             parse_args(argv)
+
+
+def test_a_tier_cell_without_a_usable_design_prints():
+    from perf.studies.task_tiers import _line
+
+    cell = {"task": "push", "degree": 8, "n": 2, "usable": 0, "successes": 0,
+            "success_rate": 0.0, "success_95": [0.0, 0.66], "free_energy_median": None,
+            "tier": "hard"}
+    assert "0/2 usable, median F n/a: hard" in _line(cell)
+
+
+def test_the_baselines_study_refuses_merge_without_a_file(capsys):
+    from perf.studies.task_baselines import parse_args as baselines_args
+
+    with pytest.raises(SystemExit):
+        baselines_args(["--merge"])
+    assert "--merge needs --json FILE" in capsys.readouterr().err

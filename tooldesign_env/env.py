@@ -670,17 +670,18 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
             final_distance: the box's final distance to the goal, m.
             valid: whether the design was usable (an unusable one never succeeds).
             final_height: the box centre's final height, m. Given, it must be within the task's
-                ``height_tolerance`` of the box's resting height; None checks the distance
-                alone.
-            final_tilt: the final angle of the box's up axis from the vertical, rad. Given
-                (with ``final_height``), it must be at most the task's ``max_tilt``: a box
-                lying on its side or tipped onto an obstacle is not at the goal.
+                ``height_tolerance`` of the box's resting height; None does not check it.
+            final_tilt: the final angle of the box's up axis from the vertical, rad. Given, it
+                must be at most the task's ``max_tilt``: a box lying on its side or tipped
+                onto an obstacle is not at the goal. None does not check it.
         """
         task = self.task_definition
         if not valid:
             return False
-        if final_height is None:
-            return final_distance <= task.tolerance
+        if final_height is None:  # the tilt alone, if given
+            return final_distance <= task.tolerance and (
+                final_tilt is None or final_tilt <= task.max_tilt
+            )
         return task.succeeded(
             final_distance, final_height, self.simulator.scene, final_tilt=final_tilt
         )

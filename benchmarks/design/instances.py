@@ -27,10 +27,11 @@ The other tasks (``tooldesign_env.tasks``: hook, obstacle, puck) have instance s
 in the task's goal range (``TaskDefinition.goal_low``/``goal_high``) from
 ``SeedSequence(INSTANCE_SEED, spawn_key=(task_key(task),))``, 12 public and 4 held out by one
 permutation shared by every task (the same ids are held out in each). The box mass and friction are
-the task's own (0.1 kg, the task scene's friction), not drawn: each task's post placement, puck
-friction and noise floor were measured at those values only (docs/tasks.md), and a drawn mass
-or friction would leave what was measured. An instance's ``task`` names its task; its ``label``
-(``"i01"`` for push, ``"hook/i01"`` for the others) is its name in references and tables.
+the task's own (0.1 kg, the task scene's friction), not drawn: each task's placement (the
+obstacle's curb, the hook's box), puck friction and noise floor were measured at those values
+only (docs/tasks.md), and a drawn mass or friction would leave what was measured. An
+instance's ``task`` names its task; its ``label`` (``"i01"`` for push, ``"hook/i01"`` for the
+others) is its name in references and tables.
 
 The module lives in the design layer (an instance is a task to design a tool for), below the
 protocol and the rl layer, so that the break-even study (:mod:`benchmarks.rl.breakeven`) reads

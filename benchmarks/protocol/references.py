@@ -611,11 +611,17 @@ def verify_references(
     """Evaluate every cell's reference design and straight tool again, on this machine and tree.
 
     A references file is computed once and committed, so that no user recomputes it; this is
-    how a user checks it cheaply (two evaluations a cell, seconds for the smoke size, about a
-    minute for the full one). Each value is compared with the file's: ``identical`` is bit for
-    bit (what the same tree gives on the same CPU), ``within_floor`` is the project's
-    equivalence rule, a difference no larger than the cell's noise floor (what another x86-64
-    CPU or a change that moves F inside its noise may give).
+    how a user checks it cheaply (two evaluations a cell when nothing moved: seconds for the
+    smoke size, under a minute for the full one). Each value is compared with the file's:
+    ``identical`` is bit for bit (what the same tree gives on the same CPU), ``within_floor``
+    a difference no larger than the value's own noise floor (what another x86-64 CPU, whose
+    other last bits diverge like a nudge, or a change that moves F inside its noise may give).
+    The reference design's floor is the cell's ``noise_floor``. The straight tool's F is often
+    far noisier than the reference design's (at the committed smoke cells its range over
+    the nudges is 3 to 17 times the cell's floor, but in hook's), so it is judged against a
+    floor of its own, measured as the cell's was (its F over the plan's nudged scenes, at
+    least ``floor_min_fraction`` x |F|), only when its F is not identical to the bit: another
+    ``nudges`` evaluations for that cell.
 
     Args:
         path: The references file.
@@ -627,7 +633,9 @@ def verify_references(
     Returns:
         A ``pandas.DataFrame``, a row per (cell, value): ``task``, ``instance``, ``d``,
         ``value`` (``"reference"`` or ``"straight"``), ``f_file``, ``f_now`` (NaN if the design
-        is no longer usable), ``difference``, ``noise_floor``, ``identical``, ``within_floor``.
+        is no longer usable), ``difference``, ``noise_floor`` (the value's own; NaN for a
+        straight tool identical to the bit, whose floor is not measured; inf for one invalid
+        in a nudged scene, whose outcome has no range), ``identical``, ``within_floor``.
 
     Raises:
         ValueError: The file is not a references file of ``config`` (naming the field), or it
@@ -648,13 +656,19 @@ def verify_references(
             task = _task(config, instance, degree)
             designs = np.array([cell["design"], np.zeros(degree)], dtype=float)
             now = _evaluate(pool, designs, task)
-            floor = float(cell["noise_floor"])
             for value, key, row in zip(
                 ("reference", "straight"), ("f_ref", "f_straight"), now, strict=True
             ):
                 f_file = float(cell[key])
                 f_now = float(row["free_energy"]) if row["status"] == "ok" else math.nan
                 difference = f_now - f_file
+                identical = f_now == f_file
+                if value == "reference":
+                    floor = float(cell["noise_floor"])
+                elif identical or math.isnan(f_now):
+                    floor = math.nan  # nothing to judge: the same bits, or no F at all
+                else:
+                    floor = _straight_floor(pool, config, task, degree, cell, f_now)
                 rows.append(
                     {
                         "task": instance.task,
@@ -665,15 +679,54 @@ def verify_references(
                         "f_now": f_now,
                         "difference": difference,
                         "noise_floor": floor,
-                        "identical": f_now == f_file,
-                        "within_floor": bool(abs(difference) <= floor),  # NaN: False
+                        "identical": identical,
+                        # NaN difference (no longer usable): False.
+                        "within_floor": bool(identical or abs(difference) <= floor),
                     }
                 )
             if say is not None:
                 last = rows[-2:]
                 say(
                     f"verified {instance.label} d = {degree}: reference "
-                    f"{last[0]['difference']:+.6g}, straight {last[1]['difference']:+.6g} "
-                    f"(noise floor {floor:.4g})"
+                    f"{last[0]['difference']:+.6g} (noise floor {last[0]['noise_floor']:.4g}), "
+                    f"straight {last[1]['difference']:+.6g}"
+                    + (
+                        ""
+                        if math.isnan(last[1]["noise_floor"])
+                        else f" (its noise floor {last[1]['noise_floor']:.4g})"
+                    )
                 )
     return pd.DataFrame(rows)
+
+
+def _straight_floor(
+    pool: Any,
+    config: ProtocolConfig,
+    task: Any,
+    degree: int,
+    cell: dict[str, Any],
+    f_now: float,
+) -> float:
+    """The straight tool's noise floor at a cell, measured as :func:`compute_cell` measures one.
+
+    Its F's range over the plan's nudged scenes, at least the cell's ``floor_min_fraction`` x
+    |F|; inf if a nudge makes it unusable (its outcome changed by more than any range, as the
+    equivalence rule counts such a design).
+    """
+    from benchmarks.execution import map_robust
+    from benchmarks.storage.designs import INVALID_IN_SCENE
+    from benchmarks.suites.retest import RetestConfig, RetestItem, retest_design
+
+    plan = reference_plan(config.size)
+    retest = RetestConfig(nudges=plan.nudges, seed=plan.seed, repeats=1)
+    item = RetestItem(coeffs=(0.0,) * degree, task=task, config=retest)
+    ((result, exc, _),) = map_robust(pool, retest_design, [item])
+    if exc is not None and INVALID_IN_SCENE in str(exc):
+        return math.inf
+    if exc is not None:
+        raise RuntimeError(
+            f"noise floor of the straight tool at {cell['instance']}: {exc}"
+        ) from exc
+    noise = np.array([row["free_energy"] for row in result["noise"]])
+    fraction = float(cell.get("floor_min_fraction", floor_min_fraction()))
+    return max(float(noise.max() - noise.min()), fraction * abs(f_now))

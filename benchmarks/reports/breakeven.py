@@ -636,6 +636,26 @@ def score_row(name: str, table: pd.DataFrame) -> str:
     return "| " + " | ".join(rows[0]) + " |"
 
 
+def _failed_counts(log: pd.DataFrame) -> dict[str, int]:
+    """Failed evaluations (an error in the simulation) per ``"<variant> <method>"``."""
+    failed = log[log["status"] == "failed"]
+    counts = failed.groupby(["variant", "method"], sort=True).size()
+    return {f"{variant} {method}": int(n) for (variant, method), n in counts.items()}
+
+
+def _failed_sentence(failed: dict[str, int]) -> str:
+    """The page's line on failed evaluations: a study that went on past errors says so."""
+    if not failed:
+        return "No evaluation failed."
+    total = sum(failed.values())
+    where = ", ".join(f"{name} {n}" for name, n in failed.items())
+    return (
+        f"**{total} evaluation(s) failed** (an error in the simulation; each is counted as an "
+        f"unusable design at its task, against its method; messages in `failures/`): {where}. "
+        "Many failures of one method are a fault to fix before its rows are read."
+    )
+
+
 def _verdict_row(r: Any) -> list[Any]:
     """A row of the verdict table: a warm-started method against cold CMA-ES at a budget."""
     low, high = r.ci_low, r.ci_high
@@ -722,6 +742,7 @@ def make_breakeven_report(
     tasks = config["tasks"]
     scenes = config["size"].get("floor_scenes", "no")
     measured = int((floors["noise_range"] > floors["least_floor"]).sum())
+    failed = _failed_counts(log)
     page = [
         f"# Break-even study ({config['size']['name']})",
         "",
@@ -729,6 +750,8 @@ def make_breakeven_report(
         f"of the protocol, the rest fresh), {config['size']['replicates']} replicate(s), "
         f"budgets {', '.join(map(str, budgets))}; {len(log):,} evaluations in "
         "`evaluations.parquet`.",
+        "",
+        _failed_sentence(failed),
         "",
         "## Normalized regret (mean over tasks, 95 % t interval)",
         "",
@@ -801,6 +824,7 @@ def make_breakeven_report(
         "size": config["size"]["name"],
         "evaluations": len(log),
         "noise_floor_fraction": fraction,
+        "failed": failed,
         "noise_floors": cast("list[dict[str, Any]]", floors.to_dict("records")),
         "regret": cast("list[dict[str, Any]]", table.to_dict("records")),
         "warm_vs_cold": cast("list[dict[str, Any]]", verdict.to_dict("records")),

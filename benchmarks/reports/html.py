@@ -581,9 +581,20 @@ def _robustness_sentence(card: Mapping[str, Any], paths: Mapping[str, Any] | Non
 
 
 def _success_line(
-    status: Any, distance: Any, task: Any, straight: Mapping[str, Any] | None = None
+    status: Any,
+    distance: Any,
+    task: Any,
+    straight: Mapping[str, Any] | None = None,
+    *,
+    standing: Mapping[str, Any] | None = None,
 ) -> str:
-    """Whether the design succeeded on its task, from its stored status and final distance."""
+    """Whether the design succeeded on its task, from its stored status and final distance.
+
+    ``standing``: an evaluation's ``terms.json``, which holds the env's own ``success`` (which
+    also asks the box to stand, ``TaskDefinition.max_tilt`` and ``height_tolerance``) and
+    ``final_tilt`` (rad) and ``final_height`` (m): a box within the radius that does not stand
+    is then no success, as the env and ``tooldesign evaluate`` say.
+    """
     from benchmarks.reports.success import design_succeeded, task_tolerance
 
     name = task if isinstance(task, str) and task else "push"
@@ -597,6 +608,16 @@ def _success_line(
         text = f"<strong>Success:</strong> n/a (no final distance stored; success is {rule})"
     elif status != "ok":
         text = f"<strong>Success: no</strong> (the design is not usable; success is {rule})"
+    elif outcome and standing is not None and standing.get("success") is False:
+        tilt, height = _number(standing.get("final_tilt")), _number(standing.get("final_height"))
+        parts = [] if tilt is None else [f"its up axis {math.degrees(tilt):.1f} degrees off"]
+        parts += [] if height is None else [f"its centre {height:.3f} m high"]
+        how = ", ".join(parts)
+        text = (
+            f"<strong>Success: no</strong> (the box ends {_num(_number(distance), 3)} m from "
+            f"the goal but does not stand{': ' + how if how else ''}; success is {rule}, "
+            "standing)"
+        )
     else:
         word = "yes" if outcome else "no"
         text = (
@@ -809,6 +830,7 @@ def _evaluate_page(folder: Path, files: list[Path], terms: dict[str, Any]) -> st
             "ok" if valid else "invalid",
             terms.get("final_distance"),
             terms.get("task") or settings.get("task"),
+            standing=terms,
         )
     )
     if "robustness" in terms:

@@ -1256,8 +1256,17 @@ def noise_floors(evaluations: pd.DataFrame | str | os.PathLike[str]) -> pd.DataF
         (NaN when ``status`` is ``failed``: no design had a floor). The floor the report uses
         is the larger of ``noise_range`` and the least floor ``fraction x |F_ref|``
         (:func:`benchmarks.reports.breakeven.task_floors`).
+
+    Raises:
+        ValueError: a frame without the study log's columns (naming them).
     """
     log = evaluations if isinstance(evaluations, pd.DataFrame) else load_breakeven(evaluations)
+    needed = {"variant", "task", "evaluation", "status", "free_energy", "c1", "c2", "c3"}
+    missing = sorted(needed - set(log.columns))
+    if missing:
+        raise ValueError(
+            f"evaluations lacks the columns {missing}: give load_breakeven's frame or a run folder"
+        )
     rows = []
     floor = log[log["variant"] == "floor"]
     for task, g in floor.groupby("task", sort=False):

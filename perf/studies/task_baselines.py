@@ -284,7 +284,10 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         action="store_true",
         help="measure the random designs and the noise floor alone (no named designs, no CMA-ES)",
     )
-    return parser.parse_args(argv)
+    args = parser.parse_args(argv)
+    if args.merge and not args.json:
+        parser.error("--merge needs --json FILE: the file whose entries it replaces")
+    return args
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -82,11 +82,12 @@ def measure_cell(task: str, degree: int, random: int, seed: int) -> dict[str, An
 
 def _line(cell: dict[str, Any]) -> str:
     low, high = cell["success_95"]
+    median = cell["free_energy_median"]  # None when no design was usable
     return (
         f"{cell['task']:<9} d = {cell['degree']}: {cell['successes']:>2}/{cell['n']} succeed "
         f"({100 * cell['success_rate']:.1f} %, 95 % [{100 * low:.1f}, {100 * high:.1f}] %), "
-        f"{cell['usable']}/{cell['n']} usable, median F {cell['free_energy_median']:.0f}: "
-        f"{cell['tier']}"
+        f"{cell['usable']}/{cell['n']} usable, median F "
+        f"{'n/a' if median is None else f'{median:.0f}'}: {cell['tier']}"
     )
 
 
