@@ -222,6 +222,9 @@ def test_with_references_computes_them_into_the_folder_and_reports(
         assert len(pool) == max(3 * cell["degree"], 8 if cell["degree"] == 3 else 12)
         assert cell["f_ref"] <= min(pool) and cell["noise_floor"] > 0
     assert not (copy / "references.json.cells").exists()
+    from benchmarks.storage import platform_id
+
+    assert data["platform"] == platform_id()  # where they reproduce to the bit
     assert "references.json" in (copy / "report" / "report.md").read_text()
     # A rerun computes nothing again: the file's cells are kept.
     before = (copy / "references.json").read_bytes()

@@ -131,6 +131,7 @@ def _lacks_cells(folders: list[Path], size: str, config: Any) -> bool:
 def _verify(args: argparse.Namespace, config: Any, size: str, say: Any) -> int:
     """``--verify-references``: 0 if every value is within its noise floor, else 1."""
     from benchmarks.protocol import packaged_references, verify_references
+    from benchmarks.protocol.references import verify_verdict
 
     for name in ("references", "with_references", "optimizer", "baseline", "buildable", "out"):
         if getattr(args, name, None) is not None:
@@ -143,24 +144,26 @@ def _verify(args: argparse.Namespace, config: Any, size: str, say: Any) -> int:
         raise ValueError(f"no committed references of size {size!r}: give --reference-file")
     table = verify_references(path, config, say=say)
     identical = int(table["identical"].sum())
-    beyond = table[~table["within_floor"]]
+    within = int(table["within_floor"].sum())
     n_cells = len(table[["task", "instance", "d"]].drop_duplicates())
     lacking = len(config.cells()) - n_cells
     print(
         f"{path}: {len(table)} values of {n_cells} "
         f"cells evaluated again: {identical} identical to the bit, "
-        f"{len(table) - len(beyond)} within their noise floor"
+        f"{within} within their noise floor"
         + (
             f"; the file has no cell for {lacking} of the run's cells (not checked)"
             if lacking
             else ""
         )
     )
+    passed, sentence = verify_verdict(table)
+    print(("passed: " if passed else "failed: ") + sentence)
+    beyond = table[~table["within_floor"]]
     if len(beyond):
         print("beyond the noise floor:")
         print(beyond.to_string(index=False))
-        return 1
-    return 0
+    return 0 if passed else 1
 
 
 def run_protocol_command(args: argparse.Namespace) -> int:
