@@ -500,6 +500,7 @@ def _tiers() -> dict[tuple[str, int], dict[str, Any]]:
     return {(c["task"], c["degree"]): c for c in record["cells"]}
 
 
+@pytest.mark.slow  # imports the studies' modules (the simulation, the optimizers): seconds
 def test_the_tiers_follow_the_rule_and_their_d3_cells_are_the_baselines():
     from benchmarks.reports.success import wilson_interval
     from perf.studies.task_baselines import tier
