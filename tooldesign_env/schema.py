@@ -15,6 +15,8 @@ Defaults of the task (the paper's Section IV):
 Names of stored results (``docs/results-format.md`` documents the files):
 
 - :data:`METRICS`: the scalar outcomes of one evaluation (``info`` keys and table columns).
+- :data:`STANDING_COLUMNS`: the box's final height and tilt, stored beside them so that reports
+  apply a task's whole success test (``TaskDefinition.succeeded``), not the distance alone.
 - :data:`ROBUSTNESS_METRICS`: the robustness test's outcomes (Table I of the paper).
 - the column groups of the evaluation table: :data:`STRING_COLUMNS`, :data:`ID_COLUMNS`,
   :data:`TIMING_COLUMNS`, :data:`TASK_COLUMNS` (of which :data:`GOAL_COLUMNS`),
@@ -46,6 +48,7 @@ __all__ = [
     "ROBUSTNESS_METRICS",
     "RUN_COLUMNS",
     "SORT_COLUMNS",
+    "STANDING_COLUMNS",
     "STATUSES",
     "STRING_COLUMNS",
     "TASK_COLUMNS",
@@ -80,6 +83,12 @@ GOAL_HIGH: tuple[float, float, float] = (0.5, 1.5, 0.1)
 METRICS: tuple[str, ...] = ("free_energy", "goal_error", "confidence", "final_distance")
 """Scalar outcomes of one evaluation: F, its two terms, and the box's final distance to X^g."""
 
+STANDING_COLUMNS: tuple[str, ...] = ("final_height", "final_tilt")
+"""The box's final state beside its distance (``info`` keys and table columns): its centre's
+height above the floor, m, and the angle of its up axis from the vertical, rad. A task's success
+test asks the box to stand at the goal (``TaskDefinition.succeeded``); a table written before
+these columns existed lacks them, and its success is read from ``final_distance`` alone."""
+
 ROBUSTNESS_METRICS: tuple[str, ...] = ("robustness", "accuracy", "control_deviation")
 """Outcomes of the robustness test over :data:`ROBUSTNESS_MASSES` (Table I of the paper)."""
 
@@ -91,7 +100,7 @@ ID_COLUMNS: tuple[str, ...] = ("seed", "iteration", "candidate", "eval_id")
 TIMING_COLUMNS: tuple[str, ...] = ("eval_time", "opt_time")
 GOAL_COLUMNS: tuple[str, str, str] = ("goal_x", "goal_y", "goal_z")
 TASK_COLUMNS: tuple[str, ...] = (*GOAL_COLUMNS, "goal_precision", "box_mass")
-FLOAT_COLUMNS: tuple[str, ...] = METRICS + TIMING_COLUMNS + TASK_COLUMNS
+FLOAT_COLUMNS: tuple[str, ...] = METRICS + STANDING_COLUMNS + TIMING_COLUMNS + TASK_COLUMNS
 BEST_SO_FAR = "best_so_far"
 """The column derived on read: the lowest F of a run up to and including each row."""
 

@@ -397,17 +397,28 @@ def _run(args: argparse.Namespace) -> int:
     ):
         write_design_report(result.out_dir)
     coeffs = ", ".join(repr(float(c)) for c in result.coefficients)
+    from benchmarks.reports.success import design_succeeded
     from tooldesign_env.tasks import get_task
 
-    tolerance = get_task(config.task_name).tolerance
-    succeeded = result.status == "ok" and result.final_distance <= tolerance
+    task = get_task(config.task_name)
+    tolerance = task.tolerance
+    # The task's whole test (standing at the goal) with the best row's stored height and tilt.
+    succeeded = design_succeeded(
+        result.status,
+        result.final_distance,
+        task,
+        result.card.get("final_height"),
+        result.card.get("final_tilt"),
+    )
+    stands = ", standing" if "final_height" in result.card else ""
     print(
         f"best design: C = ({coeffs}), F = {result.free_energy!r} "
         f"(goal error {result.goal_error:.6g}, confidence {result.confidence:.6g}, "
         f"final distance {result.final_distance:.4g} m), iteration {result.iteration}, "
         f"candidate {result.candidate}\n"
         f"task {config.task_name}: {'success' if succeeded else 'no success'} (the box ends "
-        f"{result.final_distance:.3f} m from the goal; success within {tolerance:g} m)\n"
+        f"{result.final_distance:.3f} m from the goal; success within {tolerance:g} m"
+        f"{stands})\n"
         f"{_counts_text(result.card['evaluations'])}\n"
         f"{_straight_text(result.free_energy, result.straight_tool)}"
         f"run folder: {result.out_dir} (open report.html there)"

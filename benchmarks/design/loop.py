@@ -52,7 +52,13 @@ from benchmarks.storage import (
     json_text,
 )
 from benchmarks.storage.runfolder import record_report_files
-from tooldesign_env.schema import ROBUSTNESS_METRICS, STATUSES, coefficient_columns, rounded_path
+from tooldesign_env.schema import (
+    ROBUSTNESS_METRICS,
+    STANDING_COLUMNS,
+    STATUSES,
+    coefficient_columns,
+    rounded_path,
+)
 
 __all__ = ["CARD_VERSION", "DesignResult", "run_design"]
 
@@ -329,6 +335,9 @@ def _straight_tool(row: Mapping[str, Any], degree: int) -> dict[str, Any]:
     for key in ("free_energy", "goal_error", "confidence", "final_distance"):
         value = float(row.get(key, math.nan))
         entry[key] = value if math.isfinite(value) else None
+    standing = {c: float(row.get(c, math.nan)) for c in STANDING_COLUMNS if row.get(c) is not None}
+    if len(standing) == len(STANDING_COLUMNS) and all(map(math.isfinite, standing.values())):
+        entry.update(standing)  # for the task's success test
     entry["status"] = str(row.get("status", "failed"))
     entry["message"] = str(row.get("message") or "")
     return entry
@@ -409,6 +418,7 @@ def _card(
     geometry = make_tool(result.coefficients, config.tool_spec())
     counts = evaluations["status"].value_counts()
     return {
+        **_standing_of(evaluations, result.iteration, result.candidate),
         "format_version": CARD_VERSION,
         "coefficients": result.coefficients.tolist(),
         "polynomial": "y = c1 x^n + ... + cn x (highest power first, constant term 0)",
@@ -447,6 +457,22 @@ def _card(
         "optimizer_time": manifest["optimizer_time"],
         "files": dict(DESIGN_RUN_FILES),
     }
+
+
+def _standing_of(evaluations: pd.DataFrame, iteration: int, candidate: int) -> dict[str, float]:
+    """The best row's ``final_height`` (m) and ``final_tilt`` (rad), for the success test.
+
+    {} where the log does not store them (a resumed old run) or they are not finite.
+    """
+    if not all(c in evaluations.columns for c in STANDING_COLUMNS):
+        return {}
+    rows = evaluations[
+        (evaluations["iteration"] == iteration) & (evaluations["candidate"] == candidate)
+    ]
+    if len(rows) != 1:
+        return {}
+    values = {c: float(rows[c].iloc[0]) for c in STANDING_COLUMNS}
+    return values if all(math.isfinite(v) for v in values.values()) else {}
 
 
 def _finite_or_none(value: float) -> float | None:

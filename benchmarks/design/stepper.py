@@ -7,6 +7,7 @@ and the run folder. :func:`benchmarks.design.loop.run_design` drives one stepper
 
 from __future__ import annotations
 
+import math
 import time
 import warnings
 from collections.abc import Mapping, Sequence
@@ -17,7 +18,7 @@ import pandas as pd
 
 from benchmarks.design.config import DESIGN_SUITE, DesignConfig
 from benchmarks.storage import ResumeError, Unit
-from tooldesign_env.schema import GOAL_COLUMNS, METRICS, coefficient_columns
+from tooldesign_env.schema import GOAL_COLUMNS, METRICS, STANDING_COLUMNS, coefficient_columns
 
 
 def _make_optimizer(config: DesignConfig) -> Any:
@@ -74,6 +75,11 @@ def _replay(optimizer: Any, config: DesignConfig, logged: list[pd.DataFrame]) ->
         _tell(optimizer, ids, values, failed)
 
 
+def _stored(value: Any) -> float:
+    """A row's optional float (``final_height``, ``final_tilt``): NaN where it has none."""
+    return math.nan if value is None else float(value)
+
+
 def _batch_frame(
     config: DesignConfig,
     iteration: int,
@@ -99,6 +105,8 @@ def _batch_frame(
         data[name] = x[:, j]
     for name in METRICS:
         data[name] = [float(r[name]) for r in rows]
+    for name in STANDING_COLUMNS:  # NaN in a row that lacks them (a caller's own rows)
+        data[name] = [_stored(r.get(name)) for r in rows]
     data["status"] = [str(r["status"]) for r in rows]
     data["eval_time"] = [float(r["eval_time"]) for r in rows]
     data["opt_time"] = [opt_time] * n

@@ -40,6 +40,7 @@ from tooldesign_env.schema import (
     METRICS,
     ROBUSTNESS_MASSES,
     ROBUSTNESS_METRICS,
+    STANDING_COLUMNS,
     rounded_path,
 )
 
@@ -309,7 +310,7 @@ def clear_env_cache() -> None:
 
 
 def _failed_row(message: str, elapsed: float) -> dict[str, Any]:
-    row: dict[str, Any] = dict.fromkeys(METRICS, math.nan)
+    row: dict[str, Any] = dict.fromkeys((*METRICS, *STANDING_COLUMNS), math.nan)
     row.update(status="failed", eval_time=elapsed, message=message)
     return row
 
@@ -325,8 +326,11 @@ def evaluate_design(request: EvaluationRequest) -> dict[str, Any]:
 
     Returns:
         A plain dict: ``free_energy``, ``goal_error``, ``confidence`` (control-confidence term),
-        ``final_distance`` (m) as floats; ``status``: ``"ok"``, ``"invalid"`` (not simulated;
-        the metrics are the env's finite penalty values) or ``"failed"`` (the metrics are NaN);
+        ``final_distance`` (m), ``final_height`` (the box centre's final height, m) and
+        ``final_tilt`` (its up axis's final angle from the vertical, rad; NaN where the env
+        did not read it) as floats; ``status``: ``"ok"``, ``"invalid"`` (not simulated;
+        the metrics are the env's finite penalty values, height and tilt the box's start) or
+        ``"failed"`` (the metrics, height and tilt are NaN);
         ``eval_time`` (s, wall time); ``message`` (why it is invalid or failed, "" if ok); and
         ``box_trajectory`` ((T, 3) in m, T = 0 if not simulated) if ``keep_trajectory``.
     """
@@ -340,6 +344,11 @@ def evaluate_design(request: EvaluationRequest) -> dict[str, Any]:
     if not all(math.isfinite(v) for v in row.values()):
         bad = [k for k, v in row.items() if not math.isfinite(v)]
         return _failed_row(f"non-finite {', '.join(bad)}", time.perf_counter() - start)
+    # The box's final height and tilt, for the task's whole success test in reports. They do
+    # not enter F: stored as the env gives them, NaN where it has none (a tilt it did not read).
+    for name in STANDING_COLUMNS:
+        value = info.get(name)
+        row[name] = math.nan if value is None else float(value)
     row["status"] = "ok" if info["valid"] else "invalid"
     row["message"] = "" if info["valid"] else str(info["invalid_reason"])
     if request.keep_trajectory:

@@ -33,7 +33,7 @@ import math
 import os
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
@@ -65,11 +65,17 @@ from benchmarks.protocol.suite import (
 )
 from benchmarks.reports.success import (
     design_succeeded,
+    has_standing,
     success_cell,
+    success_criterion,
     success_rate,
     success_sentence,
     task_tolerance,
 )
+from tooldesign_env.schema import STANDING_COLUMNS
+
+if TYPE_CHECKING:
+    from tooldesign_env.tasks import TaskDefinition
 
 __all__ = [
     "N_TARGETS",
@@ -113,7 +119,9 @@ def load_runs(folder: str | os.PathLike[str]) -> tuple[ProtocolConfig, pd.DataFr
         The config, and a frame with ``optimizer``, ``task``, ``instance`` (its label:
         ``"i01"``, ``"hook/i01"``), ``instance_number``, ``set``, ``degree``, ``seed``,
         ``evaluation`` (1-based within its run), ``free_energy`` (NaN if failed), ``status``,
-        ``final_distance`` (m, NaN where not stored) and ``c1..cd``.
+        ``final_distance`` (m, NaN where not stored), ``final_height`` (m) and ``final_tilt``
+        (rad) where any cell stores them (NaN in the rows of a cell that does not; no such
+        columns when none does) and ``c1..cd``.
 
     Raises:
         ValueError: If the folder is not a protocol run folder or a cell has no results.
@@ -144,6 +152,9 @@ def load_runs(folder: str | os.PathLike[str]) -> tuple[ProtocolConfig, pd.DataFr
         log["evaluation"] = log.groupby(["optimizer", "seed"]).cumcount() + 1
         f = log["free_energy"].where(log["status"] != "failed")
         columns = [f"c{k}" for k in range(1, degree + 1)]
+        # The box's final height and tilt, where the cell stores them (for the task's whole
+        # success test); a cell stored before has no such columns, and its frame is as it was.
+        standing = {c: log[c].to_numpy(dtype=float) for c in STANDING_COLUMNS if c in log.columns}
         frames.append(
             pd.DataFrame(
                 {
@@ -162,6 +173,7 @@ def load_runs(folder: str | os.PathLike[str]) -> tuple[ProtocolConfig, pd.DataFr
                         if "final_distance" in log.columns
                         else np.full(len(log), np.nan)
                     ),
+                    **standing,
                     **{c: log[c].to_numpy(dtype=float) for c in columns},
                 }
             )
@@ -191,7 +203,8 @@ def measure_runs(
         ``final_f``, and per fraction of the budget in :data:`REGRET_FRACTIONS`
         ``regret_<fraction>`` and ``success_<fraction>``: whether the best design so far
         succeeded (True, False, or None where ``final_distance`` is not stored;
-        :mod:`benchmarks.reports.success`, the tolerance of the run's task).
+        :mod:`benchmarks.reports.success`: the run's task's whole test where the height and
+        tilt are stored, its tolerance alone where not).
 
     Raises:
         ValueError: If a cell has no reference.
@@ -219,7 +232,7 @@ def measure_runs(
         checkpoints = [max(1, round(fr * budget)) for fr in REGRET_FRACTIONS]
         f_random = expected_best_of_random(pool, np.array(checkpoints))
         task = str(cell["task"].iloc[0]) if "task" in cell.columns else "push"
-        tolerance = task_tolerance(task)
+        criterion = success_criterion(task)
         for (optimizer, seed), run in cell.groupby(["optimizer", "seed"], sort=True):
             run = run.sort_values("evaluation")
             f = run["free_energy"].to_numpy(dtype=float)
@@ -245,7 +258,7 @@ def measure_runs(
             for fraction, value in zip(REGRET_FRACTIONS, regret, strict=True):
                 record[f"regret_{fraction:g}"] = float(value)
             for fraction, checkpoint in zip(REGRET_FRACTIONS, checkpoints, strict=True):
-                record[f"success_{fraction:g}"] = _best_succeeded(run, checkpoint, tolerance)
+                record[f"success_{fraction:g}"] = _best_succeeded(run, checkpoint, criterion)
             scores.append(record)
             for k, (target, time) in enumerate(zip(targets, times, strict=True)):
                 rows.append(
@@ -264,16 +277,26 @@ def measure_runs(
     return pd.DataFrame(rows), pd.DataFrame(scores)
 
 
-def _best_succeeded(run: pd.DataFrame, evaluations: int, tolerance: float) -> bool | None:
-    """Whether the lowest-F design among a run's first ``evaluations`` succeeded."""
+def _best_succeeded(
+    run: pd.DataFrame, evaluations: int, criterion: float | TaskDefinition
+) -> bool | None:
+    """Whether the lowest-F design among a run's first ``evaluations`` succeeded.
+
+    ``criterion``: the run's task, whose whole test (radius, resting height, tilt) applies
+    where the run stores ``final_height`` and ``final_tilt``, its radius alone where not; or
+    a bare radius in m (:func:`~benchmarks.reports.success.design_succeeded`).
+    """
     f = run["free_energy"].to_numpy(dtype=float)[:evaluations]
     finite = np.where(np.isnan(f), np.inf, f)
     if not f.size or np.isinf(finite).all():
         return False  # no design with an F: nothing usable
     best = int(np.argmin(finite))  # the first of equal lowest F, as best_so_far keeps it
     status = run["status"].iloc[best] if "status" in run.columns else "ok"
-    distance = run["final_distance"].iloc[best] if "final_distance" in run.columns else None
-    return design_succeeded(status, distance, tolerance)
+    distance, height, tilt = (
+        run[c].iloc[best] if c in run.columns else None
+        for c in ("final_distance", "final_height", "final_tilt")
+    )
+    return design_succeeded(status, distance, criterion, height, tilt)
 
 
 def _merge(folders: Sequence[str | os.PathLike[str]]) -> tuple[ProtocolConfig, pd.DataFrame]:
@@ -580,7 +603,7 @@ def make_protocol_report(
         "F_ref + noise floor. Score of a run: the area under its ECDF over its targets (0 to 1, "
         "higher is better). Regret: (F - F_ref) / (F_random(budget) - F_ref), 1 = random "
         "sampling, 0 = the reference. "
-        + success_sentence("push", task_tolerance(), what="run")
+        + success_sentence("push", task_tolerance(), what="run", standing=has_standing(runs))
         + " See docs/protocol.md.",
         "",
         "## Area under the ECDF (mean over instances, 95 % Student t interval over instances)",

@@ -26,7 +26,7 @@ import re
 import zlib
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
@@ -45,8 +45,10 @@ from benchmarks.reports.stats import (
 )
 from benchmarks.reports.success import (
     SuccessRate,
+    has_standing,
     run_successes,
     success_cell,
+    success_criterion,
     success_rate,
     success_sentence,
     task_of_manifest,
@@ -54,6 +56,9 @@ from benchmarks.reports.success import (
 )
 from benchmarks.storage import ResultStore, atomic_write_bytes, atomic_write_text
 from benchmarks.storage.table import csv_text
+
+if TYPE_CHECKING:
+    from tooldesign_env.tasks import TaskDefinition
 
 __all__ = [
     "DPI",
@@ -207,7 +212,7 @@ def summary_table(
     n_boot: int = 10_000,
     seed: int = 0,
     interval: str = "t",
-    tolerance: float | None = None,
+    tolerance: float | TaskDefinition | None = None,
 ) -> pd.DataFrame:
     """Final best F, normalised AUC and success rate per optimizer over its runs (seeds).
 
@@ -217,7 +222,9 @@ def summary_table(
         n_boot: Bootstrap resamples per interval (``interval="bootstrap"``).
         seed: Root seed of the bootstrap (``interval="bootstrap"``).
         interval: The interval of a mean, one of :data:`~benchmarks.reports.stats.INTERVALS`.
-        tolerance: The task's success radius in m; None is the push task's.
+        tolerance: What success is judged by: the runs' task (its whole test where the log
+            stores ``final_height`` and ``final_tilt``, its radius alone where not), a bare
+            radius in m, or None for the push task.
 
     Returns:
         One row per (suite, variant, optimizer) in report order with ``runs``,
@@ -228,8 +235,8 @@ def summary_table(
         outcome is known), ``success_rate`` and its Wilson interval ``success_low``,
         ``success_high`` (NaN when no run's outcome is known).
     """
-    tolerance = task_tolerance() if tolerance is None else float(tolerance)
-    outcomes = run_successes(evaluations, tolerance)
+    criterion = success_criterion() if tolerance is None else tolerance
+    outcomes = run_successes(evaluations, criterion)
     metrics = run_metrics(best_so_far_curves(evaluations))
     group_names = [k for k in GROUP_KEYS if k in metrics.columns]
     rows = []
@@ -588,6 +595,7 @@ def _summary_markdown(
     *,
     task: str = "push",
     tolerance: float | None = None,
+    standing: bool = False,
 ) -> str:
     tolerance = task_tolerance(task) if tolerance is None else tolerance
     lines = [
@@ -597,7 +605,7 @@ def _summary_markdown(
         "Final F: best finite free energy after the last stored iteration of a run.",
         "AUC: mean height of the best-so-far curve over iterations (trapezoid, divided by the",
         "number of iteration steps), in units of F; lower means F dropped sooner.",
-        success_sentence(task, tolerance, level=level)
+        success_sentence(task, tolerance, level=level, standing=standing)
         + " A run's final design is the one its final F is of.",
     ]
     for _, group in _groups(summary):
@@ -781,16 +789,22 @@ def make_report(
 
     if task is None:
         task = task_of_manifest(_manifest_or_none(run_folder))
-    tolerance = task_tolerance(task)
     summary = summary_table(
         evaluations,
         level=level,
         n_boot=n_boot,
         seed=seed,
         interval=interval,
-        tolerance=tolerance,
+        tolerance=success_criterion(task),
     )
-    markdown = _summary_markdown(summary, level, interval, task=task, tolerance=tolerance)
+    markdown = _summary_markdown(
+        summary,
+        level,
+        interval,
+        task=task,
+        tolerance=task_tolerance(task),
+        standing=has_standing(evaluations),
+    )
     written.append(atomic_write_text(target / "summary.csv", csv_text(summary)))
     written.append(atomic_write_text(target / "summary.md", with_notice(markdown, notice)))
     pairwise = pairwise_table(evaluations, alpha=alpha, noise_floor=noise_floor)

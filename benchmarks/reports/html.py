@@ -593,22 +593,37 @@ def _success_line(
     ``standing``: an evaluation's ``terms.json``, which holds the env's own ``success`` (which
     also asks the box to stand, ``TaskDefinition.max_tilt`` and ``height_tolerance``) and
     ``final_tilt`` (rad) and ``final_height`` (m): a box within the radius that does not stand
-    is then no success, as the env and ``tooldesign evaluate`` say.
+    is then no success, as the env and ``tooldesign evaluate`` say; or a design run's
+    ``design.json`` with the best row's ``final_height`` and ``final_tilt`` (no ``success``),
+    judged by the task's test (:func:`~benchmarks.reports.success.design_succeeded`). A
+    ``straight`` entry with them is judged so too; without them, by the distance alone.
     """
-    from benchmarks.reports.success import design_succeeded, task_tolerance
+    from benchmarks.reports.success import design_succeeded, success_criterion
 
     name = task if isinstance(task, str) and task else "push"
     try:
-        tolerance = task_tolerance(name)
+        criterion = success_criterion(name)
     except ValueError:  # a task of a plugin that is not installed here
         return f"<strong>Success:</strong> n/a (the task {_esc(name)} is not registered here)."
+    tolerance = criterion.tolerance
     outcome = design_succeeded(status, _number(distance), tolerance)
     rule = f"within {tolerance:g} m of the goal, the {_esc(name)} task's tolerance"
+    stands: bool | None = None  # whether the box stands, where the folder says
+    if standing is not None and "success" in standing:  # the env's own flag (terms.json)
+        stands = False if standing.get("success") is False else None
+    elif standing is not None:  # a design record's stored height and tilt: the task's test
+        stands = design_succeeded(
+            status,
+            _number(distance),
+            criterion,
+            _number(standing.get("final_height")),
+            _number(standing.get("final_tilt")),
+        )
     if outcome is None:
         text = f"<strong>Success:</strong> n/a (no final distance stored; success is {rule})"
     elif status != "ok":
         text = f"<strong>Success: no</strong> (the design is not usable; success is {rule})"
-    elif outcome and standing is not None and standing.get("success") is False:
+    elif outcome and standing is not None and stands is False:
         tilt, height = _number(standing.get("final_tilt")), _number(standing.get("final_height"))
         parts = [] if tilt is None else [f"its up axis {math.degrees(tilt):.1f} degrees off"]
         parts += [] if height is None else [f"its centre {height:.3f} m high"]
@@ -626,7 +641,11 @@ def _success_line(
         )
     if straight is not None:
         theirs = design_succeeded(
-            straight.get("status"), _number(straight.get("final_distance")), tolerance
+            straight.get("status"),
+            _number(straight.get("final_distance")),
+            criterion,
+            _number(straight.get("final_height")),
+            _number(straight.get("final_tilt")),
         )
         text += "; the straight tool: " + {True: "yes", False: "no", None: "n/a"}[theirs]
     return text + "."
@@ -777,6 +796,9 @@ def _design_page(folder: Path, files: list[Path], card: dict[str, Any]) -> str:
         card.get("final_distance"),
         config.get("task_name"),
         card.get("straight_tool"),
+        # A card written since 2026-11-27 keeps the best row's height and tilt; an older one
+        # is judged by the distance alone, as before.
+        standing=card if "final_height" in card else None,
     )
     lines = [first, success, _robustness_sentence(card, paths)]
     body = [_card_html(folder, present("fig3d"), card, card.get("straight_tool"), lines)]

@@ -42,6 +42,7 @@ from benchmarks.reports.stats import holm_bonferroni, vargha_delaney_a12
 from benchmarks.reports.success import (
     design_succeeded,
     success_cell,
+    success_criterion,
     success_rate,
     task_tolerance,
 )
@@ -131,7 +132,7 @@ def _best_so_far(log: pd.DataFrame) -> dict[str, np.ndarray]:
 def _best_successes(log: pd.DataFrame) -> dict[str, list[list[bool | None]]]:
     """Per method, per seed, whether the best design so far succeeded after each episode."""
     fixed = _rows(log, "fixed")
-    tolerance = task_tolerance()  # the rl suite's ToolDesignRL-v0 is the push task
+    criterion = success_criterion()  # the rl suite's ToolDesignRL-v0 is the push task
     outcomes: dict[str, list[list[bool | None]]] = {}
     for method, rows in fixed.groupby("optimizer", sort=False):
         runs = []
@@ -146,10 +147,19 @@ def _best_successes(log: pd.DataFrame) -> dict[str, list[list[bool | None]]]:
                 if "final_distance" in run
                 else np.full(len(f), np.nan)
             )
+            # The box's final height and tilt, where stored: the task's whole test.
+            height, tilt = (
+                run[c].to_numpy(dtype=np.float64) if c in run else np.full(len(f), np.nan)
+                for c in ("final_height", "final_tilt")
+            )
             best, seen = 0, []
             for i in range(len(f)):
                 best = i if f[i] < f[best] else best  # the first of equal lowest F
-                seen.append(design_succeeded(status[best], distance[best], tolerance))
+                seen.append(
+                    design_succeeded(
+                        status[best], distance[best], criterion, height[best], tilt[best]
+                    )
+                )
             runs.append(seen)
         n = min(len(r) for r in runs)
         outcomes[str(method)] = [r[:n] for r in runs]
@@ -425,7 +435,7 @@ def held_out_per_goal(log: pd.DataFrame, config: Mapping[str, Any], part: str) -
         left the box within the push task's tolerance; None without a stored distance); empty
         if the part was not run.
     """
-    tolerance = task_tolerance()
+    criterion = success_criterion()
     prefix = _prefix(part)
     zero = _rows(log, f"{prefix}zero-shot")
     if zero.empty:
@@ -457,7 +467,11 @@ def held_out_per_goal(log: pd.DataFrame, config: Mapping[str, Any], part: str) -
                 "F_over_straight": f / reference,
                 "final_distance": float(r.get("final_distance", math.nan)),
                 "success": design_succeeded(
-                    r.get("status", "ok"), r.get("final_distance"), tolerance
+                    r.get("status", "ok"),
+                    r.get("final_distance"),
+                    criterion,
+                    r.get("final_height"),
+                    r.get("final_tilt"),
                 ),
             }
         )

@@ -1,12 +1,19 @@
-"""Success rates: the share of runs whose final design leaves the box within the task's tolerance.
+"""Success rates: the share of runs whose final design left the box standing at the goal.
 
-A design succeeds when it was usable (``status == "ok"``) and the box ended within the task's
-tolerance of the goal (``final_distance <= TaskDefinition.tolerance``), as ``info["success"]``
-says in the env. Nothing new is stored for it: a run folder's evaluation log already keeps each
-evaluation's ``status`` and ``final_distance``, and its manifest names the task (a config
-without ``task_name`` is the push task), so a report of any folder, old or new, shows success
-without simulating anything. Where ``final_distance`` is missing the outcome is unknown and is
-shown as ``n/a``, never as a failure.
+A design succeeds when it was usable (``status == "ok"``) and the task's whole success test
+holds for where the box ended, as ``info["success"]`` says in the env
+(``TaskDefinition.succeeded``): within the task's tolerance of the goal (``final_distance <=
+tolerance``), its centre's final height within ``height_tolerance`` of its resting height
+(``final_height``) and its up axis at most ``max_tilt`` from the vertical (``final_tilt``), so a
+box lying or tipped onto a curb within the radius is not a success. The run folder's evaluation
+log keeps each evaluation's ``status``, ``final_distance``, ``final_height`` and
+``final_tilt``, and its manifest names the task (a config without ``task_name`` is the push
+task), so a report shows success without simulating anything.
+
+Folders stored before ``final_height`` and ``final_tilt`` were (a row with neither) are judged
+by the distance alone, as they always were: their reports do not change. A usable design whose
+``final_distance`` is missing, or whose height and tilt are only half stored or not finite, has
+an unknown outcome, shown as ``n/a``, never as a failure.
 
 A rate comes with a Wilson score interval: unlike the normal (Wald) interval it stays inside
 [0, 1] and is not a point at 0 of n or n of n, which is where small benchmark rates often sit.
@@ -17,18 +24,23 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
 
+if TYPE_CHECKING:
+    from tooldesign_env.tasks import TaskDefinition
+
 __all__ = [
     "SuccessRate",
     "design_succeeded",
+    "has_standing",
     "run_successes",
     "success_cell",
     "success_rate",
     "success_sentence",
+    "success_criterion",
     "task_of_manifest",
     "task_tolerance",
     "wilson_interval",
@@ -95,29 +107,85 @@ class SuccessRate:
     level: float = 0.95
 
 
-def design_succeeded(status: Any, final_distance: Any, tolerance: float) -> bool | None:
-    """Whether one evaluated design succeeded: usable, and the box within ``tolerance`` m.
+def _stored(value: Any) -> float:
+    """A stored number as a float; None, ``pd.NA`` and NaN (not stored) as NaN."""
+    if value is None or value is pd.NA:
+        return math.nan
+    return float(value)
+
+
+def _radius(criterion: float | TaskDefinition) -> float:
+    tolerance = getattr(criterion, "tolerance", criterion)
+    if isinstance(tolerance, bool) or not isinstance(tolerance, (int, float, np.number)):
+        raise TypeError(f"criterion must be a TaskDefinition or a radius in m, got {criterion!r}")
+    return float(tolerance)
+
+
+def design_succeeded(
+    status: Any,
+    final_distance: Any,
+    criterion: float | TaskDefinition,
+    final_height: Any = None,
+    final_tilt: Any = None,
+) -> bool | None:
+    """Whether one evaluated design succeeded, as the env's ``info["success"]`` says.
 
     Args:
         status: The stored status (``"ok"``, ``"invalid"``, ``"failed"``).
         final_distance: The box's final distance from the goal, m; None or NaN if not stored.
-        tolerance: The task's success radius, m.
+        criterion: The task the run was made for (``TaskDefinition``), or a bare radius in m
+            (the distance alone; then ``final_height`` and ``final_tilt`` must be None/NaN).
+        final_height: The box centre's final height, m; None or NaN if not stored.
+        final_tilt: The final angle of the box's up axis from the vertical, rad; None or NaN
+            if not stored.
 
     Returns:
-        False for an unusable or failed design (it never succeeds, as in the env), None when a
-        usable design's ``final_distance`` is missing (unknown), else the comparison.
+        False for an unusable or failed design (it never succeeds, as in the env). For a
+        usable one: None (unknown) when ``final_distance`` is missing; with neither height nor
+        tilt stored (a row written before they were), ``final_distance <= tolerance``; with
+        both finite, the task's whole test (``TaskDefinition.succeeded`` on the task's scene:
+        within the radius, standing at its resting height, tilted at most ``max_tilt``); with
+        one of them missing or either infinite, None (unknown: the test cannot be applied).
+
+    Raises:
+        TypeError: ``criterion`` is neither a task nor a number.
+        ValueError: a height or tilt is given with a bare radius (no task to test it by).
     """
+    tolerance = _radius(criterion)
     if status != "ok":
         return False
-    if final_distance is None:
-        return None
-    distance = float(final_distance)
+    distance = _stored(final_distance)
     if not math.isfinite(distance):
         return None
-    return distance <= tolerance
+    height, tilt = _stored(final_height), _stored(final_tilt)
+    if math.isnan(height) and math.isnan(tilt):
+        return distance <= tolerance  # stored before the standing columns: as it always was
+    if isinstance(criterion, (int, float, np.number)):
+        raise ValueError(
+            f"a final height ({height}) or tilt ({tilt}) needs the task's test: pass the "
+            f"TaskDefinition, not the radius {criterion!r}"
+        )
+    if not (math.isfinite(height) and math.isfinite(tilt)):
+        return None
+    return bool(criterion.succeeded(distance, height, final_tilt=tilt))
 
 
-def run_successes(evaluations: pd.DataFrame, tolerance: float) -> pd.DataFrame:
+def has_standing(evaluations: pd.DataFrame) -> bool:
+    """Whether an evaluation log stores the box's final height and tilt (any of its rows)."""
+    from tooldesign_env.schema import STANDING_COLUMNS
+
+    return all(c in evaluations.columns for c in STANDING_COLUMNS) and bool(
+        evaluations[list(STANDING_COLUMNS)].notna().any(axis=None)
+    )
+
+
+def _column(frame: pd.DataFrame, name: str) -> np.ndarray:
+    if name in frame.columns:
+        return np.asarray(frame[name].to_numpy(dtype=np.float64, na_value=np.nan))
+    return np.full(len(frame), np.nan)
+
+
+def run_successes(evaluations: pd.DataFrame, criterion: float | TaskDefinition) -> pd.DataFrame:
     """Whether each run's final design succeeded, from its evaluation rows alone.
 
     A run's final design is the one its final F is of: its lowest finite F among the rows
@@ -126,9 +194,11 @@ def run_successes(evaluations: pd.DataFrame, tolerance: float) -> pd.DataFrame:
 
     Args:
         evaluations: The evaluation log: ``optimizer``, ``seed``, ``free_energy`` (and
-            optionally ``suite``, ``variant``, ``status``, ``final_distance``; without
-            ``final_distance`` every usable run's outcome is unknown).
-        tolerance: The task's success radius, m.
+            optionally ``suite``, ``variant``, ``status``, ``final_distance``,
+            ``final_height``, ``final_tilt``; without ``final_distance`` every usable run's
+            outcome is unknown, without the height and tilt the distance alone decides).
+        criterion: The task the runs were made for, or a bare radius in m (see
+            :func:`design_succeeded`).
 
     Returns:
         One row per run with its key columns and ``success``: True, False, or None (unknown).
@@ -139,11 +209,8 @@ def run_successes(evaluations: pd.DataFrame, tolerance: float) -> pd.DataFrame:
     usable = np.isfinite(energy)
     if "status" in frame.columns:
         usable &= (frame["status"] == "ok").to_numpy()
-    distance = (
-        frame["final_distance"].to_numpy(dtype=np.float64)
-        if "final_distance" in frame.columns
-        else np.full(len(frame), np.nan)
-    )
+    distance = _column(frame, "final_distance")
+    height, tilt = _column(frame, "final_height"), _column(frame, "final_tilt")
     rows = []
     for key, positions in frame.groupby(keys, sort=True).indices.items():
         key = key if isinstance(key, tuple) else (key,)
@@ -151,7 +218,7 @@ def run_successes(evaluations: pd.DataFrame, tolerance: float) -> pd.DataFrame:
         outcome: bool | None = False
         if ok.size:
             best = ok[np.argmin(energy[ok])]  # the first of equal lowest F, in the log's order
-            outcome = design_succeeded("ok", distance[best], tolerance)
+            outcome = design_succeeded("ok", distance[best], criterion, height[best], tilt[best])
         rows.append({**dict(zip(keys, key, strict=True)), "success": outcome})
     return pd.DataFrame(rows, columns=[*keys, "success"])
 
@@ -199,13 +266,33 @@ def success_cell(rate: SuccessRate) -> str:
     return text
 
 
-def success_sentence(task: str, tolerance: float, what: str = "run", level: float = 0.95) -> str:
-    """What a report's success column means, in one sentence."""
+def success_sentence(
+    task: str,
+    tolerance: float,
+    what: str = "run",
+    level: float = 0.95,
+    *,
+    standing: bool = False,
+) -> str:
+    """What a report's success column means, in one sentence.
+
+    ``standing``: the evaluations store the box's final height and tilt, so success is the
+    task's whole test; without them (folders stored before) it is the distance alone, and the
+    sentence is the one those folders' reports always had.
+    """
+    if not standing:
+        return (
+            f"Success: the {what}'s final design was usable and left the box within "
+            f"{tolerance:g} m of the goal (the {task} task's tolerance), from the stored status "
+            f"and final distance; the share of {what}s with a {level:.0%} Wilson interval, n/a "
+            "where no final distance was stored."
+        )
     return (
-        f"Success: the {what}'s final design was usable and left the box within "
-        f"{tolerance:g} m of the goal (the {task} task's tolerance), from the stored status and "
-        f"final distance; the share of {what}s with a {level:.0%} Wilson interval, n/a where "
-        "no final distance was stored."
+        f"Success: the {what}'s final design was usable and left the box standing within "
+        f"{tolerance:g} m of the goal (the {task} task's test: tolerance, resting height and "
+        f"tilt), from the stored status, final distance, height and tilt (the distance alone "
+        f"for rows stored without them); the share of {what}s with a {level:.0%} Wilson "
+        "interval, n/a where the outcome was not stored."
     )
 
 
@@ -220,6 +307,17 @@ def task_of_manifest(manifest: Mapping[str, Any] | None) -> str:
     config = manifest.get("config") if isinstance(manifest, Mapping) else None
     name = config.get("task_name") if isinstance(config, Mapping) else None
     return name if isinstance(name, str) and name else DEFAULT_TASK
+
+
+def success_criterion(task: str | None = None) -> TaskDefinition:
+    """The registered task whose success test judges a run's design (push by default).
+
+    Raises:
+        ValueError: an unknown task (the message lists the known ones).
+    """
+    from tooldesign_env.tasks import DEFAULT_TASK, get_task
+
+    return get_task(DEFAULT_TASK if task is None else task)
 
 
 def task_tolerance(task: str | None = None) -> float:

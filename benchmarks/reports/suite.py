@@ -34,7 +34,7 @@ import warnings
 import zlib
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
@@ -52,7 +52,12 @@ from benchmarks.reports.comparison import (
 from benchmarks.reports.retest import make_retest_report, noise_floor
 from benchmarks.reports.rl import make_rl_report
 from benchmarks.reports.stats import INTERVAL_NAMES, Interval, check_interval, mean_interval
-from benchmarks.reports.success import design_succeeded, task_of_manifest, task_tolerance
+from benchmarks.reports.success import (
+    design_succeeded,
+    success_criterion,
+    task_of_manifest,
+    task_tolerance,
+)
 from benchmarks.rl.suite import RL_SUITE_KIND
 from benchmarks.storage import (
     MANIFEST_NAME,
@@ -67,6 +72,9 @@ from benchmarks.storage.runfolder import record_report_files
 from benchmarks.storage.table import csv_text
 from benchmarks.suites.config import SUITE_KIND, SuiteConfig, suite_of_manifest
 from tooldesign_env.schema import GOAL_COLUMNS, METRICS, ROBUSTNESS_METRICS
+
+if TYPE_CHECKING:
+    from tooldesign_env.tasks import TaskDefinition
 
 __all__ = [
     "designs_table",
@@ -187,18 +195,22 @@ _TEST_FIELDS = (
 
 
 def designs_table(
-    designs: Sequence[Mapping[str, Any]], *, tolerance: float | None = None
+    designs: Sequence[Mapping[str, Any]], *, tolerance: float | TaskDefinition | None = None
 ) -> pd.DataFrame:
     """One row per run: keys, task, design, F and its terms, success, tool shape, final test.
 
     Args:
         designs: Design records from :func:`benchmarks.suites.runner.read_designs`.
-        tolerance: The task's success radius in m; None is the push task's.
+        tolerance: What success is judged by: the run's task (its whole test where a record
+            stores the box's ``final_height`` and ``final_tilt``, its radius alone where not),
+            a bare radius in m, or None for the push task.
 
     Returns:
         The table, in the records' order; missing values are NaN. ``success`` is True when
-        the design was usable and its ``final_distance`` is within ``tolerance``, False when
-        not, and None (an empty CSV cell) when no final distance was stored.
+        the design was usable and the task's test holds (within its radius, and standing
+        where the height and tilt are stored; :func:`~benchmarks.reports.success.
+        design_succeeded`), False when not, and None (an empty CSV cell) when no final
+        distance was stored.
 
     Raises:
         TypeError: ``designs`` is not a sequence of mappings.
@@ -207,7 +219,7 @@ def designs_table(
         raise TypeError(f"designs must be a sequence of design records, got {designs!r:.80}")
     if not all(isinstance(record, Mapping) for record in designs):
         raise TypeError("designs must be a sequence of design records (mappings)")
-    tolerance = task_tolerance() if tolerance is None else float(tolerance)
+    criterion = success_criterion() if tolerance is None else tolerance
     rows = []
     for record in designs:
         row: dict[str, Any] = {
@@ -223,7 +235,13 @@ def designs_table(
         for name in METRICS:
             row[name] = _float(record.get(name))
         row["status"] = record.get("status") or "failed"
-        row["success"] = design_succeeded(row["status"], row["final_distance"], tolerance)
+        row["success"] = design_succeeded(
+            row["status"],
+            row["final_distance"],
+            criterion,
+            record.get("final_height"),
+            record.get("final_tilt"),
+        )
         shape = tool_shape(coeffs) if coeffs else {}
         for name in ("straightness", "turning_angle", "tip_offset", "min_radius_of_curvature"):
             row[name] = _float(shape.get(name))
@@ -245,8 +263,22 @@ def _success_word(value: Any) -> str:
     return "yes" if value else "no"
 
 
-def _designs_markdown(table: pd.DataFrame, task: str = "push") -> str:
+def _designs_markdown(table: pd.DataFrame, task: str = "push", *, standing: bool = False) -> str:
     tolerance = task_tolerance(task)
+    if standing:  # the records store the box's final height and tilt
+        said = [
+            f"Success: the design was usable and left the box standing within {tolerance:g} m",
+            f"of the goal (the {task} task's test: tolerance, resting height and tilt; the",
+            "distance alone for a record stored without height and tilt); n/a where no final",
+            "distance was stored. The success rate per optimizer, with its Wilson interval, is in",
+            "`summary.md`.",
+        ]
+    else:  # folders stored before: the text their reports always had
+        said = [
+            f"Success: the design was usable and its final distance is within {tolerance:g} m (the",
+            f"{task} task's tolerance); n/a where no final distance was stored. The success rate",
+            "per optimizer, with its Wilson interval, is in `summary.md`.",
+        ]
     lines = [
         "# Designs",
         "",
@@ -257,9 +289,7 @@ def _designs_markdown(table: pd.DataFrame, task: str = "push") -> str:
         "(1 = straight); the turning angle is the centreline's total absolute turn in degrees.",
         "Robustness (m) is -sum_i sum_t |X(m_i, t) - X(m, t)| over the altered box masses; the",
         "squared goal error (m^2) is sum_t |X(m, t) - X^g|^2 at the nominal mass.",
-        f"Success: the design was usable and its final distance is within {tolerance:g} m (the",
-        f"{task} task's tolerance); n/a where no final distance was stored. The success rate",
-        "per optimizer, with its Wilson interval, is in `summary.md`.",
+        *said,
         "",
     ]
     # The status column is always there: a table of invalid designs alone must say so.
@@ -1039,8 +1069,10 @@ def _suite_report(
     if not designs:
         return written
     task = task_of_manifest(read_manifest(folder))
-    table = designs_table(designs, tolerance=task_tolerance(task))
-    written += _write_table(target, "designs", table, _designs_markdown(table, task), notice)
+    table = designs_table(designs, tolerance=success_criterion(task))
+    standing = any(record.get("final_height") is not None for record in designs)
+    markdown = _designs_markdown(table, task, standing=standing)
+    written += _write_table(target, "designs", table, markdown, notice)
     for figure in config.figures:
         written += _FIGURES[figure](designs, config, target, seed, interval, notice=notice)
     return written

@@ -41,7 +41,7 @@ from benchmarks.storage.runfiles import (
     list_run_files,
     read_run_file,
 )
-from tooldesign_env.schema import METRICS
+from tooldesign_env.schema import METRICS, STANDING_COLUMNS
 
 __all__ = [
     "INVALID_IN_SCENE",
@@ -206,7 +206,7 @@ def _check_design(record: Any, path: Path, folder: Path) -> dict[str, Any]:
         isinstance(coefficients, list) and all(finite_number(v) for v in coefficients)
     ):
         raise bad("coefficients", "a list of finite numbers or null", coefficients)
-    for field in (*METRICS, "test_time"):
+    for field in (*METRICS, *STANDING_COLUMNS, "test_time"):
         value = record.get(field)
         if value is not None and not finite_number(value):
             raise bad(field, "a finite number or null", value)

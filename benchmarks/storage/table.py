@@ -55,6 +55,7 @@ from tooldesign_env.schema import (
     METRICS,
     RUN_COLUMNS,
     SORT_COLUMNS,
+    STANDING_COLUMNS,
     STATUSES,
     STRING_COLUMNS,
     TASK_COLUMNS,
@@ -165,7 +166,7 @@ def _coefficient_columns(columns: Iterable[str]) -> list[str]:
 def _canonical_order(columns: Iterable[str]) -> list[str]:
     columns = list(columns)
     coefficients = _coefficient_columns(columns)
-    head = ["suite", "optimizer", *ID_COLUMNS, *coefficients, *METRICS, "status"]
+    head = ["suite", "optimizer", *ID_COLUMNS, *coefficients, *METRICS, *STANDING_COLUMNS, "status"]
     head += [*TIMING_COLUMNS, BEST_SO_FAR, *TASK_COLUMNS, "variant"]
     present, listed = set(columns), set(head)
     known = [c for c in head if c in present]

@@ -80,7 +80,13 @@ from benchmarks.suites.config import (
     RunSpec,
     SuiteConfig,
 )
-from tooldesign_env.schema import METRICS, RUN_COLUMNS, STATUSES, coefficient_columns
+from tooldesign_env.schema import (
+    METRICS,
+    RUN_COLUMNS,
+    STANDING_COLUMNS,
+    STATUSES,
+    coefficient_columns,
+)
 
 __all__ = ["SuiteResult", "run_suite", "summary_text"]
 
@@ -335,6 +341,9 @@ def _design_record(
         record["coefficients"] = [float(best[c]) for c in columns]
         for name in METRICS:
             record[name] = float(best[name])
+        for name in STANDING_COLUMNS:  # for the task's success test in reports
+            if name in best.index and not math.isnan(float(best[name])):
+                record[name] = float(best[name])
         record["status"] = str(best["status"])
         for name in ("iteration", "candidate", "eval_id"):
             record[name] = int(best[name])
