@@ -424,3 +424,34 @@ def test_the_verdict_asks_identity_on_the_references_platform_and_a_share_elsewh
     assert verify_verdict(table(allowed, 144, False))[0]
     passed, sentence = verify_verdict(table(allowed + 1, 144, False))
     assert not passed and "another platform" in sentence
+
+
+def test_the_committed_full_references_cover_every_cell_of_quick_and_full():
+    path = packaged_references("full")
+    assert path is not None and path.name == "references-full.json"
+    assert packaged_references("quick") == path
+    for size in ("quick", "full"):
+        config = protocol_config(size)
+        cells = load_references(path, config=config)  # plan, size, p^X and set must match
+        assert all((i.label, d) in cells for i, d in config.cells()), size
+    cells = load_references(path)
+    assert len(cells) == 72
+    for cell in cells.values():
+        assert cell["f_ref"] < cell["f_straight"] and cell["noise_floor"] > 0
+        assert min(cell["random_pool"]) >= cell["f_ref"] or "unstable_better" in cell
+
+
+@pytest.mark.slow
+def test_the_committed_full_references_evaluate_again_to_what_they_say():
+    """Two evaluations a cell, 144 in all: the physics under them has not moved."""
+    from benchmarks.protocol import verify_references
+    from benchmarks.protocol.references import verify_verdict
+
+    path = packaged_references("full")
+    table = verify_references(path, protocol_config("full").replace(workers=2))
+    passed, sentence = verify_verdict(table)
+    if table.attrs["same_platform"]:
+        assert table["identical"].all(), table[~table["identical"]]
+        assert passed, sentence
+    elif not passed:
+        pytest.skip(f"another platform than the references': {sentence}")
