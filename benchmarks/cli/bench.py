@@ -66,7 +66,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         type=out_path,
         default=None,
         metavar="DIR",
-        help="run folder (required, but by the protocol's --buildable and --verify-references)",
+        help="run folder (required except with the protocol's --buildable and --verify-references)",
     )
     parser.add_argument(
         "--config",
