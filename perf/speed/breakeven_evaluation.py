@@ -25,12 +25,12 @@ Run: ``python -m perf.speed.breakeven_evaluation --designs 16 --tasks 4``.
 from __future__ import annotations
 
 import argparse
-import os
 import time
 
 import numpy as np
 
 from perf import _args
+from perf._machine import machine_line
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -58,9 +58,7 @@ def main(argv: list[str] | None = None) -> None:
     from benchmarks.rl.evaluation import _task_settings, action_to_coefficients
     from tooldesign_env import default_bounds
 
-    print(
-        f"cores: {os.cpu_count()}, load average: {', '.join(f'{v:.2f}' for v in os.getloadavg())}"
-    )
+    print(machine_line())
     rng = np.random.default_rng(args.seed)
     bounds = default_bounds(3)
     protocol: list[float] = []

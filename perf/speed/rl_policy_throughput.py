@@ -22,12 +22,12 @@ Run: ``python -m perf.speed.rl_policy_throughput --episodes 64 --workers 1 2``.
 from __future__ import annotations
 
 import argparse
-import os
 import time
 
 import numpy as np
 
 from perf import _args
+from perf._machine import machine_line
 
 
 class PseudoRandomPolicy:
@@ -123,9 +123,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 def main(argv: list[str] | None = None) -> None:
     """Measure and print the rates."""
     args = parse_args(argv)
-    print(
-        f"cores: {os.cpu_count()}, load average: {', '.join(f'{v:.2f}' for v in os.getloadavg())}"
-    )
+    print(machine_line())
     policy = PseudoRandomPolicy(args.seed)
     tasks = make_tasks(args.episodes, args.seed)
     rate = one_env_rate(policy, tasks)

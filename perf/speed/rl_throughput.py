@@ -14,12 +14,12 @@ Run: ``python -m perf.speed.rl_throughput --episodes 64 --num-envs 1 2``.
 from __future__ import annotations
 
 import argparse
-import os
 import time
 
 import numpy as np
 
 from perf import _args
+from perf._machine import machine_line
 from tooldesign_env.rl import ToolDesignRLEnv, make_rl_vector_env
 
 
@@ -73,9 +73,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 def main(argv: list[str] | None = None) -> None:
     """Measure and print the rates."""
     args = parse_args(argv)
-    print(
-        f"cores: {os.cpu_count()}, load average: {', '.join(f'{v:.2f}' for v in os.getloadavg())}"
-    )
+    print(machine_line())
     print(f"one env in this process: {single_env_rate(args.episodes, args.seed):.2f} episodes/s")
     for mode in ("sync", "async"):
         for n in args.num_envs:
