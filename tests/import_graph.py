@@ -23,10 +23,10 @@ LAYERS: dict[str, int] = {
     "benchmarks.execution": 1,
     "benchmarks.design": 2,
     "benchmarks.suites": 3,
-    "benchmarks.rl": 3,
-    "benchmarks.reports": 4,
-    "benchmarks.protocol": 5,
-    "benchmarks.cli": 6,
+    "benchmarks.rl": 4,
+    "benchmarks.reports": 5,
+    "benchmarks.protocol": 6,
+    "benchmarks.cli": 7,
 }
 
 

@@ -137,7 +137,8 @@ def test_a_preset_with_a_bad_value_is_refused_by_the_spec_it_sets():
 
 # ------------------------------------------------------------------ Python per control step
 def test_the_tool_yaw_of_all_steps_at_once_has_the_bits_of_the_one_step_form():
-    from tooldesign_env.simulation import _tool_yaw, _tool_yaws
+    from tooldesign_env.rollout import tool_yaw as _tool_yaw
+    from tooldesign_env.rollout import tool_yaws as _tool_yaws
 
     rng = np.random.default_rng(6)
     quaternions = rng.normal(size=(3000, 4))

@@ -16,10 +16,11 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
-__all__ = ["Recording", "Replay", "Rollout", "Trajectory"]
+__all__ = ["Recording", "Replay", "Rollout", "Trajectory", "tool_yaw", "tool_yaws"]
 
 #: ``replay(k, horizon, offsets (m, 7)) -> (m, 3)``: the box's positions after replaying the
 #: recorded torques of control steps k .. k + horizon - 1 plus each constant offset (N m), from
@@ -164,3 +165,30 @@ class Rollout:
 
     def __len__(self) -> int:
         return int(self.box_position.shape[0])
+
+
+def tool_yaws(orientations: np.ndarray) -> list[float]:
+    """:func:`tool_yaw` of every row of (n, 4) quaternions, to the same bits.
+
+    The rotation matrix's entries are computed for all rows at once (NumPy's elementwise
+    products and sums round as Python's floats do), and ``math.atan2`` takes them row by row,
+    as :func:`tool_yaw` does: the per-step Python calls were 0.8 % of an evaluation (cProfile).
+    """
+    if orientations.shape[0] == 0:
+        return []
+    x, y, z, w = orientations.T
+    r00 = 1.0 - 2.0 * (y * y + z * z)
+    r10 = 2.0 * (x * y + z * w)
+    return [math.atan2(a, b) for a, b in zip(r10.tolist(), r00.tolist(), strict=True)]
+
+
+def tool_yaw(ee_orientation: tuple[Any, ...]) -> float:
+    """Yaw of the tool frame from the end-effector quaternion (x, y, z, w).
+
+    The tool frame is the end-effector frame turned by Rx(pi); its x axis is the end effector's.
+    """
+    x, y, z, w = ee_orientation
+    # First column of the rotation matrix: the end effector's x axis in the world.
+    r00 = 1.0 - 2.0 * (y * y + z * z)
+    r10 = 2.0 * (x * y + z * w)
+    return math.atan2(r10, r00)

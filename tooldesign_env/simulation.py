@@ -42,7 +42,7 @@ from tooldesign_env.robot_model import (
     principal_inertia,
     tool_link_with_principal_axes,
 )
-from tooldesign_env.rollout import Recording, Rollout, Trajectory
+from tooldesign_env.rollout import Recording, Rollout, Trajectory, tool_yaws
 from tooldesign_env.specs import ControllerSpec, PlanSpec, SceneSpec
 from tooldesign_env.tasks.base import Obstacle
 
@@ -438,7 +438,7 @@ class ToolSimulator:
         ref = self.reference
         n = len(ref.times)
         fast_forward_from = record.fast_forward_from
-        yaw_rows = _tool_yaws(np.asarray(record.ee_orientation, dtype=float))
+        yaw_rows = tool_yaws(np.asarray(record.ee_orientation, dtype=float))
         clearance = None
         if self._guarded:
             clearance = self._guard.clearance(record, ref, self.controller)
@@ -580,30 +580,3 @@ class ToolSimulator:
     def close(self) -> None:
         """Release the physics client; safe to call more than once."""
         self.world.close()
-
-
-def _tool_yaws(orientations: np.ndarray) -> list[float]:
-    """:func:`_tool_yaw` of every row of (n, 4) quaternions, to the same bits.
-
-    The rotation matrix's entries are computed for all rows at once (NumPy's elementwise
-    products and sums round as Python's floats do), and ``math.atan2`` takes them row by row,
-    as :func:`_tool_yaw` does: the per-step Python calls were 0.8 % of an evaluation (cProfile).
-    """
-    if orientations.shape[0] == 0:
-        return []
-    x, y, z, w = orientations.T
-    r00 = 1.0 - 2.0 * (y * y + z * z)
-    r10 = 2.0 * (x * y + z * w)
-    return [math.atan2(a, b) for a, b in zip(r10.tolist(), r00.tolist(), strict=True)]
-
-
-def _tool_yaw(ee_orientation: tuple[Any, ...]) -> float:
-    """Yaw of the tool frame from the end-effector quaternion (x, y, z, w).
-
-    The tool frame is the end-effector frame turned by Rx(pi); its x axis is the end effector's.
-    """
-    x, y, z, w = ee_orientation
-    # First column of the rotation matrix: the end effector's x axis in the world.
-    r00 = 1.0 - 2.0 * (y * y + z * z)
-    r10 = 2.0 * (x * y + z * w)
-    return math.atan2(r10, r00)

@@ -74,6 +74,8 @@ import numpy as np
 from benchmarks.protocol.dimensions import bounds_of
 from benchmarks.protocol.instances import PUSH_TASK, Instance, task_key
 from benchmarks.protocol.suite import ProtocolConfig
+from benchmarks.suites.retest import FLOOR_CANDIDATES
+from benchmarks.suites.retest import FLOOR_SCENES as _FLOOR_SCENES
 
 __all__ = [
     "REFERENCE_FORMAT",
@@ -92,10 +94,8 @@ REFERENCE_VERSION = 1
 #: The plan a resumable computation's ``.cells`` folder was started with.
 _PARTS_PLAN = "plan.json"
 
-#: Scenes of a noise floor: the equivalence rule's 16 (``benchmarks.suites.equivalence``). A
-#: new scene's F falls inside the range of n scenes with probability (n - 1) / (n + 1): 50 % for
-#: 3 scenes, 75 % for 7, 88 % for 16, so a floor of few scenes is too narrow.
-FLOOR_SCENES = 16
+#: Scenes of a noise floor (:data:`benchmarks.suites.retest.FLOOR_SCENES`, 16).
+FLOOR_SCENES = _FLOOR_SCENES
 
 
 def floor_min_fraction() -> float:
@@ -406,8 +406,8 @@ def _cmaes_runs(
 
 
 #: Candidates (best F first) :func:`compute_cell` tries for a reference valid in every nudged
-#: scene before it gives up on a cell.
-MAX_REFERENCE_CANDIDATES = 20
+#: scene before it gives up on a cell (:data:`benchmarks.suites.retest.FLOOR_CANDIDATES`).
+MAX_REFERENCE_CANDIDATES = FLOOR_CANDIDATES
 
 
 def compute_cell(

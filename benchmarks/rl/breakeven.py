@@ -32,7 +32,7 @@ the largest budget are read at every smaller one (their behaviour does not depen
 (``compute_cell`` of :mod:`benchmarks.protocol.references`): a unit per task, after its cold
 runs, evaluates the task's reference design in ``floor_scenes`` nudged scenes
 (:class:`benchmarks.suites.retest.RetestConfig`: 16 at ``full``, the protocol's
-:data:`~benchmarks.protocol.references.FLOOR_SCENES`; 4 at ``smoke``; the first is the task's
+:data:`~benchmarks.suites.retest.FLOOR_SCENES`; 4 at ``smoke``; the first is the task's
 own scene). The design is the best of the task's cold CMA-ES runs (every replicate, the largest
 budget), passing over one invalid in a nudged scene for the next best, as the protocol does:
 where the compared runs end, the same for every warm-started method, and fixed before any
@@ -74,7 +74,6 @@ import numpy as np
 import pandas as pd
 
 from benchmarks.design.instances import load_instances, select_instances
-from benchmarks.protocol.references import FLOOR_SCENES, MAX_REFERENCE_CANDIDATES
 from benchmarks.rl.agents import (
     EpisodeRecord,
     Trained,
@@ -101,6 +100,8 @@ from benchmarks.storage import (
     read_manifest,
     validate_evaluations,
 )
+from benchmarks.suites.retest import FLOOR_CANDIDATES as MAX_REFERENCE_CANDIDATES
+from benchmarks.suites.retest import FLOOR_SCENES
 from tooldesign_env.rl import REWARD_FLOOR, ToolDesignRLEnv
 from tooldesign_env.schema import (
     DEFAULT_GOAL_PRECISION,
@@ -234,7 +235,7 @@ class BreakevenSize:
         contextual_goals: Training tasks of the contextual method.
         popsize: CMA-ES population size (cold, warm and the contextual method's).
         floor_scenes: Scenes of each task's noise floor (the first is the task's own scene):
-            the protocol's :data:`~benchmarks.protocol.references.FLOOR_SCENES`, 16.
+            the protocol's :data:`~benchmarks.suites.retest.FLOOR_SCENES`, 16.
         overrides: Per-method config fields replaced for this size, ``(method, field, value)``.
     """
 

@@ -55,10 +55,22 @@ from tooldesign_env.schema import METRICS
 from tooldesign_env.specs import is_unordered
 
 __all__ = [
+    "FLOOR_CANDIDATES",
+    "FLOOR_SCENES",
     "RetestConfig",
     "retest_design",
     "retest_suite",
 ]
+
+#: Scenes of a noise floor of one design (the protocol's references, the break-even study's
+#: tasks): the equivalence rule's 16 (``benchmarks.suites.equivalence``). A new scene's F falls
+#: inside the range of n scenes with probability (n - 1) / (n + 1): 50 % for 3 scenes, 75 % for
+#: 7, 88 % for 16, so a floor of few scenes is too narrow.
+FLOOR_SCENES = 16
+
+#: Designs (best F first) tried for one valid in every nudged scene before a noise floor is
+#: given up: one that a 0.1 mm nudge makes unbuildable has no floor.
+FLOOR_CANDIDATES = 20
 
 RETEST_VERSION = 1
 

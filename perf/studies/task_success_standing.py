@@ -66,11 +66,16 @@ def compare(name: str, *, random: int = 64, iterations: int = 15, batch: int = 8
     )
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Print one line per task."""
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """The study's command line: ``--task`` (repeatable; default every built-in task)."""
     parser = argparse.ArgumentParser(description=(__doc__ or "").split("\n")[0])
     parser.add_argument("--task", action="append", choices=BUILTIN_TASKS, default=None)
-    args = parser.parse_args(argv)
+    return parser.parse_args(argv)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Print one line per task."""
+    args = parse_args(argv)
     for name in args.task or BUILTIN_TASKS:
         print(compare(name), flush=True)
     return 0
