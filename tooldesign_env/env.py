@@ -77,6 +77,7 @@ def past_bounds(coeffs: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.nda
     slack = ACTION_ROUNDING * np.maximum(np.maximum(np.abs(low), np.abs(high)), high - low)
     return np.asarray((coeffs < low - slack) | (coeffs > high + slack))
 
+
 #: ``info`` keys of the per-step series and trajectories, there only with ``info_series=True``.
 SERIES_KEYS: tuple[str, ...] = (
     "times",
@@ -675,14 +676,7 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
                 must be at most the task's ``max_tilt``: a box lying on its side or tipped
                 onto an obstacle is not at the goal. None does not check it.
         """
-        task = self.task_definition
-        if not valid:
-            return False
-        if final_height is None:  # the tilt alone, if given
-            return final_distance <= task.tolerance and (
-                final_tilt is None or final_tilt <= task.max_tilt
-            )
-        return task.succeeded(
+        return bool(valid) and self.task_definition.succeeded(
             final_distance, final_height, self.simulator.scene, final_tilt=final_tilt
         )
 

@@ -109,20 +109,9 @@ def floor_min_fraction() -> float:
     Raises:
         ValueError: If the reference has no measured median relative floor.
     """
-    from benchmarks.suites.equivalence import REFERENCE, read_reference
+    from benchmarks.suites.equivalence import median_relative_floor
 
-    value = read_reference().get("median_relative_floor")
-    if (
-        isinstance(value, bool)
-        or not isinstance(value, (int, float))
-        or not math.isfinite(value)
-        or value <= 0
-    ):
-        raise ValueError(
-            f"{REFERENCE} has no measured median_relative_floor (got {value!r}); record the "
-            "equivalence reference (`tooldesign equivalence record`) before references"
-        )
-    return float(value)
+    return median_relative_floor()
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)

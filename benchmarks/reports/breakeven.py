@@ -278,17 +278,9 @@ def noise_floor_fraction() -> float:
     Raises:
         ValueError: The reference has no measured median relative floor.
     """
-    from benchmarks.suites.equivalence import REFERENCE, read_reference
+    from benchmarks.suites.equivalence import median_relative_floor
 
-    value = read_reference().get("median_relative_floor")
-    if (
-        isinstance(value, bool)
-        or not isinstance(value, (int, float))
-        or not math.isfinite(value)
-        or value <= 0
-    ):
-        raise ValueError(f"{REFERENCE} has no measured median_relative_floor (got {value!r})")
-    return float(value)
+    return median_relative_floor()
 
 
 def task_floors(f_ref: pd.Series, floors: pd.DataFrame, *, floor_fraction: float) -> pd.DataFrame:

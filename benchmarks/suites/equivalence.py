@@ -80,6 +80,7 @@ __all__ = [
     "compare",
     "evaluate",
     "format_comparison",
+    "median_relative_floor",
     "read_reference",
     "record",
     "write_reference",
@@ -502,6 +503,29 @@ def write_reference(reference: Mapping[str, Any], path: str | os.PathLike[str]) 
     data = json.loads(json_text(reference))
     _check_reference(data, Path(path))
     return atomic_write_text(path, json.dumps(data, indent=1, sort_keys=True) + "\n")
+
+
+def median_relative_floor() -> float:
+    """The committed reference's median relative noise floor of F (a fraction of |F|).
+
+    The range of F over 16 nudged scenes, median over the reference's 64+ designs: the smallest
+    floor the benchmark protocol's targets and the break-even study's verdict allow.
+
+    Raises:
+        ValueError: If the reference has no measured median relative floor.
+    """
+    value = read_reference().get("median_relative_floor")
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, (int, float))
+        or not math.isfinite(value)
+        or value <= 0
+    ):
+        raise ValueError(
+            f"{REFERENCE} has no measured median_relative_floor (got {value!r}); record the "
+            "equivalence reference (`tooldesign equivalence record`) first"
+        )
+    return float(value)
 
 
 def read_reference(path: str | os.PathLike[str] = REFERENCE) -> dict[str, Any]:

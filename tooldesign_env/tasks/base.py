@@ -63,8 +63,10 @@ OBSTACLE_SIZE_MAX = 3.0
 
 def _floats(value: Any, length: int, label: str) -> tuple[float, ...]:
     """``value`` as ``length`` finite floats in order, or an error naming ``label``."""
-    if is_unordered(value) or isinstance(value, (str, bytes)) or not isinstance(
-        value, (Sequence, np.ndarray)
+    if (
+        is_unordered(value)
+        or isinstance(value, (str, bytes))
+        or not isinstance(value, (Sequence, np.ndarray))
     ):
         raise TypeError(f"{label} must be {length} numbers in order, got {value!r}")
     if len(value) != length:
@@ -72,9 +74,7 @@ def _floats(value: Any, length: int, label: str) -> tuple[float, ...]:
     return tuple(check_real(v, label) for v in value)
 
 
-def _corners(
-    centre: tuple[float, float], size: tuple[float, float], yaw: float
-) -> np.ndarray:
+def _corners(centre: tuple[float, float], size: tuple[float, float], yaw: float) -> np.ndarray:
     """The 4 corners (4, 2) in m of a rectangle of full extents ``size`` turned by ``yaw``."""
     c, s = math.cos(yaw), math.sin(yaw)
     half = np.array([[1, 1], [1, -1], [-1, -1], [-1, 1]], dtype=float) * np.asarray(size) / 2.0
@@ -241,25 +241,18 @@ class TaskDefinition:
                 f"the {self.name} task's goal range must have low <= high per axis, inside the "
                 f"workspace, got low {list(self.goal_low)}, high {list(self.goal_high)}"
             )
-        tolerance = check_real(self.tolerance, "TaskDefinition.tolerance")
-        if not 0.0 < tolerance <= TOLERANCE_MAX:
-            raise ValueError(
-                f"TaskDefinition.tolerance must be a number of metres in (0, {TOLERANCE_MAX:g}], "
-                f"got {self.tolerance!r}"
-            )
-        object.__setattr__(self, "tolerance", tolerance)
-        height_tolerance = check_real(self.height_tolerance, "TaskDefinition.height_tolerance")
-        if not 0.0 < height_tolerance <= TOLERANCE_MAX:
-            raise ValueError(
-                f"TaskDefinition.height_tolerance must be a number of metres in "
-                f"(0, {TOLERANCE_MAX:g}], got {self.height_tolerance!r}"
-            )
-        object.__setattr__(self, "height_tolerance", height_tolerance)
+        for name in ("tolerance", "height_tolerance"):
+            metres = check_real(getattr(self, name), f"TaskDefinition.{name}")
+            if not 0.0 < metres <= TOLERANCE_MAX:
+                raise ValueError(
+                    f"TaskDefinition.{name} must be a number of metres in "
+                    f"(0, {TOLERANCE_MAX:g}], got {getattr(self, name)!r}"
+                )
+            object.__setattr__(self, name, metres)
         max_tilt = check_real(self.max_tilt, "TaskDefinition.max_tilt")
         if not 0.0 < max_tilt <= math.pi / 2:
             raise ValueError(
-                f"TaskDefinition.max_tilt must be an angle in (0, pi/2] rad, got "
-                f"{self.max_tilt!r}"
+                f"TaskDefinition.max_tilt must be an angle in (0, pi/2] rad, got {self.max_tilt!r}"
             )
         object.__setattr__(self, "max_tilt", max_tilt)
         obstacles = tuple(self.obstacles)
@@ -332,7 +325,7 @@ class TaskDefinition:
     def succeeded(
         self,
         final_distance: float,
-        final_height: float,
+        final_height: float | None,
         scene: SceneSpec | None = None,
         *,
         final_tilt: float | None = None,
@@ -341,20 +334,24 @@ class TaskDefinition:
 
         Args:
             final_distance: the box centre's final distance to the goal, m.
-            final_height: the box centre's final height above the floor, m.
+            final_height: the box centre's final height above the floor, m; None does not check
+                it.
             scene: the scene whose box it is (default: the task's): its resting height is half
                 its height.
             final_tilt: the final angle of the box's up axis from the vertical, rad; None
                 checks the height alone.
 
         Returns:
-            ``final_distance <= tolerance``, the height within ``height_tolerance`` of the
-            resting height and the tilt at most ``max_tilt``.
+            ``final_distance <= tolerance``, the height (if given) within
+            ``height_tolerance`` of the resting height and the tilt (if given) at most
+            ``max_tilt``.
         """
-        rest = self.box_start(scene)[2]
         return bool(
             final_distance <= self.tolerance
-            and abs(final_height - rest) <= self.height_tolerance
+            and (
+                final_height is None
+                or abs(final_height - self.box_start(scene)[2]) <= self.height_tolerance
+            )
             and (final_tilt is None or final_tilt <= self.max_tilt)
         )
 
