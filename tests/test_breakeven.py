@@ -261,12 +261,14 @@ def test_the_amortization_counts_goals_until_the_training_pays() -> None:
     assert table.loc["warm-contextual", "breakeven_goals"] == 100
 
 
-def _rows(variant: str, method: str, values: list[float], task: str = "t") -> list[dict]:
+def _rows(
+    variant: str, method: str, values: list[float], task: str = "t", replicate: int = 0
+) -> list[dict]:
     return [
         {
             "variant": variant,
             "method": method,
-            "replicate": 0,
+            "replicate": replicate,
             "task": task,
             "evaluation": 1 if variant == "zero-shot" else k + 1,
             "free_energy": f,
@@ -852,3 +854,22 @@ def test_a_studys_ppo_card_warm_starts_a_design_run(smoke_study: Path, tmp_path:
     assert proposal_spread(policy, task.observation()) == pytest.approx(spread)
     assert settings["sigma0"] == pytest.approx(warm_sigma0(spread))
     assert len(pd.read_csv(tmp_path / "run" / "evaluations.csv")) == 3
+
+
+def test_the_verdict_tests_tasks_not_the_replicates_of_a_task() -> None:
+    from benchmarks.reports.breakeven import warm_cold_table
+
+    # Two tasks, ten replicates each, warm better beyond the floor in every pair: 20 pairs
+    # counted as independent would give p = 1 / 2^20; they are two tasks, and two tasks cannot
+    # make a win (the smallest one-sided p of 2 is 1 / 4).
+    rows = []
+    for k in range(2):
+        for r in range(10):
+            rows += _rows("cold", "random", [1100.0 + 10 * v for v in range(8)], f"t{k}", r)
+            rows += _rows("cold", "cmaes", [1000.0 + r] * 8, f"t{k}", r)
+            rows += _rows("warm", "warm-contextual", [950.0 + r] * 8, f"t{k}", r)
+    log = pd.DataFrame(rows)
+    row = warm_cold_table(regret_curves(log), [8], floors=_floors(log)).iloc[0]
+    assert row["pairs"] == 20 and row["tasks"] == 2
+    assert row["p"] == pytest.approx(1 / 4) and not row["beats_cold"]
+    assert row["mean_floors"] == pytest.approx(-50 / 6) and row["median_floors"] < -1

@@ -24,9 +24,10 @@ designs and the paired comparison, are the protocol's own code, which lives in
   project's median relative floor). A task without a measured range gets the least floor.
 - **The verdict, warm against cold** (:func:`warm_cold_table`, issue 36's question): per pair
   (task, replicate; warm and cold share the CMA-ES seed), the best F so far at the budget,
-  warm-started minus cold CMA-ES, in floors of the task. The one-sided Wilcoxon signed-rank
-  test over the pairs of "warm's F is lower by more than one floor" (the differences plus 1
-  are below 0), Holm-corrected over every warm-started method at every budget as one family.
+  warm-started minus cold CMA-ES, in floors of the task, averaged over a task's replicates.
+  The one-sided Wilcoxon signed-rank test over the tasks (the independent units) of "warm's F
+  is lower by more than one floor" (the task means plus 1 are below 0), Holm-corrected over
+  every warm-started method at every budget as one family.
   Warm beats cold where Holm p < :data:`ALPHA`. Effect size: the mean over tasks with its
   95 % t interval (over tasks), and the median over pairs.
 - **Paired tests of every pair** at each budget (secondary, not the verdict): the two-sided
@@ -336,13 +337,16 @@ def warm_cold_table(
 
     Pairs: (task, replicate), replicate k of the warm run against replicate k of cold CMA-ES
     (the same CMA-ES seed). Per pair, z = (b_warm - b_cold) / floor_task, the difference of
-    best F so far at the budget in noise floors of the task (< 0: warm is better). The test is
-    one-sided, of "beyond the floor" itself: the Wilcoxon signed-rank test of d = z + 1 with
-    H1 "d is below 0", i.e. warm's F is lower than cold's by more than one floor (p = 1 when
-    every d is 0); one Holm correction over every row (all warm-started methods at all
-    budgets: one family). A row ``beats_cold`` when its Holm p is below :data:`ALPHA`.
-    Effect size: the mean of z over tasks (each task the mean over its replicates) with its
-    95 % t interval over tasks, and the median of z over the pairs.
+    best F so far at the budget in noise floors of the task (< 0: warm is better). The unit
+    of the test is the task, not the pair: a task's replicates share its goal and mass, so
+    they are not independent, and counting them as such would make a win on a few tasks look
+    certain. Per task, d = the mean of z over its replicates + 1. The test is one-sided, of
+    "beyond the floor" itself: the Wilcoxon signed-rank test over the tasks of d with H1 "d is
+    below 0", i.e. warm's F is lower than cold's by more than one floor (p = 1 when every d is
+    0); one Holm correction over every row (all warm-started methods at all budgets: one
+    family). A row ``beats_cold`` when its Holm p is below :data:`ALPHA`. Effect size: the
+    mean of z over tasks with its 95 % t interval over tasks, and the median of z over the
+    pairs.
 
     Args:
         curves: :func:`regret_curves` of the study.
@@ -377,16 +381,16 @@ def warm_cold_table(
                 z = z[np.isfinite(z.to_numpy(dtype=np.float64))]
                 by_task = z.groupby(level="task").mean().to_numpy(dtype=np.float64)
                 interval = t_interval(by_task, 0.95)
-                d = z.to_numpy(dtype=np.float64) + 1.0
+                d = by_task + 1.0
                 row: dict[str, Any] = {
                     "method": method,
                     "budget": int(budget),
-                    "pairs": int(d.size),
+                    "pairs": int(z.size),
                     "tasks": int(by_task.size),
                     "mean_floors": interval.estimate,
                     "ci_low": interval.low,
                     "ci_high": interval.high,
-                    "median_floors": float(np.median(d - 1.0)) if d.size else math.nan,
+                    "median_floors": float(np.median(z)) if z.size else math.nan,
                 }
                 if d.size >= 2:
                     row["p"] = (
@@ -758,12 +762,12 @@ def make_breakeven_report(
         f"reference design (the best of its cold CMA-ES runs) over {scenes} nudged scenes and "
         f"{fraction:.4g} x |F_ref| (the project's median relative floor), as the benchmark "
         f"protocol sets a cell's ({measured} of {len(floors)} tasks measured above it; "
-        "`noise_floors.csv`). The test is one-sided, of the claim itself: the Wilcoxon "
-        "signed-rank test over the pairs that warm's F is lower than cold's by more than one "
-        "floor (differences + 1 below 0), Holm-corrected over every row of this table (one "
-        f"family). Warm beats cold where Holm p < {ALPHA}. Effect size: the mean over tasks "
-        "(each the mean over its replicates) with its 95 % t interval over tasks, and the "
-        "median over the pairs.",
+        "`noise_floors.csv`). The test is one-sided, of the claim itself, with the task as "
+        "its unit (a task's replicates share its goal and mass): the Wilcoxon signed-rank test "
+        "over the tasks, each the mean of its pairs, that warm's F is lower than cold's by "
+        "more than one floor (the task means + 1 below 0), Holm-corrected over every row of "
+        f"this table (one family). Warm beats cold where Holm p < {ALPHA}. Effect size: the "
+        "mean over tasks with its 95 % t interval over tasks, and the median over the pairs.",
         "",
         *_markdown(
             [
