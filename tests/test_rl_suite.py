@@ -68,6 +68,17 @@ def _assert_same_rows(mine: pd.DataFrame, reference: pd.DataFrame) -> None:
 
 
 @pytest.mark.slow
+def test_every_episode_stores_whether_the_box_stands(rl_smoke: Path) -> None:
+    # The push task's success asks the box to stand at the goal: every row keeps the box's
+    # final height and tilt beside its distance, so the report applies the whole test.
+    log = ResultStore(rl_smoke).read()
+    ok = log[log["status"] == "ok"]
+    assert len(ok) and ok[["final_height", "final_tilt"]].notna().all().all()
+    assert ((ok["final_height"] > 0) & (ok["final_height"] < 0.5)).all()
+    assert ((ok["final_tilt"] >= 0) & (ok["final_tilt"] <= np.pi)).all()
+
+
+@pytest.mark.slow
 def test_the_smoke_run_folder_is_as_documented(rl_smoke: Path) -> None:
     manifest = json.loads((rl_smoke / "manifest.json").read_text())
     assert manifest["extra"]["kind"] == RL_SUITE_KIND

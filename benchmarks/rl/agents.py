@@ -58,6 +58,10 @@ class EpisodeRecord:
         valid: whether the design could be used.
         final_distance: the box's final distance to the goal, m.
         coefficients: (3,) the tool's physical coefficients (c1, c2, c3).
+        final_height: the box centre's final height, m (the task's success test asks it to
+            stand: ``TaskDefinition.succeeded``); NaN where the env did not say.
+        final_tilt: the angle of the box's up axis from the vertical at the end, rad; NaN
+            where the env did not say.
         goal_error: the goal-error term of F.
         confidence: the control-confidence term of F.
         goal_precision: p^X of the objective, 1/m^2.
@@ -76,6 +80,8 @@ class EpisodeRecord:
     confidence: float = float("nan")
     goal_precision: float = float("nan")
     seconds: float = float("nan")
+    final_height: float = float("nan")
+    final_tilt: float = float("nan")
 
 
 class EpisodeLog(gym.Wrapper[np.ndarray, np.ndarray, np.ndarray, np.ndarray]):
@@ -112,6 +118,8 @@ class EpisodeLog(gym.Wrapper[np.ndarray, np.ndarray, np.ndarray, np.ndarray]):
                 confidence=float(info["confidence"]),
                 goal_precision=precision,
                 seconds=seconds,
+                final_height=float(info.get("final_height", float("nan"))),
+                final_tilt=float(info.get("final_tilt", float("nan"))),
             )
         )
         return obs, float(reward) * self.reward_scale, terminated, truncated, info

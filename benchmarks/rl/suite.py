@@ -581,6 +581,8 @@ def _frame(
             goal_error=r.goal_error,
             confidence=r.confidence,
             final_distance=r.final_distance,
+            final_height=r.final_height,
+            final_tilt=r.final_tilt,
             status="ok" if r.valid else "invalid",
             eval_time=r.seconds,
             opt_time=agent,
