@@ -456,3 +456,56 @@ def test_from_refuses_simulation_options_and_absent_cells(capsys):
     only_push = {"cells": [_random_cell("push", 3, 2)]}
     with pytest.raises(ValueError, match="has no cell hook at d = 3"):
         task_tiers._select(only_push["cells"], ["hook"], [3], "FILE")
+
+
+# --- docs/tasks.md says what the rule is and what the committed tiers hold ---
+
+
+def _page_text() -> str:
+    return " ".join(PAGE.read_text(encoding="utf-8").split())
+
+
+def test_the_page_states_the_rules_thresholds():
+    rule = TierRule()
+    assert (
+        f"*easy* for r < {rule.easy_regret:g}, *medium* for {rule.easy_regret:g} <= r < "
+        f"{rule.hard_regret:g}, *hard* for r >= {rule.hard_regret:g}" in _page_text()
+    )
+    assert (
+        f"*easy* for p >= {100 * rule.easy_share:g} %, *medium* for {100 * rule.hard_share:g} % "
+        f"<= p < {100 * rule.easy_share:g} %, *hard* for p < {100 * rule.hard_share:g} %"
+        in _page_text()
+    )
+
+
+def test_the_pages_quick_run_figures_are_the_quick_runs():
+    cells = protocol_baselines(QUICK)["cells"]
+    push = [cells[("push", d)] for d in (3, 5, 8)]
+    rule = TierRule()
+    figures = ", ".join(
+        f"{c['regret_median']:.2f} [{c['regret_95'][0]:.2f}, {c['regret_95'][1]:.2f}]"
+        for c in push[:2]
+    )
+    last = push[2]
+    claim = (
+        f"r is {figures} and {last['regret_median']:.2f} [{last['regret_95'][0]:.2f}, "
+        f"{last['regret_95'][1]:.2f}] at d = 3, 5 and 8 (regret tiers "
+        f"{', '.join(str(rule.regret_tier(c['regret_median'])) for c in push)}; "
+        f"{push[0]['successes']} of {push[0]['runs']} runs end on a succeeding design at each d)"
+    )
+    assert claim in _page_text()
+    assert {(c["successes"], c["runs"]) for c in push} == {(2, 12)}  # "at each d"
+    assert "budgets of 32, 56 and 80 evaluations, 12 runs of CMA-ES on 6 instances per d" in (
+        _page_text()
+    )
+
+
+def test_the_page_says_whether_the_committed_tiers_have_the_regret():
+    record = json.loads(TIERS_JSON.read_text(encoding="utf-8"))
+    pending = "The committed tiers.json holds the random share's tiers alone until that run is"
+    if record.get("protocol") is None:
+        assert all(c.get("regret_tier") is None for c in record["cells"])
+        assert pending in _page_text()
+    else:  # labelled: the page shows the labels the study printed, and no longer says pending
+        assert " ".join(markdown_table(record["cells"]).split()) in _page_text()
+        assert pending not in _page_text()
