@@ -40,8 +40,20 @@ sampling with its budget), *medium* between. A cell the protocol did not run (th
 than push at d = 5 and 8) has no regret tier and keeps the random share's label; the output
 says which.
 
+The success share of CMA-ES's runs is shown but does not enter the label: the random share
+already says how rare success is, and CMA-ES minimizes F, whose lowest design need not succeed.
+The regret depends on the budget, so labels are those of the protocol size they were read from.
 Thresholds are parameters (:class:`TierRule`; ``--easy-share``, ``--hard-share``,
-``--easy-regret``, ``--hard-regret``); the JSON records the rule it used.
+``--easy-regret``, ``--hard-regret``; not positive or not ordered: refused).
+
+Written (``--json``): per cell the random figures, ``random_tier``, ``baseline`` (CMA-ES's
+figures; None where the protocol did not run the cell, and without ``--protocol``),
+``regret_tier`` and ``tier`` (the label); beside the cells ``random``, ``seed``,
+``random_from`` (the ``--from`` file), ``rule`` and ``protocol`` (the folder, its size, the
+optimizer, the budgets and how the interval was made). ``--from`` also reads a file written
+before these fields existed, whose ``tier`` is the random share's. The printed lines without
+``--protocol`` are those the study always printed; with it, a line of CMA-ES's figures under
+each cell, the cells without them, and the labels as a Markdown table (docs/tasks.md).
 
 Run: ``python -m perf.studies.task_tiers [--task hook] [--degrees 3 5 8] [--random 64]
 [--seed 0] [--workers 2] [--json FILE]``; 64 x 3 x 4 = 768 evaluations, about a minute on 2
