@@ -509,13 +509,16 @@ def test_the_tiers_follow_the_rule_and_their_d3_cells_are_the_baselines():
     assert set(tiers) == {(t, d) for t in TASKS for d in (3, 5, 8)}
     for (task, degree), cell in tiers.items():
         assert cell["success_rate"] == cell["successes"] / cell["n"]
-        assert cell["tier"] == tier(cell["success_rate"]), (task, degree)
+        # The random share's tier; labelled with CMA-ES's regret (task_tiers --protocol), the
+        # cell keeps it as random_tier and its tier is the harder (tests/test_task_tiers.py).
+        random_tier = cell.get("random_tier", cell["tier"])
+        assert random_tier == tier(cell["success_rate"]), (task, degree)
         assert cell["success_95"] == list(wilson_interval(cell["successes"], cell["n"]))
         if degree == 3:  # the same draw as the baselines' (same seed sequence and bounds)
             random = baselines[task]["random"]
             assert (cell["n"], cell["usable"]) == (random["n"], random["usable"]), task
             assert cell["success_rate"] == random["success_rate"], task
-            assert cell["tier"] == baselines[task]["tier"], task
+            assert random_tier == baselines[task]["tier"], task
 
 
 def test_the_tier_table_of_the_page_is_tiers_json():
@@ -527,7 +530,7 @@ def test_the_tier_table_of_the_page_is_tiers_json():
             low, high = c["success_95"]
             cells.append(
                 f"{c['successes']}/{c['n']} ({100 * c['success_rate']:.1f} %, "
-                f"[{100 * low:.1f}, {100 * high:.1f}] %): **{c['tier']}**"
+                f"[{100 * low:.1f}, {100 * high:.1f}] %): **{c.get('random_tier', c['tier'])}**"
             )
         rows.append(f"| {task} | " + " | ".join(cells) + " |")
     text = PAGE.read_text(encoding="utf-8")
