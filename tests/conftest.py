@@ -74,6 +74,18 @@ def rl_smoke(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 @pytest.fixture(scope="session")
+def breakeven_smoke(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A break-even run folder at size smoke (about 80 evaluations), made once per session.
+
+    Shared by the study's tests and docs/rl.md's block's: copy it before changing it.
+    """
+    pytest.importorskip("stable_baselines3")
+    out = tmp_path_factory.mktemp("breakeven") / "study"
+    assert main(["rl", "breakeven", "--size", "smoke", "--out", str(out), "--no-progress"]) == 0
+    return out
+
+
+@pytest.fixture(scope="session")
 def protocol_smoke(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A protocol run folder at size smoke, every cell run (no report), once per session.
 

@@ -499,11 +499,9 @@ def test_a_log_without_random_designs_has_no_scale() -> None:
 
 
 @pytest.fixture(scope="module")
-def smoke_study(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    pytest.importorskip("stable_baselines3")
-    out = tmp_path_factory.mktemp("breakeven") / "study"
-    assert main(["rl", "breakeven", "--size", "smoke", "--out", str(out), "--no-progress"]) == 0
-    return out
+def smoke_study(breakeven_smoke: Path) -> Path:
+    # The session's study (tests/conftest.py), also read by docs/rl.md's block's tests.
+    return breakeven_smoke
 
 
 @pytest.mark.slow

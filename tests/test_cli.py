@@ -165,7 +165,7 @@ def test_design_with_a_policy_names_a_bad_goal_or_mass_as_without(
 ):
     # With --policy they were refused as "optimizer_settings['goal'] must be a JSON value"
     # (an audit of issue 11).
-    policy = Path(__file__).resolve().parents[1] / "docs/results/rl/policies/ppo.json"
+    policy = Path(__file__).resolve().parents[1] / "docs/results/square/rl/policies/ppo.json"
     for designer in (["--policy", str(policy)], []):
         with pytest.raises(SystemExit) as excinfo:
             main(["design", *designer, *flags, "--out", str(tmp_path / "x")])

@@ -32,7 +32,7 @@ from benchmarks.rl.policies import (
 )
 
 ROOT = Path(__file__).resolve().parent.parent
-RESULTS = ROOT / "docs" / "results" / "rl"
+RESULTS = ROOT / "docs" / "results" / "square" / "rl"
 CONTEXTUAL = RESULTS / "policies" / "contextual.json"
 
 

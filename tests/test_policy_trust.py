@@ -31,7 +31,7 @@ from benchmarks.rl.policies import (
 )
 
 ROOT = Path(__file__).resolve().parents[1]
-POLICIES = ROOT / "docs" / "results" / "rl" / "policies"
+POLICIES = ROOT / "docs" / "results" / "square" / "rl" / "policies"
 GOAL = (0.2, 1.0, 0.1)
 
 

@@ -432,7 +432,7 @@ def test_the_rl_fixed_goal_table_gives_success_at_each_budget() -> None:
 
 @pytest.mark.slow
 def test_the_committed_rl_report_gives_the_success_its_rows_give() -> None:
-    folder = RESULTS / "rl"
+    folder = RESULTS / "square" / "rl"
     rows = ResultStore(folder).read()
     fixed = rows[rows["variant"] == "fixed"]
     table = pd.read_csv(folder / "report" / "fixed-goal.csv")

@@ -2,7 +2,7 @@
 
     tooldesign rl suite --size smoke --out runs/rl-smoke    # = tooldesign bench rl --size smoke
     tooldesign rl probe ppo --episodes 256 --seed 0 --set '{"log_std_init": -2.0}'
-    tooldesign rl design --policy docs/results/rl/policies/contextual.json --goal 0.2 1.0 0.1
+    tooldesign rl design --policy docs/results/square/rl/policies/contextual.json --goal 0.2 1.0 0.1
 
 All the work is done by plain functions of :mod:`benchmarks.rl` (``run_rl_suite``,
 ``design_for_goal``); this module only parses arguments and prints. ``rl suite`` is

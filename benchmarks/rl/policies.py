@@ -70,8 +70,8 @@ class UnsafePolicyError(ValueError):
 
 
 #: Card fields added after the first cards were written, with the value those cards were trained
-#: with: the committed rl suite (docs/results/rl, commit a327f7f) ran with the square section
-#: and the 13-link arm, the defaults then. A card without a field is read with this value.
+#: with: the committed rl suite (docs/results/square/rl, commit a327f7f) ran with the square
+#: section and the 13-link arm, the defaults then. A card without a field is read with this value.
 CARD_ADDED_FIELDS: dict[str, Any] = {"section_shape": "square", "merge_fixed_links": False}
 
 #: The fields of a contextual card's ``policy`` (:meth:`ContextualPolicy.to_dict`).

@@ -1,7 +1,7 @@
 """One tuning probe: a method with a few config fields replaced, at the default goal.
 
-The probes behind the committed configs (``docs/results/rl/tuning.jsonl``, ``docs/rl.md``) are
-runs of :func:`probe`.
+The probes behind the committed configs (``docs/results/square/rl/tuning.jsonl``, made with the
+square section and the 13-link arm; ``docs/rl.md``) are runs of :func:`probe`.
 """
 
 from __future__ import annotations
