@@ -71,3 +71,82 @@ def test_a_committed_report_is_rebuilt_from_its_stored_tables(size: str, tmp_pat
         committed = pd.read_csv(folder / "report" / name)
         again = pd.read_csv(copy / "report" / name)
         pd.testing.assert_frame_equal(committed, again, check_exact=False, rtol=1e-12)
+
+
+#: The designs re-evaluated per committed run: (instance, d) cells, 2 designs each.
+RECHECKED = (("i01", 3), ("i06", 3), ("i02", 5), ("i07", 5), ("i05", 8), ("i08", 8))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("size", sorted(COMMITTED))
+def test_designs_of_a_committed_run_evaluate_again_to_their_stored_f(size: str) -> None:
+    """This tree gives the committed run's F: bit for bit on the platform that computed it.
+
+    The runs were computed on the machine that computed the committed full references, so
+    their ``platform`` is the runs' too. Elsewhere a CPU's last bits act like a nudge, and a
+    value may move by up to its cell's noise floor; beyond it, the test skips rather than
+    fail by chance (``tooldesign bench protocol --verify-references`` is the machine's check).
+    """
+    import json
+
+    import numpy as np
+
+    from benchmarks.execution import evaluate_batch, make_executor
+    from benchmarks.protocol.instances import load_instances
+    from benchmarks.protocol.references import packaged_references
+    from benchmarks.storage import ResultStore, platform_id
+
+    folder = _folder(size)
+    config = read_protocol(folder)
+    source = packaged_references("full")
+    assert source is not None
+    references = json.loads(source.read_text())
+    floors = {(c["instance"], c["degree"]): c["noise_floor"] for c in references["cells"]}
+    instances = {i.id: i for i in load_instances()}
+    rng = np.random.default_rng(0)
+    rows = []
+    with make_executor("serial", 1, None) as pool:
+        for label, degree in RECHECKED:
+            cell = folder / "cells" / f"d{degree}" / label
+            log = ResultStore(cell).read()
+            log = log[log["status"] == "ok"]
+            picked = log.iloc[rng.choice(len(log), 2, replace=False)]
+            task = config.cell_suite(instances[label], degree).runs()[0].design.task()
+            designs = picked[[f"c{k}" for k in range(1, degree + 1)]].to_numpy(dtype=float)
+            for stored, now in zip(
+                picked["free_energy"], evaluate_batch(pool, designs, task), strict=True
+            ):
+                rows.append((label, degree, float(stored), float(now["free_energy"])))
+    if platform_id() == references["platform"]:
+        assert all(stored == now for *_, stored, now in rows), rows
+        return
+    beyond = [r for r in rows if abs(r[3] - r[2]) > floors[(r[0], r[1])]]
+    if beyond:
+        pytest.skip(f"another platform than the run's: {len(beyond)} of {len(rows)} beyond")
+
+
+def test_the_quick_runs_times_on_the_page_are_its_files() -> None:
+    """docs/protocol.md's measured times of the quick run, recomputed from the run folder."""
+    import json
+
+    folder = COMMITTED["quick"]
+    page = (ROOT / "docs" / "protocol.md").read_text()
+    wall = sum(
+        json.loads(m.read_text())["wall_time"] for m in folder.glob("cells/*/*/manifest.json")
+    )
+    evaluations = pd.concat(
+        pd.read_parquet(p).assign(cell=p.parent.relative_to(folder / "cells").as_posix())
+        for p in folder.glob("cells/*/*/evaluations.parquet")
+    )
+    stalled = evaluations[evaluations["eval_time"] > 5.0]
+    assert set(stalled["cell"]) == {"d8/i05"} and len(stalled) == 4
+    rest = evaluations[evaluations["eval_time"] <= 5.0]
+    assert f"took {wall:.0f} s of wall time" in page and f"{wall / 60:.1f} minutes" in page
+    assert f"{rest['eval_time'].sum():.1f} s of simulation" in page
+    assert f"**{rest['eval_time'].mean():.3f} s each**" in page
+    assert f"{rest['eval_time'].quantile(0.999):.2f} s for all the others" in page
+    minutes = rest.groupby("optimizer")["eval_time"].sum() / 2 / 60
+    assert (
+        f"took {minutes.min():.1f} ({minutes.idxmin()}) to {minutes.max():.1f} ({minutes.idxmax()})"
+        in page
+    )
