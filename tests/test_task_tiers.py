@@ -439,13 +439,124 @@ def test_a_bad_from_file_is_named(tmp_path, content, message):
     assert str(path) in str(err.value) and "\n" not in str(err.value)
 
 
-def test_a_from_file_with_inconsistent_counts_is_named(tmp_path):
+def _cell_with(**changes: Any) -> dict[str, Any]:
     cell = _random_cell("push", 3, 2)
-    cell["success_rate"] = 0.5
+    cell.update(changes)
+    return cell
+
+
+@pytest.mark.parametrize(
+    ("cell", "message"),
+    [
+        ("push", "cell 0 is str, not an object of fields"),
+        (_cell_with(task="pushh"), "cell 0 has task 'pushh'; the study's tasks are push, hook"),
+        (_cell_with(task=3), "cell 0 has task 3;"),
+        (_cell_with(degree=4), r"cell 0 \(push\) has degree 4; the protocol's degrees are 3, 5, 8"),
+        (_cell_with(degree="3"), r"cell 0 \(push\) has degree '3';"),
+        (_cell_with(degree=True), r"cell 0 \(push\) has degree True;"),
+        (_cell_with(n=0), r"cell 0 \(push, d = 3\) has n 0; it must be a whole number >= 1"),
+        (_cell_with(n=True), r"has n True; it must be a whole number >= 1"),
+        (_cell_with(usable=65), r"has usable 65; it must be a whole number in \[0, n = 64\]"),
+        (_cell_with(usable=-1), r"has usable -1; it must be a whole number in \[0, n = 64\]"),
+        (_cell_with(usable=1.5), r"has usable 1.5;"),
+        (_cell_with(usable=1), r"has successes 2; it must be a whole number in \[0, usable = 1\]"),
+        (_cell_with(successes=2.0), r"has successes 2.0;"),
+        (_cell_with(success_rate="0.03125"), r"has success_rate '0.03125'; it must be successes"),
+        (_cell_with(success_rate=0.5), r"has success_rate 0.5; it must be successes / n = 2/64"),
+        (_cell_with(success_95="x"), r"has success_95 'x'; it must be the 95 % Wilson interval"),
+        (_cell_with(success_95=[0.0]), r"has success_95 \[0.0\]; it must be the 95 % Wilson"),
+        (_cell_with(success_95=[0.0, 0.5]), r"of 2 of 64, \[0.00861214, 0.106973\]$"),
+        (_cell_with(success_95=["a", "b"]), r"has success_95 \['a', 'b'\];"),
+        (_cell_with(free_energy_median="x"), r"has free_energy_median 'x'; it must be a finite"),
+        (_cell_with(free_energy_median=math.nan), r"has free_energy_median nan; it must be"),
+        (_cell_with(free_energy_median=None), r"has free_energy_median None; it must be a finite"),
+        (
+            _cell_with(successes=0, success_rate=0.0, success_95=[0.0, 0.0], usable=0),
+            r"has success_95 \[0.0, 0.0\];",
+        ),
+    ],
+)
+def test_every_field_of_a_from_cell_is_checked(tmp_path, cell, message):
     path = tmp_path / "tiers.json"
-    path.write_text(json.dumps({"cells": [cell]}), encoding="utf-8")
-    with pytest.raises(ValueError, match=r"cell 0 \(push, d = 3\) has successes 2 of n 64"):
+    path.write_text(json.dumps({"random": 64, "seed": 0, "cells": [cell]}), encoding="utf-8")
+    with pytest.raises(ValueError, match=message) as err:
         read_random_cells(path)
+    text = str(err.value)
+    assert text.startswith(f"{path}: cell 0") and "\n" not in text
+
+
+def test_a_from_cell_without_usable_designs_has_no_median(tmp_path):
+    none_usable = {"successes": 0, "success_rate": 0.0, "usable": 0}
+    none_usable["success_95"] = list(wilson_interval(0, 64))
+    path = tmp_path / "tiers.json"
+    for median, ok in ((None, True), (1000.0, False)):
+        cell = _cell_with(**none_usable, free_energy_median=median)
+        path.write_text(json.dumps({"cells": [cell]}), encoding="utf-8")
+        if ok:
+            assert read_random_cells(path)["cells"][0]["free_energy_median"] is None
+        else:
+            with pytest.raises(ValueError, match="it must be null: no design is usable"):
+                read_random_cells(path)
+
+
+@pytest.mark.parametrize(
+    ("record", "message"),
+    [
+        ({"random": "64"}, r": random '64' must be a whole number >= 1 \(or absent\)"),
+        ({"random": 0}, r": random 0 must be a whole number >= 1"),
+        ({"seed": 1.5}, r": seed 1.5 must be a whole number \(or absent\)"),
+        (
+            {"random": 32},
+            r": cell 0 \(push, d = 3\) has n 64; it must be the file's random designs",
+        ),
+    ],
+)
+def test_the_from_files_metadata_is_checked(tmp_path, record, message):
+    path = tmp_path / "tiers.json"
+    path.write_text(json.dumps({**record, "cells": [_cell_with()]}), encoding="utf-8")
+    with pytest.raises(ValueError, match=message) as err:
+        read_random_cells(path)
+    assert str(err.value).startswith(str(path)) and "\n" not in str(err.value)
+
+
+def test_a_cell_twice_in_a_from_file_is_named(tmp_path):
+    path = tmp_path / "tiers.json"
+    cells = [_cell_with(), _random_cell("hook", 3, 9), _cell_with()]
+    path.write_text(json.dumps({"cells": cells}), encoding="utf-8")
+    with pytest.raises(ValueError, match=r"the cell push at d = 3 appears more than once$"):
+        read_random_cells(path)
+
+
+def test_a_task_or_degree_given_twice_is_labelled_once(capsys):
+    args = task_tiers.parse_args(["--task", "push", "--task", "hook", "--task", "push"])
+    assert args.task == ["push", "hook"]
+    assert task_tiers.parse_args(["--degrees", "5", "3", "5"]).degrees == [5, 3]
+    argv = ["--from", str(TIERS_JSON), "--task", "push", "--task", "push", "--degrees", "3", "3"]
+    assert task_tiers.main(argv) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert [line.split(":")[0] for line in lines[1:]] == ["push      d = 3"]
+
+
+@pytest.mark.parametrize(
+    ("kept", "words"),
+    [
+        ({"random": 64, "seed": 0}, "64 random designs per cell (seed 0), from FILE;"),
+        ({}, "random designs per cell and seed: not recorded in FILE, from FILE;"),
+        ({"seed": 0}, "random designs per cell: not recorded in FILE (seed 0), from FILE;"),
+        ({"random": 64}, "64 random designs per cell (seed: not recorded in FILE), from FILE;"),
+    ],
+)
+def test_missing_metadata_of_a_from_file_is_worded_honestly(tmp_path, capsys, kept, words):
+    path = tmp_path / "tiers.json"
+    committed = json.loads(TIERS_JSON.read_text(encoding="utf-8"))
+    path.write_text(json.dumps({**kept, "cells": committed["cells"]}), encoding="utf-8")
+    out = tmp_path / "out.json"
+    assert task_tiers.main(["--from", str(path), "--task", "hook", "--json", str(out)]) == 0
+    header = capsys.readouterr().out.splitlines()[0]
+    assert header.startswith("Tiers per (task, d): " + words.replace("FILE", str(path)))
+    assert "None" not in header
+    record = json.loads(out.read_text(encoding="utf-8"))
+    assert (record["random"], record["seed"]) == (kept.get("random"), kept.get("seed"))
 
 
 def test_from_refuses_simulation_options_and_absent_cells(capsys):

@@ -409,12 +409,21 @@ def _baseline_cell(rows: Any, budget: int, resamples: int, seed: int) -> dict[st
 def read_random_cells(path: str | os.PathLike[str]) -> dict[str, Any]:
     """The random-share part of a tiers JSON written before (``--json``), to label again.
 
+    Every field read is checked, since the labels and their intervals are built on them: each
+    cell's task (a task of the study) and degree (one of the protocol's), ``n`` (>= 1),
+    ``usable`` (a whole number in [0, n]), ``successes`` (in [0, usable]: an unusable design
+    never succeeds), ``success_rate`` (successes / n), ``success_95`` (the 95 % Wilson interval
+    of successes of n) and ``free_energy_median`` (a finite number, None exactly when no design
+    was usable); beside the cells ``random`` (the designs per cell: every cell's ``n``) and
+    ``seed``, each a whole number or absent (None: the file does not record it).
+
     Returns:
         ``{"random", "seed", "cells"}``, each cell with the fields :func:`measure_cell` writes
         but the tier (which is recomputed by the rule in use).
 
     Raises:
-        ValueError: In one line naming the file: missing, not JSON, or not a tiers file.
+        ValueError: In one line naming the file (and the cell and field at fault): missing, not
+            JSON, not a tiers file, a field missing or out of range, or a (task, d) twice.
     """
     try:
         record = json.loads(Path(path).read_text(encoding="utf-8"))
@@ -425,29 +434,79 @@ def read_random_cells(path: str | os.PathLike[str]) -> dict[str, Any]:
     cells = record.get("cells") if isinstance(record, dict) else None
     if not isinstance(cells, list) or not cells:
         raise ValueError(f"{path} is not a tiers JSON: it has no list of cells")
-    kept = []
-    for k, cell in enumerate(cells):
-        missing = [f for f in _RANDOM_FIELDS if not isinstance(cell, dict) or f not in cell]
-        if missing:
-            raise ValueError(f"{path}: cell {k} has no {', '.join(missing)}")
-        if not isinstance(cell["task"], str) or type(cell["degree"]) is not int:
-            raise ValueError(
-                f"{path}: cell {k} has task {cell['task']!r} and degree {cell['degree']!r}; "
-                "they must be a name and a whole number"
-            )
-        n, successes = cell["n"], cell["successes"]
-        counts = type(n) is int and type(successes) is int and 0 <= successes <= n and n >= 1
-        if not counts or cell["success_rate"] != successes / n:
-            raise ValueError(
-                f"{path}: cell {k} ({cell['task']}, d = {cell['degree']}) has successes "
-                f"{successes!r} of n {n!r} and success_rate {cell['success_rate']!r}; they must "
-                "be whole numbers 0 <= successes <= n, n >= 1, and the rate successes / n"
-            )
-        kept.append({f: cell[f] for f in _RANDOM_FIELDS})
+    random, seed = record.get("random"), record.get("seed")
+    if random is not None and not (_whole(random) and random >= 1):
+        raise ValueError(f"{path}: random {random!r} must be a whole number >= 1 (or absent)")
+    if seed is not None and not _whole(seed):
+        raise ValueError(f"{path}: seed {seed!r} must be a whole number (or absent)")
+    kept = [_checked_cell(path, k, cell, random) for k, cell in enumerate(cells)]
     keys = [(c["task"], c["degree"]) for c in kept]
-    if len(set(keys)) != len(keys):
-        raise ValueError(f"{path}: a (task, d) cell appears twice")
-    return {"random": record.get("random"), "seed": record.get("seed"), "cells": kept}
+    twice = [f"{t} at d = {d}" for t, d in dict.fromkeys(keys) if keys.count((t, d)) > 1]
+    if twice:
+        raise ValueError(f"{path}: the cell {', '.join(twice)} appears more than once")
+    return {"random": random, "seed": seed, "cells": kept}
+
+
+def _whole(value: object) -> bool:
+    return type(value) is int  # bool is an int to isinstance, never a count
+
+
+def _checked_cell(path: str | os.PathLike[str], k: int, cell: object, random: int | None) -> Any:
+    """One cell of a tiers JSON, each of its random-share fields checked (see above)."""
+    if not isinstance(cell, dict):
+        raise ValueError(f"{path}: cell {k} is {type(cell).__name__}, not an object of fields")
+    missing = [f for f in _RANDOM_FIELDS if f not in cell]
+    if missing:
+        raise ValueError(f"{path}: cell {k} has no {', '.join(missing)}")
+    task, degree = cell["task"], cell["degree"]
+    if task not in BUILTIN_TASKS:
+        raise ValueError(
+            f"{path}: cell {k} has task {task!r}; the study's tasks are {', '.join(BUILTIN_TASKS)}"
+        )
+    if not _whole(degree) or degree not in DEGREES:
+        raise ValueError(
+            f"{path}: cell {k} ({task}) has degree {degree!r}; the protocol's degrees are "
+            f"{', '.join(map(str, DEGREES))}"
+        )
+    where = f"{path}: cell {k} ({task}, d = {degree})"
+
+    def bad(field: str, wanted: str) -> ValueError:
+        return ValueError(f"{where} has {field} {cell[field]!r}; it must be {wanted}")
+
+    n, successes, usable = cell["n"], cell["successes"], cell["usable"]
+    if not (_whole(n) and n >= 1):
+        raise bad("n", "a whole number >= 1")
+    if random is not None and n != random:
+        raise bad("n", f"the file's random designs per cell, {random}")
+    if not (_whole(usable) and 0 <= usable <= n):
+        raise bad("usable", f"a whole number in [0, n = {n}]")
+    if not (_whole(successes) and 0 <= successes <= usable):
+        # An unusable design never succeeds (ToolDesignEnv's info["success"]).
+        raise bad("successes", f"a whole number in [0, usable = {usable}]")
+    rate = cell["success_rate"]
+    if not (_number(rate) and rate == successes / n):
+        raise bad("success_rate", f"successes / n = {successes}/{n}")
+    interval = cell["success_95"]
+    wilson = wilson_interval(successes, n)
+    pair = isinstance(interval, list) and len(interval) == 2 and all(map(_number, interval))
+    if not (
+        pair
+        and all(math.isclose(a, b, abs_tol=1e-12) for a, b in zip(interval, wilson, strict=True))
+    ):
+        raise bad(
+            "success_95",
+            f"the 95 % Wilson interval of {successes} of {n}, [{wilson[0]:.6g}, {wilson[1]:.6g}]",
+        )
+    median = cell["free_energy_median"]
+    if usable == 0 and median is not None:
+        raise bad("free_energy_median", "null: no design is usable (usable 0)")
+    if usable > 0 and not (_number(median) and math.isfinite(median)):
+        raise bad("free_energy_median", f"a finite number (F's median over {usable} usable)")
+    return {f: cell[f] for f in _RANDOM_FIELDS}
+
+
+def _number(value: object) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
 def label_cells(
@@ -581,8 +640,16 @@ def markdown_table(cells: Sequence[Mapping[str, Any]]) -> str:
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     """The study's command line."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--task", action="append", choices=BUILTIN_TASKS, default=None)
-    parser.add_argument("--degrees", type=int, nargs="+", default=None)
+    parser.add_argument(
+        "--task",
+        action="append",
+        choices=BUILTIN_TASKS,
+        default=None,
+        help="a task to label (repeat for more; each of them if not given)",
+    )
+    parser.add_argument(
+        "--degrees", type=int, nargs="+", default=None, help="degrees (3 5 8 if not given)"
+    )
     parser.add_argument("--random", type=int, default=None, help="random designs per cell (64)")
     parser.add_argument("--seed", type=int, default=None, help="seed of the random draw (0)")
     parser.add_argument("--workers", type=int, default=None, help="processes (2)")
@@ -605,6 +672,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--easy-regret", type=float, default=EASY_REGRET)
     parser.add_argument("--hard-regret", type=float, default=HARD_REGRET)
     args = parser.parse_args(argv)
+    # A task or degree given twice means it once (it would otherwise be measured and printed
+    # twice).
+    if args.task is not None:
+        args.task = list(dict.fromkeys(args.task))
+    if args.degrees is not None:
+        args.degrees = list(dict.fromkeys(args.degrees))
     for degree in args.degrees or ():
         if degree not in DEGREES:
             parser.error(f"--degrees: {degree} is not a degree of the protocol ({DEGREES})")
@@ -648,6 +721,21 @@ def _select(
     return [have[(t, d)] for t in tasks for d in degrees]
 
 
+def _draw_words(random: int | None, seed: int | None, from_file: str | None) -> str:
+    """How the random share was drawn, saying so where a ``--from`` file does not record it."""
+    if from_file is None:
+        return f"{random} random designs per cell (seed {seed}), at the task's default goal"
+    if random is None and seed is None:
+        words = f"random designs per cell and seed: not recorded in {from_file}"
+    elif random is None:
+        words = f"random designs per cell: not recorded in {from_file} (seed {seed})"
+    elif seed is None:
+        words = f"{random} random designs per cell (seed: not recorded in {from_file})"
+    else:
+        words = f"{random} random designs per cell (seed {seed})"
+    return f"{words}, from {from_file}"
+
+
 def main(argv: list[str] | None = None) -> int:
     """Measure (or read ``--from``) and print every (task, d); label; write ``--json``."""
     args = parse_args(argv)
@@ -673,9 +761,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"task_tiers: error: {err}", file=sys.stderr)
         return 2
     cells = label_cells(random_cells, baselines, args.rule)
-    source = f"from {args.from_file}" if args.from_file else "at the task's default goal"
     print(
-        f"Tiers per (task, d): {random} random designs per cell (seed {seed}), {source}; "
+        f"Tiers per (task, d): {_draw_words(random, seed, args.from_file)}; "
         + args.rule.describe(regret=baselines is not None)
     )
     if baselines is not None:
