@@ -172,6 +172,45 @@ class TierRule:
         """The tier of a cell: the harder of its random tier and its regret tier (if any)."""
         return harder(self.share_tier(share), self.regret_tier(regret))
 
+    def share_tiers(self, share: float, interval: Sequence[float] | None) -> tuple[str, str]:
+        """The easiest and the hardest random tier of a share and its interval's ends.
+
+        They differ when the interval (closed) reaches across a threshold: the tier may move
+        with another draw. Without an interval, the share's tier twice.
+        """
+        return _span([self.share_tier(v) for v in (share, *(interval or ()))])
+
+    def regret_tiers(
+        self, regret: float | None, interval: Sequence[float] | None
+    ) -> tuple[str, str] | None:
+        """The easiest and the hardest regret tier of a median and its interval's ends.
+
+        None without a regret; without an interval, the median's tier twice.
+        """
+        tier_ = self.regret_tier(regret)
+        if tier_ is None:
+            return None
+        others = [self.regret_tier(v) for v in interval or ()]
+        return _span([tier_, *(t for t in others if t is not None)])
+
+    def label_tiers(
+        self,
+        share: float,
+        share_interval: Sequence[float] | None,
+        regret: float | None = None,
+        regret_interval: Sequence[float] | None = None,
+    ) -> tuple[str, str]:
+        """The easiest and the hardest label a cell could have within its intervals.
+
+        The label is the harder of two tiers, so its easiest is the harder of their easiest
+        and its hardest the harder of their hardest: a side's uncertainty moves the label only
+        where that side can decide it (a random tier that is medium or easy beside a regret
+        tier that is surely hard leaves the label hard).
+        """
+        shares = self.share_tiers(share, share_interval)
+        regrets = self.regret_tiers(regret, regret_interval) or (None, None)
+        return harder(shares[0], regrets[0]), harder(shares[1], regrets[1])
+
     def describe(self, *, regret: bool = True) -> str:
         """The rule in one sentence; the random share's alone if not ``regret``."""
         share = (
@@ -189,6 +228,10 @@ class TierRule:
 
 def _pct(share: float) -> str:
     return f"{100 * share:g} %"
+
+
+def _span(tiers: Sequence[str]) -> tuple[str, str]:
+    return min(tiers, key=TIERS.index), max(tiers, key=TIERS.index)
 
 
 def harder(*tiers: str | None) -> str:
@@ -524,22 +567,38 @@ def label_cells(
     Returns:
         Per cell its random figures, ``random_tier``, ``baseline`` (the protocol's figures of
         the cell, None where the protocol did not run it), ``regret_tier`` (None likewise, or
-        where no run has a regret) and ``tier``, the harder of the two.
+        where no run has a regret), ``tier``, the harder of the two, and how sure each is:
+        ``random_uncertain`` (the share's Wilson interval reaches another random tier),
+        ``regret_uncertain`` (the regret's bootstrap interval reaches another regret tier;
+        None without a regret or without an interval, e.g. one instance), ``tier_range`` (the
+        easiest and the hardest label within both intervals, :meth:`TierRule.label_tiers`)
+        and ``uncertain`` (they differ: the label may move with another draw).
     """
     rule = rule or TierRule()
     found = baselines["cells"] if baselines is not None else {}
     labelled = []
     for cell in cells:
         random = {f: cell[f] for f in _RANDOM_FIELDS}
+        share, share_95 = cell["success_rate"], cell["success_95"]
         baseline = found.get((cell["task"], cell["degree"]))
         regret = None if baseline is None else baseline["regret_median"]
+        regret_95 = None if baseline is None else baseline["regret_95"]
+        shares = rule.share_tiers(share, share_95)
+        regrets = rule.regret_tiers(regret, regret_95)
+        span = rule.label_tiers(share, share_95, regret, regret_95)
         labelled.append(
             {
                 **random,
-                "random_tier": rule.share_tier(cell["success_rate"]),
+                "random_tier": rule.share_tier(share),
                 "baseline": baseline,
                 "regret_tier": rule.regret_tier(regret),
-                "tier": rule.label(cell["success_rate"], regret),
+                "tier": rule.label(share, regret),
+                "random_uncertain": shares[0] != shares[1],
+                "regret_uncertain": (
+                    None if regrets is None or regret_95 is None else regrets[0] != regrets[1]
+                ),
+                "tier_range": list(span),
+                "uncertain": span[0] != span[1],
             }
         )
     return labelled
@@ -576,14 +635,36 @@ def _line(cell: dict[str, Any]) -> str:
         f"{cell['task']:<9} d = {cell['degree']}: {cell['successes']:>2}/{cell['n']} succeed "
         f"({100 * cell['success_rate']:.1f} %, 95 % [{100 * low:.1f}, {100 * high:.1f}] %), "
         f"{cell['usable']}/{cell['n']} usable, median F "
-        f"{'n/a' if median is None else f'{median:.0f}'}: {cell.get('random_tier', cell['tier'])}"
+        f"{'n/a' if median is None else f'{median:.0f}'}: "
+        + _marked(cell.get("random_tier", cell["tier"]), cell.get("random_uncertain"))
     )
+
+
+#: What the marker of a label that its intervals leave open means, printed under the cells.
+UNCERTAIN_NOTE = (
+    "?: the 95 % interval (Wilson for the share, bootstrap for the regret) reaches another "
+    "tier, so the label may move with another draw"
+)
+
+
+def _marked(tier_: str | None, uncertain: bool | None) -> str:
+    """A tier, with ``?`` if its interval reaches another tier."""
+    return "n/a" if tier_ is None else tier_ + ("?" if uncertain else "")
+
+
+def _tier_words(cell: Mapping[str, Any]) -> str:
+    """The label, marked, and the tiers it spans if its intervals leave it open."""
+    words = _marked(cell["tier"], cell["uncertain"])
+    if cell["uncertain"]:
+        easiest, hardest = cell["tier_range"]
+        words += f" ({easiest} to {hardest} within the intervals)"
+    return words
 
 
 def _baseline_line(cell: dict[str, Any], optimizer: str) -> str:
     base = cell["baseline"]
     if base is None:
-        return f"{'':<9} no protocol run of this cell: tier {cell['tier']} (the random share's)"
+        return f"{'':<9} no protocol run of this cell: the random share's tier, {_tier_words(cell)}"
     median, interval = base["regret_median"], base["regret_95"]
     regret = "n/a" if median is None else f"{median:.3f}"
     if interval is not None:
@@ -601,12 +682,15 @@ def _baseline_line(cell: dict[str, Any], optimizer: str) -> str:
     return (
         f"{'':<9} {optimizer}, {base['runs']} runs on {base['instances']} instances of "
         f"{base['budget']} evaluations: median final regret {regret}, {success}: regret "
-        f"{cell['regret_tier'] or 'n/a'} -> tier {cell['tier']}"
+        f"{_marked(cell['regret_tier'], cell['regret_uncertain'])} -> tier {_tier_words(cell)}"
     )
 
 
 def markdown_table(cells: Sequence[Mapping[str, Any]]) -> str:
-    """The labels as a table of tasks x degrees, as docs/tasks.md shows them."""
+    """The labels as a table of tasks x degrees, as docs/tasks.md shows them.
+
+    A tier whose interval reaches another tier is marked ``?`` (:data:`UNCERTAIN_NOTE`).
+    """
     tasks = list(dict.fromkeys(c["task"] for c in cells))
     degrees = sorted({c["degree"] for c in cells})
     by = {(c["task"], c["degree"]): c for c in cells}
@@ -631,8 +715,11 @@ def markdown_table(cells: Sequence[Mapping[str, Any]]) -> str:
                 if base["regret_95"] is not None:
                     low, high = base["regret_95"]
                     regret += f" [{low:.2f}, {high:.2f}]"
-                regret += f": {c['regret_tier']}"
-            row.append(f"**{c['tier']}** (random {c['random_tier']}; {regret})")
+                regret += f": {_marked(c['regret_tier'], c['regret_uncertain'])}"
+            row.append(
+                f"**{_marked(c['tier'], c['uncertain'])}** (random "
+                f"{_marked(c['random_tier'], c['random_uncertain'])}; {regret})"
+            )
         lines.append(f"| {task} | " + " | ".join(row) + " |")
     return "\n".join(lines)
 
@@ -775,6 +862,8 @@ def main(argv: list[str] | None = None) -> int:
         print(_line(cell))
         if baselines is not None:
             print(_baseline_line(cell, baselines["optimizer"]))
+    if any(c["uncertain"] or c["random_uncertain"] or c["regret_uncertain"] for c in cells):
+        print(UNCERTAIN_NOTE)
     if baselines is not None:
         absent = [f"{c['task']} d = {c['degree']}" for c in cells if c["baseline"] is None]
         if absent:
