@@ -739,6 +739,35 @@ def test_the_pages_quick_run_figures_are_the_quick_runs():
     )
 
 
+def test_the_pages_quick_run_labels_and_their_marks_are_the_studys():
+    cells = label_cells(read_random_cells(TIERS_JSON)["cells"], protocol_baselines(QUICK))
+    push = [c for c in cells if c["task"] == "push"]
+    assert [c["degree"] for c in push] == [3, 5, 8]
+    words = [f"{c['tier']}? ({c['tier_range'][0]} to {c['tier_range'][1]})" for c in push]
+    assert all(c["uncertain"] for c in push)
+    claim = (
+        f"they print as {words[0].replace(')', ' within the intervals)')}, "
+        f"{push[1]['tier']}? and {words[2]}"
+    )
+    assert push[1]["tier_range"] == push[2]["tier_range"]  # "hard? and hard? (...)"
+    assert claim in _page_text()
+
+
+def test_the_page_marks_the_random_tiers_their_intervals_leave_open():
+    rule = TierRule()
+    record = json.loads(TIERS_JSON.read_text(encoding="utf-8"))
+    for cell in record["cells"]:
+        easiest, hardest = rule.share_tiers(cell["success_rate"], cell["success_95"])
+        mark = "?" if easiest != hardest else ""
+        low, high = cell["success_95"]
+        shown = (
+            f"{cell['successes']}/{cell['n']} ({100 * cell['success_rate']:.1f} %, "
+            f"[{100 * low:.1f}, {100 * high:.1f}] %): **{rule.share_tier(cell['success_rate'])}"
+            f"{mark}**"
+        )
+        assert f"{shown} |" in _page_text(), shown
+
+
 def test_the_page_says_whether_the_committed_tiers_have_the_regret():
     record = json.loads(TIERS_JSON.read_text(encoding="utf-8"))
     pending = "The committed tiers.json holds the random share's tiers alone until that run is"

@@ -2,24 +2,31 @@
 
 Issue 35 asks for each (task, degree) to be labelled easy, medium or hard from baseline
 results, as EvoGym labels its tasks. Two baselines, each giving a tier; the label is the harder
-of the two (easy < medium < hard), and both are kept beside it.
+of the two (easy < medium < hard), and both are kept beside it. By design a cell is labelled by
+its harder side; since each side is a noisy estimate, the harder of two leans toward hard (an
+error of either side toward hard moves the label, an error toward easy only where the other
+side agrees), which the flag of labels the intervals leave open (below) makes visible.
 
-**Random share.** ``perf.studies.task_baselines`` labels each task at d = 3 from the share p of
-64 random designs that succeed (*easy* for p >= 10 %, *medium* for 1 % <= p < 10 %, *hard* for
-p < 1 %: :data:`~perf.studies.task_baselines.EASY_SHARE`,
-:data:`~perf.studies.task_baselines.HARD_SHARE`). This study measures p at every degree of the
-benchmark protocol's dimension axis: per task and d, ``--random`` (64) designs drawn uniformly in
-the protocol's bounds of that degree (:func:`benchmarks.protocol.dimensions.bounds_of`: +-1.5
-for every coefficient but the linear one, +-0.5), scored at the task's default goal with p^X =
-20 and the env's defaults; success is ``info["success"]`` (the box stands within the task's
-radius of the goal), an unusable design a failure. Per (task, d): the share, its 95 % Wilson
-interval, the usable share, F's median over the usable designs and the tier (``random_tier``);
-the interval says how far a label near a boundary may move with another draw. The d = 3 draw
-is the baselines' own (``np.random.SeedSequence(seed)`` in the same bounds), so its shares equal
+**Random share.** ``perf.studies.task_baselines`` labels each task at d = 3 from the share p of 64
+random designs that succeed (*easy* for p >= 10 %, *medium* for 1 % <= p < 10 %, *hard* for p < 1 %:
+:data:`~perf.studies.task_baselines.EASY_SHARE`, :data:`~perf.studies.task_baselines.HARD_SHARE`).
+With 64 designs one success is 1.6 %, so *hard* on the share means no success observed among the 64,
+not a share measured below 1 % (0 of 64 has the Wilson interval [0, 5.7] %, which reaches medium).
+This study measures p at every degree of the benchmark protocol's dimension axis: per task and d,
+``--random`` (64) designs drawn uniformly in the protocol's bounds of that degree
+(:func:`benchmarks.protocol.dimensions.bounds_of`: +-1.5 for every coefficient but the linear one,
++-0.5), scored at the task's default goal with p^X = 20 and the env's defaults; success is
+``info["success"]`` (the box stands within the task's radius of the goal), an unusable design a
+failure. The share is measured at that one goal, while the regret below is over the protocol's
+instances (goals drawn from the task's range, for push also the box's mass and friction): the two
+baselines do not see the same instances. Per (task, d): the share, its 95 % Wilson interval, the
+usable share, F's median over the usable designs and the tier (``random_tier``); the interval says
+how far a label near a boundary may move with another draw. The d = 3 draw is the baselines' own
+(``np.random.SeedSequence(seed)`` in the same bounds), so its shares equal
 ``docs/results/tasks/baselines.json`` (a test checks it); d = 5 and 8 draw from
-``SeedSequence((seed, d))``. The (task, d) pairs run in parallel on ``--workers`` processes,
-one env each. ``--from FILE`` takes these figures from a tiers JSON written before (the
-committed ``docs/results/tasks/tiers.json``) instead of simulating again.
+``SeedSequence((seed, d))``. The (task, d) pairs run in parallel on ``--workers`` processes, one env
+each. ``--from FILE`` takes these figures from a tiers JSON written before (the committed
+``docs/results/tasks/tiers.json``) instead of simulating again.
 
 **CMA-ES's regret** (``--protocol DIR``, :func:`protocol_baselines`): from a benchmark protocol
 run folder's report (``DIR/report/runs.csv``, written by ``tooldesign bench protocol`` or
@@ -40,6 +47,17 @@ sampling with its budget), *medium* between. A cell the protocol did not run (th
 than push at d = 5 and 8) has no regret tier and keeps the random share's label; the output
 says which.
 
+**Labels the intervals leave open.** A side's tier is uncertain when its interval (closed:
+Wilson for the share, bootstrap for the regret) reaches another tier of that side, that is
+straddles (or touches) the threshold next to its estimate (:meth:`TierRule.share_tiers`,
+:meth:`TierRule.regret_tiers`). The label is uncertain when the easiest and the hardest label
+over both intervals differ (:meth:`TierRule.label_tiers`: the harder of the sides' easiest,
+and the harder of their hardest), so a side's uncertainty counts only where it can change the
+label: an uncertain random tier of medium beside a surely hard regret leaves the label surely
+hard. A regret without an interval (one instance) counts as its median's tier and its own flag
+is None (not known). Printed and tabled, each uncertain tier carries a ``?`` (``medium?``),
+the label's line says which tiers it spans, and :data:`UNCERTAIN_NOTE` follows the cells.
+
 The success share of CMA-ES's runs is shown but does not enter the label: the random share
 already says how rare success is, and CMA-ES minimizes F, whose lowest design need not succeed.
 The regret depends on the budget, so labels are those of the protocol size they were read from.
@@ -48,12 +66,18 @@ Thresholds are parameters (:class:`TierRule`; ``--easy-share``, ``--hard-share``
 
 Written (``--json``): per cell the random figures, ``random_tier``, ``baseline`` (CMA-ES's
 figures; None where the protocol did not run the cell, and without ``--protocol``),
-``regret_tier`` and ``tier`` (the label); beside the cells ``random``, ``seed``,
-``random_from`` (the ``--from`` file), ``rule`` and ``protocol`` (the folder, its size, the
-optimizer, the budgets and how the interval was made). ``--from`` also reads a file written
-before these fields existed, whose ``tier`` is the random share's. The printed lines without
-``--protocol`` are those the study always printed; with it, a line of CMA-ES's figures under
-each cell, the cells without them, and the labels as a Markdown table (docs/tasks.md).
+``regret_tier``, ``tier`` (the label), ``random_uncertain``, ``regret_uncertain``,
+``tier_range`` (the easiest and the hardest label within the intervals) and ``uncertain``;
+beside the cells ``random``, ``seed``, ``random_from`` (the ``--from`` file), ``rule`` and
+``protocol`` (the folder, its size, the optimizer, the budgets and how the interval was
+made). ``--from`` also reads a file written before these fields existed, whose ``tier`` is the
+random share's; it checks every field it reads (:func:`read_random_cells`) and refuses a bad
+one in one line naming the file, the cell and the field; where the file does not record
+``random`` or ``seed``, the output says "not recorded in FILE". A task or degree given twice
+is labelled once. Printed: a line per cell (the random figures and tier), without
+``--protocol`` as the study always printed them but for the ``?``; with it, a line of
+CMA-ES's figures under each cell, the cells without them, and the labels as a Markdown table
+(docs/tasks.md).
 
 Run: ``python -m perf.studies.task_tiers [--task hook] [--degrees 3 5 8] [--random 64]
 [--seed 0] [--workers 2] [--json FILE]``; 64 x 3 x 4 = 768 evaluations, about a minute on 2
