@@ -293,6 +293,21 @@ def test_a_label_whose_intervals_reach_another_tier_is_flagged(share_95, baselin
             assert below.endswith(f"-> tier {cell['tier']}")
 
 
+def test_bad_intervals_are_refused_in_one_line():
+    rule = TierRule()
+    for call, message in (
+        (lambda: rule.share_tiers(0.05, [-0.1, 0.2]), r"in \[0, 1\], got -0.1"),
+        (lambda: rule.share_tiers(1.5, None), r"in \[0, 1\], got 1.5"),
+        (lambda: rule.label_tiers(0.05, [0.02, 1.2], 0.5, [0.3, 0.7]), r"got 1.2"),
+    ):
+        with pytest.raises(ValueError, match=message) as err:
+            call()
+        assert "\n" not in str(err.value)
+    # A regret interval's NaN end is no tier (never a crash), as a NaN median is none.
+    assert rule.regret_tiers(0.5, [math.nan, 0.8]) == ("medium", "hard")
+    assert rule.regret_tiers(math.nan, [0.1, 0.8]) is None
+
+
 def test_the_printed_labels_carry_the_marker_and_its_note(capsys):
     assert task_tiers.main(["--from", str(TIERS_JSON), "--task", "hook"]) == 0
     lines = capsys.readouterr().out.splitlines()
@@ -611,6 +626,20 @@ def test_every_field_of_a_from_cell_is_checked(tmp_path, cell, message):
         read_random_cells(path)
     text = str(err.value)
     assert text.startswith(f"{path}: cell 0") and "\n" not in text
+
+
+def test_a_bad_from_file_on_the_command_line_is_one_line(tmp_path, capsys):
+    path = tmp_path / "tiers.json"
+    path.write_text(json.dumps({"cells": [_cell_with(success_95="x")]}), encoding="utf-8")
+    out = tmp_path / "out.json"
+    assert task_tiers.main(["--from", str(path), "--json", str(out)]) == 2
+    captured = capsys.readouterr()
+    err_lines = captured.err.strip().splitlines()
+    assert err_lines == [
+        f"task_tiers: error: {path}: cell 0 (push, d = 3) has success_95 'x'; it must be the "
+        "95 % Wilson interval of 2 of 64, [0.00861214, 0.106973]"
+    ]
+    assert captured.out == "" and not out.exists()
 
 
 def test_a_from_cell_without_usable_designs_has_no_median(tmp_path):
