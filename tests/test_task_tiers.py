@@ -183,8 +183,139 @@ def test_a_cell_without_protocol_data_keeps_its_random_label():
     # The file's old "tier" is recomputed by the rule in use, never copied.
     assert label_cells([_random_cell("push", 3, 10)])[0]["tier"] == "easy"
     table = markdown_table([push3, push5, hook3])
-    assert "| push | **hard** (random easy; CMA-ES regret 0.80: hard) |" in table
-    assert "**medium** (random medium; not run by the protocol)" in table
+    # 10/64's Wilson interval [8.7, 26.4] % reaches medium, but the regret (no interval) makes
+    # the label hard either way; 2/64's [0.9, 10.7] % reaches both neighbours.
+    assert "| push | **hard** (random easy?; CMA-ES regret 0.80: hard) |" in table
+    assert "**medium?** (random medium?; not run by the protocol)" in table
+
+
+# --- labels whose intervals reach another tier ---
+
+
+@pytest.mark.parametrize(
+    ("share", "interval", "expected"),
+    [
+        (0.5, [0.4, 0.6], ("easy", "easy")),  # inside a band
+        (0.05, [0.02, 0.09], ("medium", "medium")),
+        (0.0, [0.0, 0.009], ("hard", "hard")),
+        (0.05, [0.005, 0.09], ("medium", "hard")),  # straddles the lower boundary (1 %)
+        (0.05, [0.02, 0.12], ("easy", "medium")),  # straddles the upper boundary (10 %)
+        (0.05, [0.005, 0.12], ("easy", "hard")),  # both
+        (0.05, [0.02, 0.10], ("easy", "medium")),  # an end on a threshold reaches its tier
+        (0.05, [0.01, 0.09], ("medium", "medium")),  # 1 % itself is medium
+        (0.05, None, ("medium", "medium")),  # no interval: the share's tier
+        (0.0, list(wilson_interval(0, 64)), ("medium", "hard")),  # 0 of 64: [0, 5.7] %
+    ],
+)
+def test_the_random_tiers_within_the_wilson_interval(share, interval, expected):
+    assert TierRule().share_tiers(share, interval) == expected
+
+
+@pytest.mark.parametrize(
+    ("regret", "interval", "expected"),
+    [
+        (0.5, [0.3, 0.7], ("medium", "medium")),  # inside a band
+        (0.1, [0.0, 0.2], ("easy", "easy")),
+        (0.5, [0.2, 0.7], ("easy", "medium")),  # straddles the lower boundary (0.25)
+        (0.5, [0.3, 0.8], ("medium", "hard")),  # straddles the upper boundary (0.75)
+        (0.5, [0.3, 0.75], ("medium", "hard")),  # 0.75 itself is hard
+        (0.5, [0.25, 0.7], ("medium", "medium")),  # 0.25 itself is medium
+        (0.5, None, ("medium", "medium")),  # no interval (one instance): the median's tier
+        (None, [0.1, 0.9], None),  # no regret, no tier
+    ],
+)
+def test_the_regret_tiers_within_the_bootstrap_interval(regret, interval, expected):
+    assert TierRule().regret_tiers(regret, interval) == expected
+
+
+def _interval_cell(share_95: list[float], successes: int = 3) -> dict[str, Any]:
+    """A hand-made random cell (3/64 = 4.7 %, medium) whose interval is given."""
+    return {**_random_cell("push", 3, successes), "success_95": share_95}
+
+
+def _regret(median: float, interval: list[float] | None) -> dict[str, Any]:
+    return {**_baseline(median), "regret_95": interval}
+
+
+@pytest.mark.parametrize(
+    ("share_95", "baseline", "flags", "span"),
+    [
+        # both inside their bands: sure
+        ([0.02, 0.08], _regret(0.5, [0.3, 0.7]), (False, False, False), ("medium", "medium")),
+        # the share straddles its lower boundary: the label may be hard
+        ([0.005, 0.08], _regret(0.5, [0.3, 0.7]), (True, False, True), ("medium", "hard")),
+        # the regret straddles its upper boundary: likewise
+        ([0.02, 0.08], _regret(0.5, [0.3, 0.8]), (False, True, True), ("medium", "hard")),
+        # the share straddles its upper boundary: the label may be easy only if the regret can
+        ([0.02, 0.12], _regret(0.5, [0.3, 0.7]), (True, False, False), ("medium", "medium")),
+        ([0.02, 0.12], _regret(0.5, [0.2, 0.7]), (True, True, True), ("easy", "medium")),
+        # a sure hard regret decides whatever the share does
+        ([0.005, 0.12], _regret(0.9, [0.8, 1.0]), (True, False, False), ("hard", "hard")),
+        # the regret without an interval: not known, its median's tier alone
+        ([0.02, 0.08], _regret(0.5, None), (False, None, False), ("medium", "medium")),
+        ([0.005, 0.08], _regret(0.5, None), (True, None, True), ("medium", "hard")),
+        # not run by the protocol: the share's alone
+        ([0.02, 0.08], None, (False, None, False), ("medium", "medium")),
+        ([0.02, 0.12], None, (True, None, True), ("easy", "medium")),
+    ],
+)
+def test_a_label_whose_intervals_reach_another_tier_is_flagged(share_95, baseline, flags, span):
+    baselines = {"cells": {} if baseline is None else {("push", 3): baseline}}
+    (cell,) = label_cells([_interval_cell(share_95)], baselines)
+    assert (cell["random_uncertain"], cell["regret_uncertain"], cell["uncertain"]) == flags
+    assert tuple(cell["tier_range"]) == span
+    assert cell["uncertain"] is (span[0] != span[1])
+    assert (
+        TierRule().label_tiers(
+            3 / 64,
+            share_95,
+            None if baseline is None else baseline["regret_median"],
+            None if baseline is None else baseline["regret_95"],
+        )
+        == span
+    )
+    # The label itself is the medians': medium, or hard with a hard regret.
+    assert cell["tier"] == ("hard" if baseline and baseline["regret_median"] >= 0.75 else "medium")
+    # Printed and tabled with a "?" on each tier its interval leaves open.
+    line = task_tiers._line(cell)
+    assert line.endswith(": medium?" if flags[0] else ": medium")
+    table = markdown_table([cell])
+    label = f"**{cell['tier']}{'?' if flags[2] else ''}**"
+    assert f"| push | {label} (random medium{'?' if flags[0] else ''};" in table
+    if baseline is not None:
+        below = task_tiers._baseline_line(cell, "cmaes")
+        regret_tier = cell["regret_tier"] + ("?" if flags[1] else "")
+        assert f": regret {regret_tier} -> tier {cell['tier']}" in below
+        assert f"{regret_tier}) |" in table
+        if flags[2]:
+            assert below.endswith(f"? ({span[0]} to {span[1]} within the intervals)")
+        else:
+            assert below.endswith(f"-> tier {cell['tier']}")
+
+
+def test_bad_intervals_are_refused_in_one_line():
+    rule = TierRule()
+    for call, message in (
+        (lambda: rule.share_tiers(0.05, [-0.1, 0.2]), r"in \[0, 1\], got -0.1"),
+        (lambda: rule.share_tiers(1.5, None), r"in \[0, 1\], got 1.5"),
+        (lambda: rule.label_tiers(0.05, [0.02, 1.2], 0.5, [0.3, 0.7]), r"got 1.2"),
+    ):
+        with pytest.raises(ValueError, match=message) as err:
+            call()
+        assert "\n" not in str(err.value)
+    # A regret interval's NaN end is no tier (never a crash), as a NaN median is none.
+    assert rule.regret_tiers(0.5, [math.nan, 0.8]) == ("medium", "hard")
+    assert rule.regret_tiers(math.nan, [0.1, 0.8]) is None
+
+
+def test_the_printed_labels_carry_the_marker_and_its_note(capsys):
+    assert task_tiers.main(["--from", str(TIERS_JSON), "--task", "hook"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    # hook: 9/64 [7.6, 24.6] %, 8/64 [6.5, 22.8] % reach medium; 13/64 [12.3, 31.7] % does not.
+    assert [line.rsplit(": ", 1)[1] for line in lines[1:4]] == ["easy?", "easy?", "easy"]
+    assert lines[4] == task_tiers.UNCERTAIN_NOTE and len(lines) == 5
+    assert task_tiers.main(["--from", str(TIERS_JSON), "--task", "hook", "--degrees", "8"]) == 0
+    assert task_tiers.UNCERTAIN_NOTE not in capsys.readouterr().out  # nothing marked
 
 
 # --- bootstrap ---
@@ -280,6 +411,17 @@ def test_from_and_protocol_label_without_simulating(tmp_path, monkeypatch, capsy
     push = {c["degree"]: c for c in record["cells"] if c["task"] == "push"}
     assert [push[d]["regret_tier"] for d in (3, 5, 8)] == ["medium", "easy", "medium"]
     assert [push[d]["tier"] for d in (3, 5, 8)] == ["medium", "hard", "hard"]
+    # Every one of them is left open by its intervals (written to the JSON, as docs/tasks.md
+    # says): at d = 3 the share [0.9, 10.7] % and the regret [0.10, 0.65] reach easy and
+    # hard; at d = 5 and 8 no success of 64 ([0, 5.7] %) may be medium, and so may the regret.
+    assert [push[d]["tier_range"] for d in (3, 5, 8)] == [
+        ["easy", "hard"],
+        ["medium", "hard"],
+        ["medium", "hard"],
+    ]
+    assert all(push[d]["uncertain"] and push[d]["regret_uncertain"] for d in (3, 5, 8))
+    sure = [(c["task"], c["degree"]) for c in record["cells"] if not c["uncertain"]]
+    assert sure == [("hook", 8)]  # 13/64: [12.3, 31.7] %, easy throughout
 
 
 def test_from_selects_cells_and_refuses_absent_ones(capsys):
@@ -287,7 +429,8 @@ def test_from_selects_cells_and_refuses_absent_ones(capsys):
     assert len(record["cells"]) == 12 and "tier" not in record["cells"][0]
     assert task_tiers.main(["--from", str(TIERS_JSON), "--task", "hook", "--degrees", "5"]) == 0
     lines = capsys.readouterr().out.splitlines()
-    assert len(lines) == 2 and lines[1].startswith("hook      d = 5:  8/64 succeed")
+    assert len(lines) == 3 and lines[1].startswith("hook      d = 5:  8/64 succeed")
+    assert lines[2] == task_tiers.UNCERTAIN_NOTE  # 8/64 [6.5, 22.8] % reaches medium
     assert lines[0].endswith("easy p >= 10 %, medium 1 % <= p < 10 %, hard p < 1 %")
 
 
@@ -439,13 +582,138 @@ def test_a_bad_from_file_is_named(tmp_path, content, message):
     assert str(path) in str(err.value) and "\n" not in str(err.value)
 
 
-def test_a_from_file_with_inconsistent_counts_is_named(tmp_path):
+def _cell_with(**changes: Any) -> dict[str, Any]:
     cell = _random_cell("push", 3, 2)
-    cell["success_rate"] = 0.5
+    cell.update(changes)
+    return cell
+
+
+@pytest.mark.parametrize(
+    ("cell", "message"),
+    [
+        ("push", "cell 0 is str, not an object of fields"),
+        (_cell_with(task="pushh"), "cell 0 has task 'pushh'; the study's tasks are push, hook"),
+        (_cell_with(task=3), "cell 0 has task 3;"),
+        (_cell_with(degree=4), r"cell 0 \(push\) has degree 4; the protocol's degrees are 3, 5, 8"),
+        (_cell_with(degree="3"), r"cell 0 \(push\) has degree '3';"),
+        (_cell_with(degree=True), r"cell 0 \(push\) has degree True;"),
+        (_cell_with(n=0), r"cell 0 \(push, d = 3\) has n 0; it must be a whole number >= 1"),
+        (_cell_with(n=True), r"has n True; it must be a whole number >= 1"),
+        (_cell_with(usable=65), r"has usable 65; it must be a whole number in \[0, n = 64\]"),
+        (_cell_with(usable=-1), r"has usable -1; it must be a whole number in \[0, n = 64\]"),
+        (_cell_with(usable=1.5), r"has usable 1.5;"),
+        (_cell_with(usable=1), r"has successes 2; it must be a whole number in \[0, usable = 1\]"),
+        (_cell_with(successes=2.0), r"has successes 2.0;"),
+        (_cell_with(success_rate="0.03125"), r"has success_rate '0.03125'; it must be successes"),
+        (_cell_with(success_rate=0.5), r"has success_rate 0.5; it must be successes / n = 2/64"),
+        (_cell_with(success_95="x"), r"has success_95 'x'; it must be the 95 % Wilson interval"),
+        (_cell_with(success_95=[0.0]), r"has success_95 \[0.0\]; it must be the 95 % Wilson"),
+        (_cell_with(success_95=[0.0, 0.5]), r"of 2 of 64, \[0.00861214, 0.106973\]$"),
+        (_cell_with(success_95=["a", "b"]), r"has success_95 \['a', 'b'\];"),
+        (_cell_with(free_energy_median="x"), r"has free_energy_median 'x'; it must be a finite"),
+        (_cell_with(free_energy_median=math.nan), r"has free_energy_median nan; it must be"),
+        (_cell_with(free_energy_median=None), r"has free_energy_median None; it must be a finite"),
+        (
+            _cell_with(successes=0, success_rate=0.0, success_95=[0.0, 0.0], usable=0),
+            r"has success_95 \[0.0, 0.0\];",
+        ),
+    ],
+)
+def test_every_field_of_a_from_cell_is_checked(tmp_path, cell, message):
     path = tmp_path / "tiers.json"
-    path.write_text(json.dumps({"cells": [cell]}), encoding="utf-8")
-    with pytest.raises(ValueError, match=r"cell 0 \(push, d = 3\) has successes 2 of n 64"):
+    path.write_text(json.dumps({"random": 64, "seed": 0, "cells": [cell]}), encoding="utf-8")
+    with pytest.raises(ValueError, match=message) as err:
         read_random_cells(path)
+    text = str(err.value)
+    assert text.startswith(f"{path}: cell 0") and "\n" not in text
+
+
+def test_a_bad_from_file_on_the_command_line_is_one_line(tmp_path, capsys):
+    path = tmp_path / "tiers.json"
+    path.write_text(json.dumps({"cells": [_cell_with(success_95="x")]}), encoding="utf-8")
+    out = tmp_path / "out.json"
+    assert task_tiers.main(["--from", str(path), "--json", str(out)]) == 2
+    captured = capsys.readouterr()
+    err_lines = captured.err.strip().splitlines()
+    assert err_lines == [
+        f"task_tiers: error: {path}: cell 0 (push, d = 3) has success_95 'x'; it must be the "
+        "95 % Wilson interval of 2 of 64, [0.00861214, 0.106973]"
+    ]
+    assert captured.out == "" and not out.exists()
+
+
+def test_a_from_cell_without_usable_designs_has_no_median(tmp_path):
+    none_usable = {"successes": 0, "success_rate": 0.0, "usable": 0}
+    none_usable["success_95"] = list(wilson_interval(0, 64))
+    path = tmp_path / "tiers.json"
+    for median, ok in ((None, True), (1000.0, False)):
+        cell = _cell_with(**none_usable, free_energy_median=median)
+        path.write_text(json.dumps({"cells": [cell]}), encoding="utf-8")
+        if ok:
+            assert read_random_cells(path)["cells"][0]["free_energy_median"] is None
+        else:
+            with pytest.raises(ValueError, match="it must be null: no design is usable"):
+                read_random_cells(path)
+
+
+@pytest.mark.parametrize(
+    ("record", "message"),
+    [
+        ({"random": "64"}, r": random '64' must be a whole number >= 1 \(or absent\)"),
+        ({"random": 0}, r": random 0 must be a whole number >= 1"),
+        ({"seed": 1.5}, r": seed 1.5 must be a whole number \(or absent\)"),
+        (
+            {"random": 32},
+            r": cell 0 \(push, d = 3\) has n 64; it must be the file's random designs",
+        ),
+    ],
+)
+def test_the_from_files_metadata_is_checked(tmp_path, record, message):
+    path = tmp_path / "tiers.json"
+    path.write_text(json.dumps({**record, "cells": [_cell_with()]}), encoding="utf-8")
+    with pytest.raises(ValueError, match=message) as err:
+        read_random_cells(path)
+    assert str(err.value).startswith(str(path)) and "\n" not in str(err.value)
+
+
+def test_a_cell_twice_in_a_from_file_is_named(tmp_path):
+    path = tmp_path / "tiers.json"
+    cells = [_cell_with(), _random_cell("hook", 3, 9), _cell_with()]
+    path.write_text(json.dumps({"cells": cells}), encoding="utf-8")
+    with pytest.raises(ValueError, match=r"the cell push at d = 3 appears more than once$"):
+        read_random_cells(path)
+
+
+def test_a_task_or_degree_given_twice_is_labelled_once(capsys):
+    args = task_tiers.parse_args(["--task", "push", "--task", "hook", "--task", "push"])
+    assert args.task == ["push", "hook"]
+    assert task_tiers.parse_args(["--degrees", "5", "3", "5"]).degrees == [5, 3]
+    argv = ["--from", str(TIERS_JSON), "--task", "push", "--task", "push", "--degrees", "3", "3"]
+    assert task_tiers.main(argv) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert [line.split(":")[0] for line in lines if " d = " in line] == ["push      d = 3"]
+
+
+@pytest.mark.parametrize(
+    ("kept", "words"),
+    [
+        ({"random": 64, "seed": 0}, "64 random designs per cell (seed 0), from FILE;"),
+        ({}, "random designs per cell and seed: not recorded in FILE, from FILE;"),
+        ({"seed": 0}, "random designs per cell: not recorded in FILE (seed 0), from FILE;"),
+        ({"random": 64}, "64 random designs per cell (seed: not recorded in FILE), from FILE;"),
+    ],
+)
+def test_missing_metadata_of_a_from_file_is_worded_honestly(tmp_path, capsys, kept, words):
+    path = tmp_path / "tiers.json"
+    committed = json.loads(TIERS_JSON.read_text(encoding="utf-8"))
+    path.write_text(json.dumps({**kept, "cells": committed["cells"]}), encoding="utf-8")
+    out = tmp_path / "out.json"
+    assert task_tiers.main(["--from", str(path), "--task", "hook", "--json", str(out)]) == 0
+    header = capsys.readouterr().out.splitlines()[0]
+    assert header.startswith("Tiers per (task, d): " + words.replace("FILE", str(path)))
+    assert "None" not in header
+    record = json.loads(out.read_text(encoding="utf-8"))
+    assert (record["random"], record["seed"]) == (kept.get("random"), kept.get("seed"))
 
 
 def test_from_refuses_simulation_options_and_absent_cells(capsys):
@@ -498,6 +766,35 @@ def test_the_pages_quick_run_figures_are_the_quick_runs():
     assert "budgets of 32, 56 and 80 evaluations, 12 runs of CMA-ES on 6 instances per d" in (
         _page_text()
     )
+
+
+def test_the_pages_quick_run_labels_and_their_marks_are_the_studys():
+    cells = label_cells(read_random_cells(TIERS_JSON)["cells"], protocol_baselines(QUICK))
+    push = [c for c in cells if c["task"] == "push"]
+    assert [c["degree"] for c in push] == [3, 5, 8]
+    words = [f"{c['tier']}? ({c['tier_range'][0]} to {c['tier_range'][1]})" for c in push]
+    assert all(c["uncertain"] for c in push)
+    claim = (
+        f"they print as {words[0].replace(')', ' within the intervals)')}, "
+        f"{push[1]['tier']}? and {words[2]}"
+    )
+    assert push[1]["tier_range"] == push[2]["tier_range"]  # "hard? and hard? (...)"
+    assert claim in _page_text()
+
+
+def test_the_page_marks_the_random_tiers_their_intervals_leave_open():
+    rule = TierRule()
+    record = json.loads(TIERS_JSON.read_text(encoding="utf-8"))
+    for cell in record["cells"]:
+        easiest, hardest = rule.share_tiers(cell["success_rate"], cell["success_95"])
+        mark = "?" if easiest != hardest else ""
+        low, high = cell["success_95"]
+        shown = (
+            f"{cell['successes']}/{cell['n']} ({100 * cell['success_rate']:.1f} %, "
+            f"[{100 * low:.1f}, {100 * high:.1f}] %): **{rule.share_tier(cell['success_rate'])}"
+            f"{mark}**"
+        )
+        assert f"{shown} |" in _page_text(), shown
 
 
 def test_the_page_says_whether_the_committed_tiers_have_the_regret():

@@ -521,6 +521,11 @@ def test_the_tiers_follow_the_rule_and_their_d3_cells_are_the_baselines():
             assert random_tier == baselines[task]["tier"], task
 
 
+def _share_tier(share: float) -> str:
+    """The random share's tier by the thresholds the page states (10 % and 1 %)."""
+    return "easy" if share >= 0.10 else "medium" if share >= 0.01 else "hard"
+
+
 def test_the_tier_table_of_the_page_is_tiers_json():
     rows = []
     for task in TASKS:
@@ -528,9 +533,12 @@ def test_the_tier_table_of_the_page_is_tiers_json():
         for degree in (3, 5, 8):
             c = _tiers()[(task, degree)]
             low, high = c["success_95"]
+            # "?" where the Wilson interval reaches another tier than the share's.
+            spans = {_share_tier(v) for v in (low, c["success_rate"], high)}
             cells.append(
                 f"{c['successes']}/{c['n']} ({100 * c['success_rate']:.1f} %, "
-                f"[{100 * low:.1f}, {100 * high:.1f}] %): **{c.get('random_tier', c['tier'])}**"
+                f"[{100 * low:.1f}, {100 * high:.1f}] %): **{c.get('random_tier', c['tier'])}"
+                f"{'?' if len(spans) > 1 else ''}**"
             )
         rows.append(f"| {task} | " + " | ".join(cells) + " |")
     text = PAGE.read_text(encoding="utf-8")
@@ -549,9 +557,17 @@ def test_the_tier_study_refuses_bad_options():
 def test_a_tier_cell_without_a_usable_design_prints():
     from perf.studies.task_tiers import _line
 
-    cell = {"task": "push", "degree": 8, "n": 2, "usable": 0, "successes": 0,
-            "success_rate": 0.0, "success_95": [0.0, 0.66], "free_energy_median": None,
-            "tier": "hard"}
+    cell = {
+        "task": "push",
+        "degree": 8,
+        "n": 2,
+        "usable": 0,
+        "successes": 0,
+        "success_rate": 0.0,
+        "success_95": [0.0, 0.66],
+        "free_energy_median": None,
+        "tier": "hard",
+    }
     assert "0/2 usable, median F n/a: hard" in _line(cell)
 
 

@@ -2,24 +2,31 @@
 
 Issue 35 asks for each (task, degree) to be labelled easy, medium or hard from baseline
 results, as EvoGym labels its tasks. Two baselines, each giving a tier; the label is the harder
-of the two (easy < medium < hard), and both are kept beside it.
+of the two (easy < medium < hard), and both are kept beside it. By design a cell is labelled by
+its harder side; since each side is a noisy estimate, the harder of two leans toward hard (an
+error of either side toward hard moves the label, an error toward easy only where the other
+side agrees), which the flag of labels the intervals leave open (below) makes visible.
 
-**Random share.** ``perf.studies.task_baselines`` labels each task at d = 3 from the share p of
-64 random designs that succeed (*easy* for p >= 10 %, *medium* for 1 % <= p < 10 %, *hard* for
-p < 1 %: :data:`~perf.studies.task_baselines.EASY_SHARE`,
-:data:`~perf.studies.task_baselines.HARD_SHARE`). This study measures p at every degree of the
-benchmark protocol's dimension axis: per task and d, ``--random`` (64) designs drawn uniformly in
-the protocol's bounds of that degree (:func:`benchmarks.protocol.dimensions.bounds_of`: +-1.5
-for every coefficient but the linear one, +-0.5), scored at the task's default goal with p^X =
-20 and the env's defaults; success is ``info["success"]`` (the box stands within the task's
-radius of the goal), an unusable design a failure. Per (task, d): the share, its 95 % Wilson
-interval, the usable share, F's median over the usable designs and the tier (``random_tier``);
-the interval says how far a label near a boundary may move with another draw. The d = 3 draw
-is the baselines' own (``np.random.SeedSequence(seed)`` in the same bounds), so its shares equal
+**Random share.** ``perf.studies.task_baselines`` labels each task at d = 3 from the share p of 64
+random designs that succeed (*easy* for p >= 10 %, *medium* for 1 % <= p < 10 %, *hard* for p < 1 %:
+:data:`~perf.studies.task_baselines.EASY_SHARE`, :data:`~perf.studies.task_baselines.HARD_SHARE`).
+With 64 designs one success is 1.6 %, so *hard* on the share means no success observed among the 64,
+not a share measured below 1 % (0 of 64 has the Wilson interval [0, 5.7] %, which reaches medium).
+This study measures p at every degree of the benchmark protocol's dimension axis: per task and d,
+``--random`` (64) designs drawn uniformly in the protocol's bounds of that degree
+(:func:`benchmarks.protocol.dimensions.bounds_of`: +-1.5 for every coefficient but the linear one,
++-0.5), scored at the task's default goal with p^X = 20 and the env's defaults; success is
+``info["success"]`` (the box stands within the task's radius of the goal), an unusable design a
+failure. The share is measured at that one goal, while the regret below is over the protocol's
+instances (goals drawn from the task's range, for push also the box's mass and friction): the two
+baselines do not see the same instances. Per (task, d): the share, its 95 % Wilson interval, the
+usable share, F's median over the usable designs and the tier (``random_tier``); the interval says
+how far a label near a boundary may move with another draw. The d = 3 draw is the baselines' own
+(``np.random.SeedSequence(seed)`` in the same bounds), so its shares equal
 ``docs/results/tasks/baselines.json`` (a test checks it); d = 5 and 8 draw from
-``SeedSequence((seed, d))``. The (task, d) pairs run in parallel on ``--workers`` processes,
-one env each. ``--from FILE`` takes these figures from a tiers JSON written before (the
-committed ``docs/results/tasks/tiers.json``) instead of simulating again.
+``SeedSequence((seed, d))``. The (task, d) pairs run in parallel on ``--workers`` processes, one env
+each. ``--from FILE`` takes these figures from a tiers JSON written before (the committed
+``docs/results/tasks/tiers.json``) instead of simulating again.
 
 **CMA-ES's regret** (``--protocol DIR``, :func:`protocol_baselines`): from a benchmark protocol
 run folder's report (``DIR/report/runs.csv``, written by ``tooldesign bench protocol`` or
@@ -40,6 +47,17 @@ sampling with its budget), *medium* between. A cell the protocol did not run (th
 than push at d = 5 and 8) has no regret tier and keeps the random share's label; the output
 says which.
 
+**Labels the intervals leave open.** A side's tier is uncertain when its interval (closed:
+Wilson for the share, bootstrap for the regret) reaches another tier of that side, that is
+straddles (or touches) the threshold next to its estimate (:meth:`TierRule.share_tiers`,
+:meth:`TierRule.regret_tiers`). The label is uncertain when the easiest and the hardest label
+over both intervals differ (:meth:`TierRule.label_tiers`: the harder of the sides' easiest,
+and the harder of their hardest), so a side's uncertainty counts only where it can change the
+label: an uncertain random tier of medium beside a surely hard regret leaves the label surely
+hard. A regret without an interval (one instance) counts as its median's tier and its own flag
+is None (not known). Printed and tabled, each uncertain tier carries a ``?`` (``medium?``),
+the label's line says which tiers it spans, and :data:`UNCERTAIN_NOTE` follows the cells.
+
 The success share of CMA-ES's runs is shown but does not enter the label: the random share
 already says how rare success is, and CMA-ES minimizes F, whose lowest design need not succeed.
 The regret depends on the budget, so labels are those of the protocol size they were read from.
@@ -48,12 +66,18 @@ Thresholds are parameters (:class:`TierRule`; ``--easy-share``, ``--hard-share``
 
 Written (``--json``): per cell the random figures, ``random_tier``, ``baseline`` (CMA-ES's
 figures; None where the protocol did not run the cell, and without ``--protocol``),
-``regret_tier`` and ``tier`` (the label); beside the cells ``random``, ``seed``,
-``random_from`` (the ``--from`` file), ``rule`` and ``protocol`` (the folder, its size, the
-optimizer, the budgets and how the interval was made). ``--from`` also reads a file written
-before these fields existed, whose ``tier`` is the random share's. The printed lines without
-``--protocol`` are those the study always printed; with it, a line of CMA-ES's figures under
-each cell, the cells without them, and the labels as a Markdown table (docs/tasks.md).
+``regret_tier``, ``tier`` (the label), ``random_uncertain``, ``regret_uncertain``,
+``tier_range`` (the easiest and the hardest label within the intervals) and ``uncertain``;
+beside the cells ``random``, ``seed``, ``random_from`` (the ``--from`` file), ``rule`` and
+``protocol`` (the folder, its size, the optimizer, the budgets and how the interval was
+made). ``--from`` also reads a file written before these fields existed, whose ``tier`` is the
+random share's; it checks every field it reads (:func:`read_random_cells`) and refuses a bad
+one in one line naming the file, the cell and the field; where the file does not record
+``random`` or ``seed``, the output says "not recorded in FILE". A task or degree given twice
+is labelled once. Printed: a line per cell (the random figures and tier), without
+``--protocol`` as the study always printed them but for the ``?``; with it, a line of
+CMA-ES's figures under each cell, the cells without them, and the labels as a Markdown table
+(docs/tasks.md).
 
 Run: ``python -m perf.studies.task_tiers [--task hook] [--degrees 3 5 8] [--random 64]
 [--seed 0] [--workers 2] [--json FILE]``; 64 x 3 x 4 = 768 evaluations, about a minute on 2
@@ -172,6 +196,45 @@ class TierRule:
         """The tier of a cell: the harder of its random tier and its regret tier (if any)."""
         return harder(self.share_tier(share), self.regret_tier(regret))
 
+    def share_tiers(self, share: float, interval: Sequence[float] | None) -> tuple[str, str]:
+        """The easiest and the hardest random tier of a share and its interval's ends.
+
+        They differ when the interval (closed) reaches across a threshold: the tier may move
+        with another draw. Without an interval, the share's tier twice.
+        """
+        return _span([self.share_tier(v) for v in (share, *(interval or ()))])
+
+    def regret_tiers(
+        self, regret: float | None, interval: Sequence[float] | None
+    ) -> tuple[str, str] | None:
+        """The easiest and the hardest regret tier of a median and its interval's ends.
+
+        None without a regret; without an interval, the median's tier twice.
+        """
+        tier_ = self.regret_tier(regret)
+        if tier_ is None:
+            return None
+        others = [self.regret_tier(v) for v in interval or ()]
+        return _span([tier_, *(t for t in others if t is not None)])
+
+    def label_tiers(
+        self,
+        share: float,
+        share_interval: Sequence[float] | None,
+        regret: float | None = None,
+        regret_interval: Sequence[float] | None = None,
+    ) -> tuple[str, str]:
+        """The easiest and the hardest label a cell could have within its intervals.
+
+        The label is the harder of two tiers, so its easiest is the harder of their easiest
+        and its hardest the harder of their hardest: a side's uncertainty moves the label only
+        where that side can decide it (a random tier that is medium or easy beside a regret
+        tier that is surely hard leaves the label hard).
+        """
+        shares = self.share_tiers(share, share_interval)
+        regrets = self.regret_tiers(regret, regret_interval) or (None, None)
+        return harder(shares[0], regrets[0]), harder(shares[1], regrets[1])
+
     def describe(self, *, regret: bool = True) -> str:
         """The rule in one sentence; the random share's alone if not ``regret``."""
         share = (
@@ -189,6 +252,10 @@ class TierRule:
 
 def _pct(share: float) -> str:
     return f"{100 * share:g} %"
+
+
+def _span(tiers: Sequence[str]) -> tuple[str, str]:
+    return min(tiers, key=TIERS.index), max(tiers, key=TIERS.index)
 
 
 def harder(*tiers: str | None) -> str:
@@ -409,12 +476,21 @@ def _baseline_cell(rows: Any, budget: int, resamples: int, seed: int) -> dict[st
 def read_random_cells(path: str | os.PathLike[str]) -> dict[str, Any]:
     """The random-share part of a tiers JSON written before (``--json``), to label again.
 
+    Every field read is checked, since the labels and their intervals are built on them: each
+    cell's task (a task of the study) and degree (one of the protocol's), ``n`` (>= 1),
+    ``usable`` (a whole number in [0, n]), ``successes`` (in [0, usable]: an unusable design
+    never succeeds), ``success_rate`` (successes / n), ``success_95`` (the 95 % Wilson interval
+    of successes of n) and ``free_energy_median`` (a finite number, None exactly when no design
+    was usable); beside the cells ``random`` (the designs per cell: every cell's ``n``) and
+    ``seed``, each a whole number or absent (None: the file does not record it).
+
     Returns:
         ``{"random", "seed", "cells"}``, each cell with the fields :func:`measure_cell` writes
         but the tier (which is recomputed by the rule in use).
 
     Raises:
-        ValueError: In one line naming the file: missing, not JSON, or not a tiers file.
+        ValueError: In one line naming the file (and the cell and field at fault): missing, not
+            JSON, not a tiers file, a field missing or out of range, or a (task, d) twice.
     """
     try:
         record = json.loads(Path(path).read_text(encoding="utf-8"))
@@ -425,29 +501,79 @@ def read_random_cells(path: str | os.PathLike[str]) -> dict[str, Any]:
     cells = record.get("cells") if isinstance(record, dict) else None
     if not isinstance(cells, list) or not cells:
         raise ValueError(f"{path} is not a tiers JSON: it has no list of cells")
-    kept = []
-    for k, cell in enumerate(cells):
-        missing = [f for f in _RANDOM_FIELDS if not isinstance(cell, dict) or f not in cell]
-        if missing:
-            raise ValueError(f"{path}: cell {k} has no {', '.join(missing)}")
-        if not isinstance(cell["task"], str) or type(cell["degree"]) is not int:
-            raise ValueError(
-                f"{path}: cell {k} has task {cell['task']!r} and degree {cell['degree']!r}; "
-                "they must be a name and a whole number"
-            )
-        n, successes = cell["n"], cell["successes"]
-        counts = type(n) is int and type(successes) is int and 0 <= successes <= n and n >= 1
-        if not counts or cell["success_rate"] != successes / n:
-            raise ValueError(
-                f"{path}: cell {k} ({cell['task']}, d = {cell['degree']}) has successes "
-                f"{successes!r} of n {n!r} and success_rate {cell['success_rate']!r}; they must "
-                "be whole numbers 0 <= successes <= n, n >= 1, and the rate successes / n"
-            )
-        kept.append({f: cell[f] for f in _RANDOM_FIELDS})
+    random, seed = record.get("random"), record.get("seed")
+    if random is not None and not (_whole(random) and random >= 1):
+        raise ValueError(f"{path}: random {random!r} must be a whole number >= 1 (or absent)")
+    if seed is not None and not _whole(seed):
+        raise ValueError(f"{path}: seed {seed!r} must be a whole number (or absent)")
+    kept = [_checked_cell(path, k, cell, random) for k, cell in enumerate(cells)]
     keys = [(c["task"], c["degree"]) for c in kept]
-    if len(set(keys)) != len(keys):
-        raise ValueError(f"{path}: a (task, d) cell appears twice")
-    return {"random": record.get("random"), "seed": record.get("seed"), "cells": kept}
+    twice = [f"{t} at d = {d}" for t, d in dict.fromkeys(keys) if keys.count((t, d)) > 1]
+    if twice:
+        raise ValueError(f"{path}: the cell {', '.join(twice)} appears more than once")
+    return {"random": random, "seed": seed, "cells": kept}
+
+
+def _whole(value: object) -> bool:
+    return type(value) is int  # bool is an int to isinstance, never a count
+
+
+def _checked_cell(path: str | os.PathLike[str], k: int, cell: object, random: int | None) -> Any:
+    """One cell of a tiers JSON, each of its random-share fields checked (see above)."""
+    if not isinstance(cell, dict):
+        raise ValueError(f"{path}: cell {k} is {type(cell).__name__}, not an object of fields")
+    missing = [f for f in _RANDOM_FIELDS if f not in cell]
+    if missing:
+        raise ValueError(f"{path}: cell {k} has no {', '.join(missing)}")
+    task, degree = cell["task"], cell["degree"]
+    if task not in BUILTIN_TASKS:
+        raise ValueError(
+            f"{path}: cell {k} has task {task!r}; the study's tasks are {', '.join(BUILTIN_TASKS)}"
+        )
+    if not _whole(degree) or degree not in DEGREES:
+        raise ValueError(
+            f"{path}: cell {k} ({task}) has degree {degree!r}; the protocol's degrees are "
+            f"{', '.join(map(str, DEGREES))}"
+        )
+    where = f"{path}: cell {k} ({task}, d = {degree})"
+
+    def bad(field: str, wanted: str) -> ValueError:
+        return ValueError(f"{where} has {field} {cell[field]!r}; it must be {wanted}")
+
+    n, successes, usable = cell["n"], cell["successes"], cell["usable"]
+    if not (_whole(n) and n >= 1):
+        raise bad("n", "a whole number >= 1")
+    if random is not None and n != random:
+        raise bad("n", f"the file's random designs per cell, {random}")
+    if not (_whole(usable) and 0 <= usable <= n):
+        raise bad("usable", f"a whole number in [0, n = {n}]")
+    if not (_whole(successes) and 0 <= successes <= usable):
+        # An unusable design never succeeds (ToolDesignEnv's info["success"]).
+        raise bad("successes", f"a whole number in [0, usable = {usable}]")
+    rate = cell["success_rate"]
+    if not (_number(rate) and rate == successes / n):
+        raise bad("success_rate", f"successes / n = {successes}/{n}")
+    interval = cell["success_95"]
+    wilson = wilson_interval(successes, n)
+    pair = isinstance(interval, list) and len(interval) == 2 and all(map(_number, interval))
+    if not (
+        pair
+        and all(math.isclose(a, b, abs_tol=1e-12) for a, b in zip(interval, wilson, strict=True))
+    ):
+        raise bad(
+            "success_95",
+            f"the 95 % Wilson interval of {successes} of {n}, [{wilson[0]:.6g}, {wilson[1]:.6g}]",
+        )
+    median = cell["free_energy_median"]
+    if usable == 0 and median is not None:
+        raise bad("free_energy_median", "null: no design is usable (usable 0)")
+    if usable > 0 and not (_number(median) and math.isfinite(median)):
+        raise bad("free_energy_median", f"a finite number (F's median over {usable} usable)")
+    return {f: cell[f] for f in _RANDOM_FIELDS}
+
+
+def _number(value: object) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
 def label_cells(
@@ -465,22 +591,38 @@ def label_cells(
     Returns:
         Per cell its random figures, ``random_tier``, ``baseline`` (the protocol's figures of
         the cell, None where the protocol did not run it), ``regret_tier`` (None likewise, or
-        where no run has a regret) and ``tier``, the harder of the two.
+        where no run has a regret), ``tier``, the harder of the two, and how sure each is:
+        ``random_uncertain`` (the share's Wilson interval reaches another random tier),
+        ``regret_uncertain`` (the regret's bootstrap interval reaches another regret tier;
+        None without a regret or without an interval, e.g. one instance), ``tier_range`` (the
+        easiest and the hardest label within both intervals, :meth:`TierRule.label_tiers`)
+        and ``uncertain`` (they differ: the label may move with another draw).
     """
     rule = rule or TierRule()
     found = baselines["cells"] if baselines is not None else {}
     labelled = []
     for cell in cells:
         random = {f: cell[f] for f in _RANDOM_FIELDS}
+        share, share_95 = cell["success_rate"], cell["success_95"]
         baseline = found.get((cell["task"], cell["degree"]))
         regret = None if baseline is None else baseline["regret_median"]
+        regret_95 = None if baseline is None else baseline["regret_95"]
+        shares = rule.share_tiers(share, share_95)
+        regrets = rule.regret_tiers(regret, regret_95)
+        span = rule.label_tiers(share, share_95, regret, regret_95)
         labelled.append(
             {
                 **random,
-                "random_tier": rule.share_tier(cell["success_rate"]),
+                "random_tier": rule.share_tier(share),
                 "baseline": baseline,
                 "regret_tier": rule.regret_tier(regret),
-                "tier": rule.label(cell["success_rate"], regret),
+                "tier": rule.label(share, regret),
+                "random_uncertain": shares[0] != shares[1],
+                "regret_uncertain": (
+                    None if regrets is None or regret_95 is None else regrets[0] != regrets[1]
+                ),
+                "tier_range": list(span),
+                "uncertain": span[0] != span[1],
             }
         )
     return labelled
@@ -517,14 +659,36 @@ def _line(cell: dict[str, Any]) -> str:
         f"{cell['task']:<9} d = {cell['degree']}: {cell['successes']:>2}/{cell['n']} succeed "
         f"({100 * cell['success_rate']:.1f} %, 95 % [{100 * low:.1f}, {100 * high:.1f}] %), "
         f"{cell['usable']}/{cell['n']} usable, median F "
-        f"{'n/a' if median is None else f'{median:.0f}'}: {cell.get('random_tier', cell['tier'])}"
+        f"{'n/a' if median is None else f'{median:.0f}'}: "
+        + _marked(cell.get("random_tier", cell["tier"]), cell.get("random_uncertain"))
     )
+
+
+#: What the marker of a label that its intervals leave open means, printed under the cells.
+UNCERTAIN_NOTE = (
+    "?: the 95 % interval (Wilson for the share, bootstrap for the regret) reaches another "
+    "tier, so the label may move with another draw"
+)
+
+
+def _marked(tier_: str | None, uncertain: bool | None) -> str:
+    """A tier, with ``?`` if its interval reaches another tier."""
+    return "n/a" if tier_ is None else tier_ + ("?" if uncertain else "")
+
+
+def _tier_words(cell: Mapping[str, Any]) -> str:
+    """The label, marked, and the tiers it spans if its intervals leave it open."""
+    words = _marked(cell["tier"], cell["uncertain"])
+    if cell["uncertain"]:
+        easiest, hardest = cell["tier_range"]
+        words += f" ({easiest} to {hardest} within the intervals)"
+    return words
 
 
 def _baseline_line(cell: dict[str, Any], optimizer: str) -> str:
     base = cell["baseline"]
     if base is None:
-        return f"{'':<9} no protocol run of this cell: tier {cell['tier']} (the random share's)"
+        return f"{'':<9} no protocol run of this cell: the random share's tier, {_tier_words(cell)}"
     median, interval = base["regret_median"], base["regret_95"]
     regret = "n/a" if median is None else f"{median:.3f}"
     if interval is not None:
@@ -542,12 +706,15 @@ def _baseline_line(cell: dict[str, Any], optimizer: str) -> str:
     return (
         f"{'':<9} {optimizer}, {base['runs']} runs on {base['instances']} instances of "
         f"{base['budget']} evaluations: median final regret {regret}, {success}: regret "
-        f"{cell['regret_tier'] or 'n/a'} -> tier {cell['tier']}"
+        f"{_marked(cell['regret_tier'], cell['regret_uncertain'])} -> tier {_tier_words(cell)}"
     )
 
 
 def markdown_table(cells: Sequence[Mapping[str, Any]]) -> str:
-    """The labels as a table of tasks x degrees, as docs/tasks.md shows them."""
+    """The labels as a table of tasks x degrees, as docs/tasks.md shows them.
+
+    A tier whose interval reaches another tier is marked ``?`` (:data:`UNCERTAIN_NOTE`).
+    """
     tasks = list(dict.fromkeys(c["task"] for c in cells))
     degrees = sorted({c["degree"] for c in cells})
     by = {(c["task"], c["degree"]): c for c in cells}
@@ -572,8 +739,11 @@ def markdown_table(cells: Sequence[Mapping[str, Any]]) -> str:
                 if base["regret_95"] is not None:
                     low, high = base["regret_95"]
                     regret += f" [{low:.2f}, {high:.2f}]"
-                regret += f": {c['regret_tier']}"
-            row.append(f"**{c['tier']}** (random {c['random_tier']}; {regret})")
+                regret += f": {_marked(c['regret_tier'], c['regret_uncertain'])}"
+            row.append(
+                f"**{_marked(c['tier'], c['uncertain'])}** (random "
+                f"{_marked(c['random_tier'], c['random_uncertain'])}; {regret})"
+            )
         lines.append(f"| {task} | " + " | ".join(row) + " |")
     return "\n".join(lines)
 
@@ -581,8 +751,16 @@ def markdown_table(cells: Sequence[Mapping[str, Any]]) -> str:
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     """The study's command line."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--task", action="append", choices=BUILTIN_TASKS, default=None)
-    parser.add_argument("--degrees", type=int, nargs="+", default=None)
+    parser.add_argument(
+        "--task",
+        action="append",
+        choices=BUILTIN_TASKS,
+        default=None,
+        help="a task to label (repeat for more; each of them if not given)",
+    )
+    parser.add_argument(
+        "--degrees", type=int, nargs="+", default=None, help="degrees (3 5 8 if not given)"
+    )
     parser.add_argument("--random", type=int, default=None, help="random designs per cell (64)")
     parser.add_argument("--seed", type=int, default=None, help="seed of the random draw (0)")
     parser.add_argument("--workers", type=int, default=None, help="processes (2)")
@@ -605,6 +783,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--easy-regret", type=float, default=EASY_REGRET)
     parser.add_argument("--hard-regret", type=float, default=HARD_REGRET)
     args = parser.parse_args(argv)
+    # A task or degree given twice means it once (it would otherwise be measured and printed
+    # twice).
+    if args.task is not None:
+        args.task = list(dict.fromkeys(args.task))
+    if args.degrees is not None:
+        args.degrees = list(dict.fromkeys(args.degrees))
     for degree in args.degrees or ():
         if degree not in DEGREES:
             parser.error(f"--degrees: {degree} is not a degree of the protocol ({DEGREES})")
@@ -648,6 +832,21 @@ def _select(
     return [have[(t, d)] for t in tasks for d in degrees]
 
 
+def _draw_words(random: int | None, seed: int | None, from_file: str | None) -> str:
+    """How the random share was drawn, saying so where a ``--from`` file does not record it."""
+    if from_file is None:
+        return f"{random} random designs per cell (seed {seed}), at the task's default goal"
+    if random is None and seed is None:
+        words = f"random designs per cell and seed: not recorded in {from_file}"
+    elif random is None:
+        words = f"random designs per cell: not recorded in {from_file} (seed {seed})"
+    elif seed is None:
+        words = f"{random} random designs per cell (seed: not recorded in {from_file})"
+    else:
+        words = f"{random} random designs per cell (seed {seed})"
+    return f"{words}, from {from_file}"
+
+
 def main(argv: list[str] | None = None) -> int:
     """Measure (or read ``--from``) and print every (task, d); label; write ``--json``."""
     args = parse_args(argv)
@@ -673,9 +872,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"task_tiers: error: {err}", file=sys.stderr)
         return 2
     cells = label_cells(random_cells, baselines, args.rule)
-    source = f"from {args.from_file}" if args.from_file else "at the task's default goal"
     print(
-        f"Tiers per (task, d): {random} random designs per cell (seed {seed}), {source}; "
+        f"Tiers per (task, d): {_draw_words(random, seed, args.from_file)}; "
         + args.rule.describe(regret=baselines is not None)
     )
     if baselines is not None:
@@ -688,6 +886,8 @@ def main(argv: list[str] | None = None) -> int:
         print(_line(cell))
         if baselines is not None:
             print(_baseline_line(cell, baselines["optimizer"]))
+    if any(c["uncertain"] or c["random_uncertain"] or c["regret_uncertain"] for c in cells):
+        print(UNCERTAIN_NOTE)
     if baselines is not None:
         absent = [f"{c['task']} d = {c['degree']}" for c in cells if c["baseline"] is None]
         if absent:
