@@ -14,10 +14,15 @@ and the page's "What is not done" list says which of them is still missing (the 
 Each block is rendered from the folder's ``report/`` (``summary.json`` and the CSV tables that
 :func:`benchmarks.reports.rl.make_rl_report` and
 :func:`benchmarks.reports.breakeven.make_breakeven_report` write); a folder without its report
-gets one rebuilt into a temporary folder from its stored evaluations (nothing is simulated). A
-folder that does not exist gets a short paragraph saying that its run is pending, with no
-number. Every sentence that judges (which budgets warm beats cold at, how often a zero-shot
-design is better than CMA-ES) is worded from the numbers, never written by hand.
+gets one rebuilt into a temporary folder from its stored evaluations (nothing is simulated; the
+folder is removed once the block is written). A folder that does not exist gets a short
+paragraph saying that its run is not committed yet, with no number; a folder that exists must
+be the run the page quotes, a ``full`` run at today's tool section and hand as its manifest
+records them (:func:`committed`), or the command stops with one line naming it and what
+differs. The verdict's words, its table and the description of its test are
+:mod:`benchmarks.reports.breakeven`'s, the ones ``breakeven.md`` prints. Every sentence that
+judges (which budgets warm beats cold at, how often a zero-shot design is better than CMA-ES)
+is worded from the numbers, never written by hand.
 ``tests/test_rl_page.py`` checks that the committed page holds what the committed folders
 render to.
 
@@ -43,6 +48,7 @@ from benchmarks.reports.markdown import markdown_table
 __all__ = [
     "BLOCKS",
     "PAGE",
+    "committed",
     "current_block",
     "main",
     "markers",
@@ -53,6 +59,7 @@ __all__ = [
     "render_page",
     "render_suite_block",
     "replace_block",
+    "round_section_floors",
 ]
 
 #: The page, relative to the repository.
@@ -970,7 +977,8 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
         description=(
             "Write the results blocks of docs/rl.md from the committed run folders "
             "docs/results/rl and docs/results/breakeven (their report/ files; nothing is "
-            "simulated). A folder not committed yet gets a paragraph saying its run is pending."
+            "simulated). A folder not committed yet gets a paragraph saying so; a folder there "
+            "must be a full run at today's tool section and hand."
         ),
     )
     parser.add_argument(
