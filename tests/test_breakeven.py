@@ -8,6 +8,7 @@ and a user's callable is scored against it from the command line.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -17,6 +18,7 @@ import pytest
 from benchmarks.cli import main
 from benchmarks.reports.breakeven import (
     TESTED,
+    WARM_COLD_COLUMNS,
     amortization_table,
     comparison_table,
     make_breakeven_report,
@@ -606,6 +608,16 @@ def test_the_smoke_study_runs_resumes_and_reports(smoke_study: Path) -> None:
     page = (report / "breakeven.md").read_text()
     assert "## Does warm-started CMA-ES beat cold CMA-ES?" in page
     assert "## Secondary: every pair of methods, each budget apart" in page
+    # The verdict's words are the one wording docs/rl.md prints too, from the CSV read back.
+    from benchmarks.reports.breakeven import verdict_sentence
+    from benchmarks.storage import read_manifest
+
+    config = read_manifest(smoke_study)["config"]
+    sentence = verdict_sentence(
+        verdict, budgets=config["size"]["budgets"], methods=config["methods"]
+    )
+    assert f"{sentence} Table: `warm_vs_cold.csv`." in page
+    assert (verdict["replicates"] == 1).all()
     assert regret[regret["method"] == "random"]["mean"].notna().any()
 
 
@@ -871,3 +883,147 @@ def test_the_verdict_tests_tasks_not_the_replicates_of_a_task() -> None:
     assert row["pairs"] == 20 and row["tasks"] == 2
     assert row["p"] == pytest.approx(1 / 4) and not row["beats_cold"]
     assert row["mean_floors"] == pytest.approx(-50 / 6) and row["median_floors"] < -1
+
+
+def _seeds_log(shift: Callable[[int, int], float]) -> pd.DataFrame:
+    """8 tasks x 5 replicates; warm-contextual lower than cold CMA-ES by shift(task, replicate)."""
+    rows = []
+    for k in range(8):
+        for r in range(5):
+            task = f"t{k}"
+            rows += _rows("cold", "random", [1100.0 + 10 * v for v in range(8)], task, r)
+            rows += _rows("cold", "cmaes", [1000.0 + k] * 8, task, r)
+            rows += _rows("warm", "warm-contextual", [1000.0 + k - shift(k, r)] * 8, task, r)
+    return pd.DataFrame(rows)
+
+
+def test_one_training_seed_alone_driving_the_win_shows_in_replicates_beyond() -> None:
+    from benchmarks.reports.breakeven import verdict_markdown, warm_cold_table
+
+    # Replicate 0's designer is better by 60 F (10 floors of 6 F) at every task, the other four
+    # equal cold: every task's mean is about -2 floors, so the test over tasks passes (p =
+    # 1 / 2^8), but one trained designer carries it.
+    log = _seeds_log(lambda k, r: 60.0 + 0.5 * k if r == 0 else 0.0)
+    table = warm_cold_table(regret_curves(log), [8], floors=_floors(log))
+    row = table.iloc[0]
+    assert row["beats_cold"] and row["p"] == pytest.approx(1 / 2**8)
+    assert row["replicates"] == 5 and row["replicates_beyond"] == 1
+    assert list(table.columns) == list(WARM_COLD_COLUMNS)
+    line = verdict_markdown(table)[2]
+    assert line.startswith("| 8 | warm-contextual | 40 (8) |") and "| 1 of 5 |" in line
+    # The same mean spread over the seeds (each better by about 2 floors): 5 of 5.
+    even = _seeds_log(lambda k, r: 12.0 + 0.1 * k)
+    row = warm_cold_table(regret_curves(even), [8], floors=_floors(even)).iloc[0]
+    assert row["beats_cold"] and row["replicates_beyond"] == 5
+
+
+def _verdict_frame(rows: list[tuple[str, int, float, bool, int]]) -> pd.DataFrame:
+    """A warm_vs_cold table: (method, budget, p_holm, beats_cold, tasks) per row."""
+    return pd.DataFrame(
+        [
+            {
+                "method": m,
+                "budget": b,
+                "pairs": 5 * t,
+                "tasks": t,
+                "mean_floors": -1.5,
+                "ci_low": math.nan if t < 2 else -2.0,
+                "ci_high": math.nan if t < 2 else -1.0,
+                "median_floors": -1.5,
+                "replicates": 5,
+                "replicates_beyond": 4,
+                "p": p,
+                "p_holm": p,
+                "beats_cold": won,
+            }
+            for m, b, p, won, t in rows
+        ],
+        columns=list(WARM_COLD_COLUMNS),
+    )
+
+
+STUDY = ["random", "cmaes", "contextual", "ppo", "warm-contextual", "warm-ppo"]
+
+
+def test_the_verdict_counts_only_finite_p_as_tests_and_names_the_untested() -> None:
+    from benchmarks.reports.breakeven import verdict_sentence
+
+    # One task: no row has a p. No test was made, and the words must not say "in all N tests".
+    one_task = _verdict_frame(
+        [("warm-contextual", 8, math.nan, False, 1), ("warm-ppo", 8, math.nan, False, 1)]
+    )
+    words = verdict_sentence(one_task, budgets=[8], methods=STUDY)
+    assert words == (
+        "**Verdict:** no test was made, so the study does not say whether a warm-started "
+        "designer beats cold CMA-ES; not tested (fewer than 2 tasks with both runs): "
+        "warm-contextual at 8; warm-ppo at 8."
+    )
+    # A win at 2; warm-ppo untested at 2; budget 4 tested without a win; budget 16 of the
+    # study not in the table at all: untested, and no "every budget of the study".
+    mixed = _verdict_frame(
+        [
+            ("warm-contextual", 2, 0.01, True, 20),
+            ("warm-ppo", 2, math.nan, False, 1),
+            ("warm-contextual", 4, 0.3, False, 20),
+            ("warm-ppo", 4, 0.6, False, 20),
+        ]
+    )
+    words = verdict_sentence(mixed, budgets=[2, 4, 16], methods=STUDY)
+    assert words == (
+        "**Verdict:** warm-started CMA-ES beats cold CMA-ES beyond the noise floor (Holm p < "
+        "0.05, over the tasks, for the study's trained designers) at budget 2 (warm-contextual "
+        "at 2: 4 of 5 training seeds beyond the floor); at budget 4 none of the designers "
+        "tested does; not tested (fewer than 2 tasks with both runs): warm-contextual at 16; "
+        "warm-ppo at 2 and 16."
+    )
+    # No win: the count is of the tests made (2), not of the rows (3).
+    lost = _verdict_frame(
+        [
+            ("warm-contextual", 4, 0.3, False, 20),
+            ("warm-ppo", 4, 0.6, False, 20),
+            ("warm-ppo", 8, math.nan, False, 0),
+        ]
+    )
+    words = verdict_sentence(lost, budgets=[4, 8], methods=STUDY)
+    assert "at any budget tested (4): Holm p >= 0.05 in all 2 tests; the smallest, 0.3" in words
+    assert words.endswith(
+        "not tested (fewer than 2 tasks with both runs): warm-contextual at 8; warm-ppo at 8."
+    )
+    # Every budget of the study won: said; a budget of the study left out of the table: not.
+    every = _verdict_frame(
+        [("warm-contextual", 2, 0.01, True, 20), ("warm-contextual", 4, 0.02, True, 20)]
+    )
+    methods = ["cmaes", "warm-contextual"]
+    assert verdict_sentence(every, budgets=[2, 4], methods=methods).endswith(
+        ", every budget of the study."
+    )
+    assert "every budget" not in verdict_sentence(every, budgets=[2, 4, 8], methods=methods)
+
+
+def test_the_verdict_names_the_missing_cold_run_and_refuses_a_cell_that_is_no_decision() -> None:
+    from benchmarks.reports.breakeven import verdict_row, verdict_sentence, verdict_test_text
+
+    empty = _verdict_frame([])
+    words = verdict_sentence(empty, budgets=[1, 4], methods=["random", "warm-ppo"])
+    assert "has no cold CMA-ES run (method `cmaes`)" in words
+    words = verdict_sentence(empty, budgets=[1, 4], methods=["random", "cmaes"])
+    assert "has no warm-started designer" in words
+    # An empty beats_cold cell (NaN as read back from CSV) is not read as "yes".
+    table = _verdict_frame([("warm-ppo", 4, 0.01, True, 20)])
+    table["beats_cold"] = [math.nan]
+    with pytest.raises(ValueError, match="beats_cold must be True or False, got nan"):
+        verdict_sentence(table, budgets=[4], methods=STUDY)
+    with pytest.raises(ValueError, match="beats_cold must be True or False, got nan"):
+        verdict_row(table.to_dict("records")[0])
+    table["beats_cold"] = ["False"]
+    assert verdict_row(table.to_dict("records")[0])[-1] == "no"
+    with pytest.raises(ValueError, match="replicates must be a whole number >= 1, got 0"):
+        verdict_test_text(0, 18)
+    with pytest.raises(ValueError, match="tests must be a whole number >= 0, got -1"):
+        verdict_test_text(5, -1)
+    # The test over training seeds: with 5 seeds and 18 tests it could not pass; with 9 it could.
+    assert "1 / 2^5 = 0.0312, times the 18 tests is not below 0.05" in verdict_test_text(5, 18)
+    assert "could not pass" not in verdict_test_text(9, 18)
+    assert "the study's trained designers (5 training seeds) on new tasks" in verdict_test_text(
+        5, 18
+    )

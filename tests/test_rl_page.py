@@ -15,6 +15,7 @@ import json
 import math
 import re
 import shutil
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -34,7 +35,6 @@ from benchmarks.cli.rl_page import (
     render_not_done_block,
     render_suite_block,
     replace_block,
-    verdict_sentence,
 )
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -160,10 +160,20 @@ def test_the_square_sections_tables_on_the_page_are_its_committed_report() -> No
 @pytest.mark.slow
 def test_the_rl_block_quotes_the_reports_numbers(rl_smoke: Path, tmp_path: Path) -> None:
     root = _root(tmp_path, suite=rl_smoke)
-    block = render_blocks(root)["rl-suite"]
+    # A smoke run is not the committed run the page quotes: the page refuses it ...
+    with pytest.raises(ValueError, match="size 'smoke', expected 'full'"):
+        render_blocks(root)
+    # ... and its block, rendered alone, is what a full run's would be.
+    block = render_suite_block(root / SUITE_FOLDER, page=root / PAGE, root=root)
     report = root / SUITE_FOLDER / "report"
     assert "**Pending:**" not in block
     assert "made with the round section and the merged hand" in block
+    from benchmarks.cli.rl_page import round_section_floors
+
+    project, protocol = round_section_floors()
+    assert "the square section's floor is kept as a conservative bound" in block
+    assert f"the project's median relative floor, {100 * project:.2f} % of |F|" in block
+    assert max(protocol.values()) < 0.015
     fixed = pd.read_csv(report / "fixed-goal.csv")
     methods = {"random sampling": "random", "CMA-ES": "cmaes", "PPO": "ppo", "SAC": "sac"}
     header = next(line for line in block.splitlines() if line.startswith("| episodes | random"))
@@ -206,7 +216,7 @@ def test_the_breakeven_block_quotes_the_reports_numbers(
     breakeven_smoke: Path, tmp_path: Path
 ) -> None:
     root = _root(tmp_path, breakeven=breakeven_smoke)
-    block = render_blocks(root)["breakeven"]
+    block = render_breakeven_block(root / BREAKEVEN_FOLDER, page=root / PAGE, root=root)
     report = root / BREAKEVEN_FOLDER / "report"
     assert "**Pending:**" not in block
     # The regret table: mean [95 % interval] per method and budget, as regret.csv holds them.
@@ -231,9 +241,19 @@ def test_the_breakeven_block_quotes_the_reports_numbers(
         r = verdict[(verdict["method"] == row[1]) & (verdict["budget"] == int(row[0]))].iloc[0]
         assert row[2] == f"{r['pairs']} ({r['tasks']})"
         assert float(row[3]) == pytest.approx(r["mean_floors"], abs=5e-3)
-        assert float(row[6]) == pytest.approx(r["p_holm"], rel=1e-2)
-        assert row[7] == ("yes" if r["beats_cold"] else "no")
-    assert verdict_sentence(verdict) in block
+        assert row[6] == f"{r['replicates_beyond']} of {r['replicates']}"
+        assert float(row[7]) == pytest.approx(r["p_holm"], rel=1e-2)
+        assert row[8] == ("yes" if r["beats_cold"] else "no")
+    # One wording: the block's verdict, its table and its test's description are the report's.
+    from benchmarks.reports.breakeven import verdict_markdown, verdict_sentence, verdict_test_text
+
+    config = json.loads((root / BREAKEVEN_FOLDER / "manifest.json").read_text())["config"]
+    sentence = verdict_sentence(
+        verdict, budgets=config["size"]["budgets"], methods=config["methods"]
+    )
+    report_page = (report / "breakeven.md").read_text()
+    for text in (sentence, *verdict_markdown(verdict), verdict_test_text(1, len(verdict))):
+        assert text in block and text in report_page, text
     # Amortization: goals until the training pays, or never, per method and budget B.
     amortization = pd.read_csv(report / "amortization.csv")
     rows = _table(block, "method | training episodes")
@@ -279,36 +299,47 @@ def test_the_verdict_words_follow_the_table(breakeven_smoke: Path, tmp_path: Pat
         block = render_breakeven_block(folder, page=root / PAGE, root=root)
         return next(line for line in block.splitlines() if line.startswith("**Verdict:**"))
 
-    # The smoke study: 2 tasks, 1 replicate: no test can pass.
+    # The smoke study: 2 tasks, 1 replicate: 9 tests made, none can pass.
     assert verdict().startswith(
         "**Verdict:** no warm-started designer beats cold CMA-ES beyond the noise floor at any "
-        "budget (1, 2 and 4): Holm p >= 0.05 in all 9 tests"
+        "budget tested (1, 2 and 4): Holm p >= 0.05 in all 9 tests"
     )
-    _verdict_edited(report, {("warm-contextual", 2): 0.01})
+    table = _verdict_edited(report, {("warm-contextual", 2): 0.01})
+    seeds = table.set_index(["method", "budget"]).loc[("warm-contextual", 2), "replicates_beyond"]
     assert verdict() == (
-        "**Verdict:** warm-started CMA-ES beats cold CMA-ES beyond the noise floor (Holm p < 0.05)"
-        " at budget 2 (warm-contextual at 2); at budgets 1 and 4 none does."
+        "**Verdict:** warm-started CMA-ES beats cold CMA-ES beyond the noise floor (Holm p < 0.05,"
+        " over the tasks, for the study's trained designers) at budget 2 (warm-contextual at 2: "
+        f"{seeds} of 1 training seeds beyond the floor); at budgets 1 and 4 none of the "
+        "designers tested does."
     )
     _verdict_edited(report, {("warm-sac", 4): 0.001, ("warm-contextual", 4): 0.02})
-    assert verdict() == (
-        "**Verdict:** warm-started CMA-ES beats cold CMA-ES beyond the noise floor (Holm p < 0.05)"
-        " at budgets 2 and 4 (warm-contextual at 2 and 4; warm-sac at 4); at budget 1 none does."
-    )
+    assert "at budgets 2 and 4 (warm-contextual at 2: " in verdict()
+    assert verdict().endswith("; at budget 1 none of the designers tested does.")
     _verdict_edited(report, {("warm-ppo", 1): 0.04})
-    assert verdict().endswith(
-        "at budgets 1, 2 and 4 (warm-contextual at 2 and 4; warm-ppo at 1; warm-sac at 4), every "
-        "budget of the study."
-    )
-    # The row's decision, not its p alone, is what the words follow.
+    assert verdict().endswith("training seeds beyond the floor), every budget of the study.")
+    # A row without a p (fewer than 2 tasks) is not a test: named apart, not counted.
     table = pd.read_csv(report / "warm_vs_cold.csv")
     table["beats_cold"] = False
+    table.loc[table["budget"] == 4, ["p", "p_holm"]] = math.nan
     table.to_csv(report / "warm_vs_cold.csv", index=False)
-    assert verdict().startswith("**Verdict:** no warm-started designer beats cold CMA-ES")
-    # A table with a value that is not a decision is refused.
-    table["beats_cold"] = "maybe"
+    assert verdict().startswith(
+        "**Verdict:** no warm-started designer beats cold CMA-ES beyond the noise floor at any "
+        "budget tested (1 and 2): Holm p >= 0.05 in all 6 tests"
+    )
+    assert verdict().endswith(
+        "; not tested (fewer than 2 tasks with both runs): warm-contextual at 4; warm-ppo at 4; "
+        "warm-sac at 4."
+    )
+    table[["p", "p_holm"]] = math.nan
     table.to_csv(report / "warm_vs_cold.csv", index=False)
-    with pytest.raises(ValueError, match="beats_cold must be True or False, got 'maybe'"):
-        verdict()
+    assert verdict().startswith("**Verdict:** no test was made")
+    assert "Holm p >= 0.05 in all" not in verdict()
+    # A table with a value that is not a decision is refused, an empty cell too.
+    for bad, shown in (("maybe", "'maybe'"), (math.nan, "nan")):
+        table["beats_cold"] = bad
+        table.to_csv(report / "warm_vs_cold.csv", index=False)
+        with pytest.raises(ValueError, match=f"beats_cold must be True or False, got {shown}"):
+            verdict()
 
 
 @pytest.mark.slow
@@ -334,13 +365,26 @@ def test_the_amortization_words_follow_the_table(breakeven_smoke: Path, tmp_path
 
 @pytest.mark.slow
 def test_a_folder_without_its_report_gets_one_rebuilt_not_simulated(
-    breakeven_smoke: Path, rl_smoke: Path, tmp_path: Path
+    breakeven_smoke: Path, rl_smoke: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     whole = _root(tmp_path / "whole", suite=rl_smoke, breakeven=breakeven_smoke)
     bare = _root(tmp_path / "bare", suite=rl_smoke, breakeven=breakeven_smoke)
     for folder in (SUITE_FOLDER, BREAKEVEN_FOLDER):
         shutil.rmtree(bare / folder / "report")
-    before, after = render_blocks(whole), render_blocks(bare)
+
+    def blocks(root: Path) -> dict[str, str]:
+        page = root / PAGE
+        return {
+            "rl-suite": render_suite_block(root / SUITE_FOLDER, page=page, root=root),
+            "breakeven": render_breakeven_block(root / BREAKEVEN_FOLDER, page=page, root=root),
+        }
+
+    # The rebuilt reports go to a temporary folder that is gone once the block is rendered.
+    scratch = tmp_path / "scratch"
+    scratch.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(scratch))
+    before, after = blocks(whole), blocks(bare)
+    assert list(scratch.iterdir()) == []
     for name in ("rl-suite", "breakeven"):
         assert "It has no `report/`" in after[name] and "![" not in after[name]
         # The same numbers; only the links to the missing report and figures are left out.
@@ -362,14 +406,18 @@ def test_a_missing_folder_gets_the_pending_text_without_numbers(tmp_path: Path) 
         assert blocks[name].lstrip().startswith("**Pending:**"), name
         assert not re.search(r"\d", blocks[name]), blocks[name]
     assert "the square section's results are below" in blocks["rl-suite"]
-    assert "`docs/results/breakeven/`, is not committed yet" in blocks["breakeven"]
+    assert "is not committed yet (its folder: `docs/results/breakeven/`)" in blocks["breakeven"]
+    assert "computing" not in blocks["breakeven"] + blocks["rl-suite"]
     not_done = blocks["rl-not-done"]
     assert not_done.count("\n- ") == 2 and "docs/results/rl/" in not_done
+    # A full run at today's defaults takes its item off the list.
     rl_folder = root / SUITE_FOLDER
     rl_folder.mkdir(parents=True)
-    assert "docs/results/rl/" not in render_not_done_block(
-        rl_folder, root / BREAKEVEN_FOLDER, root=root
-    )
+    config = {"size": {"name": "full"}, "section_shape": "round", "merge_fixed_links": True}
+    manifest = {"extra": {"kind": "rl-suite"}, "config": config}
+    (rl_folder / "manifest.json").write_text(json.dumps(manifest))
+    not_done = render_not_done_block(rl_folder, root / BREAKEVEN_FOLDER, root=root)
+    assert "docs/results/rl/" not in not_done and "docs/results/breakeven/" in not_done
 
 
 @pytest.mark.parametrize("kind", ["empty", "file", "other-kind", "not-json"])
@@ -423,11 +471,100 @@ def test_markers_round_trip_and_refuse_what_is_not_one_block() -> None:
 
 
 @pytest.mark.slow  # imports the studies (seconds)
-def test_the_kinds_and_level_are_the_studies_own() -> None:
-    from benchmarks.reports.breakeven import ALPHA
+def test_the_kinds_and_old_defaults_are_the_studies_own() -> None:
     from benchmarks.rl.breakeven import BREAKEVEN_KIND
-    from benchmarks.rl.suite import RL_SUITE_KIND
+    from benchmarks.rl.suite import ADDED_FIELDS, RL_SUITE_KIND
 
     assert rl_page.SUITE_KIND == RL_SUITE_KIND
     assert rl_page.BREAKEVEN_KIND == BREAKEVEN_KIND
-    assert rl_page.ALPHA == ALPHA
+    assert rl_page.ADDED_FIELDS == ADDED_FIELDS
+
+
+@pytest.mark.parametrize(
+    ("folder", "kind", "config", "differs"),
+    [
+        (
+            BREAKEVEN_FOLDER,
+            "rl-breakeven",
+            {"size": {"name": "smoke"}},
+            "size 'smoke', expected 'full'",
+        ),
+        (
+            SUITE_FOLDER,
+            "rl-suite",
+            {"size": {"name": "full"}, "section_shape": "square"},
+            "section_shape 'square', expected 'round'",
+        ),
+        (
+            SUITE_FOLDER,
+            "rl-suite",
+            {"size": {"name": "full"}, "section_shape": "round", "merge_fixed_links": False},
+            "merge_fixed_links False, expected True",
+        ),
+        # A folder from before the fields reads as the square section and the 13-link arm.
+        (SUITE_FOLDER, "rl-suite", {"size": {"name": "full"}}, "section_shape 'square'"),
+    ],
+    ids=["smoke-size", "square-section", "13-link-arm", "old-config"],
+)
+def test_only_a_full_run_at_todays_defaults_counts_as_committed(
+    folder: Path,
+    kind: str,
+    config: dict[str, object],
+    differs: str,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    root = _root(tmp_path)
+    target = root / folder
+    target.mkdir(parents=True)
+    (target / "manifest.json").write_text(json.dumps({"extra": {"kind": kind}, "config": config}))
+    # Neither the blocks nor the "not done" list take it for the committed run.
+    for render in (
+        lambda: render_blocks(root),
+        lambda: render_not_done_block(root / SUITE_FOLDER, root / BREAKEVEN_FOLDER, root=root),
+    ):
+        with pytest.raises(ValueError) as excinfo:
+            render()
+        message = str(excinfo.value)
+        assert "\n" not in message and str(target) in message and differs in message, message
+    assert rl_page.main(["--root", str(root)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and differs in err[0], err
+    assert (root / PAGE).read_bytes() == (ROOT / PAGE).read_bytes()
+
+
+def test_a_page_that_is_not_utf8_or_lacks_a_marker_is_one_line_naming_it(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    root = _root(tmp_path)
+    page = root / PAGE
+    page.write_bytes(b"\xff\xfe not UTF-8")
+    assert rl_page.main(["--root", str(root)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"{page} is not UTF-8 text" in err[0], err
+    start, _ = markers("breakeven")
+    page.write_text((ROOT / PAGE).read_text(encoding="utf-8").replace(start, ""))
+    for argv in (["--root", str(root)], ["--root", str(root), "--check"]):
+        assert rl_page.main(argv) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and f"{page}: expected exactly one {start}" in err[0], err
+
+
+@pytest.mark.slow  # loads the protocol's references (seconds)
+def test_the_pages_round_section_floors_are_the_measured_ones() -> None:
+    from benchmarks.cli.rl_page import round_section_floors
+    from benchmarks.rl.suite import NOISE_FLOOR
+
+    page = " ".join((ROOT / PAGE).read_text(encoding="utf-8").split())
+    project, protocol = round_section_floors()
+    assert "1.5 % of F" in page and NOISE_FLOOR == 0.015
+    assert f"the project's median relative floor, {100 * project:.2f} % of |F|" in page
+    medians = ", ".join(f"{100 * v:.2f} %" for v in list(protocol.values())[:-1])
+    last = f"{100 * list(protocol.values())[-1]:.2f} %"
+    degrees = list(protocol)
+    assert (
+        f"the full protocol references' median floors, {medians} and {last} of F_ref at d = "
+        f"{', '.join(map(str, degrees[:-1]))} and {degrees[-1]}" in page
+    )
+    # The square section's floor is the larger: it is a conservative bound at the round one.
+    assert max(project, *protocol.values()) < NOISE_FLOOR

@@ -25,12 +25,13 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, cast
 
+from benchmarks.reports import markdown
 from tooldesign_env.schema import METRICS
 
 __all__ = ["BLOCK_END", "BLOCK_START", "add_parser", "measure", "render_block", "replace_block"]
 
-BLOCK_START = "<!-- readme-numbers:start -->"
-BLOCK_END = "<!-- readme-numbers:end -->"
+BLOCK_NAME = "readme-numbers"
+BLOCK_START, BLOCK_END = markdown.block_markers(BLOCK_NAME)
 NUMBERS_FILE = "readme.json"
 IMAGES = {
     "fig3d_final_tool.png": "designed_tool.png",
@@ -88,20 +89,16 @@ def replace_block(text: str, block: str) -> str:
     Raises:
         ValueError: the markers are missing, repeated or out of order.
     """
-    if text.count(BLOCK_START) != 1 or text.count(BLOCK_END) != 1:
-        raise ValueError(f"expected exactly one {BLOCK_START} and one {BLOCK_END}")
-    head, rest = text.split(BLOCK_START)
-    if BLOCK_END not in rest:
-        raise ValueError(f"{BLOCK_END} comes before {BLOCK_START}")
-    _, tail = rest.split(BLOCK_END)
-    return f"{head}{BLOCK_START}\n{block}{BLOCK_END}{tail}"
+    return markdown.replace_block(text, BLOCK_NAME, block)
 
 
 def current_block(text: str) -> str:
-    """The part between the markers (exclusive, without the newline after the start marker)."""
-    if text.count(BLOCK_START) != 1 or text.count(BLOCK_END) != 1:
-        raise ValueError(f"expected exactly one {BLOCK_START} and one {BLOCK_END}")
-    return text.split(BLOCK_START)[1].split(BLOCK_END)[0].removeprefix("\n")
+    """The part between the markers (exclusive, without the newline after the start marker).
+
+    Raises:
+        ValueError: the markers are missing, repeated or out of order.
+    """
+    return markdown.current_block(text, BLOCK_NAME)
 
 
 def _terms(info: Mapping[str, Any]) -> dict[str, Any]:

@@ -14,10 +14,15 @@ and the page's "What is not done" list says which of them is still missing (the 
 Each block is rendered from the folder's ``report/`` (``summary.json`` and the CSV tables that
 :func:`benchmarks.reports.rl.make_rl_report` and
 :func:`benchmarks.reports.breakeven.make_breakeven_report` write); a folder without its report
-gets one rebuilt into a temporary folder from its stored evaluations (nothing is simulated). A
-folder that does not exist gets a short paragraph saying that its run is pending, with no
-number. Every sentence that judges (which budgets warm beats cold at, how often a zero-shot
-design is better than CMA-ES) is worded from the numbers, never written by hand.
+gets one rebuilt into a temporary folder from its stored evaluations (nothing is simulated; the
+folder is removed once the block is written). A folder that does not exist gets a short
+paragraph saying that its run is not committed yet, with no number; a folder that exists must
+be the run the page quotes, a ``full`` run at today's tool section and hand as its manifest
+records them (:func:`committed`), or the command stops with one line naming it and what
+differs. The verdict's words, its table and the description of its test are
+:mod:`benchmarks.reports.breakeven`'s, the ones ``breakeven.md`` prints. Every sentence that
+judges (which budgets warm beats cold at, how often a zero-shot design is better than CMA-ES)
+is worded from the numbers, never written by hand.
 ``tests/test_rl_page.py`` checks that the committed page holds what the committed folders
 render to.
 
@@ -32,13 +37,18 @@ import math
 import os
 import sys
 import tempfile
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, cast
+
+from benchmarks.reports import markdown
+from benchmarks.reports.markdown import markdown_table
 
 __all__ = [
     "BLOCKS",
     "PAGE",
+    "committed",
     "current_block",
     "main",
     "markers",
@@ -49,7 +59,7 @@ __all__ = [
     "render_page",
     "render_suite_block",
     "replace_block",
-    "verdict_sentence",
+    "round_section_floors",
 ]
 
 #: The page, relative to the repository.
@@ -65,8 +75,11 @@ BLOCKS: tuple[str, ...] = ("rl-suite", "breakeven", "rl-not-done")
 #: import of the simulation; a test checks that they agree).
 SUITE_KIND = "rl-suite"
 BREAKEVEN_KIND = "rl-breakeven"
-#: The Holm-corrected level of the break-even verdict (``benchmarks.reports.breakeven.ALPHA``).
-ALPHA = 0.05
+#: The size of a committed run (the page's results are the `full` runs').
+COMMITTED_SIZE = "full"
+#: What a run folder's config without the fields means (``benchmarks.rl.suite.ADDED_FIELDS``,
+#: spelled out like the kinds; a test checks that they agree).
+ADDED_FIELDS: dict[str, Any] = {"section_shape": "square", "merge_fixed_links": False}
 
 _LABELS = {
     "random": "random sampling",
@@ -91,38 +104,29 @@ def markers(name: str) -> tuple[str, str]:
     """
     if name not in BLOCKS:
         raise ValueError(f"unknown block {name!r}; choose from {', '.join(BLOCKS)}")
-    return f"<!-- {name}:start -->", f"<!-- {name}:end -->"
-
-
-def _split(text: str, name: str) -> tuple[str, str, str]:
-    start, end = markers(name)
-    if text.count(start) != 1 or text.count(end) != 1:
-        raise ValueError(f"expected exactly one {start} and one {end}")
-    head, rest = text.split(start)
-    if end not in rest:
-        raise ValueError(f"{end} comes before {start}")
-    body, tail = rest.split(end)
-    return head, body, tail
+    return markdown.block_markers(name)
 
 
 def current_block(text: str, name: str) -> str:
     """The text between block ``name``'s markers (exclusive, without the newline after start).
 
     Raises:
-        ValueError: the markers are missing, repeated or out of order.
+        ValueError: ``name`` is not a block of the page, or its markers are missing, repeated
+            or out of order.
     """
-    return _split(text, name)[1].removeprefix("\n")
+    markers(name)
+    return markdown.current_block(text, name)
 
 
 def replace_block(text: str, name: str, block: str) -> str:
     """``text`` with the part between block ``name``'s markers replaced by ``block``.
 
     Raises:
-        ValueError: the markers are missing, repeated or out of order.
+        ValueError: ``name`` is not a block of the page, or its markers are missing, repeated
+            or out of order.
     """
-    head, _, tail = _split(text, name)
-    start, end = markers(name)
-    return f"{head}{start}\n{block}{end}{tail}"
+    markers(name)
+    return markdown.replace_block(text, name, block)
 
 
 # --- reading the folders --------------------------------------------------------------------
@@ -143,17 +147,21 @@ def _manifest(folder: Path, kind: str, what: str) -> dict[str, Any]:
     return manifest
 
 
-def _tables(folder: Path, names: Sequence[str], rebuild: Callable[[Path, Path], object]) -> Path:
+@contextmanager
+def _tables(
+    folder: Path, names: Sequence[str], rebuild: Callable[[Path, Path], object]
+) -> Iterator[Path]:
     """The folder's report folder, or one rebuilt into a temporary folder if a table is missing.
 
-    The temporary folder lives as long as the process (the blocks are rendered once).
+    The temporary folder is removed when the block is rendered.
     """
     report = folder / "report"
     if all((report / name).is_file() for name in names):
-        return report
-    out = Path(tempfile.mkdtemp(prefix="rl-page-report-"))
-    rebuild(folder, out)
-    return out
+        yield report
+        return
+    with tempfile.TemporaryDirectory(prefix="rl-page-report-") as out:
+        rebuild(folder, Path(out))
+        yield Path(out)
 
 
 def _read_json(path: Path) -> dict[str, Any]:
@@ -220,10 +228,20 @@ def _figure(folder: Path, page: Path, name: str, alt: str) -> list[str]:
     return [f"![{alt}]({_link(folder, page)}/report/{name})", ""]
 
 
+def _setting(config: Mapping[str, Any]) -> tuple[str, bool]:
+    """The tool's section and whether the hand is merged, as a run recorded them.
+
+    Folders from before the fields read as the old defaults, as the suite reads them
+    (``benchmarks.rl.suite.ADDED_FIELDS``: a test checks that they agree).
+    """
+    section = config.get("section_shape", ADDED_FIELDS["section_shape"])
+    merged = config.get("merge_fixed_links", ADDED_FIELDS["merge_fixed_links"])
+    return str(section), bool(merged)
+
+
 def _setting_words(config: Mapping[str, Any]) -> str:
     """The tool's section and the arm a run recorded (folders from before the fields: old)."""
-    section = config.get("section_shape", "square")
-    merged = config.get("merge_fixed_links", False)
+    section, merged = _setting(config)
     arm = "the merged hand" if merged else "the 13-link arm"
     return f"the {section} section and {arm}"
 
@@ -248,16 +266,6 @@ def _provenance(manifest: Mapping[str, Any]) -> str:
     return f"commit {commit}{dirty}{took}"
 
 
-def _markdown(header: Sequence[str], rows: Iterable[Sequence[Any]]) -> list[str]:
-    def cell(value: Any) -> str:
-        return str(value).replace("|", "\\|").replace("\n", " ")
-
-    lines = ["| " + " | ".join(cell(h) for h in header) + " |"]
-    lines.append("|" + "|".join("---" for _ in header) + "|")
-    lines += ["| " + " | ".join(cell(c) for c in row) + " |" for row in rows]
-    return lines
-
-
 def _finite(value: Any) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
@@ -275,9 +283,9 @@ def _counted(items: Sequence[str]) -> str:
 def _pending_suite(shown: str) -> str:
     return (
         "**Pending:** the rerun of the rl suite at today's defaults (the round section and the "
-        "merged hand; `tooldesign bench rl --size full`) is computing, and its folder, "
-        f"`{shown}/`, is not committed yet. This section has no numbers until it is; the square "
-        "section's results are below.\n"
+        "merged hand; `tooldesign bench rl --size full`) is not committed yet (its folder: "
+        f"`{shown}/`). This section has no numbers until it is; the square section's results "
+        "are below.\n"
     )
 
 
@@ -325,7 +333,7 @@ def _fixed_lines(fixed: Mapping[str, Any], floor: float, folder: Path, page: Pat
                     cell += f": {change}"
             cells.append(cell)
         body.append(cells)
-    lines += _markdown(["episodes", *(_LABELS.get(m, m) for m in methods)], body)
+    lines += markdown_table(["episodes", *(_LABELS.get(m, m) for m in methods)], body)
     tested = [r for r in records if _finite(r.get("p_holm"))]
     if tested:
         others = [m for m in methods if any(str(r["method"]) == m for r in tested)]
@@ -347,7 +355,7 @@ def _fixed_lines(fixed: Mapping[str, Any], floor: float, folder: Path, page: Pat
                 text = f"A12 {r['a12']:.2f}, p {r['p_holm']:.3g}"
                 cells.append(f"**{text}**" if r.get("significant") else text)
             rows.append(cells)
-        lines += _markdown(["episodes", *(_LABELS.get(m, m) for m in others)], rows)
+        lines += markdown_table(["episodes", *(_LABELS.get(m, m) for m in others)], rows)
     last = episodes[-1]
     words = []
     for method in methods:
@@ -472,7 +480,7 @@ def _held_out_lines(
                 r.get(f"vs_cmaes_{equal}") or "",
             ]
         )
-    lines += _markdown(
+    lines += markdown_table(
         [
             "approach",
             "episodes in total",
@@ -530,8 +538,16 @@ def render_suite_block(folder: Path, *, page: Path, root: Path, tables: Path | N
     if not folder.exists():
         return _pending_suite(shown)
     manifest = _manifest(folder, SUITE_KIND, "an rl suite run folder")
+    if tables is not None:
+        return _suite_block(folder, manifest, tables, page=page, shown=shown)
+    with _tables(folder, ["summary.json"], _rebuild_suite) as report:
+        return _suite_block(folder, manifest, report, page=page, shown=shown)
+
+
+def _suite_block(
+    folder: Path, manifest: Mapping[str, Any], report: Path, *, page: Path, shown: str
+) -> str:
     config = manifest["config"]
-    report = tables if tables is not None else _tables(folder, ["summary.json"], _rebuild_suite)
     source = report / "summary.json"
     summary = _read_json(source)
     size = _need(summary, "size", source)
@@ -546,8 +562,9 @@ def render_suite_block(folder: Path, *, page: Path, root: Path, tables: Path | N
         f"`{shown}/` is the run folder of `tooldesign bench rl --size {size['name']}`, made "
         f"with {_setting_words(config)} ({_provenance(manifest)}): "
         f"{int(_need(summary, 'episodes', source)):,} episodes{tally}. "
-        f"{_report_words(folder, page, shown, 'rl.md', report)} Differences of F below "
-        f'{_percent(floor)} (the suite\'s noise floor) are "within the noise floor".',
+        f"{_report_words(folder, page, shown, 'rl.md', report)}",
+        "",
+        _suite_floor_words(floor, _setting(config)[0]),
         "",
     ]
     if "fixed_goal" in summary:
@@ -556,6 +573,59 @@ def render_suite_block(folder: Path, *, page: Path, root: Path, tables: Path | N
         if part in summary:
             lines += _held_out_lines(part, summary[part], size, floor, folder, page)
     return "\n".join(lines).rstrip("\n") + "\n"
+
+
+def round_section_floors() -> tuple[float, dict[int, float]]:
+    """The round section's measured relative noise floors of F, as fractions of |F|.
+
+    Returns:
+        The project's median relative floor (the equivalence reference's,
+        :func:`benchmarks.suites.equivalence.median_relative_floor`), and the median over the
+        committed full protocol references' cells of noise floor / |F_ref|, per degree d.
+
+    Raises:
+        ValueError: a reference is missing or holds no floor.
+    """
+    from benchmarks.protocol.references import load_references, packaged_references
+    from benchmarks.suites.equivalence import median_relative_floor
+
+    path = packaged_references("full")
+    if path is None:
+        raise ValueError("the full protocol references are not packaged: no floor to quote")
+    by_degree: dict[int, list[float]] = {}
+    for (_, degree), cell in load_references(path).items():
+        by_degree.setdefault(int(degree), []).append(
+            float(cell["noise_floor"]) / abs(float(cell["f_ref"]))
+        )
+    medians = {d: _median(values) for d, values in sorted(by_degree.items())}
+    return median_relative_floor(), medians
+
+
+def _suite_floor_words(floor: float, section: str) -> str:
+    """What the suite's noise floor is, and whose: the square section's, also at the round one."""
+    words = (
+        f'Differences of F below {_percent(floor)} of F are "within the noise floor" '
+        "(`NOISE_FLOOR` of `benchmarks/rl/suite.py`): the square section's floor, where a "
+        "0.1 mm nudge of the box moves F by a median 1.4-1.6 % ([the "
+        "model](model.md#the-objective-objectivespec))"
+    )
+    if section != "round":
+        return words + "."
+    project, protocol = round_section_floors()
+    measured = (
+        f"the project's median relative floor, {_percent(project, 2)} of |F| (the equivalence "
+        "reference's), and the full protocol references' median floors, "
+        + _counted([_percent(v, 2) for v in protocol.values()])
+        + f" of F_ref at d = {_counted([str(d) for d in protocol])}"
+    )
+    if max([project, *protocol.values()]) < floor:
+        return (
+            f"{words}. This run is of the round section, whose measured floors are smaller "
+            f"({measured}); the square section's floor is kept as a conservative bound, so "
+            "fewer differences are called beyond the noise floor than a round-section floor "
+            "would call."
+        )
+    return f"{words}. This run is of the round section, whose measured floors are {measured}."
 
 
 # --- the break-even study -------------------------------------------------------------------
@@ -572,7 +642,7 @@ _BREAKEVEN_TABLES = (
 def _pending_breakeven(shown: str) -> str:
     return (
         "**Pending:** the break-even study's `full` run (`tooldesign rl breakeven --size full`) "
-        f"is computing, and its folder, `{shown}/`, is not committed yet. Until it is, this page "
+        f"is not committed yet (its folder: `{shown}/`). Until it is, this page "
         "has no result of the study: whether a warm-started designer beats cold CMA-ES on "
         "held-out goals, and after how many goals a learned designer's training pays for "
         "itself, are open.\n"
@@ -602,98 +672,6 @@ def _budgets_words(budgets: Sequence[int]) -> str:
     return _counted([str(b) for b in budgets])
 
 
-def _verdict_lines(verdict: Any) -> list[str]:
-    """The verdict table and its sentence, worded from ``beats_cold`` and ``p_holm``."""
-    rows = []
-    for r in verdict.sort_values(["budget", "method"], kind="stable").itertuples():
-        interval = (
-            f"[{r.ci_low:.2f}, {r.ci_high:.2f}]"
-            if _finite(r.ci_low) and _finite(r.ci_high) and r.ci_low != r.ci_high
-            else "n/a"
-        )
-        rows.append(
-            [
-                int(r.budget),
-                r.method,
-                f"{int(r.pairs)} ({int(r.tasks)})",
-                f"{r.mean_floors:.2f}" if _finite(r.mean_floors) else "n/a",
-                interval,
-                f"{r.median_floors:.2f}" if _finite(r.median_floors) else "n/a",
-                f"{r.p_holm:.3g}" if _finite(r.p_holm) else "n/a",
-                "yes" if _truth(r.beats_cold) else "no",
-            ]
-        )
-    lines = _markdown(
-        [
-            "budget",
-            "warm-started",
-            "pairs (tasks)",
-            "mean warm - cold (floors)",
-            "95 % interval",
-            "median (floors)",
-            "p (Holm, one-sided)",
-            "beats cold",
-        ],
-        rows,
-    )
-    return [*lines, "", verdict_sentence(verdict)]
-
-
-def _truth(value: Any) -> bool:
-    """A stored boolean: ``True``/``False`` as read back from CSV (bool or the strings)."""
-    if isinstance(value, str):
-        if value not in ("True", "False"):
-            raise ValueError(f"beats_cold must be True or False, got {value!r}")
-        return value == "True"
-    return bool(value)
-
-
-def verdict_sentence(verdict: Any) -> str:
-    """Which budgets a warm-started designer beats cold CMA-ES at, in words, from the table.
-
-    Args:
-        verdict: ``warm_vs_cold.csv`` as a frame (``method``, ``budget``, ``p_holm``,
-            ``beats_cold``).
-    """
-    if len(verdict) == 0:
-        return (
-            "**Verdict:** the study has no warm-started run to compare with cold CMA-ES, so it "
-            "does not answer the question."
-        )
-    budgets = sorted({int(b) for b in verdict["budget"]})
-    wins = verdict[[_truth(v) for v in verdict["beats_cold"]]]
-    tests = len(verdict)
-    if len(wins) == 0:
-        finite = verdict[[_finite(p) for p in verdict["p_holm"]]]
-        smallest = ""
-        if len(finite):
-            best = finite.loc[finite["p_holm"].idxmin()]
-            smallest = (
-                f"; the smallest, {best['p_holm']:.3g}, is {best['method']}'s at budget "
-                f"{int(best['budget'])}"
-            )
-        return (
-            "**Verdict:** no warm-started designer beats cold CMA-ES beyond the noise floor at "
-            f"any budget ({_budgets_words(budgets)}): Holm p >= {ALPHA:g} in all {tests} tests"
-            f"{smallest}."
-        )
-    won = sorted({int(b) for b in wins["budget"]})
-    lost = [b for b in budgets if b not in won]
-    who = "; ".join(
-        f"{method} at {_budgets_words(sorted(int(b) for b in rows['budget']))}"
-        for method, rows in wins.groupby("method", sort=True)
-    )
-    words = (
-        f"**Verdict:** warm-started CMA-ES beats cold CMA-ES beyond the noise floor (Holm p < "
-        f"{ALPHA:g}) at budget{'s' if len(won) > 1 else ''} {_budgets_words(won)} ({who})"
-    )
-    if lost:
-        words += f"; at budget{'s' if len(lost) > 1 else ''} {_budgets_words(lost)} none does"
-    else:
-        words += ", every budget of the study"
-    return words + "."
-
-
 def _amortization_lines(amortization: Any) -> list[str]:
     if len(amortization) == 0:
         return ["The study has no learned method or no budget above 1: nothing to amortize."]
@@ -707,7 +685,7 @@ def _amortization_lines(amortization: Any) -> list[str]:
             r = at.get((method, budget))
             cells.append("" if r is None else _pays(r))
         body.append(cells)
-    lines = _markdown(
+    lines = markdown_table(
         ["method", "training episodes", *(f"B = {b}" for b in budgets)],
         body,
     )
@@ -796,12 +774,24 @@ def render_breakeven_block(
     if not folder.exists():
         return _pending_breakeven(shown)
     manifest = _manifest(folder, BREAKEVEN_KIND, "a break-even run folder")
-    config = manifest["config"]
-    report = (
-        tables if tables is not None else _tables(folder, _BREAKEVEN_TABLES, _rebuild_breakeven)
-    )
-    from benchmarks.reports.breakeven import WARM_COLD_COLUMNS, results_rows
+    if tables is not None:
+        return _breakeven_block(folder, manifest, tables, page=page, shown=shown)
+    with _tables(folder, _BREAKEVEN_TABLES, _rebuild_breakeven) as report:
+        return _breakeven_block(folder, manifest, report, page=page, shown=shown)
 
+
+def _breakeven_block(
+    folder: Path, manifest: Mapping[str, Any], report: Path, *, page: Path, shown: str
+) -> str:
+    from benchmarks.reports.breakeven import (
+        WARM_COLD_COLUMNS,
+        results_rows,
+        verdict_markdown,
+        verdict_sentence,
+        verdict_test_text,
+    )
+
+    config = manifest["config"]
     summary = _read_json(report / "summary.json")
     regret = _read_csv(report / "regret.csv", ["method", "budget", "mean", "ci_low", "ci_high"])
     verdict = _read_csv(report / "warm_vs_cold.csv", WARM_COLD_COLUMNS)
@@ -820,6 +810,8 @@ def render_breakeven_block(
     tasks = config.get("tasks", [])
     held_out = sum(1 for t in tasks if t.get("set") == "held-out")
     budgets = sorted({int(b) for b in regret["budget"]})
+    study_budgets = [int(b) for b in size.get("budgets", budgets)]
+    tests = int(sum(_finite(p) for p in verdict["p_holm"]))
     lines = [
         f"`{shown}/` is the run folder of `tooldesign rl breakeven --size {size['name']}`, "
         f"made with {_setting_words(config)} ({_provenance(manifest)}): "
@@ -837,15 +829,15 @@ def render_breakeven_block(
         "is the best design the study found at the task, 1 random sampling's expected best at "
         "the same budget.",
         "",
-        *_markdown(["method", *(str(b) for b in budgets)], results_rows(regret)),
+        *markdown_table(["method", *(str(b) for b in budgets)], results_rows(regret)),
         "",
         *_figure(folder, page, "regret.png", "Normalized regret per budget"),
-        "**Warm-started against cold CMA-ES** (`warm_vs_cold.csv`): per pair (task, replicate), "
-        "best F so far, warm minus cold, in noise floors of the task; the one-sided Wilcoxon "
-        "signed-rank test that warm is lower by more than one floor, Holm-corrected over every "
-        f"row (warm beats cold where Holm p < {ALPHA:g}).",
+        "**Warm-started against cold CMA-ES** (`warm_vs_cold.csv`). "
+        + verdict_test_text(int(size["replicates"]), tests),
         "",
-        *_verdict_lines(verdict),
+        *verdict_markdown(verdict),
+        "",
+        verdict_sentence(verdict, budgets=study_budgets, methods=config.get("methods", [])),
         "",
         "**Amortization** (`amortization.csv`): against cold CMA-ES at budget B per goal, after "
         "how many goals the method's training episodes pay for themselves (with the per-goal "
@@ -862,22 +854,73 @@ def render_breakeven_block(
 # --- what is not done -----------------------------------------------------------------------
 
 
+def committed(folder: Path, *, kind: str, what: str) -> bool:
+    """Whether the page's run is committed at ``folder``: False if there is no folder.
+
+    A folder that is there must be the run the page quotes: a run folder of ``kind`` made at
+    size :data:`COMMITTED_SIZE` with today's tool section and hand (``ToolSpec().section_shape``,
+    ``SceneSpec().merge_fixed_links``), as its manifest's config records them (a config without
+    the fields reads as :data:`ADDED_FIELDS`). A smoke run or a square-section run committed in
+    its place would otherwise be quoted as the results at today's defaults.
+
+    Raises:
+        ValueError: the folder is not a run folder of ``kind``, or its size or setting differs
+            (one line naming the folder and what differs).
+    """
+    if not folder.exists():
+        return False
+    config = _manifest(folder, kind, what)["config"]
+    from tooldesign_env.geometry import ToolSpec
+    from tooldesign_env.specs import SceneSpec
+
+    size = config.get("size")
+    section, merged = _setting(config)
+    found = {
+        "size": size.get("name") if isinstance(size, dict) else size,
+        "section_shape": section,
+        "merge_fixed_links": merged,
+    }
+    expected = {
+        "size": COMMITTED_SIZE,
+        "section_shape": ToolSpec().section_shape,
+        "merge_fixed_links": SceneSpec().merge_fixed_links,
+    }
+    differs = [f"{k} {found[k]!r}, expected {v!r}" for k, v in expected.items() if found[k] != v]
+    if differs:
+        raise ValueError(
+            f"{folder} is not the committed run docs/rl.md quotes ({what} of size "
+            f"{COMMITTED_SIZE} at today's defaults): {'; '.join(differs)}"
+        )
+    return True
+
+
+def _committed_runs(suite: Path, breakeven: Path) -> tuple[bool, bool]:
+    return (
+        committed(suite, kind=SUITE_KIND, what="an rl suite run folder"),
+        committed(breakeven, kind=BREAKEVEN_KIND, what="a break-even run folder"),
+    )
+
+
 def render_not_done_block(suite: Path, breakeven: Path, *, root: Path) -> str:
     """The "What is not done" items that say which committed run is still missing.
 
     Returns:
         Markdown list items (possibly none), with blank lines around them.
+
+    Raises:
+        ValueError: a folder is there but is not the committed run (:func:`committed`).
     """
+    has_suite, has_breakeven = _committed_runs(suite, breakeven)
     items = []
-    if not suite.exists():
+    if not has_suite:
         items.append(
             "- The rl suite's rerun at today's defaults (the round section and the merged hand) "
-            f"is not committed (`{_shown(suite, root)}/`): the rl suite's results on this page "
-            "are the square section's and the 13-link arm's."
+            f"is not committed yet (`{_shown(suite, root)}/`): the rl suite's results on this "
+            "page are the square section's and the 13-link arm's."
         )
-    if not breakeven.exists():
+    if not has_breakeven:
         items.append(
-            "- The break-even study's `full` run is not committed "
+            "- The break-even study's `full` run is not committed yet "
             f"(`{_shown(breakeven, root)}/`): its results, the amortization curve and the answer "
             "to whether a warm-started designer beats cold CMA-ES on held-out goals are pending "
             "(the commands and the design are above)."
@@ -892,14 +935,16 @@ def render_blocks(root: Path) -> dict[str, str]:
     """Every block of the page, as it goes between its markers, from the folders under ``root``.
 
     Raises:
-        ValueError: a folder is not the run folder it should be, or its report is malformed.
+        ValueError: a folder is not the committed run it should be (:func:`committed`), or its
+            report is malformed.
     """
     page = root / PAGE
     suite, breakeven = root / SUITE_FOLDER, root / BREAKEVEN_FOLDER
+    not_done = render_not_done_block(suite, breakeven, root=root)  # checks both folders first
     blocks = {
         "rl-suite": render_suite_block(suite, page=page, root=root),
         "breakeven": render_breakeven_block(breakeven, page=page, root=root),
-        "rl-not-done": render_not_done_block(suite, breakeven, root=root),
+        "rl-not-done": not_done,
     }
     return {name: _padded(block) for name, block in blocks.items()}
 
@@ -908,11 +953,15 @@ def render_page(text: str, *, root: Path) -> str:
     """``text`` (the page) with its blocks rendered from the folders under ``root``.
 
     Raises:
-        ValueError: a block's markers are missing, or a folder is not the run folder it
-            should be.
+        ValueError: a block's markers are missing (the message names the page), or a folder
+            is not the committed run it should be.
     """
-    for name, block in render_blocks(root).items():
-        text = replace_block(text, name, block)
+    blocks = render_blocks(root)
+    try:
+        for name, block in blocks.items():
+            text = replace_block(text, name, block)
+    except ValueError as err:
+        raise ValueError(f"{root / PAGE}: {err}") from None
     return text
 
 
@@ -928,7 +977,8 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
         description=(
             "Write the results blocks of docs/rl.md from the committed run folders "
             "docs/results/rl and docs/results/breakeven (their report/ files; nothing is "
-            "simulated). A folder not committed yet gets a paragraph saying its run is pending."
+            "simulated). A folder not committed yet gets a paragraph saying so; a folder there "
+            "must be a full run at today's tool section and hand."
         ),
     )
     parser.add_argument(
@@ -953,7 +1003,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parse_args(argv)
     root = args.root.resolve()
     page = root / PAGE
-    text = page.read_text(encoding="utf-8")
+    try:
+        text = page.read_text(encoding="utf-8")
+    except UnicodeDecodeError as err:
+        print(f"rl_page: error: {page} is not UTF-8 text ({err.reason})", file=sys.stderr)
+        return 2
     try:
         new = render_page(text, root=root)
     except (ValueError, OSError) as exc:

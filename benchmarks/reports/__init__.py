@@ -2,6 +2,7 @@
 
 - :mod:`~benchmarks.reports.stats`: intervals of means (Student t, percentile bootstrap), tests
   and effect sizes (no files).
+- :mod:`~benchmarks.reports.markdown`: Markdown tables and the docs' generated blocks (no files).
 - :mod:`~benchmarks.reports.plots`: the shared figure helpers (tool shapes, box paths, PNG bytes).
 - :mod:`~benchmarks.reports.comparison`: the optimizer comparison of any run folder
   (convergence, summary, pairwise tests with the noise floor).

@@ -29,7 +29,12 @@ designs and the paired comparison, are the protocol's own code, which lives in
   is lower by more than one floor" (the task means plus 1 are below 0), Holm-corrected over
   every warm-started method at every budget as one family.
   Warm beats cold where Holm p < :data:`ALPHA`. Effect size: the mean over tasks with its
-  95 % t interval (over tasks), and the median over pairs.
+  95 % t interval (over tasks), and the median over pairs. Tasks and training seeds are
+  crossed (replicate k's designer, trained once, designs at every task), so the test is of the
+  study's trained designers on new tasks; beside it, ``replicates_beyond`` counts the
+  replicates whose mean over tasks is below -1 floor, the check of agreement across training
+  seeds. :func:`verdict_test_text`, :func:`verdict_markdown` and :func:`verdict_sentence` word
+  it for this report and for docs/rl.md alike.
 - **Paired tests of every pair** at each budget (secondary, not the verdict): the two-sided
   Wilcoxon signed-rank test of the per-task differences of normalized regret, Holm-corrected
   over the pairs of that budget only (:func:`benchmarks.reports.measures.paired_table`, the
@@ -46,7 +51,7 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, cast
 
@@ -54,6 +59,7 @@ import numpy as np
 import pandas as pd
 
 from benchmarks.reports.comparison import REPORT_DIR
+from benchmarks.reports.markdown import markdown_table
 from benchmarks.reports.measures import COMPARISON_COLUMNS, expected_best_of_random, paired_table
 from benchmarks.reports.plots import new_figure_grid, save_png
 from benchmarks.reports.stats import holm_bonferroni, t_interval
@@ -79,6 +85,12 @@ __all__ = [
     "TASK_FLOOR_COLUMNS",
     "TESTED",
     "WARM_COLD_COLUMNS",
+    "VERDICT_HEADER",
+    "beats_cold_value",
+    "verdict_markdown",
+    "verdict_row",
+    "verdict_sentence",
+    "verdict_test_text",
 ]
 
 #: Family-wise level of the paired tests (issue 36: Holm p < 0.05).
@@ -252,6 +264,8 @@ WARM_COLD_COLUMNS: tuple[str, ...] = (
     "ci_low",
     "ci_high",
     "median_floors",
+    "replicates",
+    "replicates_beyond",
     "p",
     "p_holm",
     "beats_cold",
@@ -348,6 +362,14 @@ def warm_cold_table(
     mean of z over tasks with its 95 % t interval over tasks, and the median of z over the
     pairs.
 
+    The tasks and the training seeds are crossed: replicate k's designer, trained once with
+    seed k, designs at every task, so the test over tasks is of these trained designers on new
+    tasks and leaves out the variance between training seeds (a test over seeds could not pass
+    Holm with 5 seeds: its smallest one-sided p is 1 / 32). The check of agreement across
+    training seeds is beside it: ``replicates_beyond``, how many of the ``replicates`` have
+    their mean of z over tasks below -1 (warm better beyond the floor for that trained
+    designer).
+
     Args:
         curves: :func:`regret_curves` of the study.
         budgets: The budgets to test.
@@ -380,6 +402,7 @@ def warm_cold_table(
                 z = (both["warm"] - both["cold"]) / floors.reindex(task).to_numpy()
                 z = z[np.isfinite(z.to_numpy(dtype=np.float64))]
                 by_task = z.groupby(level="task").mean().to_numpy(dtype=np.float64)
+                by_replicate = z.groupby(level="replicate").mean().to_numpy(dtype=np.float64)
                 interval = t_interval(by_task, 0.95)
                 d = by_task + 1.0
                 row: dict[str, Any] = {
@@ -391,6 +414,8 @@ def warm_cold_table(
                     "ci_low": interval.low,
                     "ci_high": interval.high,
                     "median_floors": float(np.median(z)) if z.size else math.nan,
+                    "replicates": int(by_replicate.size),
+                    "replicates_beyond": int(np.sum(by_replicate < -1.0)),
                 }
                 if d.size >= 2:
                     row["p"] = (
@@ -401,7 +426,9 @@ def warm_cold_table(
                 else:
                     row["p"] = math.nan
                 rows.append(row)
-    table = pd.DataFrame(rows, columns=list(WARM_COLD_COLUMNS[:9]))
+    table = pd.DataFrame(
+        rows, columns=[c for c in WARM_COLD_COLUMNS if c not in ("p_holm", "beats_cold")]
+    )
     table["p_holm"] = holm_bonferroni(table["p"].to_numpy(dtype=np.float64))
     table["beats_cold"] = (table["p_holm"] < ALPHA).astype(bool)
     return table[list(WARM_COLD_COLUMNS)]
@@ -600,12 +627,6 @@ def _cell(mean: float, low: float, high: float) -> str:
     return f"{mean:.3f} [{low:.3f}, {high:.3f}]"
 
 
-def _markdown(header: Sequence[str], rows: Iterable[Sequence[Any]]) -> list[str]:
-    lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
-    lines += ["| " + " | ".join(str(c).replace("|", "\\|") for c in row) + " |" for row in rows]
-    return lines
-
-
 def results_rows(table: pd.DataFrame) -> list[list[str]]:
     """The results table's rows: a method, then mean [95 % interval] per budget."""
     budgets = sorted(set(table["budget"]))
@@ -652,25 +673,6 @@ def _failed_sentence(failed: dict[str, int]) -> str:
     )
 
 
-def _verdict_row(r: Any) -> list[Any]:
-    """A row of the verdict table: a warm-started method against cold CMA-ES at a budget."""
-    low, high = r.ci_low, r.ci_high
-    interval = f"[{low:.2f}, {high:.2f}]" if math.isfinite(low) and low != high else "n/a"
-    mean = f"{r.mean_floors:.2f}" if math.isfinite(r.mean_floors) else "n/a"
-    median = f"{r.median_floors:.2f}" if math.isfinite(r.median_floors) else "n/a"
-    p_holm = f"{r.p_holm:.3g}" if math.isfinite(r.p_holm) else "n/a"
-    return [
-        int(r.budget),
-        r.method,
-        f"{int(r.pairs)} ({int(r.tasks)})",
-        mean,
-        interval,
-        median,
-        p_holm,
-        "yes" if r.beats_cold else "no",
-    ]
-
-
 def _pair_row(r: Any) -> list[Any]:
     """A row of the secondary table: one pair of methods at one budget (Holm per budget)."""
     interval = f"[{r.ci_low:.3f}, {r.ci_high:.3f}]" if math.isfinite(r.ci_low) else "n/a"
@@ -679,13 +681,213 @@ def _pair_row(r: Any) -> list[Any]:
     return [int(r.budget), r.a, r.b, int(r.n), diff, interval, p_holm]
 
 
-def _wins(verdict: pd.DataFrame) -> str:
-    wins = verdict[verdict["beats_cold"]]
-    if wins.empty:
-        return "no budget (no warm-started method)" if verdict.empty else "no budget"
-    return "; ".join(
-        f"{m} at {', '.join(str(b) for b in rows['budget'])}" for m, rows in wins.groupby("method")
+#: The verdict table's header, one row per warm-started method and budget (:func:`verdict_row`).
+VERDICT_HEADER: tuple[str, ...] = (
+    "budget",
+    "warm-started",
+    "pairs (tasks)",
+    "mean warm - cold (floors)",
+    "95 % interval",
+    "median (floors)",
+    "training seeds beyond",
+    "p (Holm, one-sided)",
+    "warm beats cold",
+)
+
+
+def _finite(value: Any) -> bool:
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        return False
+    return math.isfinite(float(value))
+
+
+def beats_cold_value(value: Any) -> bool:
+    """A stored ``beats_cold`` decision: a boolean, or ``"True"``/``"False"`` as read from CSV.
+
+    Raises:
+        ValueError: Anything else (an empty cell, NaN, a number, another word): a table that
+            is not the report's must not be read as a decision.
+    """
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, str) and value in ("True", "False"):
+        return value == "True"
+    raise ValueError(f"beats_cold must be True or False, got {value!r}")
+
+
+def verdict_row(r: Mapping[str, Any]) -> list[str]:
+    """A row of the verdict table (:data:`VERDICT_HEADER`), from a row of :func:`warm_cold_table`.
+
+    Args:
+        r: A row of ``warm_vs_cold.csv`` by column (:data:`WARM_COLD_COLUMNS`).
+
+    Raises:
+        ValueError: Its ``beats_cold`` is not a decision (:func:`beats_cold_value`).
+    """
+    low, high = r["ci_low"], r["ci_high"]
+    interval = (
+        f"[{low:.2f}, {high:.2f}]" if _finite(low) and _finite(high) and low != high else "n/a"
     )
+
+    def number(key: str, spec: str) -> str:
+        return format(r[key], spec) if _finite(r[key]) else "n/a"
+
+    return [
+        str(int(r["budget"])),
+        str(r["method"]),
+        f"{int(r['pairs'])} ({int(r['tasks'])})",
+        number("mean_floors", ".2f"),
+        interval,
+        number("median_floors", ".2f"),
+        f"{int(r['replicates_beyond'])} of {int(r['replicates'])}",
+        number("p_holm", ".3g"),
+        "yes" if beats_cold_value(r["beats_cold"]) else "no",
+    ]
+
+
+def verdict_markdown(verdict: pd.DataFrame) -> list[str]:
+    """The verdict table's lines, by budget then method (:data:`VERDICT_HEADER`)."""
+    rows = verdict.sort_values(["budget", "method"], kind="stable").to_dict("records")
+    return markdown_table(VERDICT_HEADER, [verdict_row(r) for r in rows])
+
+
+def _listed(items: Sequence[str]) -> str:
+    """``a``, ``a and b``, ``a, b and c``."""
+    if len(items) <= 1:
+        return "".join(items)
+    return f"{', '.join(items[:-1])} and {items[-1]}"
+
+
+def _at(budgets: Iterable[int]) -> str:
+    """``budget 4`` or ``budgets 1, 2 and 4``."""
+    ordered = sorted(set(budgets))
+    return f"budget{'s' if len(ordered) > 1 else ''} {_listed([str(b) for b in ordered])}"
+
+
+def verdict_test_text(replicates: int, tests: int) -> str:
+    """What the verdict's test is, in words: ``breakeven.md`` and ``docs/rl.md`` say it alike.
+
+    Args:
+        replicates: The study's replicates (training seeds), >= 1.
+        tests: The tests of the family (rows of :func:`warm_cold_table` with a p), >= 0.
+
+    Raises:
+        ValueError: ``replicates`` < 1 or ``tests`` < 0.
+    """
+    if isinstance(replicates, bool) or not isinstance(replicates, int) or replicates < 1:
+        raise ValueError(f"replicates must be a whole number >= 1, got {replicates!r}")
+    if isinstance(tests, bool) or not isinstance(tests, int) or tests < 0:
+        raise ValueError(f"tests must be a whole number >= 0, got {tests!r}")
+    seeds = f"{replicates} training seed{'s' if replicates > 1 else ''}"
+    text = (
+        "Per pair (task, replicate: the warm-started and the cold CMA-ES run share the CMA-ES "
+        "seed), best F so far at the budget, warm minus cold, in noise floors of the task (< 0: "
+        "warm is better). The unit of the test is the task (a task's replicates share its goal "
+        "and mass): the one-sided Wilcoxon signed-rank test over the tasks, each the mean of its "
+        "pairs, that warm's F is lower than cold's by more than one floor (the task means + 1 "
+        "below 0), Holm-corrected over every row of the table (one family); warm beats cold "
+        f"where Holm p < {ALPHA:g}. A row of fewer than 2 tasks is not tested. The tasks are new, "
+        "the designers are not drawn anew for each: replicate k's designer, trained once with "
+        "seed k, designs at every task, so the verdict is about the study's trained designers "
+        f"({seeds}) on new tasks and leaves out the variance between training seeds. "
+        'The check of agreement across training seeds is beside it: "training seeds beyond", '
+        "how many replicates have their mean over tasks below -1 floor (warm better beyond the "
+        "floor for that trained designer)"
+    )
+    smallest = 0.5**replicates
+    if tests and smallest * tests >= ALPHA:
+        text += (
+            f"; a test over the {seeds} could not pass the family's correction (its smallest "
+            f"one-sided p, 1 / 2^{replicates} = {smallest:.3g}, times the {tests} tests is not "
+            f"below {ALPHA:g})"
+        )
+    return (
+        text + ". Effect size: the mean over tasks with its 95 % t interval over tasks, and the "
+        "median over the pairs."
+    )
+
+
+def verdict_sentence(
+    verdict: pd.DataFrame, *, budgets: Iterable[int], methods: Iterable[str]
+) -> str:
+    """Which budgets a warm-started designer beats cold CMA-ES at, in words, from the table.
+
+    Only a row with a finite Holm p is a test; every (warm-started method, budget) of the study
+    without one is named apart as not tested. ``breakeven.md`` and ``docs/rl.md`` both print
+    this sentence.
+
+    Args:
+        verdict: :func:`warm_cold_table`, or ``warm_vs_cold.csv`` read back.
+        budgets: The study's budgets (its config's), tested or not.
+        methods: The study's methods (its config's): its cold CMA-ES (``cmaes``) and its
+            warm-started ones (``warm-*``).
+
+    Raises:
+        ValueError: A ``beats_cold`` that is not a decision (:func:`beats_cold_value`).
+    """
+    methods = [str(m) for m in methods]
+    decisions = [beats_cold_value(v) for v in verdict["beats_cold"]]
+    if "cmaes" not in methods:
+        return (
+            "**Verdict:** the study has no cold CMA-ES run (method `cmaes`) to compare the "
+            "warm-started designers with: it does not say whether one beats cold CMA-ES."
+        )
+    warm = sorted({m for m in methods if m.startswith("warm-")} | set(map(str, verdict["method"])))
+    if not warm:
+        return (
+            "**Verdict:** the study has no warm-started designer (a `warm-` method) to compare "
+            "with cold CMA-ES: it does not say whether one beats it."
+        )
+    study = sorted({int(b) for b in budgets} | {int(b) for b in verdict["budget"]})
+    rows = {
+        (str(r["method"]), int(r["budget"])): (r, won)
+        for r, won in zip(verdict.to_dict("records"), decisions, strict=True)
+    }
+    tested = {key: v for key, v in rows.items() if _finite(v[0]["p_holm"])}
+    untested = [(m, b) for m in warm for b in study if (m, b) not in tested]
+    wins = sorted((b, m) for (m, b), (_, won) in tested.items() if won)
+    tested_budgets = {b for _, b in tested}
+    if wins:
+        won_budgets = {b for b, _ in wins}
+        who = "; ".join(
+            f"{m} at {b}: {int(tested[(m, b)][0]['replicates_beyond'])} of "
+            f"{int(tested[(m, b)][0]['replicates'])} training seeds beyond the floor"
+            for b, m in wins
+        )
+        words = (
+            "**Verdict:** warm-started CMA-ES beats cold CMA-ES beyond the noise floor (Holm p "
+            f"< {ALPHA:g}, over the tasks, for the study's trained designers) at "
+            f"{_at(won_budgets)} ({who})"
+        )
+        lost = tested_budgets - won_budgets
+        if lost:
+            words += f"; at {_at(lost)} none of the designers tested does"
+        elif won_budgets == set(study):
+            words += ", every budget of the study"
+    elif tested:
+        p_min, method, budget = min((float(r["p_holm"]), m, b) for (m, b), (r, _) in tested.items())
+        if len(tested) > 1:
+            which = f"in all {len(tested)} tests; the smallest, {p_min:.3g}, is {method}'s"
+        else:
+            which = f"in its one test ({p_min:.3g}, {method}'s)"
+        words = (
+            "**Verdict:** no warm-started designer beats cold CMA-ES beyond the noise floor at "
+            f"any budget tested ({_listed([str(b) for b in sorted(tested_budgets)])}): Holm p >= "
+            f"{ALPHA:g} {which} at budget {budget}"
+        )
+    else:
+        words = (
+            "**Verdict:** no test was made, so the study does not say whether a warm-started "
+            "designer beats cold CMA-ES"
+        )
+    if untested:
+        by_method: dict[str, list[int]] = {}
+        for m, b in untested:
+            by_method.setdefault(m, []).append(b)
+        words += "; not tested (fewer than 2 tasks with both runs): " + "; ".join(
+            f"{m} at {_listed([str(b) for b in bs])}" for m, bs in by_method.items()
+        )
+    return words + "."
 
 
 def make_breakeven_report(
@@ -736,6 +938,8 @@ def make_breakeven_report(
         _amortization_figure(amortization, target / "amortization.png"),
     ]
     tasks = config["tasks"]
+    replicates = int(config["size"]["replicates"])
+    tests_made = int(np.isfinite(verdict["p_holm"].to_numpy(dtype=np.float64)).sum())
     scenes = config["size"].get("floor_scenes", "no")
     measured = int((floors["noise_range"] > floors["least_floor"]).sum())
     failed = _failed_counts(log)
@@ -751,39 +955,21 @@ def make_breakeven_report(
         "",
         "## Normalized regret (mean over tasks, 95 % t interval)",
         "",
-        *_markdown(["method", *(str(b) for b in budgets)], results_rows(table)),
+        *markdown_table(["method", *(str(b) for b in budgets)], results_rows(table)),
         "",
         "![normalized regret](regret.png)",
         "",
         "## Does warm-started CMA-ES beat cold CMA-ES?",
         "",
-        "Per pair (task, replicate: the same CMA-ES seed), best F so far at the budget, warm "
-        "minus cold, in noise floors of the task: the larger of the range of F of the task's "
-        f"reference design (the best of its cold CMA-ES runs) over {scenes} nudged scenes and "
+        f"The noise floor of a task is the larger of the range of F of the task's reference "
+        f"design (the best of its cold CMA-ES runs) over {scenes} nudged scenes and "
         f"{fraction:.4g} x |F_ref| (the project's median relative floor), as the benchmark "
         f"protocol sets a cell's ({measured} of {len(floors)} tasks measured above it; "
-        "`noise_floors.csv`). The test is one-sided, of the claim itself, with the task as "
-        "its unit (a task's replicates share its goal and mass): the Wilcoxon signed-rank test "
-        "over the tasks, each the mean of its pairs, that warm's F is lower than cold's by "
-        "more than one floor (the task means + 1 below 0), Holm-corrected over every row of "
-        f"this table (one family). Warm beats cold where Holm p < {ALPHA}. Effect size: the "
-        "mean over tasks with its 95 % t interval over tasks, and the median over the pairs.",
+        "`noise_floors.csv`). " + verdict_test_text(replicates, tests_made),
         "",
-        *_markdown(
-            [
-                "budget",
-                "warm-started",
-                "pairs (tasks)",
-                "mean warm - cold (floors)",
-                "95 % interval",
-                "median (floors)",
-                "p (Holm, one-sided)",
-                "warm beats cold",
-            ],
-            [_verdict_row(r) for r in verdict.itertuples()],
-        ),
+        *verdict_markdown(verdict),
         "",
-        f"Warm beats cold at: {_wins(verdict)}. Table: `warm_vs_cold.csv`.",
+        f"{verdict_sentence(verdict, budgets=budgets, methods=methods)} Table: `warm_vs_cold.csv`.",
         "",
         "## Secondary: every pair of methods, each budget apart",
         "",
@@ -791,14 +977,14 @@ def make_breakeven_report(
         "over the pairs of one budget only (no correction across budgets, no noise floor). "
         "mean a - b < 0: a is better. Table: `comparisons.csv`.",
         "",
-        *_markdown(
+        *markdown_table(
             ["budget", "a", "b", "tasks", "mean a - b", "95 % interval", "p (Holm, per budget)"],
             [_pair_row(r) for r in tests.itertuples()],
         ),
         "",
         "## Amortization (against cold CMA-ES)",
         "",
-        *_markdown(
+        *markdown_table(
             ["method", "cold budget B", "target regret", "budget needed", "training", "goals"],
             [
                 [

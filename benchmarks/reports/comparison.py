@@ -24,7 +24,7 @@ import numbers
 import os
 import re
 import zlib
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -35,6 +35,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
+from benchmarks.reports.markdown import markdown_table as _markdown
 from benchmarks.reports.stats import (
     INTERVAL_NAMES,
     best_so_far_curves,
@@ -557,16 +558,6 @@ def _short_of_values(summary: pd.DataFrame) -> bool:
         ((summary["runs"] - summary[f"{metric}_excluded"]) < MIN_INTERVAL_VALUES).any()
         for metric in _METRICS
     )
-
-
-def _markdown(header: Sequence[str], rows: Iterable[Sequence[str]]) -> list[str]:
-    def cell(text: str) -> str:
-        return str(text).replace("|", "\\|").replace("\n", " ")
-
-    lines = ["| " + " | ".join(cell(h) for h in header) + " |"]
-    lines.append("|" + "|".join("---" for _ in header) + "|")
-    lines += ["| " + " | ".join(cell(c) for c in row) + " |" for row in rows]
-    return lines
 
 
 def _heading(frame: pd.DataFrame) -> str:

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any, cast
 
@@ -37,6 +37,7 @@ from matplotlib.axes import Axes
 from matplotlib.ticker import FixedLocator, FuncFormatter, NullLocator
 
 from benchmarks.reports.comparison import REPORT_DIR, new_figure
+from benchmarks.reports.markdown import markdown_table
 from benchmarks.reports.plots import save_png
 from benchmarks.reports.stats import holm_bonferroni, vargha_delaney_a12
 from benchmarks.reports.success import (
@@ -338,7 +339,7 @@ def _fixed_markdown(
                 cell += f": {mark}{suffix}"
             cells.append(cell)
         body.append(cells)
-    lines += _markdown(header, body)
+    lines += markdown_table(header, body)
     lines += [
         "",
         "Success at each number of episodes: the share of seeds whose best design so far was "
@@ -354,7 +355,7 @@ def _fixed_markdown(
             row = table[(table["method"] == method) & (table["episodes"] == episodes)]
             cells.append("" if row.empty else _success_of(row.iloc[0], "success_seeds", "seeds"))
         rows_.append(cells)
-    lines += _markdown(header, rows_)
+    lines += markdown_table(header, rows_)
     tested = table[table["p_holm"].notna()]
     if not tested.empty:
         others = [m for m in methods if m in set(tested["method"])]
@@ -378,7 +379,7 @@ def _fixed_markdown(
                 text = f"A12 {r.a12:.2f}, p {r.p_holm:.3g}"
                 cells.append(f"**{text}**" if r.significant else text)
             rows.append(cells)
-        lines += _markdown(["episodes", *(_LABELS.get(m, m) for m in others)], rows)
+        lines += markdown_table(["episodes", *(_LABELS.get(m, m) for m in others)], rows)
     if policies:
         lines.append("")
         for method in _method_order(policies):
@@ -614,7 +615,7 @@ def _held_out_markdown(
                 _text(r.get(f"vs_cmaes_{equal}")),
             ]
         )
-    lines += _markdown(header, body)
+    lines += markdown_table(header, body)
     return lines
 
 
@@ -650,7 +651,7 @@ def _per_goal_markdown(per_goal: pd.DataFrame, part: str) -> list[str]:
     return [
         "F of every approach on every held-out task (policies: median over training seeds).",
         "",
-        *_markdown(header, body),
+        *markdown_table(header, body),
     ]
 
 
@@ -684,16 +685,6 @@ def _held_out_figure(per_goal: pd.DataFrame, part: str, path: Path) -> Path:
 
 
 # --- files ----------------------------------------------------------------------------------
-
-
-def _markdown(header: Sequence[str], rows: Iterable[Sequence[str]]) -> list[str]:
-    def cell(text: Any) -> str:
-        return str(text).replace("|", "\\|").replace("\n", " ")
-
-    lines = ["| " + " | ".join(cell(h) for h in header) + " |"]
-    lines.append("|" + "|".join("---" for _ in header) + "|")
-    lines += ["| " + " | ".join(cell(c) for c in row) + " |" for row in rows]
-    return lines
 
 
 def _records(frame: pd.DataFrame) -> list[dict[str, Any]]:

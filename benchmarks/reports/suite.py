@@ -49,6 +49,7 @@ from benchmarks.reports.comparison import (
     no_interval_note,
     with_notice,
 )
+from benchmarks.reports.markdown import markdown_table as _markdown
 from benchmarks.reports.retest import make_retest_report, noise_floor
 from benchmarks.reports.rl import make_rl_report
 from benchmarks.reports.stats import INTERVAL_NAMES, Interval, check_interval, mean_interval
@@ -118,16 +119,6 @@ def _interval_notes(table: pd.DataFrame, metrics: Iterable[str]) -> list[str]:
     if len(table) and any((table[f"{m}_n"] < MIN_INTERVAL_VALUES).any() for m in metrics):
         return ["", no_interval_note("tasks")]
     return []
-
-
-def _markdown(header: Sequence[str], rows: Iterable[Sequence[str]]) -> list[str]:
-    def cell(text: Any) -> str:
-        return str(text).replace("|", "\\|").replace("\n", " ")
-
-    lines = ["| " + " | ".join(cell(h) for h in header) + " |"]
-    lines.append("|" + "|".join("---" for _ in header) + "|")
-    lines += ["| " + " | ".join(cell(c) for c in row) + " |" for row in rows]
-    return lines
 
 
 def _write_table(
