@@ -72,6 +72,7 @@ def _between(text: str, start: str, end: str) -> str:
 # --- the committed page ---------------------------------------------------------------------
 
 
+@pytest.mark.slow  # reads the committed folders' reports (about 3 s; CI runs the slow tier)
 def test_the_committed_page_holds_what_the_committed_folders_render_to() -> None:
     page = (ROOT / PAGE).read_text(encoding="utf-8")
     rendered = render_blocks(ROOT)
