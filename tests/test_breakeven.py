@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -314,6 +315,92 @@ def test_a_worse_zero_shot_design_never_reaches_cold_cmaes() -> None:
     assert table.loc[("contextual", 64), "target_regret"] == pytest.approx(expected)
 
 
+def _disagreeing_seeds_log() -> pd.DataFrame:
+    """Three training seeds that disagree: random pool 0..100, cold CMA-ES F = 8 throughout.
+
+    Warm-contextual's replicates reach F = 4 at their 11th, 41st and 60th evaluations (30
+    before); their mean over replicates is below 8 only from the 60th. The zero-shot designs:
+    4 for replicate 0, 30 for the others (mean 21.3, never below 8). 100 training episodes each.
+    """
+    rows = _rows("cold", "random", [float(v) for v in range(101)])
+    for r, reach in enumerate((11, 41, 60)):
+        rows += _rows("cold", "cmaes", [8.0] * 64, replicate=r)
+        rows += _rows("zero-shot", "contextual", [4.0 if r == 0 else 30.0], replicate=r)
+        warm = [30.0] * (reach - 1) + [4.0] * (65 - reach)
+        rows += _rows("warm", "warm-contextual", warm, replicate=r)
+        rows += _rows("train", "contextual", [1.0] * 100, task="", replicate=r)
+    return pd.DataFrame(rows)
+
+
+def test_the_amortization_gives_the_range_across_training_seeds() -> None:
+    from benchmarks.reports.breakeven import (
+        AMORTIZATION_COLUMNS,
+        amortization_cell,
+        amortization_sentence,
+    )
+
+    log = _disagreeing_seeds_log()
+    budgets = [1, 4, 8, 16, 32, 64]
+    table = amortization_table(regret_curves(log), log, budgets)
+    assert list(table.columns) == list(AMORTIZATION_COLUMNS)
+    rows = table.set_index(["method", "reference_budget"])
+    warm = rows.loc["warm-contextual"]
+    assert (warm["replicates"] == 3).all()
+    # Pooled: the mean over the replicates reaches 8 at 60, so it pays only where B > 60:
+    # ceil(100 / 4) = 25 goals at B = 64. Each seed: 11, 41 and 60 per goal, so at B = 64
+    # ceil(100 / 53) = 2 to 25 goals; at 32 only seed 0 pays (ceil(100 / 21) = 5); at 16 it
+    # pays after ceil(100 / 5) = 20; at 8 each seed needs more than 8 per goal: never.
+    assert warm.loc[64, ["budget_needed", "breakeven_goals"]].tolist() == [60, 25]
+    assert warm.loc[64, ["budget_needed_min", "budget_needed_max"]].tolist() == [11, 60]
+    assert warm.loc[64, ["goals_min", "goals_max"]].tolist() == [2, 25]
+    assert warm.loc[32, ["budget_needed", "breakeven_goals"]].tolist() == [60, np.inf]
+    assert warm.loc[32, ["goals_min", "goals_max"]].tolist() == [5, np.inf]
+    assert warm.loc[16, ["goals_min", "goals_max"]].tolist() == [20, np.inf]
+    assert warm.loc[8, ["budget_needed_min", "budget_needed_max"]].tolist() == [11, 60]
+    assert warm.loc[8, ["goals_min", "goals_max"]].tolist() == [np.inf, np.inf]
+    # The zero-shot designs: the pooled mean never reaches cold CMA-ES's 8, seed 0's does at
+    # 1 per goal; the others never: the largest needed budget is "not reached" (NaN).
+    zero = rows.loc[("contextual", 64)]
+    assert np.isnan(zero["budget_needed"]) and zero["breakeven_goals"] == np.inf
+    assert zero["budget_needed_min"] == 1 and np.isnan(zero["budget_needed_max"])
+    assert [zero["goals_min"], zero["goals_max"]] == [2, np.inf]  # ceil(100 / 63)
+    # In words: the pooled number, then the range across the seeds.
+    assert amortization_cell(warm.loc[64].to_dict()) == (
+        "25 goals (60 per goal; across the 3 training seeds: 2-25 goals, 11-60 per goal)"
+    )
+    assert amortization_cell(zero.to_dict()) == (
+        "never (quality not reached; across the 3 training seeds: 2 goals or never, 1 per goal "
+        "or not reached)"
+    )
+    assert amortization_cell(rows.loc[("warm-contextual", 8)].to_dict()) == (
+        "never (60 per goal; across the 3 training seeds: never, 11-60 per goal)"
+    )
+    nobody = zero.to_dict() | {"budget_needed_min": math.nan, "goals_min": math.inf}
+    assert amortization_cell(nobody) == (
+        "never (quality not reached; not reached by any of the 3 training seeds)"
+    )
+    # One seed: no range (it is the pooled number).
+    one = rows.loc[("warm-contextual", 64)].to_dict() | {"replicates": 1}
+    assert amortization_cell(one) == "25 goals (60 per goal)"
+    # The sentence: against cold CMA-ES after it adapts (B above the population size) first;
+    # with a population size of 64, every B is before its first update, and is labelled so.
+    assert amortization_sentence(table, popsize=8) == (
+        "Fewest goals after which the training pays for itself, against cold CMA-ES after it "
+        "adapts (B > 8, its population size): warm-contextual after 25 goals (60 per goal; "
+        "across the 3 training seeds: 2-25 goals, 11-60 per goal) at B = 64; never at any "
+        "budget: contextual."
+    )
+    assert amortization_sentence(table, popsize=64) == (
+        "Fewest goals after which the training pays for itself, against cold CMA-ES after it "
+        "adapts (B > 64, its population size): no budget of the study is that large; only "
+        "against cold CMA-ES before its first update (B <= 64, its first generation of draws): "
+        "warm-contextual after 25 goals (60 per goal; across the 3 training seeds: 2-25 goals, "
+        "11-60 per goal) at B = 64; never at any budget: contextual."
+    )
+    with pytest.raises(ValueError, match="popsize must be a whole number >= 1, got -1"):
+        amortization_sentence(table, popsize=-1)
+
+
 def _warm_cold_log(margin: dict[int, float], tasks: int = 8) -> pd.DataFrame:
     """Tasks with F_ref near 1000: cold CMA-ES at 1000 + 50 / t, warm lower by margin[t] F."""
     rows = []
@@ -609,14 +696,31 @@ def test_the_smoke_study_runs_resumes_and_reports(smoke_study: Path) -> None:
     assert "## Does warm-started CMA-ES beat cold CMA-ES?" in page
     assert "## Secondary: every pair of methods, each budget apart" in page
     # The verdict's words are the one wording docs/rl.md prints too, from the CSV read back.
-    from benchmarks.reports.breakeven import verdict_sentence
+    from benchmarks.reports.breakeven import (
+        AMORTIZATION_COLUMNS,
+        amortization_sentence,
+        study_popsize,
+        verdict_sentence,
+    )
     from benchmarks.storage import read_manifest
 
     config = read_manifest(smoke_study)["config"]
+    popsize = study_popsize(config)
+    assert popsize == breakeven_config("smoke").size.popsize == 4
     sentence = verdict_sentence(
-        verdict, budgets=config["size"]["budgets"], methods=config["methods"]
+        verdict, budgets=config["size"]["budgets"], methods=config["methods"], popsize=popsize
     )
     assert f"{sentence} Table: `warm_vs_cold.csv`." in page
+    assert list(verdict.columns) == list(WARM_COLD_COLUMNS)
+    assert (verdict["p_worse_holm"] >= verdict["p_worse"]).all()
+    # The amortization's range across seeds: one replicate, so the range is the pooled number.
+    amortization = pd.read_csv(report / "amortization.csv")
+    assert list(amortization.columns) == list(AMORTIZATION_COLUMNS)
+    assert (amortization["replicates"] == 1).all()
+    pd.testing.assert_series_equal(
+        amortization["budget_needed_min"], amortization["budget_needed"], check_names=False
+    )
+    assert amortization_sentence(amortization, popsize=popsize) in page
     assert (verdict["replicates"] == 1).all()
     assert regret[regret["method"] == "random"]["mean"].notna().any()
 
@@ -885,10 +989,10 @@ def test_the_verdict_tests_tasks_not_the_replicates_of_a_task() -> None:
     assert row["mean_floors"] == pytest.approx(-50 / 6) and row["median_floors"] < -1
 
 
-def _seeds_log(shift: Callable[[int, int], float]) -> pd.DataFrame:
-    """8 tasks x 5 replicates; warm-contextual lower than cold CMA-ES by shift(task, replicate)."""
+def _seeds_log(shift: Callable[[int, int], float], tasks: int = 8) -> pd.DataFrame:
+    """Tasks x 5 replicates; warm-contextual lower than cold CMA-ES by shift(task, replicate)."""
     rows = []
-    for k in range(8):
+    for k in range(tasks):
         for r in range(5):
             task = f"t{k}"
             rows += _rows("cold", "random", [1100.0 + 10 * v for v in range(8)], task, r)
@@ -910,7 +1014,7 @@ def test_one_training_seed_alone_driving_the_win_shows_in_replicates_beyond() ->
     assert row["replicates"] == 5 and row["replicates_beyond"] == 1
     assert list(table.columns) == list(WARM_COLD_COLUMNS)
     line = verdict_markdown(table)[2]
-    assert line.startswith("| 8 | warm-contextual | 40 (8) |") and "| 1 of 5 |" in line
+    assert line.startswith("| 8 | warm-contextual | 40 (8) |") and "| 1 / 0 of 5 |" in line
     # The same mean spread over the seeds (each better by about 2 floors): 5 of 5.
     even = _seeds_log(lambda k, r: 12.0 + 0.1 * k)
     row = warm_cold_table(regret_curves(even), [8], floors=_floors(even)).iloc[0]
@@ -918,7 +1022,10 @@ def test_one_training_seed_alone_driving_the_win_shows_in_replicates_beyond() ->
 
 
 def _verdict_frame(rows: list[tuple[str, int, float, bool, int]]) -> pd.DataFrame:
-    """A warm_vs_cold table: (method, budget, p_holm, beats_cold, tasks) per row."""
+    """A warm_vs_cold table: (method, budget, p_holm, beats_cold, tasks) per row.
+
+    The mirror test finds nothing (p 1) in every tested row: no row is worse.
+    """
     return pd.DataFrame(
         [
             {
@@ -932,9 +1039,13 @@ def _verdict_frame(rows: list[tuple[str, int, float, bool, int]]) -> pd.DataFram
                 "median_floors": -1.5,
                 "replicates": 5,
                 "replicates_beyond": 4,
+                "replicates_worse": 0,
                 "p": p,
                 "p_holm": p,
                 "beats_cold": won,
+                "p_worse": math.nan if math.isnan(p) else 1.0,
+                "p_worse_holm": math.nan if math.isnan(p) else 1.0,
+                "worse_than_cold": False,
             }
             for m, b, p, won, t in rows
         ],
@@ -952,7 +1063,7 @@ def test_the_verdict_counts_only_finite_p_as_tests_and_names_the_untested() -> N
     one_task = _verdict_frame(
         [("warm-contextual", 8, math.nan, False, 1), ("warm-ppo", 8, math.nan, False, 1)]
     )
-    words = verdict_sentence(one_task, budgets=[8], methods=STUDY)
+    words = verdict_sentence(one_task, budgets=[8], methods=STUDY, popsize=8)
     assert words == (
         "**Verdict:** no test was made, so the study does not say whether a warm-started "
         "designer beats cold CMA-ES; not tested (fewer than 2 tasks with both runs): "
@@ -968,13 +1079,15 @@ def test_the_verdict_counts_only_finite_p_as_tests_and_names_the_untested() -> N
             ("warm-ppo", 4, 0.6, False, 20),
         ]
     )
-    words = verdict_sentence(mixed, budgets=[2, 4, 16], methods=STUDY)
+    words = verdict_sentence(mixed, budgets=[2, 4, 16], methods=STUDY, popsize=8)
     assert words == (
         "**Verdict:** warm-started CMA-ES beats cold CMA-ES beyond the noise floor (Holm p < "
-        "0.05, over the tasks, for the study's trained designers) at budget 2 (warm-contextual "
-        "at 2: 4 of 5 training seeds beyond the floor); at budget 4 none of the designers "
-        "tested does; not tested (fewer than 2 tasks with both runs): warm-contextual at 16; "
-        "warm-ppo at 2 and 16."
+        "0.05, over the tasks, for the study's trained designers) before cold CMA-ES's first "
+        "update (its first generation of 8 draws), at budget 2 (at 2: warm-contextual, with 4 "
+        "of 5 training seeds beyond the floor), while at budget 4 none of the designers tested "
+        "does; not tested (fewer than 2 tasks with both runs): warm-contextual at 16; warm-ppo "
+        "at 2 and 16. No warm-started designer is worse than cold CMA-ES beyond the noise floor "
+        "at any budget tested (the mirror test: Holm p >= 0.05 in all 3 tests)."
     )
     # No win: the count is of the tests made (2), not of the rows (3).
     lost = _verdict_frame(
@@ -984,46 +1097,177 @@ def test_the_verdict_counts_only_finite_p_as_tests_and_names_the_untested() -> N
             ("warm-ppo", 8, math.nan, False, 0),
         ]
     )
-    words = verdict_sentence(lost, budgets=[4, 8], methods=STUDY)
+    words = verdict_sentence(lost, budgets=[4, 8], methods=STUDY, popsize=8)
     assert "at any budget tested (4): Holm p >= 0.05 in all 2 tests; the smallest, 0.3" in words
     assert words.endswith(
-        "not tested (fewer than 2 tasks with both runs): warm-contextual at 8; warm-ppo at 8."
+        "not tested (fewer than 2 tasks with both runs): warm-contextual at 8; warm-ppo at 8. "
+        "No warm-started designer is worse than cold CMA-ES beyond the noise floor at any "
+        "budget tested (the mirror test: Holm p >= 0.05 in all 2 tests)."
     )
     # Every budget of the study won: said; a budget of the study left out of the table: not.
     every = _verdict_frame(
         [("warm-contextual", 2, 0.01, True, 20), ("warm-contextual", 4, 0.02, True, 20)]
     )
     methods = ["cmaes", "warm-contextual"]
-    assert verdict_sentence(every, budgets=[2, 4], methods=methods).endswith(
-        ", every budget of the study."
+    assert (
+        verdict_sentence(every, budgets=[2, 4], methods=methods, popsize=8)
+        .split(". ")[0]
+        .endswith("; that is every budget of the study")
     )
-    assert "every budget" not in verdict_sentence(every, budgets=[2, 4, 8], methods=methods)
+    assert "every budget" not in verdict_sentence(
+        every, budgets=[2, 4, 8], methods=methods, popsize=8
+    )
+
+
+def test_the_verdict_tells_wins_before_cold_cmaes_first_update_from_wins_after() -> None:
+    from benchmarks.reports.breakeven import study_popsize, verdict_sentence
+
+    # Wins at 1, 4 and 8 (two designers at 4, with different seed counts) and 16; none at 64.
+    table = _verdict_frame(
+        [
+            ("warm-contextual", 1, 0.001, True, 20),
+            ("warm-contextual", 4, 0.001, True, 20),
+            ("warm-ppo", 4, 0.002, True, 20),
+            ("warm-contextual", 8, 0.01, True, 20),
+            ("warm-contextual", 16, 0.01, True, 20),
+            ("warm-contextual", 64, 0.5, False, 20),
+        ]
+    )
+    table.loc[table["method"] == "warm-ppo", "replicates_beyond"] = 3
+    budgets = [1, 4, 8, 16, 64]
+    methods = ["cmaes", "warm-contextual", "warm-ppo"]
+    words = verdict_sentence(table, budgets=budgets, methods=methods, popsize=8)
+    assert words.startswith(
+        "**Verdict:** warm-started CMA-ES beats cold CMA-ES beyond the noise floor (Holm p < "
+        "0.05, over the tasks, for the study's trained designers) before cold CMA-ES's first "
+        "update (its first generation of 8 draws), at budgets 1, 4 and 8 (at 1, where the warm "
+        "run is its zero-shot design: warm-contextual, with 4 of 5 training seeds beyond the "
+        "floor; at 4: warm-contextual and warm-ppo, with 4 of 5 and 3 of 5 training seeds "
+        "beyond the floor respectively; at 8: warm-contextual, with 4 of 5 training seeds "
+        "beyond the floor); after cold CMA-ES adapts, at budget 16 (at 16: warm-contextual, "
+        "with 4 of 5 training seeds beyond the floor), while at budget 64 none of the designers "
+        "tested does; not tested"
+    )
+    # The population size is the study's, not a constant: with 4, the win at 8 is after cold
+    # CMA-ES adapts; with 64, every budget is before its first update.
+    four = verdict_sentence(table, budgets=budgets, methods=methods, popsize=4)
+    assert "(its first generation of 4 draws), at budgets 1 and 4 (" in four
+    assert "after cold CMA-ES adapts, at budgets 8 and 16 (at 8: " in four
+    big = verdict_sentence(table, budgets=budgets, methods=methods, popsize=64)
+    assert "first generation of 64 draws), at budgets 1, 4, 8 and 16 (" in big
+    assert "after cold CMA-ES adapts" not in big
+    assert "while at budget 64 none of the designers tested does" in big
+    # No win before the first update: that phase says so.
+    late = _verdict_frame(
+        [("warm-contextual", 4, 0.5, False, 20), ("warm-contextual", 16, 0.01, True, 20)]
+    )
+    words = verdict_sentence(late, budgets=[4, 16], methods=methods, popsize=8)
+    assert (
+        "(its first generation of 8 draws), at budget 4 none of the designers tested does; "
+        "after cold CMA-ES adapts, at budget 16 (" in words
+    )
+    for bad in (0, 2.5, True, None):
+        with pytest.raises(ValueError, match=f"popsize must be a whole number >= 1, got {bad}"):
+            verdict_sentence(table, budgets=budgets, methods=methods, popsize=bad)  # type: ignore[arg-type]
+    assert study_popsize({"size": {"popsize": 8}}) == 8
+    configs: list[dict[str, Any]] = [{"size": {}}, {"size": {"popsize": "8"}}, {}]
+    for config in configs:
+        with pytest.raises(ValueError, match=r"no CMA-ES population size \(size.popsize\)"):
+            study_popsize(config)
+
+
+def _harm_log() -> pd.DataFrame:
+    """12 tasks x 5 replicates: warm-contextual worse than cold CMA-ES beyond a 6 F floor.
+
+    Tasks 0-10: replicates 0-3 of warm are worse by 30 + k F (5 to 6.7 floors), replicate 4
+    equals cold; task 11: warm worse by 3 F (half a floor, within the noise) in every replicate.
+    """
+    return _seeds_log(lambda k, r: -3.0 if k == 11 else (-(30.0 + k) if r < 4 else 0.0), 12)
+
+
+def test_the_mirror_test_names_warm_worse_than_cold_beyond_the_floor() -> None:
+    from benchmarks.reports.breakeven import verdict_markdown, verdict_sentence, warm_cold_table
+
+    log = _harm_log()
+    table = warm_cold_table(regret_curves(log), [8], floors=_floors(log))
+    row = table.iloc[0]
+    # Per task, d' = mean z - 1: 11 tasks at 3 + 2k/15 > 0, one at -0.5 (rank 1): the exact
+    # one-sided p of the signed ranks is 2 / 2^12 (T- of 0 or 1); one row, so Holm is the same.
+    assert row["p_worse"] == pytest.approx(2 / 2**12)
+    assert row["p_worse_holm"] == pytest.approx(2 / 2**12) and row["worse_than_cold"]
+    assert not row["beats_cold"] and row["p"] > 0.99
+    assert row["replicates_worse"] == 4 and row["replicates_beyond"] == 0
+    assert list(table.columns) == list(WARM_COLD_COLUMNS)
+    line = verdict_markdown(table)[2]
+    assert line.startswith("| 8 | warm-contextual | 60 (12) |")
+    assert line.endswith("| 0 / 4 of 5 | 1 | 0.000488 | no | yes |")
+    mean = float(row["mean_floors"])
+    words = verdict_sentence(table, budgets=[8], methods=["cmaes", "warm-contextual"], popsize=8)
+    assert words.endswith(
+        "in its one test (1, warm-contextual's) at budget 8. Warm-started CMA-ES is worse than "
+        "cold CMA-ES beyond the noise floor (the mirror test, Holm p < 0.05): warm-contextual "
+        f"at 8 ({mean:+.2f} floors; 4 of 5 training seeds worse beyond the floor)."
+    )
+    # Holm over the family of rows: the runs do not move with the budget, so at 4 budgets the
+    # 4 rows have that p each; Holm multiplies every one by 4 (0.00195), all still worse.
+    family = warm_cold_table(regret_curves(log), [1, 2, 4, 8], floors=_floors(log))
+    assert family["p_worse_holm"].tolist() == pytest.approx([4 * 2 / 2**12] * 4)
+    assert family["worse_than_cold"].all()
+    # Worse by more than a floor on 4 of the 12 tasks only: the mean is above +1 floor, the
+    # test does not pass, and the words still name the row.
+    few = _seeds_log(lambda k, r: -(30.0 + k) if k < 4 else 0.5 * k, 12)
+    row = warm_cold_table(regret_curves(few), [8], floors=_floors(few)).iloc[0]
+    assert row["mean_floors"] > 1 and not row["worse_than_cold"]
+    words = verdict_sentence(
+        warm_cold_table(regret_curves(few), [8], floors=_floors(few)),
+        budgets=[8],
+        methods=["cmaes", "warm-contextual"],
+        popsize=8,
+    )
+    assert words.endswith(
+        "No warm-started designer is worse than cold CMA-ES beyond the noise floor at any budget "
+        "tested (the mirror test: Holm p >= 0.05 in its one test); warm's mean over tasks is "
+        "more than one floor above cold's, without a significant test, for warm-contextual at "
+        f"8 ({row['mean_floors']:+.2f} floors; 5 of 5 training seeds worse beyond the floor)."
+    )
+    # A stored decision that is not one is refused by name.
+    bad = table.assign(worse_than_cold=["yes"])
+    with pytest.raises(ValueError, match="worse_than_cold must be True or False, got 'yes'"):
+        verdict_markdown(bad)
 
 
 def test_the_verdict_names_the_missing_cold_run_and_refuses_a_cell_that_is_no_decision() -> None:
     from benchmarks.reports.breakeven import verdict_row, verdict_sentence, verdict_test_text
 
     empty = _verdict_frame([])
-    words = verdict_sentence(empty, budgets=[1, 4], methods=["random", "warm-ppo"])
+    words = verdict_sentence(empty, budgets=[1, 4], methods=["random", "warm-ppo"], popsize=8)
     assert "has no cold CMA-ES run (method `cmaes`)" in words
-    words = verdict_sentence(empty, budgets=[1, 4], methods=["random", "cmaes"])
+    words = verdict_sentence(empty, budgets=[1, 4], methods=["random", "cmaes"], popsize=8)
     assert "has no warm-started designer" in words
     # An empty beats_cold cell (NaN as read back from CSV) is not read as "yes".
     table = _verdict_frame([("warm-ppo", 4, 0.01, True, 20)])
     table["beats_cold"] = [math.nan]
     with pytest.raises(ValueError, match="beats_cold must be True or False, got nan"):
-        verdict_sentence(table, budgets=[4], methods=STUDY)
+        verdict_sentence(table, budgets=[4], methods=STUDY, popsize=8)
     with pytest.raises(ValueError, match="beats_cold must be True or False, got nan"):
         verdict_row(table.to_dict("records")[0])
     table["beats_cold"] = ["False"]
-    assert verdict_row(table.to_dict("records")[0])[-1] == "no"
+    assert verdict_row(table.to_dict("records")[0])[-2:] == ["no", "no"]
     with pytest.raises(ValueError, match="replicates must be a whole number >= 1, got 0"):
-        verdict_test_text(0, 18)
+        verdict_test_text(0, 18, popsize=8)
     with pytest.raises(ValueError, match="tests must be a whole number >= 0, got -1"):
-        verdict_test_text(5, -1)
+        verdict_test_text(5, -1, popsize=8)
+    with pytest.raises(ValueError, match="popsize must be a whole number >= 1, got 0"):
+        verdict_test_text(5, 18, popsize=0)
     # The test over training seeds: with 5 seeds and 18 tests it could not pass; with 9 it could.
-    assert "1 / 2^5 = 0.0312, times the 18 tests is not below 0.05" in verdict_test_text(5, 18)
-    assert "could not pass" not in verdict_test_text(9, 18)
-    assert "the study's trained designers (5 training seeds) on new tasks" in verdict_test_text(
-        5, 18
+    text = verdict_test_text(5, 18, popsize=8)
+    assert "1 / 2^5 = 0.0312, times the 18 tests is not below 0.05" in text
+    assert "could not pass" not in verdict_test_text(9, 18, popsize=8)
+    assert "the study's trained designers (5 training seeds) on new tasks" in text
+    # The mirror test and the budgets before cold CMA-ES's first update are described.
+    assert (
+        "The mirror test, for harm: the one-sided Wilcoxon test over the tasks that warm's F "
+        "is higher than cold's by more than one floor (the task means - 1 above 0)" in text
     )
+    assert "Up to 8 evaluations (the study's CMA-ES population size) cold CMA-ES" in text
+    assert "Up to 4 evaluations" in verdict_test_text(5, 18, popsize=4)

@@ -242,21 +242,37 @@ def test_the_breakeven_block_quotes_the_reports_numbers(
         r = verdict[(verdict["method"] == row[1]) & (verdict["budget"] == int(row[0]))].iloc[0]
         assert row[2] == f"{r['pairs']} ({r['tasks']})"
         assert float(row[3]) == pytest.approx(r["mean_floors"], abs=5e-3)
-        assert row[6] == f"{r['replicates_beyond']} of {r['replicates']}"
+        assert row[6] == (
+            f"{r['replicates_beyond']} / {r['replicates_worse']} of {r['replicates']}"
+        )
         assert float(row[7]) == pytest.approx(r["p_holm"], rel=1e-2)
-        assert row[8] == ("yes" if r["beats_cold"] else "no")
+        assert float(row[8]) == pytest.approx(r["p_worse_holm"], rel=1e-2)
+        assert row[9] == ("yes" if r["beats_cold"] else "no")
+        assert row[10] == ("yes" if r["worse_than_cold"] else "no")
     # One wording: the block's verdict, its table and its test's description are the report's.
-    from benchmarks.reports.breakeven import verdict_markdown, verdict_sentence, verdict_test_text
+    from benchmarks.reports.breakeven import (
+        amortization_sentence,
+        verdict_markdown,
+        verdict_sentence,
+        verdict_test_text,
+    )
 
     config = json.loads((root / BREAKEVEN_FOLDER / "manifest.json").read_text())["config"]
+    popsize = int(config["size"]["popsize"])
     sentence = verdict_sentence(
-        verdict, budgets=config["size"]["budgets"], methods=config["methods"]
+        verdict, budgets=config["size"]["budgets"], methods=config["methods"], popsize=popsize
     )
     report_page = (report / "breakeven.md").read_text()
-    for text in (sentence, *verdict_markdown(verdict), verdict_test_text(1, len(verdict))):
-        assert text in block and text in report_page, text
-    # Amortization: goals until the training pays, or never, per method and budget B.
     amortization = pd.read_csv(report / "amortization.csv")
+    for text in (
+        sentence,
+        *verdict_markdown(verdict),
+        verdict_test_text(1, len(verdict), popsize=popsize),
+        amortization_sentence(amortization, popsize=popsize),
+    ):
+        assert text in block and text in report_page, text
+    # Amortization: goals until the training pays, or never, per method and budget B (one
+    # replicate: no range across training seeds).
     rows = _table(block, "method | training episodes")
     header = next(line for line in block.splitlines() if "| training episodes |" in line)
     references = [int(c.split("= ")[1]) for c in header.strip("|").split(" | ")[2:]]
@@ -305,42 +321,74 @@ def test_the_verdict_words_follow_the_table(breakeven_smoke: Path, tmp_path: Pat
         "**Verdict:** no warm-started designer beats cold CMA-ES beyond the noise floor at any "
         "budget tested (1, 2 and 4): Holm p >= 0.05 in all 9 tests"
     )
+    none_worse = (
+        "No warm-started designer is worse than cold CMA-ES beyond the noise floor at any budget "
+        "tested (the mirror test: Holm p >= 0.05 in all 9 tests)"
+    )
+    assert none_worse in verdict()
     table = _verdict_edited(report, {("warm-contextual", 2): 0.01})
     seeds = table.set_index(["method", "budget"]).loc[("warm-contextual", 2), "replicates_beyond"]
-    assert verdict() == (
+    # The smoke study's CMA-ES population is 4 (its manifest's): every budget is before cold
+    # CMA-ES's first update.
+    assert verdict().startswith(
         "**Verdict:** warm-started CMA-ES beats cold CMA-ES beyond the noise floor (Holm p < 0.05,"
-        " over the tasks, for the study's trained designers) at budget 2 (warm-contextual at 2: "
-        f"{seeds} of 1 training seeds beyond the floor); at budgets 1 and 4 none of the "
-        "designers tested does."
+        " over the tasks, for the study's trained designers) before cold CMA-ES's first update "
+        f"(its first generation of 4 draws), at budget 2 (at 2: warm-contextual, with {seeds} of "
+        "1 training seeds beyond the floor), while at budgets 1 and 4 none of the designers "
+        f"tested does. {none_worse}"
     )
+    assert "after cold CMA-ES adapts" not in verdict()
     _verdict_edited(report, {("warm-sac", 4): 0.001, ("warm-contextual", 4): 0.02})
-    assert "at budgets 2 and 4 (warm-contextual at 2: " in verdict()
-    assert verdict().endswith("; at budget 1 none of the designers tested does.")
+    assert "at budgets 2 and 4 (at 2: warm-contextual, with " in verdict()
+    assert "; at 4: warm-contextual and warm-sac, " in verdict()
+    assert ", while at budget 1 none of the designers tested does. No warm-started" in verdict()
     _verdict_edited(report, {("warm-ppo", 1): 0.04})
-    assert verdict().endswith("training seeds beyond the floor), every budget of the study.")
+    assert "(at 1, where the warm run is its zero-shot design: warm-ppo, with " in verdict()
+    assert "; that is every budget of the study. No warm-started" in verdict()
+    # The manifest's population size, not a constant: with 2, budget 4 is after the first update.
+    manifest = json.loads((folder / "manifest.json").read_text())
+    manifest["config"]["size"]["popsize"] = 2
+    (folder / "manifest.json").write_text(json.dumps(manifest))
+    assert "(its first generation of 2 draws), at budgets 1 and 2 (" in verdict()
+    assert "; after cold CMA-ES adapts, at budget 4 (at 4: warm-contextual and warm-sac, " in (
+        verdict()
+    )
+    # The mirror test: a row worse beyond the floor is named, with its mean and seeds.
+    table = pd.read_csv(report / "warm_vs_cold.csv")
+    row = (table["method"] == "warm-ppo") & (table["budget"] == 2)
+    table.loc[row, ["p_worse_holm", "worse_than_cold"]] = [0.01, True]
+    table.loc[row, ["mean_floors", "replicates_worse"]] = [3.25, 1]
+    table.to_csv(report / "warm_vs_cold.csv", index=False)
+    assert verdict().endswith(
+        "Warm-started CMA-ES is worse than cold CMA-ES beyond the noise floor (the mirror test, "
+        "Holm p < 0.05): warm-ppo at 2 (+3.25 floors; 1 of 1 training seeds worse beyond the "
+        "floor)."
+    )
     # A row without a p (fewer than 2 tasks) is not a test: named apart, not counted.
     table = pd.read_csv(report / "warm_vs_cold.csv")
-    table["beats_cold"] = False
-    table.loc[table["budget"] == 4, ["p", "p_holm"]] = math.nan
+    table[["beats_cold", "worse_than_cold"]] = False
+    table.loc[table["budget"] == 4, ["p", "p_holm", "p_worse", "p_worse_holm"]] = math.nan
     table.to_csv(report / "warm_vs_cold.csv", index=False)
     assert verdict().startswith(
         "**Verdict:** no warm-started designer beats cold CMA-ES beyond the noise floor at any "
         "budget tested (1 and 2): Holm p >= 0.05 in all 6 tests"
     )
-    assert verdict().endswith(
+    assert (
         "; not tested (fewer than 2 tasks with both runs): warm-contextual at 4; warm-ppo at 4; "
-        "warm-sac at 4."
-    )
-    table[["p", "p_holm"]] = math.nan
+        "warm-sac at 4. No warm-started designer is worse than cold CMA-ES beyond the noise "
+        "floor at any budget tested (the mirror test: Holm p >= 0.05 in all 6 tests)"
+    ) in verdict()
+    table[["p", "p_holm", "p_worse", "p_worse_holm"]] = math.nan
     table.to_csv(report / "warm_vs_cold.csv", index=False)
     assert verdict().startswith("**Verdict:** no test was made")
     assert "Holm p >= 0.05 in all" not in verdict()
     # A table with a value that is not a decision is refused, an empty cell too.
-    for bad, shown in (("maybe", "'maybe'"), (math.nan, "nan")):
-        table["beats_cold"] = bad
-        table.to_csv(report / "warm_vs_cold.csv", index=False)
-        with pytest.raises(ValueError, match=f"beats_cold must be True or False, got {shown}"):
-            verdict()
+    for column in ("beats_cold", "worse_than_cold"):
+        for bad, shown in (("maybe", "'maybe'"), (math.nan, "nan")):
+            edited = table.assign(**{column: bad})
+            edited.to_csv(report / "warm_vs_cold.csv", index=False)
+            with pytest.raises(ValueError, match=f"{column} must be True or False, got {shown}"):
+                render_breakeven_block(folder, page=root / PAGE, root=root)
 
 
 @pytest.mark.slow
@@ -351,17 +399,47 @@ def test_the_amortization_words_follow_the_table(breakeven_smoke: Path, tmp_path
     table["breakeven_goals"] = math.inf
     table.to_csv(report / "amortization.csv", index=False)
     block = render_breakeven_block(folder, page=root / PAGE, root=root)
-    assert "the training pays for itself: none (no learned method pays for itself)." in block
+    # The smoke study's budgets B (2 and 4) are all up to its CMA-ES population (4).
+    assert (
+        "pays for itself, against cold CMA-ES after it adapts (B > 4, its population size): no "
+        "budget of the study is that large; no learned method pays for itself at any budget."
+    ) in block
     contextual = table["method"] == "contextual"
     budgets = sorted(table.loc[contextual, "reference_budget"])
-    # Fewer goals at the largest budget B: the words must name that one.
+    # Fewer goals at the largest budget B: the words must name that one, as before cold
+    # CMA-ES's first update.
     table.loc[contextual, "breakeven_goals"] = [70.0 - 10 * i for i in range(len(budgets))]
     table.loc[contextual, "budget_needed"] = 1.0
     table.to_csv(report / "amortization.csv", index=False)
     block = render_breakeven_block(folder, page=root / PAGE, root=root)
     goals = 70 - 10 * (len(budgets) - 1)
-    assert f"pays for itself: contextual after {goals} goals at B = {budgets[-1]};" in block
+    assert (
+        "only against cold CMA-ES before its first update (B <= 4, its first generation of "
+        f"draws): contextual after {goals} goals (1 per goal) at B = {budgets[-1]};"
+    ) in block
     assert "never at any budget: warm-contextual, ppo, warm-ppo, sac and warm-sac." in block
+    # With a population of 1 in the manifest, every B is after cold CMA-ES adapts.
+    manifest = json.loads((folder / "manifest.json").read_text())
+    manifest["config"]["size"]["popsize"] = 1
+    (folder / "manifest.json").write_text(json.dumps(manifest))
+    block = render_breakeven_block(folder, page=root / PAGE, root=root)
+    assert (
+        "after it adapts (B > 1, its population size): contextual after "
+        f"{goals} goals (1 per goal) at B = {budgets[-1]}; never at any budget:"
+    ) in block
+    # Five training seeds: the table's cells and the words give the range across them.
+    table["replicates"] = 5
+    table.loc[contextual, ["budget_needed_min", "budget_needed_max"]] = [1.0, 3.0]
+    table.loc[contextual, ["goals_min", "goals_max"]] = [[40.0, math.inf], [30.0, 90.0]]
+    table.to_csv(report / "amortization.csv", index=False)
+    block = render_breakeven_block(folder, page=root / PAGE, root=root)
+    cell = f"{goals} goals (1 per goal; across the 5 training seeds: 30-90 goals, 1-3 per goal)"
+    assert f"contextual after {cell} at B = {budgets[-1]}" in block
+    assert _table(block, "method | training episodes")[0][-1] == cell
+    del manifest["config"]["size"]["popsize"]
+    (folder / "manifest.json").write_text(json.dumps(manifest))
+    with pytest.raises(ValueError, match=r"no CMA-ES population size \(size.popsize\)"):
+        render_breakeven_block(folder, page=root / PAGE, root=root)
 
 
 @pytest.mark.slow

@@ -672,56 +672,33 @@ def _budgets_words(budgets: Sequence[int]) -> str:
     return _counted([str(b) for b in budgets])
 
 
-def _amortization_lines(amortization: Any) -> list[str]:
+def _amortization_lines(amortization: Any, popsize: int) -> list[str]:
+    from benchmarks.reports.breakeven import amortization_cell, amortization_sentence
+
     if len(amortization) == 0:
-        return ["The study has no learned method or no budget above 1: nothing to amortize."]
+        return [amortization_sentence(amortization, popsize=popsize)]
     budgets = sorted({int(b) for b in amortization["reference_budget"]})
     methods = list(dict.fromkeys(str(m) for m in amortization["method"]))
-    at = {(str(r.method), int(r.reference_budget)): r for r in amortization.itertuples()}
+    at = {
+        (str(r["method"]), int(r["reference_budget"])): r for r in amortization.to_dict("records")
+    }
     body = []
     for method in methods:
         cells = [method, _training(amortization, method)]
         for budget in budgets:
             r = at.get((method, budget))
-            cells.append("" if r is None else _pays(r))
+            cells.append("" if r is None else amortization_cell(r))
         body.append(cells)
     lines = markdown_table(
         ["method", "training episodes", *(f"B = {b}" for b in budgets)],
         body,
     )
-    words = []
-    never = []
-    for method in methods:
-        finite = [
-            (float(r.breakeven_goals), int(r.reference_budget))
-            for r in amortization.itertuples()
-            if str(r.method) == method and _finite(float(r.breakeven_goals))
-        ]
-        if not finite:
-            never.append(method)
-            continue
-        goals, budget = min(finite)
-        words.append(f"{method} after {goals:.0f} goals at B = {budget}")
-    sentence = "Fewest goals after which the training pays for itself: "
-    sentence += "; ".join(words) if words else "none (no learned method pays for itself)"
-    if words and never:
-        sentence += f"; never at any budget: {_counted(never)}"
-    return [*lines, "", sentence + "."]
+    return [*lines, "", amortization_sentence(amortization, popsize=popsize)]
 
 
 def _training(amortization: Any, method: str) -> str:
     values = amortization[amortization["method"] == method]["training_episodes"]
     return f"{float(values.iloc[0]):,.0f}"
-
-
-def _pays(r: Any) -> str:
-    needed = float(r.budget_needed)
-    if not _finite(needed):
-        return "never (quality not reached)"
-    goals = float(r.breakeven_goals)
-    if not _finite(goals):
-        return f"never ({needed:.0f} per goal)"
-    return f"{goals:.0f} goals ({needed:.0f} per goal)"
 
 
 def _floor_words(floors: Any, fraction: float) -> str:
@@ -784,21 +761,21 @@ def _breakeven_block(
     folder: Path, manifest: Mapping[str, Any], report: Path, *, page: Path, shown: str
 ) -> str:
     from benchmarks.reports.breakeven import (
+        AMORTIZATION_COLUMNS,
         WARM_COLD_COLUMNS,
         results_rows,
+        study_popsize,
         verdict_markdown,
         verdict_sentence,
         verdict_test_text,
     )
 
     config = manifest["config"]
+    popsize = study_popsize(config)
     summary = _read_json(report / "summary.json")
     regret = _read_csv(report / "regret.csv", ["method", "budget", "mean", "ci_low", "ci_high"])
     verdict = _read_csv(report / "warm_vs_cold.csv", WARM_COLD_COLUMNS)
-    amortization = _read_csv(
-        report / "amortization.csv",
-        ["method", "reference_budget", "budget_needed", "training_episodes", "breakeven_goals"],
-    )
+    amortization = _read_csv(report / "amortization.csv", AMORTIZATION_COLUMNS)
     floors = _read_csv(
         report / "noise_floors.csv", ["task", "f_ref", "noise_range", "least_floor", "floor"]
     )
@@ -833,18 +810,22 @@ def _breakeven_block(
         "",
         *_figure(folder, page, "regret.png", "Normalized regret per budget"),
         "**Warm-started against cold CMA-ES** (`warm_vs_cold.csv`). "
-        + verdict_test_text(int(size["replicates"]), tests),
+        + verdict_test_text(int(size["replicates"]), tests, popsize=popsize),
         "",
         *verdict_markdown(verdict),
         "",
-        verdict_sentence(verdict, budgets=study_budgets, methods=config.get("methods", [])),
+        verdict_sentence(
+            verdict, budgets=study_budgets, methods=config.get("methods", []), popsize=popsize
+        ),
         "",
         "**Amortization** (`amortization.csv`): against cold CMA-ES at budget B per goal, after "
         "how many goals the method's training episodes pay for themselves (with the per-goal "
-        "budget it needs to reach cold CMA-ES's mean regret at B; never: it needs B or more, "
-        "or does not reach it at any budget of the study).",
+        "budget it needs to reach cold CMA-ES's mean regret at B over all its replicates; "
+        "never: it needs B or more, or does not reach it at any budget of the study), from the "
+        "method's mean over its training seeds; then the range of each training seed's own "
+        "(its mean over the same tasks against the same target).",
         "",
-        *_amortization_lines(amortization),
+        *_amortization_lines(amortization, popsize),
         "",
         *_figure(folder, page, "amortization.png", "Total episodes against goals"),
     ]

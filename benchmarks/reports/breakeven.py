@@ -33,8 +33,14 @@ designs and the paired comparison, are the protocol's own code, which lives in
   crossed (replicate k's designer, trained once, designs at every task), so the test is of the
   study's trained designers on new tasks; beside it, ``replicates_beyond`` counts the
   replicates whose mean over tasks is below -1 floor, the check of agreement across training
-  seeds. :func:`verdict_test_text`, :func:`verdict_markdown` and :func:`verdict_sentence` word
-  it for this report and for docs/rl.md alike.
+  seeds. The mirror test, for harm: the one-sided test that warm's F is higher than cold's by
+  more than one floor (the task means - 1 above 0), Holm over the same rows;
+  ``worse_than_cold`` where its Holm p < :data:`ALPHA`, ``replicates_worse`` the replicates
+  whose mean is above +1 floor. Up to cold CMA-ES's population size (``size.popsize`` of the
+  study's config) cold CMA-ES has not updated yet (its first generation: draws from its
+  starting Gaussian), so the words tell wins before its first update from wins after it
+  adapts. :func:`verdict_test_text`, :func:`verdict_markdown` and :func:`verdict_sentence`
+  word it for this report and for docs/rl.md alike.
 - **Paired tests of every pair** at each budget (secondary, not the verdict): the two-sided
   Wilcoxon signed-rank test of the per-task differences of normalized regret, Holm-corrected
   over the pairs of that budget only (:func:`benchmarks.reports.measures.paired_table`, the
@@ -44,7 +50,10 @@ designs and the paired comparison, are the protocol's own code, which lives in
   a lower F is a lower value). q_B is cold CMA-ES's mean on it at B; the smallest budget b at
   which a learned method's mean is <= q_B is what it needs; the method spends T training
   episodes once, then b per goal, against B per goal for cold CMA-ES, so it pays for itself
-  after ``ceil(T / (B - b))`` goals (never if b >= B or q_B is not reached).
+  after ``ceil(T / (B - b))`` goals (never if b >= B or q_B is not reached). Beside it, the
+  range across training seeds: each replicate's mean over the same tasks against the same q_B,
+  its own b and goals. :func:`amortization_cell` and :func:`amortization_sentence` word it
+  (the sentence sets apart the budgets B up to cold CMA-ES's population size).
 """
 
 from __future__ import annotations
@@ -67,7 +76,14 @@ from benchmarks.storage import atomic_write_text, json_text
 from benchmarks.storage.table import csv_text
 
 __all__ = [
+    "AFTER_FIRST_UPDATE",
     "ALPHA",
+    "AMORTIZATION_COLUMNS",
+    "amortization_cell",
+    "amortization_sentence",
+    "before_first_update",
+    "study_popsize",
+    "worse_than_cold_value",
     "COMPARISON_COLUMNS",
     "expected_best_of_random",
     "paired_table",
@@ -266,9 +282,13 @@ WARM_COLD_COLUMNS: tuple[str, ...] = (
     "median_floors",
     "replicates",
     "replicates_beyond",
+    "replicates_worse",
     "p",
     "p_holm",
     "beats_cold",
+    "p_worse",
+    "p_worse_holm",
+    "worse_than_cold",
 )
 
 #: The columns of :func:`task_floors`, one row per task.
@@ -370,6 +390,13 @@ def warm_cold_table(
     their mean of z over tasks below -1 (warm better beyond the floor for that trained
     designer).
 
+    The mirror test, for harm (a warm start that leads CMA-ES astray): the one-sided Wilcoxon
+    signed-rank test over the tasks of d' = the task's mean of z - 1 with H1 "d' is above 0",
+    i.e. warm's F is higher than cold's by more than one floor (p = 1 when every d' is 0),
+    Holm-corrected over the same rows as a family of its own; ``worse_than_cold`` where that
+    Holm p is below :data:`ALPHA`, and ``replicates_worse`` counts the replicates whose mean
+    of z over tasks is above +1.
+
     Args:
         curves: :func:`regret_curves` of the study.
         budgets: The budgets to test.
@@ -381,8 +408,6 @@ def warm_cold_table(
     Raises:
         ValueError: a floor that is not a finite number > 0.
     """
-    from scipy.stats import wilcoxon
-
     values = floors.to_numpy(dtype=np.float64)
     if not np.all(np.isfinite(values) & (values > 0)):
         raise ValueError(f"floors must be finite numbers > 0, got {floors.to_dict()}")
@@ -416,22 +441,32 @@ def warm_cold_table(
                     "median_floors": float(np.median(z)) if z.size else math.nan,
                     "replicates": int(by_replicate.size),
                     "replicates_beyond": int(np.sum(by_replicate < -1.0)),
+                    "replicates_worse": int(np.sum(by_replicate > 1.0)),
+                    "p": _one_sided(d, "less"),
+                    "p_worse": _one_sided(by_task - 1.0, "greater"),
                 }
-                if d.size >= 2:
-                    row["p"] = (
-                        1.0
-                        if np.all(d == 0)
-                        else float(wilcoxon(d, zero_method="zsplit", alternative="less").pvalue)
-                    )
-                else:
-                    row["p"] = math.nan
                 rows.append(row)
-    table = pd.DataFrame(
-        rows, columns=[c for c in WARM_COLD_COLUMNS if c not in ("p_holm", "beats_cold")]
-    )
+    decided = ("p_holm", "beats_cold", "p_worse_holm", "worse_than_cold")
+    table = pd.DataFrame(rows, columns=[c for c in WARM_COLD_COLUMNS if c not in decided])
     table["p_holm"] = holm_bonferroni(table["p"].to_numpy(dtype=np.float64))
     table["beats_cold"] = (table["p_holm"] < ALPHA).astype(bool)
+    table["p_worse_holm"] = holm_bonferroni(table["p_worse"].to_numpy(dtype=np.float64))
+    table["worse_than_cold"] = (table["p_worse_holm"] < ALPHA).astype(bool)
     return table[list(WARM_COLD_COLUMNS)]
+
+
+def _one_sided(d: np.ndarray, alternative: str) -> float:
+    """The one-sided Wilcoxon signed-rank p of ``d`` (H1: below 0 or above 0) over the tasks.
+
+    NaN with fewer than 2 tasks (not a test); 1 when every d is 0 (no evidence either way).
+    """
+    from scipy.stats import wilcoxon
+
+    if d.size < 2:
+        return math.nan
+    if np.all(d == 0):
+        return 1.0
+    return float(wilcoxon(d, zero_method="zsplit", alternative=alternative).pvalue)
 
 
 def _training_episodes(log: pd.DataFrame) -> dict[str, float]:
@@ -439,14 +474,26 @@ def _training_episodes(log: pd.DataFrame) -> dict[str, float]:
     return {str(m): float(g.groupby("replicate").size().mean()) for m, g in train.groupby("method")}
 
 
-_AMORTIZATION_COLUMNS = [
+def _training_by_replicate(log: pd.DataFrame) -> dict[tuple[str, int], float]:
+    train = log[log["variant"] == "train"]
+    sizes = train.groupby(["method", "replicate"]).size()
+    return {(str(m), int(r)): float(n) for (m, r), n in sizes.items()}
+
+
+#: The columns of :func:`amortization_table`, one row per learned method and budget B.
+AMORTIZATION_COLUMNS: tuple[str, ...] = (
     "method",
     "reference_budget",
     "target_regret",
     "budget_needed",
     "training_episodes",
     "breakeven_goals",
-]
+    "replicates",
+    "budget_needed_min",
+    "budget_needed_max",
+    "goals_min",
+    "goals_max",
+)
 
 
 def _task_best(curves: pd.DataFrame) -> pd.Series:
@@ -471,6 +518,27 @@ def _scale_at(
     return out
 
 
+def _pays_after(
+    best: pd.DataFrame,
+    ref: np.ndarray,
+    scale: np.ndarray,
+    target: float,
+    budget: int,
+    episodes: float,
+) -> tuple[float, float]:
+    """(b, goals): the smallest budget whose mean over tasks on B's scale is <= the target.
+
+    ``best`` has one row per task (in the order of ``ref`` and ``scale``) and one column per
+    budget; b is NaN if no budget reaches the target, goals inf if b is NaN or >= B.
+    """
+    regret = ((best.to_numpy() - ref[:, None]) / scale[:, None]).mean(0)
+    reached = np.flatnonzero(regret <= target)
+    needed = float(best.columns[reached[0]]) if reached.size else math.nan
+    if math.isnan(needed) or needed >= budget:
+        return needed, math.inf
+    return needed, float(math.ceil(episodes / (budget - needed)))
+
+
 def amortization_table(
     curves: pd.DataFrame,
     log: pd.DataFrame,
@@ -487,6 +555,13 @@ def amortization_table(
     reaching cold CMA-ES's quality means a lower mean best F, task by task normalized alike.
     The tasks are those where the scale is defined (> 0) and both methods have a value.
 
+    The pooled numbers read the method's mean over its replicates (training seeds) at each
+    task; beside them, the range across the replicates: each replicate r's mean over the same
+    tasks against the same target (cold CMA-ES's mean over all its replicates), its own
+    smallest budget and the goals it implies with replicate r's training episodes. A learned
+    designer is trained once per seed, so the range says how much the break-even moves with
+    the training seed.
+
     Args:
         curves: :func:`regret_curves` of the study.
         log: The study's frame (its training episodes give T).
@@ -494,18 +569,25 @@ def amortization_table(
         references: F_ref and the random pool per task (default: the log's own).
 
     Returns:
-        One row per learned method (zero-shot and warm-started) and budget B > 1 of cold
-        CMA-ES: ``target_regret`` (cold CMA-ES's mean regret at B, on B's scale),
-        ``budget_needed`` (the smallest per-goal budget b at which the method's mean regret on
-        B's scale is <= it; NaN if none), ``training_episodes`` (mean over replicates) and
-        ``breakeven_goals`` (inf: never).
+        :data:`AMORTIZATION_COLUMNS`, one row per learned method (zero-shot and
+        warm-started) and budget B > 1 of cold CMA-ES: ``target_regret`` (cold CMA-ES's mean
+        regret at B, on B's scale), ``budget_needed`` (the smallest per-goal budget b at which
+        the method's mean regret on B's scale is <= it; NaN if none), ``training_episodes``
+        (mean over replicates), ``breakeven_goals`` (inf: never); ``replicates`` (those with a
+        value at every task of the row), ``budget_needed_min`` / ``budget_needed_max`` (the
+        smallest and largest b of a replicate; NaN: no replicate reaches the target, and the
+        largest NaN if one does not) and ``goals_min`` / ``goals_max`` (the fewest and most
+        goals of a replicate; inf: never, for every replicate or for one).
     """
     refs = _references(log) if references is None else references
     best = _task_best(curves)
+    by_replicate = curves.groupby(["method", "replicate", "task", "evaluation"])["best"].mean()
     training = _training_episodes(log)
+    trained = _training_by_replicate(log)
     methods = set(best.index.get_level_values(0))
+    columns = list(AMORTIZATION_COLUMNS)
     if "cmaes" not in methods:
-        return pd.DataFrame(columns=_AMORTIZATION_COLUMNS)
+        return pd.DataFrame(columns=columns)
     cold = best["cmaes"].unstack("evaluation")
     rows = []
     for base, episodes in sorted(training.items()):
@@ -513,6 +595,10 @@ def amortization_table(
             if method not in methods:
                 continue
             mine = best[method].unstack("evaluation")
+            replicates = {
+                int(r): frame.droplevel("replicate").unstack("evaluation")
+                for r, frame in by_replicate[method].groupby(level="replicate")
+            }
             for budget in budgets:
                 if budget <= 1 or budget not in cold.columns:
                     continue
@@ -527,13 +613,22 @@ def amortization_table(
                 ref = np.array([scales[t][0] for t in tasks])
                 scale = np.array([scales[t][1] for t in tasks])
                 target = float(np.mean((cold.loc[tasks, budget].to_numpy() - ref) / scale))
-                regret = ((mine.loc[tasks].to_numpy() - ref[:, None]) / scale[:, None]).mean(0)
-                reached = np.flatnonzero(regret <= target)
-                needed = float(mine.columns[reached[0]]) if reached.size else math.nan
-                if math.isnan(needed) or needed >= budget:
-                    goals = math.inf
-                else:
-                    goals = float(math.ceil(episodes / (budget - needed)))
+                needed, goals = _pays_after(mine.loc[tasks], ref, scale, target, budget, episodes)
+                spread = [
+                    _pays_after(
+                        frame.loc[tasks],
+                        ref,
+                        scale,
+                        target,
+                        budget,
+                        trained.get((base, r), episodes),
+                    )
+                    for r, frame in sorted(replicates.items())
+                    if set(tasks) <= set(frame.index)
+                ]
+                each = np.array([b for b, _ in spread], dtype=np.float64)
+                each_goals = np.array([g for _, g in spread], dtype=np.float64)
+                reached = each[np.isfinite(each)]
                 rows.append(
                     {
                         "method": method,
@@ -542,9 +637,143 @@ def amortization_table(
                         "budget_needed": needed,
                         "training_episodes": episodes,
                         "breakeven_goals": goals,
+                        "replicates": len(spread),
+                        "budget_needed_min": float(reached.min()) if reached.size else math.nan,
+                        "budget_needed_max": (
+                            float(reached.max())
+                            if reached.size and reached.size == each.size
+                            else math.nan
+                        ),
+                        "goals_min": float(each_goals.min()) if spread else math.nan,
+                        "goals_max": float(each_goals.max()) if spread else math.nan,
                     }
                 )
-    return pd.DataFrame(rows, columns=_AMORTIZATION_COLUMNS)
+    return pd.DataFrame(rows, columns=columns)
+
+
+def study_popsize(config: Mapping[str, Any]) -> int:
+    """Cold CMA-ES's population size in a study, from its manifest's config (``size.popsize``).
+
+    Raises:
+        ValueError: The config records no whole number >= 1 there.
+    """
+    size = config.get("size")
+    value = size.get("popsize") if isinstance(size, Mapping) else None
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+        raise ValueError(
+            f"the study's config has no CMA-ES population size (size.popsize), got {value!r}"
+        )
+    return value
+
+
+def _count(value: Any, never: str) -> str:
+    """A whole count of the amortization table, or ``never`` for NaN / inf."""
+    return f"{float(value):.0f}" if _finite(value) else never
+
+
+def _span(low: float, high: float, unit: str, never: str) -> str:
+    """A range across training seeds: ``21-86 goals``, ``69 goals``, ``21 goals or never``."""
+    if not _finite(low):
+        return never
+    if not _finite(high):
+        return f"{low:.0f} {unit} or {never}"
+    return f"{low:.0f} {unit}" if high == low else f"{low:.0f}-{high:.0f} {unit}"
+
+
+def _seed_span(r: Mapping[str, Any]) -> str:
+    """The range across training seeds of a row of :func:`amortization_table`, or ``""``."""
+    n = int(r["replicates"]) if _finite(r["replicates"]) else 0
+    if n <= 1:
+        return ""
+    low, high = float(r["budget_needed_min"]), float(r["budget_needed_max"])
+    if not _finite(low):
+        return f"not reached by any of the {n} training seeds"
+    goals_span = _span(float(r["goals_min"]), float(r["goals_max"]), "goals", "never")
+    needed_span = _span(low, high, "per goal", "not reached")
+    return f"across the {n} training seeds: {goals_span}, {needed_span}"
+
+
+def amortization_cell(r: Mapping[str, Any]) -> str:
+    """A row of :func:`amortization_table` in words: goals until it pays, per-goal budget, range.
+
+    ``37 goals (36 per goal; across the 5 training seeds: 23-49 goals, 18-43 per goal)``
+    (a range's upper end is "never" / "not reached" when one seed's is);
+    ``never (25 per goal; ...)`` when it needs B or more per goal, ``never (quality not
+    reached; ...)`` when no budget of the study reaches cold CMA-ES's. The range is left out
+    with one training seed (it is the pooled number).
+
+    Args:
+        r: A row of ``amortization.csv`` by column (:data:`AMORTIZATION_COLUMNS`).
+    """
+    needed, goals = float(r["budget_needed"]), float(r["breakeven_goals"])
+    if not _finite(needed):
+        text = "never (quality not reached"
+    elif not _finite(goals):
+        text = f"never ({needed:.0f} per goal"
+    else:
+        text = f"{goals:.0f} goals ({needed:.0f} per goal"
+    spread = _seed_span(r)
+    return f"{text}; {spread})" if spread else f"{text})"
+
+
+def amortization_sentence(amortization: pd.DataFrame, *, popsize: int) -> str:
+    """The fewest goals after which each learned method's training pays for itself, in words.
+
+    Against cold CMA-ES after it adapts (B above its population size) first; a method that
+    pays for itself only at a budget B up to the population size is named apart, "against
+    cold CMA-ES before its first update" (there cold CMA-ES's designs are draws from its
+    starting Gaussian). ``breakeven.md`` and ``docs/rl.md`` both print this sentence.
+
+    Args:
+        amortization: :func:`amortization_table`, or ``amortization.csv`` read back.
+        popsize: Cold CMA-ES's population size in the study (:func:`study_popsize`).
+
+    Raises:
+        ValueError: ``popsize`` not a whole number >= 1.
+    """
+    popsize = _whole(popsize, "popsize", 1)
+    if len(amortization) == 0:
+        return "The study has no learned method or no budget above 1: nothing to amortize."
+    records = amortization.to_dict("records")
+    methods = list(dict.fromkeys(str(r["method"]) for r in records))
+
+    def fewest(method: str, early: bool) -> str | None:
+        paying = [
+            r
+            for r in records
+            if str(r["method"]) == method
+            and (int(r["reference_budget"]) <= popsize) is early
+            and _finite(float(r["breakeven_goals"]))
+        ]
+        if not paying:
+            return None
+        r = min(paying, key=lambda r: (float(r["breakeven_goals"]), int(r["reference_budget"])))
+        return f"{method} after {amortization_cell(r)} at B = {int(r['reference_budget'])}"
+
+    later = any(int(r["reference_budget"]) > popsize for r in records)
+    after = {m: fewest(m, False) for m in methods}
+    before = {m: fewest(m, True) for m in methods if after[m] is None}
+    head = (
+        "Fewest goals after which the training pays for itself, against cold CMA-ES after it "
+        f"adapts (B > {popsize}, its population size): "
+    )
+    if not later:
+        text = head + "no budget of the study is that large"
+    else:
+        paid = [w for w in after.values() if w is not None]
+        text = head + ("; ".join(paid) if paid else "none")
+    early = [w for w in before.values() if w is not None]
+    if early:
+        text += (
+            f"; only against cold CMA-ES before its first update (B <= {popsize}, its first "
+            "generation of draws): " + "; ".join(early)
+        )
+    never = [m for m in methods if after[m] is None and before.get(m) is None]
+    if never and len(never) < len(methods):
+        text += f"; never at any budget: {_listed(never)}"
+    elif never:
+        text += "; no learned method pays for itself at any budget"
+    return text + "."
 
 
 #: Below this normalized regret the regret figure's y axis is linear, above it logarithmic.
@@ -689,9 +918,11 @@ VERDICT_HEADER: tuple[str, ...] = (
     "mean warm - cold (floors)",
     "95 % interval",
     "median (floors)",
-    "training seeds beyond",
-    "p (Holm, one-sided)",
+    "training seeds better / worse beyond",
+    "p better (Holm)",
+    "p worse (Holm)",
     "warm beats cold",
+    "warm worse than cold",
 )
 
 
@@ -701,6 +932,14 @@ def _finite(value: Any) -> bool:
     return math.isfinite(float(value))
 
 
+def _decision(value: Any, column: str) -> bool:
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, str) and value in ("True", "False"):
+        return value == "True"
+    raise ValueError(f"{column} must be True or False, got {value!r}")
+
+
 def beats_cold_value(value: Any) -> bool:
     """A stored ``beats_cold`` decision: a boolean, or ``"True"``/``"False"`` as read from CSV.
 
@@ -708,11 +947,22 @@ def beats_cold_value(value: Any) -> bool:
         ValueError: Anything else (an empty cell, NaN, a number, another word): a table that
             is not the report's must not be read as a decision.
     """
-    if isinstance(value, (bool, np.bool_)):
-        return bool(value)
-    if isinstance(value, str) and value in ("True", "False"):
-        return value == "True"
-    raise ValueError(f"beats_cold must be True or False, got {value!r}")
+    return _decision(value, "beats_cold")
+
+
+def worse_than_cold_value(value: Any) -> bool:
+    """A stored ``worse_than_cold`` decision, read as :func:`beats_cold_value` reads its own.
+
+    Raises:
+        ValueError: Anything but a boolean or ``"True"``/``"False"``.
+    """
+    return _decision(value, "worse_than_cold")
+
+
+def _whole(value: Any, name: str, least: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < least:
+        raise ValueError(f"{name} must be a whole number >= {least}, got {value!r}")
+    return int(value)
 
 
 def verdict_row(r: Mapping[str, Any]) -> list[str]:
@@ -722,7 +972,8 @@ def verdict_row(r: Mapping[str, Any]) -> list[str]:
         r: A row of ``warm_vs_cold.csv`` by column (:data:`WARM_COLD_COLUMNS`).
 
     Raises:
-        ValueError: Its ``beats_cold`` is not a decision (:func:`beats_cold_value`).
+        ValueError: Its ``beats_cold`` or ``worse_than_cold`` is not a decision
+            (:func:`beats_cold_value`).
     """
     low, high = r["ci_low"], r["ci_high"]
     interval = (
@@ -739,9 +990,11 @@ def verdict_row(r: Mapping[str, Any]) -> list[str]:
         number("mean_floors", ".2f"),
         interval,
         number("median_floors", ".2f"),
-        f"{int(r['replicates_beyond'])} of {int(r['replicates'])}",
+        f"{int(r['replicates_beyond'])} / {int(r['replicates_worse'])} of {int(r['replicates'])}",
         number("p_holm", ".3g"),
+        number("p_worse_holm", ".3g"),
         "yes" if beats_cold_value(r["beats_cold"]) else "no",
+        "yes" if worse_than_cold_value(r["worse_than_cold"]) else "no",
     ]
 
 
@@ -764,20 +1017,37 @@ def _at(budgets: Iterable[int]) -> str:
     return f"budget{'s' if len(ordered) > 1 else ''} {_listed([str(b) for b in ordered])}"
 
 
-def verdict_test_text(replicates: int, tests: int) -> str:
+def before_first_update(popsize: int) -> str:
+    """How the verdict and the amortization name budgets up to cold CMA-ES's population size.
+
+    Up to ``popsize`` evaluations, cold CMA-ES has not updated its search distribution: its
+    designs are draws from its starting Gaussian (its first generation).
+
+    Raises:
+        ValueError: ``popsize`` not a whole number >= 1.
+    """
+    popsize = _whole(popsize, "popsize", 1)
+    return f"before cold CMA-ES's first update (its first generation of {popsize} draws)"
+
+
+#: How the verdict names budgets above cold CMA-ES's population size.
+AFTER_FIRST_UPDATE = "after cold CMA-ES adapts"
+
+
+def verdict_test_text(replicates: int, tests: int, *, popsize: int) -> str:
     """What the verdict's test is, in words: ``breakeven.md`` and ``docs/rl.md`` say it alike.
 
     Args:
         replicates: The study's replicates (training seeds), >= 1.
         tests: The tests of the family (rows of :func:`warm_cold_table` with a p), >= 0.
+        popsize: Cold CMA-ES's population size in the study (its config's ``size.popsize``).
 
     Raises:
-        ValueError: ``replicates`` < 1 or ``tests`` < 0.
+        ValueError: ``replicates`` or ``popsize`` < 1, or ``tests`` < 0.
     """
-    if isinstance(replicates, bool) or not isinstance(replicates, int) or replicates < 1:
-        raise ValueError(f"replicates must be a whole number >= 1, got {replicates!r}")
-    if isinstance(tests, bool) or not isinstance(tests, int) or tests < 0:
-        raise ValueError(f"tests must be a whole number >= 0, got {tests!r}")
+    replicates = _whole(replicates, "replicates", 1)
+    tests = _whole(tests, "tests", 0)
+    popsize = _whole(popsize, "popsize", 1)
     seeds = f"{replicates} training seed{'s' if replicates > 1 else ''}"
     text = (
         "Per pair (task, replicate: the warm-started and the cold CMA-ES run share the CMA-ES "
@@ -786,13 +1056,17 @@ def verdict_test_text(replicates: int, tests: int) -> str:
         "and mass): the one-sided Wilcoxon signed-rank test over the tasks, each the mean of its "
         "pairs, that warm's F is lower than cold's by more than one floor (the task means + 1 "
         "below 0), Holm-corrected over every row of the table (one family); warm beats cold "
-        f"where Holm p < {ALPHA:g}. A row of fewer than 2 tasks is not tested. The tasks are new, "
-        "the designers are not drawn anew for each: replicate k's designer, trained once with "
-        "seed k, designs at every task, so the verdict is about the study's trained designers "
-        f"({seeds}) on new tasks and leaves out the variance between training seeds. "
-        'The check of agreement across training seeds is beside it: "training seeds beyond", '
-        "how many replicates have their mean over tasks below -1 floor (warm better beyond the "
-        "floor for that trained designer)"
+        f"where Holm p < {ALPHA:g}. The mirror test, for harm: the one-sided Wilcoxon test over "
+        "the tasks that warm's F is higher than cold's by more than one floor (the task means - 1 "
+        "above 0), Holm-corrected over the same rows as a family of its own; warm is worse than "
+        f"cold where that Holm p < {ALPHA:g}. A row of fewer than 2 tasks is not tested. The "
+        "tasks are new, the designers are not drawn anew for each: replicate k's designer, "
+        "trained once with seed k, designs at every task, so the verdict is about the study's "
+        f"trained designers ({seeds}) on new tasks and leaves out the variance between training "
+        'seeds. The check of agreement across training seeds is beside it: "training seeds '
+        'better / worse beyond", how many replicates have their mean over tasks below -1 floor '
+        "(warm better beyond the floor for that trained designer) and above +1 floor (worse "
+        "beyond it)"
     )
     smallest = 0.5**replicates
     if tests and smallest * tests >= ALPHA:
@@ -803,28 +1077,98 @@ def verdict_test_text(replicates: int, tests: int) -> str:
         )
     return (
         text + ". Effect size: the mean over tasks with its 95 % t interval over tasks, and the "
-        "median over the pairs."
+        f"median over the pairs. Up to {popsize} evaluations (the study's CMA-ES population "
+        "size) cold CMA-ES has not updated yet: its designs are draws from its starting "
+        "Gaussian, so at those budgets warm is compared with a baseline that has not adapted; "
+        "at budget 1 the warm run is its zero-shot design (its first evaluation)."
     )
 
 
+def _seeds_count(rows: Sequence[Mapping[str, Any]], key: str) -> str:
+    """``5 of 5`` or ``5 of 5 and 4 of 5``: a count of training seeds per row."""
+    return _listed([f"{int(r[key])} of {int(r['replicates'])}" for r in rows])
+
+
+def _with_seeds(methods: Sequence[str], rows: Sequence[Mapping[str, Any]]) -> str:
+    """``a and b, each with 5 of 5 training seeds beyond the floor`` (or the counts in order)."""
+    counts = [f"{int(r['replicates_beyond'])} of {int(r['replicates'])}" for r in rows]
+    if len(set(counts)) == 1:
+        each = "each with" if len(methods) > 1 else "with"
+        return f"{_listed(methods)}, {each} {counts[0]} training seeds beyond the floor"
+    return (
+        f"{_listed(methods)}, with {_listed(counts)} training seeds beyond the floor respectively"
+    )
+
+
+def _harm(method: str, budget: int, r: Mapping[str, Any]) -> str:
+    """``warm-ppo at 16 (+2.87 floors; 4 of 5 training seeds worse beyond the floor)``."""
+    return (
+        f"{method} at {budget} ({float(r['mean_floors']):+.2f} floors; "
+        f"{_seeds_count([r], 'replicates_worse')} training seeds worse beyond the floor)"
+    )
+
+
+def _worse_words(tested: Mapping[tuple[str, int], Mapping[str, Any]]) -> str:
+    """The mirror test's sentence: the rows where warm is worse beyond the floor, or none.
+
+    Without one, it names the rows whose mean is more than one floor on cold's side all the
+    same: harm that the test over tasks does not establish is still shown.
+    """
+    rows = sorted(((b, m), r) for (m, b), r in tested.items() if _finite(r["p_worse_holm"]))
+    if not rows:
+        return ""
+    worse = [_harm(m, b, r) for (b, m), r in rows if worse_than_cold_value(r["worse_than_cold"])]
+    if worse:
+        return (
+            "Warm-started CMA-ES is worse than cold CMA-ES beyond the noise floor (the mirror "
+            f"test, Holm p < {ALPHA:g}): {_listed(worse)}."
+        )
+    words = (
+        "No warm-started designer is worse than cold CMA-ES beyond the noise floor at any budget "
+        f"tested (the mirror test: Holm p >= {ALPHA:g} in "
+        + (f"all {len(rows)} tests" if len(rows) > 1 else "its one test")
+        + ")"
+    )
+    above = [
+        _harm(m, b, r)
+        for (b, m), r in rows
+        if _finite(r["mean_floors"]) and float(r["mean_floors"]) > 1.0
+    ]
+    if above:
+        words += (
+            "; warm's mean over tasks is more than one floor above cold's, without a significant "
+            f"test, for {_listed(above)}"
+        )
+    return words + "."
+
+
 def verdict_sentence(
-    verdict: pd.DataFrame, *, budgets: Iterable[int], methods: Iterable[str]
+    verdict: pd.DataFrame, *, budgets: Iterable[int], methods: Iterable[str], popsize: int
 ) -> str:
     """Which budgets a warm-started designer beats cold CMA-ES at, in words, from the table.
 
+    The wins are grouped by budget and told apart by cold CMA-ES's state: at budgets up to its
+    population size it has not updated yet (:func:`before_first_update`), above it it has
+    (:data:`AFTER_FIRST_UPDATE`). A second sentence names the rows where warm is worse than
+    cold beyond the floor (the mirror test), or says that none is, and names the rows whose
+    mean is more than one floor on cold's side without a significant test.
+
     Only a row with a finite Holm p is a test; every (warm-started method, budget) of the study
     without one is named apart as not tested. ``breakeven.md`` and ``docs/rl.md`` both print
-    this sentence.
+    these words.
 
     Args:
         verdict: :func:`warm_cold_table`, or ``warm_vs_cold.csv`` read back.
         budgets: The study's budgets (its config's), tested or not.
         methods: The study's methods (its config's): its cold CMA-ES (``cmaes``) and its
             warm-started ones (``warm-*``).
+        popsize: Cold CMA-ES's population size in the study (its config's ``size.popsize``).
 
     Raises:
-        ValueError: A ``beats_cold`` that is not a decision (:func:`beats_cold_value`).
+        ValueError: A ``beats_cold`` or ``worse_than_cold`` that is not a decision
+            (:func:`beats_cold_value`), or ``popsize`` not a whole number >= 1.
     """
+    before = before_first_update(popsize)
     methods = [str(m) for m in methods]
     decisions = [beats_cold_value(v) for v in verdict["beats_cold"]]
     if "cmaes" not in methods:
@@ -845,25 +1189,37 @@ def verdict_sentence(
     }
     tested = {key: v for key, v in rows.items() if _finite(v[0]["p_holm"])}
     untested = [(m, b) for m in warm for b in study if (m, b) not in tested]
-    wins = sorted((b, m) for (m, b), (_, won) in tested.items() if won)
+    won_by_budget: dict[int, list[str]] = {}
+    for (m, b), (_, decision) in sorted(tested.items(), key=lambda item: (item[0][1], item[0][0])):
+        if decision:
+            won_by_budget.setdefault(b, []).append(m)
     tested_budgets = {b for _, b in tested}
-    if wins:
-        won_budgets = {b for b, _ in wins}
-        who = "; ".join(
-            f"{m} at {b}: {int(tested[(m, b)][0]['replicates_beyond'])} of "
-            f"{int(tested[(m, b)][0]['replicates'])} training seeds beyond the floor"
-            for b, m in wins
-        )
+    if won_by_budget:
+        parts = []
+        for label, early in ((before, True), (AFTER_FIRST_UPDATE, False)):
+            phase = sorted(b for b in tested_budgets if (b <= popsize) is early)
+            if not phase:
+                continue
+            won = [b for b in phase if b in won_by_budget]
+            lost = [b for b in phase if b not in won_by_budget]
+            if not won:
+                parts.append(f"{label}, at {_at(lost)} none of the designers tested does")
+                continue
+            details = "; ".join(
+                f"at {b}{', where the warm run is its zero-shot design' if b == 1 else ''}: "
+                + _with_seeds(won_by_budget[b], [tested[(m, b)][0] for m in won_by_budget[b]])
+                for b in won
+            )
+            text = f"{label}, at {_at(won)} ({details})"
+            if lost:
+                text += f", while at {_at(lost)} none of the designers tested does"
+            parts.append(text)
         words = (
             "**Verdict:** warm-started CMA-ES beats cold CMA-ES beyond the noise floor (Holm p "
-            f"< {ALPHA:g}, over the tasks, for the study's trained designers) at "
-            f"{_at(won_budgets)} ({who})"
+            f"< {ALPHA:g}, over the tasks, for the study's trained designers) " + "; ".join(parts)
         )
-        lost = tested_budgets - won_budgets
-        if lost:
-            words += f"; at {_at(lost)} none of the designers tested does"
-        elif won_budgets == set(study):
-            words += ", every budget of the study"
+        if set(won_by_budget) == set(study):
+            words += "; that is every budget of the study"
     elif tested:
         p_min, method, budget = min((float(r["p_holm"]), m, b) for (m, b), (r, _) in tested.items())
         if len(tested) > 1:
@@ -887,7 +1243,8 @@ def verdict_sentence(
         words += "; not tested (fewer than 2 tasks with both runs): " + "; ".join(
             f"{m} at {_listed([str(b) for b in bs])}" for m, bs in by_method.items()
         )
-    return words + "."
+    harm = _worse_words({key: r for key, (r, _) in tested.items()})
+    return f"{words}. {harm}" if harm else f"{words}."
 
 
 def make_breakeven_report(
@@ -939,6 +1296,7 @@ def make_breakeven_report(
     ]
     tasks = config["tasks"]
     replicates = int(config["size"]["replicates"])
+    popsize = study_popsize(config)
     tests_made = int(np.isfinite(verdict["p_holm"].to_numpy(dtype=np.float64)).sum())
     scenes = config["size"].get("floor_scenes", "no")
     measured = int((floors["noise_range"] > floors["least_floor"]).sum())
@@ -965,11 +1323,12 @@ def make_breakeven_report(
         f"design (the best of its cold CMA-ES runs) over {scenes} nudged scenes and "
         f"{fraction:.4g} x |F_ref| (the project's median relative floor), as the benchmark "
         f"protocol sets a cell's ({measured} of {len(floors)} tasks measured above it; "
-        "`noise_floors.csv`). " + verdict_test_text(replicates, tests_made),
+        "`noise_floors.csv`). " + verdict_test_text(replicates, tests_made, popsize=popsize),
         "",
         *verdict_markdown(verdict),
         "",
-        f"{verdict_sentence(verdict, budgets=budgets, methods=methods)} Table: `warm_vs_cold.csv`.",
+        f"{verdict_sentence(verdict, budgets=budgets, methods=methods, popsize=popsize)} "
+        "Table: `warm_vs_cold.csv`.",
         "",
         "## Secondary: every pair of methods, each budget apart",
         "",
@@ -984,20 +1343,36 @@ def make_breakeven_report(
         "",
         "## Amortization (against cold CMA-ES)",
         "",
+        "The target is cold CMA-ES's mean regret at B over all its replicates; the budget "
+        "needed and the goals are the method's mean over its replicates (training seeds), and "
+        "beside them the range of each training seed's own (its mean over the same tasks "
+        "against the same target). Table: `amortization.csv`.",
+        "",
         *markdown_table(
-            ["method", "cold budget B", "target regret", "budget needed", "training", "goals"],
+            [
+                "method",
+                "cold budget B",
+                "target regret",
+                "budget needed",
+                "training",
+                "goals",
+                "across training seeds",
+            ],
             [
                 [
-                    r.method,
-                    int(r.reference_budget),
-                    f"{r.target_regret:.3f}",
-                    "not reached" if math.isnan(r.budget_needed) else f"{r.budget_needed:.0f}",
-                    f"{r.training_episodes:.0f}",
-                    "never" if not math.isfinite(r.breakeven_goals) else f"{r.breakeven_goals:.0f}",
+                    r["method"],
+                    int(r["reference_budget"]),
+                    f"{r['target_regret']:.3f}",
+                    _count(r["budget_needed"], "not reached"),
+                    f"{r['training_episodes']:.0f}",
+                    _count(r["breakeven_goals"], "never"),
+                    _seed_span(r),
                 ]
-                for r in amortization.itertuples()
+                for r in amortization.to_dict("records")
             ],
         ),
+        "",
+        amortization_sentence(amortization, popsize=popsize),
         "",
         "![amortization](amortization.png)",
         "",
