@@ -279,7 +279,7 @@ BREAKEVEN_SIZES: dict[str, BreakevenSize] = {
         contextual_goals=16,
     ),
 }
-"""The sizes: ``smoke`` (CI, seconds) and ``full`` (the issue's study, in docs/results/breakeven)."""
+"""The sizes: ``smoke`` (CI, seconds) and ``full`` (the issue's study: docs/results/breakeven)."""
 
 
 def _seeds(root: int, part: int, index: int, n: int) -> list[int]:
