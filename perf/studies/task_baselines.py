@@ -24,19 +24,37 @@ docs/tasks.md reports:
    it: whether CMA-ES's best-F design succeeds, and its regret (its best F minus the best F
    seen in all of this task's evaluations).
 
+6. **Reach** (``--reach FILE``, instead of 1 to 5): the ``--random`` designs of 2 rolled out
+   once per task, each design's final box pose (centre and tilt) stored in FILE. The plan does
+   not depend on the goal (checked: the first two designs roll out again at the range's low
+   corner and must end at the same pose to the bit), so the pose gives the design's success at
+   any goal, by the task's own test (``TaskDefinition.succeeded``: tolerance, resting height,
+   tilt). Printed per task: successes at every goal of a grid of :data:`REACH_STEP` m over the
+   goal range and :data:`REACH_MARGIN` m around it (the range marked), the grid goals of the
+   range with none and with fewer than :data:`REACH_MINIMUM`, the largest box of grid goals in
+   the range that holds the default goal and has at least :data:`REACH_MINIMUM` successes at
+   every goal (the rule the obstacle's goal range follows, docs/tasks.md) and the largest such
+   box without the default goal, and the successes at each committed protocol instance of the
+   task (push's instances draw the box's mass and friction, so the poses here, at the nominal
+   box, are not theirs: not counted). ``--reach-from FILE`` prints the same from a stored FILE
+   without simulating. 4 tasks x 66 rollouts at 0.2 to 0.6 s each (the rate above): 1 to 3
+   minutes on one core.
+
 Run: ``python -m perf.studies.task_baselines [--task hook] [--random 64] [--iterations 15]
 [--batch 8] [--seed 0] [--json FILE [--merge]]``; ``--merge`` replaces only the measured
 tasks' entries of an existing FILE (a task re-measured alone). One evaluation takes 0.2 to
 0.6 s on one core; a task takes about 240 evaluations (2 to 4 minutes). ``--noise-floor-only``
 measures 2 and 3 alone (about 120 evaluations a task; the floor's designs are the same, as they
 come from the same random draw): docs/results/tasks/noise-floor.json, whose summary must equal
-baselines.json's.
+baselines.json's. ``--reach docs/results/tasks/reach.json`` (``--merge`` keeps the other
+tasks' entries) and ``--reach-from`` measure and print 6.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import statistics
 import time
 from dataclasses import replace
@@ -47,7 +65,7 @@ import numpy as np
 from benchmarks.suites.retest import RetestConfig
 from optimizers import make as make_optimizer
 from tooldesign_env import ToolDesignEnv, default_bounds
-from tooldesign_env.tasks import BUILTIN_TASKS, get_task
+from tooldesign_env.tasks import BUILTIN_TASKS, TaskDefinition, get_task
 
 #: The hand-picked designs, (c1, c2, c3), highest power first.
 NAMED: dict[str, tuple[float, float, float]] = {
@@ -64,6 +82,13 @@ NAMED: dict[str, tuple[float, float, float]] = {
 #: second hard, between them medium.
 EASY_SHARE = 0.10
 HARD_SHARE = 0.01
+
+
+#: Reach (6): the grid's step and its margin around the goal range, m, and the successes of
+#: the random designs every goal of a task's range must have.
+REACH_STEP = 0.05
+REACH_MARGIN = 0.1
+REACH_MINIMUM = 2
 
 
 def tier(random_success: float) -> str:
@@ -88,12 +113,17 @@ def _relative_range(values: list[float]) -> float:
     return (max(values) - min(values)) / abs(statistics.fmean(values))
 
 
-def _random_rows(env: ToolDesignEnv, random: int, seed: int) -> list[dict[str, Any]]:
-    """``random`` designs drawn uniformly in the d = 3 bounds with ``seed``, scored."""
+def _random_designs(random: int, seed: int) -> np.ndarray:
+    """``random`` designs drawn uniformly in the d = 3 bounds with ``seed``: (random, 3)."""
     bounds = default_bounds(3)
     rng = np.random.default_rng(np.random.SeedSequence(seed))
-    designs = rng.uniform(bounds[:, 0], bounds[:, 1], size=(random, 3))
-    return [_score(env, c) for c in designs]
+    designs: np.ndarray = rng.uniform(bounds[:, 0], bounds[:, 1], size=(random, 3))
+    return designs
+
+
+def _random_rows(env: ToolDesignEnv, random: int, seed: int) -> list[dict[str, Any]]:
+    """``random`` designs drawn uniformly in the d = 3 bounds with ``seed``, scored."""
+    return [_score(env, c) for c in _random_designs(random, seed)]
 
 
 def noise_floor(name: str, floor_set: list[Any]) -> dict[str, Any]:
@@ -219,6 +249,221 @@ def measure(name: str, *, random: int, iterations: int, batch: int, seed: int,
     }
 
 
+def _final_pose(info: dict[str, Any]) -> dict[str, Any]:
+    """The box's final centre (x, y, z) m and tilt rad of one rollout, and whether it is usable.
+
+    An unusable design (rejected before its rollout) has no pose: both are None.
+    """
+    path = info["box_trajectory"]
+    if not info["valid"] or len(path) == 0:
+        return {"valid": False, "final_position": None, "final_tilt": None}
+    return {
+        "valid": True,
+        "final_position": [float(v) for v in path[-1]],
+        "final_tilt": float(info["final_tilt"]),
+    }
+
+
+def measure_reach(name: str, *, random: int, seed: int) -> dict[str, Any]:
+    """The final box pose of each of the ``random`` designs of :func:`measure` in one task.
+
+    Raises:
+        RuntimeError: a design ended elsewhere with the goal at the range's low corner (the
+            plan would depend on the goal, and the poses would not give the success at every
+            goal).
+    """
+    task = get_task(name)
+    designs = _random_designs(random, seed)
+    env = ToolDesignEnv(task=name, info_series=True)
+    corner = ToolDesignEnv(task=name, goal=task.goal_low, info_series=True)
+    env.reset(seed=0)
+    corner.reset(seed=0)
+    try:
+        rows = [
+            {"design": [float(c) for c in design], **_final_pose(env.step(design)[4])}
+            for design in designs
+        ]
+        for row, design in zip(rows[:2], designs[:2], strict=True):
+            again = _final_pose(corner.step(design)[4])
+            if again != {k: row[k] for k in again}:
+                raise RuntimeError(
+                    f"{name}: the design {row['design']} ends at {again['final_position']} with "
+                    f"the goal {list(task.goal_low)}, at {row['final_position']} with the "
+                    "default goal: the rollout depends on the goal"
+                )
+    finally:
+        env.close()
+        corner.close()
+    return {
+        "task": name,
+        "seed": seed,
+        "n": len(rows),
+        "bounds": default_bounds(3).tolist(),
+        "goal_low": list(task.goal_low),
+        "goal_high": list(task.goal_high),
+        "designs": rows,
+    }
+
+
+def reach_successes(entry: dict[str, Any], task: TaskDefinition, goal: Any) -> int:
+    """How many designs of a :func:`measure_reach` entry succeed at ``goal`` (x, y, z) m.
+
+    An unusable design fails; a usable one is judged by ``task.succeeded`` on its final pose.
+    """
+    goal = np.asarray(goal, dtype=float)
+    count = 0
+    for row in entry["designs"]:
+        end = np.asarray(row["final_position"], dtype=float)
+        if row["valid"] and task.succeeded(
+            float(np.linalg.norm(end - goal)), float(end[2]), final_tilt=row["final_tilt"]
+        ):
+            count += 1
+    return count
+
+
+def _grid_axis(low: float, high: float, margin: float) -> np.ndarray:
+    """Multiples of :data:`REACH_STEP` from ``low - margin`` to ``high + margin``."""
+    first = math.floor(round((low - margin) / REACH_STEP, 6))
+    last = math.ceil(round((high + margin) / REACH_STEP, 6))
+    return np.round(np.arange(first, last + 1) * REACH_STEP, 6)
+
+
+def reach_grid(
+    entry: dict[str, Any], task: TaskDefinition, margin: float = REACH_MARGIN
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Successes at each goal of the grid over the task's goal range and ``margin`` around it.
+
+    Returns:
+        xs (nx,), ys (ny,) in m and the counts (ny, nx), the goals' z the range's.
+    """
+    xs = _grid_axis(task.goal_low[0], task.goal_high[0], margin)
+    ys = _grid_axis(task.goal_low[1], task.goal_high[1], margin)
+    z = task.goal_low[2]
+    counts = np.array([[reach_successes(entry, task, (x, y, z)) for x in xs] for y in ys])
+    return xs, ys, counts
+
+
+def _in_range(task: TaskDefinition, x: float, y: float) -> bool:
+    (x0, y0, _), (x1, y1, _) = task.goal_low, task.goal_high
+    return bool(x0 - 1e-9 <= x <= x1 + 1e-9 and y0 - 1e-9 <= y <= y1 + 1e-9)
+
+
+def _holds(low: float, high: float, value: float) -> bool:
+    """Whether ``value`` lies in [low, high] (NaN: no constraint)."""
+    return math.isnan(value) or low - 1e-9 <= value <= high + 1e-9
+
+
+def largest_reached_box(
+    xs: np.ndarray,
+    ys: np.ndarray,
+    counts: np.ndarray,
+    task: TaskDefinition,
+    minimum: int = REACH_MINIMUM,
+    *,
+    with_default_goal: bool = True,
+) -> tuple[tuple[float, float], tuple[float, float]] | None:
+    """The largest box of grid goals in the range, with the default goal, reached everywhere.
+
+    Every grid goal of the box has at least ``minimum`` successes. Largest by area (ties: by the
+    number of grid goals, then the lowest corner). The default goal must lie in the box (not on
+    the grid), unless ``with_default_goal`` is False.
+
+    Returns:
+        ((x0, y0), (x1, y1)) m, or None if no such box exists.
+    """
+    ix = [i for i, x in enumerate(xs) if _in_range(task, x, task.goal_low[1])]
+    iy = [j for j, y in enumerate(ys) if _in_range(task, task.goal_low[0], y)]
+    gx, gy = (task.goal[0], task.goal[1]) if with_default_goal else (math.nan, math.nan)
+    best: tuple[float, int] | None = None
+    corners: tuple[tuple[float, float], tuple[float, float]] | None = None
+    for a in ix:
+        for b in (i for i in ix if i >= a and _holds(xs[a], xs[i], gx)):
+            for c in iy:
+                for d in (j for j in iy if j >= c and _holds(ys[c], ys[j], gy)):
+                    if counts[c : d + 1, a : b + 1].min() < minimum:
+                        continue
+                    key = (float((xs[b] - xs[a]) * (ys[d] - ys[c])), (b - a + 1) * (d - c + 1))
+                    if best is None or key > best:  # the first (lowest corner) wins a tie
+                        best = key
+                        corners = (float(xs[a]), float(ys[c])), (float(xs[b]), float(ys[d]))
+    return corners
+
+
+def _print_reach(entry: dict[str, Any]) -> None:
+    """Print one task's reach (see the module docstring, 6)."""
+    from benchmarks.protocol.instances import PUSH_TASK, committed_tasks, load_instances
+
+    name = entry["task"]
+    task = get_task(name)
+    usable = sum(row["valid"] for row in entry["designs"])
+    (x0, y0, z), (x1, y1, _) = task.goal_low, task.goal_high
+    print(f"## {name}: {entry['n']} random designs (seed {entry['seed']}), {usable} usable")
+    print(
+        f"successes at each goal (z {z:g} m; success within {task.tolerance:g} m, the centre "
+        f"within {task.height_tolerance:g} m of its resting height, tilted at most "
+        f"{math.degrees(task.max_tilt):g} degrees; * in the goal range, x in [{x0:g}, {x1:g}], "
+        f"y in [{y0:g}, {y1:g}] m; the default goal ({task.goal[0]:g}, {task.goal[1]:g}) has "
+        f"{reach_successes(entry, task, task.goal)}):"
+    )
+    xs, ys, counts = reach_grid(entry, task)
+    print("| y \\ x | " + " | ".join(f"{x:g}" for x in xs) + " |")
+    print("|---" * (len(xs) + 1) + "|")
+    inside = []
+    for j, y in enumerate(ys):
+        cells = []
+        for i, x in enumerate(xs):
+            star = _in_range(task, x, y)
+            if star:
+                inside.append((float(x), float(y), int(counts[j, i])))
+            cells.append(f"{counts[j, i]}{'*' if star else ''}")
+        print(f"| {y:g} | " + " | ".join(cells) + " |")
+    none = [(x, y) for x, y, n in inside if n == 0]
+    few = [(x, y) for x, y, n in inside if n < REACH_MINIMUM]
+    listed = ": " + ", ".join(f"({x:g}, {y:g})" for x, y in few) if 0 < len(few) <= 12 else ""
+    print(
+        f"grid goals in the range: {len(inside)}; successes {min(n for *_, n in inside)} to "
+        f"{max(n for *_, n in inside)}; with none {len(none)}, with fewer than {REACH_MINIMUM} "
+        f"{len(few)}{listed}"
+    )
+    for with_goal in (True, False):
+        box = largest_reached_box(xs, ys, counts, task, with_default_goal=with_goal)
+        holding = "holding the default goal " if with_goal else ""
+        what = (
+            f"the largest box of grid goals in the range {holding}with at least "
+            f"{REACH_MINIMUM} successes at every goal"
+        )
+        if box is None:
+            print(f"{what}: none")
+        else:
+            (bx0, by0), (bx1, by1) = box
+            whole = (bx0, by0, bx1, by1) == (x0, y0, x1, y1)
+            print(f"{what}: x in [{bx0:g}, {bx1:g}], y in [{by0:g}, {by1:g}] m"
+                  + (" (the whole range)" if whole else ""))
+        if box is not None and (box[0][0], box[0][1], box[1][0], box[1][1]) == (x0, y0, x1, y1):
+            break  # the whole range: the second box is the same
+    if name == PUSH_TASK:
+        print("committed instances: not counted (each push instance draws the box's mass and "
+              "friction; these poses are the nominal box's)")
+    elif name in committed_tasks():
+        per = [
+            (i.id, i.set, i.goal, reach_successes(entry, task, i.goal))
+            for i in load_instances(task=name)
+        ]
+        print(
+            "committed instances (version 1): "
+            + ", ".join(f"{i} ({g[0]:g}, {g[1]:g}) {n}" for i, _, g, n in per)
+        )
+        print(
+            f"  successes {min(n for *_, n in per)} to {max(n for *_, n in per)}; with none: "
+            + (", ".join(i for i, *_, n in per if n == 0) or "no instance")
+            + f"; with fewer than {REACH_MINIMUM}: "
+            + (", ".join(i for i, *_, n in per if n < REACH_MINIMUM) or "no instance")
+        )
+    else:
+        print("committed instances: none (a task without a committed set)")
+    print()
+
+
 def _print_floor(n: dict[str, Any]) -> None:
     print(
         f"noise floor: median relative range of F {100 * n['median_relative_range']:.2f} % "
@@ -280,19 +525,55 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "the others and their order (one task re-measured alone)",
     )
     parser.add_argument(
+        "--reach",
+        metavar="FILE",
+        default=None,
+        help="instead of the baselines: roll out the random designs once per task, store their "
+        "final poses in FILE and print each task's per-goal success grid and the successes at "
+        "its committed instances",
+    )
+    parser.add_argument(
+        "--reach-from",
+        metavar="FILE",
+        default=None,
+        help="print the --reach grids and instance counts from the poses stored in FILE (no "
+        "simulation)",
+    )
+    parser.add_argument(
         "--noise-floor-only",
         action="store_true",
         help="measure the random designs and the noise floor alone (no named designs, no CMA-ES)",
     )
     args = parser.parse_args(argv)
-    if args.merge and not args.json:
-        parser.error("--merge needs --json FILE: the file whose entries it replaces")
+    if args.merge and not (args.json or args.reach):
+        parser.error("--merge needs --json FILE or --reach FILE: the file whose entries it "
+                     "replaces")
+    if args.reach and args.reach_from:
+        parser.error("--reach measures and --reach-from reads: give one of them")
+    if (args.reach or args.reach_from) and (args.json or args.noise_floor_only):
+        parser.error("--reach and --reach-from measure the reach alone: no --json or "
+                     "--noise-floor-only with them")
+    if args.random < 1:
+        parser.error(f"--random must be at least 1, got {args.random}")
     return args
 
 
 def main(argv: list[str] | None = None) -> int:
     """Measure and print the table of each task asked for."""
     args = parse_args(argv)
+    if args.reach_from:
+        return print_reach(args.reach_from, args.task)
+    if args.reach:
+        from benchmarks.storage.atomic import atomic_write_text
+
+        entries = []
+        for name in args.task or BUILTIN_TASKS:
+            entries.append(measure_reach(name, random=args.random, seed=args.seed))
+            _print_reach(entries[-1])
+        if args.merge:
+            entries = merge_results(args.reach, entries)
+        atomic_write_text(args.reach, json.dumps(entries, indent=1) + "\n")
+        return 0
     results = []
     for name in args.task or BUILTIN_TASKS:
         if args.noise_floor_only:
@@ -318,6 +599,35 @@ def main(argv: list[str] | None = None) -> int:
         if args.merge:
             results = merge_results(args.json, results)
         atomic_write_text(args.json, json.dumps(results, indent=1) + "\n")
+    return 0
+
+
+def print_reach(path: str, tasks: list[str] | None = None) -> int:
+    """Print the reach of each task stored in the ``--reach`` file ``path`` (or of ``tasks``).
+
+    Returns 0, or 2 (with a one-line message on stderr) if ``path`` is missing, not a list of
+    task entries, or lacks a task asked for.
+    """
+    import sys
+    from pathlib import Path
+
+    try:
+        entries = json.loads(Path(path).read_text(encoding="utf-8"))
+        if not isinstance(entries, list) or not all(
+            isinstance(e, dict) and {"task", "designs"} <= set(e) for e in entries
+        ):
+            raise ValueError("not a list of --reach task entries")
+    except (OSError, ValueError) as err:
+        print(f"--reach-from {path}: {err}", file=sys.stderr)
+        return 2
+    by_task = {e["task"]: e for e in entries}
+    missing = [t for t in tasks or () if t not in by_task]
+    if missing:
+        print(f"--reach-from {path}: no entry for {', '.join(missing)}; it holds "
+              f"{', '.join(by_task)}", file=sys.stderr)
+        return 2
+    for name in tasks or list(by_task):
+        _print_reach(by_task[name])
     return 0
 
 
