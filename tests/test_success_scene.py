@@ -134,3 +134,25 @@ def test_the_env_and_the_reports_agree_on_a_tall_box_in_hook():
     ours = design_succeeded("ok", info["final_distance"], HOOK, info["final_height"],
                             info["final_tilt"], scene=config.task_scene())
     assert ours is info["success"]
+
+
+# ------------------------------------------------------------------ review 42-35 finding 9
+@pytest.mark.parametrize("command", ["design", "evaluate"])
+def test_the_goal_help_names_each_task_default_goal(command, capsys):
+    from benchmarks.cli import main
+
+    with pytest.raises(SystemExit):
+        main([command, "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    goals = ", ".join(
+        f"{name} {' '.join(f'{v:g}' for v in get_task(name).goal)}"
+        for name in ("push", "hook", "obstacle", "puck")
+    )
+    assert f"goal X^g in m (default: the task's: {goals}" in text
+
+
+def test_the_readme_says_the_puck_slides():
+    from pathlib import Path
+
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
+    assert "rolling puck" not in readme and "push a puck that slides" in readme

@@ -182,3 +182,12 @@ def test_bad_scene_overrides_are_refused_in_one_line(overrides, kwargs, error, m
     with pytest.raises(error, match=match) as e:
         ToolDesignEnv(task="hook", scene_overrides=overrides, **kwargs)
     _one_line(e)
+
+
+def test_the_rl_starting_state_describes_the_task_box_and_range():
+    from tooldesign_env.rl import ToolDesignRLEnv
+
+    doc = " ".join((ToolDesignRLEnv.__doc__ or "").split())
+    x, y = get_task("hook").scene.box_position
+    assert f"for hook at ({x:g}, {y:g}) m" in doc
+    assert "default the task's goal range" in doc

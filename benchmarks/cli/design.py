@@ -126,6 +126,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         section_default=(
             f"{DEFAULT_SECTION_SHAPE}; with --policy, the one the policy was trained with"
         ),
+        goal_of_task=True,
     )
     add_task_name_argument(parser)
     # With --policy the tool's section is the policy's unless given: None tells the two apart
