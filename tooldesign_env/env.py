@@ -364,7 +364,11 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
       day ``info["final_height"]`` and ``info["final_tilt"]`` were added and ``success``
       also asks the box to end standing (``TaskDefinition.max_tilt``, ``height_tolerance``),
       and the obstacle task (``ToolDesign-Obstacle-v0``, not yet released) had its post
-      beyond the box's way replaced by a curb across it, with goals beyond the curb.
+      beyond the box's way replaced by a curb across it, with goals beyond the curb. Later
+      that day ``scene_overrides`` was added, a ``scene`` that leaves the box at
+      ``SceneSpec()``'s start or size for a task whose box is elsewhere became an error (it
+      had silently moved the box), and the task ids refuse ``task=`` another task; push and
+      every scene derived from a task's are unchanged.
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 4}

@@ -204,7 +204,8 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
       2026-11-27 the ceiling at 1 was removed: a design with F < 0 scores 1 - F / F_idle > 1
       instead of 1, so that designs with F < 0 (common in the hook task) are told apart; no
       committed rl or breakeven episode had reached 1 (the largest reward 0.845), so the id
-      stayed v0.
+      stayed v0. The same day a ``goal_range`` outside the task's range became an error at
+      construction (it failed at the first reset before).
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 4}
