@@ -488,3 +488,40 @@ def test_the_normalized_reward_stays_within_its_bounds_at_small_precision(precis
 def test_the_base_envs_name_for_full_info_is_pointed_to():
     with pytest.raises(TypeError, match="full_info=True"):
         ToolDesignRLEnv(info_series=True)
+
+
+# ------------------------------------------------------------------ tasks: reward top, goal range
+@pytest.mark.slow
+def test_a_design_with_negative_free_energy_scores_above_1_not_at_a_ceiling():
+    # In hook at p^X = 20 the curl at the bounds' corner has F -40 (docs/results/tasks/
+    # baselines.json): a reward clipped at 1 would tie it with every other F < 0 design.
+    e = gym.make("ToolDesignRL-Hook-v0").unwrapped
+    e.reset()
+    _, reward, *_, info = e.step(np.ones(3, np.float32))  # C = (1.5, 1.5, 0.5), the corner
+    e.close()
+    assert info["valid"] is True and info["free_energy"] < 0
+    assert reward == 1.0 - info["free_energy"] / info["idle_free_energy"]
+    assert reward > 1.0 and reward == info["normalized_reward"]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "goal_range, corner",
+    [
+        (((0.0, 1.4, 0.1), (0.1, 1.5, 0.1)), r"goal_range\[0\] \[0\.0, 1\.4, 0\.1\]"),
+        (((-0.5, 0.9, 0.1), (-0.3, 1.1, 0.1)), r"goal_range\[1\] \[-0\.3, 1\.1, 0\.1\]"),
+    ],
+)
+def test_a_goal_range_outside_the_task_range_is_refused_at_construction(goal_range, corner):
+    with pytest.raises(ValueError, match=corner + r" is outside the hook task's goal range") as e:
+        gym.make("ToolDesignRL-Hook-v0", randomize_goal=True, goal_range=goal_range)
+    assert "\n" not in str(e.value)
+
+
+@pytest.mark.slow
+def test_a_goal_range_inside_the_task_range_is_taken_and_drawn_from():
+    inner = ((-0.55, 0.85, 0.1), (-0.45, 0.95, 0.1))
+    e = gym.make("ToolDesignRL-Hook-v0", randomize_goal=True, goal_range=inner).unwrapped
+    obs, _ = e.reset(seed=3)
+    e.close()
+    assert np.all(obs[:3] >= np.float32(inner[0])) and np.all(obs[:3] <= np.float32(inner[1]))

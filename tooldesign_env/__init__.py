@@ -136,15 +136,17 @@ def register_envs() -> None:
         register(
             id=RL_ENV_ID, entry_point="tooldesign_env.rl:ToolDesignRLEnv", disable_env_checker=True
         )
+    from tooldesign_env.task_envs import entry_point as task_entry_point
     from tooldesign_env.tasks.registry import DEFAULT_TASK, env_ids, task_names
 
     for name in task_names():
         if name == DEFAULT_TASK:
             continue
         env_id, rl_id = env_ids(name)
+        # An entry point of the task's own, which refuses gym.make(id, task=<another task>).
         for id_, entry_point in (
-            (env_id, "tooldesign_env.env:ToolDesignEnv"),
-            (rl_id, "tooldesign_env.rl:ToolDesignRLEnv"),
+            (env_id, task_entry_point("ToolDesignEnv", name)),
+            (rl_id, task_entry_point("ToolDesignRLEnv", name)),
         ):
             if id_ not in registry:
                 register(
@@ -153,7 +155,11 @@ def register_envs() -> None:
                     kwargs={"task": name},
                     disable_env_checker=True,
                 )
-            elif registry[id_].kwargs != {"task": name}:
+            elif registry[id_].kwargs != {"task": name} or registry[id_].entry_point not in (
+                entry_point,
+                # Registered by a version of this package before the ids had their own.
+                f"tooldesign_env.{'rl:ToolDesignRLEnv' if id_ == rl_id else 'env:ToolDesignEnv'}",
+            ):
                 # Skipping it would leave the id making another env than the task named.
                 raise ValueError(
                     f"the Gymnasium id {id_} of the task {name!r} is registered already for "

@@ -12,6 +12,7 @@ the value), and the class docstring carries Gymnasium's sections.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 import sys
@@ -47,7 +48,10 @@ __all__ = [
     "SERIES_KEYS",
     "WORKSPACE_HIGH",
     "WORKSPACE_LOW",
+    "SCENE_MATCH_POSITION",
+    "SCENE_MATCH_YAW",
     "ToolDesignEnv",
+    "check_scene_keeps_task_box",
     "default_bounds",
     "past_bounds",
 ]
@@ -177,6 +181,80 @@ def check_reset_arguments(seed: Any, options: Any) -> tuple[int | None, dict[str
     return seed, dict(options)
 
 
+#: How far a given scene's box start may lie from SceneSpec's default (push's) and still be taken
+#: for it, m and rad (:func:`check_scene_keeps_task_box`): far beyond the retest's nudges
+#: (0.1 mm, 1e-4 rad), far below any move meant to place the box elsewhere.
+SCENE_MATCH_POSITION = 0.01
+SCENE_MATCH_YAW = 0.01
+
+#: The SceneSpec fields that place the task's object: its start and size.
+_BOX_PLACEMENT = ("box_position", "box_yaw", "box_size")
+
+
+def _check_scene_overrides(overrides: Any, box_mass: Any) -> dict[str, Any]:
+    """``scene_overrides`` as a dict of SceneSpec fields, or a one-line error naming the value."""
+    if overrides is None:
+        return {}
+    if not isinstance(overrides, Mapping):
+        raise TypeError(
+            "scene_overrides must be a mapping of SceneSpec field names to values, e.g. "
+            f"{{'box_friction': 0.3}}, got {type(overrides).__name__} {overrides!r}"
+        )
+    fields = tuple(f.name for f in dataclasses.fields(SceneSpec))
+    for key in overrides:
+        if key not in fields:
+            raise ValueError(
+                f"scene_overrides: unknown SceneSpec field {key!r}; allowed: {', '.join(fields)}"
+            )
+    if "box_mass" in overrides and box_mass is not None:
+        raise ValueError(
+            f"give box_mass ({box_mass!r}) or scene_overrides['box_mass'] "
+            f"({overrides['box_mass']!r}), not both"
+        )
+    return dict(overrides)
+
+
+def check_scene_keeps_task_box(
+    definition: TaskDefinition, scene: SceneSpec, *, skip: Sequence[str] = ()
+) -> None:
+    """Refuse a ``scene`` that leaves the task's box where SceneSpec's defaults put it.
+
+    ``ToolDesignEnv(task=..., scene=...)`` builds the scene given, not the task's. A scene made
+    to change one field (``SceneSpec(box_friction=0.3)``) keeps SceneSpec's defaults for the
+    rest, which place the box where the push task does; for a task whose box starts elsewhere
+    or has another size (hook's starts at (-0.4, 1.2) m) that would move the box away from its
+    goals without a word. So a field of :data:`_BOX_PLACEMENT` that is at its SceneSpec
+    default (within :data:`SCENE_MATCH_POSITION` m, :data:`SCENE_MATCH_YAW` rad) while the
+    task's is not is refused. A scene that puts the box anywhere else is taken as meant.
+
+    Args:
+        definition: the task.
+        scene: the scene given.
+        skip: fields set explicitly (``scene_overrides``), never refused.
+
+    Raises:
+        ValueError: in one line, naming the field, its value and the task's.
+    """
+    default = SceneSpec()
+    for name in _BOX_PLACEMENT:
+        if name in skip:
+            continue
+        given, ours, usual = (
+            np.atleast_1d(np.asarray(getattr(spec, name), dtype=float))
+            for spec in (scene, definition.scene, default)
+        )
+        limit = SCENE_MATCH_YAW if name == "box_yaw" else SCENE_MATCH_POSITION
+        at_default = bool(np.all(np.abs(given - usual) <= limit))
+        if at_default and bool(np.any(np.abs(ours - given) > limit)):
+            raise ValueError(
+                f"scene leaves {name} at SceneSpec's default {np.round(given, 4).tolist()} "
+                f"(the push task's), but the {definition.name} task's is "
+                f"{np.round(ours, 4).tolist()}: a scene given replaces the task's whole scene; "
+                "change fields of the task's scene with scene_overrides={...} (as tooldesign "
+                f"--scene does), or move the box on purpose with scene_overrides={{{name!r}: ...}}"
+            )
+
+
 class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
     """Design a hand tool for a Franka Panda: one action is one tool, the reward is -F.
 
@@ -247,15 +325,23 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
 
     ``gym.make("ToolDesign-v0", task="push", goal=None, randomize_goal=False, goal_precision=20.0,
     box_mass=None, estimator="contact", objective_kind=None, bounds=None, tool=ToolSpec(),
-    scene=SceneSpec(), plan=PlanSpec(), controller=ControllerSpec(), objective=ObjectiveSpec(),
-    info_series=False, render_mode=None)``. ``task`` is a registered task's name or a
-    ``tooldesign_env.tasks.TaskDefinition`` (docs/tasks.md): ``"push"``, the paper's, is this
-    id; ``"hook"``, ``"obstacle"`` and ``"puck"`` are also ``ToolDesign-Hook-v0``,
-    ``ToolDesign-Obstacle-v0`` and ``ToolDesign-Puck-v0``. The task supplies the scene, the
+    scene=None, scene_overrides=None, plan=PlanSpec(), controller=ControllerSpec(),
+    objective=ObjectiveSpec(), info_series=False, render_mode=None)``. ``task`` is a registered
+    task's name or a ``tooldesign_env.tasks.TaskDefinition`` (docs/tasks.md): ``"push"``, the
+    paper's, is this id; ``"hook"``, ``"obstacle"`` and ``"puck"`` are also
+    ``ToolDesign-Hook-v0``, ``ToolDesign-Obstacle-v0`` and ``ToolDesign-Puck-v0``, which take
+    no other ``task``. The task supplies the scene, the
     plan, the fixed obstacles, the default goal (``goal=None``) and the goal range that
-    ``randomize_goal`` draws from; ``scene`` and ``plan`` given here replace the task's. A
-    goal outside the range of a task other than push, an unknown task, or a scene whose box
-    starts inside an obstacle is refused (``ValueError``). ``goal_precision``, ``estimator``,
+    ``randomize_goal`` draws from. ``scene_overrides={"box_friction": 0.3}`` changes fields of
+    the task's scene (``SceneSpec`` field names; what ``tooldesign design --scene`` does);
+    ``scene`` and ``plan`` given here replace the task's whole scene and plan. Since
+    ``SceneSpec()``'s defaults place the box where push does, a ``scene`` that leaves the box's
+    start or size at those defaults for a task whose box is elsewhere (hook's) is refused
+    (``ValueError``, :func:`check_scene_keeps_task_box`): give ``scene_overrides`` instead, or
+    a scene that places the box explicitly; ``scene_overrides`` apply on top of ``scene`` when
+    both are given. A goal outside the range of a task other than push, an unknown task, a
+    scene whose box starts inside an obstacle, or a puck whose ``box_size[0]`` (its diameter)
+    differs from ``box_size[1]`` is refused (``ValueError``). ``goal_precision``, ``estimator``,
     ``objective_kind`` and ``box_mass`` are shortcuts for the fields of ``objective`` and
     ``scene``; ``objective_kind=
     "expected-goal-error"`` scores the robust-design baseline instead of F (see
@@ -278,7 +364,11 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
       day ``info["final_height"]`` and ``info["final_tilt"]`` were added and ``success``
       also asks the box to end standing (``TaskDefinition.max_tilt``, ``height_tolerance``),
       and the obstacle task (``ToolDesign-Obstacle-v0``, not yet released) had its post
-      beyond the box's way replaced by a curb across it, with goals beyond the curb.
+      beyond the box's way replaced by a curb across it, with goals beyond the curb. Later
+      that day ``scene_overrides`` was added, a ``scene`` that leaves the box at
+      ``SceneSpec()``'s start or size for a task whose box is elsewhere became an error (it
+      had silently moved the box), and the task ids refuse ``task=`` another task; push and
+      every scene derived from a task's are unchanged.
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 4}
@@ -300,6 +390,7 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
         bounds: Any = None,
         tool: ToolSpec | None = None,
         scene: SceneSpec | None = None,
+        scene_overrides: Mapping[str, Any] | None = None,
         plan: PlanSpec | None = None,
         controller: ControllerSpec | None = None,
         objective: ObjectiveSpec | None = None,
@@ -334,9 +425,15 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
                 )
         self.tool_spec = tool or ToolSpec()
         # The task supplies the scene, the plan, the goal and the obstacles; a scene or plan
-        # given here replaces the task's (a nudged scene of the noise floor, a study's plan).
+        # given here replaces the task's (a nudged scene of the noise floor, a study's plan),
+        # and scene_overrides change fields of it, as the command line's --scene does.
         definition = self.task_definition = get_task(task)
+        overrides = _check_scene_overrides(scene_overrides, box_mass)
+        if scene is not None:
+            check_scene_keeps_task_box(definition, scene, skip=tuple(overrides))
         scene = scene or definition.scene
+        if overrides:
+            scene = replace(scene, **overrides)
         plan = plan or definition.plan
         definition.check_scene(scene)
         if goal is None:

@@ -31,7 +31,6 @@ from tooldesign_env.specs import BOX_MASS_MAX, MASS_RANGE_MIN
 
 __all__ = [
     "MIN_GOAL_DISTANCE",
-    "REWARD_CEILING",
     "REWARD_FLOOR",
     "RL_ENV_ID",
     "ToolDesignRLEnv",
@@ -45,12 +44,15 @@ RL_ENV_ID = "ToolDesignRL-v0"
 #: and 1 - F / F_idle is clipped here, so does the rare usable design with F >= 2 F_idle, which
 #: leaves the box more than twice as far off as not touching it (the straight tool at the
 #: paper's corner (0.5, 0.5, 0.1); 20 of the 75,457 usable episodes of the committed rl suite,
-#: docs/rl.md).
+#: docs/rl.md). The floor keeps a design that sends the box far away from outweighing the rest.
+#: There is no ceiling: 1 - F / F_idle exceeds 1 exactly when F < 0, when the confidence term
+#: outweighs the goal error, and is bounded by 1 + confidence / F_idle. F < 0 is common where
+#: F_idle is small: in the hook task at p^X = 20 (F_idle 1,710 at its default goal) CMA-ES's
+#: best design has F -187 and the curl (1.5, 1.5, 0.5) F -40 (docs/results/tasks/
+#: baselines.json). A ceiling at 1 gave all of them the same reward, above designs that succeed
+#: with F > 0; no episode of the committed rl and breakeven results reached 1 (the largest
+#: reward was 0.845), so removing it changed none of them.
 REWARD_FLOOR = -1.0
-
-#: Highest normalized reward: a design with F <= 0 (the confidence term outweighs the goal error,
-#: possible only at small p^X) gets it. No episode of the committed rl suite came near it.
-REWARD_CEILING = 1.0
 
 #: Closest a goal may be to the box's starting position (m) under ``reward="normalized"``: the
 #: box's own width. F_idle grows with the squared distance, so at the start it is 0 and
@@ -130,19 +132,23 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
 
     ## Rewards
 
-    With ``reward="normalized"`` (the default) the reward is ``1 - F / F_idle``, clipped to
-    [``REWARD_FLOOR``, ``REWARD_CEILING``] = [-1, 1], where F_idle = T * 1/2 p^X |X_start -
-    X^g|^2 is the free energy of leaving the box where it is for the T control steps of the
-    episode, at this goal. 0 means "no better than not touching the box", 1 means "goal error
-    and confidence cancel", and the scale is the same at every goal. Every unusable design is at
-    the floor, at every goal, and so is every design with F >= 2 F_idle: a usable one that does
-    more than twice as badly as leaving the box where it is (the straight tool at the paper's
-    corner (0.5, 0.5, 0.1) does; 20 of the 75,457 usable episodes of the committed rl suite
-    did). The reward is thus in [-1, 1] for every goal the env takes: with
-    ``reward="normalized"`` a goal (or a ``goal_range``) closer than ``MIN_GOAL_DISTANCE`` = 0.1
-    m to the box's starting position is refused (``ValueError``), since F_idle is 0 there. At
-    the top, a design with F <= 0 gets 1: the confidence term outweighs the goal error, which
-    happens only at small p^X (with p^X = 1e-3 F_idle is a few units). ``reward="free-energy"``
+    With ``reward="normalized"`` (the default) the reward is ``1 - F / F_idle``, clipped below
+    at ``REWARD_FLOOR`` = -1, where F_idle = T * 1/2 p^X |X_start - X^g|^2 is the free energy
+    of leaving the box where it is for the T control steps of the episode, at this goal. 0
+    means "no better than not touching the box", 1 means "goal error and confidence cancel"
+    (F = 0), and the scale is the same at every goal. Every unusable design is at the floor, at
+    every goal, and so is every design with F >= 2 F_idle: a usable one that does more than
+    twice as badly as leaving the box where it is (the straight tool at the paper's corner
+    (0.5, 0.5, 0.1) does; 20 of the 75,457 usable episodes of the committed rl suite did). A
+    goal (or a ``goal_range``) closer than ``MIN_GOAL_DISTANCE`` = 0.1 m to the box's starting
+    position is refused with ``reward="normalized"`` (``ValueError``), since F_idle is 0 there.
+    There is no ceiling: a reward above 1 means F < 0, the confidence term outweighs the goal
+    error, and it is at most 1 + confidence / F_idle. That happens at small p^X (with p^X =
+    1e-3 F_idle is a few units) and also at p^X = 20 where F_idle is small, as in the hook task,
+    whose goals lie near the box (F_idle 1,710 at its default goal, where CMA-ES's best design
+    has F -187 and scores 1.11). So the reward is in [-1, 1 + confidence / F_idle]; F still
+    ranks designs at one goal, and a lower F is not always a success (hook's F -187 design
+    leaves the box 0.12 m off). ``reward="free-energy"``
     gives -F as ``ToolDesign-v0`` does, at any goal and any p^X (``info``'s
     ``normalized_reward`` is then NaN closer than 0.1 m, and at p^X = 0). ``info`` holds
     ``free_energy``, ``idle_free_energy``, ``normalized_reward`` and the base env's scalar terms
@@ -151,10 +157,14 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
 
     ## Starting State
 
-    The box rests at radius 1.35 m, 30 degrees from the robot's x axis. The goal is ``goal``, or
-    with ``randomize_goal=True`` uniform in ``goal_range`` (default the paper's x in [-0.5, 0.5],
-    y in [0.5, 1.5], z = 0.1 m); the box mass is ``box_mass`` (default 0.1 kg), or with
-    ``mass_range=(low, high)`` uniform in it. Both are drawn from ``self.np_random``.
+    The box rests where the task puts it (``TaskDefinition.scene``): for push, the paper's
+    task, at radius 1.35 m, 30 degrees from the robot's x axis; for hook at (-0.4, 1.2) m. The
+    goal is ``goal`` (default the task's default goal), or with ``randomize_goal=True`` uniform
+    in ``goal_range`` (default the task's goal range: for push the paper's x in [-0.5, 0.5], y in
+    [0.5, 1.5], z = 0.1 m; docs/tasks.md lists the others). A ``goal_range`` that is not inside
+    the task's range (push takes any) is refused naming it (``ValueError``). The box mass is
+    ``box_mass`` (default 0.1 kg), or with ``mass_range=(low, high)`` uniform in it. Both are
+    drawn from ``self.np_random``.
     ``goal_range`` without ``randomize_goal=True``, or ``box_mass`` with ``mass_range``, would
     be ignored and is refused (``ValueError``).
 
@@ -190,7 +200,12 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
       got -1e5 / F_idle. The
       id stayed v0: the documented reward did not change, and every committed rl result ran
       at p^X = 20, where no goal of the paper's range is that far (at p^X = 50 its corner
-      (-0.5, 1.5, 0.1) is: there an unusable design had scored -0.68, now -1).
+      (-0.5, 1.5, 0.1) is: there an unusable design had scored -0.68, now -1). On
+      2026-11-27 the ceiling at 1 was removed: a design with F < 0 scores 1 - F / F_idle > 1
+      instead of 1, so that designs with F < 0 (common in the hook task) are told apart; no
+      committed rl or breakeven episode had reached 1 (the largest reward 0.845), so the id
+      stayed v0. The same day a ``goal_range`` outside the task's range became an error at
+      construction (it failed at the first reset before).
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 4}
@@ -344,11 +359,8 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
             # An unusable design scores F_idle + the invalid penalty, which reaches the floor
             # only while F_idle <= the penalty (goals within about 2.4 m at p^X = 20, 1.5 m at
             # 50): beyond, it would outrank usable designs that do worse than that.
-            normalized = (
-                min(max(1.0 - free / idle, REWARD_FLOOR), REWARD_CEILING)
-                if base_info["valid"]
-                else REWARD_FLOOR
-            )
+            valid = base_info["valid"]
+            normalized = max(1.0 - free / idle, REWARD_FLOOR) if valid else REWARD_FLOOR
         else:  # only with reward="free-energy" (p^X = 0, or a goal at the box): no scale
             normalized = math.nan
         if self.full_info:
@@ -454,6 +466,11 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
             )
         low = self.base.check_goal(goal_range[0], "goal_range[0]")
         high = self.base.check_goal(goal_range[1], "goal_range[1]")
+        # Both corners in the task's own range (a box: then so is every goal drawn from it),
+        # so that a bad range is refused here and not at the first reset, as options['goal'].
+        definition = self.base.task_definition
+        definition.check_goal(low, "goal_range[0]")
+        definition.check_goal(high, "goal_range[1]")
         if np.any(low > high):
             raise ValueError(f"goal_range must have low <= high per axis, got {goal_range!r}")
         return low, high

@@ -150,11 +150,29 @@ def out_path(text: str) -> Path:
     return Path(text)
 
 
-def add_task_arguments(parser: argparse.ArgumentParser, *, section_default: str = "") -> None:
+def _task_goals_text() -> str:
+    """Each registered task's default goal, for ``--goal``'s help: ``push 0 1.5 0.1, ...``."""
+    from tooldesign_env.tasks import get_task, task_names
+
+    defaults = []
+    for name in task_names():
+        try:
+            goal = get_task(name).goal
+        except (ImportError, TypeError, ValueError):  # a plugin's task that does not load here
+            continue
+        defaults.append(f"{name} {' '.join(f'{v:g}' for v in goal)}")
+    return ", ".join(defaults)
+
+
+def add_task_arguments(
+    parser: argparse.ArgumentParser, *, section_default: str = "", goal_of_task: bool = False
+) -> None:
     """Add the task options (goal, p^X, box mass, estimator, objective) to a parser.
 
     ``section_default`` replaces the words after "default:" in ``--section-shape``'s help, for
-    a command whose default depends on other options.
+    a command whose default depends on other options. ``goal_of_task``: the command takes
+    ``--task`` (:func:`add_task_name_argument`), whose default goal ``--goal`` defaults to;
+    its help names each task's.
 
     Their defaults are :class:`TaskSettings`'; every command that evaluates designs takes the
     same options with the same meaning.
@@ -170,7 +188,11 @@ def add_task_arguments(parser: argparse.ArgumentParser, *, section_default: str 
         nargs=3,
         default=list(defaults.goal),
         metavar=("X", "Y", "Z"),
-        help=f"goal X^g in m (default: {' '.join(f'{v:g}' for v in defaults.goal)})",
+        help=(
+            f"goal X^g in m (default: the task's: {_task_goals_text()})"
+            if goal_of_task
+            else f"goal X^g in m (default: {' '.join(f'{v:g}' for v in defaults.goal)})"
+        ),
     )
     parser.add_argument(
         "--goal-precision",
@@ -220,7 +242,8 @@ def add_task_arguments(parser: argparse.ArgumentParser, *, section_default: str 
 def add_task_name_argument(parser: argparse.ArgumentParser) -> None:
     """Add ``--task NAME`` (the registered task, docs/tasks.md); ``--goal`` then defaults to it.
 
-    Read the goal with :func:`task_goal`: without ``--goal`` it is the task's default goal.
+    Read the goal with :func:`task_goal`: without ``--goal`` it is the task's default goal
+    (``add_task_arguments(..., goal_of_task=True)`` says so in ``--goal``'s help).
     """
     parser.add_argument(
         "--task",

@@ -126,6 +126,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         section_default=(
             f"{DEFAULT_SECTION_SHAPE}; with --policy, the one the policy was trained with"
         ),
+        goal_of_task=True,
     )
     add_task_name_argument(parser)
     # With --policy the tool's section is the policy's unless given: None tells the two apart
@@ -333,6 +334,11 @@ def config_from_args(args: argparse.Namespace) -> DesignConfig:
     )
 
 
+def success_word(succeeded: bool | None) -> str:
+    """What ``tooldesign design`` prints for a design's outcome: None (not stored) is unknown."""
+    return {True: "success", False: "no success", None: "success unknown"}[succeeded]
+
+
 def _counts_text(counts: dict[str, int]) -> str:
     text = (
         f"evaluations: {counts['total']} ({counts['ok']} ok, {counts['invalid']} invalid, "
@@ -402,13 +408,15 @@ def _run(args: argparse.Namespace) -> int:
 
     task = get_task(config.task_name)
     tolerance = task.tolerance
-    # The task's whole test (standing at the goal) with the best row's stored height and tilt.
+    # The task's whole test (standing at the goal) with the best row's stored height and tilt,
+    # in the run's scene (a --scene box_size changes the box's resting height), as the env's.
     succeeded = design_succeeded(
         result.status,
         result.final_distance,
         task,
         result.card.get("final_height"),
         result.card.get("final_tilt"),
+        scene=config.task_scene(),
     )
     stands = ", standing" if "final_height" in result.card else ""
     print(
@@ -416,7 +424,7 @@ def _run(args: argparse.Namespace) -> int:
         f"(goal error {result.goal_error:.6g}, confidence {result.confidence:.6g}, "
         f"final distance {result.final_distance:.4g} m), iteration {result.iteration}, "
         f"candidate {result.candidate}\n"
-        f"task {config.task_name}: {'success' if succeeded else 'no success'} (the box ends "
+        f"task {config.task_name}: {success_word(succeeded)} (the box ends "
         f"{result.final_distance:.3f} m from the goal; success within {tolerance:g} m"
         f"{stands})\n"
         f"{_counts_text(result.card['evaluations'])}\n"

@@ -37,7 +37,7 @@ def add_parser(subparsers: Any) -> None:
     p.add_argument(
         "--out", type=out_path, required=True, metavar="DIR", help="output folder (created)"
     )
-    add_task_arguments(p)
+    add_task_arguments(p, goal_of_task=True)
     add_task_name_argument(p)
     p.add_argument(
         "--robustness",

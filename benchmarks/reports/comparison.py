@@ -48,6 +48,7 @@ from benchmarks.reports.success import (
     SuccessRate,
     has_standing,
     run_successes,
+    scene_of_manifest,
     success_cell,
     success_criterion,
     success_rate,
@@ -59,6 +60,7 @@ from benchmarks.storage import ResultStore, atomic_write_bytes, atomic_write_tex
 from benchmarks.storage.table import csv_text
 
 if TYPE_CHECKING:
+    from tooldesign_env.specs import SceneSpec
     from tooldesign_env.tasks import TaskDefinition
 
 __all__ = [
@@ -214,6 +216,7 @@ def summary_table(
     seed: int = 0,
     interval: str = "t",
     tolerance: float | TaskDefinition | None = None,
+    scene: SceneSpec | None = None,
 ) -> pd.DataFrame:
     """Final best F, normalised AUC and success rate per optimizer over its runs (seeds).
 
@@ -226,6 +229,8 @@ def summary_table(
         tolerance: What success is judged by: the runs' task (its whole test where the log
             stores ``final_height`` and ``final_tilt``, its radius alone where not), a bare
             radius in m, or None for the push task.
+        scene: The runs' scene (the task's with the run's ``scene`` overrides,
+            :func:`~benchmarks.reports.success.scene_of_manifest`); None is the task's own.
 
     Returns:
         One row per (suite, variant, optimizer) in report order with ``runs``,
@@ -237,7 +242,7 @@ def summary_table(
         ``success_high`` (NaN when no run's outcome is known).
     """
     criterion = success_criterion() if tolerance is None else tolerance
-    outcomes = run_successes(evaluations, criterion)
+    outcomes = run_successes(evaluations, criterion, scene=scene)
     metrics = run_metrics(best_so_far_curves(evaluations))
     group_names = [k for k in GROUP_KEYS if k in metrics.columns]
     rows = []
@@ -778,8 +783,11 @@ def make_report(
         png = target / f"convergence-{_slug(*map(str, key))}.png"
         written.append(atomic_write_bytes(png, figure_png_bytes(figure)))
 
+    manifest = _manifest_or_none(run_folder)
     if task is None:
-        task = task_of_manifest(_manifest_or_none(run_folder))
+        task = task_of_manifest(manifest)
+    # The run's own scene (a suite's scene overrides: a taller box rests higher), as its env's.
+    scene = scene_of_manifest(manifest) if task_of_manifest(manifest) == task else None
     summary = summary_table(
         evaluations,
         level=level,
@@ -787,6 +795,7 @@ def make_report(
         seed=seed,
         interval=interval,
         tolerance=success_criterion(task),
+        scene=scene,
     )
     markdown = _summary_markdown(
         summary,

@@ -587,8 +587,12 @@ def _success_line(
     straight: Mapping[str, Any] | None = None,
     *,
     standing: Mapping[str, Any] | None = None,
+    config: Mapping[str, Any] | None = None,
 ) -> str:
     """Whether the design succeeded on its task, from its stored status and final distance.
+
+    ``config``: the run's stored config, whose ``scene`` overrides make the scene the env
+    scored in (:func:`~benchmarks.reports.success.scene_of_config`): a taller box rests higher.
 
     ``standing``: an evaluation's ``terms.json``, which holds the env's own ``success`` (which
     also asks the box to stand, ``TaskDefinition.max_tilt`` and ``height_tolerance``) and
@@ -598,11 +602,12 @@ def _success_line(
     judged by the task's test (:func:`~benchmarks.reports.success.design_succeeded`). A
     ``straight`` entry with them is judged so too; without them, by the distance alone.
     """
-    from benchmarks.reports.success import design_succeeded, success_criterion
+    from benchmarks.reports.success import design_succeeded, scene_of_config, success_criterion
 
     name = task if isinstance(task, str) and task else "push"
     try:
         criterion = success_criterion(name)
+        scene = scene_of_config({**(config or {}), "task_name": name})
     except ValueError:  # a task of a plugin that is not installed here
         return f"<strong>Success:</strong> n/a (the task {_esc(name)} is not registered here)."
     tolerance = criterion.tolerance
@@ -618,6 +623,7 @@ def _success_line(
             criterion,
             _number(standing.get("final_height")),
             _number(standing.get("final_tilt")),
+            scene=scene,
         )
     if outcome is None:
         text = f"<strong>Success:</strong> n/a (no final distance stored; success is {rule})"
@@ -646,6 +652,7 @@ def _success_line(
             criterion,
             _number(straight.get("final_height")),
             _number(straight.get("final_tilt")),
+            scene=scene,
         )
         text += "; the straight tool: " + {True: "yes", False: "no", None: "n/a"}[theirs]
     return text + "."
@@ -799,6 +806,7 @@ def _design_page(folder: Path, files: list[Path], card: dict[str, Any]) -> str:
         # A card written since 2026-11-27 keeps the best row's height and tilt; an older one
         # is judged by the distance alone, as before.
         standing=card if "final_height" in card else None,
+        config=config,
     )
     lines = [first, success, _robustness_sentence(card, paths)]
     body = [_card_html(folder, present("fig3d"), card, card.get("straight_tool"), lines)]

@@ -30,6 +30,7 @@ import numpy as np
 import pandas as pd
 
 if TYPE_CHECKING:
+    from tooldesign_env.specs import SceneSpec
     from tooldesign_env.tasks import TaskDefinition
 
 __all__ = [
@@ -37,6 +38,8 @@ __all__ = [
     "design_succeeded",
     "has_standing",
     "run_successes",
+    "scene_of_config",
+    "scene_of_manifest",
     "success_cell",
     "success_rate",
     "success_sentence",
@@ -127,6 +130,8 @@ def design_succeeded(
     criterion: float | TaskDefinition,
     final_height: Any = None,
     final_tilt: Any = None,
+    *,
+    scene: SceneSpec | None = None,
 ) -> bool | None:
     """Whether one evaluated design succeeded, as the env's ``info["success"]`` says.
 
@@ -138,12 +143,16 @@ def design_succeeded(
         final_height: The box centre's final height, m; None or NaN if not stored.
         final_tilt: The final angle of the box's up axis from the vertical, rad; None or NaN
             if not stored.
+        scene: The run's scene (its box's resting height is half its height), as the env
+            built it: the task's scene with the run's overrides (``DesignConfig.task_scene()``,
+            :func:`scene_of_manifest`); None is the task's own scene. A run whose ``--scene``
+            changed the box's height needs it, or a box standing at the goal reads as not.
 
     Returns:
         False for an unusable or failed design (it never succeeds, as in the env). For a
         usable one: None (unknown) when ``final_distance`` is missing; with neither height nor
         tilt stored (a row written before they were), ``final_distance <= tolerance``; with
-        both finite, the task's whole test (``TaskDefinition.succeeded`` on the task's scene:
+        both finite, the task's whole test (``TaskDefinition.succeeded`` on ``scene``:
         within the radius, standing at its resting height, tilted at most ``max_tilt``); with
         one of them missing or either infinite, None (unknown: the test cannot be applied).
 
@@ -167,7 +176,7 @@ def design_succeeded(
         )
     if not (math.isfinite(height) and math.isfinite(tilt)):
         return None
-    return bool(criterion.succeeded(distance, height, final_tilt=tilt))
+    return bool(criterion.succeeded(distance, height, scene, final_tilt=tilt))
 
 
 def has_standing(evaluations: pd.DataFrame) -> bool:
@@ -185,7 +194,12 @@ def _column(frame: pd.DataFrame, name: str) -> np.ndarray:
     return np.full(len(frame), np.nan)
 
 
-def run_successes(evaluations: pd.DataFrame, criterion: float | TaskDefinition) -> pd.DataFrame:
+def run_successes(
+    evaluations: pd.DataFrame,
+    criterion: float | TaskDefinition,
+    *,
+    scene: SceneSpec | None = None,
+) -> pd.DataFrame:
     """Whether each run's final design succeeded, from its evaluation rows alone.
 
     A run's final design is the one its final F is of: its lowest finite F among the rows
@@ -199,6 +213,7 @@ def run_successes(evaluations: pd.DataFrame, criterion: float | TaskDefinition) 
             outcome is unknown, without the height and tilt the distance alone decides).
         criterion: The task the runs were made for, or a bare radius in m (see
             :func:`design_succeeded`).
+        scene: The runs' scene (see :func:`design_succeeded`); None is the task's own.
 
     Returns:
         One row per run with its key columns and ``success``: True, False, or None (unknown).
@@ -218,7 +233,9 @@ def run_successes(evaluations: pd.DataFrame, criterion: float | TaskDefinition) 
         outcome: bool | None = False
         if ok.size:
             best = ok[np.argmin(energy[ok])]  # the first of equal lowest F, in the log's order
-            outcome = design_succeeded("ok", distance[best], criterion, height[best], tilt[best])
+            outcome = design_succeeded(
+                "ok", distance[best], criterion, height[best], tilt[best], scene=scene
+            )
         rows.append({**dict(zip(keys, key, strict=True)), "success": outcome})
     return pd.DataFrame(rows, columns=[*keys, "success"])
 
@@ -307,6 +324,39 @@ def task_of_manifest(manifest: Mapping[str, Any] | None) -> str:
     config = manifest.get("config") if isinstance(manifest, Mapping) else None
     name = config.get("task_name") if isinstance(config, Mapping) else None
     return name if isinstance(name, str) and name else DEFAULT_TASK
+
+
+def scene_of_config(config: Mapping[str, Any] | None) -> SceneSpec | None:
+    """The scene a stored run config's designs were scored in, or None for the task's own.
+
+    A design run's or a suite's config (its manifest's ``config``) stores ``task_name`` (none:
+    push) and ``scene``, the ``SceneSpec`` fields it overrides; the env built the task's scene
+    with them (``DesignConfig.task_scene()``). Reports pass it to :func:`design_succeeded`, so
+    that a run whose scene changed the box's height is judged as its env judged it.
+
+    Raises:
+        ValueError: an unknown task (the message lists the known ones), or a stored scene the
+            spec refuses.
+    """
+    import dataclasses
+
+    from benchmarks.design.config import scene_overrides
+
+    if not isinstance(config, Mapping):
+        return None
+    stored = config.get("scene")
+    if not stored:
+        return None
+    overrides = dict(scene_overrides(stored))
+    return dataclasses.replace(
+        success_criterion(task_of_manifest({"config": config})).scene, **overrides
+    )
+
+
+def scene_of_manifest(manifest: Mapping[str, Any] | None) -> SceneSpec | None:
+    """:func:`scene_of_config` of a run folder's manifest (its ``config``)."""
+    config = manifest.get("config") if isinstance(manifest, Mapping) else None
+    return scene_of_config(config if isinstance(config, Mapping) else None)
 
 
 def success_criterion(task: str | None = None) -> TaskDefinition:

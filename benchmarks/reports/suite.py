@@ -55,6 +55,7 @@ from benchmarks.reports.rl import make_rl_report
 from benchmarks.reports.stats import INTERVAL_NAMES, Interval, check_interval, mean_interval
 from benchmarks.reports.success import (
     design_succeeded,
+    scene_of_manifest,
     success_criterion,
     task_of_manifest,
     task_tolerance,
@@ -75,6 +76,7 @@ from benchmarks.suites.config import SUITE_KIND, SuiteConfig, suite_of_manifest
 from tooldesign_env.schema import GOAL_COLUMNS, METRICS, ROBUSTNESS_METRICS
 
 if TYPE_CHECKING:
+    from tooldesign_env.specs import SceneSpec
     from tooldesign_env.tasks import TaskDefinition
 
 __all__ = [
@@ -186,7 +188,10 @@ _TEST_FIELDS = (
 
 
 def designs_table(
-    designs: Sequence[Mapping[str, Any]], *, tolerance: float | TaskDefinition | None = None
+    designs: Sequence[Mapping[str, Any]],
+    *,
+    tolerance: float | TaskDefinition | None = None,
+    scene: SceneSpec | None = None,
 ) -> pd.DataFrame:
     """One row per run: keys, task, design, F and its terms, success, tool shape, final test.
 
@@ -195,6 +200,8 @@ def designs_table(
         tolerance: What success is judged by: the run's task (its whole test where a record
             stores the box's ``final_height`` and ``final_tilt``, its radius alone where not),
             a bare radius in m, or None for the push task.
+        scene: The runs' scene (the task's with the suite's ``scene`` overrides,
+            :func:`~benchmarks.reports.success.scene_of_manifest`); None is the task's own.
 
     Returns:
         The table, in the records' order; missing values are NaN. ``success`` is True when
@@ -232,6 +239,7 @@ def designs_table(
             criterion,
             record.get("final_height"),
             record.get("final_tilt"),
+            scene=scene,
         )
         shape = tool_shape(coeffs) if coeffs else {}
         for name in ("straightness", "turning_angle", "tip_offset", "min_radius_of_curvature"):
@@ -1059,8 +1067,11 @@ def _suite_report(
         return written  # not a suite folder: the generic report is all there is
     if not designs:
         return written
-    task = task_of_manifest(read_manifest(folder))
-    table = designs_table(designs, tolerance=success_criterion(task))
+    manifest = read_manifest(folder)
+    task = task_of_manifest(manifest)
+    table = designs_table(
+        designs, tolerance=success_criterion(task), scene=scene_of_manifest(manifest)
+    )
     standing = any(record.get("final_height") is not None for record in designs)
     markdown = _designs_markdown(table, task, standing=standing)
     written += _write_table(target, "designs", table, markdown, notice)

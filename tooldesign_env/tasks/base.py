@@ -29,9 +29,11 @@ from tooldesign_env.specs import (
 )
 
 __all__ = [
+    "GOAL_CLEARANCE_BOX_WIDTHS",
     "HEIGHT_TOLERANCE",
     "MAX_TILT",
     "OBJECT_SHAPES",
+    "ROBOT_BASE_CLEARANCE",
     "Obstacle",
     "TaskDefinition",
     "footprints_overlap",
@@ -60,6 +62,17 @@ MAX_TILT = math.radians(10.0)
 OBSTACLE_SIZE_MIN = 0.01
 OBSTACLE_SIZE_MAX = 3.0
 
+#: Closest an obstacle's footprint may come to the robot's base axis (the world origin), m. The
+#: Panda's base link (link0) reaches 0.158 m behind its axis, 0.099 m to either side and 0.076 m
+#: in front (its collision box in PyBullet), and the arm's first links turn above it: an
+#: obstacle nearer than 0.2 m stands in the base or against it.
+ROBOT_BASE_CLEARANCE = 0.2
+
+#: How far an obstacle's footprint is grown, in widths of the box (its larger floor extent),
+#: before it is tested against the goal range: the box's centre can come no nearer an obstacle
+#: than half the box's width, so a goal within that of an obstacle cannot be reached.
+GOAL_CLEARANCE_BOX_WIDTHS = 0.5
+
 
 def _floats(value: Any, length: int, label: str) -> tuple[float, ...]:
     """``value`` as ``length`` finite floats in order, or an error naming ``label``."""
@@ -81,6 +94,18 @@ def _corners(centre: tuple[float, float], size: tuple[float, float], yaw: float)
     rotation = np.array([[c, -s], [s, c]])
     corners: np.ndarray = np.asarray(centre, dtype=float) + half @ rotation.T
     return corners
+
+
+def distance_to_footprint(
+    point: tuple[float, float],
+    footprint: tuple[tuple[float, float], tuple[float, float], float],
+) -> float:
+    """Distance (m) from ``point`` (x, y) to a rectangle ``(centre, (sx, sy), yaw)``; 0 inside."""
+    (cx, cy), (sx, sy), yaw = footprint
+    c, s = math.cos(yaw), math.sin(yaw)
+    dx, dy = point[0] - cx, point[1] - cy
+    local = np.array([c * dx + s * dy, -s * dx + c * dy])
+    return float(np.linalg.norm(np.maximum(np.abs(local) - np.array([sx, sy]) / 2.0, 0.0)))
 
 
 def footprints_overlap(
@@ -198,8 +223,12 @@ class TaskDefinition:
             ``ToolDesign-v0`` always did), not only in the goal range.
 
     Raises:
-        ValueError: a field out of its range, a default goal outside the goal range, or an
-            obstacle overlapping the box's start.
+        ValueError: a field out of its range, a default goal outside the goal range, an
+            obstacle overlapping the box's start, an obstacle that covers part of the goal
+            range once grown by half the box's width (:data:`GOAL_CLEARANCE_BOX_WIDTHS`: no box
+            can end at those goals), an obstacle nearer than :data:`ROBOT_BASE_CLEARANCE`
+            (0.2 m) to the robot's base axis, or a cylinder whose ``box_size[0]`` (its
+            diameter) differs from ``box_size[1]``.
     """
 
     name: str
@@ -271,6 +300,7 @@ class TaskDefinition:
         object.__setattr__(self, "accepts_any_goal", bool(self.accepts_any_goal))
         self.check_goal(self.goal, "TaskDefinition.goal")
         self.check_scene(self.scene)
+        self._check_obstacles_clear()
 
     # ------------------------------------------------------------------ checks
     def goal_range_text(self) -> str:
@@ -301,12 +331,49 @@ class TaskDefinition:
                 )
         return x, y, z
 
+    def _check_obstacles_clear(self) -> None:
+        """Refuse an obstacle on the robot's base or over goals of the goal range (one line)."""
+        (x0, y0, _), (x1, y1, _) = self.goal_low, self.goal_high
+        goals = (((x0 + x1) / 2.0, (y0 + y1) / 2.0), (x1 - x0, y1 - y0), 0.0)
+        grow = GOAL_CLEARANCE_BOX_WIDTHS * max(self.scene.box_size[0], self.scene.box_size[1])
+        for index, obstacle in enumerate(self.obstacles):
+            where = (
+                f"obstacle {index} ({obstacle.name} at "
+                f"{[round(v, 3) for v in obstacle.position]}, {obstacle.size[0]:g} x "
+                f"{obstacle.size[1]:g} m)"
+            )
+            base = distance_to_footprint((0.0, 0.0), obstacle.footprint())
+            if base < ROBOT_BASE_CLEARANCE:
+                raise ValueError(
+                    f"the {self.name} task's {where} comes {base:.3g} m from the robot's base "
+                    f"axis (0, 0), nearer than ROBOT_BASE_CLEARANCE = {ROBOT_BASE_CLEARANCE:g} m "
+                    "(the arm stands there); move the obstacle"
+                )
+            centre, size, yaw = obstacle.footprint()
+            grown = (centre, (size[0] + 2.0 * grow, size[1] + 2.0 * grow), yaw)
+            if footprints_overlap(grown, goals):
+                raise ValueError(
+                    f"the {self.name} task's {where}, grown by half the box's width "
+                    f"({grow:g} m), covers part of its goal range ({self.goal_range_text()}): "
+                    "no box can end at those goals; move the obstacle or shrink the goal range"
+                )
+
     def check_scene(self, scene: SceneSpec) -> None:
-        """Refuse a scene whose box starts inside (or touching) one of the task's obstacles.
+        """Refuse a scene the task's object cannot start in.
 
         Raises:
-            ValueError: an obstacle overlaps the box's footprint at the start.
+            ValueError: an obstacle overlaps the box's footprint at the start, or the object
+                is a cylinder (``object_shape="cylinder"``, diameter ``box_size[0]``) whose
+                ``box_size[1]`` differs from ``box_size[0]`` (it would be ignored).
         """
+        if self.object_shape == "cylinder" and not math.isclose(
+            scene.box_size[0], scene.box_size[1], rel_tol=1e-9, abs_tol=1e-12
+        ):
+            raise ValueError(
+                f"the {self.name} task's object is an upright cylinder of diameter box_size[0], "
+                f"so box_size[0] and box_size[1] must be equal, got box_size "
+                f"{list(scene.box_size)}"
+            )
         box = (
             (scene.box_position[0], scene.box_position[1]),
             (scene.box_size[0], scene.box_size[1]),
