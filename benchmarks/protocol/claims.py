@@ -495,7 +495,12 @@ def _verdict(group: str, versus: Sequence[Versus], judged: _Counts) -> tuple[str
     rivals = [v for v in versus if v.other != BASELINE]
     beaten = [v for v in faster if v.other != BASELINE]
     baseline = [v for v in faster if v.other == BASELINE]
-    also = f"; faster than random sampling too ({baseline[0].evidence()})" if baseline else ""
+    if baseline:
+        also = f"; faster than random sampling too ({baseline[0].evidence()})"
+    elif any(v.other == BASELINE for v in versus):
+        also = "; not told apart from random sampling either"
+    else:
+        also = ""
     if slower:
         text = (
             f"**{DOES_NOT_HOLD}**: {', '.join(v.other for v in slower)} "

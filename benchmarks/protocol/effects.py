@@ -198,7 +198,7 @@ def _g(value: float, digits: int = 3) -> str:
         return "n/a"
     if math.isinf(value):
         return "inf"
-    return f"{value:.{digits}g}"
+    return f"{value + 0.0:.{digits}g}"  # + 0.0: no "-0"
 
 
 def _signed(value: float) -> str:
