@@ -162,7 +162,7 @@ def test_a_run_too_small_for_any_pair_says_so_once() -> None:
 def test_bad_input_is_refused_with_a_message() -> None:
     runs = _runs({"bo": 0.0, "cmaes": -200.0})
     with pytest.raises(TypeError, match="runs must be a DataFrame"):
-        floor_effects(runs.to_dict(), _floors())  # type: ignore[arg-type]
+        floor_effects(runs.to_dict(), _floors())
     with pytest.raises(ValueError, match=r"runs lacks columns \['final_f'\]"):
         floor_effects(runs.drop(columns="final_f"), _floors())
     with pytest.raises(ValueError, match="runs holds no row"):
@@ -173,7 +173,7 @@ def test_bad_input_is_refused_with_a_message() -> None:
         floor_effects(runs, {f"i{i:02d}": 30.0 for i in range(5)})
     for bad in (0.0, -1.0, math.nan, math.inf, "30", True):
         with pytest.raises(ValueError, match="must be a finite F > 0"):
-            floor_effects(runs, {**_floors(), "i00": bad})
+            floor_effects(runs, {**_floors(), "i00": bad})  # type: ignore[dict-item]
     with pytest.raises(TypeError, match="floors must map a block"):
         floor_effects(runs, [30.0] * 6)  # type: ignore[arg-type]
     for level in (0, 1, 1.5, "0.95", True):
@@ -182,7 +182,7 @@ def test_bad_input_is_refused_with_a_message() -> None:
     with pytest.raises(ValueError, match=r"comparisons lacks columns \['beyond_floor'\]"):
         told_apart(_comparisons().drop(columns="beyond_floor"))
     with pytest.raises(TypeError, match="comparisons must be a DataFrame"):
-        told_apart([])  # type: ignore[arg-type]
+        told_apart([])
     with pytest.raises(ValueError, match=r"power lacks columns \['detectable'\]"):
         separation_sentence(
             _comparisons(), _power().drop(columns="detectable"), group="g", alpha=0.01
@@ -190,7 +190,7 @@ def test_bad_input_is_refused_with_a_message() -> None:
     with pytest.raises(ValueError, match=r"comparisons lacks columns \['floor'\]"):
         separation_sentence(_comparisons().drop(columns="floor"), _power(), group="g", alpha=0.01)
     with pytest.raises(TypeError, match="power must be a DataFrame"):
-        separation_sentence(_comparisons(), None, group="g", alpha=0.01)  # type: ignore[arg-type]
+        separation_sentence(_comparisons(), None, group="g", alpha=0.01)
 
 
 def test_the_task_axis_sections_carry_the_same_columns_and_sentence() -> None:
