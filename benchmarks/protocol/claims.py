@@ -505,7 +505,7 @@ def _verdict(group: str, versus: Sequence[Versus], judged: _Counts) -> tuple[str
         text = (
             f"**{DOES_NOT_HOLD}**: {', '.join(v.other for v in slower)} "
             f"{'reaches' if len(slower) == 1 else 'reach'} the targets significantly sooner "
-            "and ends beyond the noise floor lower (CMA-ES minus the other: "
+            "and ends lower, beyond the noise floor (CMA-ES minus the other: "
             f"{'; '.join(v.evidence() for v in slower)})"
         )
         if faster:
