@@ -48,19 +48,28 @@ def test_the_claims_level_is_the_reports() -> None:
 
 
 def _tables(
-    groups: dict[str, dict[tuple[str, str], tuple[float, bool]]],
+    groups: dict[str, dict[tuple[str, str], tuple[float, bool] | tuple[float, bool, bool]]],
     *,
     n: int = 24,
     min_n: int = 11,
     optimizers: tuple[str, ...] = FOUR,
 ) -> dict[str, pd.DataFrame]:
-    """Report tables with the given (a - b, significant) per pair and group; others 0, no."""
+    """Report tables with the given (a - b, significant[, beyond floor]) per pair and group.
+
+    Other pairs: 0, not significant. The final-F difference goes the score's way: -100
+    [-110, -90] per unit sign beyond the floor of 50 (the default for a given pair), -10
+    [-30, 10] within it when ``beyond floor`` is False; 0 [-10, 10] for a 0 difference.
+    """
     comparisons, ranks, power, references = [], [], [], []
     for group, given in groups.items():
         means = {o: 0.5 for o in optimizers}
         for k, a in enumerate(optimizers):
             for b in optimizers[k + 1 :]:
-                diff, significant = given.get((a, b), (0.0, False))
+                diff, significant, *rest = given.get((a, b), (0.0, False))
+                beyond = bool(rest[0]) if rest else diff != 0
+                sign = (diff > 0) - (diff < 0)
+                f_diff = (-100.0 if beyond else -10.0) * sign + 0.0
+                half = 10.0 if beyond or sign == 0 else 20.0
                 means[a] += diff / 2
                 means[b] -= diff / 2
                 comparisons.append(
@@ -75,6 +84,11 @@ def _tables(
                         "p": 1e-4 if significant else 0.5,
                         "p_holm": 6e-4 if significant else 1.0,
                         "significant": significant,
+                        "f_diff": f_diff,
+                        "f_diff_low": f_diff - half,
+                        "f_diff_high": f_diff + half,
+                        "floor": 50.0,
+                        "beyond_floor": beyond,
                         "d": group,
                     }
                 )
@@ -88,6 +102,7 @@ def _tables(
                             "separable": n >= min_n,
                             "detectable": detectable if n >= min_n else math.inf,
                             "instances_needed": 30.0,
+                            "seeds_needed": 5.0,
                             "d": group,
                             "measure": measure,
                         }
@@ -121,7 +136,10 @@ def test_cmaes_sooner_than_every_other_optimizer_holds() -> None:
         }
     )
     assert judged.verdict == "holds"
-    assert judged.text.startswith("**holds**: CMA-ES's ECDF area is significantly higher")
+    assert judged.text.startswith(
+        "**holds**: CMA-ES is told apart as faster than every other non-random optimizer"
+    )
+    assert "faster than random sampling too" in judged.text
     assert {v.other: round(v.diff, 9) for v in judged.versus} == {
         "bo": 0.05,
         "pso": 0.04,
@@ -134,11 +152,42 @@ def test_cmaes_sooner_than_every_other_optimizer_holds() -> None:
     assert judged.noise_floor == 50.0
 
 
-def test_sooner_than_some_holds_in_part() -> None:
-    judged = _judge({("cmaes", "random"): (0.1, True), ("bo", "pso"): (0.03, True)})
+def test_sooner_than_some_non_random_optimizer_holds_in_part() -> None:
+    judged = _judge({("cmaes", "pso"): (0.04, True), ("bo", "pso"): (0.03, True)})
     assert judged.verdict == "holds in part"
-    assert "sooner than random" in judged.text and "not told apart from bo, pso" in judged.text
+    assert "faster than pso" in judged.text and "not from bo; not told apart from random" in (
+        judged.text
+    )
+    assert set(judged.told_apart) == {("cmaes", "pso"), ("bo", "pso")}
+
+
+def test_beating_random_sampling_only_is_not_shown_and_says_so() -> None:
+    # Random sampling is the baseline every method beats: beating it alone is not "in part".
+    judged = _judge({("cmaes", "random"): (0.1, True), ("bo", "pso"): (0.03, True)})
+    assert judged.verdict == "not shown (faster than random sampling only)"
+    assert judged.text.startswith("**not shown** (faster than random sampling only): CMA-ES")
+    assert "from none of bo, pso" in judged.text
     assert set(judged.told_apart) == {("cmaes", "random"), ("bo", "pso")}
+
+
+def test_a_significant_pair_within_the_noise_floor_is_not_told_apart() -> None:
+    # Holm p < 0.01 in score, but the final designs differ by less than the noise floor.
+    judged = _judge(
+        {
+            ("bo", "cmaes"): (-0.05, True, False),
+            ("cmaes", "pso"): (0.04, True),
+            ("cmaes", "random"): (0.1, True),
+        }
+    )
+    assert ("cmaes", "bo") not in judged.told_apart and ("bo", "cmaes") in judged.not_told_apart
+    assert judged.verdict == "holds in part" and "not from bo" in judged.text
+    bo = next(v for v in judged.versus if v.other == "bo")
+    assert bo.significant and not bo.beyond_floor and not bo.told_apart
+    assert (bo.f_diff, bo.f_low, bo.f_high) == (-10.0, -30.0, 10.0)  # turned: CMA-ES minus bo
+    assert "a property of the problem" in judged.sentence and "bo ~ cmaes" in judged.sentence
+    # An optimizer significantly sooner but within the floor does not reverse the claim either.
+    worse = _judge({("bo", "cmaes"): (0.05, True, False), ("cmaes", "pso"): (0.04, True)})
+    assert worse.verdict == "holds in part"
 
 
 def test_another_optimizer_significantly_sooner_is_does_not_hold() -> None:
@@ -169,7 +218,8 @@ def test_the_summary_verdict_over_the_dimensions() -> None:
 
     sooner = {("bo", "cmaes"): (-0.05, True), ("cmaes", "pso"): (0.04, True),
               ("cmaes", "random"): (0.1, True)}  # fmt: skip
-    part = {("cmaes", "random"): (0.1, True)}
+    part = {("cmaes", "pso"): (0.04, True)}
+    random_only = {("cmaes", "random"): (0.1, True)}
     worse = {("bo", "cmaes"): (0.05, True)}
 
     def overall(*given):
@@ -181,6 +231,12 @@ def test_the_summary_verdict_over_the_dimensions() -> None:
     assert overall(sooner, worse, part, part).startswith("**does not hold** at d = 5 (")
     assert overall({}, {}, {}, sooner).startswith("**not shown** at any dimension (")
     assert overall({}, {}, {}, sooner).endswith("pooled: holds)")
+    assert overall(random_only, {}, random_only, sooner).startswith(
+        "**not shown** (faster than random sampling only, at d = 3, 8) (d = 3: not shown "
+        "(faster than random sampling only); d = 5: not shown; "
+    )
+    assert overall(random_only, part, {}, {}).startswith("**holds in part** (")
+    assert overall(random_only, worse, {}, {}).startswith("**does not hold** at d = 5 (")
 
 
 @pytest.mark.slow  # the exact power computation of 24 instances takes seconds
@@ -188,6 +244,7 @@ def test_the_statistics_own_tables_of_four_optimizers_are_judged() -> None:
     """Tables made by the protocol's statistics, as its report makes them, on 24 instances."""
     import numpy as np
 
+    from benchmarks.protocol.effects import floor_effects
     from benchmarks.protocol.statistics import paired_comparisons, power_analysis, rank_stability
 
     rng = np.random.default_rng(0)
@@ -204,12 +261,24 @@ def test_the_statistics_own_tables_of_four_optimizers_are_judged() -> None:
         for seed in range(3)
     ]
     scores = pd.DataFrame(rows)
+    # Final F goes with the score: 1000 F per unit of score lower, beyond a floor of 20.
+    scores["final_f"] = 2000.0 - 1000.0 * scores["score"]
+    floors = {f"i{i:02d}": 20.0 for i in range(24)}
+    comparisons = paired_comparisons(scores, alpha=PROTOCOL_ALPHA).merge(
+        floor_effects(scores, floors), on=["a", "b"]
+    )
+    in_f = power_analysis(scores.assign(score=scores["final_f"]), alpha=PROTOCOL_ALPHA)
     tables = {
-        "comparisons.csv": paired_comparisons(scores, alpha=PROTOCOL_ALPHA).assign(d="5"),
+        "comparisons.csv": comparisons.assign(d="5"),
         "ranks.csv": rank_stability(scores, resamples=50)
         .reset_index(names="optimizer")
         .assign(d="5"),
-        "power.csv": power_analysis(scores, alpha=PROTOCOL_ALPHA).assign(d="5", measure="score"),
+        "power.csv": pd.concat(
+            [
+                power_analysis(scores, alpha=PROTOCOL_ALPHA).assign(d="5", measure="score"),
+                in_f.assign(d="5", measure="final F"),
+            ]
+        ),
         "references.csv": pd.DataFrame({"d": ["5"], "noise floor": [50.0]}),
     }
     (judged,) = judge_claim_a(tables, ["5"])
@@ -219,6 +288,8 @@ def test_the_statistics_own_tables_of_four_optimizers_are_judged() -> None:
     assert ("bo", "pso") in judged.not_told_apart and ("pso", "random") in judged.told_apart
     assert judged.instances == 24 and judged.min_instances == 11 and judged.separable
     assert 0 < judged.detectable[0] <= judged.detectable[1] < 0.1
+    # bo and pso differ by noise alone: their F interval lies within the floor of 20.
+    assert "a property of the problem" in judged.sentence and "bo ~ pso" in judged.sentence
 
 
 def test_judge_refuses_tables_without_their_columns() -> None:
@@ -256,7 +327,11 @@ def test_a_folders_report_becomes_the_pages_section(tmp_path: Path) -> None:
     assert claim.verdict.startswith("**not shown** at any dimension (d = 3: not shown; ")
     text = "\n".join(claim.lines)
     assert "size `quick`: 6 instances (6 public, 0 held out) x d = 3, 5, 8" in text
-    assert "| 3 | random | +0.1 [0.09, 0.11] | 1 | 1 | no | inf | 30 |" in text
+    assert (
+        "| 3 | random | +0.1 [0.09, 0.11] | 1 | 1 | -100 [-110, -90] (floor 50) | yes | no | inf "
+        "| 30 |" in text
+    )
+    assert "- **Verdict, d = 3** (told apart: Holm p < 0.01 on the ECDF area AND" in text
     assert "| all | 6 blocks |" in text
     assert claim.made_by == (
         f"tooldesign bench protocol --size quick --with-references --out {folder}",
@@ -422,7 +497,10 @@ def test_the_pages_section_has_the_numbers_of_the_protocols_own_report(
         expected = (
             f"| {row['d']} | random | {sign}{_g(row['mean_diff'], 3)} "
             f"[{_g(row['ci_low'], 3)}, {_g(row['ci_high'], 3)}] | {_g(row['d_z'], 3)} | "
-            f"{_g(row['p_holm'], 3)} | {'no' if row['significant'] == 'False' else 'yes'}"
+            f"{_g(row['p_holm'], 3)} | {'+' if float(row['f_diff']) > 0 else ''}"
+            f"{_g(row['f_diff'], 3)} [{_g(row['f_diff_low'], 3)}, {_g(row['f_diff_high'], 3)}] "
+            f"(floor {_g(row['floor'], 3)}) | {'no' if row['beyond_floor'] == 'False' else 'yes'} "
+            f"| {'no' if row['told_apart'] == 'False' else 'yes'}"
         )
         assert expected in section, expected
         assert f"| {_g(pw['detectable'], 3)} |" in section.split(expected, 1)[1].split("\n")[0]

@@ -226,10 +226,21 @@ def _masked(report_md: str, folder: Path) -> str:
     return re.sub(r"References: `[^`]*`", "References: `FILE`", text)
 
 
+#: Columns the report's tables gained after 1dfee38, on purpose: the success rate (issue 35)
+#: and the final-F difference beyond the noise floor with the rule it feeds (review 42).
+_ADDED_COLUMNS = ("success", "f_diff", "f_diff_low", "f_diff_high", "floor", "beyond_floor",
+                  "told_apart")  # fmt: skip
+
+
 def _without_success_column(markdown: str) -> str:
-    """``markdown`` without the ``success`` column of its tables and the sentence saying what
-    it is (both added after 1dfee38)."""
+    """``markdown`` without what was added after 1dfee38: the columns of
+    :data:`_ADDED_COLUMNS` and the sentences saying what they are, and each statistics
+    section's verdict sentence."""
     markdown = re.sub(r" Success: [^\n]*?(?= See docs/protocol\.md\.)", "", markdown)
+    markdown = re.sub(r"\*\*Verdict, [^\n]*\n\n", "", markdown)
+    markdown = re.sub(
+        r" \(positive: a sooner\)\. f_diff = [^\n]*?with the lower F\.", ".", markdown
+    )
     out, drop = [], None
     for line in markdown.splitlines(keepends=True):
         if not line.startswith("|"):
@@ -239,9 +250,9 @@ def _without_success_column(markdown: str) -> str:
         cells = line.rstrip("\n").split("|")
         if drop is None:
             names = [c.strip() for c in cells]
-            drop = names.index("success") if "success" in names else -1
-        if drop >= 0:
-            del cells[drop]
+            drop = [k for k, name in enumerate(names) if name in _ADDED_COLUMNS]
+        for k in reversed(drop):
+            del cells[k]
         out.append("|".join(cells) + ("\n" if line.endswith("\n") else ""))
     return "".join(out)
 
@@ -286,15 +297,19 @@ def test_an_old_push_folder_resumes_and_reports_unchanged(tmp_path, monkeypatch)
     for name in old_tables:  # the tables of before (no task column, no task_*)
         new_rows = list(csv.reader(io.StringIO((report / name).read_text())))
         old_rows = list(csv.reader(io.StringIO((old_report / name).read_text())))
-        # Added since 1dfee38, on purpose: runs.csv's success_<f> (issue 35, success beside F).
+        # Added since 1dfee38, on purpose: runs.csv's success_<f> (issue 35, success beside F),
+        # comparisons.csv's final-F difference beyond the noise floor (review 42).
         added = [i for i, c in enumerate(new_rows[0]) if c not in old_rows[0]]
-        assert all(new_rows[0][i].startswith("success_") for i in added), (name, added)
+        assert all(
+            new_rows[0][i].startswith("success_") or new_rows[0][i] in _ADDED_COLUMNS for i in added
+        ), (name, added)
         kept = [i for i in range(len(new_rows[0])) if i not in added]
         # every value of before, as the same text, in the same place
         assert [[r[i] for i in kept] for r in new_rows] == old_rows, name
     new_md = _masked((report / "report.md").read_text(), folder)
     old_md = _masked((old_report / "report.md").read_text(), Path("/tmp/oldsmoke"))
-    # The same report but for the success column the AUC table gained (issue 35): drop it.
+    # The same report but for the success column the AUC table gained (issue 35) and the
+    # noise-floor columns and verdict sentences the statistics gained (review 42): drop them.
     assert _without_success_column(new_md) == old_md
 
 

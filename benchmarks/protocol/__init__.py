@@ -14,6 +14,8 @@ Submodules, by responsibility (lower ones never import higher ones):
 - :mod:`~benchmarks.protocol.measures`: regret, targets, runtimes, ERT, ECDFs and their area.
 - :mod:`~benchmarks.protocol.statistics`: paired Holm-corrected comparisons, ranking stability,
   power.
+- :mod:`~benchmarks.protocol.effects`: the final-F difference of each pair against the noise
+  floor, the rule that tells a pair apart, and each section's verdict sentence.
 - :mod:`~benchmarks.protocol.ioh_export`: runs in the IOHprofiler format.
 - :mod:`~benchmarks.protocol.report`: the report of one or more run folders, merged;
   :mod:`~benchmarks.protocol.task_report` its sections per task and pooled over tasks.

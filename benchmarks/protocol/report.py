@@ -14,12 +14,16 @@ against the references (:mod:`benchmarks.protocol.measures`) and writes::
         runs.csv                  one row per run: AUC of its ECDF, normalized regret at budgets
         references.csv            per cell: F_ref, noise floor, straight tool, random sampling
         comparisons.csv, ranks.csv, power.csv
-                                  per d and pooled ("all")
+                                  per d and pooled ("all"); comparisons.csv has, besides the
+                                  score's test, the final-F difference f_diff [f_diff_low,
+                                  f_diff_high], the floor, beyond_floor and told_apart
 
 A run's score is the area under its own ECDF over its instance's targets (in [0, 1], higher
 is better); the comparisons, the ranking and the power analysis use it
 (:mod:`benchmarks.protocol.statistics`). Pooled over dimensions, an (instance, d) pair is the
-block of the paired comparison.
+block of the paired comparison. A pair is *told apart* only when its Holm p is below alpha and
+its final-F difference is beyond the noise floor (:mod:`benchmarks.protocol.effects`); each
+statistics section opens with a verdict sentence built from its tables.
 
 With the task axis (``ProtocolConfig.tasks``), the sections above are the first task's (push,
 when it is run), as before; :mod:`benchmarks.protocol.task_report` adds a section per other
@@ -38,6 +42,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
+from benchmarks.protocol.effects import floor_effects, separation_sentence, told_apart
 from benchmarks.protocol.measures import (
     best_so_far,
     bootstrap_ecdf,
@@ -629,6 +634,11 @@ def make_protocol_report(
         "",
     ]
     comparisons, ranks, powers = [], [], []
+    # Each block's noise floor (its reference's): the floor an F difference must clear.
+    block_floor = {
+        (str(r["instance"]), int(r["d"])): float(r["noise floor"])
+        for _, r in reference_table.iterrows()
+    }
     groups = [(str(d), scores[scores["degree"] == d]) for d in degrees]
     groups.append(
         ("all", scores.assign(instance=scores["instance"] + "/d" + scores["degree"].astype(str)))
@@ -640,7 +650,15 @@ def make_protocol_report(
         if frame["optimizer"].nunique() < 2 or frame["instance"].nunique() < 2:
             sections += ["Fewer than two optimizers or instances: no comparison.", ""]
             continue
-        table = paired_comparisons(frame, alpha=alpha).assign(d=label)
+        floors = {
+            (f"{i}/d{d}" if label == "all" else i): f
+            for (i, d), f in block_floor.items()
+            if label == "all" or d == int(label)
+        }
+        table = paired_comparisons(frame, alpha=alpha).merge(
+            floor_effects(frame, floors), on=["a", "b"], how="left", validate="one_to_one"
+        )
+        table = table.assign(told_apart=told_apart(table), d=label)
         pairs = len(table)
         floor = min_instances(alpha, max(1, pairs))
         blocks = int(frame["instance"].nunique())
@@ -653,7 +671,7 @@ def make_protocol_report(
         )
         in_f = in_f.assign(d=label, measure="final F")
         at = [int(label)] if label != "all" else list(degrees)
-        floors = reference_table[reference_table["d"].isin(at)]["noise floor"]
+        cell_floors = reference_table[reference_table["d"].isin(at)]["noise floor"]
         comparisons.append(table)
         ranks.append(rank)
         powers.append(power)
@@ -678,12 +696,21 @@ def make_protocol_report(
                 f"significant at Holm alpha = {alpha:g} over {pairs} pair(s)), a pair can be "
                 "told apart; the power table says how large a difference must be."
             )
+        name = f"d = {label}" if label != "all" else "pooled"
         sections += [
             verdict,
             "",
+            separation_sentence(table, in_f, group=name, alpha=alpha, unit=unit),
+            "",
             f"Paired by instance (Wilcoxon signed-rank), Holm-corrected, alpha = {alpha:g}; "
             "mean_diff = mean(score a - score b) with a 95 % Student t interval over "
-            f"{unit}.",
+            f"{unit} (positive: a sooner). f_diff = mean(final F a - final F b) (each "
+            "optimizer's final best F per block is its mean over seeds; negative: a ends "
+            f"lower, better) with its 95 % t interval f_diff_low..f_diff_high over {unit}; "
+            "floor = the median noise floor of the blocks' references; beyond_floor = the "
+            "interval lies wholly beyond +-floor on one side. **A pair is told apart** "
+            f"(told_apart) only when p_holm < {alpha:g} AND beyond_floor, the higher score "
+            "with the lower F.",
             "",
             _md_table(table.drop(columns="d")),
             "",
@@ -701,7 +728,7 @@ def make_protocol_report(
             _md_table(power.drop(columns=["d", "measure"])),
             "",
             "The same in F units (each run's final best F; compare `detectable` with the median "
-            f"noise floor of these cells' references, {floors.median():.4g}"
+            f"noise floor of these cells' references, {cell_floors.median():.4g}"
             + (f"; {no_f} run(s) with no valid evaluation left out" if no_f else "")
             + "):",
             "",

@@ -8,7 +8,9 @@ this module writes::
         ecdf_<task>.png           ECDF of each task other than the first, all its degrees
         ecdf_tasks.png            ECDF pooled over every task and degree
         task_comparisons.csv, task_ranks.csv, task_power.csv
-                                  the statistics per task and pooled ("all tasks"), column task
+                                  the statistics per task and pooled ("all tasks"), column task;
+                                  task_comparisons.csv with the final-F difference beyond the
+                                  noise floor and told_apart, as comparisons.csv
 
 and in ``report.md`` the AUC per task, then per task its AUC, references, public and held-out
 scores and statistics, then the statistics of all tasks pooled. Pooled, the blocks of the
@@ -22,6 +24,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
 from benchmarks.protocol.suite import ProtocolConfig
@@ -33,9 +36,18 @@ POOLED_TASKS = "all tasks"
 
 
 def _statistics(
-    frame: pd.DataFrame, label: str, unit: str, alpha: float, md_table: Callable[..., str]
+    frame: pd.DataFrame,
+    label: str,
+    unit: str,
+    alpha: float,
+    md_table: Callable[..., str],
+    floors: dict[str, float],
 ) -> tuple[list[str], list[pd.DataFrame]]:
-    """The markdown and the (comparisons, ranks, power) tables of one group of runs."""
+    """The markdown and the (comparisons, ranks, power) tables of one group of runs.
+
+    ``floors``: each block's noise floor (its reference's), by the block's label in ``frame``.
+    """
+    from benchmarks.protocol.effects import floor_effects, separation_sentence, told_apart
     from benchmarks.protocol.statistics import (
         min_instances,
         paired_comparisons,
@@ -46,12 +58,18 @@ def _statistics(
     frame = frame.dropna(subset=["score"])
     if frame["optimizer"].nunique() < 2 or frame["instance"].nunique() < 2:
         return ["Fewer than two optimizers or instances: no comparison.", ""], []
-    table = paired_comparisons(frame, alpha=alpha)
+    table = paired_comparisons(frame, alpha=alpha).merge(
+        floor_effects(frame, floors), on=["a", "b"], how="left", validate="one_to_one"
+    )
+    table = table.assign(told_apart=told_apart(table))
     pairs = len(table)
     floor = min_instances(alpha, max(1, pairs))
     blocks = int(frame["instance"].nunique())
     rank = rank_stability(frame, resamples=500).reset_index(names="optimizer")
     power = power_analysis(frame, alpha=alpha)
+    in_f = power_analysis(
+        frame.assign(score=frame["final_f"].replace([np.inf, -np.inf], np.nan)), alpha=alpha
+    )
     if blocks < floor:
         verdict = (
             f"**This section cannot separate any pair**: with {blocks} {unit}, fewer than the "
@@ -67,8 +85,12 @@ def _statistics(
     lines = [
         verdict,
         "",
+        separation_sentence(table, in_f, group=label, alpha=alpha, unit=unit),
+        "",
         "Paired comparisons (Wilcoxon signed-rank, Holm-corrected; mean_diff with a 95 % "
-        f"Student t interval over {unit}):",
+        f"Student t interval over {unit}; f_diff, the final-F difference a - b, with its t "
+        "interval, the median noise floor of the blocks and beyond_floor; told_apart = "
+        f"p_holm < {alpha:g} AND beyond_floor; docs/protocol.md, Statistics):",
         "",
         md_table(table),
         "",
@@ -80,9 +102,20 @@ def _statistics(
         "",
         md_table(power),
         "",
+        "Power (final F):",
+        "",
+        md_table(in_f),
+        "",
     ]
     tagged = [t.assign(task=label) for t in (table, rank, power)]
     return lines, tagged
+
+
+def _floors(references: pd.DataFrame) -> dict[str, float]:
+    """Each (instance, d) block's noise floor, by its label ``<instance>/d<d>``."""
+    return {
+        f"{r['instance']}/d{int(r['d'])}": float(r["noise floor"]) for _, r in references.iterrows()
+    }
 
 
 def _in_task_order(table: pd.DataFrame, tasks: tuple[str, ...]) -> pd.DataFrame:
@@ -166,7 +199,9 @@ def task_sections(
             "",
         ]
         blocks = mine.assign(instance=mine["instance"] + "/d" + mine["degree"].astype(str))
-        lines, tagged = _statistics(blocks, task, "(instance, d) blocks", alpha, md_table)
+        lines, tagged = _statistics(
+            blocks, task, "(instance, d) blocks", alpha, md_table, _floors(refs)
+        )
         sections += [f"### Statistics, task {task}", "", *lines]
         for k, table in enumerate(tagged):
             tables[k].append(table)
@@ -175,7 +210,9 @@ def task_sections(
         written.append(path)
         figures.append(path.name)
     pooled = scores.assign(instance=scores["instance"] + "/d" + scores["degree"].astype(str))
-    lines, tagged = _statistics(pooled, POOLED_TASKS, "(task, instance, d) blocks", alpha, md_table)
+    lines, tagged = _statistics(
+        pooled, POOLED_TASKS, "(task, instance, d) blocks", alpha, md_table, _floors(references)
+    )
     sections += ["## Statistics, all tasks pooled (blocks: task x instance x d)", "", *lines]
     for k, table in enumerate(tagged):
         tables[k].append(table)
