@@ -12,7 +12,9 @@ against the references (:mod:`benchmarks.protocol.measures`) and writes::
                                   bootstrapped 95 % bands over instances
         runtimes.csv              one row per (optimizer, instance, d, seed, target)
         runs.csv                  one row per run: AUC of its ECDF, normalized regret at budgets
-        references.csv            per cell: F_ref, noise floor, straight tool, random sampling
+        references.csv            per cell: F_ref, noise floor, straight tool, random sampling,
+                                  the ladder's quality (floor as % of F_ref and of the span,
+                                  ``weak ladder``)
         comparisons.csv, ranks.csv, power.csv
                                   per d and pooled ("all")
 

@@ -778,7 +778,7 @@ def weak_cell_sensitivity(
             elif not frame.empty:
                 frame = cluster_runs(frame)
             frames.append(frame)
-        tables = []
+        tables: list[pd.DataFrame | None] = []
         for frame in frames:
             if frame.empty or frame["instance"].nunique() < 2 or frame["optimizer"].nunique() < 2:
                 tables.append(None)
