@@ -234,3 +234,28 @@ def test_d_z_has_a_bootstrap_interval_around_it():
     assert math.isnan(two["d_z_low"]) and math.isnan(two["d_z_high"])
     with pytest.raises(ValueError, match="resamples must be an int >= 1"):
         paired_comparisons(scores, resamples=0)
+
+
+def test_the_report_s_ladder_part_lists_weak_cells_and_says_which_verdict_changes():
+    from benchmarks.protocol.report import _ladder_section
+
+    scores = _one_sided(12)
+    references = pd.DataFrame(
+        {
+            "d": 3,
+            "instance": [f"i{i:02d}" for i in range(12)],
+            "F_ref": 1000.0,
+            "noise floor": [300.0] * 6 + [10.0] * 6,
+            "floor % of F_ref": [30.0] * 6 + [1.0] * 6,
+            "floor / span": [0.3] * 6 + [0.01] * 6,
+            "F random median": 2000.0,
+            "F_random(budget)": 1200.0,
+            "weak ladder": [True] * 6 + [False] * 6,
+        }
+    )
+    text = "\n".join(_ladder_section(scores, references, 0.01))
+    assert "6 of 12 cells are weak" in text
+    assert "a vs b at d = 3 (significant -> not significant)" in text
+    assert "no ranking does" in text
+    calm = "\n".join(_ladder_section(scores, references.assign(**{"weak ladder": False}), 0.01))
+    assert "No weak cell among the 12 of this run." in calm

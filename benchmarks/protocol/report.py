@@ -470,16 +470,24 @@ def _ladder_section(scores: pd.DataFrame, references: pd.DataFrame, alpha: float
         return [*lines, "Fewer than two optimizers or instances: no comparison.", ""]
     changed = comparisons[comparisons["changed"].astype(bool)]
     reordered = ranking[ranking["changed"].astype(bool)]
-    if changed.empty and reordered.empty:
-        sentence = "Without the weak cells no verdict changes, and neither does any ranking."
+
+    def group(d: str) -> str:
+        return "pooled" if d == "all" else f"d = {d}"
+
+    if changed.empty:
+        sentence = "Without the weak cells no pair's verdict (significant or not) changes"
     else:
-        parts = [
-            f"{r.a} vs {r.b} at d = {r.d} ("
+        sentence = "Without the weak cells these verdicts change: " + "; ".join(
+            f"{r.a} vs {r.b} at {group(str(r.d))} ("
             f"{'significant' if r.significant else 'not significant'} -> "
             f"{'significant' if r.significant_without else 'not significant'})"
             for r in changed.itertuples()
-        ] + [f"the ranking at d = {r.d}" for r in reordered.itertuples()]
-        sentence = "Without the weak cells these change: " + "; ".join(parts) + "."
+        )
+    if reordered.empty:
+        sentence += ", and no ranking does."
+    else:
+        where = ", ".join(group(str(d)) for d in reordered["d"])
+        sentence += f"; the ranking by mean score changes at {where}."
     return [
         *lines,
         _md_table(comparisons),
@@ -659,6 +667,7 @@ def make_protocol_report(
     _ecdf_figure(times, "all dimensions", path)
     written.append(path)
 
+    gap = held_out_gap(scores)
     sections = [
         "# Protocol report",
         "",
@@ -712,8 +721,13 @@ def make_protocol_report(
         "are different instances). A user's gap far below the built-ins' says the optimizer "
         "was tuned to the public set.",
         "",
-        _md_table(held_out_gap(scores)),
+        _md_table(gap),
         "",
+        *(
+            []
+            if (gap["n_held_out"] > 0).any()
+            else ["This run has no held-out instance: no gap can be measured.", ""]
+        ),
     ]
     comparisons, ranks, powers = [], [], []
     groups = [(str(d), scores[scores["degree"] == d]) for d in degrees]
