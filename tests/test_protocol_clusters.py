@@ -259,3 +259,76 @@ def test_the_report_s_ladder_part_lists_weak_cells_and_says_which_verdict_change
     assert "no ranking does" in text
     calm = "\n".join(_ladder_section(scores, references.assign(**{"weak ladder": False}), 0.01))
     assert "No weak cell among the 12 of this run." in calm
+
+
+# --- the opt-in reference rule: the lowest median F over the nudges ------------------------------
+
+
+def _cell_by_rule(monkeypatch, rule: str):
+    """compute_cell on made-up F (100 + sum of the coefficients); the best design is chaotic."""
+    import benchmarks.protocol.references as refs
+    import benchmarks.suites.retest as retest
+    from benchmarks.execution import make_executor
+    from benchmarks.protocol.instances import load_instances
+    from benchmarks.protocol.suite import protocol_config
+
+    def evaluate(pool, designs, task):
+        return [
+            {"status": "ok", "free_energy": 100.0 + float(x.sum()), "final_distance": 0.2}
+            for x in designs
+        ]
+
+    tried = []
+
+    def fake_retest(item):
+        tried.append(item.coeffs)
+        f = 100.0 + sum(item.coeffs)
+        spread = 1000.0 if len(tried) == 1 else 1.0  # the lowest F is a lucky low
+        return {"noise": [{"free_energy": f + k * spread} for k in range(3)]}
+
+    monkeypatch.setattr(refs, "_evaluate", evaluate)
+    monkeypatch.setattr(retest, "retest_design", fake_retest)
+    config = protocol_config("smoke")
+    instance = next(i for i in load_instances() if i.id == config.instances[0])
+    plan = refs.ReferencePlan(
+        grid_points=0, restarts=0, pool_per_degree=4, nudges=3, floor_min_fraction=1e-6, rule=rule
+    )
+    with make_executor("serial") as pool:
+        return refs.compute_cell(pool, config, instance, 3, plan), tried
+
+
+def test_the_median_rule_passes_over_a_chaotic_lowest_design(monkeypatch):
+    import benchmarks.protocol.references as refs
+
+    lowest, tried = _cell_by_rule(monkeypatch, "lowest")
+    assert len(tried) == 1 and lowest["noise_range"] == 2000.0  # the default: as before
+    median, tried = _cell_by_rule(monkeypatch, "median")
+    designs = lowest["evaluations"] - 3  # every design of the cell has a finite F here
+    assert len(tried) == min(refs.MAX_REFERENCE_CANDIDATES, designs) > 1
+    assert tuple(median["design"]) == tried[1]  # the second lowest F, the lowest median
+    assert median["f_ref"] > lowest["f_ref"] and median["noise_range"] == 2.0
+    assert "lowest median F over the nudges" in median["method"]
+    assert median["evaluations"] == lowest["evaluations"] + 3 * (len(tried) - 1)
+
+
+def test_the_rule_is_checked_where_a_computation_resumes_and_refused_when_unknown():
+    import benchmarks.protocol.references as refs
+    from benchmarks.protocol.suite import protocol_config
+
+    with pytest.raises(ValueError, match="ReferencePlan.rule must be one of lowest, median"):
+        refs.ReferencePlan(rule="mean")
+    config = protocol_config("smoke")
+    plan = refs.reference_plan("smoke")
+    header = {
+        "size": "smoke",
+        "instance_version": config.instance_version,
+        "goal_precision": config.goal_precision,
+        "plan": refs._plan_fields(plan),  # no rule: a file from before the rule existed
+    }
+    refs.check_references_match(header, config, "F.json", plan=plan)
+    median = refs.ReferencePlan(**{**refs._plan_fields(plan), "rule": "median"})
+    with pytest.raises(ValueError, match="computed with plan rule = 'lowest', this plan has"):
+        refs.check_references_match(header, config, "F.json", plan=median)
+    # A report (no plan given) takes references of either rule.
+    header["plan"] = {**header["plan"], "rule": "median"}
+    refs.check_references_match(header, config, "F.json")
