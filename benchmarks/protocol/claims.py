@@ -190,7 +190,7 @@ class GroupJudgement:
 
     Attributes:
         group: The report's ``d`` label.
-        instances: Instances compared (pooled: (instance, d) blocks).
+        instances: Instances compared (pooled too: each with its d blocks averaged).
         min_instances: The fewest with which any pair can pass Holm's first step.
         pairs: Pairs in the Holm family.
         ranking: ``(optimizer, mean score, P(rank 1))`` by rank.
@@ -530,7 +530,7 @@ def _verdict(group: str, versus: Sequence[Versus], judged: _Counts) -> tuple[str
             f"is expected to beat, and from none of {', '.join(untold) or 'the others'}"
         )
     if judged.instances < judged.min_instances:
-        unit = "(instance, d) blocks" if group == _POOLED else "instances"
+        unit = "instances (d blocks averaged)" if group == _POOLED else "instances"
         return NOT_SHOWN, (
             f"**{NOT_SHOWN}**: with {judged.instances} {unit} no pair can be told apart (the "
             f"exact signed-rank test needs at least {judged.min_instances} at Holm alpha "
@@ -598,7 +598,7 @@ def judge_claim_a(
                 told.append((a, b) if float(r["mean_diff"]) > 0 else (b, a))
             else:
                 untold.append((a, b))
-        unit = "(instance, d) blocks" if group == _POOLED else "instances"
+        unit = "instances (d blocks averaged)" if group == _POOLED else "instances"
         sentence = separation_sentence(
             comparisons, f_power, group=_group_name(group), alpha=PROTOCOL_ALPHA, unit=unit
         )
@@ -720,9 +720,9 @@ def _section(
         " is sooner; not the 10-seed table's AUC, the area under the best-so-far F curve, where"
         " lower is better). An optimizer's score on an instance is the mean over its seeds, and "
         "so is its final best F. Two optimizers are **told apart** only when both hold: the "
-        "Wilcoxon signed-rank test of their score differences paired by instance (pooled: by "
-        f"(instance, d) block), Holm-corrected over the report's {pairs} pair(s), gives p < "
-        f"{PROTOCOL_ALPHA:g}; and the 95 % t interval of their paired final-F difference lies "
+        "Wilcoxon signed-rank test of their score differences paired by instance (pooled: each "
+        f"instance's d blocks averaged), Holm-corrected over the report's {pairs} pair(s), "
+        f"gives p < {PROTOCOL_ALPHA:g}; and the 95 % t interval of their paired final-F difference lies "
         "wholly beyond +-the noise floor (the median floor of the blocks' references) on one "
         "side, the higher score with the lower F. A significant score gap alone is not enough: "
         "two optimizers can reach the same targets a few evaluations apart and end with designs "

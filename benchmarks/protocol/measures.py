@@ -22,8 +22,8 @@ All functions are pure NumPy on arrays (no simulation, no files); F is minimized
   target or ran out, divided by the number of runs that hit it; ``inf`` when none did
   (:func:`expected_running_time`).
 - **ECDF** of runtimes: over a set of (run, target) pairs, the fraction with runtime <= t, as a
-  function of the budget t (:func:`ecdf`); bands from a bootstrap over instances
-  (:func:`bootstrap_ecdf`).
+  function of the budget t (:func:`ecdf`); bands from a bootstrap over instances, each with all
+  its dimensions when they are pooled (:func:`bootstrap_ecdf`).
 - **Area under the ECDF** (AUC): the mean of the ECDF over t = 1..B (B the budget), in [0, 1]:
   1 is every target hit at the first evaluation, 0 none ever (:func:`ecdf_area`). COCO shows the
   ECDF against log(t); the linear mean used here weighs every evaluation of the budget alike.
@@ -219,14 +219,31 @@ def bootstrap_ecdf(
     resamples: int = 1000,
     level: float = 0.95,
     rng: np.random.Generator | int | None = 0,
+    clusters: Sequence[object] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The pooled ECDF of ``groups`` (one array of runtimes per instance) with a band.
 
     Instances are resampled with replacement, each bringing all its runs and targets, and the
-    pooled ECDF recomputed; the band is the percentile interval at ``level``.
+    pooled ECDF recomputed; the band is the percentile interval at ``level``. With
+    ``clusters`` (one label per group), the clusters are resampled instead, each bringing all
+    its groups: the blocks (instance, d) of one instance are not independent, so a pooled band
+    resamples instances with all their dimensions. Groups that are their own clusters give the
+    band without ``clusters``, to the bit.
+
+    Args:
+        groups: One array of runtimes per group (``inf`` where censored).
+        grid: (g,) budgets.
+        resamples: Bootstrap resamples, >= 1.
+        level: Level of the band, in (0, 1).
+        rng: Seed or generator.
+        clusters: A label per group (``None``: every group is its own cluster).
 
     Returns:
         (estimate, low, high), each (g,).
+
+    Raises:
+        ValueError: No group, a level or resample count out of range, or ``clusters`` not of
+            one label per group.
     """
     resamples = _count(resamples, "resamples")
     if not 0 < level < 1:
@@ -238,8 +255,20 @@ def bootstrap_ecdf(
     generator = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
     per = np.array([np.searchsorted(np.sort(a), g, side="right") for a in arrays], dtype=float)
     sizes = np.array([a.size for a in arrays], dtype=float)
+    if clusters is not None:
+        labels = list(clusters)
+        if len(labels) != len(arrays):
+            raise ValueError(
+                f"clusters must give one label per group ({len(arrays)}), got {len(labels)}"
+            )
+        index = {label: k for k, label in enumerate(dict.fromkeys(labels))}  # first-seen order
+        which = np.array([index[label] for label in labels])
+        summed = np.zeros((len(index), g.size))
+        np.add.at(summed, which, per)
+        per = summed
+        sizes = np.bincount(which, weights=sizes, minlength=len(index)).astype(float)
     estimate = per.sum(axis=0) / sizes.sum()
-    picks = generator.integers(0, len(arrays), size=(resamples, len(arrays)))
+    picks = generator.integers(0, len(per), size=(resamples, len(per)))
     counts = per[picks].sum(axis=1) / sizes[picks].sum(axis=1)[:, None]
     alpha = (1 - level) / 2
     low, high = np.quantile(counts, [alpha, 1 - alpha], axis=0)

@@ -12,7 +12,9 @@ against the references (:mod:`benchmarks.protocol.measures`) and writes::
                                   bootstrapped 95 % bands over instances
         runtimes.csv              one row per (optimizer, instance, d, seed, target)
         runs.csv                  one row per run: AUC of its ECDF, normalized regret at budgets
-        references.csv            per cell: F_ref, noise floor, straight tool, random sampling
+        references.csv            per cell: F_ref, noise floor, straight tool, random sampling,
+                                  the ladder's quality (floor as % of F_ref and of the span,
+                                  ``weak ladder``)
         comparisons.csv, ranks.csv, power.csv
                                   per d and pooled ("all"); comparisons.csv has, besides the
                                   score's test, the final-F difference f_diff [f_diff_low,
@@ -20,10 +22,13 @@ against the references (:mod:`benchmarks.protocol.measures`) and writes::
 
 A run's score is the area under its own ECDF over its instance's targets (in [0, 1], higher
 is better); the comparisons, the ranking and the power analysis use it
-(:mod:`benchmarks.protocol.statistics`). Pooled over dimensions, an (instance, d) pair is the
-block of the paired comparison. A pair is *told apart* only when its Holm p is below alpha and
-its final-F difference is beyond the noise floor (:mod:`benchmarks.protocol.effects`); each
-statistics section opens with a verdict sentence built from its tables.
+(:mod:`benchmarks.protocol.statistics`). Pooled over dimensions, an instance's (instance, d)
+blocks are not independent: its score (and its final F) is the mean over its blocks
+(:func:`~benchmarks.protocol.statistics.cluster_runs`), the paired test pairs instances, and
+the ranking and the pooled ECDF's band resample instances, each with all its blocks. A pair is
+*told apart* only when its Holm p is below alpha and its final-F difference is beyond the noise
+floor (:mod:`benchmarks.protocol.effects`); each statistics section opens with a verdict
+sentence built from its tables.
 
 With the task axis (``ProtocolConfig.tasks``), the sections above are the first task's (push,
 when it is run), as before; :mod:`benchmarks.protocol.task_report` adds a section per other
@@ -55,10 +60,15 @@ from benchmarks.protocol.measures import (
 )
 from benchmarks.protocol.references import load_references, packaged_references
 from benchmarks.protocol.statistics import (
+    WEAK_LADDER_FRACTION,
+    cluster_runs,
+    held_out_gap,
+    ladder_quality,
     min_instances,
     paired_comparisons,
     power_analysis,
     rank_stability,
+    weak_cell_sensitivity,
 )
 from benchmarks.protocol.suite import (
     PROTOCOL_FILE,
@@ -344,8 +354,11 @@ def _ecdf_figure(times: pd.DataFrame, title: str, path: Path) -> None:
     top = float((times["budget"] / times["degree"]).max())
     grid = np.geomspace(1.0 / times["degree"].max(), top, 200)
     for optimizer, frame in relative.groupby("optimizer", sort=True):
-        groups = [g["x"].to_numpy() for _, g in frame.groupby(["instance", "degree"])]
-        est, low, high = bootstrap_ecdf(groups, grid, resamples=500, rng=0)
+        blocks = list(frame.groupby(["instance", "degree"]))
+        groups = [g["x"].to_numpy() for _, g in blocks]
+        # An instance's blocks (its d) are resampled together: they are not independent.
+        clusters = [instance for (instance, _), _ in blocks]
+        est, low, high = bootstrap_ecdf(groups, grid, resamples=500, rng=0, clusters=clusters)
         (line,) = ax.step(grid, est, where="post", label=str(optimizer))
         ax.fill_between(grid, low, high, step="post", alpha=0.2, color=line.get_color())
     ax.set_xscale("log")
@@ -402,24 +415,94 @@ def _reference_table(
         if ref is None:
             continue  # measure_runs has refused a run without a reference already
         pool = np.asarray(ref["random_pool"], dtype=float)
+        f_ref, floor = float(ref["f_ref"]), float(ref["noise_floor"])
+        median = float(np.median(pool))
+        at_budget = float(expected_best_of_random(pool, np.array([budgets[degree]]))[0])
+        quality = ladder_quality(f_ref, median, floor, at_budget)
         rows.append(
             {
                 "task": instance.task,
                 "d": degree,
                 "instance": instance.label,
                 "set": instance.set,
-                "F_ref": float(ref["f_ref"]),
-                "noise floor": float(ref["noise_floor"]),
+                "F_ref": f_ref,
+                "noise floor": floor,
                 "final distance (m)": float(ref["final_distance"]),
                 "F straight": float(ref["f_straight"]),
-                "F random median": float(np.median(pool)),
-                "F_random(budget)": float(
-                    expected_best_of_random(pool, np.array([budgets[degree]]))[0]
-                ),
+                "F random median": median,
+                "F_random(budget)": at_budget,
                 "found by": str(ref["method"]),
+                "floor % of F_ref": quality["floor_pct_ref"],
+                "floor / span": quality["floor_share"],
+                "weak ladder": quality["weak"],
             }
         )
     return pd.DataFrame(rows)
+
+
+def _ladder_section(scores: pd.DataFrame, references: pd.DataFrame, alpha: float) -> list[str]:
+    """The "ladder quality" part: the weak cells, and the verdicts without them."""
+    weak = references[references["weak ladder"].astype(bool)]
+    lines = [
+        "## Ladder quality",
+        "",
+        "A cell's target ladder is weak when its reference's noise floor exceeds "
+        f"{WEAK_LADDER_FRACTION:g} of the ladder's span (median random F - F_ref) or random "
+        "sampling's expected best at the budget, F_random(budget), already reaches the last "
+        "target (F_ref + floor): its targets then lie in a narrow band that every optimizer "
+        "reaches, and the cell adds ties rather than information. It comes from a reference "
+        "that is the luckiest of thousands of noisy draws (docs/protocol.md, References).",
+        "",
+    ]
+    if weak.empty:
+        return [*lines, f"No weak cell among the {len(references)} of this run.", ""]
+    shown = weak[
+        ["d", "instance", "F_ref", "noise floor", "floor % of F_ref", "floor / span",
+         "F random median", "F_random(budget)"]
+    ]  # fmt: skip
+    cells = [(str(i), int(d)) for i, d in zip(weak["instance"], weak["d"], strict=True)]
+    comparisons, ranking = weak_cell_sensitivity(scores, cells, alpha=alpha)
+    lines += [
+        f"{len(weak)} of {len(references)} cells are weak:",
+        "",
+        _md_table(shown.reset_index(drop=True), ".4g"),
+        "",
+        "Sensitivity: each dimension's comparisons (Holm p, significant at alpha = "
+        f"{alpha:g}) and ranking (by mean score) on every cell and without the weak cells; "
+        'pooled ("all"), instances with their blocks averaged.',
+        "",
+    ]
+    if comparisons.empty:
+        return [*lines, "Fewer than two optimizers or instances: no comparison.", ""]
+    changed = comparisons[comparisons["changed"].astype(bool)]
+    reordered = ranking[ranking["changed"].astype(bool)]
+
+    def group(d: str) -> str:
+        return "pooled" if d == "all" else f"d = {d}"
+
+    if changed.empty:
+        sentence = "Without the weak cells no pair's verdict (significant or not) changes"
+    else:
+        sentence = "Without the weak cells these verdicts change: " + "; ".join(
+            f"{r.a} vs {r.b} at {group(str(r.d))} ("
+            f"{'significant' if r.significant else 'not significant'} -> "
+            f"{'significant' if r.significant_without else 'not significant'})"
+            for r in changed.itertuples()
+        )
+    if reordered.empty:
+        sentence += ", and no ranking does."
+    else:
+        where = ", ".join(group(str(d)) for d in reordered["d"])
+        sentence += f"; the ranking by mean score changes at {where}."
+    return [
+        *lines,
+        _md_table(comparisons),
+        "",
+        _md_table(ranking),
+        "",
+        sentence,
+        "",
+    ]
 
 
 def _ert_table(times: pd.DataFrame) -> pd.DataFrame:
@@ -435,6 +518,10 @@ def _ert_table(times: pd.DataFrame) -> pd.DataFrame:
             ]
             solved = np.isfinite(erts).mean() if erts else math.nan
             row[f"ERT target {k + 1} (median)"] = float(np.median(erts)) if erts else math.nan
+            # COCO's aRT: the runs of all instances pooled (evaluations spent / successes).
+            row[f"aRT target {k + 1} (pooled)"] = (
+                expected_running_time(at["runtime"], at["budget"]) if len(at) else math.nan
+            )
             row[f"instances solved, target {k + 1}"] = solved
         rows.append(row)
     return pd.DataFrame(rows)
@@ -586,6 +673,7 @@ def make_protocol_report(
     _ecdf_figure(times, "all dimensions", path)
     written.append(path)
 
+    gap = held_out_gap(scores)
     sections = [
         "# Protocol report",
         "",
@@ -608,7 +696,7 @@ def make_protocol_report(
         "F_ref + noise floor. Score of a run: the area under its ECDF over its targets (0 to 1, "
         "higher is better). Regret: (F - F_ref) / (F_random(budget) - F_ref), 1 = random "
         "sampling, 0 = the reference. "
-        + success_sentence("push", task_tolerance(), what="run", standing=has_standing(runs))
+        + success_sentence(first, task_tolerance(first), what="run", standing=has_standing(runs))
         + " See docs/protocol.md.",
         "",
         "## Area under the ECDF (mean over instances, 95 % Student t interval over instances)",
@@ -617,7 +705,12 @@ def make_protocol_report(
         "",
         _md_table(_auc_table(scores.assign(pooled="all"), "pooled")),
         "",
-        "## Expected running time (evaluations; median over instances)",
+        "## Expected running time (evaluations)",
+        "",
+        "ERT (median): each instance's ERT (its runs' evaluations until the target or the "
+        "budget, per run that reached it), the median over instances. aRT (pooled): COCO's, "
+        "the evaluations of all runs of all instances until the target or the budget, divided "
+        "by the number of those runs that reached it; inf when none did.",
         "",
         _md_table(_ert_table(times)),
         "",
@@ -626,12 +719,21 @@ def make_protocol_report(
         "",
         _md_table(reference_table, ".6g"),
         "",
+        *_ladder_section(scores, reference_table, alpha),
         "## Public and held-out instances (mean score)",
         "",
-        _md_table(
-            scores.groupby(["optimizer", "set"])["score"].mean().unstack("set").reset_index()
-        ),
+        "Held-out minus public mean score per optimizer, with a 95 % Welch t interval over "
+        "instances (an instance's score: the mean over its seeds and dimensions; the two sets "
+        "are different instances). A user's gap far below the built-ins' says the optimizer "
+        "was tuned to the public set.",
         "",
+        _md_table(gap),
+        "",
+        *(
+            []
+            if (gap["n_held_out"] > 0).any()
+            else ["This run has no held-out instance: no gap can be measured.", ""]
+        ),
     ]
     comparisons, ranks, powers = [], [], []
     # Each block's noise floor (its reference's): the floor an F difference must clear.
@@ -640,21 +742,24 @@ def make_protocol_report(
         for _, r in reference_table.iterrows()
     }
     groups = [(str(d), scores[scores["degree"] == d]) for d in degrees]
-    groups.append(
-        ("all", scores.assign(instance=scores["instance"] + "/d" + scores["degree"].astype(str)))
-    )
+    # An instance's blocks (its d) share its goal, mass and friction: pooled, the instance is
+    # the unit (its blocks averaged per seed), as in the pooled ECDF's band.
+    groups.append(("all", cluster_runs(scores)))
     for label, frame in groups:
         frame = frame.dropna(subset=["score"])
-        title = f"d = {label}" if label != "all" else "all dimensions (blocks: instance x d)"
+        title = f"d = {label}" if label != "all" else "all dimensions (instances, blocks averaged)"
         sections += [f"## Statistics, {title}", ""]
         if frame["optimizer"].nunique() < 2 or frame["instance"].nunique() < 2:
             sections += ["Fewer than two optimizers or instances: no comparison.", ""]
             continue
-        floors = {
-            (f"{i}/d{d}" if label == "all" else i): f
-            for (i, d), f in block_floor.items()
-            if label == "all" or d == int(label)
-        }
+        if label == "all":
+            # An instance's floor pooled: the mean of its blocks' (its final F is their mean).
+            per_instance: dict[str, list[float]] = {}
+            for (i, _), f in block_floor.items():
+                per_instance.setdefault(i, []).append(f)
+            floors = {i: float(np.mean(f)) for i, f in per_instance.items()}
+        else:
+            floors = {i: f for (i, d), f in block_floor.items() if d == int(label)}
         table = paired_comparisons(frame, alpha=alpha).merge(
             floor_effects(frame, floors), on=["a", "b"], how="left", validate="one_to_one"
         )
@@ -675,7 +780,7 @@ def make_protocol_report(
         comparisons.append(table)
         ranks.append(rank)
         powers.append(power)
-        unit = "instances" if label != "all" else "(instance, d) blocks"
+        unit = "instances"
         if blocks < floor:
             verdict = (
                 f"**This section cannot separate any pair.** With {blocks} {unit}, the exact "
@@ -687,8 +792,8 @@ def make_protocol_report(
             )
             if label != "all" and len(degrees) > 1:
                 verdict += (
-                    " The pooled section (all dimensions) has "
-                    f"{blocks * len(degrees)} blocks: read the comparisons there."
+                    " Pooling the dimensions adds no instance (the pooled section averages "
+                    "each instance's blocks): only more instances separate pairs."
                 )
         else:
             verdict = (
@@ -697,20 +802,35 @@ def make_protocol_report(
                 "told apart; the power table says how large a difference must be."
             )
         name = f"d = {label}" if label != "all" else "pooled"
+        pooled_note = (
+            [
+                f"An instance's {len(degrees)} blocks (instance, d) are not independent (one "
+                "goal, mass and friction), so each instance's score and final F here are the "
+                f"means over its blocks, per seed: the paired test has n = {blocks} instances, "
+                "the ranking's resamples and the pooled ECDF's band draw instances, each with "
+                "all its blocks, and an instance's floor is the mean of its blocks' floors.",
+                "",
+            ]
+            if label == "all"
+            else []
+        )
         sections += [
             verdict,
             "",
             separation_sentence(table, in_f, group=name, alpha=alpha, unit=unit),
             "",
+            *pooled_note,
             f"Paired by instance (Wilcoxon signed-rank), Holm-corrected, alpha = {alpha:g}; "
             "mean_diff = mean(score a - score b) with a 95 % Student t interval over "
-            f"{unit} (positive: a sooner). f_diff = mean(final F a - final F b) (each "
-            "optimizer's final best F per block is its mean over seeds; negative: a ends "
-            f"lower, better) with its 95 % t interval f_diff_low..f_diff_high over {unit}; "
-            "floor = the median noise floor of the blocks' references; beyond_floor = the "
-            "interval lies wholly beyond +-floor on one side. **A pair is told apart** "
-            f"(told_apart) only when p_holm < {alpha:g} AND beyond_floor, the higher score "
-            "with the lower F.",
+            f"{unit} (positive: a sooner); d_z = mean_diff / SD of the differences, with a 95 % "
+            "percentile bootstrap interval over instances (d_z_low, d_z_high; rough with few "
+            "instances, and infinite where a resample's differences are all equal). f_diff = "
+            "mean(final F a - final F b) (each optimizer's final best F per block is its mean "
+            "over seeds; negative: a ends lower, better) with its 95 % t interval "
+            f"f_diff_low..f_diff_high over {unit}; floor = the median noise floor of the "
+            "blocks' references; beyond_floor = the interval lies wholly beyond +-floor on one "
+            f"side. **A pair is told apart** (told_apart) only when p_holm < {alpha:g} AND "
+            "beyond_floor, the higher score with the lower F.",
             "",
             _md_table(table.drop(columns="d")),
             "",

@@ -10,7 +10,18 @@ seeds. Comparisons are therefore paired by instance.
   (:func:`benchmarks.reports.stats.holm_bonferroni`), the mean difference with its Student t
   interval over instances (:func:`benchmarks.reports.stats.t_interval`; the percentile
   bootstrap covers too little with few instances), and the standardized effect
-  d_z = mean / SD of the differences.
+  d_z = mean / SD of the differences with a percentile bootstrap interval over instances
+  (``d_z_low``, ``d_z_high``: no t interval exists for a ratio; with few instances it is
+  rough and may be infinite, where a resample's differences are all equal).
+- :func:`cluster_runs`: the runs of a pooled section collapsed to one row per instance,
+  optimizer and seed, the mean over the instance's blocks (its dimensions, with the task axis
+  its task's dimensions): an instance's blocks are not independent, so the pooled test pairs
+  instances (n = instances) and the ranking resamples instances with all their blocks.
+- :func:`held_out_gap`: per optimizer, the mean score on held-out instances minus that on
+  public ones, with a Welch t interval over instances (to see tuning to the public set).
+- :func:`ladder_quality` and :func:`weak_cell_sensitivity`: whether a cell's target ladder is
+  weak (its reference's noise floor is a large part of the ladder's span, or random sampling
+  at the budget reaches its last target), and the comparisons and ranking without such cells.
 - :func:`rank_stability`: the probability of each rank for each optimizer when instances are
   resampled with replacement and, within each drawn instance, each optimizer's seeds too.
 - :func:`power_analysis`: per pair, the smallest difference of means the run detects at 80 %
@@ -59,13 +70,18 @@ from benchmarks.reports.measures import COMPARISON_COLUMNS, paired_table
 
 __all__ = [
     "COMPARISON_COLUMNS",
+    "WEAK_LADDER_FRACTION",
     "WILCOXON_ARE",
+    "cluster_runs",
     "detectable_difference",
+    "held_out_gap",
     "instances_needed",
+    "ladder_quality",
     "min_instances",
     "paired_comparisons",
     "power_analysis",
     "rank_stability",
+    "weak_cell_sensitivity",
 ]
 
 #: Asymptotic relative efficiency of the signed-rank test to the t test for normal data.
@@ -284,6 +300,8 @@ def paired_comparisons(
     *,
     alpha: float = 0.01,
     level: float = 0.95,
+    resamples: int = 2000,
+    rng: np.random.Generator | int | None = 0,
 ) -> pd.DataFrame:
     """Every pair of optimizers compared on the instances both ran, Holm-corrected.
 
@@ -291,17 +309,56 @@ def paired_comparisons(
         scores: One row per run: ``instance``, ``optimizer``, ``seed``, ``score`` (finite; NaN
             for a missing run, left out).
         alpha: Family-wise level of ``significant``, in (0, 1).
-        level: Level of the Student t interval of the mean difference, in (0, 1).
+        level: Level of the Student t interval of the mean difference and of the bootstrap
+            interval of d_z, in (0, 1).
+        resamples: Bootstrap resamples of the instances for d_z's interval, an int >= 1.
+        rng: Seed or generator of that bootstrap.
 
     Returns:
-        One row per pair with :data:`COMPARISON_COLUMNS`; ``mean_diff`` is mean(a - b) over
-        instances, ``ci_low``/``ci_high`` its t interval
-        (:func:`benchmarks.reports.stats.t_interval`).
+        One row per pair with :data:`COMPARISON_COLUMNS`, then ``d_z_low`` and ``d_z_high``;
+        ``mean_diff`` is mean(a - b) over instances, ``ci_low``/``ci_high`` its t interval
+        (:func:`benchmarks.reports.stats.t_interval`), ``d_z_low``/``d_z_high`` the percentile
+        bootstrap interval of d_z over instances (NaN below 3 instances).
     """
     scores = _check_scores(scores)
     _check_level("alpha", alpha)
     _check_level("level", level)
-    return paired_table(_instance_means(scores), alpha=alpha, level=level)
+    resamples = _check_count("resamples", resamples)
+    generator = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
+    means = _instance_means(scores)
+    table = paired_table(means, alpha=alpha, level=level)
+    bounds = [
+        _d_z_interval(
+            (means[a] - means[b]).dropna().to_numpy(dtype=np.float64), level, resamples, generator
+        )
+        for a, b in zip(table["a"], table["b"], strict=True)
+    ]
+    table["d_z_low"] = [low for low, _ in bounds]
+    table["d_z_high"] = [high for _, high in bounds]
+    return table
+
+
+def _d_z_interval(
+    diff: np.ndarray, level: float, resamples: int, generator: np.random.Generator
+) -> tuple[float, float]:
+    """Percentile bootstrap interval of d_z = mean / SD over resampled instances.
+
+    NaN below 3 instances (a resample of 2 has SD 0 half the time). A resample whose
+    differences are all equal has d_z = +-inf (0 when they are all 0); the bounds are the
+    order statistics at the two tails (no interpolation, which an infinite value would spoil).
+    """
+    n = diff.size
+    if n < 3:
+        return math.nan, math.nan
+    drawn = diff[generator.integers(0, n, size=(resamples, n))]
+    mean = drawn.mean(axis=1)
+    sd = drawn.std(axis=1, ddof=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        d_z = np.where(sd > 0, mean / np.where(sd > 0, sd, 1.0), np.sign(mean) * np.inf)
+    tail = (1 - level) / 2
+    low = float(np.quantile(d_z, tail, method="lower"))
+    high = float(np.quantile(d_z, 1 - tail, method="higher"))
+    return low, high
 
 
 def rank_stability(
@@ -461,3 +518,299 @@ def power_analysis(
                 row["seeds_needed"] = math.nan
             rows.append(row)
     return pd.DataFrame(rows)
+
+
+#: A cell's target ladder is weak when its reference's noise floor exceeds this fraction of the
+#: ladder's span (median random F - F_ref; docs/protocol.md, References).
+WEAK_LADDER_FRACTION = 0.25
+
+
+def _number(name: str, value: object) -> float:
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, (int, float, np.integer, np.floating))
+        or not math.isfinite(value)
+    ):
+        raise ValueError(f"{name} must be a finite number, got {value!r}")
+    return float(value)
+
+
+def ladder_quality(
+    f_ref: float,
+    f_random_median: float,
+    floor: float,
+    f_random_budget: float,
+    *,
+    fraction: float = WEAK_LADDER_FRACTION,
+) -> dict[str, float | bool]:
+    """How much of a cell's target ladder lies above its reference's noise.
+
+    The ladder runs from the median F of a random design down to ``F_ref + floor``
+    (:func:`benchmarks.protocol.measures.target_ladder`). It is **weak** when the floor exceeds
+    ``fraction`` of its span (``f_random_median - f_ref``: the targets are then squeezed into
+    the top of the span, a reference that is the luckiest of many noisy draws) or when random
+    sampling's expected best at the budget already reaches the last target (every optimizer
+    then reaches every target: the cell adds ties, not information).
+
+    Args:
+        f_ref: The reference F.
+        f_random_median: Median F of a random design (the first target).
+        floor: The reference's noise floor (> 0).
+        f_random_budget: F_random at the run budget.
+        fraction: The share of the span above which the floor makes a ladder weak, in (0, 1).
+
+    Returns:
+        ``floor_pct_ref`` (100 floor / |F_ref|, inf when F_ref = 0), ``floor_share`` (floor /
+        span; inf when the span is not positive), and ``weak``.
+
+    Raises:
+        ValueError: A value that is not a finite number, ``floor <= 0``, or ``fraction``
+            outside (0, 1).
+    """
+    f_ref = _number("f_ref", f_ref)
+    median = _number("f_random_median", f_random_median)
+    floor = _number("floor", floor)
+    at_budget = _number("f_random_budget", f_random_budget)
+    fraction = _check_level("fraction", fraction)
+    if floor <= 0:
+        raise ValueError(f"floor must be > 0 (an F difference), got {floor!r}")
+    span = median - f_ref
+    share = floor / span if span > 0 else math.inf
+    return {
+        "floor_pct_ref": 100.0 * floor / abs(f_ref) if f_ref != 0 else math.inf,
+        "floor_share": share,
+        "weak": bool(share > fraction or at_budget <= f_ref + floor),
+    }
+
+
+def cluster_runs(
+    scores: pd.DataFrame, *, cluster: str = "instance", blocks: Sequence[str] = ("degree",)
+) -> pd.DataFrame:
+    """One row per (cluster, optimizer, seed): a seed's mean score over the cluster's blocks.
+
+    A pooled section's blocks (an instance at each d) are not independent: one instance's
+    blocks share its goal, mass and friction. Averaging them per instance first makes the
+    instance the unit again: :func:`paired_comparisons` then pairs instances (n = instances),
+    :func:`power_analysis` sizes in instances, and :func:`rank_stability` resamples instances
+    each with all its blocks (the k-th seed of every block stays together; the seeds of
+    different blocks are independent runs, so which one is k-th does not matter).
+
+    Args:
+        scores: One row per run with ``optimizer``, ``seed``, ``score``, the ``cluster``
+            column and the ``blocks`` columns; ``final_f`` and ``set`` are carried when present
+            (the mean, and the cluster's one value). NaN scores (missing runs) are left out.
+        cluster: The column naming the unit that is resampled and paired.
+        blocks: The columns that tell a cluster's blocks apart.
+
+    Returns:
+        A frame with ``instance`` (the cluster), ``optimizer``, ``seed`` (0-based index: the
+        k-th seed of each block, by seed value), ``score``, ``blocks`` (how many were averaged)
+        and ``final_f`` / ``set`` where given.
+
+    Raises:
+        ValueError: A missing column, or an optimizer with different numbers of seeds in the
+            blocks of one cluster (the mean would weigh the blocks unequally).
+    """
+    if not isinstance(scores, pd.DataFrame):
+        raise TypeError(f"scores must be a DataFrame, got {type(scores).__name__}")
+    if isinstance(blocks, str) or not isinstance(blocks, Sequence):
+        raise ValueError(f"blocks must be a sequence of column names, got {blocks!r}")
+    needed = [cluster, *blocks, "optimizer", "seed", "score"]
+    missing = [c for c in needed if c not in scores.columns]
+    if missing:
+        raise ValueError(f"scores lacks columns {missing}; needs {needed}")
+    kept = _check_scores(scores.assign(instance=scores[cluster]))
+    keys = ["instance", *blocks, "optimizer"]
+    kept = kept.sort_values([*keys, "seed"], kind="stable")
+    per_block = kept.groupby(keys).size()
+    spread = per_block.groupby(["instance", "optimizer"]).agg(["min", "max"])
+    uneven = spread[spread["min"] != spread["max"]]
+    if not uneven.empty:
+        (name, optimizer), row = next(iter(uneven.iterrows()))
+        raise ValueError(
+            f"optimizer {optimizer!r} has {row['min']} to {row['max']} seeds in the blocks of "
+            f"{cluster} {name!r}; every block of a cluster needs the same seeds"
+        )
+    kept = kept.assign(seed=kept.groupby(keys).cumcount())
+    group = kept.groupby(["instance", "optimizer", "seed"], sort=True)
+    out = group["score"].mean().to_frame()
+    out["blocks"] = group.size()
+    if "final_f" in kept.columns:
+        out["final_f"] = group["final_f"].mean()
+    if "set" in kept.columns:
+        out["set"] = group["set"].first()
+    return out.reset_index()
+
+
+def held_out_gap(scores: pd.DataFrame, *, level: float = 0.95) -> pd.DataFrame:
+    """Per optimizer: mean score on held-out instances minus that on public ones.
+
+    An instance's score is its mean over its runs (seeds, and dimensions where ``scores`` holds
+    several). The two sets are different instances, so the interval is Welch's t interval of a
+    difference of two independent means over instances (NaN with fewer than two instances in
+    a set). A gap well below the built-ins' says an optimizer was tuned to the public set.
+
+    Args:
+        scores: One row per run with ``instance``, ``optimizer``, ``set`` (``public`` or
+            ``held-out``) and ``score``.
+        level: Level of the interval, in (0, 1).
+
+    Returns:
+        One row per optimizer: ``public`` and ``held-out`` (mean scores), ``n_public``,
+        ``n_held_out``, ``gap`` (held-out - public), ``gap_low``, ``gap_high``.
+
+    Raises:
+        ValueError: A missing column, a set other than public and held-out, an instance in
+            both sets, or ``level`` outside (0, 1).
+    """
+    from scipy.stats import t
+
+    if not isinstance(scores, pd.DataFrame):
+        raise TypeError(f"scores must be a DataFrame, got {type(scores).__name__}")
+    level = _check_level("level", level)
+    needed = ["instance", "optimizer", "set", "score"]
+    missing = [c for c in needed if c not in scores.columns]
+    if missing:
+        raise ValueError(f"scores lacks columns {missing}; needs {needed}")
+    sets = {"public", "held-out"}
+    other = sorted(set(map(str, scores["set"].unique())) - sets)
+    if other:
+        raise ValueError(f"set must be 'public' or 'held-out', got {other[0]!r}")
+    both = scores.groupby("instance")["set"].nunique()
+    if (both > 1).any():
+        raise ValueError(f"instance {both[both > 1].index[0]!r} is in both sets")
+    kept = _check_scores(scores.assign(seed=0) if "seed" not in scores.columns else scores)
+    rows = []
+    for optimizer, frame in kept.groupby("optimizer", sort=True):
+        per = frame.groupby(["set", "instance"])["score"].mean()
+        public = per.xs("public").to_numpy() if "public" in per.index else np.zeros(0)
+        held = per.xs("held-out").to_numpy() if "held-out" in per.index else np.zeros(0)
+        row: dict[str, object] = {
+            "optimizer": optimizer,
+            "public": float(public.mean()) if public.size else math.nan,
+            "held-out": float(held.mean()) if held.size else math.nan,
+            "n_public": int(public.size),
+            "n_held_out": int(held.size),
+        }
+        gap = float(row["held-out"]) - float(row["public"])  # type: ignore[arg-type]
+        low = high = math.nan
+        if public.size >= 2 and held.size >= 2:
+            vp, vh = public.var(ddof=1) / public.size, held.var(ddof=1) / held.size
+            se = math.sqrt(vp + vh)
+            if se > 0:
+                df = (vp + vh) ** 2 / (vp**2 / (public.size - 1) + vh**2 / (held.size - 1))
+                half = float(t.ppf((1 + level) / 2, df)) * se
+            else:
+                half = 0.0
+            low, high = gap - half, gap + half
+        row.update(gap=gap, gap_low=low, gap_high=high)
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def _order(scores: pd.DataFrame) -> list[str]:
+    """The optimizers by mean score over instances, best first."""
+    means = _instance_means(scores).mean(axis=0)
+    return [str(o) for o in means.sort_values(ascending=False, kind="stable").index]
+
+
+def weak_cell_sensitivity(
+    scores: pd.DataFrame,
+    weak: Sequence[tuple[str, int]],
+    *,
+    alpha: float = 0.01,
+) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """The comparisons and ranking of each dimension and pooled, with and without weak cells.
+
+    Each group is compared as the report compares it (per dimension: paired by instance;
+    pooled: :func:`cluster_runs` first, paired by instance), once on every cell and once
+    without the ``weak`` cells (:func:`ladder_quality`).
+
+    Args:
+        scores: One row per run with ``instance``, ``degree``, ``optimizer``, ``seed``,
+            ``score``.
+        weak: The (instance, d) cells to leave out.
+        alpha: Family-wise level of ``significant``, in (0, 1).
+
+    Returns:
+        ``(comparisons, ranking)``. ``comparisons``: per group ``d`` (a degree as text, or
+        ``"all"``) and pair, ``n``, ``p_holm`` and ``significant`` on every cell, the same with
+        the suffix ``_without`` (NaN / None where fewer than two instances are left), and
+        ``changed`` (the verdict differs). ``ranking``: per group, the order of the optimizers
+        by mean score (best first) on every cell and without the weak cells, and ``changed``.
+
+    Raises:
+        ValueError: A missing column, or a weak cell that is not an (instance, int d) pair.
+    """
+    if not isinstance(scores, pd.DataFrame):
+        raise TypeError(f"scores must be a DataFrame, got {type(scores).__name__}")
+    alpha = _check_level("alpha", alpha)
+    if "degree" not in scores.columns:
+        raise ValueError("scores lacks column 'degree'")
+    cells: set[tuple[str, int]] = set()
+    for cell in weak:
+        if (
+            not isinstance(cell, tuple)
+            or len(cell) != 2
+            or isinstance(cell[1], bool)
+            or not isinstance(cell[1], (int, np.integer))
+        ):
+            raise ValueError(
+                f"a weak cell must be an (instance, d) pair with an int d, got {cell!r}"
+            )
+        cells.add((str(cell[0]), int(cell[1])))
+    scores = _check_scores(scores)
+    dropped = np.array(
+        [
+            (str(i), int(d)) in cells
+            for i, d in zip(scores["instance"], scores["degree"], strict=True)
+        ],
+        dtype=bool,
+    )
+    degrees = sorted(int(d) for d in scores["degree"].unique())
+    comparisons, rankings = [], []
+    for label in [*map(str, degrees), "all"]:
+        frames = []
+        for mask in (np.ones(len(scores), dtype=bool), ~dropped):
+            frame = scores[mask]
+            if label != "all":
+                frame = frame[frame["degree"] == int(label)]
+            elif not frame.empty:
+                frame = cluster_runs(frame)
+            frames.append(frame)
+        tables: list[pd.DataFrame | None] = []
+        for frame in frames:
+            if frame.empty or frame["instance"].nunique() < 2 or frame["optimizer"].nunique() < 2:
+                tables.append(None)
+            else:
+                tables.append(paired_comparisons(frame, alpha=alpha, resamples=1))
+        full, without = tables
+        if full is None:
+            continue
+        table = full[["a", "b", "n", "p_holm", "significant"]].assign(d=label)
+        if without is None:
+            table["n_without"] = 0
+            table["p_holm_without"] = math.nan
+            table["significant_without"] = None
+            table["changed"] = False
+        else:
+            merged = without.set_index(["a", "b"]).reindex(
+                list(zip(table["a"], table["b"], strict=True))
+            )
+            table["n_without"] = merged["n"].to_numpy()
+            table["p_holm_without"] = merged["p_holm"].to_numpy()
+            table["significant_without"] = merged["significant"].to_numpy()
+            table["changed"] = table["significant"].to_numpy() != merged["significant"].to_numpy()
+        comparisons.append(table[["d", *[c for c in table.columns if c != "d"]]])
+        order = " > ".join(_order(frames[0]))
+        order_without = " > ".join(_order(frames[1])) if without is not None else "n/a"
+        rankings.append(
+            {
+                "d": label,
+                "ranking": order,
+                "ranking without weak cells": order_without,
+                "changed": without is not None and order != order_without,
+            }
+        )
+    comparison = pd.concat(comparisons, ignore_index=True) if comparisons else pd.DataFrame()
+    return comparison, pd.DataFrame(rankings)

@@ -112,9 +112,14 @@ def _statistics(
 
 
 def _floors(references: pd.DataFrame) -> dict[str, float]:
-    """Each (instance, d) block's noise floor, by its label ``<instance>/d<d>``."""
+    """Each instance's noise floor: the mean of its (instance, d) blocks' floors.
+
+    The statistics average an instance's d blocks (:func:`cluster_runs`), its final F too, so
+    its floor is the mean of its blocks' floors.
+    """
     return {
-        f"{r['instance']}/d{int(r['d'])}": float(r["noise floor"]) for _, r in references.iterrows()
+        str(i): float(f.mean())
+        for i, f in references.groupby("instance")["noise floor"]
     }
 
 
@@ -155,6 +160,7 @@ def task_sections(
     Returns:
         The markdown lines, and the files written.
     """
+    from benchmarks.protocol.statistics import cluster_runs
     from benchmarks.storage import atomic_write_text
     from tooldesign_env.tasks import get_task
 
@@ -198,9 +204,10 @@ def task_sections(
             ),
             "",
         ]
-        blocks = mine.assign(instance=mine["instance"] + "/d" + mine["degree"].astype(str))
+        # An instance's d blocks are not independent: the instance (blocks averaged) is the unit.
+        blocks = cluster_runs(mine)
         lines, tagged = _statistics(
-            blocks, task, "(instance, d) blocks", alpha, md_table, _floors(refs)
+            blocks, task, "instances (d blocks averaged)", alpha, md_table, _floors(refs)
         )
         sections += [f"### Statistics, task {task}", "", *lines]
         for k, table in enumerate(tagged):
@@ -209,11 +216,18 @@ def task_sections(
         ecdf_figure(times[times["task"] == task], f"task {task}", path)
         written.append(path)
         figures.append(path.name)
-    pooled = scores.assign(instance=scores["instance"] + "/d" + scores["degree"].astype(str))
+    # Each task's instances are its own set (labels "hook/i01"): a task's instance with its d
+    # blocks averaged is the unit.
+    pooled = cluster_runs(scores)
     lines, tagged = _statistics(
-        pooled, POOLED_TASKS, "(task, instance, d) blocks", alpha, md_table, _floors(references)
+        pooled,
+        POOLED_TASKS,
+        "(task, instance) units, d blocks averaged",
+        alpha,
+        md_table,
+        _floors(references),
     )
-    sections += ["## Statistics, all tasks pooled (blocks: task x instance x d)", "", *lines]
+    sections += ["## Statistics, all tasks pooled (units: task x instance)", "", *lines]
     for k, table in enumerate(tagged):
         tables[k].append(table)
     path = out / "ecdf_tasks.png"
