@@ -100,9 +100,17 @@ def test_a_record_left_by_a_refused_name_does_not_block_the_corrected_run(tmp_pa
         ),
         (["--buildable", "5", "--out", "NEW"], "at every degree and exits: no --size, --out"),
         (["--buildable", "5", "--verify-references"], "and exits: no --size, --verify-references"),
+        (
+            ["--references", "--max-retries", "1", "--out", "NEW.json"],
+            "--max-retries 1 is for the runs' cells: --references evaluates without retries",
+        ),
+        (["--verify-references", "--max-retries", "1"], "only: no --max-retries"),
         # references the report would refuse after the run
         (["--reference-file", "NEW.json", "--out", "NEW"], "NEW.json does not exist"),
-        (["--tasks", "all", "--out", "NEW"], "have no cell hook/i01 at d = 3"),
+        (
+            ["--tasks", "all", "--out", "NEW"],
+            "no reference for instance hook/i01 at d = 3 in ",  # the report's words, earlier
+        ),
     ],
     ids=lambda v: " ".join(v)[:40] if isinstance(v, list) else "",
 )

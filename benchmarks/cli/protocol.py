@@ -15,6 +15,12 @@ machine and compares them with the file (bit for bit, and within each value's no
 ``--buildable N`` prints the fraction of N random designs per degree that can be built and
 used. ``--tasks hook obstacle`` (or
 ``--tasks all``) adds the task axis: every named task's cells (push alone by default).
+
+What the run or its report would refuse is refused before ``protocol.json`` is written or a
+cell starts, in one line: an optimizer that cannot be made, a ``--baseline`` of another plan
+or with an optimizer of the run, references that lack a cell of the run, and a flag that
+another would make ignored (``--references`` or ``--with-references`` with
+``--reference-file``, ``--buildable`` with a run's options); docs/protocol.md "Commands".
 """
 
 from __future__ import annotations
@@ -113,19 +119,31 @@ def _lacks_cells(folders: list[Path], size: str, config: Any) -> bool:
     ones may hold push cells only: ``--with-references`` then adds the other tasks' cells.
     """
     from benchmarks.protocol import load_references
+
+    path, expected = _found_references(folders, size)
+    if path is None:
+        return True
+    cells = load_references(path, expected_sha256=expected)
+    return any((i.label, d) not in cells for i, d in config.cells())
+
+
+def _found_references(folders: list[Path], size: str) -> tuple[Any, str | None]:
+    """The references a report of ``folders`` would use, and the SHA-256 recorded for them.
+
+    :func:`~benchmarks.protocol.report.find_references`'s file (``None`` if none), with the
+    digest of the folder that holds it (``None`` for the committed ones).
+
+    Raises:
+        ValueError: A folder's ``references.json`` is not recorded in its ``protocol.json``.
+    """
     from benchmarks.protocol.report import find_references, folder_references
 
     path = find_references(folders, size)
-    if path is None:
-        return True
-    expected = None
     for folder in folders:
         found = folder_references(folder)
         if found is not None:
-            expected = found[1]
-            break
-    cells = load_references(path, expected_sha256=expected)
-    return any((i.label, d) not in cells for i, d in config.cells())
+            return path, found[1]
+    return path, None
 
 
 def _verify(args: argparse.Namespace, config: Any, size: str, say: Any) -> int:
@@ -133,11 +151,19 @@ def _verify(args: argparse.Namespace, config: Any, size: str, say: Any) -> int:
     from benchmarks.protocol import packaged_references, verify_references
     from benchmarks.protocol.references import verify_verdict
 
-    for name in ("references", "with_references", "optimizer", "baseline", "buildable", "out"):
+    for name in (
+        "references",
+        "with_references",
+        "optimizer",
+        "baseline",
+        "buildable",
+        "out",
+        "max_retries",  # its evaluations run without retries
+    ):
         if getattr(args, name, None) is not None:
             raise ValueError(
                 f"--verify-references checks references only: no --{name.replace('_', '-')} "
-                "(it writes nothing)"
+                "(it writes nothing, and evaluates without retries)"
             )
     path = args.reference_file or packaged_references(size)
     if path is None:
@@ -225,33 +251,33 @@ def _check_references(args: argparse.Namespace, config: Any, size: str) -> None:
     the runs, and none found at all is left to the report's "no report" line.
     """
     from benchmarks.protocol import load_references
-    from benchmarks.protocol.report import find_references, folder_references
+    from benchmarks.protocol.instances import PUSH_TASK
 
-    folders = [args.out, *(args.baseline or [])]
     expected = None
     if args.reference_file is not None:
         path = args.reference_file
     else:
-        path = find_references(folders, size)  # refuses a folder's unrecorded references.json
+        # Refuses a folder's unrecorded references.json, as the report would.
+        path, expected = _found_references([args.out, *(args.baseline or [])], size)
         if path is None or args.with_references:
             return
-        for folder in folders:
-            found = folder_references(folder)
-            if found is not None:
-                expected = found[1]
-                break
     cells = load_references(path, config=config, expected_sha256=expected)
     missing = [f"{i.label} at d = {d}" for i, d in config.cells() if (i.label, d) not in cells]
     if missing:
+        # The report's words (measure_runs), with the file and how many cells lack one.
+        tasks = "" if config.tasks == (PUSH_TASK,) else f" --tasks {' '.join(config.tasks)}"
+        compute = (
+            f"compute them with `tooldesign bench protocol --references --size {size}{tasks} "
+            "--out FILE.json` and pass --reference-file FILE.json"
+        )
         fix = (
-            "give a --reference-file that has them"
+            compute
             if args.reference_file is not None
-            else "add --with-references to compute them after the runs, or give "
-            "--reference-file FILE with them"
+            else f"{compute} (or run with --with-references)"
         )
         raise ValueError(
-            f"the references {path} have no cell {missing[0]} ({len(missing)} of the run's "
-            f"{len(config.cells())} cells lack one): {fix}"
+            f"no reference for instance {missing[0]} in {path} ({len(missing)} of the run's "
+            f"{len(config.cells())} cells lack one); {fix}"
         )
 
 
@@ -307,13 +333,13 @@ def run_protocol_command(args: argparse.Namespace) -> int:
                 "max_retries",
             ),
         )
+        if args.buildable < 1:
+            raise ValueError(f"--buildable must be an int >= 1, got {args.buildable}")
         if others:
             raise ValueError(
                 f"--buildable prints the buildable fraction of random designs at every degree "
                 f"and exits: no {', '.join(others)}"
             )
-        if args.buildable < 1:
-            raise ValueError(f"--buildable must be an int >= 1, got {args.buildable}")
         for degree in DEGREES:
             print(buildable_fraction(degree, args.buildable).text(), flush=True)
         return 0
@@ -343,6 +369,12 @@ def run_protocol_command(args: argparse.Namespace) -> int:
             raise ValueError("--references and --with-references: give one")
         if args.optimizer is not None or args.baseline is not None:
             raise ValueError("--references computes references only: no --optimizer, --baseline")
+        if args.max_retries is not None:
+            # compute_references makes its executor without retries: the flag would be ignored.
+            raise ValueError(
+                f"--max-retries {args.max_retries} is for the runs' cells: --references evaluates "
+                "without retries (an interrupted computation resumes at its next cell)"
+            )
         if args.reference_file is not None:
             # It writes the references into --out; --reference-file is what a run measures
             # against, so the pair would read as "compute them into FILE" and be ignored.
