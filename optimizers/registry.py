@@ -175,7 +175,8 @@ def make(name_or_spec: str, **kwargs: Any) -> Optimizer:
         The optimizer.
 
     Raises:
-        TypeError: name_or_spec is not a str, or the plugin did not return an Optimizer.
+        TypeError: name_or_spec is not a str, names a class that is not an Optimizer subclass,
+            or the plugin did not return an Optimizer.
         ValueError: Unknown name or malformed ``"module:Class"``.
         DependencyNotInstalled: The plugin's optional backend is missing (the message names the
             pip extra).
@@ -198,6 +199,14 @@ def make(name_or_spec: str, **kwargs: Any) -> Optimizer:
     if not callable(factory):
         raise TypeError(
             f"optimizer {name_or_spec!r} resolves to {factory!r}, which is not callable"
+        )
+    if isinstance(factory, type) and not issubclass(factory, Optimizer):
+        # Called with the harness's keywords it would fail on the first one ("has no setting
+        # 'bounds'"), which hides that the name points at something that is no optimizer.
+        raise TypeError(
+            f"optimizer {name_or_spec!r} is the class {factory.__module__}.{factory.__qualname__}"
+            ", not an ask/tell optimizer: give a registered name or the 'module:Class' of an "
+            "optimizers.Optimizer subclass (docs/optimizer-plugins.md)"
         )
     try:
         optimizer = factory(**kwargs)

@@ -15,6 +15,12 @@ machine and compares them with the file (bit for bit, and within each value's no
 ``--buildable N`` prints the fraction of N random designs per degree that can be built and
 used. ``--tasks hook obstacle`` (or
 ``--tasks all``) adds the task axis: every named task's cells (push alone by default).
+
+What the run or its report would refuse is refused before ``protocol.json`` is written or a
+cell starts, in one line: an optimizer that cannot be made, a ``--baseline`` of another plan
+or with an optimizer of the run, references that lack a cell of the run, and a flag that
+another would make ignored (``--references`` or ``--with-references`` with
+``--reference-file``, ``--buildable`` with a run's options); docs/protocol.md "Commands".
 """
 
 from __future__ import annotations
@@ -113,19 +119,31 @@ def _lacks_cells(folders: list[Path], size: str, config: Any) -> bool:
     ones may hold push cells only: ``--with-references`` then adds the other tasks' cells.
     """
     from benchmarks.protocol import load_references
+
+    path, expected = _found_references(folders, size)
+    if path is None:
+        return True
+    cells = load_references(path, expected_sha256=expected)
+    return any((i.label, d) not in cells for i, d in config.cells())
+
+
+def _found_references(folders: list[Path], size: str) -> tuple[Any, str | None]:
+    """The references a report of ``folders`` would use, and the SHA-256 recorded for them.
+
+    :func:`~benchmarks.protocol.report.find_references`'s file (``None`` if none), with the
+    digest of the folder that holds it (``None`` for the committed ones).
+
+    Raises:
+        ValueError: A folder's ``references.json`` is not recorded in its ``protocol.json``.
+    """
     from benchmarks.protocol.report import find_references, folder_references
 
     path = find_references(folders, size)
-    if path is None:
-        return True
-    expected = None
     for folder in folders:
         found = folder_references(folder)
         if found is not None:
-            expected = found[1]
-            break
-    cells = load_references(path, expected_sha256=expected)
-    return any((i.label, d) not in cells for i, d in config.cells())
+            return path, found[1]
+    return path, None
 
 
 def _verify(args: argparse.Namespace, config: Any, size: str, say: Any) -> int:
@@ -133,11 +151,19 @@ def _verify(args: argparse.Namespace, config: Any, size: str, say: Any) -> int:
     from benchmarks.protocol import packaged_references, verify_references
     from benchmarks.protocol.references import verify_verdict
 
-    for name in ("references", "with_references", "optimizer", "baseline", "buildable", "out"):
+    for name in (
+        "references",
+        "with_references",
+        "optimizer",
+        "baseline",
+        "buildable",
+        "out",
+        "max_retries",  # its evaluations run without retries
+    ):
         if getattr(args, name, None) is not None:
             raise ValueError(
                 f"--verify-references checks references only: no --{name.replace('_', '-')} "
-                "(it writes nothing)"
+                "(it writes nothing, and evaluates without retries)"
             )
     path = args.reference_file or packaged_references(size)
     if path is None:
@@ -164,6 +190,95 @@ def _verify(args: argparse.Namespace, config: Any, size: str, say: Any) -> int:
         print("beyond the noise floor:")
         print(beyond.to_string(index=False))
     return 0 if passed else 1
+
+
+def _flags(args: argparse.Namespace, names: tuple[str, ...]) -> list[str]:
+    """The options of ``names`` given on the command line, as ``--a`` flags."""
+    return [f"--{n.replace('_', '-')}" for n in names if getattr(args, n, None) is not None]
+
+
+def _check_optimizer(config: Any, name: str | None) -> None:
+    """Refuse an optimizer that cannot be made, before anything is read, run or written.
+
+    The protocol's own check (:func:`~benchmarks.protocol.suite.check_protocol_optimizers`,
+    which ``run_protocol`` makes again), with the flag and what it takes in the message.
+    """
+    from benchmarks.protocol.suite import check_protocol_optimizers
+    from optimizers import DependencyNotInstalled, available
+
+    try:
+        check_protocol_optimizers(config)
+    except (ImportError, TypeError, ValueError) as err:
+        if name is None:
+            raise  # a built-in whose backend is missing: the message names the pip extra
+        text = str(err)
+        cause = err.__cause__
+        if isinstance(cause, ImportError) and not isinstance(cause, DependencyNotInstalled):
+            text += (
+                f"; --optimizer takes a registered name ({', '.join(available())}), an installed "
+                "plugin's name or the importable 'module:Class' of an optimizers.Optimizer"
+            )
+        raise ValueError(f"--optimizer {name}: {text}") from None
+
+
+def _check_baselines(args: argparse.Namespace, config: Any) -> None:
+    """Refuse ``--baseline`` folders the report would refuse beside this run, before it runs.
+
+    Each must be a finished protocol run folder without links, not ``--out`` itself, of the
+    same plan as this run and without an optimizer of this run or of another baseline
+    (:func:`~benchmarks.protocol.suite.check_mergeable`, the report's own rule).
+    """
+    from benchmarks.protocol import load_runs
+    from benchmarks.protocol.suite import check_mergeable
+
+    plans: list[tuple[Any, Any]] = [(args.out, config)]
+    for folder in args.baseline:
+        if Path(folder).resolve() == Path(args.out).resolve():
+            raise ValueError(f"--baseline {folder} is the run folder --out itself")
+        # Refuse a folder that is not a finished protocol run, or holds a link, before
+        # running (load_runs refuses links below it).
+        plans.append((folder, load_runs(folder)[0]))
+    check_mergeable(plans)
+
+
+def _check_references(args: argparse.Namespace, config: Any, size: str) -> None:
+    """Refuse, before the run, references its report would refuse after it.
+
+    ``--reference-file`` must exist, be a references file of this run's plan and have every
+    cell of the run; without ``--with-references``, so must the references the report would
+    find (:func:`~benchmarks.protocol.report.find_references`: the folders' own, else the
+    committed ones of the size). With ``--with-references`` the missing cells are computed after
+    the runs, and none found at all is left to the report's "no report" line.
+    """
+    from benchmarks.protocol import load_references
+    from benchmarks.protocol.instances import PUSH_TASK
+
+    expected = None
+    if args.reference_file is not None:
+        path = args.reference_file
+    else:
+        # Refuses a folder's unrecorded references.json, as the report would.
+        path, expected = _found_references([args.out, *(args.baseline or [])], size)
+        if path is None or args.with_references:
+            return
+    cells = load_references(path, config=config, expected_sha256=expected)
+    missing = [f"{i.label} at d = {d}" for i, d in config.cells() if (i.label, d) not in cells]
+    if missing:
+        # The report's words (measure_runs), with the file and how many cells lack one.
+        tasks = "" if config.tasks == (PUSH_TASK,) else f" --tasks {' '.join(config.tasks)}"
+        compute = (
+            f"compute them with `tooldesign bench protocol --references --size {size}{tasks} "
+            "--out FILE.json` and pass --reference-file FILE.json"
+        )
+        fix = (
+            compute
+            if args.reference_file is not None
+            else f"{compute} (or run with --with-references)"
+        )
+        raise ValueError(
+            f"no reference for instance {missing[0]} in {path} ({len(missing)} of the run's "
+            f"{len(config.cells())} cells lack one); {fix}"
+        )
 
 
 def run_protocol_command(args: argparse.Namespace) -> int:
@@ -199,8 +314,32 @@ def run_protocol_command(args: argparse.Namespace) -> int:
     if getattr(args, "scene", None):
         raise ValueError("--scene is not available for the protocol suite: its instances set it")
     if args.buildable is not None:
+        # It draws designs in this process and prints; the run's options would be ignored.
+        others = _flags(
+            args,
+            (
+                "size",
+                "out",
+                "tasks",
+                "optimizer",
+                "baseline",
+                "reference_file",
+                "references",
+                "with_references",
+                "verify_references",
+                "workers",
+                "executor",
+                "scheduler",
+                "max_retries",
+            ),
+        )
         if args.buildable < 1:
             raise ValueError(f"--buildable must be an int >= 1, got {args.buildable}")
+        if others:
+            raise ValueError(
+                f"--buildable prints the buildable fraction of random designs at every degree "
+                f"and exits: no {', '.join(others)}"
+            )
         for degree in DEGREES:
             print(buildable_fraction(degree, args.buildable).text(), flush=True)
         return 0
@@ -230,16 +369,34 @@ def run_protocol_command(args: argparse.Namespace) -> int:
             raise ValueError("--references and --with-references: give one")
         if args.optimizer is not None or args.baseline is not None:
             raise ValueError("--references computes references only: no --optimizer, --baseline")
+        if args.max_retries is not None:
+            # compute_references makes its executor without retries: the flag would be ignored.
+            raise ValueError(
+                f"--max-retries {args.max_retries} is for the runs' cells: --references evaluates "
+                "without retries (an interrupted computation resumes at its next cell)"
+            )
+        if args.reference_file is not None:
+            # It writes the references into --out; --reference-file is what a run measures
+            # against, so the pair would read as "compute them into FILE" and be ignored.
+            raise ValueError(
+                f"--references computes the references into --out {args.out}: no "
+                f"--reference-file {args.reference_file} (a run measures against that one)"
+            )
         path = compute_references(config, args.out, say=say)
         print(f"references: {path}")
         return 0
+    if args.with_references and args.reference_file is not None:
+        raise ValueError(
+            f"--with-references computes the run's references into {args.out}/"
+            f"{REFERENCES_IN_FOLDER} and measures against them, --reference-file "
+            f"{args.reference_file} measures against that file: give one"
+        )
+    # Every refusal the run or its report would make, before a cell starts or a file is
+    # written: the optimizer, the baselines beside it, the references it is measured against.
+    _check_optimizer(config, args.optimizer)
     if args.baseline is not None:
-        for folder in args.baseline:
-            if Path(folder).resolve() == Path(args.out).resolve():
-                raise ValueError(f"--baseline {folder} is the run folder --out itself")
-            # Refuse a folder that is not a finished protocol run, or holds a link, before
-            # running (load_runs refuses links below it).
-            load_runs(folder)
+        _check_baselines(args, config)
+    _check_references(args, config, size)
     out = run_protocol(config, args.out, progress=not args.no_progress, say=say)
     _, runs = load_runs(out)
     info = {o.column: f"{o.name} {dict(o.settings)}" for o in config.optimizers}

@@ -59,8 +59,8 @@ computation resumes at the next cell (the folder is removed once FILE is written
 ``plan.json`` records the plan, and cells of another plan are refused). The full
 plan is about 189,000 evaluations (24 instances:
 1331 grid + 240 random at d = 3, 5 x 400 CMA-ES + 400 random at d = 5, 5 x 640 + 640 at d = 8,
-plus 16 nudges and the straight tool per cell): 188,688 evaluations, about 1.9 hours on 2
-cores at 0.072 s an evaluation per core (an estimate; docs/protocol.md "Time estimates").
+plus 16 nudges and the straight tool per cell): 188,688 evaluations; how long they take is in
+docs/protocol.md's "Sizes" section (the one place that keeps the measured and estimated times).
 The smoke size's small references are committed in
 ``benchmarks/protocol/data/references-smoke.json``.
 """

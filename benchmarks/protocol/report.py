@@ -74,6 +74,7 @@ from benchmarks.protocol.suite import (
     PROTOCOL_FILE,
     ProtocolConfig,
     cell_folder,
+    check_mergeable,
     protocol_record,
     read_protocol,
     write_protocol_record,
@@ -111,20 +112,6 @@ N_TARGETS = 10
 
 #: Budgets of the regret table, as fractions of the run budget.
 REGRET_FRACTIONS: tuple[float, ...] = (0.25, 0.5, 1.0)
-
-_SHARED = (
-    "instances",
-    "instance_version",
-    "degrees",
-    "n_seeds",
-    "batch_size",
-    "evaluations_per_degree",
-    "goal_precision",
-    "root_seed",
-    "tasks",  # the task axis's fields: absent from a push-only protocol.json
-    "task_instances",
-    "task_degrees",
-)
 
 
 def load_runs(folder: str | os.PathLike[str]) -> tuple[ProtocolConfig, pd.DataFrame]:
@@ -317,31 +304,10 @@ def _best_succeeded(
 def _merge(folders: Sequence[str | os.PathLike[str]]) -> tuple[ProtocolConfig, pd.DataFrame]:
     if not folders:
         raise ValueError("give at least one protocol run folder")
-    configs: list[ProtocolConfig] = []
-    frames: list[pd.DataFrame] = []
-    seen: dict[str, str] = {}
-    for folder in folders:
-        config, runs = load_runs(folder)
-        if configs:
-            first = configs[0].to_json()
-            other = config.to_json()
-            differ = [k for k in _SHARED if first.get(k) != other.get(k)]
-            if differ:
-                raise ValueError(
-                    f"{folder} is a protocol run of another plan than {folders[0]} "
-                    f"(they differ in {', '.join(differ)}): runs merge only at the same size and "
-                    "tasks"
-                )
-        for name in runs["optimizer"].unique():
-            if name in seen:
-                raise ValueError(
-                    f"optimizer {name!r} is in both {seen[name]} and {folder}; give it another "
-                    "label"
-                )
-            seen[name] = str(folder)
-        configs.append(config)
-        frames.append(runs)
-    return configs[0], pd.concat(frames, ignore_index=True)
+    loaded = [load_runs(folder) for folder in folders]
+    # The rule `tooldesign bench protocol --baseline` checks before running (one function).
+    check_mergeable([(folder, config) for folder, (config, _) in zip(folders, loaded, strict=True)])
+    return loaded[0][0], pd.concat([runs for _, runs in loaded], ignore_index=True)
 
 
 def _ecdf_figure(times: pd.DataFrame, title: str, path: Path) -> None:

@@ -35,20 +35,26 @@ without following a link.
 
 Budgets grow with the dimension, as COCO's: a run has ``iterations(d) x batch_size`` evaluations.
 
-Sizes (:data:`PROTOCOL_SIZES`, push alone; times estimated at 0.072 s per evaluation per core,
-the rate measured on one idle core, docs/protocol.md "Time estimates"):
+Sizes (:data:`PROTOCOL_SIZES`, push alone; their measured and estimated times are in
+docs/protocol.md's "Sizes" section, the one place that keeps them):
 
 ======  ==========================  =====  =======  =====  ===============  ==================
 size    instances                   d      seeds    batch  evaluations/run  evaluations in all
 ======  ==========================  =====  =======  =====  ===============  ==================
 smoke   i01, i02 (public)           3, 5   1        4      8, 12            80 (2 optimizers)
-quick   6 public                    3,5,8  2        8      32, 56, 80       8,064 (~5 min)
-full    all 24 (16 public, 8 held)  3,5,8  3        8      120, 200, 320    184,320 (~1.8 h)
+quick   6 public                    3,5,8  2        8      32, 56, 80       8,064
+full    all 24 (16 public, 8 held)  3,5,8  3        8      120, 200, 320    184,320
 ======  ==========================  =====  =======  =====  ===============  ==================
 
 Each other task adds (``--tasks``; d = 3 only): smoke its i01 (8 evaluations per optimizer),
 quick 6 public instances (2 seeds x 4 optimizers x 32: 1,536 evaluations), full all 16 (3 x 4 x
-120: 5,760); docs/protocol.md has the time estimates.
+120: 5,760).
+
+Before anything is written, :func:`run_protocol` makes every optimizer once
+(:func:`check_protocol_optimizers`, through the :mod:`optimizers` registry as every suite's
+run does), so a mistyped name leaves no ``protocol.json`` behind; :func:`check_mergeable` is
+the rule for folders reported together, which ``tooldesign bench protocol --baseline`` checks
+before running and the report checks again.
 """
 
 from __future__ import annotations
@@ -80,9 +86,12 @@ __all__ = [
     "PROTOCOL_FILE",
     "PROTOCOL_SIZES",
     "PROTOCOL_SUITE_NAME",
+    "MERGE_FIELDS",
     "TASK_DEGREES",
     "ProtocolConfig",
     "cell_folder",
+    "check_mergeable",
+    "check_protocol_optimizers",
     "extends",
     "protocol_config",
     "protocol_record",
@@ -104,6 +113,23 @@ _RUNTIME = frozenset({"executor", "workers", "scheduler", "max_retries"})
 
 #: The degrees of the tasks other than push (d = 3, the paper's cubic).
 TASK_DEGREES: tuple[int, ...] = (3,)
+
+#: The plan's fields that protocol runs reported together must share: instances, degrees,
+#: seeds, budgets, p^X and the task axis (absent from a push-only ``protocol.json``, so compared
+#: as written). Not the size's name, nor the optimizers, nor the runtime fields.
+MERGE_FIELDS: tuple[str, ...] = (
+    "instances",
+    "instance_version",
+    "degrees",
+    "n_seeds",
+    "batch_size",
+    "evaluations_per_degree",
+    "goal_precision",
+    "root_seed",
+    "tasks",
+    "task_instances",
+    "task_degrees",
+)
 
 #: The task axis's fields and their defaults: left out of the JSON when at their default, so a
 #: push-only config's ``protocol.json`` is the one written before the axis existed.
@@ -417,6 +443,67 @@ def protocol_config(
     return config
 
 
+def check_protocol_optimizers(config: ProtocolConfig) -> None:
+    """Make every optimizer of ``config`` once per degree, as each cell's run would first.
+
+    The names are resolved by the :mod:`optimizers` registry (a registered name, an installed
+    plugin's entry point or an importable ``"module:Class"`` of an ``optimizers.Optimizer``),
+    through :func:`benchmarks.suites.check_optimizers`, the check every suite makes before its
+    first file; no simulation is built. :func:`run_protocol` calls it before it writes
+    ``protocol.json``, and ``tooldesign bench protocol`` before anything else.
+
+    Raises:
+        ValueError: An unknown name (the message lists the available ones), a ``module:Class``
+            that cannot be imported, or a missing backend (naming the pip extra).
+        TypeError: A name that resolves to something that is not an ask/tell optimizer, or a
+            setting it does not take.
+    """
+    from benchmarks.suites import check_optimizers
+
+    checked: set[int] = set()
+    for instance, degree in config.cells():
+        if degree not in checked:  # the bounds depend on d alone
+            checked.add(degree)
+            check_optimizers(config.cell_suite(instance, degree))
+
+
+def check_mergeable(plans: Sequence[tuple[str | os.PathLike[str], ProtocolConfig]]) -> None:
+    """Refuse protocol runs that cannot be reported together.
+
+    Every plan must share the first one's :data:`MERGE_FIELDS`, and no optimizer (its column:
+    label or name) may be in two of them. :func:`~benchmarks.protocol.report.make_protocol_report`
+    checks its folders with it; ``tooldesign bench protocol --baseline`` checks the run it is
+    about to make against the baselines with it before running, so that a run the report would
+    refuse is not made.
+
+    Args:
+        plans: (folder, its config) pairs, the first the one the others are compared with.
+
+    Raises:
+        ValueError: A folder of another plan (naming the fields that differ), or an optimizer
+            in two folders (naming both).
+    """
+    seen: dict[str, str] = {}
+    first_folder, first = plans[0] if plans else ("", None)
+    first_json = first.to_json() if first is not None else {}
+    for folder, config in plans:
+        other = config.to_json()
+        differ = [k for k in MERGE_FIELDS if first_json.get(k) != other.get(k)]
+        if differ:
+            raise ValueError(
+                f"{folder} is a protocol run of another plan than {first_folder} "
+                f"(they differ in {', '.join(differ)}): runs merge only at the same size and "
+                "tasks"
+            )
+        for name in dict.fromkeys(o.column for o in config.optimizers):
+            if name in seen:
+                raise ValueError(
+                    f"optimizer {name!r} is in both {seen[name]} and {folder}; give it another "
+                    "label"
+                )
+            seen[name] = str(folder)
+
+
 def cell_folder(run_folder: str | os.PathLike[str], instance: Instance, degree: int) -> Path:
     """The suite run folder of a cell: ``cells/d<d>/<id>`` (push), ``cells/<task>/d<d>/<id>``."""
     cells = Path(run_folder) / "cells"
@@ -517,6 +604,47 @@ def extends(old: ProtocolConfig, new: ProtocolConfig) -> bool:
     return same and all((i.label, d) in cells for i, d in old.cells())
 
 
+def _left_by_a_refused_name(out: Path, old: ProtocolConfig) -> bool:
+    """Whether ``out/protocol.json`` is all a run of an optimizer that cannot be made left.
+
+    Versions before :func:`check_protocol_optimizers` wrote the record and then failed on the
+    first cell: such a folder holds no other file (at most empty folders), and its record names
+    an optimizer that cannot be made. Replacing it loses nothing.
+    """
+    if any(p.name != PROTOCOL_FILE or p.parent != out for p in out.rglob("*") if not p.is_dir()):
+        return False
+    try:
+        check_protocol_optimizers(old)
+    except (ImportError, TypeError, ValueError):
+        return True
+    return False
+
+
+def _refuse_kept_without_parts(out: Path, config: ProtocolConfig) -> None:
+    """Refuse a folder whose cells were kept without their part files (committed results).
+
+    Such a cell cannot be resumed (its run would say a recorded part is missing, after
+    ``protocol.json`` was written again); its report can be rebuilt.
+    """
+    from benchmarks.storage import read_manifest
+    from benchmarks.storage.manifest import PART_CHECKSUMS
+
+    for instance, degree in config.cells():
+        folder = cell_folder(out, instance, degree)
+        if not (folder / "manifest.json").is_file() or (folder / "parts").exists():
+            continue
+        try:
+            extra = read_manifest(folder).get("extra")
+        except (FileNotFoundError, ValueError):
+            continue  # the cell's own run says what is wrong with it
+        if isinstance(extra, dict) and extra.get(PART_CHECKSUMS):
+            raise ValueError(
+                f"{out} is a protocol run kept without its cells' part files ({folder / 'parts'} "
+                "is missing), as committed results are: it cannot be resumed or extended; "
+                f"`tooldesign report {out}` rebuilds its report, or run into another --out"
+            )
+
+
 def run_protocol(
     config: ProtocolConfig,
     out_dir: str | os.PathLike[str],
@@ -538,7 +666,11 @@ def run_protocol(
         The run folder.
 
     Raises:
-        ValueError: ``out_dir`` holds another protocol run or other files.
+        ValueError: ``out_dir`` holds another protocol run or other files, a finished run kept
+            without its cells' part files (committed results: they cannot be resumed), or an
+            optimizer cannot be made (:func:`check_protocol_optimizers`); nothing is written
+            then.
+        TypeError: An optimizer that is not an ask/tell optimizer, or a setting it lacks.
     """
     from benchmarks.storage import check_out_dir, refuse_links
     from benchmarks.suites import run_suite
@@ -549,17 +681,28 @@ def run_protocol(
     # Nothing is written into a folder that holds a link anywhere below it: a linked cells/,
     # cells/d3/ or report/ would have the run's files written into another folder.
     refuse_links(out)
+    # Before protocol.json: a record of a name that cannot be made would block the corrected
+    # command ("another configuration"), and each cell's run would refuse it anyway.
+    check_protocol_optimizers(config)
     path = out / PROTOCOL_FILE
     digest = None
     if os.path.lexists(path):
         record = protocol_record(out)
         old = read_protocol(out)
         if _comparable(old) != _comparable(config) and not extends(old, config):
-            raise ValueError(
-                f"{out} holds a protocol run of another configuration (size {old.size}, "
-                f"optimizers {[o.column for o in old.optimizers]}, tasks "
-                f"{', '.join(old.tasks)}); use another folder"
-            )
+            if not _left_by_a_refused_name(out, old):
+                raise ValueError(
+                    f"{out} holds a protocol run of another configuration (size {old.size}, "
+                    f"optimizers {[o.column for o in old.optimizers]}, tasks "
+                    f"{', '.join(old.tasks)}); use another folder"
+                )
+            if say is not None:
+                say(
+                    f"{path} replaced: it names optimizers {[o.column for o in old.optimizers]}, "
+                    "which cannot be made, and nothing was run into the folder"
+                )
+        else:
+            _refuse_kept_without_parts(out, old)
         digest = record.get("references_sha256")
     elif out.is_dir() and any(out.iterdir()):
         raise ValueError(f"--out {out} is not empty and is not a protocol run folder")

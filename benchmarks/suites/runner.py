@@ -126,7 +126,8 @@ def check_optimizers(config: SuiteConfig) -> None:
 def _naming(name: str, err: Exception) -> str:
     """``err``'s message, led by the optimizer's name unless it names it already."""
     text = str(err)
-    return text if text.startswith(f"optimizer {name!r}") else f"optimizer {name!r}: {text}"
+    # "unknown optimizer 'x'; available: ..." names it already: no "optimizer 'x': " before it.
+    return text if f"optimizer {name!r}" in text else f"optimizer {name!r}: {text}"
 
 
 def _logged_frames(
