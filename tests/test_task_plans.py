@@ -128,3 +128,52 @@ def test_bad_command_lines(capsys):
     with pytest.raises(SystemExit):
         parse_args(["--task", "nope"])
     assert "invalid choice: 'nope'" in capsys.readouterr().err
+
+
+@pytest.mark.slow  # importing the picture study (the renderer's video module) takes about 1 s
+def test_the_success_gifs_refuse_bad_input_before_rendering(tmp_path, capsys):
+    import json
+
+    from perf.studies.task_pictures import main as pictures
+
+    with pytest.raises(SystemExit):
+        pictures(["--out", str(tmp_path / "out")])
+    assert "give --baselines FILE, --succeeding FILE or both" in capsys.readouterr().err
+    plans = tmp_path / "plans.json"
+    plans.write_text(json.dumps([{"task": "hook", "rows": {OWN: {"best_success": None}}}]))
+    with pytest.raises(SystemExit, match="--task: nope not in"):
+        pictures(["--succeeding", str(plans), "--out", str(tmp_path / "out"), "--task", "nope"])
+    assert not (tmp_path / "out").exists()  # refused before anything is written
+    # No design succeeded: said so, nothing rendered.
+    assert pictures(["--succeeding", str(plans), "--out", str(tmp_path / "out")]) == 0
+    assert "hook: no random design succeeds under pi_0" in capsys.readouterr().out
+    assert list((tmp_path / "out").iterdir()) == []
+
+
+def test_the_page_quotes_the_committed_plans_json():
+    import json
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    results = json.loads((root / "docs" / "results" / "tasks" / "plans.json").read_text())
+    page = (root / "docs" / "tasks.md").read_text()
+    section = page.split("### Each task's plan, measured", 1)[1].split("\n## ", 1)[0]
+    for result in results:
+        task = result["task"]
+        lines = [line for line in section.splitlines() if line.startswith(f"| {task}: ")]
+        assert len(lines) == len(result["rows"]), task
+        for line, (label, row) in zip(lines, result["rows"].items(), strict=True):
+            cells = [c.strip() for c in line.strip("|").split("|")]
+            assert (label == OWN) == cells[0].endswith("**pi_0**"), line
+            assert cells[1] == str(row["successes"]), line
+            if label != OWN:
+                assert cells[2] == f"{row['gained']} / {row['lost']} ({row['p']:.2g})", line
+            if row["instance_mean_successes"] is not None:
+                assert cells[3] == (f"{row['instance_mean_successes']:.1f} "
+                                    f"({row['instances_unreached']} of {row['instances']})"), line
+            assert cells[4] == f"{row['f_min']:.0f} / {row['f_median']:.0f}", line
+            assert cells[5] == f"{row['gap_over_noise']:.0f}", line
+            straight = row["straight"]
+            assert cells[6] == (f"{straight['final_distance']:.3f} m, "
+                                f"{'yes' if straight['success'] else 'no'}"), line
+        assert result["verdict"].startswith("pi_0 confirmed")  # what the page says

@@ -48,8 +48,6 @@ from typing import Any
 
 import numpy as np
 
-from benchmarks.design.instances import committed_tasks, load_instances
-from benchmarks.storage import atomic_write_text
 from tooldesign_env import ToolDesignEnv, default_bounds
 from tooldesign_env.specs import PlanSpec
 from tooldesign_env.tasks import BUILTIN_TASKS, TaskDefinition, get_task
@@ -274,6 +272,8 @@ def _noise(task: str, baselines: Path) -> float | None:
 
 def measure(task: str, *, designs: int, seed: int, baselines: Path) -> dict[str, Any]:
     """Every plan of :data:`VARIANTS` for one task: rows, verdict."""
+    from benchmarks.design.instances import committed_tasks, load_instances
+
     definition = get_task(task)
     draw = random_designs(designs, seed)
     goals = (
@@ -386,6 +386,8 @@ def main(argv: list[str] | None = None) -> int:
         print_result(result)
         results.append(result)
     if args.json is not None:
+        from benchmarks.storage import atomic_write_text
+
         atomic_write_text(args.json, json.dumps(results, indent=1) + "\n")
     return 0
 
