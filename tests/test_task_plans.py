@@ -177,3 +177,20 @@ def test_the_page_quotes_the_committed_plans_json():
             assert cells[6] == (f"{straight['final_distance']:.3f} m, "
                                 f"{'yes' if straight['success'] else 'no'}"), line
         assert result["verdict"].startswith("pi_0 confirmed")  # what the page says
+
+
+def test_the_page_names_each_succeeding_gif_design():
+    import json
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    results = json.loads((root / "docs" / "results" / "tasks" / "plans.json").read_text())
+    page = " ".join((root / "docs" / "tasks.md").read_text().split())
+    for result in results:
+        win = result["rows"][OWN]["best_success"]
+        design = ", ".join(f"{c:.3f}" for c in win["design"])
+        claim = (f"{result['task']} ({design}), F {win['free_energy']:.0f}, "
+                 f"{win['final_distance']:.3f} m from the goal")
+        assert claim in page
+        assert win["success"]
+        assert (root / "docs" / "images" / "tasks" / f"{result['task']}-success.gif").is_file()
