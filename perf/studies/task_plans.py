@@ -30,8 +30,8 @@ estimator. Per (task, plan):
 
 Run: ``python -m perf.studies.task_plans [--task hook ...] [--designs 64] [--seed 0]
 [--json FILE]``. Output: docs/results/tasks/plans-output.txt and plans.json (docs/tasks.md).
-About 1,000 rollouts for the four tasks, 0.06 s each on one free core (twice that when the
-floor guard reruns one).
+1,040 rollouts for the four tasks, about 0.06 s of CPU each (twice that when the floor guard
+reruns one).
 """
 
 from __future__ import annotations
