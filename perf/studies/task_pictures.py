@@ -8,8 +8,16 @@ renders headless (PyBullet's software renderer, as ``tooldesign design`` does):
 * ``<task>-best.gif``: the rollout of the CMA-ES design the baselines found, with the goal and
   the box path (``benchmarks.design.video.rollout_gif``, the GIF ``tooldesign design`` writes).
 
-Run: ``python -m perf.studies.task_pictures --baselines FILE --out docs/images/tasks [--task
-NAME ...]``. About 20 s per task.
+With ``--succeeding FILE`` (the JSON ``perf.studies.task_plans --json`` writes), for every task
+in it:
+
+* ``<task>-success.gif``: the rollout, under the task's own plan, of the lowest-F random design
+  that succeeds at the task's default goal (F's lowest design fails every task at the
+  baselines' budget, so the ``-best`` GIFs show no task solved).
+
+Run: ``python -m perf.studies.task_pictures [--baselines FILE] [--succeeding FILE] --out
+docs/images/tasks [--task NAME ...]``, at least one of the two files. About 20 s per task for
+the baselines' pictures, 6 s of CPU for a ``-success`` GIF.
 """
 
 from __future__ import annotations
@@ -43,7 +51,13 @@ def scene_png(task: str, path: Path) -> None:
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     """The command line of :func:`main`."""
     parser = argparse.ArgumentParser(description=(__doc__ or "").split("\n")[0])
-    parser.add_argument("--baselines", type=Path, required=True)
+    parser.add_argument("--baselines", type=Path, default=None)
+    parser.add_argument(
+        "--succeeding",
+        type=Path,
+        default=None,
+        help="task_plans' JSON: render each task's lowest-F succeeding design under pi_0",
+    )
     parser.add_argument("--out", type=Path, required=True)
     parser.add_argument(
         "--task",
@@ -51,12 +65,39 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         default=None,
         help="render only this task of --baselines (repeatable; default every one)",
     )
-    return parser.parse_args(argv)
+    args = parser.parse_args(argv)
+    if args.baselines is None and args.succeeding is None:
+        parser.error("give --baselines FILE, --succeeding FILE or both")
+    return args
+
+
+def succeeding_gifs(plans: Path, out: Path, tasks: list[str] | None) -> None:
+    """Write ``<task>-success.gif`` for each task of task_plans' JSON ``plans``."""
+    results = json.loads(plans.read_text())
+    known = [result["task"] for result in results]
+    unknown = sorted(set(tasks or ()) - set(known))
+    if unknown:
+        raise SystemExit(f"--task: {', '.join(unknown)} not in {plans} ({known})")
+    out.mkdir(parents=True, exist_ok=True)
+    for result in results:
+        task = result["task"]
+        if tasks and task not in tasks:
+            continue
+        winner = result["rows"]["pi_0"]["best_success"]
+        if winner is None:
+            print(f"{task}: no random design succeeds under pi_0, no {task}-success.gif")
+            continue
+        rollout_gif(winner["design"], out / f"{task}-success.gif", task=task, frames=24)
+        print(f"{task}: {out / f'{task}-success.gif'}")
 
 
 def main(argv: list[str] | None = None) -> int:
     """Write each task's scene still and best design's GIF."""
     args = parse_args(argv)
+    if args.succeeding is not None:
+        succeeding_gifs(args.succeeding, args.out, args.task)
+    if args.baselines is None:
+        return 0
     results = json.loads(args.baselines.read_text())
     known = [result["task"] for result in results]
     unknown = sorted(set(args.task or ()) - set(known))

@@ -4,7 +4,10 @@ The scene is the paper's (the box at radius 1.35 m, 30 degrees from the base's x
 curb 0.04 m high, 0.05 m thick, standing radially at 60 degrees from radius 1.3 to 1.7 m:
 across the arc on which the sweep pushes the box (a straight tool carries it at radius 1.33 to
 1.52 m), between the box's start and the goals, which lie beyond the curb as seen along that
-arc (x in [-0.35, -0.15], y in [0.7, 1.0] m, at 98.5 to 116.6 degrees). The curb is lower than the
+arc (x in [-0.35, -0.15], y in [0.7, 1.0] m, at 98.5 to 116.6 degrees). "Between" means
+across the box's path under the plan, not across the straight segment from the box to a goal:
+that segment crosses the curb's line 0.79 to 0.97 m from the base, 0.33 to 0.51 m inside its
+inner end, which is the way around it (docs/tasks.md). The curb is lower than the
 tool (the bottom of its section is 0.065 m above the floor), so it stops the box and not the
 tool: a tool that pushes the box along the arc (the straight tool, mild bows, a tilted tool)
 leaves it tipped onto the curb, and only a tool that holds the box in a forward bend or a
