@@ -352,7 +352,7 @@ def test_cli_verify_references_refuses_out_before_evaluating(
     with pytest.raises(SystemExit) as done:
         main([*command, "--out", str(tmp_path / "run")])
     assert done.value.code == 2
-    assert "no --out (it writes nothing)" in capsys.readouterr().err
+    assert "no --out (it writes nothing" in capsys.readouterr().err
     assert not (tmp_path / "run").exists()
 
 
