@@ -236,6 +236,26 @@ def test_d_z_has_a_bootstrap_interval_around_it():
         paired_comparisons(scores, resamples=0)
 
 
+def test_d_z_interval_stays_finite_when_instances_tie_at_zero():
+    # Both optimizers reach no target on 2 of 6 instances: those differences are exactly 0,
+    # so some resamples draw only them (SD 0, mean 0). Such a resample is d_z = 0, not NaN.
+    from benchmarks.protocol.statistics import _d_z_interval
+
+    diff = np.array([0.0, 0.0, 0.1, 0.2, 0.05, 0.3])
+    generator = np.random.default_rng(0)
+    drawn = diff[np.random.default_rng(0).integers(0, diff.size, size=(2000, diff.size))]
+    assert (drawn == 0).all(axis=1).any()  # the case is really drawn
+    low, high = _d_z_interval(diff, 0.95, 2000, generator)
+    assert math.isfinite(low) and 0.0 <= low < high  # was (nan, nan)
+    rows = [("a", i, 0, 0.5 + d) for i, d in enumerate(diff)]
+    rows += [("b", i, 0, 0.5) for i in range(diff.size)]
+    scores = pd.DataFrame(rows, columns=["optimizer", "instance", "seed", "score"])
+    row = paired_comparisons(scores, resamples=2000).iloc[0]
+    assert not math.isnan(row["d_z_low"]) and not math.isnan(row["d_z_high"])
+    # All six tied: every resample is 0.
+    assert _d_z_interval(np.zeros(6), 0.95, 200, np.random.default_rng(1)) == (0.0, 0.0)
+
+
 def test_the_report_s_ladder_part_lists_weak_cells_and_says_which_verdict_changes():
     from benchmarks.protocol.report import _ladder_section
 

@@ -354,7 +354,9 @@ def _d_z_interval(
     mean = drawn.mean(axis=1)
     sd = drawn.std(axis=1, ddof=1)
     with np.errstate(divide="ignore", invalid="ignore"):
-        d_z = np.where(sd > 0, mean / np.where(sd > 0, sd, 1.0), np.sign(mean) * np.inf)
+        # np.sign(0) * inf is NaN, which would spoil every quantile: an all-zero resample is 0.
+        tied = np.where(mean == 0, 0.0, np.sign(mean) * np.inf)
+        d_z = np.where(sd > 0, mean / np.where(sd > 0, sd, 1.0), tied)
     tail = (1 - level) / 2
     low = float(np.quantile(d_z, tail, method="lower"))
     high = float(np.quantile(d_z, 1 - tail, method="higher"))
