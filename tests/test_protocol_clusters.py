@@ -143,6 +143,39 @@ def test_cluster_runs_refuses_bad_input():
         cluster_runs(scores.iloc[1:])  # a's first block lost a seed
     with pytest.raises(ValueError, match="blocks must be a sequence"):
         cluster_runs(scores, blocks="degree")
+    with pytest.raises(TypeError, match=r"cluster must be a column name \(str\), got \['i'\]"):
+        cluster_runs(scores, cluster=["i"])  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="cluster 'degree' cannot also be a block column"):
+        cluster_runs(scores, cluster="degree")
+
+
+def test_cluster_runs_refuses_optimizers_with_different_blocks_in_a_cluster():
+    # b lacks d = 5 at i01: a's mean would be over d = 3 and 5, b's over d = 3 alone.
+    scores = _one_sided(3, degrees=(3, 5))
+    gap = (scores["optimizer"] == "b") & (scores["instance"] == "i01") & (scores["degree"] == 5)
+    with pytest.raises(
+        ValueError, match=r"optimizer 'b' lacks blocks \[5\] of \('degree',\) in instance 'i01'"
+    ):
+        cluster_runs(scores[~gap])
+    # Missing runs (NaN scores) count as missing blocks too.
+    with pytest.raises(ValueError, match="optimizer 'b' lacks blocks"):
+        cluster_runs(scores.assign(score=scores["score"].mask(gap)))
+
+
+def test_a_non_default_cluster_keeps_the_instance_column_as_a_block():
+    # Two tasks of two instances each at one d, 2 seeds: clustered by task, each task-seed is
+    # the mean of its 2 instance blocks (not 4 "seeds" of 1 block each).
+    scores = _one_sided(4, degrees=(3,)).assign(
+        task=lambda f: np.where(f["instance"] < "i02", "t1", "t2")
+    )
+    out = cluster_runs(scores, cluster="task", blocks=("instance", "degree"))
+    assert sorted(out["instance"].unique()) == ["t1", "t2"]
+    assert (out["blocks"] == 2).all() and out["seed"].max() == 1
+    assert len(out) == 2 * 2 * 2  # tasks x optimizers x seeds
+    first = scores[(scores["task"] == "t1") & (scores["optimizer"] == "a")]
+    assert out[(out["instance"] == "t1") & (out["optimizer"] == "a")]["score"].mean() == (
+        pytest.approx(first["score"].mean())
+    )
 
 
 def test_a_cluster_bootstrap_keeps_an_instance_s_blocks_together():
