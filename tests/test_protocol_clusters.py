@@ -135,6 +135,22 @@ def test_the_ranking_resamples_an_instance_with_all_its_blocks():
     assert apart.loc["a", "P(rank 1)"] < 0.95
 
 
+def test_the_pooled_auc_interval_runs_over_instances_not_blocks():
+    from benchmarks.protocol.report import _auc_table
+    from benchmarks.reports.stats import t_interval
+
+    scores = _one_sided(4, degrees=(3, 5, 8)).assign(regret_1=0.5, success_1=True)
+    scores["score"] += 0.05 * (scores["degree"] == 8)  # the blocks of an instance differ
+    row = _auc_table(scores.assign(pooled="all"), "pooled").set_index("optimizer").loc["a"]
+    mine = scores[scores["optimizer"] == "a"]
+    per_instance = mine.groupby(["instance", "degree"])["score"].mean().groupby("instance").mean()
+    expected = t_interval(per_instance.to_numpy(), 0.95)  # over 4 instances, not 12 blocks
+    assert (row["95% low"], row["95% high"]) == pytest.approx((expected.low, expected.high))
+    assert row["AUC"] == pytest.approx(mine["score"].mean())
+    blocks = t_interval(mine.groupby(["instance", "degree"])["score"].mean().to_numpy(), 0.95)
+    assert row["95% high"] - row["95% low"] > blocks.high - blocks.low
+
+
 def test_cluster_runs_refuses_bad_input():
     scores = _one_sided(3, degrees=(3, 5))
     with pytest.raises(ValueError, match=r"lacks columns \['degree'\]"):

@@ -357,9 +357,12 @@ def _auc_table(scores: pd.DataFrame, by: str) -> pd.DataFrame:
 
     rows = []
     for (group, optimizer), frame in scores.groupby([by, "optimizer"], sort=True):
-        per = frame.groupby(["instance", "degree"])["score"].mean().to_numpy()
+        # An instance's blocks (its d) share its goal, mass and friction: the interval runs
+        # over instances, each the mean of its blocks' means, as the pooled statistics do.
+        blocks = frame.groupby(["instance", "degree"])["score"].mean()
+        per = blocks.groupby(level="instance").mean().to_numpy()
         interval = t_interval(per, 0.95)  # the percentile bootstrap under-covers few instances
-        # One block has no interval (t_interval gives low = high = the value): say so.
+        # One instance has no interval (t_interval gives low = high = the value): say so.
         bounds = (interval.low, interval.high) if interval.n >= 2 else ("n/a", "n/a")
         rows.append(
             {
@@ -669,7 +672,8 @@ def make_protocol_report(
         + success_sentence(first, task_tolerance(first), what="run", standing=has_standing(runs))
         + " See docs/protocol.md.",
         "",
-        "## Area under the ECDF (mean over instances, 95 % Student t interval over instances)",
+        "## Area under the ECDF (mean over instances, 95 % Student t interval over instances; "
+        "pooled, each instance's d blocks averaged first)",
         "",
         _md_table(_auc_table(scores, "degree")),
         "",

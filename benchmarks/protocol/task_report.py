@@ -164,7 +164,8 @@ def task_sections(
         f"instance{'s' if len(config.task_instances) != 1 else ''} of its set. Scores are ECDF "
         "areas (0 to 1), comparable across tasks.",
         "",
-        "## Area under the ECDF per task (mean over instances x d, 95 % Student t interval)",
+        "## Area under the ECDF per task (mean over instances, each instance's d blocks "
+        "averaged, 95 % Student t interval over instances)",
         "",
         md_table(_in_task_order(auc_table(scores, "task"), config.tasks)),
         "",
