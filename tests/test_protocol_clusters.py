@@ -98,6 +98,8 @@ def test_weak_cell_sensitivity_refuses_bad_input():
         weak_cell_sensitivity(scores.drop(columns="degree"), [])
     with pytest.raises(ValueError, match="alpha must be"):
         weak_cell_sensitivity(scores, [], alpha=2.0)
+    with pytest.raises(ValueError, match=r"weak must be a sequence of \(instance, d\) cells.*None"):
+        weak_cell_sensitivity(scores, None)  # type: ignore[arg-type]
 
 
 # --- pooled blocks as instance clusters ----------------------------------------------------------

@@ -770,13 +770,18 @@ def weak_cell_sensitivity(
         by mean score (best first) on every cell and without the weak cells, and ``changed``.
 
     Raises:
-        ValueError: A missing column, or a weak cell that is not an (instance, int d) pair.
+        ValueError: A missing column, ``weak`` not a sequence, or a weak cell that is not an
+            (instance, int d) pair.
     """
     if not isinstance(scores, pd.DataFrame):
         raise TypeError(f"scores must be a DataFrame, got {type(scores).__name__}")
     alpha = _check_level("alpha", alpha)
     if "degree" not in scores.columns:
         raise ValueError("scores lacks column 'degree'")
+    if isinstance(weak, (str, bytes)) or not isinstance(weak, Sequence):
+        raise ValueError(
+            f"weak must be a sequence of (instance, d) cells (empty for none), got {weak!r}"
+        )
     cells: set[tuple[str, int]] = set()
     for cell in weak:
         if (
