@@ -349,7 +349,7 @@ def separation_sentence(
     head = (
         f"**Verdict, {group}** (told apart: Holm p < {alpha:g} on the ECDF area AND the "
         f"final-F difference's 95 % t interval over {unit} wholly beyond +-the noise floor, "
-        "the median floor of the blocks; F difference a - b, negative: a ends lower)."
+        f"the median floor over {unit}; F difference a - b, negative: a ends lower)."
     )
     if comparisons.empty:
         return f"{head} No pair compared."
