@@ -112,7 +112,10 @@ def _tables(
             ranks.append({"optimizer": o, "P(rank 1)": 1.0 if rank == 1 else 0.0,
                           "mean": means[o], "rank": rank, "d": group})  # fmt: skip
         if group != "all":
-            references += [{"d": group, "noise floor": 40.0}, {"d": group, "noise floor": 60.0}]
+            references += [
+                {"d": group, "instance": "i1", "noise floor": 40.0},
+                {"d": group, "instance": "i2", "noise floor": 60.0},
+            ]
     return {
         "comparisons.csv": pd.DataFrame(comparisons),
         "ranks.csv": pd.DataFrame(ranks),
@@ -279,7 +282,7 @@ def test_the_statistics_own_tables_of_four_optimizers_are_judged() -> None:
                 in_f.assign(d="5", measure="final F"),
             ]
         ),
-        "references.csv": pd.DataFrame({"d": ["5"], "noise floor": [50.0]}),
+        "references.csv": pd.DataFrame({"d": ["5"], "instance": ["i1"], "noise floor": [50.0]}),
     }
     (judged,) = judge_claim_a(tables, ["5"])
     assert judged.verdict == "holds" and judged.ranking[0][0] == "cmaes"
@@ -332,7 +335,7 @@ def test_a_folders_report_becomes_the_pages_section(tmp_path: Path) -> None:
         "| 30 |" in text
     )
     assert "- **Verdict, d = 3** (told apart: Holm p < 0.01 on the ECDF area AND" in text
-    assert "| all | 6 blocks |" in text
+    assert "| all | 6 (d blocks averaged) |" in text  # 6 instances, not 6 blocks
     assert claim.made_by == (
         f"tooldesign bench protocol --size quick --with-references --out {folder}",
     )
@@ -512,8 +515,10 @@ def test_the_pages_section_has_the_numbers_of_the_protocols_own_report(
             f"{r['optimizer']} {_g(r['mean'], 3)} ({_g(r['P(rank 1)'], 2)})" for r in ranked
         )
         assert f" | {cell} | **not shown**: with " in section, cell
-        refs = _csv(report / "references.csv")
-        floors = [float(r["noise floor"]) for r in refs if group in ("all", r["d"])]
+        refs = pd.DataFrame(_csv(report / "references.csv"))
+        refs = refs[(refs["d"] == group) | (group == "all")].astype({"noise floor": float})
+        # The group's one floor: pooled, the median of the instances' means over their d.
+        floors = refs.groupby("instance")["noise floor"].mean().tolist()
         min_n = next(p["min_n"] for p in power if p["d"] == group)
         blocks = next(r["n"] for r in comparisons if r["d"] == group)
         floor = format(float(pd.Series(floors).median()), ".4g")

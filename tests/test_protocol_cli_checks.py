@@ -154,3 +154,12 @@ def test_a_baseline_the_report_would_refuse_is_refused_before_the_run(capsys, tm
     full = protocol_config("full", optimizer="x:Y")
     with pytest.raises(ValueError, match=r"another plan than A \(they differ in instances"):
         check_mergeable([("A", read_protocol(QUICK)), ("B", full)])
+
+
+def test_check_mergeable_refuses_no_plan_and_a_plan_without_a_config() -> None:
+    with pytest.raises(ValueError, match=r"plans must be a non-empty sequence .*got \[\]"):
+        check_mergeable([])
+    with pytest.raises(
+        ValueError, match=r"a plan must be a \(folder, ProtocolConfig\) pair, got \('x', None\)"
+    ):
+        check_mergeable([("x", None)])  # type: ignore[list-item]

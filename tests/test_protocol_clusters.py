@@ -98,6 +98,8 @@ def test_weak_cell_sensitivity_refuses_bad_input():
         weak_cell_sensitivity(scores.drop(columns="degree"), [])
     with pytest.raises(ValueError, match="alpha must be"):
         weak_cell_sensitivity(scores, [], alpha=2.0)
+    with pytest.raises(ValueError, match=r"weak must be a sequence of \(instance, d\) cells.*None"):
+        weak_cell_sensitivity(scores, None)  # type: ignore[arg-type]
 
 
 # --- pooled blocks as instance clusters ----------------------------------------------------------
@@ -135,6 +137,22 @@ def test_the_ranking_resamples_an_instance_with_all_its_blocks():
     assert apart.loc["a", "P(rank 1)"] < 0.95
 
 
+def test_the_pooled_auc_interval_runs_over_instances_not_blocks():
+    from benchmarks.protocol.report import _auc_table
+    from benchmarks.reports.stats import t_interval
+
+    scores = _one_sided(4, degrees=(3, 5, 8)).assign(regret_1=0.5, success_1=True)
+    scores["score"] += 0.05 * (scores["degree"] == 8)  # the blocks of an instance differ
+    row = _auc_table(scores.assign(pooled="all"), "pooled").set_index("optimizer").loc["a"]
+    mine = scores[scores["optimizer"] == "a"]
+    per_instance = mine.groupby(["instance", "degree"])["score"].mean().groupby("instance").mean()
+    expected = t_interval(per_instance.to_numpy(), 0.95)  # over 4 instances, not 12 blocks
+    assert (row["95% low"], row["95% high"]) == pytest.approx((expected.low, expected.high))
+    assert row["AUC"] == pytest.approx(mine["score"].mean())
+    blocks = t_interval(mine.groupby(["instance", "degree"])["score"].mean().to_numpy(), 0.95)
+    assert row["95% high"] - row["95% low"] > blocks.high - blocks.low
+
+
 def test_cluster_runs_refuses_bad_input():
     scores = _one_sided(3, degrees=(3, 5))
     with pytest.raises(ValueError, match=r"lacks columns \['degree'\]"):
@@ -143,6 +161,39 @@ def test_cluster_runs_refuses_bad_input():
         cluster_runs(scores.iloc[1:])  # a's first block lost a seed
     with pytest.raises(ValueError, match="blocks must be a sequence"):
         cluster_runs(scores, blocks="degree")
+    with pytest.raises(TypeError, match=r"cluster must be a column name \(str\), got \['i'\]"):
+        cluster_runs(scores, cluster=["i"])  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="cluster 'degree' cannot also be a block column"):
+        cluster_runs(scores, cluster="degree")
+
+
+def test_cluster_runs_refuses_optimizers_with_different_blocks_in_a_cluster():
+    # b lacks d = 5 at i01: a's mean would be over d = 3 and 5, b's over d = 3 alone.
+    scores = _one_sided(3, degrees=(3, 5))
+    gap = (scores["optimizer"] == "b") & (scores["instance"] == "i01") & (scores["degree"] == 5)
+    with pytest.raises(
+        ValueError, match=r"optimizer 'b' lacks blocks \[5\] of \('degree',\) in instance 'i01'"
+    ):
+        cluster_runs(scores[~gap])
+    # Missing runs (NaN scores) count as missing blocks too.
+    with pytest.raises(ValueError, match="optimizer 'b' lacks blocks"):
+        cluster_runs(scores.assign(score=scores["score"].mask(gap)))
+
+
+def test_a_non_default_cluster_keeps_the_instance_column_as_a_block():
+    # Two tasks of two instances each at one d, 2 seeds: clustered by task, each task-seed is
+    # the mean of its 2 instance blocks (not 4 "seeds" of 1 block each).
+    scores = _one_sided(4, degrees=(3,)).assign(
+        task=lambda f: np.where(f["instance"] < "i02", "t1", "t2")
+    )
+    out = cluster_runs(scores, cluster="task", blocks=("instance", "degree"))
+    assert sorted(out["instance"].unique()) == ["t1", "t2"]
+    assert (out["blocks"] == 2).all() and out["seed"].max() == 1
+    assert len(out) == 2 * 2 * 2  # tasks x optimizers x seeds
+    first = scores[(scores["task"] == "t1") & (scores["optimizer"] == "a")]
+    assert out[(out["instance"] == "t1") & (out["optimizer"] == "a")]["score"].mean() == (
+        pytest.approx(first["score"].mean())
+    )
 
 
 def test_a_cluster_bootstrap_keeps_an_instance_s_blocks_together():
@@ -234,6 +285,26 @@ def test_d_z_has_a_bootstrap_interval_around_it():
     assert math.isnan(two["d_z_low"]) and math.isnan(two["d_z_high"])
     with pytest.raises(ValueError, match="resamples must be an int >= 1"):
         paired_comparisons(scores, resamples=0)
+
+
+def test_d_z_interval_stays_finite_when_instances_tie_at_zero():
+    # Both optimizers reach no target on 2 of 6 instances: those differences are exactly 0,
+    # so some resamples draw only them (SD 0, mean 0). Such a resample is d_z = 0, not NaN.
+    from benchmarks.protocol.statistics import _d_z_interval
+
+    diff = np.array([0.0, 0.0, 0.1, 0.2, 0.05, 0.3])
+    generator = np.random.default_rng(0)
+    drawn = diff[np.random.default_rng(0).integers(0, diff.size, size=(2000, diff.size))]
+    assert (drawn == 0).all(axis=1).any()  # the case is really drawn
+    low, high = _d_z_interval(diff, 0.95, 2000, generator)
+    assert math.isfinite(low) and 0.0 <= low < high  # was (nan, nan)
+    rows = [("a", i, 0, 0.5 + d) for i, d in enumerate(diff)]
+    rows += [("b", i, 0, 0.5) for i in range(diff.size)]
+    scores = pd.DataFrame(rows, columns=["optimizer", "instance", "seed", "score"])
+    row = paired_comparisons(scores, resamples=2000).iloc[0]
+    assert not math.isnan(row["d_z_low"]) and not math.isnan(row["d_z_high"])
+    # All six tied: every resample is 0.
+    assert _d_z_interval(np.zeros(6), 0.95, 200, np.random.default_rng(1)) == (0.0, 0.0)
 
 
 def test_the_report_s_ladder_part_lists_weak_cells_and_says_which_verdict_changes():

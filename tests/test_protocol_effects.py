@@ -16,10 +16,14 @@ import pytest
 
 from benchmarks.protocol.effects import (
     EFFECT_COLUMNS,
+    compare_with_floor,
     floor_effects,
+    instance_floors,
+    section_floor,
     separation_sentence,
     told_apart,
 )
+from benchmarks.protocol.statistics import cluster_runs
 
 
 def _runs(offsets: dict[str, float], *, blocks: int = 6, noise: float = 5.0) -> pd.DataFrame:
@@ -193,16 +197,65 @@ def test_bad_input_is_refused_with_a_message() -> None:
         separation_sentence(_comparisons(), None, group="g", alpha=0.01)
 
 
+# Cells' floors whose median (20) differs from the median of the instances' means (30):
+# i00 (10 + 50) / 2 = 30, i01 (20 + 20) / 2 = 20, i02 (100 + 12) / 2 = 56.
+_CELL_FLOORS = {("i00", 3): 10.0, ("i00", 5): 50.0, ("i01", 3): 20.0, ("i01", 5): 20.0,
+                ("i02", 3): 100.0, ("i02", 5): 12.0}  # fmt: skip
+
+
+def _references() -> pd.DataFrame:
+    return pd.DataFrame(
+        [{"instance": i, "d": d, "noise floor": f} for (i, d), f in _CELL_FLOORS.items()]
+    )
+
+
+def _pooled_runs() -> pd.DataFrame:
+    """Runs at d = 3 and 5 on the three instances of :data:`_CELL_FLOORS`, 2 seeds each."""
+    rows = []
+    for (i, d), _ in _CELL_FLOORS.items():
+        for optimizer, offset in (("bo", 0.0), ("cmaes", -200.0)):
+            for seed in range(2):
+                final = 1000.0 + 100.0 * int(i[1:]) + 10.0 * d + offset + 3.0 * seed
+                rows.append({"instance": i, "degree": d, "optimizer": optimizer,
+                             "seed": 10 * seed + d, "final_f": final,
+                             "score": 0.5 - final / 1e5})  # fmt: skip
+    return pd.DataFrame(rows)
+
+
+def test_the_pooled_floor_is_the_median_of_the_instances_mean_floors() -> None:
+    from benchmarks.protocol.task_report import _floors
+
+    floors = _floors(_references())
+    assert floors == {"i00": 30.0, "i01": 20.0, "i02": 56.0}
+    assert instance_floors(_references()) == floors
+    assert section_floor(floors) == 30.0  # not the cells' median, 20
+    assert float(np.median(list(_CELL_FLOORS.values()))) == 20.0
+    assert section_floor(floors, ["i00", "i01"]) == 25.0
+    assert math.isnan(section_floor(floors, []))
+    pooled = cluster_runs(_pooled_runs())
+    table, in_f = compare_with_floor(pooled, floors, alpha=0.01)
+    assert table["floor"].tolist() == [30.0]  # the rule's floor is the section's one floor
+    assert table["n"].tolist() == [3] and len(in_f) == 1  # 3 instances; F-unit power too
+    with pytest.raises(ValueError, match=r"references lacks columns \['instance'\]"):
+        instance_floors(_references().drop(columns="instance"))
+    with pytest.raises(TypeError, match="references must be a DataFrame, got list"):
+        instance_floors([])  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="no noise floor for block 'i09'"):
+        section_floor(floors, ["i09"])
+    with pytest.raises(TypeError, match="floors must map a block"):
+        section_floor([30.0])  # type: ignore[arg-type]
+
+
 def test_the_task_axis_sections_carry_the_same_columns_and_sentence() -> None:
     from benchmarks.protocol.report import _md_table
-    from benchmarks.protocol.task_report import _statistics
+    from benchmarks.protocol.task_report import _floors, _statistics
 
-    runs = _runs({"bo": 0.0, "cmaes": -200.0}, blocks=3)
-    frame = runs.assign(instance=runs["instance"] + "/d3", score=0.5 - runs["final_f"] / 1e5)
-    floors = {f"i{i:02d}/d3": 30.0 for i in range(3)}
+    # The instance-unit design: an instance's d blocks averaged, its floor their mean.
+    frame = cluster_runs(_pooled_runs())
     lines, (table, _, _) = _statistics(
-        frame, "hook", "(instance, d) blocks", 0.01, _md_table, floors
+        frame, "hook", "instances (d blocks averaged)", 0.01, _md_table, _floors(_references())
     )
     assert {*EFFECT_COLUMNS, "told_apart"} <= set(table.columns)
+    assert table["floor"].tolist() == [30.0]
     assert any(line.startswith("**Verdict, hook**") for line in lines)
-    assert not table["told_apart"].any()  # 3 blocks: nothing is significant
+    assert not table["told_apart"].any()  # 3 instances: nothing is significant

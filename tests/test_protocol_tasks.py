@@ -517,7 +517,7 @@ def test_an_auc_interval_of_one_block_is_printed_as_not_available():
         }
     )
     table = _auc_table(scores, "task").set_index("task")
-    # hook: one (instance, d) block, its two seeds averaged: a mean but no interval.
+    # hook: one instance (one d block), its two seeds averaged: a mean but no interval.
     assert table.loc["hook", "AUC"] == pytest.approx(0.3)
     assert table.loc["hook", "95% low"] == "n/a" and table.loc["hook", "95% high"] == "n/a"
     assert float(table.loc["push", "95% low"]) < 0.6 < float(table.loc["push", "95% high"])

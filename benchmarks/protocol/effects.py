@@ -7,8 +7,9 @@ score while their final designs differ by less than the measurement's noise. So 
 also compares the designs the runs end with:
 
 - :func:`floor_effects`: per pair of optimizers, the paired difference of final best F per
-  block (block: an instance, pooled an (instance, d) pair, with tasks a (task, instance, d)
-  triple; an optimizer's F on a block is the mean over its seeds of each run's final best F, as
+  block (block: an instance; pooled, an instance with its d blocks averaged, its floor the
+  mean of theirs (:func:`instance_floors`); with tasks a (task, instance) likewise; an
+  optimizer's F on a block is the mean over its seeds of each run's final best F, as
   the score's pairing takes the mean of scores), ``f_diff`` = mean over blocks of
   F(a) - F(b) with its Student t interval ``f_diff_low``/``f_diff_high`` over blocks; **a
   negative f_diff means a ends lower, i.e. better**. ``floor`` is the comparison's noise
@@ -24,6 +25,10 @@ also compares the designs the runs end with:
   interval in floors; for each other pair either (a) its F interval lies within +-floor, a
   property of the problem, or (b) the power analysis in F units (detectable difference,
   instances or seeds the observed difference would need), a property of the run's size.
+- :func:`compare_with_floor`: a group's comparisons table with the rule applied, and its power
+  table in F units, as the report's dimension, pooled and task sections all build them; and
+  :func:`section_floor`, the group's one noise floor (the median of its blocks' floors), which
+  the F-unit power sentence and the claim page print beside the rule's ``floor``.
 
 A run with no valid evaluation (final F infinite or NaN) is left out of its block's mean, as
 the report's F-unit power table leaves it out.
@@ -33,17 +38,21 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 
 import numpy as np
 import pandas as pd
 
+from benchmarks.protocol.statistics import _check_level, paired_comparisons, power_analysis
 from benchmarks.reports.stats import t_interval
 
 __all__ = [
     "EFFECT_COLUMNS",
     "TOLD_APART",
+    "compare_with_floor",
     "floor_effects",
+    "instance_floors",
+    "section_floor",
     "separation_sentence",
     "told_apart",
 ]
@@ -56,16 +65,6 @@ TOLD_APART = "told_apart"
 
 _RUNS = ("instance", "optimizer", "seed", "final_f")
 _RULE = ("mean_diff", "significant", "f_diff", "beyond_floor")
-
-
-def _check_level(value: object) -> float:
-    if (
-        isinstance(value, bool)
-        or not isinstance(value, (int, float, np.integer, np.floating))
-        or not 0 < float(value) < 1
-    ):
-        raise ValueError(f"level must be a number in (0, 1), got {value!r}")
-    return float(value)
 
 
 def _block_floors(floors: Mapping[str, float], blocks: list[str]) -> dict[str, float]:
@@ -123,7 +122,7 @@ def floor_effects(
         raise ValueError(f"runs lacks columns {missing}; needs {list(_RUNS)}")
     if runs.empty:
         raise ValueError("runs holds no row")
-    level = _check_level(level)
+    level = _check_level("level", level)
     try:
         final = runs["final_f"].to_numpy(dtype=np.float64)
     except (TypeError, ValueError):
@@ -161,6 +160,75 @@ def floor_effects(
             row["beyond_floor"] = bool(interval.high < -floor or interval.low > floor)
         rows.append(row)
     return pd.DataFrame(rows, columns=["a", "b", *EFFECT_COLUMNS]).astype({"beyond_floor": bool})
+
+
+def instance_floors(references: pd.DataFrame) -> dict[str, float]:
+    """Each instance's noise floor pooled over its d: the mean of its (instance, d) floors.
+
+    A pooled section averages an instance's d blocks, its final F too
+    (:func:`~benchmarks.protocol.statistics.cluster_runs`), so its floor is the mean of its
+    blocks' floors.
+
+    Args:
+        references: One row per (instance, d) cell with ``instance`` and ``noise floor``.
+
+    Returns:
+        The floor of every instance, by its label.
+
+    Raises:
+        TypeError: ``references`` is not a DataFrame.
+        ValueError: A missing column.
+    """
+    if not isinstance(references, pd.DataFrame):
+        raise TypeError(f"references must be a DataFrame, got {type(references).__name__}")
+    missing = [c for c in ("instance", "noise floor") if c not in references.columns]
+    if missing:
+        raise ValueError(f"references lacks columns {missing}; needs ['instance', 'noise floor']")
+    return {str(i): float(f.mean()) for i, f in references.groupby("instance")["noise floor"]}
+
+
+def section_floor(floors: Mapping[str, float], blocks: Iterable[object] | None = None) -> float:
+    """A group's one noise floor: the median of its blocks' floors (NaN without a block).
+
+    The same floor :func:`floor_effects` gives a pair that has every block of the group.
+
+    Args:
+        floors: The noise floor of each block, by label (pooled: :func:`instance_floors`).
+        blocks: The group's block labels (an iterable); None: every block in ``floors``.
+    """
+    if not isinstance(floors, Mapping):
+        raise TypeError(f"floors must map a block to its noise floor, got {type(floors).__name__}")
+    labels = [str(b) for b in floors] if blocks is None else sorted({str(b) for b in blocks})
+    values = _block_floors(floors, labels) if labels else {}
+    return float(np.median(list(values.values()))) if values else math.nan
+
+
+def compare_with_floor(
+    frame: pd.DataFrame, floors: Mapping[str, float], *, alpha: float
+) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """One group's comparisons with the rule applied, and its power table in F units.
+
+    Args:
+        frame: One row per run (or, pooled, per cluster-seed from
+            :func:`~benchmarks.protocol.statistics.cluster_runs`) with ``instance``,
+            ``optimizer``, ``seed``, ``score`` and ``final_f``.
+        floors: The noise floor of every block of ``frame``.
+        alpha: The family-wise level of the Holm-corrected comparisons.
+
+    Returns:
+        ``(table, in_f)``: :func:`~benchmarks.protocol.statistics.paired_comparisons` with
+        :data:`EFFECT_COLUMNS` and :data:`TOLD_APART`; and
+        :func:`~benchmarks.protocol.statistics.power_analysis` of the final F (a run with no
+        valid evaluation, final F infinite, left out).
+    """
+    table = paired_comparisons(frame, alpha=alpha).merge(
+        floor_effects(frame, floors), on=["a", "b"], how="left", validate="one_to_one"
+    )
+    table = table.assign(**{TOLD_APART: told_apart(table)})
+    in_f = power_analysis(
+        frame.assign(score=frame["final_f"].replace([np.inf, -np.inf], np.nan)), alpha=alpha
+    )
+    return table, in_f
 
 
 def told_apart(comparisons: pd.DataFrame) -> pd.Series:
@@ -281,7 +349,7 @@ def separation_sentence(
     head = (
         f"**Verdict, {group}** (told apart: Holm p < {alpha:g} on the ECDF area AND the "
         f"final-F difference's 95 % t interval over {unit} wholly beyond +-the noise floor, "
-        "the median floor of the blocks; F difference a - b, negative: a ends lower)."
+        f"the median floor over {unit}; F difference a - b, negative: a ends lower)."
     )
     if comparisons.empty:
         return f"{head} No pair compared."

@@ -47,7 +47,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
-from benchmarks.protocol.effects import floor_effects, separation_sentence, told_apart
+from benchmarks.protocol.effects import (
+    compare_with_floor,
+    instance_floors,
+    section_floor,
+    separation_sentence,
+)
 from benchmarks.protocol.measures import (
     best_so_far,
     bootstrap_ecdf,
@@ -65,7 +70,6 @@ from benchmarks.protocol.statistics import (
     held_out_gap,
     ladder_quality,
     min_instances,
-    paired_comparisons,
     power_analysis,
     rank_stability,
     weak_cell_sensitivity,
@@ -353,9 +357,12 @@ def _auc_table(scores: pd.DataFrame, by: str) -> pd.DataFrame:
 
     rows = []
     for (group, optimizer), frame in scores.groupby([by, "optimizer"], sort=True):
-        per = frame.groupby(["instance", "degree"])["score"].mean().to_numpy()
+        # An instance's blocks (its d) share its goal, mass and friction: the interval runs
+        # over instances, each the mean of its blocks' means, as the pooled statistics do.
+        blocks = frame.groupby(["instance", "degree"])["score"].mean()
+        per = blocks.groupby(level="instance").mean().to_numpy()
         interval = t_interval(per, 0.95)  # the percentile bootstrap under-covers few instances
-        # One block has no interval (t_interval gives low = high = the value): say so.
+        # One instance has no interval (t_interval gives low = high = the value): say so.
         bounds = (interval.low, interval.high) if interval.n >= 2 else ("n/a", "n/a")
         rows.append(
             {
@@ -665,7 +672,8 @@ def make_protocol_report(
         + success_sentence(first, task_tolerance(first), what="run", standing=has_standing(runs))
         + " See docs/protocol.md.",
         "",
-        "## Area under the ECDF (mean over instances, 95 % Student t interval over instances)",
+        "## Area under the ECDF (mean over instances, 95 % Student t interval over instances; "
+        "pooled, each instance's d blocks averaged first)",
         "",
         _md_table(_auc_table(scores, "degree")),
         "",
@@ -720,29 +728,23 @@ def make_protocol_report(
             continue
         if label == "all":
             # An instance's floor pooled: the mean of its blocks' (its final F is their mean).
-            per_instance: dict[str, list[float]] = {}
-            for (i, _), f in block_floor.items():
-                per_instance.setdefault(i, []).append(f)
-            floors = {i: float(np.mean(f)) for i, f in per_instance.items()}
+            floors = instance_floors(reference_table)
         else:
             floors = {i: f for (i, d), f in block_floor.items() if d == int(label)}
-        table = paired_comparisons(frame, alpha=alpha).merge(
-            floor_effects(frame, floors), on=["a", "b"], how="left", validate="one_to_one"
-        )
-        table = table.assign(told_apart=told_apart(table), d=label)
+        table, in_f = compare_with_floor(frame, floors, alpha=alpha)
+        table = table.assign(d=label)
+        # The section's one floor, the rule's and the power sentence's alike.
+        group_floor = section_floor(floors, frame["instance"].unique())
         pairs = len(table)
         floor = min_instances(alpha, max(1, pairs))
         blocks = int(frame["instance"].nunique())
         rank = rank_stability(frame, resamples=500).reset_index(names="optimizer").assign(d=label)
         power = power_analysis(frame, alpha=alpha).assign(d=label, measure="score")
         # A run with no valid evaluation has no final F (inf): it is left out of the F table.
-        no_f = int(np.isinf(frame["final_f"]).sum())
-        in_f = power_analysis(
-            frame.assign(score=frame["final_f"].replace([np.inf, -np.inf], np.nan)), alpha=alpha
-        )
-        in_f = in_f.assign(d=label, measure="final F")
+        # Counted on the runs, not on the pooled section's cluster-seeds.
         at = [int(label)] if label != "all" else list(degrees)
-        cell_floors = reference_table[reference_table["d"].isin(at)]["noise floor"]
+        no_f = int(np.isinf(scores[scores["degree"].isin(at)]["final_f"]).sum())
+        in_f = in_f.assign(d=label, measure="final F")
         comparisons.append(table)
         ranks.append(rank)
         powers.append(power)
@@ -774,7 +776,9 @@ def make_protocol_report(
                 "goal, mass and friction), so each instance's score and final F here are the "
                 f"means over its blocks, per seed: the paired test has n = {blocks} instances, "
                 "the ranking's resamples and the pooled ECDF's band draw instances, each with "
-                "all its blocks, and an instance's floor is the mean of its blocks' floors.",
+                "all its blocks, and an instance's noise floor is the mean of its blocks' "
+                f"floors; the section's floor, {group_floor:.4g}, is the median of those "
+                "instance floors, for the told-apart rule and the F-unit power alike.",
                 "",
             ]
             if label == "all"
@@ -790,13 +794,14 @@ def make_protocol_report(
             "mean_diff = mean(score a - score b) with a 95 % Student t interval over "
             f"{unit} (positive: a sooner); d_z = mean_diff / SD of the differences, with a 95 % "
             "percentile bootstrap interval over instances (d_z_low, d_z_high; rough with few "
-            "instances, and infinite where a resample's differences are all equal). f_diff = "
+            "instances, and infinite where a resample's differences are all equal, 0 where "
+            "they are all 0). f_diff = "
             "mean(final F a - final F b) (each optimizer's final best F per block is its mean "
             "over seeds; negative: a ends lower, better) with its 95 % t interval "
-            f"f_diff_low..f_diff_high over {unit}; floor = the median noise floor of the "
-            "blocks' references; beyond_floor = the interval lies wholly beyond +-floor on one "
-            f"side. **A pair is told apart** (told_apart) only when p_holm < {alpha:g} AND "
-            "beyond_floor, the higher score with the lower F.",
+            f"f_diff_low..f_diff_high over {unit}; floor = the median over {unit} of their "
+            "references' noise floors; beyond_floor = the interval lies wholly beyond "
+            "+-floor on one side. **A pair is told apart** (told_apart) only when "
+            f"p_holm < {alpha:g} AND beyond_floor, the higher score with the lower F.",
             "",
             _md_table(table.drop(columns="d")),
             "",
@@ -813,8 +818,8 @@ def make_protocol_report(
             "",
             _md_table(power.drop(columns=["d", "measure"])),
             "",
-            "The same in F units (each run's final best F; compare `detectable` with the median "
-            f"noise floor of these cells' references, {cell_floors.median():.4g}"
+            "The same in F units (each run's final best F; compare `detectable` with the "
+            f"section's noise floor, the floor of the rule above, {group_floor:.4g}"
             + (f"; {no_f} run(s) with no valid evaluation left out" if no_f else "")
             + "):",
             "",

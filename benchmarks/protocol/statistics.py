@@ -354,7 +354,9 @@ def _d_z_interval(
     mean = drawn.mean(axis=1)
     sd = drawn.std(axis=1, ddof=1)
     with np.errstate(divide="ignore", invalid="ignore"):
-        d_z = np.where(sd > 0, mean / np.where(sd > 0, sd, 1.0), np.sign(mean) * np.inf)
+        # np.sign(0) * inf is NaN, which would spoil every quantile: an all-zero resample is 0.
+        tied = np.where(mean == 0, 0.0, np.sign(mean) * np.inf)
+        d_z = np.where(sd > 0, mean / np.where(sd > 0, sd, 1.0), tied)
     tail = (1 - level) / 2
     low = float(np.quantile(d_z, tail, method="lower"))
     high = float(np.quantile(d_z, 1 - tail, method="higher"))
@@ -598,32 +600,60 @@ def cluster_runs(
     Args:
         scores: One row per run with ``optimizer``, ``seed``, ``score``, the ``cluster``
             column and the ``blocks`` columns; ``final_f`` and ``set`` are carried when present
-            (the mean, and the cluster's one value). NaN scores (missing runs) are left out.
+            (the mean, and the cluster's one value). NaN scores (missing runs) are left out. A
+            seed whose final F is infinite in one block (no valid evaluation) has an infinite
+            mean final F, so that cluster-seed drops out of F statistics that keep finite values.
         cluster: The column naming the unit that is resampled and paired.
-        blocks: The columns that tell a cluster's blocks apart.
+        blocks: The columns that tell a cluster's blocks apart; ``"instance"`` may be one of
+            them when ``cluster`` is another column (e.g. ``cluster="task"``).
 
     Returns:
-        A frame with ``instance`` (the cluster), ``optimizer``, ``seed`` (0-based index: the
-        k-th seed of each block, by seed value), ``score``, ``blocks`` (how many were averaged)
-        and ``final_f`` / ``set`` where given.
+        A frame with ``instance`` (the cluster's label), ``optimizer``, ``seed`` (0-based
+        index: the k-th seed of each block, by seed value), ``score``, ``blocks`` (how many
+        were averaged) and ``final_f`` / ``set`` where given.
 
     Raises:
-        ValueError: A missing column, or an optimizer with different numbers of seeds in the
-            blocks of one cluster (the mean would weigh the blocks unequally).
+        ValueError: A missing column; optimizers with different blocks in one cluster (their
+            means would be over different blocks, yet paired as the same unit); or an optimizer
+            with different numbers of seeds in the blocks of one cluster (the mean would weigh
+            the blocks unequally).
     """
     if not isinstance(scores, pd.DataFrame):
         raise TypeError(f"scores must be a DataFrame, got {type(scores).__name__}")
+    if not isinstance(cluster, str):
+        raise TypeError(f"cluster must be a column name (str), got {cluster!r}")
     if isinstance(blocks, str) or not isinstance(blocks, Sequence):
         raise ValueError(f"blocks must be a sequence of column names, got {blocks!r}")
+    if not all(isinstance(b, str) for b in blocks):
+        raise TypeError(f"blocks must be column names (str), got {blocks!r}")
+    if cluster in blocks:
+        raise ValueError(f"cluster {cluster!r} cannot also be a block column {list(blocks)}")
     needed = [cluster, *blocks, "optimizer", "seed", "score"]
     missing = [c for c in needed if c not in scores.columns]
     if missing:
         raise ValueError(f"scores lacks columns {missing}; needs {needed}")
-    kept = _check_scores(scores.assign(instance=scores[cluster]))
-    keys = ["instance", *blocks, "optimizer"]
+    # Group on a temporary key, so a block column named "instance" keeps its values.
+    frame = scores.assign(_cluster=scores[cluster])
+    if "instance" not in frame.columns:
+        frame = frame.assign(instance=frame[cluster])
+    kept = _check_scores(frame)
+    keys = ["_cluster", *blocks, "optimizer"]
     kept = kept.sort_values([*keys, "seed"], kind="stable")
     per_block = kept.groupby(keys).size()
-    spread = per_block.groupby(["instance", "optimizer"]).agg(["min", "max"])
+    for name, part in per_block.groupby(level="_cluster"):
+        have = {
+            optimizer: set(rows.index.droplevel(["_cluster", "optimizer"]))
+            for optimizer, rows in part.groupby(level="optimizer")
+        }
+        every = set().union(*have.values())
+        for optimizer, own in have.items():
+            if own != every:
+                raise ValueError(
+                    f"optimizer {optimizer!r} lacks blocks {sorted(every - own)} of "
+                    f"{blocks} in {cluster} {name!r} that other optimizers have; every "
+                    "optimizer needs the same blocks in a cluster"
+                )
+    spread = per_block.groupby(["_cluster", "optimizer"]).agg(["min", "max"])
     uneven = spread[spread["min"] != spread["max"]]
     if not uneven.empty:
         (name, optimizer), row = next(iter(uneven.iterrows()))
@@ -632,14 +662,14 @@ def cluster_runs(
             f"{cluster} {name!r}; every block of a cluster needs the same seeds"
         )
     kept = kept.assign(seed=kept.groupby(keys).cumcount())
-    group = kept.groupby(["instance", "optimizer", "seed"], sort=True)
+    group = kept.groupby(["_cluster", "optimizer", "seed"], sort=True)
     out = group["score"].mean().to_frame()
     out["blocks"] = group.size()
     if "final_f" in kept.columns:
         out["final_f"] = group["final_f"].mean()
     if "set" in kept.columns:
         out["set"] = group["set"].first()
-    return out.reset_index()
+    return out.reset_index().rename(columns={"_cluster": "instance"})
 
 
 def held_out_gap(scores: pd.DataFrame, *, level: float = 0.95) -> pd.DataFrame:
@@ -740,13 +770,18 @@ def weak_cell_sensitivity(
         by mean score (best first) on every cell and without the weak cells, and ``changed``.
 
     Raises:
-        ValueError: A missing column, or a weak cell that is not an (instance, int d) pair.
+        ValueError: A missing column, ``weak`` not a sequence, or a weak cell that is not an
+            (instance, int d) pair.
     """
     if not isinstance(scores, pd.DataFrame):
         raise TypeError(f"scores must be a DataFrame, got {type(scores).__name__}")
     alpha = _check_level("alpha", alpha)
     if "degree" not in scores.columns:
         raise ValueError("scores lacks column 'degree'")
+    if isinstance(weak, (str, bytes)) or not isinstance(weak, Sequence):
+        raise ValueError(
+            f"weak must be a sequence of (instance, d) cells (empty for none), got {weak!r}"
+        )
     cells: set[tuple[str, int]] = set()
     for cell in weak:
         if (

@@ -480,12 +480,20 @@ def check_mergeable(plans: Sequence[tuple[str | os.PathLike[str], ProtocolConfig
         plans: (folder, its config) pairs, the first the one the others are compared with.
 
     Raises:
-        ValueError: A folder of another plan (naming the fields that differ), or an optimizer
-            in two folders (naming both).
+        ValueError: No plan, a plan that is not a (folder, ProtocolConfig) pair, a folder of
+            another plan (naming the fields that differ), or an optimizer in two folders
+            (naming both).
     """
+    if isinstance(plans, (str, bytes)) or not isinstance(plans, Sequence) or not plans:
+        raise ValueError(f"plans must be a non-empty sequence of (folder, config), got {plans!r}")
+    for plan in plans:
+        if not isinstance(plan, tuple) or len(plan) != 2 or not isinstance(
+            plan[1], ProtocolConfig
+        ):
+            raise ValueError(f"a plan must be a (folder, ProtocolConfig) pair, got {plan!r}")
     seen: dict[str, str] = {}
-    first_folder, first = plans[0] if plans else ("", None)
-    first_json = first.to_json() if first is not None else {}
+    first_folder, first = plans[0]
+    first_json = first.to_json()
     for folder, config in plans:
         other = config.to_json()
         differ = [k for k in MERGE_FIELDS if first_json.get(k) != other.get(k)]

@@ -13,9 +13,10 @@ this module writes::
                                   noise floor and told_apart, as comparisons.csv
 
 and in ``report.md`` the AUC per task, then per task its AUC, references, public and held-out
-scores and statistics, then the statistics of all tasks pooled. Pooled, the blocks of the
-paired comparison are the (task, instance, d) cells: a score is an ECDF area in [0, 1] on every
-task, so tasks whose F differ in scale pool without weighting one over another.
+scores and statistics, then the statistics of all tasks pooled. Per task the unit is an
+instance and pooled over tasks a (task, instance) pair, each with its d blocks averaged (its
+final F too, and its noise floor the mean of its blocks'): a score is an ECDF area in [0, 1] on
+every task, so tasks whose F differ in scale pool without weighting one over another.
 """
 
 from __future__ import annotations
@@ -24,7 +25,6 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import pandas as pd
 
 from benchmarks.protocol.suite import ProtocolConfig
@@ -47,29 +47,18 @@ def _statistics(
 
     ``floors``: each block's noise floor (its reference's), by the block's label in ``frame``.
     """
-    from benchmarks.protocol.effects import floor_effects, separation_sentence, told_apart
-    from benchmarks.protocol.statistics import (
-        min_instances,
-        paired_comparisons,
-        power_analysis,
-        rank_stability,
-    )
+    from benchmarks.protocol.effects import compare_with_floor, separation_sentence
+    from benchmarks.protocol.statistics import min_instances, power_analysis, rank_stability
 
     frame = frame.dropna(subset=["score"])
     if frame["optimizer"].nunique() < 2 or frame["instance"].nunique() < 2:
         return ["Fewer than two optimizers or instances: no comparison.", ""], []
-    table = paired_comparisons(frame, alpha=alpha).merge(
-        floor_effects(frame, floors), on=["a", "b"], how="left", validate="one_to_one"
-    )
-    table = table.assign(told_apart=told_apart(table))
+    table, in_f = compare_with_floor(frame, floors, alpha=alpha)
     pairs = len(table)
     floor = min_instances(alpha, max(1, pairs))
     blocks = int(frame["instance"].nunique())
     rank = rank_stability(frame, resamples=500).reset_index(names="optimizer")
     power = power_analysis(frame, alpha=alpha)
-    in_f = power_analysis(
-        frame.assign(score=frame["final_f"].replace([np.inf, -np.inf], np.nan)), alpha=alpha
-    )
     if blocks < floor:
         verdict = (
             f"**This section cannot separate any pair**: with {blocks} {unit}, fewer than the "
@@ -89,7 +78,8 @@ def _statistics(
         "",
         "Paired comparisons (Wilcoxon signed-rank, Holm-corrected; mean_diff with a 95 % "
         f"Student t interval over {unit}; f_diff, the final-F difference a - b, with its t "
-        "interval, the median noise floor of the blocks and beyond_floor; told_apart = "
+        f"interval, floor (the median over {unit} of their noise floors) and beyond_floor; "
+        "told_apart = "
         f"p_holm < {alpha:g} AND beyond_floor; docs/protocol.md, Statistics):",
         "",
         md_table(table),
@@ -115,12 +105,12 @@ def _floors(references: pd.DataFrame) -> dict[str, float]:
     """Each instance's noise floor: the mean of its (instance, d) blocks' floors.
 
     The statistics average an instance's d blocks (:func:`cluster_runs`), its final F too, so
-    its floor is the mean of its blocks' floors.
+    its floor is the mean of its blocks' floors
+    (:func:`~benchmarks.protocol.effects.instance_floors`, as the report's pooled section).
     """
-    return {
-        str(i): float(f.mean())
-        for i, f in references.groupby("instance")["noise floor"]
-    }
+    from benchmarks.protocol.effects import instance_floors
+
+    return instance_floors(references)
 
 
 def _in_task_order(table: pd.DataFrame, tasks: tuple[str, ...]) -> pd.DataFrame:
@@ -174,7 +164,8 @@ def task_sections(
         f"instance{'s' if len(config.task_instances) != 1 else ''} of its set. Scores are ECDF "
         "areas (0 to 1), comparable across tasks.",
         "",
-        "## Area under the ECDF per task (mean over instances x d, 95 % Student t interval)",
+        "## Area under the ECDF per task (mean over instances, each instance's d blocks "
+        "averaged, 95 % Student t interval over instances)",
         "",
         md_table(_in_task_order(auc_table(scores, "task"), config.tasks)),
         "",
@@ -222,7 +213,7 @@ def task_sections(
     lines, tagged = _statistics(
         pooled,
         POOLED_TASKS,
-        "(task, instance) units, d blocks averaged",
+        "(task, instance) units (d blocks averaged)",
         alpha,
         md_table,
         _floors(references),
