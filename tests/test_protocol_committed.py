@@ -150,3 +150,33 @@ def test_the_quick_runs_times_on_the_page_are_its_files() -> None:
         f"took {minutes.min():.1f} ({minutes.idxmin()}) to {minutes.max():.1f} ({minutes.idxmax()})"
         in page
     )
+
+
+def test_the_full_runs_times_on_the_page_are_its_files() -> None:
+    """docs/protocol.md's measured rate of the full run, recomputed from its manifests."""
+    import json
+
+    folder = _folder("full")
+    page = " ".join((ROOT / "docs" / "protocol.md").read_text().split())
+    cells = {
+        degree: [json.loads(m.read_text()) for m in folder.glob(f"cells/d{degree}/*/manifest.json")]
+        for degree in (3, 5, 8)
+    }
+
+    def rate(degree: int) -> float:
+        evaluations = sum(m["extra"]["evaluation_counts"]["total"] for m in cells[degree])
+        return float(evaluations / sum(m["wall_time"] for m in cells[degree]))
+
+    d8 = cells[8]
+    evaluations = sum(m["extra"]["evaluation_counts"]["total"] for m in d8)
+    wall = sum(m["wall_time"] for m in d8)
+    simulation = sum(m["simulation_time"] for m in d8)
+    assert f"{evaluations:,} evaluations in {wall:,.0f} s of cell wall time" in page
+    assert f"**{rate(8):.1f} evaluations a second**" in page
+    assert f"{simulation / evaluations:.3f} s of simulation each" in page
+    assert f"its d = 5 cells, {rate(5):.1f} a second" in page
+    total = sum(len(c) for c in cells.values())
+    assert total == 72
+    assert f"184,320 / {rate(8):.1f} s = **{184_320 / rate(8) / 3600:.1f} hours**" in page
+    d3_wall = sum(m["wall_time"] for m in cells[3])
+    assert f"{d3_wall:,.0f} s, {rate(3):.1f} evaluations a second" in page
