@@ -12,7 +12,14 @@ from gymnasium.utils.env_checker import check_env as gym_check_env
 
 import tooldesign_env  # noqa: F401  (registers the ids)
 from tooldesign_env.env import GOAL_HIGH, GOAL_LOW
-from tooldesign_env.rl import REWARD_FLOOR, RL_ENV_ID, ToolDesignRLEnv, make_rl_vector_env
+from tooldesign_env.rl import (
+    REWARD_CEILING,
+    REWARD_FLOOR,
+    RL_ENV_ID,
+    ToolDesignRLEnv,
+    make_rl_vector_env,
+    normalized_reward,
+)
 
 HOOK = np.array([1.0, -1.0, 0.3])  # physical coefficients, inside the default bounds
 STRAIGHT = np.zeros(3)
@@ -477,9 +484,11 @@ def test_the_normalized_reward_stays_within_its_bounds_at_small_precision(precis
     try:
         e.reset(seed=0)
         _, reward, _, _, info = e.step(np.zeros(3, np.float32))
-        assert -1.0 <= reward <= 1.0
-        if info["free_energy"] <= 0:
-            assert reward == 1.0
+        # Bounded above too: at p^X = 1e-12 F_idle is near 0, and the linear 1 - F / F_idle
+        # reached 5e11; above 1 the reward is 1 + tanh(-F / F_idle), below REWARD_CEILING.
+        assert REWARD_FLOOR <= reward <= REWARD_CEILING
+        if info["free_energy"] < 0:
+            assert reward > 1.0
     finally:
         e.close()
 
@@ -500,8 +509,37 @@ def test_a_design_with_negative_free_energy_scores_above_1_not_at_a_ceiling():
     _, reward, *_, info = e.step(np.ones(3, np.float32))  # C = (1.5, 1.5, 0.5), the corner
     e.close()
     assert info["valid"] is True and info["free_energy"] < 0
-    assert reward == 1.0 - info["free_energy"] / info["idle_free_energy"]
-    assert reward > 1.0 and reward == info["normalized_reward"]
+    assert reward == 1.0 + math.tanh(-info["free_energy"] / info["idle_free_energy"])
+    assert 1.0 < reward < REWARD_CEILING and reward == info["normalized_reward"]
+
+
+def test_the_normalized_reward_falls_with_f_and_is_bounded():
+    idle = 1710.0
+    f = np.array([-1e15, -1e4, -187.0, -40.0, -1e-9, 0.0, 1e-9, 1.4, 900.0, 3420.0, 1e6])
+    rewards = [normalized_reward(float(x), idle) for x in f]
+    # never rises as F grows, and falls strictly off the bounds
+    assert all(a >= b for a, b in zip(rewards[:-1], rewards[1:], strict=True))
+    assert all(a > b for a, b in zip(rewards[1:9], rewards[2:10], strict=True))
+    assert rewards[0] <= REWARD_CEILING and rewards[-1] == REWARD_FLOOR
+    assert normalized_reward(0.0, idle) == 1.0
+    assert normalized_reward(900.0, idle) == 1.0 - 900.0 / idle  # below 1: as always, to the bit
+    slope_left = (normalized_reward(-1e-6, idle) - 1.0) / 1e-6
+    slope_right = (1.0 - normalized_reward(1e-6, idle)) / 1e-6
+    assert slope_left == pytest.approx(slope_right, rel=1e-6)
+
+
+@pytest.mark.parametrize(
+    "free, idle, match",
+    [
+        (math.nan, 1.0, "must be finite"),
+        (1.0, math.inf, "must be finite"),
+        (1.0, 0.0, "idle_free_energy must be > 0, got 0.0"),
+        (1.0, -2.0, "idle_free_energy must be > 0, got -2.0"),
+    ],
+)
+def test_the_normalized_reward_refuses_bad_values(free, idle, match):
+    with pytest.raises(ValueError, match=match):
+        normalized_reward(free, idle)
 
 
 @pytest.mark.slow

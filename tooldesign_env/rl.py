@@ -31,7 +31,9 @@ from tooldesign_env.specs import BOX_MASS_MAX, MASS_RANGE_MIN
 
 __all__ = [
     "MIN_GOAL_DISTANCE",
+    "REWARD_CEILING",
     "REWARD_FLOOR",
+    "normalized_reward",
     "RL_ENV_ID",
     "ToolDesignRLEnv",
     "make_rl_vector_env",
@@ -45,14 +47,17 @@ RL_ENV_ID = "ToolDesignRL-v0"
 #: leaves the box more than twice as far off as not touching it (the straight tool at the
 #: paper's corner (0.5, 0.5, 0.1); 20 of the 75,457 usable episodes of the committed rl suite,
 #: docs/rl.md). The floor keeps a design that sends the box far away from outweighing the rest.
-#: There is no ceiling: 1 - F / F_idle exceeds 1 exactly when F < 0, when the confidence term
-#: outweighs the goal error, and is bounded by 1 + confidence / F_idle. F < 0 is common where
-#: F_idle is small: in the hook task at p^X = 20 (F_idle 1,710 at its default goal) CMA-ES's
-#: best design has F -187 and the curl (1.5, 1.5, 0.5) F -40 (docs/results/tasks/
-#: baselines.json). A ceiling at 1 gave all of them the same reward, above designs that succeed
-#: with F > 0; no episode of the committed rl and breakeven results reached 1 (the largest
-#: reward was 0.845), so removing it changed none of them.
+#: Above 1 (F < 0, when the confidence term outweighs the goal error) the reward is
+#: 1 + tanh(-F / F_idle): it goes on rising as F falls, with the same slope at F = 0, and stays
+#: below REWARD_CEILING = 2. F < 0 is common where F_idle is small: in the hook task at p^X = 20
+#: (F_idle 1,710 at its default goal) CMA-ES's best design has F -187 and the curl (1.5, 1.5,
+#: 0.5) F -40 (docs/results/tasks/baselines.json). A clip at 1 gave all of them the same reward,
+#: above designs that succeed with F > 0; the linear 1 - F / F_idle without a bound reached 5e11
+#: at p^X = 1e-12 (F_idle near 0). No episode of the committed rl and breakeven results reached
+#: 1 (the largest reward was 0.845), so neither change moved any of them.
 REWARD_FLOOR = -1.0
+#: The normalized reward's upper bound, approached as F / F_idle goes to minus infinity.
+REWARD_CEILING = 2.0
 
 #: Closest a goal may be to the box's starting position (m) under ``reward="normalized"``: the
 #: box's own width. F_idle grows with the squared distance, so at the start it is 0 and
@@ -108,6 +113,33 @@ def _check_range(value: Any, name: str, low: float, high: float, unit: str) -> t
     return lo, hi
 
 
+
+def normalized_reward(free_energy: float, idle_free_energy: float) -> float:
+    """The normalized reward of a usable design: ``1 - F / F_idle`` in [-1, 1], and above 1.
+
+    Args:
+        free_energy: F of the design (finite).
+        idle_free_energy: F_idle at the goal (finite, > 0).
+
+    Returns:
+        ``max(1 - F / F_idle, REWARD_FLOOR)`` for F >= 0 and ``1 + tanh(-F / F_idle)``, in
+        [1, ``REWARD_CEILING``), for F < 0: strictly decreasing in F above the floor, with the
+        same slope on both sides of F = 0.
+
+    Raises:
+        ValueError: A value that is not finite, or F_idle <= 0.
+    """
+    if not (math.isfinite(free_energy) and math.isfinite(idle_free_energy)):
+        raise ValueError(
+            f"free_energy {free_energy!r} and idle_free_energy {idle_free_energy!r} must be finite"
+        )
+    if idle_free_energy <= 0.0:
+        raise ValueError(f"idle_free_energy must be > 0, got {idle_free_energy!r}")
+    ratio = free_energy / idle_free_energy
+    if ratio < 0.0:
+        return 1.0 + math.tanh(-ratio)
+    return max(1.0 - ratio, REWARD_FLOOR)
+
 class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
     """``ToolDesign-v0`` for RL agents: normalized action, task observation, per-task reward.
 
@@ -142,13 +174,14 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
     (0.5, 0.5, 0.1) does; 20 of the 75,457 usable episodes of the committed rl suite did). A
     goal (or a ``goal_range``) closer than ``MIN_GOAL_DISTANCE`` = 0.1 m to the box's starting
     position is refused with ``reward="normalized"`` (``ValueError``), since F_idle is 0 there.
-    There is no ceiling: a reward above 1 means F < 0, the confidence term outweighs the goal
-    error, and it is at most 1 + confidence / F_idle. That happens at small p^X (with p^X =
-    1e-3 F_idle is a few units) and also at p^X = 20 where F_idle is small, as in the hook task,
-    whose goals lie near the box (F_idle 1,710 at its default goal, where CMA-ES's best design
-    has F -187 and scores 1.11). So the reward is in [-1, 1 + confidence / F_idle]; F still
-    ranks designs at one goal, and a lower F is not always a success (hook's F -187 design
-    leaves the box 0.12 m off). ``reward="free-energy"``
+    A reward above 1 means F < 0, the confidence term outweighs the goal error: there the
+    reward is ``1 + tanh(-F / F_idle)``, which keeps rising as F falls (the same slope as
+    ``1 - F / F_idle`` at F = 0) and stays below ``REWARD_CEILING`` = 2. That happens at small
+    p^X (with p^X = 1e-3 F_idle is a few units) and also at p^X = 20 where F_idle is small, as
+    in the hook task, whose goals lie near the box (F_idle 1,710 at its default goal, where
+    CMA-ES's best design has F -187 and scores 1.11). So the reward is in [-1, 2), strictly
+    decreasing in F above the floor; F still ranks designs at one goal, and a lower F is not
+    always a success (hook's F -187 design leaves the box 0.12 m off). ``reward="free-energy"``
     gives -F as ``ToolDesign-v0`` does, at any goal and any p^X (``info``'s
     ``normalized_reward`` is then NaN closer than 0.1 m, and at p^X = 0). ``info`` holds
     ``free_energy``, ``idle_free_energy``, ``normalized_reward`` and the base env's scalar terms
@@ -201,10 +234,10 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
       id stayed v0: the documented reward did not change, and every committed rl result ran
       at p^X = 20, where no goal of the paper's range is that far (at p^X = 50 its corner
       (-0.5, 1.5, 0.1) is: there an unusable design had scored -0.68, now -1). On
-      2026-11-27 the ceiling at 1 was removed: a design with F < 0 scores 1 - F / F_idle > 1
-      instead of 1, so that designs with F < 0 (common in the hook task) are told apart; no
-      committed rl or breakeven episode had reached 1 (the largest reward 0.845), so the id
-      stayed v0. The same day a ``goal_range`` outside the task's range became an error at
+      2026-11-27 the clip at 1 was replaced: a design with F < 0 scores 1 + tanh(-F / F_idle),
+      in (1, 2), instead of 1, so that designs with F < 0 (common in the hook task) are told
+      apart; no committed rl or breakeven episode had reached 1 (the largest reward 0.845), so
+      the id stayed v0. The same day a ``goal_range`` outside the task's range became an error at
       construction (it failed at the first reset before).
     """
 
@@ -360,7 +393,7 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
             # only while F_idle <= the penalty (goals within about 2.4 m at p^X = 20, 1.5 m at
             # 50): beyond, it would outrank usable designs that do worse than that.
             valid = base_info["valid"]
-            normalized = max(1.0 - free / idle, REWARD_FLOOR) if valid else REWARD_FLOOR
+            normalized = normalized_reward(free, idle) if valid else REWARD_FLOOR
         else:  # only with reward="free-energy" (p^X = 0, or a goal at the box): no scale
             normalized = math.nan
         if self.full_info:
