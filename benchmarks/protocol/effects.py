@@ -43,7 +43,12 @@ from collections.abc import Iterable, Mapping
 import numpy as np
 import pandas as pd
 
-from benchmarks.protocol.statistics import _check_level, paired_comparisons, power_analysis
+from benchmarks.protocol.statistics import (
+    _check_frame,
+    _check_level,
+    paired_comparisons,
+    power_analysis,
+)
 from benchmarks.reports.stats import t_interval
 
 __all__ = [
@@ -115,13 +120,7 @@ def floor_effects(
         ValueError: A missing column, no row, a final F that is not a number, a block without
             a floor or with a floor that is not a finite F > 0, a level outside (0, 1).
     """
-    if not isinstance(runs, pd.DataFrame):
-        raise TypeError(f"runs must be a DataFrame, got {type(runs).__name__}")
-    missing = [c for c in _RUNS if c not in runs.columns]
-    if missing:
-        raise ValueError(f"runs lacks columns {missing}; needs {list(_RUNS)}")
-    if runs.empty:
-        raise ValueError("runs holds no row")
+    _check_frame(runs, "runs", _RUNS)
     level = _check_level("level", level)
     try:
         final = runs["final_f"].to_numpy(dtype=np.float64)

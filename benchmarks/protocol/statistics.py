@@ -62,6 +62,7 @@ import functools
 import itertools
 import math
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -100,15 +101,25 @@ _EXACT_MAX = 50
 _DRAWS = 4000
 
 
+def _check_frame(frame: Any, name: str, columns: Sequence[str]) -> None:
+    """Refuse ``frame`` (the argument ``name``) unless it is a DataFrame with rows and ``columns``.
+
+    Raises:
+        TypeError: not a DataFrame.
+        ValueError: a missing column (named, with all it needs), or no row.
+    """
+    if not isinstance(frame, pd.DataFrame):
+        raise TypeError(f"{name} must be a DataFrame, got {type(frame).__name__}")
+    missing = [c for c in columns if c not in frame.columns]
+    if missing:
+        raise ValueError(f"{name} lacks columns {missing}; needs {list(columns)}")
+    if frame.empty:
+        raise ValueError(f"{name} holds no row")
+
+
 def _check_scores(scores: pd.DataFrame) -> pd.DataFrame:
     """The rows of ``scores`` with a score (NaN: a missing run); infinite scores refused."""
-    if not isinstance(scores, pd.DataFrame):
-        raise TypeError(f"scores must be a DataFrame, got {type(scores).__name__}")
-    missing = [c for c in _SCORES if c not in scores.columns]
-    if missing:
-        raise ValueError(f"scores lacks columns {missing}; needs {list(_SCORES)}")
-    if scores.empty:
-        raise ValueError("scores holds no row")
+    _check_frame(scores, "scores", _SCORES)
     try:
         values = scores["score"].to_numpy(dtype=np.float64)
     except (TypeError, ValueError):
