@@ -50,6 +50,35 @@ def test_frame_after_a_step_draws_the_box_path_and_rollout_frames_differ(env, tm
         assert im.n_frames == 3 and im.size == (480, 360)
 
 
+DARK_GREEN = np.array([10, 80, 30])
+
+
+@pytest.mark.slow
+def test_a_rollout_frame_outlines_the_tasks_goal_range_when_asked():
+    env = ToolDesignEnv(task="hook", render_mode="rgb_array")
+    try:
+        env.reset(seed=0)
+        env.step([0.0, 0.0, 0.0])
+        plain = env.render_rollout(frames=2)[0]
+        outlined = env.render_rollout(frames=2, show_goal_range=True)[0]
+        assert _share_near(plain, DARK_GREEN, tol=2) == 0
+        assert _share_near(outlined, DARK_GREEN, tol=2) > 1e-4  # the outline is drawn
+        with pytest.raises(TypeError, match="show_goal_range must be True or False"):
+            env.render_rollout(frames=2, show_goal_range="yes")
+    finally:
+        env.close()
+
+
+def test_render_refuses_a_bad_region():
+    world = BulletWorld(render_mode="rgb_array")
+    try:
+        for bad in (((0, 0), (1,)), ((1.0, 0.0), (0.0, 1.0)), ((0, float("nan")), (1, 1))):
+            with pytest.raises(ValueError, match="region must be"):
+                world.render(region=bad)
+    finally:
+        world.close()
+
+
 @pytest.mark.slow
 def test_render_without_rgb_array_mode_returns_none():
     env = ToolDesignEnv()

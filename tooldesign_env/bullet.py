@@ -806,6 +806,7 @@ class BulletWorld:
         pitch: float = -50.0,
         goal: tuple[float, float, float] | None = None,
         path: np.ndarray | None = None,
+        region: tuple[tuple[float, float], tuple[float, float]] | None = None,
     ) -> np.ndarray:
         """An RGB frame (height, width, 3) uint8 from a fixed camera, rendered offscreen.
 
@@ -820,10 +821,12 @@ class BulletWorld:
             pitch: camera pitch, degrees.
             goal: draw a green sphere at this (x, y, z) in m (removed again after the frame).
             path: (T, 3) points in m (the box path), drawn as a blue line over the image.
+            region: ``((x_low, y_low), (x_high, y_high))`` in m, a rectangle on the floor (a
+                task's goal range), drawn as a dark green outline over the image.
 
         Raises:
-            ValueError: a size is not a positive int, or ``goal``/``path`` has the wrong shape
-                or non-finite values.
+            ValueError: a size is not a positive int, or ``goal``/``path``/``region`` has the
+                wrong shape or non-finite values, or ``region``'s low corner exceeds its high.
         """
         for name, value in (("width", width), ("height", height)):
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
@@ -836,6 +839,24 @@ class BulletWorld:
             path = np.asarray(path, dtype=float)
             if path.ndim != 2 or path.shape[1] != 3 or not np.all(np.isfinite(path)):
                 raise ValueError(f"path must be a finite (T, 3) array in m, got {path.shape}")
+        outline = None
+        if region is not None:
+            try:
+                corners = np.asarray(region, dtype=float)
+            except (TypeError, ValueError):
+                corners = np.full(1, np.nan)  # ragged or not numbers: refused below
+            if (
+                corners.shape != (2, 2)
+                or not np.all(np.isfinite(corners))
+                or np.any(corners[0] > corners[1])
+            ):
+                raise ValueError(
+                    "region must be ((x_low, y_low), (x_high, y_high)) in m, finite, low <= "
+                    f"high, got {region!r}"
+                )
+            (x0, y0), (x1, y1) = corners
+            ring = [(x0, y0), (x1, y0), (x1, y1), (x0, y1), (x0, y0)]
+            outline = np.array([(x, y, 0.002) for x, y in ring])  # just above the floor
         if not self.renderer:
             raise RuntimeError("this BulletWorld was made with renderer=False: it cannot render")
         c = self.client
@@ -858,6 +879,9 @@ class BulletWorld:
         frame = np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)[:, :, :3].copy()
         if path is not None and len(path) > 0:
             _draw_polyline(frame, _project(path, view, proj, width, height), (30, 80, 220))
+        if outline is not None:
+            # Darker than the green that benchmarks.design.video's goal finder looks for.
+            _draw_polyline(frame, _project(outline, view, proj, width, height), (10, 80, 30))
         return cast("np.ndarray", frame)
 
     def close(self) -> None:

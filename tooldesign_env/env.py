@@ -578,7 +578,9 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
         path = None if self._last_series is None else self._last_series["box_trajectory"]
         return self.simulator.world.render(goal=tuple(self._goal), path=path)
 
-    def render_rollout(self, *, frames: int = 40) -> list[np.ndarray]:
+    def render_rollout(
+        self, *, frames: int = 40, show_goal_range: bool = False
+    ) -> list[np.ndarray]:
         """Frames of the last step's rollout, replayed from its recorded joint and box positions.
 
         The replay is kinematic: the arm and the box are placed where they were at evenly
@@ -587,6 +589,8 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
 
         Args:
             frames: number of frames, >= 2.
+            show_goal_range: also outline the task's goal range (``goal_low`` to
+                ``goal_high`` in x and y) on the floor, in dark green.
 
         Returns:
             ``frames`` RGB arrays (360, 480, 3) uint8; a single frame of the start scene when the
@@ -598,6 +602,17 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
         """
         if isinstance(frames, bool) or not isinstance(frames, (int, np.integer)) or frames < 2:
             raise ValueError(f"frames must be an int >= 2, got {frames!r}")
+        if not isinstance(show_goal_range, (bool, np.bool_)):
+            raise TypeError(f"show_goal_range must be True or False, got {show_goal_range!r}")
+        definition = self.task_definition
+        region = (
+            (
+                (definition.goal_low[0], definition.goal_low[1]),
+                (definition.goal_high[0], definition.goal_high[1]),
+            )
+            if show_goal_range
+            else None
+        )
         if self.render_mode != "rgb_array":
             raise RuntimeError("render_rollout needs the env made with render_mode='rgb_array'")
         if self._last_series is None:
@@ -616,7 +631,7 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
         for k in np.unique(np.linspace(0, len(x) - 1, int(frames)).round().astype(int)):
             world.set_joint_positions(robot, q[k])
             world.place_body(box, tuple(x[k]))
-            out.append(world.render(goal=tuple(self._goal), path=x[: k + 1]))
+            out.append(world.render(goal=tuple(self._goal), path=x[: k + 1], region=region))
         return out
 
     def _show_start_scene(self) -> None:

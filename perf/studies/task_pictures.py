@@ -3,8 +3,9 @@
 For every task in ``--baselines`` (the JSON ``perf.studies.task_baselines --json`` writes), this
 renders headless (PyBullet's software renderer, as ``tooldesign design`` does):
 
-* ``<task>-scene.png``: the start scene, the box, the fixed obstacles (grey) and the goal (the
-  green sphere), from the env's camera (``ToolDesignEnv.render``);
+* ``<task>-scene.png``: the start scene: the arm holding the straight tool, the box, the fixed
+  obstacles (grey), the goal (the green sphere) and the task's goal range (outlined in dark
+  green), from the env's camera (``ToolDesignEnv.render_rollout``'s first frame);
 * ``<task>-best.gif``: the rollout of the CMA-ES design the baselines found, with the goal and
   the box path (``benchmarks.design.video.rollout_gif``, the GIF ``tooldesign design`` writes).
 
@@ -33,18 +34,28 @@ from tooldesign_env import ToolDesignEnv
 
 
 def scene_png(task: str, path: Path) -> None:
-    """Render the task's start scene with its goal, and write it as a PNG."""
+    """Render the task's start scene and write it as a PNG.
+
+    The first frame of the straight tool's rollout: the arm at its start pose holding the tool,
+    the box, the fixed obstacles (grey), the default goal (the green sphere, ringed) and the
+    task's goal range outlined on the floor in dark green, with a caption and a key.
+    """
+    import numpy as np
     from PIL import Image
 
-    env = ToolDesignEnv(task=task, render_mode="rgb_array")
+    from benchmarks.design.video import caption_frame
+
+    env = ToolDesignEnv(task=task, render_mode="rgb_array", info_series=True)
     try:
         env.reset(seed=0)
-        frame = env.render()
+        info = env.step(np.zeros(env.action_space.shape, dtype=np.float64))[4]
+        frame = env.render_rollout(frames=2, show_goal_range=True)[0]
     finally:
         env.close()
-    assert frame is not None
+    goal = tuple(float(v) for v in np.asarray(info["goal"], dtype=float))
+    caption = f"{task}: start, straight tool in hand; goal range outlined in dark green"
     buffer = io.BytesIO()
-    Image.fromarray(frame).save(buffer, format="PNG", optimize=True)
+    Image.fromarray(caption_frame(frame, caption, goal)).save(buffer, format="PNG", optimize=True)
     atomic_write_bytes(path, buffer.getvalue())
 
 
