@@ -510,7 +510,8 @@ def test_a_design_config_records_its_task_only_when_it_is_not_push():
     assert "task" not in dict(push.task().env_kwargs)
     hook = DesignConfig(task_name="hook", goal=get_task("hook").goal)
     assert hook.to_json()["task_name"] == "hook"
-    assert dict(hook.task().env_kwargs)["task"] == "hook"
+    # The definition itself, which the workers need not look up (review 43, item 1).
+    assert dict(hook.task().env_kwargs)["task"] is get_task("hook")
     assert "scene" not in dict(hook.task().env_kwargs)  # the task's own scene
     moved = DesignConfig(
         task_name="hook", goal=get_task("hook").goal, scene={"box_position": [-0.45, 1.2]}

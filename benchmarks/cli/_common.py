@@ -250,8 +250,10 @@ def add_task_name_argument(parser: argparse.ArgumentParser) -> None:
         default="push",
         metavar="NAME",
         help="the task (docs/tasks.md): push (the paper's, the default), hook, obstacle, puck, "
-        "or a registered one; it sets the scene, the plan, the fixed obstacles and the goal "
-        "range (without --goal, the task's default goal)",
+        "a task an installed package declares (entry-point group tooldesign.tasks), or "
+        "MODULE:ATTR naming a TaskDefinition (e.g. my_tasks:WALLED, importable from here); it "
+        "sets the scene, the plan, the fixed obstacles and the goal range (without --goal, "
+        "the task's default goal)",
     )
     parser.set_defaults(goal=None)
 
@@ -260,15 +262,16 @@ def task_goal(args: argparse.Namespace) -> tuple[float, float, float]:
     """``--goal``, or the default goal of ``--task`` when no goal was given.
 
     Raises:
-        ValueError: ``--task`` names no registered task (the message lists the known ones), or
-            the goal is outside the task's goal range.
+        ValueError: ``--task`` names no task (the message says what is allowed), or the goal
+            is outside the task's goal range.
+        TypeError: ``--task``'s ``MODULE:ATTR`` names something that is not a TaskDefinition.
     """
     from tooldesign_env.tasks import get_task
 
     try:
         definition = get_task(args.task)
-    except ValueError as error:
-        raise ValueError(f"--task: {error}") from None
+    except (TypeError, ValueError) as error:
+        raise type(error)(f"--task: {error}") from None
     if args.goal is None:
         return definition.goal
     if definition.accepts_any_goal:

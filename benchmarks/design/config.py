@@ -349,10 +349,13 @@ class DesignConfig(TaskConfig):
             once more alone first, so the others' designs are not failed with it.
         goal, goal_precision, box_mass, estimator, objective, scene_samples, bounds, scene,
             robustness_masses, section_shape: The task (see :class:`TaskConfig`).
-        task_name: The registered task (``tooldesign_env.tasks``, docs/tasks.md): ``"push"`` (the
-            paper's, the default) or another, e.g. ``"hook"``. It supplies the scene (which
-            ``scene`` overrides field by field), the plan, the obstacles and the goal range,
-            which ``goal`` must lie in. A suite has no such field: suites run the push task.
+        task_name: The task (``tooldesign_env.tasks.get_task``, docs/tasks.md): ``"push"`` (the
+            paper's, the default), another registered name, e.g. ``"hook"``, a
+            ``"module:ATTR"`` naming a ``TaskDefinition``, or an installed package's task (entry
+            point group ``tooldesign.tasks``). It supplies the scene (which ``scene`` overrides
+            field by field), the plan, the obstacles, the goal range, which ``goal`` must lie
+            in, and the default goal. The workers are sent the definition itself, so a task
+            registered in a function or a notebook runs in the process pool too.
     """
 
     optimizer: str = "cmaes"
@@ -419,11 +422,16 @@ class DesignConfig(TaskConfig):
         else:
             from tooldesign_env.tasks import get_task
 
-            extra["task"] = self.task_name
+            definition = get_task(self.task_name)
+            # The definition itself, not its name: the workers (forkserver processes, Dask)
+            # do not have this process's registry, so a task registered in a function, a
+            # notebook or under the main guard would be unknown there. It is frozen and pickles;
+            # the config keeps the name (its JSON and the run folder's manifest do not change).
+            extra["task"] = definition
             scene = self.task_scene()
             # The task's own scene is not stored (the env builds it): read the scene of a run
             # with TaskSettings.task_scene(), never env_kwargs' "scene" or SceneSpec().
-            scene = None if scene == get_task(self.task_name).scene else scene
+            scene = None if scene == definition.scene else scene
         if scene is not None:
             extra["scene"] = scene
         return TaskSettings(

@@ -124,8 +124,10 @@ def evaluate_coefficients(
             include it).
         video: also write ``rollout.gif``, the rollout rendered headless (valid designs only;
             about 20 s more).
-        task: the registered task (docs/tasks.md): its scene (which ``scene`` overrides field
-            by field), plan, obstacles and goal range. ``"push"`` is the paper's.
+        task: the task (docs/tasks.md): a registered name (``"push"``, the paper's), a
+            ``"module:ATTR"`` naming a ``TaskDefinition`` or an installed package's task (entry
+            point group ``tooldesign.tasks``): its scene (which ``scene`` overrides field by
+            field), plan, obstacles and goal range.
 
     Returns:
         The env's step ``info``.
@@ -192,7 +194,9 @@ def evaluate_coefficients(
         "tool": spec,
     }
     if definition.name != DEFAULT_TASK:
-        settings["task"] = definition.name
+        # The definition, not its name: a task given as "module:ATTR" or by an entry point is
+        # not in the registry the env looks names up in.
+        settings["task"] = definition
     if scene_override is not None:
         settings["scene"] = scene_override
     env = ToolDesignEnv(**settings, info_series=True)
