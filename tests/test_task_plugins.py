@@ -84,8 +84,9 @@ def test_the_adding_a_task_example_of_the_docs_runs_as_printed():
         assert gym.spec("ToolDesign-WalledHook-v0").kwargs == {"task": "walled-hook"}
         from benchmarks.design import DesignConfig
 
-        # Designable: a config of it (its scene, its default goal) is accepted.
-        DesignConfig(task_name="walled-hook", goal=walled.goal, executor="serial")
+        # Designable: a config of it (its default goal, its scene) is accepted.
+        config = DesignConfig(task_name="walled-hook", executor="serial")
+        assert config.goal == walled.goal == get_task("hook").goal
     finally:
         _forget("walled-hook")
 
@@ -109,7 +110,7 @@ def test_a_design_run_sends_the_workers_the_definition_and_stores_the_name():
     name = "walled-hook-sent"
     try:
         walled = _register_in_a_function(name)
-        config = DesignConfig(task_name=name, goal=walled.goal, executor="serial")
+        config = DesignConfig(task_name=name, executor="serial")
         assert dict(config.task().env_kwargs)["task"] is walled
         assert config.to_json()["task_name"] == name  # the folder records the name
         assert config.task().task_scene() == walled.scene
@@ -124,18 +125,12 @@ def test_a_task_registered_in_a_function_runs_in_the_process_pool(tmp_path: Path
 
     name = "walled-hook-pool"
     try:
-        walled = _register_in_a_function(name)
+        _register_in_a_function(name)
         with make_executor("process", 1) as pool:
             # The condition of the bug: the workers do not know the task by its name.
             assert name not in pool.submit(task_names).result()
         config = DesignConfig(
-            task_name=name,
-            goal=walled.goal,
-            seed=0,
-            iterations=1,
-            batch_size=2,
-            workers=1,
-            executor="process",
+            task_name=name, seed=0, iterations=1, batch_size=2, workers=1, executor="process"
         )
         result = run_design(config, tmp_path / "run", progress=False)
     finally:

@@ -523,7 +523,10 @@ def test_a_design_config_records_its_task_only_when_it_is_not_push():
     ("kwargs", "match"),
     [
         ({"task_name": "nope"}, "unknown task 'nope'; known tasks: push"),
-        ({"task_name": "hook"}, r"goal \[0.0, 1.5, 0.1\] is outside the hook task's goal range"),
+        (
+            {"task_name": "hook", "goal": (0.0, 1.5, 0.1)},
+            r"goal \[0.0, 1.5, 0.1\] is outside the hook task's goal range",
+        ),
         (
             {"task_name": "obstacle", "goal": (-0.25, 0.75, 0.1),
              "scene": {"box_position": [0.75, 1.3]}},  # on the curb

@@ -177,11 +177,14 @@ def add_task_arguments(
     Their defaults are :class:`TaskSettings`'; every command that evaluates designs takes the
     same options with the same meaning.
     """
+    from tooldesign_env.schema import DEFAULT_GOAL
+
     # The fields' defaults, not TaskSettings(): its checks import the simulation, which --help
-    # does not need.
+    # does not need. Its goal's default is None (the task's goal): push's is DEFAULT_GOAL.
     defaults = argparse.Namespace(
         **{name: f.default for name, f in TaskSettings.__dataclass_fields__.items()}
     )
+    defaults.goal = DEFAULT_GOAL
     parser.add_argument(
         "--goal",
         type=float,

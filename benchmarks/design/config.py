@@ -22,7 +22,6 @@ from benchmarks.execution import (
 )
 from tooldesign_env.schema import (
     DEFAULT_BOX_MASS,
-    DEFAULT_GOAL,
     DEFAULT_GOAL_PRECISION,
     ROBUSTNESS_MASSES,
 )
@@ -239,7 +238,9 @@ class TaskConfig:
     the flat field names below.
 
     Attributes:
-        goal: X^g, (x, y, z) in m (a suite with ``goal_box`` draws one per task instead).
+        goal: X^g, (x, y, z) in m (a suite with ``goal_box`` draws one per task instead);
+            ``None`` (the default) is the task's default goal (``TaskDefinition.goal``: the
+            paper's (0, 1.5, 0.1) for push), stored as that goal.
         goal_precision: p^X in 1/m^2, >= 0 (the paper's Figure 3 uses 40, its comparisons 20).
         box_mass: Box mass in kg (the paper's 0.1).
         estimator: ``"contact"``, ``"trajectory"`` or ``"resimulation"`` estimate of dX/dU.
@@ -261,7 +262,9 @@ class TaskConfig:
             ``"square"``.
     """
 
-    goal: Sequence[float] = DEFAULT_GOAL
+    # None, the default, becomes the task's default goal on construction: a config always holds
+    # three floats, so the field is typed as what it holds (DesignConfig(goal=None) is allowed).
+    goal: Sequence[float] = None  # type: ignore[assignment]
     goal_precision: float = DEFAULT_GOAL_PRECISION
     box_mass: float = DEFAULT_BOX_MASS
     estimator: str = "contact"
@@ -280,9 +283,17 @@ class TaskConfig:
         object.__setattr__(
             self, "scene_samples", _int("scene_samples", self.scene_samples, 1, SCENE_SAMPLES_MAX)
         )
+        goal = self.goal
+        if goal is None:
+            # The task's own default goal: a hook run without a goal must not be refused for
+            # push's (0, 1.5, 0.1), a goal the user never gave. Push's is DEFAULT_GOAL to the
+            # bit, so a push config stores what it always did. A plain TaskConfig is push's.
+            from tooldesign_env.tasks import get_task
+
+            goal = get_task(getattr(self, "task_name", "push")).goal
         # TaskSettings checks goal, precision, mass and estimator and says what is wrong.
         task = TaskSettings(
-            goal=self.goal,
+            goal=goal,
             goal_precision=self.goal_precision,
             box_mass=self.box_mass,
             estimator=self.estimator,
