@@ -465,7 +465,8 @@ def _tooldesign(*argv: str) -> subprocess.CompletedProcess[str]:
     ("argv", "message"),
     [
         (["--task", "pushh"], "--task: unknown task 'pushh'; known tasks: push, hook"),
-        (["--task", "hook", "--goal", "0", "1.5", "0.1"], "outside the hook task's goal range"),
+        (["--task", "hook", "--goal", "0", "1.5", "0.1"], "--goal x must be a finite number in "
+         "[-0.6, -0.4] m (the hook task's goal range"),
     ],
 )
 @pytest.mark.parametrize("command", ["design", "evaluate"])

@@ -152,8 +152,9 @@ def evaluate_coefficients(
         goal = definition.goal
     elif not definition.accepts_any_goal:
         goal = definition.check_goal(goal, "goal")
-    # else push's goal goes to the env unchecked, as before tasks existed (and as the command
-    # line's, f5be0fc): a bad one is refused in the words it always was (TaskSpec.goal ...).
+    # else push's goal goes to the env unchecked, as before tasks existed: the API refuses a bad
+    # one in the words it always was (TaskSpec.goal ...). The command line checks --goal itself,
+    # for every task in the same words (benchmarks.cli._common.check_goal_flag).
     if definition.name == DEFAULT_TASK:
         scene_override = scene_spec(scene_pairs)
     else:
