@@ -155,9 +155,9 @@ def test_design_refuses_an_empty_optimizer_name(tmp_path, capsys):
 @pytest.mark.parametrize(
     ("flags", "message"),
     [
-        (["--goal", "nan", "1", "0.1"], "goal must be finite, got nan"),
-        (["--goal", "inf", "1", "0.1"], "goal must be finite, got inf"),
-        (["--box-mass", "nan"], "box_mass must be finite"),
+        (["--goal", "nan", "1", "0.1"], "--goal x must be a finite number in [-2.5, 2.5] m"),
+        (["--goal", "inf", "1", "0.1"], "--goal x must be a finite number in [-2.5, 2.5] m"),
+        (["--box-mass", "nan"], "--box-mass must be a finite mass in kg, > 0 and <= 1000"),
     ],
 )
 def test_design_with_a_policy_names_a_bad_goal_or_mass_as_without(

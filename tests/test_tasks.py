@@ -465,7 +465,8 @@ def _tooldesign(*argv: str) -> subprocess.CompletedProcess[str]:
     ("argv", "message"),
     [
         (["--task", "pushh"], "--task: unknown task 'pushh'; known tasks: push, hook"),
-        (["--task", "hook", "--goal", "0", "1.5", "0.1"], "outside the hook task's goal range"),
+        (["--task", "hook", "--goal", "0", "1.5", "0.1"], "--goal x must be a finite number in "
+         "[-0.6, -0.4] m (the hook task's goal range"),
     ],
 )
 @pytest.mark.parametrize("command", ["design", "evaluate"])
@@ -510,7 +511,8 @@ def test_a_design_config_records_its_task_only_when_it_is_not_push():
     assert "task" not in dict(push.task().env_kwargs)
     hook = DesignConfig(task_name="hook", goal=get_task("hook").goal)
     assert hook.to_json()["task_name"] == "hook"
-    assert dict(hook.task().env_kwargs)["task"] == "hook"
+    # The definition itself, which the workers need not look up (review 43, item 1).
+    assert dict(hook.task().env_kwargs)["task"] is get_task("hook")
     assert "scene" not in dict(hook.task().env_kwargs)  # the task's own scene
     moved = DesignConfig(
         task_name="hook", goal=get_task("hook").goal, scene={"box_position": [-0.45, 1.2]}
@@ -522,7 +524,10 @@ def test_a_design_config_records_its_task_only_when_it_is_not_push():
     ("kwargs", "match"),
     [
         ({"task_name": "nope"}, "unknown task 'nope'; known tasks: push"),
-        ({"task_name": "hook"}, r"goal \[0.0, 1.5, 0.1\] is outside the hook task's goal range"),
+        (
+            {"task_name": "hook", "goal": (0.0, 1.5, 0.1)},
+            r"goal \[0.0, 1.5, 0.1\] is outside the hook task's goal range",
+        ),
         (
             {"task_name": "obstacle", "goal": (-0.25, 0.75, 0.1),
              "scene": {"box_position": [0.75, 1.3]}},  # on the curb

@@ -177,11 +177,14 @@ def add_task_arguments(
     Their defaults are :class:`TaskSettings`'; every command that evaluates designs takes the
     same options with the same meaning.
     """
+    from tooldesign_env.schema import DEFAULT_GOAL
+
     # The fields' defaults, not TaskSettings(): its checks import the simulation, which --help
-    # does not need.
+    # does not need. Its goal's default is None (the task's goal): push's is DEFAULT_GOAL.
     defaults = argparse.Namespace(
         **{name: f.default for name, f in TaskSettings.__dataclass_fields__.items()}
     )
+    defaults.goal = DEFAULT_GOAL
     parser.add_argument(
         "--goal",
         type=float,
@@ -250,8 +253,10 @@ def add_task_name_argument(parser: argparse.ArgumentParser) -> None:
         default="push",
         metavar="NAME",
         help="the task (docs/tasks.md): push (the paper's, the default), hook, obstacle, puck, "
-        "or a registered one; it sets the scene, the plan, the fixed obstacles and the goal "
-        "range (without --goal, the task's default goal)",
+        "a task an installed package declares (entry-point group tooldesign.tasks), or "
+        "MODULE:ATTR naming a TaskDefinition (e.g. my_tasks:WALLED, importable from here); it "
+        "sets the scene, the plan, the fixed obstacles and the goal range (without --goal, "
+        "the task's default goal)",
     )
     parser.set_defaults(goal=None)
 
@@ -259,23 +264,68 @@ def add_task_name_argument(parser: argparse.ArgumentParser) -> None:
 def task_goal(args: argparse.Namespace) -> tuple[float, float, float]:
     """``--goal``, or the default goal of ``--task`` when no goal was given.
 
+    The one check of ``--goal`` of every command that takes ``--task``: each coordinate must
+    be a finite number in the task's goal range (push: anywhere in the workspace).
+
     Raises:
-        ValueError: ``--task`` names no registered task (the message lists the known ones), or
-            the goal is outside the task's goal range.
+        ValueError: ``--task`` names no task (the message says what is allowed), or a
+            coordinate of ``--goal`` is not finite or outside the range (the message names
+            the coordinate and the range).
+        TypeError: ``--task``'s ``MODULE:ATTR`` names something that is not a TaskDefinition.
     """
     from tooldesign_env.tasks import get_task
 
     try:
         definition = get_task(args.task)
-    except ValueError as error:
-        raise ValueError(f"--task: {error}") from None
+    except (TypeError, ValueError) as error:
+        raise type(error)(f"--task: {error}") from None
     if args.goal is None:
         return definition.goal
+    return check_goal_flag(args.goal, definition)
+
+
+def check_goal_flag(goal: Sequence[float], definition: Any) -> tuple[float, float, float]:
+    """``--goal`` (x, y, z) as floats if ``definition`` (a TaskDefinition) takes it.
+
+    Raises:
+        ValueError: in one line naming ``--goal``, the coordinate, the range allowed (the
+            task's goal range, or the workspace for a task that accepts any goal) and the value.
+    """
+    from tooldesign_env.specs import WORKSPACE_HALF_WIDTH, WORKSPACE_HEIGHT
+
     if definition.accepts_any_goal:
-        # As before tasks existed: the goal is checked where it is used, in the same words.
-        x, y, z = args.goal
-        return (x, y, z)
-    return definition.check_goal(tuple(args.goal), "--goal")
+        low = (-WORKSPACE_HALF_WIDTH, -WORKSPACE_HALF_WIDTH, 0.0)
+        high = (WORKSPACE_HALF_WIDTH, WORKSPACE_HALF_WIDTH, WORKSPACE_HEIGHT)
+        where, slack = f"the {definition.name} task takes any goal in the workspace", 0.0
+    else:
+        low, high = definition.goal_low, definition.goal_high
+        # TaskDefinition.check_goal's allowance: a range's edge typed in decimal is taken.
+        where, slack = f"the {definition.name} task's goal range", 1e-12
+    (x0, y0, z0), (x1, y1, z1) = low, high
+    ranges = f"x in [{x0:g}, {x1:g}], y in [{y0:g}, {y1:g}], z in [{z0:g}, {z1:g}] m"
+    values = [float(v) for v in goal]
+    for axis, value, lo, hi in zip("xyz", values, low, high, strict=True):
+        if not (math.isfinite(value) and lo - slack <= value <= hi + slack):
+            allowed = f"{lo:g} m" if lo == hi else f"a finite number in [{lo:g}, {hi:g}] m"
+            raise ValueError(f"--goal {axis} must be {allowed} ({where}: {ranges}), got {value!r}")
+    x, y, z = values
+    return (x, y, z)
+
+
+def box_mass_flag(args: argparse.Namespace) -> float:
+    """``--box-mass`` if it is a mass the env takes: the one check of every command.
+
+    Raises:
+        ValueError: in one line naming ``--box-mass``, what is allowed and the value.
+    """
+    from tooldesign_env.specs import BOX_MASS_MAX
+
+    mass = float(args.box_mass)
+    if not (math.isfinite(mass) and 0.0 < mass <= BOX_MASS_MAX):
+        raise ValueError(
+            f"--box-mass must be a finite mass in kg, > 0 and <= {BOX_MASS_MAX:g}, got {mass!r}"
+        )
+    return mass
 
 
 def check_out_folder(out: Path, *, empty: bool = False) -> None:

@@ -12,6 +12,7 @@ from benchmarks.cli._common import (
     add_max_retries_argument,
     add_task_arguments,
     add_task_name_argument,
+    box_mass_flag,
     check_out_folder,
     out_path,
     task_goal,
@@ -218,7 +219,7 @@ def _designer(args: argparse.Namespace) -> dict[str, Any]:
         )
     # The task is checked before the designer's settings hold its goal and mass: a NaN there
     # is refused as "goal must be finite", as without --policy, not as a bad JSON value.
-    task = TaskSettings(goal=task_goal(args), box_mass=args.box_mass)
+    task = TaskSettings(goal=task_goal(args), box_mass=box_mass_flag(args))
     from benchmarks.rl.designer import POLICY_DESIGNER
     from benchmarks.rl.policies import policy_digest
 
@@ -324,7 +325,7 @@ def config_from_args(args: argparse.Namespace) -> DesignConfig:
         max_retries=args.max_retries,
         goal=task_goal(args),
         goal_precision=args.goal_precision,
-        box_mass=args.box_mass,
+        box_mass=box_mass_flag(args),
         estimator=args.estimator,
         objective=args.objective,
         scene_samples=args.scene_samples,

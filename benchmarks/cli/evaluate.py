@@ -9,6 +9,7 @@ from typing import Any
 from benchmarks.cli._common import (
     add_task_arguments,
     add_task_name_argument,
+    box_mass_flag,
     check_in_default_bounds,
     check_out_folder,
     out_path,
@@ -64,6 +65,7 @@ def _run(args: argparse.Namespace) -> int:
     # imported (seconds on a busy machine); the library checks everything again.
     check_out_folder(args.out, empty=True)
     goal = task_goal(args)  # an unknown task, or a goal outside its range: refused now
+    box_mass = box_mass_flag(args)  # in the words of tooldesign design's
     if not args.outside_bounds:
         check_in_default_bounds(args.coeffs)
     import numpy as np
@@ -76,7 +78,7 @@ def _run(args: argparse.Namespace) -> int:
         args.out,
         goal=goal,
         goal_precision=args.goal_precision,
-        box_mass=args.box_mass,
+        box_mass=box_mass,
         estimator=args.estimator,
         objective=args.objective,
         scene_samples=args.scene_samples,

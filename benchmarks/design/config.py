@@ -22,7 +22,6 @@ from benchmarks.execution import (
 )
 from tooldesign_env.schema import (
     DEFAULT_BOX_MASS,
-    DEFAULT_GOAL,
     DEFAULT_GOAL_PRECISION,
     ROBUSTNESS_MASSES,
 )
@@ -239,7 +238,9 @@ class TaskConfig:
     the flat field names below.
 
     Attributes:
-        goal: X^g, (x, y, z) in m (a suite with ``goal_box`` draws one per task instead).
+        goal: X^g, (x, y, z) in m (a suite with ``goal_box`` draws one per task instead);
+            ``None`` (the default) is the task's default goal (``TaskDefinition.goal``: the
+            paper's (0, 1.5, 0.1) for push), stored as that goal.
         goal_precision: p^X in 1/m^2, >= 0 (the paper's Figure 3 uses 40, its comparisons 20).
         box_mass: Box mass in kg (the paper's 0.1).
         estimator: ``"contact"``, ``"trajectory"`` or ``"resimulation"`` estimate of dX/dU.
@@ -261,7 +262,9 @@ class TaskConfig:
             ``"square"``.
     """
 
-    goal: Sequence[float] = DEFAULT_GOAL
+    # None, the default, becomes the task's default goal on construction: a config always holds
+    # three floats, so the field is typed as what it holds (DesignConfig(goal=None) is allowed).
+    goal: Sequence[float] = None  # type: ignore[assignment]
     goal_precision: float = DEFAULT_GOAL_PRECISION
     box_mass: float = DEFAULT_BOX_MASS
     estimator: str = "contact"
@@ -280,9 +283,17 @@ class TaskConfig:
         object.__setattr__(
             self, "scene_samples", _int("scene_samples", self.scene_samples, 1, SCENE_SAMPLES_MAX)
         )
+        goal = self.goal
+        if goal is None:
+            # The task's own default goal: a hook run without a goal must not be refused for
+            # push's (0, 1.5, 0.1), a goal the user never gave. Push's is DEFAULT_GOAL to the
+            # bit, so a push config stores what it always did. A plain TaskConfig is push's.
+            from tooldesign_env.tasks import get_task
+
+            goal = get_task(getattr(self, "task_name", "push")).goal
         # TaskSettings checks goal, precision, mass and estimator and says what is wrong.
         task = TaskSettings(
-            goal=self.goal,
+            goal=goal,
             goal_precision=self.goal_precision,
             box_mass=self.box_mass,
             estimator=self.estimator,
@@ -349,10 +360,13 @@ class DesignConfig(TaskConfig):
             once more alone first, so the others' designs are not failed with it.
         goal, goal_precision, box_mass, estimator, objective, scene_samples, bounds, scene,
             robustness_masses, section_shape: The task (see :class:`TaskConfig`).
-        task_name: The registered task (``tooldesign_env.tasks``, docs/tasks.md): ``"push"`` (the
-            paper's, the default) or another, e.g. ``"hook"``. It supplies the scene (which
-            ``scene`` overrides field by field), the plan, the obstacles and the goal range,
-            which ``goal`` must lie in. A suite has no such field: suites run the push task.
+        task_name: The task (``tooldesign_env.tasks.get_task``, docs/tasks.md): ``"push"`` (the
+            paper's, the default), another registered name, e.g. ``"hook"``, a
+            ``"module:ATTR"`` naming a ``TaskDefinition``, or an installed package's task (entry
+            point group ``tooldesign.tasks``). It supplies the scene (which ``scene`` overrides
+            field by field), the plan, the obstacles, the goal range, which ``goal`` must lie
+            in, and the default goal. The workers are sent the definition itself, so a task
+            registered in a function or a notebook runs in the process pool too.
     """
 
     optimizer: str = "cmaes"
@@ -419,11 +433,16 @@ class DesignConfig(TaskConfig):
         else:
             from tooldesign_env.tasks import get_task
 
-            extra["task"] = self.task_name
+            definition = get_task(self.task_name)
+            # The definition itself, not its name: the workers (forkserver processes, Dask)
+            # do not have this process's registry, so a task registered in a function, a
+            # notebook or under the main guard would be unknown there. It is frozen and pickles;
+            # the config keeps the name (its JSON and the run folder's manifest do not change).
+            extra["task"] = definition
             scene = self.task_scene()
             # The task's own scene is not stored (the env builds it): read the scene of a run
             # with TaskSettings.task_scene(), never env_kwargs' "scene" or SceneSpec().
-            scene = None if scene == get_task(self.task_name).scene else scene
+            scene = None if scene == definition.scene else scene
         if scene is not None:
             extra["scene"] = scene
         return TaskSettings(

@@ -124,8 +124,10 @@ def evaluate_coefficients(
             include it).
         video: also write ``rollout.gif``, the rollout rendered headless (valid designs only;
             about 20 s more).
-        task: the registered task (docs/tasks.md): its scene (which ``scene`` overrides field
-            by field), plan, obstacles and goal range. ``"push"`` is the paper's.
+        task: the task (docs/tasks.md): a registered name (``"push"``, the paper's), a
+            ``"module:ATTR"`` naming a ``TaskDefinition`` or an installed package's task (entry
+            point group ``tooldesign.tasks``): its scene (which ``scene`` overrides field by
+            field), plan, obstacles and goal range.
 
     Returns:
         The env's step ``info``.
@@ -150,8 +152,9 @@ def evaluate_coefficients(
         goal = definition.goal
     elif not definition.accepts_any_goal:
         goal = definition.check_goal(goal, "goal")
-    # else push's goal goes to the env unchecked, as before tasks existed (and as the command
-    # line's, f5be0fc): a bad one is refused in the words it always was (TaskSpec.goal ...).
+    # else push's goal goes to the env unchecked, as before tasks existed: the API refuses a bad
+    # one in the words it always was (TaskSpec.goal ...). The command line checks --goal itself,
+    # for every task in the same words (benchmarks.cli._common.check_goal_flag).
     if definition.name == DEFAULT_TASK:
         scene_override = scene_spec(scene_pairs)
     else:
@@ -192,7 +195,9 @@ def evaluate_coefficients(
         "tool": spec,
     }
     if definition.name != DEFAULT_TASK:
-        settings["task"] = definition.name
+        # The definition, not its name: a task given as "module:ATTR" or by an entry point is
+        # not in the registry the env looks names up in.
+        settings["task"] = definition
     if scene_override is not None:
         settings["scene"] = scene_override
     env = ToolDesignEnv(**settings, info_series=True)

@@ -67,13 +67,30 @@ def _finite(name: str, value: Any) -> float:
     return number
 
 
+def _default_goal(env_kwargs: Any) -> tuple[float, float, float]:
+    """The default goal of ``env_kwargs``' ``task``: push's (DEFAULT_GOAL) without one.
+
+    Malformed ``env_kwargs`` give push's; TaskSettings then refuses them in their own words.
+    """
+    try:
+        task = dict(env_kwargs).get("task")
+    except (TypeError, ValueError):
+        task = None
+    if task is None:
+        return DEFAULT_GOAL
+    from tooldesign_env.tasks import get_task
+
+    return get_task(task).goal
+
+
 @dataclass(frozen=True, kw_only=True)
 class TaskSettings:
     """The task a design is scored on, and the env settings it is scored with.
 
     Attributes:
         goal: Goal position X^g, (x, y, z) in m, in the env's workspace (x, y in [-2.5, 2.5],
-            z in [0, 1]); stored as a tuple of floats.
+            z in [0, 1]); stored as a tuple of floats. ``None`` (the default) is the default
+            goal of ``env_kwargs``' ``task`` (push's (0, 1.5, 0.1) without one).
         goal_precision: p^X, weight of the squared goal error in F, 1/m^2, >= 0.
         box_mass: Mass of the box in kg, > 0.
         estimator: How dX/dU is estimated: ``"contact"``, ``"trajectory"`` or
@@ -85,7 +102,9 @@ class TaskSettings:
             and picklable (the frozen specs are). A mapping is accepted and sorted.
     """
 
-    goal: Sequence[float] = DEFAULT_GOAL
+    # None, the default, becomes the task's default goal on construction: the settings always
+    # hold three floats, so the field is typed as what it holds.
+    goal: Sequence[float] = None  # type: ignore[assignment]
     goal_precision: float = DEFAULT_GOAL_PRECISION
     box_mass: float = DEFAULT_BOX_MASS
     estimator: str = "contact"
@@ -94,6 +113,8 @@ class TaskSettings:
 
     def __post_init__(self) -> None:
         goal = self.goal
+        if goal is None:
+            goal = _default_goal(self.env_kwargs)
         if isinstance(goal, (str, bytes)) or not isinstance(goal, (Sequence, np.ndarray)):
             raise TypeError(f"goal must be 3 numbers (x, y, z) in m, got {goal!r}")
         if len(goal) != 3:

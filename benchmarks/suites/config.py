@@ -373,7 +373,8 @@ class SuiteConfig(TaskConfig):
         name: Suite name (the log's ``suite`` column), e.g. ``"optimizers"``.
         description: One line saying what the suite shows.
         env_id: The Gymnasium env the designs are scored with (see :data:`ENV_IDS`).
-        goal: X^g, (x, y, z) in m, used when ``goal_box`` is ``None``.
+        goal: X^g, (x, y, z) in m, used when ``goal_box`` is ``None``; ``None`` (the default)
+            is the task's default goal (push's (0, 1.5, 0.1)).
         goal_box: ``((x_lo, x_hi), (y_lo, y_hi), (z_lo, z_hi))`` in m: draw each task's goal
             uniformly in this box from the task's seed; ``None`` uses ``goal`` for every task.
         goal_precision: p^X in 1/m^2 of variants that do not set their own.

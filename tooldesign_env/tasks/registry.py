@@ -2,13 +2,25 @@
 
 A task is registered as the definition itself or as a ``"module:attribute"`` string imported on
 first use (as Gymnasium's entry points are), so that the names are known without building any
-definition. A fourth task is one module that defines a ``TaskDefinition`` and one
+definition. A fifth task is one module that defines a ``TaskDefinition`` and one
 :func:`register_task` call (docs/tasks.md, "Adding a task").
+
+:func:`get_task` resolves a task as the optimizers' registry resolves an optimizer:
+
+1. a name given to :func:`register_task` (the built-ins are registered this way);
+2. a ``"module:ATTR"`` string naming a ``TaskDefinition`` (imported, not registered);
+3. an entry point of the group ``tooldesign.tasks`` of an installed package, loaded only when
+   asked for (its name must be the definition's).
+
+The last two reach a task from the command line (``--task``) and from a process that never ran
+the ``register_task`` call; :func:`task_names` lists the registered tasks only.
 """
 
 from __future__ import annotations
 
 import importlib
+import importlib.metadata
+import re
 from typing import Any
 
 from tooldesign_env.tasks.base import TaskDefinition
@@ -16,6 +28,7 @@ from tooldesign_env.tasks.base import TaskDefinition
 __all__ = [
     "BUILTIN_TASKS",
     "DEFAULT_TASK",
+    "ENTRY_POINT_GROUP",
     "env_ids",
     "get_task",
     "register_task",
@@ -25,6 +38,12 @@ __all__ = [
 
 #: The task ``ToolDesign-v0`` is: the paper's push.
 DEFAULT_TASK = "push"
+
+#: The entry-point group an installed package declares its tasks in (``name = "module:ATTR"``).
+ENTRY_POINT_GROUP = "tooldesign.tasks"
+
+#: A ``"module:ATTR"`` string, as the optimizers' ``"module:Class"``.
+_SPEC = re.compile(r"^[A-Za-z_][\w.]*:[A-Za-z_][\w.]*$")
 
 _TASKS: dict[str, TaskDefinition | str] = {}
 
@@ -43,8 +62,17 @@ def register_task(name: str, definition: TaskDefinition | str) -> None:
             (``walled-hook`` and ``walled_hook`` would both be ``ToolDesign-WalledHook-v0``).
         TypeError: ``definition`` is neither a TaskDefinition nor a ``"module:attribute"``.
     """
-    if not isinstance(name, str) or not name.strip() or name != name.strip() or " " in name:
-        raise ValueError(f"a task name must be a non-empty word without spaces, got {name!r}")
+    if (
+        not isinstance(name, str)
+        or not name.strip()
+        or name != name.strip()
+        or " " in name
+        or ":" in name
+    ):
+        # ":" marks a "module:ATTR" string, which get_task imports instead of looking up.
+        raise ValueError(
+            f"a task name must be a non-empty word without spaces or ':', got {name!r}"
+        )
     if isinstance(definition, TaskDefinition):
         if definition.name != name:
             raise ValueError(
@@ -71,8 +99,7 @@ def register_task(name: str, definition: TaskDefinition | str) -> None:
 
 
 def _is_entry_point(text: str) -> bool:
-    module, _, attribute = text.partition(":")
-    return bool(module) and bool(attribute) and " " not in text
+    return bool(_SPEC.match(text))
 
 
 def unregister_task(name: str) -> None:
@@ -102,35 +129,93 @@ def task_names() -> tuple[str, ...]:
     return tuple(_TASKS)
 
 
+def _entry_points() -> dict[str, importlib.metadata.EntryPoint]:
+    """Installed packages' tasks by name; nothing is imported."""
+    return {ep.name: ep for ep in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP)}
+
+
+def _allowed() -> str:
+    """What a task may be given as, for the messages: ``known tasks: push, ... (or ...)``."""
+    plugins = sorted(set(_entry_points()) - set(_TASKS))
+    return (
+        f"known tasks: {', '.join([*_TASKS, *plugins])} (or a 'module:ATTR' naming a "
+        f"TaskDefinition, or a task an installed package declares in the entry-point group "
+        f"{ENTRY_POINT_GROUP!r})"
+    )
+
+
+def _import_definition(spec: str, origin: str) -> Any:
+    """The object ``"module:ATTR"`` names; a ValueError naming ``origin`` if there is none."""
+    module_name, _, attribute = spec.partition(":")
+    try:
+        value: Any = importlib.import_module(module_name)
+    except ImportError as error:
+        raise ValueError(
+            f"{origin}: cannot import module {module_name!r} ({error}); {_allowed()}"
+        ) from None
+    for part in attribute.split("."):
+        try:
+            value = getattr(value, part)
+        except AttributeError:
+            raise ValueError(
+                f"{origin}: module {module_name!r} has no {attribute!r}; {_allowed()}"
+            ) from None
+    return value
+
+
+def _definition(value: Any, origin: str, name: str | None = None) -> TaskDefinition:
+    """``value`` if it is a TaskDefinition (named ``name`` when given), else a TypeError."""
+    if not isinstance(value, TaskDefinition):
+        shown = repr(value)
+        shown = shown if len(shown) <= 60 else shown[:57] + "..."
+        raise TypeError(
+            f"{origin} names {type(value).__name__} {shown}, not a "
+            "tooldesign_env.tasks.TaskDefinition (the only thing a task may be)"
+        )
+    if name is not None and value.name != name:
+        raise TypeError(f"{origin} is the task {value.name!r}, not one named {name!r}")
+    return value
+
+
 def get_task(task: Any) -> TaskDefinition:
-    """The definition of ``task``: a registered name, or a ``TaskDefinition`` itself.
+    """The definition of ``task``: a name, a ``"module:ATTR"``, or a ``TaskDefinition`` itself.
+
+    A name is looked up among the registered tasks, then among the entry points of the group
+    :data:`ENTRY_POINT_GROUP` (loaded, never registered); a ``"module:ATTR"`` is imported.
 
     Raises:
-        ValueError: no task has that name (the message lists the known ones).
-        TypeError: neither a name nor a definition.
+        ValueError: no task has that name, or the module or attribute of a ``"module:ATTR"``
+            does not exist (the message lists what is allowed).
+        TypeError: neither a str nor a definition, or what a ``"module:ATTR"`` or an entry
+            point names is not a TaskDefinition (of that name, for an entry point).
     """
     if isinstance(task, TaskDefinition):
         return task
     if not isinstance(task, str):
         raise TypeError(
-            f"task must be a task name ({', '.join(_TASKS)}) or a TaskDefinition, got "
-            f"{type(task).__name__} {task!r}"
+            f"task must be a task name ({', '.join(_TASKS)}), a 'module:ATTR' or a "
+            f"TaskDefinition, got {type(task).__name__} {task!r}"
         )
-    try:
-        entry = _TASKS[task]
-    except KeyError:
-        raise ValueError(f"unknown task {task!r}; known tasks: {', '.join(_TASKS)}") from None
+    entry = _TASKS.get(task)
+    if isinstance(entry, TaskDefinition):
+        return entry
     if isinstance(entry, str):
-        module, _, attribute = entry.partition(":")
-        value: Any = importlib.import_module(module)
-        for part in attribute.split("."):
-            value = getattr(value, part)
-        if not isinstance(value, TaskDefinition) or value.name != task:
-            raise TypeError(
-                f"the task {task!r} ({entry}) is not a TaskDefinition named {task!r}: {value!r}"
-            )
-        _TASKS[task] = entry = value
-    return entry
+        value = _import_definition(entry, f"the task {task!r} ({entry})")
+        _TASKS[task] = entry = _definition(value, f"the task {task!r} ({entry})", task)
+        return entry
+    if ":" in task:
+        if not _SPEC.match(task):
+            raise ValueError(f"unknown task {task!r}; {_allowed()}")
+        return _definition(_import_definition(task, f"task {task!r}"), f"task {task!r}")
+    plugin = _entry_points().get(task)
+    if plugin is not None:
+        origin = f"the task {task!r} of entry point {plugin.value!r} ({ENTRY_POINT_GROUP})"
+        try:
+            value = plugin.load()
+        except ImportError as error:
+            raise ValueError(f"{origin} cannot be loaded: {error}") from None
+        return _definition(value, origin, task)
+    raise ValueError(f"unknown task {task!r}; {_allowed()}")
 
 
 #: The built-in tasks and the modules that define them.
