@@ -238,6 +238,7 @@ def measure(name: str, inputs: dict[str, Any], executor: Any, *, moved: float = 
         limit: Measure only the first ``limit`` candidates (tests).
     """
     from benchmarks.execution import evaluate_batch
+    from benchmarks.storage import platform_id
     from benchmarks.suites.retest import RetestConfig
 
     if not (math.isfinite(moved) and moved > 0):
@@ -291,6 +292,7 @@ def measure(name: str, inputs: dict[str, Any], executor: Any, *, moved: float = 
         same = all(c["free_energy"] == r["free_energy"] for c, r in again) if again else None
     result: dict[str, Any] = {
         "task": name,
+        "platform": platform_id(),
         "moved_threshold": moved,
         "nudges": nudges,
         "span_quantile": quantile,
@@ -334,6 +336,7 @@ def report(result: dict[str, Any]) -> list[str]:
     s, old, mov, gap = result["span"], result["old_set"], result["moving"], result["gap"]
     lines = [
         f"## {result['task']}",
+        f"platform: {result['platform']}",
         f"span: F quantile {result['span_quantile']:g} of the random designs {s['typical']:.1f} "
         f"- best F known {s['best_known']:.1f} = {s['span']:.1f}",
         f"old set ({old['designs']} designs: straight + first {old['designs'] - 1} usable random;"
@@ -351,6 +354,7 @@ def report(result: dict[str, Any]) -> list[str]:
         lines.append(
             f"box-moving designs ({mov['designs']} of {len(pool)} candidates move the box > "
             f"{result['moved_threshold']:g} m, {mov['succeeding']} of them succeed; "
+            f"{sum(c['status'] != 'ok' for c in pool)} unusable; "
             f"{n_moving - mov['designs']} invalid in a nudged scene) x {result['nudges']} "
             f"scenes: median range {mov['median_range']:.1f} "
             f"(max {mov['max_range']:.1f}); of |F| median {_pct(mov['median_relative_range'])} "
