@@ -37,8 +37,8 @@ with the default nudges their F must equal noise-floor.json's to the bit (checke
 
 Run: ``python -m perf.studies.task_floor [--task hook ...] [--moved 0.05] [--nudges 5]
 [--span-quantile 0.5] [--workers 1] [--json FILE]``. Output: docs/results/tasks/floor-moving.json
-and floor-moving-output.txt (docs/tasks.md). About 60 to 120 rollouts a task (one per candidate,
-``--nudges`` - 1 more per box-moving one), 0.05 to 0.3 s of CPU each.
+and floor-moving-output.txt (docs/tasks.md). 81 to 121 rollouts a task with the defaults, 377 for
+the four (one per candidate, ``--nudges`` - 1 more per box-moving one); not timed here.
 """
 
 from __future__ import annotations
