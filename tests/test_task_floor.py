@@ -368,3 +368,11 @@ def test_each_floor_figure_of_the_prose_is_the_files(index):
     claims = _claims()
     assert len(claims) == 23
     assert claims[index] in _page(), f"docs/tasks.md does not say {claims[index]!r}"
+
+
+@pytest.mark.parametrize("moved", [0.0, -0.01, math.nan, math.inf])
+def test_measure_refuses_a_bad_threshold_before_simulating(moved):
+    from perf.studies.task_floor import committed_inputs, measure
+
+    with pytest.raises(ValueError, match="moved must be a distance > 0 in m"):
+        measure("hook", committed_inputs()["hook"], executor=None, moved=moved)

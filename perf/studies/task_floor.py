@@ -237,12 +237,12 @@ def measure(name: str, inputs: dict[str, Any], executor: Any, *, moved: float = 
         quantile: The span's quantile of the random designs' F.
         limit: Measure only the first ``limit`` candidates (tests).
     """
+    if not (math.isfinite(moved) and moved > 0):
+        raise ValueError(f"moved must be a distance > 0 in m, got {moved!r}")
     from benchmarks.execution import evaluate_batch
     from benchmarks.storage import platform_id
     from benchmarks.suites.retest import RetestConfig
 
-    if not (math.isfinite(moved) and moved > 0):
-        raise ValueError(f"moved must be a distance > 0 in m, got {moved!r}")
     task = get_task(name)
     _check_reach_draw(inputs)
     the_span = span(inputs["baselines"], quantile)
