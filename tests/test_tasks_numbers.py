@@ -83,6 +83,12 @@ def _table(baselines: dict[str, dict[str, Any]]) -> list[str]:
 
     goal = [f"({', '.join(f'{v:g}' for v in r['goal'])})" for r in rows]
     floor = [r["noise_floor"] for r in rows]
+    moved = {
+        r["task"]: r
+        for r in json.loads((RESULTS / "floor-moving.json").read_text(encoding="utf-8"))
+    }
+    moving = [moved[t] for t in TASKS]
+    assert {m["moved_threshold"] for m in moving} == {0.01}  # the row's "> 1 cm"
     designs = {f["designs"] for f in floor}
     assert len(designs) == 1
     yes = {True: "yes", False: "no"}
@@ -96,7 +102,8 @@ def _table(baselines: dict[str, dict[str, Any]]) -> list[str]:
         "|---|" + "---|" * len(TASKS),
         line("goal", goal),
         line(
-            "noise floor of F, median relative range",
+            "noise floor of F over the old set (the straight tool and the first 8 usable random "
+            "designs), median relative range",
             [_pct(f["median_relative_range"], 2) for f in floor],
         ),
         line(
@@ -104,6 +111,20 @@ def _table(baselines: dict[str, dict[str, Any]]) -> list[str]:
             [_pct(f["max_relative_range"], 2) for f in floor],
         ),
         line("... median range in F units", [short(f["median_range"]) for f in floor]),
+        # The box-moving floor (floor-moving.json, tests/test_task_floor.py): which of the old
+        # set's designs move the box, and the floor over the designs that do.
+        line(
+            "... old-set designs that move the box (> 1 cm)",
+            [f"{m['old_set']['moved_box']} of {m['old_set']['designs']}" for m in moving],
+        ),
+        line(
+            "noise floor on the box-moving designs (below): median of \\|F\\| / of the F span",
+            [
+                f"{_pct(m['moving']['median_relative_range'], 2)} / "
+                f"{_pct(m['moving']['median_span_relative'], 2)}"
+                for m in moving
+            ],
+        ),
         line(
             "F of random designs: min / quartiles / max",
             [" / ".join(f"{q:.0f}" for q in r["random"]["free_energy_quantiles"]) for r in rows],
