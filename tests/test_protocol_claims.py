@@ -242,6 +242,21 @@ def test_the_summary_verdict_over_the_dimensions() -> None:
     assert overall(random_only, worse, {}, {}).startswith("**does not hold** at d = 5 (")
 
 
+def test_the_floor_is_the_first_tasks_when_the_references_list_every_task() -> None:
+    # A run with the task axis lists every task's cells in references.csv; the judged sections
+    # are the first task's (push's), so another task's floors must not move the group's floor.
+    given = {("cmaes", "random"): (0.1, True)}
+    push_only = _tables({"3": given, "all": given})
+    with_tasks = _tables({"3": given, "all": given})
+    references = push_only["references.csv"].assign(task="push")
+    hook = [{"task": "hook", "d": "3", "instance": f"hook/i{k}", "noise floor": 5.0}
+            for k in range(1, 6)]  # fmt: skip
+    with_tasks["references.csv"] = pd.concat([references, pd.DataFrame(hook)], ignore_index=True)
+    alone = judge_claim_a(push_only, ["3", "all"])
+    both = judge_claim_a(with_tasks, ["3", "all"])
+    assert [j.noise_floor for j in both] == [j.noise_floor for j in alone] == [50.0, 50.0]
+
+
 @pytest.mark.slow  # the exact power computation of 24 instances takes seconds
 def test_the_statistics_own_tables_of_four_optimizers_are_judged() -> None:
     """Tables made by the protocol's statistics, as its report makes them, on 24 instances."""

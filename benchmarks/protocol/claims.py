@@ -583,6 +583,11 @@ def judge_claim_a(
         raise ValueError("groups must name at least one group of the report (a d, or 'all')")
     comparisons_all, ranks_all = tables["comparisons.csv"], tables["ranks.csv"]
     power_all, references = tables["power.csv"], tables["references.csv"]
+    if "task" in references.columns and len(references):
+        # comparisons.csv, ranks.csv and power.csv are the first task's sections (push's when
+        # it runs); references.csv lists every task's cells, in the run's task order. The floor
+        # is over the first task's instances alone, as its report sections' floors are.
+        references = references[references["task"] == references["task"].iloc[0]]
     out = []
     for group in groups:
         ranks = ranks_all[ranks_all["d"].astype(str) == group].sort_values("rank", kind="stable")
