@@ -83,7 +83,7 @@ RECHECKED = (
     ("push", "i05", 8),
     ("push", "i08", 8),
     ("hook", "i03", 3),
-    ("obstacle", "i09", 3),
+    ("obstacle", "i07", 3),
     ("puck", "i02", 3),
 )
 
