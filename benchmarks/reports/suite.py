@@ -1087,8 +1087,12 @@ def _suite_report(
         noise_floor=floors or None,
         notice=notice,
     )
+    try:
+        task = task_of_manifest(read_manifest(folder))
+    except (FileNotFoundError, ValueError, TypeError):
+        task = None  # not a suite folder: the push task's tolerance, as before
     written += make_retest_report(
-        retests, target, n_boot=n_boot, seed=seed, interval=interval, notice=notice
+        retests, target, n_boot=n_boot, seed=seed, interval=interval, notice=notice, task=task
     )
     try:
         config = suite_of_manifest(read_manifest(folder))
