@@ -126,6 +126,8 @@ def test_a_design_report_names_its_task_and_its_succeeding_evaluations(tmp_path)
         f"{best['c3']:.4g}) (iteration {best['iteration']}, candidate {best['candidate']}), "
         f"F = {best['free_energy']:.6g}, ends {best['final_distance']:.3f} m from the goal."
     ) in text
+    # The robustness sentence: the stand-in paths end 0.7 m from the goal at every mass.
+    assert "at 0 of 4 altered masses." in text
     # The task, in the subtitle and among the settings (none stored: push, the paper's).
     label = "push (push the box along the floor to the goal (the paper&#x27;s task))"
     assert f"designs, task {label}, goal X^g" in text

@@ -578,7 +578,35 @@ def _robustness_sentence(card: Mapping[str, Any], paths: Mapping[str, Any] | Non
             sentence += (
                 f"; it ends {_num(min(dists), 2)}-{_num(max(dists), 2)} m from the goal (top view)"
             )
+        sentence += _mass_success_text(card, paths or {}, goal)
     return sentence + "."
+
+
+def _mass_success_text(card: Mapping[str, Any], paths: Mapping[str, Any], goal: list[Any]) -> str:
+    """At how many altered masses the box ends at the goal by the task's test, or ""."""
+    from benchmarks.reports.success import scene_of_config, success_criterion
+
+    config = card.get("config") or {}
+    name = config.get("task_name") or "push"
+    try:
+        criterion = success_criterion(str(name))
+        scene = scene_of_config({**config, "task_name": name})
+    except ValueError:  # a task of a plugin that is not installed here
+        return ""
+    masses, ends = paths.get("masses") or [], [p[-1] for p in paths.get("perturbed") or [] if p]
+    if len(masses) != len(ends) or not all(len(e) == 3 and all(map(_finite, e)) for e in ends):
+        return ""
+    hits = [
+        float(m)
+        for m, e in zip(masses, ends, strict=True)
+        # The paths store the box centre, not its tilt: the distance and the height are tested.
+        if criterion.succeeded(math.dist(e, goal), float(e[2]), scene, final_tilt=None)
+    ]
+    which = f" ({', '.join(f'{m:g}' for m in hits)} kg)" if hits else ""
+    return (
+        f"; it succeeds (within {criterion.tolerance:g} m of the goal, at its resting height) "
+        f"at {len(hits)} of {len(ends)} altered masses{which}"
+    )
 
 
 def _success_line(
