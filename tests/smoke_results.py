@@ -102,6 +102,25 @@ def run_all(root: Path, workers: int = 1) -> dict[str, Any]:
 #: Values every evaluation stores since 2026-11-27; sets recorded before lack them.
 STANDING_KEYS = ("final_height", "final_tilt")
 
+#: Keys a design run writes since later on 2026-11-27: every evaluation's ``success`` (a
+#: column of the log), and in ``design.json`` the best design's ``success``, the lowest-F
+#: succeeding design (``best_succeeding``) and the counts (``succeeded``, ``success_unknown``).
+#: They are read from the stored final pose, so no number a recorded set holds moved.
+SUCCESS_KEYS = ("success", "best_succeeding", "succeeded", "success_unknown")
+
+#: The mass-perturbation report's columns ``success_m<mass>`` (the same day): whether the box
+#: ends within the tolerance at each box mass, from the stored box paths.
+MASS_SUCCESS_PREFIX = "success_m"
+
+
+def _keys(value: Any) -> set[str]:
+    """Every key of the dicts nested in ``value``."""
+    if isinstance(value, dict):
+        return {str(k) for k in value} | {k for v in value.values() for k in _keys(v)}
+    if isinstance(value, list):
+        return {k for v in value for k in _keys(v)}
+    return set()
+
 
 def _without(value: Any, keys: tuple[str, ...]) -> Any:
     if isinstance(value, dict):
@@ -121,8 +140,12 @@ def _holds(value: Any, key: str) -> bool:
 
 def comparable(fresh: Any, recorded: Any) -> Any:
     """``fresh`` as ``recorded`` can be compared with it: without the keys recorded sets of
-    before lacked (:data:`STANDING_KEYS`), if ``recorded`` has none of them."""
-    missing = tuple(k for k in STANDING_KEYS if not _holds(recorded, k))
+    before lacked (:data:`STANDING_KEYS`, :data:`SUCCESS_KEYS`), each one that ``recorded``
+    does not hold anywhere."""
+    added = {*STANDING_KEYS, *SUCCESS_KEYS} | {
+        k for k in _keys(fresh) if k.startswith(MASS_SUCCESS_PREFIX)
+    }
+    missing = tuple(sorted(k for k in added if not _holds(recorded, k)))
     return _without(fresh, missing) if missing else fresh
 
 

@@ -167,7 +167,8 @@ def test_a_stress_interval_is_na_when_fewer_than_two_designs_have_a_value(tmp_pa
     for row in retests[1]["stress"]:
         row["accuracy"] = None  # one design without an accuracy: one value behind its interval
     make_retest_report(retests, tmp_path, n_boot=N_BOOT)
-    text = (tmp_path / "stress.md").read_text(encoding="utf-8")
+    # Table I; the success shares per mass follow it in a table of their own.
+    text = (tmp_path / "stress.md").read_text(encoding="utf-8").split("\n## Success at")[0]
     (row,) = _table_rows(text, "p0")
     assert "[n/a]" not in row[3] and row[4].startswith("**-2.05** [n/a]"), row
     assert "fewer than 2 designs with a value" in text
@@ -215,7 +216,8 @@ def test_the_stress_noise_of_one_repeat_is_na(tmp_path: Path) -> None:
     retests = [_retest(0, repeats=1), _retest(1, repeats=1)]
     assert stress_repeats(retests, "mass") == 1 and stress_repeats(retests, "friction") == 0
     make_retest_report(retests, tmp_path, n_boot=N_BOOT)
-    text = (tmp_path / "stress.md").read_text(encoding="utf-8")
+    # Table I; the success shares per mass follow it in a table of their own.
+    text = (tmp_path / "stress.md").read_text(encoding="utf-8").split("\n## Success at")[0]
     (row,) = _table_rows(text, "p0")
     assert all(cell.endswith("(n/a)") for cell in row[3:]), row
     assert "(0)" not in text and "rolled out in 1 scene(s)" in text
@@ -226,7 +228,8 @@ def test_the_stress_noise_of_one_repeat_is_na(tmp_path: Path) -> None:
 
 def test_the_stress_noise_of_two_repeats_is_a_number(tmp_path: Path) -> None:
     make_retest_report([_retest(0, repeats=2), _retest(1, repeats=2)], tmp_path, n_boot=N_BOOT)
-    text = (tmp_path / "stress.md").read_text(encoding="utf-8")
+    # Table I; the success shares per mass follow it in a table of their own.
+    text = (tmp_path / "stress.md").read_text(encoding="utf-8").split("\n## Success at")[0]
     (row,) = _table_rows(text, "p0")
     assert row[3].endswith("(0.1)"), row
     assert "n/a" not in text

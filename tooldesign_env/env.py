@@ -296,7 +296,8 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
     goal, 0.1 m for every built-in task, and standing: its up axis at most the task's
     ``max_tilt``, 10 degrees, from the vertical at the end, ``final_tilt`` in rad, and its
     centre's final height, ``final_height``, within the task's ``height_tolerance``, 0.01 m, of
-    its resting height),
+    its resting height; ``is_success`` is the same bool under Stable-Baselines3's name, which
+    its ``EvalCallback`` reads for ``eval/success_rate``),
     ``task`` (its name) and the goal and box mass;
     F = goal_error - confidence + penalty. With
     ``ObjectiveSpec(scene_samples=K)`` every term is the mean over K scenes whose box differs by
@@ -368,7 +369,8 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
       that day ``scene_overrides`` was added, a ``scene`` that leaves the box at
       ``SceneSpec()``'s start or size for a task whose box is elsewhere became an error (it
       had silently moved the box), and the task ids refuse ``task=`` another task; push and
-      every scene derived from a task's are unchanged.
+      every scene derived from a task's are unchanged. Later that day ``info["is_success"]``
+      (a copy of ``success``, for Stable-Baselines3) was added; nothing else changed.
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 4}
@@ -805,6 +807,9 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
 
     def _info(self, geometry: ToolGeometry, score: Score) -> dict[str, Any]:
         traj, terms = score.trajectory, score.terms
+        success = self.success(
+            terms.final_distance, True, float(traj.box_position[-1, 2]), traj.box_final_tilt
+        )
         info = self._common_info(geometry)
         info.update(
             valid=True,
@@ -817,9 +822,8 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
             final_distance=terms.final_distance,
             final_height=float(traj.box_position[-1, 2]),
             final_tilt=traj.box_final_tilt,
-            success=self.success(
-                terms.final_distance, True, float(traj.box_position[-1, 2]), traj.box_final_tilt
-            ),
+            success=success,
+            is_success=success,  # Stable-Baselines3's name (EvalCallback's success rate)
             times=traj.times,
             box_trajectory=traj.box_position,
             torques=traj.torques,
@@ -853,6 +857,7 @@ class ToolDesignEnv(gym.Env[np.ndarray, np.ndarray]):
             final_height=float(self.box_start()[2]),
             final_tilt=0.0,
             success=False,
+            is_success=False,
             times=np.zeros(0),
             box_trajectory=np.zeros((0, 3)),
             torques=np.zeros((0, 7)),

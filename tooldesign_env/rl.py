@@ -76,6 +76,7 @@ _SCALAR_INFO = (
     "goal_precision",
     "valid",
     "success",
+    "is_success",
     "final_height",
     "final_tilt",
     "task",
@@ -185,8 +186,11 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
     gives -F as ``ToolDesign-v0`` does, at any goal and any p^X (``info``'s
     ``normalized_reward`` is then NaN closer than 0.1 m, and at p^X = 0). ``info`` holds
     ``free_energy``, ``idle_free_energy``, ``normalized_reward`` and the base env's scalar terms
-    (``goal_error``, ``confidence``, ``penalty``, ``final_distance``, ``valid``, ...), and with
-    ``full_info=True`` also its per-step arrays.
+    (``goal_error``, ``confidence``, ``penalty``, ``final_distance``, ``valid``, ``success``,
+    ...), and with ``full_info=True`` also its per-step arrays. ``info["is_success"]`` is
+    ``success`` under Stable-Baselines3's name: its ``EvalCallback`` logs
+    ``eval/success_rate`` from it (the usable design left the box standing within the task's
+    tolerance of the goal, docs/tasks.md).
 
     ## Starting State
 
@@ -238,7 +242,8 @@ class ToolDesignRLEnv(gym.Env[np.ndarray, np.ndarray]):
       in (1, 2), instead of 1, so that designs with F < 0 (common in the hook task) are told
       apart; no committed rl or breakeven episode had reached 1 (the largest reward 0.845), so
       the id stayed v0. The same day a ``goal_range`` outside the task's range became an error at
-      construction (it failed at the first reset before).
+      construction (it failed at the first reset before), and ``info["is_success"]`` (a copy
+      of ``success``, for Stable-Baselines3's ``EvalCallback``) was added.
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 4}

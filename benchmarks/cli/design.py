@@ -404,7 +404,11 @@ def _run(args: argparse.Namespace) -> int:
     ):
         write_design_report(result.out_dir)
     coeffs = ", ".join(repr(float(c)) for c in result.coefficients)
-    from benchmarks.reports.success import design_succeeded
+    from benchmarks.reports.success import (
+        design_succeeded,
+        evaluations_success,
+        evaluations_success_text,
+    )
     from tooldesign_env.tasks import get_task
 
     task = get_task(config.task_name)
@@ -420,6 +424,9 @@ def _run(args: argparse.Namespace) -> int:
         scene=config.task_scene(),
     )
     stands = ", standing" if "final_height" in result.card else ""
+    # The lowest F is not a success: in hook and obstacle the lowest-F design leaves the box
+    # off the goal while many other evaluations succeed (docs/tasks.md).
+    every = evaluations_success(result.evaluations, task, scene=config.task_scene())
     print(
         f"best design: C = ({coeffs}), F = {result.free_energy!r} "
         f"(goal error {result.goal_error:.6g}, confidence {result.confidence:.6g}, "
@@ -428,6 +435,7 @@ def _run(args: argparse.Namespace) -> int:
         f"task {config.task_name}: {success_word(succeeded)} (the box ends "
         f"{result.final_distance:.3f} m from the goal; success within {tolerance:g} m"
         f"{stands})\n"
+        f"{evaluations_success_text(every, config.degree)}\n"
         f"{_counts_text(result.card['evaluations'])}\n"
         f"{_straight_text(result.free_energy, result.straight_tool)}"
         f"run folder: {result.out_dir} (open report.html there)"

@@ -42,6 +42,11 @@ from benchmarks.execution import (
     make_executor,
     map_robust,
 )
+from benchmarks.reports.success import (
+    SUCCESS_COLUMN,
+    evaluation_successes,
+    evaluations_success,
+)
 from benchmarks.storage import (
     DESIGN_RUN_FILES,
     ResultStore,
@@ -53,6 +58,7 @@ from benchmarks.storage import (
 )
 from benchmarks.storage.runfolder import record_report_files
 from tooldesign_env.schema import (
+    METRICS,
     ROBUSTNESS_METRICS,
     STANDING_COLUMNS,
     STATUSES,
@@ -95,6 +101,15 @@ class DesignResult:
         card: ``design.json`` as a dict.
         straight_tool: The straight tool's (C = 0) F, terms and status on the same task, as
             ``design.json`` stores them under ``straight_tool``.
+        success: Whether the best (lowest-F) design succeeded on the run's task (the env's
+            ``info["success"]``: usable, and the box ends standing within the task's tolerance
+            of the goal); None if its outcome is not stored. A lower F is not a success.
+        successes: How many of the run's evaluations succeeded.
+        success_known: How many evaluations have a known outcome (all, unless some were logged
+            without their final pose).
+        best_succeeding: The lowest-F evaluation that succeeded, as ``design.json`` stores it
+            under ``best_succeeding`` (coefficients, F and its terms, final distance, where in
+            the log); None if none did.
     """
 
     out_dir: Path
@@ -111,6 +126,10 @@ class DesignResult:
     robustness: dict[str, Any]
     card: dict[str, Any]
     straight_tool: dict[str, Any] = dataclasses.field(default_factory=dict)
+    success: bool | None = None
+    successes: int = 0
+    success_known: int = 0
+    best_succeeding: dict[str, Any] | None = None
 
 
 def _logged_iterations(
@@ -220,6 +239,7 @@ def _iterate(
     best = min((_best_ok(p) for p in logged), default=math.inf)
     evaluations_done = sum(len(p) for p in logged)
     task = config.task()
+    judge = _success_judge(config)
 
     from tqdm.auto import tqdm
 
@@ -238,6 +258,7 @@ def _iterate(
             x = stepper.ask()
             rows = evaluate_batch(executor, x, task)
             frame = stepper.tell(rows)
+            frame[SUCCESS_COLUMN] = judge(frame)
             session.write_batch(frame)
             _warn_failures(iteration, rows)
             best = min(best, _best_ok(frame))
@@ -245,6 +266,55 @@ def _iterate(
             bar.set_postfix(evals=evaluations_done, best_F=_fmt(best), refresh=False)
             bar.update(1)
     return session.store.read(verify=False)  # written or verified by this session
+
+
+def _success_judge(config: DesignConfig) -> Any:
+    """A function of a batch's rows: each row's success (1.0, 0.0, NaN if unknown).
+
+    The task's own test (``TaskDefinition.succeeded``, as the env's ``info["success"]``) on the
+    row's stored final pose, in the run's scene (the task's with the run's ``scene``
+    overrides): the column says for every evaluation what ``info["success"]`` said.
+    """
+    from tooldesign_env.tasks import get_task
+
+    definition, scene = get_task(config.task_name), config.task_scene()
+
+    def judge(frame: pd.DataFrame) -> list[float]:
+        outcomes = evaluation_successes(frame, definition, scene=scene)
+        return [math.nan if o is None else float(o) for o in outcomes]
+
+    return judge
+
+
+def _success_summary(
+    config: DesignConfig, evaluations: pd.DataFrame, best: pd.Series
+) -> dict[str, Any]:
+    """The best design's success, the count of succeeding evaluations and the lowest-F one."""
+    from tooldesign_env.tasks import get_task
+
+    definition, scene = get_task(config.task_name), config.task_scene()
+    [success] = evaluation_successes(pd.DataFrame([best]), definition, scene=scene)
+    summary = evaluations_success(evaluations, definition, scene=scene)
+    entry = None
+    if summary.best is not None:
+        row = summary.best
+        entry = {"coefficients": _coeffs(row, config.degree).tolist()}
+        for key in METRICS:
+            entry[key] = float(row[key])
+        standing = {c: float(row[c]) for c in STANDING_COLUMNS if c in row.index}
+        if len(standing) == len(STANDING_COLUMNS) and all(map(math.isfinite, standing.values())):
+            entry.update(standing)
+        entry.update(
+            iteration=int(row["iteration"]),
+            candidate=int(row["candidate"]),
+            eval_id=int(row["eval_id"]),
+        )
+    return {
+        "success": success,
+        "successes": summary.successes,
+        "success_known": summary.n,
+        "best_succeeding": entry,
+    }
 
 
 def _best_ok(frame: pd.DataFrame) -> float:
@@ -326,6 +396,7 @@ def _finish(
         robustness=_without_paths(robustness),
         card={},
         straight_tool=straight,
+        **_success_summary(config, evaluations, best),
     )
 
 
@@ -427,6 +498,8 @@ def _card(
         "confidence": result.confidence,
         "final_distance": result.final_distance,
         "status": result.status,
+        "success": result.success,
+        "best_succeeding": result.best_succeeding,
         "iteration": result.iteration,
         "candidate": result.candidate,
         "eval_id": result.eval_id,
@@ -447,6 +520,8 @@ def _card(
             "total": int(len(evaluations)),
             "iterations": int(evaluations["iteration"].nunique()),
             **{s: int(counts.get(s, 0)) for s in STATUSES},
+            "succeeded": result.successes,
+            "success_unknown": int(len(evaluations)) - result.success_known,
         },
         "packages": manifest["packages"],
         "git_commit": manifest["git_commit"],

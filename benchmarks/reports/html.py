@@ -175,6 +175,7 @@ _COLUMNS: dict[str, str] = {
     "eval_time": "eval. time (s)",
     "opt_time": "opt. time (s)",
     "best_so_far": "best F so far",
+    "success": "success (1 yes, 0 no)",
     "goal_x": "goal x (m)",
     "goal_y": "goal y (m)",
     "goal_z": "goal z (m)",
@@ -577,7 +578,35 @@ def _robustness_sentence(card: Mapping[str, Any], paths: Mapping[str, Any] | Non
             sentence += (
                 f"; it ends {_num(min(dists), 2)}-{_num(max(dists), 2)} m from the goal (top view)"
             )
+        sentence += _mass_success_text(card, paths or {}, goal)
     return sentence + "."
+
+
+def _mass_success_text(card: Mapping[str, Any], paths: Mapping[str, Any], goal: list[Any]) -> str:
+    """At how many altered masses the box ends at the goal by the task's test, or ""."""
+    from benchmarks.reports.success import scene_of_config, success_criterion
+
+    config = card.get("config") or {}
+    name = config.get("task_name") or "push"
+    try:
+        criterion = success_criterion(str(name))
+        scene = scene_of_config({**config, "task_name": name})
+    except ValueError:  # a task of a plugin that is not installed here
+        return ""
+    masses, ends = paths.get("masses") or [], [p[-1] for p in paths.get("perturbed") or [] if p]
+    if len(masses) != len(ends) or not all(len(e) == 3 and all(map(_finite, e)) for e in ends):
+        return ""
+    hits = [
+        float(m)
+        for m, e in zip(masses, ends, strict=True)
+        # The paths store the box centre, not its tilt: the distance and the height are tested.
+        if criterion.succeeded(math.dist(e, goal), float(e[2]), scene, final_tilt=None)
+    ]
+    which = f" ({', '.join(f'{m:g}' for m in hits)} kg)" if hits else ""
+    return (
+        f"; it succeeds (within {criterion.tolerance:g} m of the goal, at its resting height) "
+        f"at {len(hits)} of {len(ends)} altered masses{which}"
+    )
 
 
 def _success_line(
@@ -658,6 +687,58 @@ def _success_line(
     return text + "."
 
 
+def _evaluations_success_line(
+    folder: Path, log: Path | None, card: Mapping[str, Any], config: Mapping[str, Any]
+) -> str:
+    """How many of a design run's evaluations succeed, and the lowest-F one that does.
+
+    From the evaluation log (its ``success`` column, or for a log stored before it, each row's
+    stored final pose judged by the task's test in the run's scene), so a folder made before
+    the column existed shows it too. Without a log: the card's counts, where it has them.
+    """
+    import pandas as pd
+
+    from benchmarks.reports.success import (
+        EvaluationSuccesses,
+        evaluations_success,
+        evaluations_success_text,
+        scene_of_config,
+        success_criterion,
+    )
+
+    name = config.get("task_name") or "push"
+    head = "<strong>Every evaluation:</strong> "
+    if log is not None:
+        try:
+            criterion = success_criterion(str(name))
+            scene = scene_of_config({**config, "task_name": name})
+        except ValueError:  # a task of a plugin that is not installed here
+            return f"{head}n/a (the task {_esc(name)} is not registered here)."
+        try:
+            frame = pd.read_csv(io.BytesIO(read_run_file(folder, log)))
+            summary = evaluations_success(frame, criterion, scene=scene)
+        except (OSError, ValueError, KeyError, TypeError) as error:
+            return f"{head}n/a (the evaluation log is not readable: {_esc(error)})."
+        return f"{head}{_esc(evaluations_success_text(summary))}."
+    counts = card.get("evaluations") or {}
+    stored = [counts.get(key) for key in ("succeeded", "success_unknown", "total")]
+    if not all(isinstance(v, int) and not isinstance(v, bool) for v in stored):
+        return ""  # a card written before the counts, and no log: nothing to say
+    k, unknown, total = (int(v) for v in stored)  # type: ignore[arg-type]  # checked above
+    best = card.get("best_succeeding")
+    row = None
+    if isinstance(best, Mapping) and isinstance(best.get("coefficients"), list):
+        row = pd.Series(
+            {
+                **{f"c{i + 1}": c for i, c in enumerate(best["coefficients"])},
+                **{k2: best.get(k2) for k2 in ("iteration", "candidate", "free_energy")},
+                "final_distance": best.get("final_distance"),
+            }
+        )
+    summary = EvaluationSuccesses(k, total - unknown, unknown, row)
+    return f"{head}{_esc(evaluations_success_text(summary))}."
+
+
 def _card_html(
     folder: Path,
     picture: Path | None,
@@ -684,6 +765,18 @@ _FIGURES = {
     "fig3a": "The best tool of each iteration (tool frame, m).",
     "fig3": "Figure 3 of the paper: the four panels in one figure.",
 }
+
+
+def _task_label(config: Mapping[str, Any]) -> str:
+    """The run's task, escaped: its name and its title (``push``, the paper's, when unnamed)."""
+    from tooldesign_env.tasks import DEFAULT_TASK, get_task
+
+    name = config.get("task_name") or DEFAULT_TASK
+    try:
+        title = get_task(str(name)).title
+    except ValueError:  # a task of a plugin that is not installed here
+        return f"{_esc(name)} (not registered here)"
+    return f"{_esc(name)} ({_esc(title)})"
 
 
 def _settings_html(card: Mapping[str, Any]) -> str:
@@ -719,6 +812,7 @@ def _settings_html(card: Mapping[str, Any]) -> str:
             ),
         ],
         "Task": [
+            ("task", _task_label(config)),
             (
                 "goal X^g",
                 _esc(f"({', '.join(f'{v:g}' for v in goal)}) m")
@@ -808,7 +902,8 @@ def _design_page(folder: Path, files: list[Path], card: dict[str, Any]) -> str:
         standing=card if "final_height" in card else None,
         config=config,
     )
-    lines = [first, success, _robustness_sentence(card, paths)]
+    every = _evaluations_success_line(folder, present("evaluations"), card, config)
+    lines = [first, success, *([every] if every else []), _robustness_sentence(card, paths)]
     body = [_card_html(folder, present("fig3d"), card, card.get("straight_tool"), lines)]
     shown: set[Path] = set()
     for head, keys in (
@@ -834,7 +929,7 @@ def _design_page(folder: Path, files: list[Path], card: dict[str, Any]) -> str:
     title = f"Tool design: {config.get('optimizer', '?')}, seed {config.get('seed', '?')}"
     subtitle = (
         f"{_esc(folder.resolve().name)}: {_esc(config.get('iterations'))} iterations of "
-        f"{_esc(config.get('batch_size'))} designs, goal X^g = "
+        f"{_esc(config.get('batch_size'))} designs, task {_task_label(config)}, goal X^g = "
         f"({_esc(', '.join(f'{v:g}' for v in config.get('goal') or []))}) m, box "
         f"{_esc(config.get('box_mass'))} kg. "
         "Everything below is made from the files of the run folder and embedded in this page."

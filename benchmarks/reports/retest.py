@@ -13,7 +13,11 @@ simulated.
   repeats and altered conditions, with a 95 % interval over designs and the median
   over designs of the range of the design's mean across repeated scenes (its noise);
   ``stress-mass.png`` and ``stress-friction.png``: final distance against the box mass (or
-  friction) per variant, mean over designs with the interval as a band.
+  friction) per variant, mean over designs with the interval as a band; and
+  ``stress-success.csv`` / ``stress-friction-success.csv`` (a second table of the ``.md``): at
+  each altered mass (friction), the share of designs whose box ends within the task's
+  tolerance of the goal in the scene itself (the first nudge), with its Wilson interval
+  (:func:`stress_success_table`).
 """
 
 from __future__ import annotations
@@ -46,6 +50,7 @@ __all__ = [
     "noise_table",
     "short_intervals",
     "stress_repeats",
+    "stress_success_table",
     "stress_table",
     "unmeasured_noise",
 ]
@@ -180,6 +185,117 @@ def stress_table(
             pick = table[metric].max() if better == "higher" else table[metric].min()
             table[f"{metric}_best"] = table[metric] == pick
     return table
+
+
+def stress_success_table(
+    retests: Sequence[Mapping[str, Any]],
+    change: str,
+    tolerance: float = 0.1,
+    level: float = LEVEL,
+) -> pd.DataFrame:
+    """At each altered value of ``change``, the share of designs that succeed, per variant.
+
+    A design succeeds at a value when its box ends within ``tolerance`` (m, the task's) of the
+    goal in the scene itself (the stress row of the first nudge, ``nudge`` 0, which the other
+    scenes are nudged from). The stress rows store the final distance only (not the box's
+    height or tilt), so this is the distance part of the task's test. A design with no finite
+    distance there has an unknown outcome and is left out of n.
+
+    Args:
+        retests: The retest records.
+        change: ``"mass"`` or ``"friction"``.
+        tolerance: The success radius, m.
+        level: The Wilson interval's coverage.
+
+    Returns:
+        One row per variant (and optimizer, when several were retested) and value:
+        ``variant``, ``label``, (``optimizer``), ``goal_precision``, ``value``, ``designs``
+        (with a known outcome), ``unknown``, ``successes``, ``success_rate``, ``success_low``,
+        ``success_high``; sorted by p^X, then value.
+    """
+    from benchmarks.reports.success import design_succeeded, success_rate
+
+    if change not in ("mass", "friction"):
+        raise ValueError(f"change must be 'mass' or 'friction', got {change!r}")
+    split = len({str(r.get("optimizer")) for r in retests}) > 1
+    outcomes: dict[tuple[str, str, float], list[bool | None]] = {}
+    first: dict[tuple[str, str], Mapping[str, Any]] = {}
+    for retest in retests:
+        key = (str(retest["variant"]), str(retest.get("optimizer")) if split else "")
+        for row in retest.get("stress") or []:
+            if row["change"] != change or row.get("nudge", 0) != 0:
+                continue
+            first.setdefault(key, retest)
+            outcome = design_succeeded("ok", row.get("final_distance"), tolerance)
+            outcomes.setdefault((*key, float(row["value"])), []).append(outcome)
+    rows = []
+    for (variant, optimizer, value), found in outcomes.items():
+        record = first[(variant, optimizer)]
+        rate = success_rate(found, level)
+        rows.append(
+            {
+                "variant": variant,
+                "label": record.get("label") or "",
+                **({"optimizer": optimizer} if split else {}),
+                "goal_precision": float(record["goal_precision"]),
+                "value": value,
+                "designs": rate.n,
+                "unknown": rate.unknown,
+                "successes": rate.successes,
+                "success_rate": rate.rate,
+                "success_low": rate.low,
+                "success_high": rate.high,
+            }
+        )
+    table = pd.DataFrame(rows)
+    if len(table):
+        table = table.sort_values(["goal_precision", "value"], kind="stable").reset_index(drop=True)
+    return table
+
+
+def _stress_success_markdown(table: pd.DataFrame, change: str, tolerance: float, task: str) -> str:
+    from benchmarks.reports.success import SuccessRate, success_cell
+
+    unit = " kg" if change == "mass" else ""
+    split = "optimizer" in table.columns
+    keys = ["variant", *(["optimizer"] if split else [])]
+    values = sorted(set(table["value"]))
+    lines = [
+        "",
+        f"## Success at each box {change}",
+        "",
+        f"The share of designs whose box ends within {tolerance:g} m of the goal (the {task} "
+        "task's tolerance) in the scene itself (the first of the nudged scenes), at each box "
+        f"{change}, with its {LEVEL:.0%} Wilson interval. The stress test stores the final "
+        "distance only, not the box's height and tilt, so a box tipped within the tolerance "
+        "would count here.",
+        "",
+    ]
+    header = ["objective", *(["optimizer"] if split else []), "p^X"]
+    header += [f"{v:g}{unit}" for v in values]
+    lines += ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    for _, group in table.groupby(keys, sort=False):
+        head = group.iloc[0]
+        cells = [str(head["label"] or head["variant"])]
+        cells += [str(head["optimizer"])] if split else []
+        cells.append(_fmt(head["goal_precision"]))
+        by_value = {float(r["value"]): r for _, r in group.iterrows()}
+        for v in values:
+            r = by_value.get(float(v))
+            if r is None:
+                cells.append("-")
+                continue
+            rate = SuccessRate(
+                int(r["successes"]),
+                int(r["designs"]),
+                int(r["unknown"]),
+                float(r["success_rate"]),
+                float(r["success_low"]),
+                float(r["success_high"]),
+            )
+            cells.append(success_cell(rate))
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
 
 
 def short_intervals(table: pd.DataFrame) -> bool:
@@ -331,14 +447,23 @@ def make_retest_report(
     seed: int = 0,
     interval: str = "t",
     notice: str | None = None,
+    task: str | None = None,
 ) -> list[Path]:
     """Write the noise-floor and stress reports of retested designs into ``target``.
 
     ``interval`` is the interval of a mean (:data:`~benchmarks.reports.stats.INTERVALS`);
     ``n_boot`` and ``seed`` are the bootstrap's. ``notice`` (an incomplete run's) leads every
-    ``.md`` page, as :func:`~benchmarks.reports.comparison.with_notice` puts it.
+    ``.md`` page, as :func:`~benchmarks.reports.comparison.with_notice` puts it. ``task``: the
+    registered task the designs were made for, whose tolerance the stress success shares use
+    (None: push).
+
+    Raises:
+        ValueError: a bad ``interval``, or an unknown ``task`` (the message lists the known).
     """
+    from benchmarks.reports.success import success_criterion
+
     interval = check_interval(interval)
+    criterion = success_criterion(task)
     if not retests:
         return []
     floor = noise_floor(retests)
@@ -393,6 +518,17 @@ def make_retest_report(
         written.append(atomic_write_text(target / f"{stem}.csv", stress.to_csv(index=False)))
         repeats = stress_repeats(retests, change)
         markdown = _stress_markdown(stress, change, values, repeats, interval)
+        success = stress_success_table(retests, change, criterion.tolerance)
+        if len(success):
+            written.append(
+                atomic_write_text(
+                    target / f"{stem.removesuffix('-table')}-success.csv",
+                    success.to_csv(index=False),
+                )
+            )
+            markdown += _stress_success_markdown(
+                success, change, criterion.tolerance, criterion.name
+            )
         written.append(atomic_write_text(target / f"{stem}.md", with_notice(markdown, notice)))
         figure = _plot_stress(retests, change, target, seed, interval)
         if figure is not None:

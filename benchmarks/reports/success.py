@@ -34,8 +34,13 @@ if TYPE_CHECKING:
     from tooldesign_env.tasks import TaskDefinition
 
 __all__ = [
+    "SUCCESS_COLUMN",
+    "EvaluationSuccesses",
     "SuccessRate",
     "design_succeeded",
+    "evaluation_successes",
+    "evaluations_success",
+    "evaluations_success_text",
     "has_standing",
     "run_successes",
     "scene_of_config",
@@ -48,6 +53,12 @@ __all__ = [
     "task_tolerance",
     "wilson_interval",
 ]
+
+
+#: The evaluation log's column (a design run's, since 2026-11-27) that says whether each
+#: evaluated design succeeded: 1.0, 0.0, or NaN (unknown). The results format's extra columns
+#: are numbers, so it is not a bool.
+SUCCESS_COLUMN = "success"
 
 
 def wilson_interval(successes: int, n: int, level: float = 0.95) -> tuple[float, float]:
@@ -238,6 +249,157 @@ def run_successes(
             )
         rows.append({**dict(zip(keys, key, strict=True)), "success": outcome})
     return pd.DataFrame(rows, columns=[*keys, "success"])
+
+
+def evaluation_successes(
+    evaluations: pd.DataFrame,
+    criterion: float | TaskDefinition,
+    *,
+    scene: SceneSpec | None = None,
+) -> list[bool | None]:
+    """Whether each evaluation's design succeeded, one outcome per row, in the log's order.
+
+    A row's stored :data:`SUCCESS_COLUMN` (1 or 0) is its outcome where the log has one; a log
+    written before the column existed (or a row of an older session of a resumed run) is judged
+    from its stored ``status``, ``final_distance``, ``final_height`` and ``final_tilt`` by
+    :func:`design_succeeded`, which is how the column is written.
+
+    Args:
+        evaluations: The evaluation log (``status`` and the final pose; see
+            :func:`run_successes`).
+        criterion: The task the designs were scored on, or a bare radius in m.
+        scene: The run's scene (see :func:`design_succeeded`); None is the task's own.
+
+    Returns:
+        True, False or None (unknown) per row.
+
+    Raises:
+        TypeError: ``evaluations`` is not a DataFrame, or ``criterion`` neither a task nor a
+            number.
+    """
+    if not isinstance(evaluations, pd.DataFrame):
+        raise TypeError(
+            f"evaluations must be a pandas DataFrame (an evaluation log), got "
+            f"{type(evaluations).__name__}"
+        )
+    _radius(criterion)  # refused here, not only when a row is judged
+    frame = evaluations.reset_index(drop=True)
+    status = frame["status"].tolist() if "status" in frame.columns else ["ok"] * len(frame)
+    distance = _column(frame, "final_distance")
+    height, tilt = _column(frame, "final_height"), _column(frame, "final_tilt")
+    stored = _column(frame, SUCCESS_COLUMN)
+    out: list[bool | None] = []
+    for i in range(len(frame)):
+        if stored[i] in (0.0, 1.0):
+            out.append(bool(stored[i]))
+        else:
+            out.append(
+                design_succeeded(status[i], distance[i], criterion, height[i], tilt[i], scene=scene)
+            )
+    return out
+
+
+@dataclass(frozen=True)
+class EvaluationSuccesses:
+    """How many evaluations of a run succeeded, and the lowest-F one that did.
+
+    Attributes:
+        successes: Evaluations whose design succeeded.
+        n: Evaluations whose outcome is known.
+        unknown: Evaluations whose outcome is not stored (no final distance, or half a pose).
+        best: The succeeding row with the lowest F (the first in the log's order on a tie), or
+            None when none succeeds.
+    """
+
+    successes: int
+    n: int
+    unknown: int
+    best: pd.Series | None
+
+
+def evaluations_success(
+    evaluations: pd.DataFrame,
+    criterion: float | TaskDefinition,
+    *,
+    scene: SceneSpec | None = None,
+) -> EvaluationSuccesses:
+    """The evaluations of a run that succeed (:func:`evaluation_successes`), counted.
+
+    A lower F is not a success: in every built-in task but push the lowest-F design of a run
+    leaves the box off the goal while many other evaluations succeed (docs/tasks.md), so a
+    run's report names the lowest-F design that does succeed too.
+
+    Raises:
+        TypeError: as :func:`evaluation_successes`.
+        ValueError: the log has no ``free_energy`` column.
+    """
+    outcomes = evaluation_successes(evaluations, criterion, scene=scene)
+    if "free_energy" not in evaluations.columns:
+        raise ValueError(
+            "evaluations must have a 'free_energy' column (the evaluation log's F), got columns "
+            f"{list(evaluations.columns)}"
+        )
+    frame = evaluations.reset_index(drop=True)
+    known = [o for o in outcomes if o is not None]
+    hits = np.array([o is True for o in outcomes], dtype=bool)
+    best = None
+    if hits.any():
+        energy = frame["free_energy"].to_numpy(dtype=np.float64)
+        candidates = np.flatnonzero(hits & np.isfinite(energy))
+        if candidates.size:
+            best = frame.iloc[int(candidates[np.argmin(energy[candidates])])]
+    return EvaluationSuccesses(sum(known), len(known), len(outcomes) - len(known), best)
+
+
+def evaluations_success_text(summary: EvaluationSuccesses, degree: int | None = None) -> str:
+    """How many of a run's evaluations succeed, and its lowest-F succeeding design, in one line.
+
+    ``"k of n evaluations succeed; the lowest-F succeeding design C = (...) (iteration i,
+    candidate j), F = ..., ends ... m from the goal"``, or ``"k of n ...; none succeeds"``.
+
+    Args:
+        summary: :func:`evaluations_success` of the run.
+        degree: The number of coefficients ``c1..cn`` to show; None reads every ``c<i>`` column
+            of the row.
+
+    Raises:
+        TypeError: ``summary`` is not an :class:`EvaluationSuccesses`.
+        ValueError: ``degree`` is not a whole number >= 1 or None.
+    """
+    from tooldesign_env.schema import COEFFICIENT_PATTERN
+
+    if not isinstance(summary, EvaluationSuccesses):
+        raise TypeError(
+            f"summary must be an EvaluationSuccesses (evaluations_success's), got "
+            f"{type(summary).__name__}"
+        )
+    if degree is not None and (
+        isinstance(degree, bool) or not isinstance(degree, int) or degree < 1
+    ):
+        raise ValueError(f"degree must be a whole number >= 1 or None, got {degree!r}")
+    text = f"{summary.successes} of {summary.n} evaluations succeed"
+    if summary.unknown:
+        text += f" ({summary.unknown} more with no stored outcome)"
+    if summary.best is None:
+        return text + ("; none succeeds" if summary.n else "")
+    row = summary.best
+    names = (
+        [f"c{i + 1}" for i in range(degree)]
+        if degree is not None
+        else sorted(
+            (c for c in row.index if isinstance(c, str) and COEFFICIENT_PATTERN.fullmatch(c)),
+            key=lambda c: int(c[1:]),
+        )
+    )
+    coeffs = ", ".join(f"{float(row[c]):.4g}" for c in names)
+    where = ""
+    if "iteration" in row.index and "candidate" in row.index:
+        where = f" (iteration {int(row['iteration'])}, candidate {int(row['candidate'])})"
+    return (
+        f"{text}; the lowest-F succeeding design C = ({coeffs}){where}, "
+        f"F = {float(row['free_energy']):.6g}, ends {float(row['final_distance']):.3f} m from "
+        "the goal"
+    )
 
 
 def success_rate(outcomes: Any, level: float = 0.95) -> SuccessRate:

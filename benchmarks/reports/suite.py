@@ -55,6 +55,7 @@ from benchmarks.reports.rl import make_rl_report
 from benchmarks.reports.stats import INTERVAL_NAMES, Interval, check_interval, mean_interval
 from benchmarks.reports.success import (
     design_succeeded,
+    scene_of_config,
     scene_of_manifest,
     success_criterion,
     task_of_manifest,
@@ -840,6 +841,8 @@ def _mass_paths(
 
     rows = []
     shown = {id(r) for _, r in chosen}
+    criterion = success_criterion(config.task_name)
+    scene = scene_of_config(config.to_json())
     for record in designs:
         if not _has_mass_paths(record):
             continue
@@ -863,26 +866,50 @@ def _mass_paths(
             row[f"final_distance_m{float(mass):g}"] = float(
                 np.linalg.norm(np.asarray(path)[-1] - goal)
             )
+        for mass, path in zip(
+            [paths["nominal_mass"], *paths["masses"]],
+            [paths["nominal"], *paths["perturbed"]],
+            strict=True,
+        ):
+            end = np.asarray(path, dtype=np.float64)[-1]
+            # The path's end gives the distance and the centre's height; the tilt is not stored
+            # with the paths, so it is not checked (TaskDefinition.succeeded with no tilt).
+            row[f"success_m{float(mass):g}"] = bool(
+                criterion.succeeded(
+                    float(np.linalg.norm(end - goal)), float(end[2]), scene, final_tilt=None
+                )
+            )
         rows.append(row)
     table = pd.DataFrame(rows)
-    written += _write_table(target, "mass-perturbation", table, _mass_markdown(table), notice)
+    markdown = _mass_markdown(table, config.task_name, criterion.tolerance)
+    written += _write_table(target, "mass-perturbation", table, markdown, notice)
     return written
 
 
-def _mass_markdown(table: pd.DataFrame) -> str:
+def _true(value: Any) -> bool:
+    """A stored flag that is True (a NaN, where a run lacks that mass, is not)."""
+    return bool(pd.notna(value) and bool(value))
+
+
+def _mass_markdown(table: pd.DataFrame, task: str = "push", tolerance: float = 0.1) -> str:
     lines = [
         "# Box paths under box-mass changes",
         "",
         "Per run: robustness (m), accuracy (m), control deviation (N m) of its design and the",
         "box's final distance from the goal (m) at each box mass; `*` marks the design shown in",
-        "the figure of its p^X (the lowest F over seeds).",
+        "the figure of its p^X (the lowest F over seeds). Succeeds at: the box masses at which",
+        f"the box ends within {tolerance:g} m of the goal (the {task} task's tolerance) with its",
+        "centre at its resting height, from the end of the stored box path (the tilt is not",
+        "stored with the paths and is not checked); `success_m<mass>` in the CSV.",
         "",
     ]
     if not len(table):
         return "\n".join(lines + ["No run has stored box paths."]) + "\n"
     distances = [c for c in table.columns if c.startswith("final_distance_m")]
+    successes = [c for c in table.columns if c.startswith("success_m")]
     header = ["p^X", "seed", "F", "robustness", "accuracy", "control dev."]
     header += [f"final dist. {c.removeprefix('final_distance_m')} kg" for c in distances]
+    header += [f"succeeds at (of {len(successes)} masses)"]
     rows = []
     for _, row in table.iterrows():
         cells = [
@@ -894,6 +921,8 @@ def _mass_markdown(table: pd.DataFrame) -> str:
             _fmt(row["control_deviation"]),
         ]
         cells += [_fmt(row[c], 3) for c in distances]
+        hits = [c.removeprefix("success_m") for c in successes if _true(row[c])]
+        cells.append(f"{', '.join(hits)} kg" if hits else "none")
         rows.append(cells)
     return "\n".join(lines + _markdown(header, rows)) + "\n"
 
@@ -1058,8 +1087,12 @@ def _suite_report(
         noise_floor=floors or None,
         notice=notice,
     )
+    try:
+        task = task_of_manifest(read_manifest(folder))
+    except (FileNotFoundError, ValueError, TypeError):
+        task = None  # not a suite folder: the push task's tolerance, as before
     written += make_retest_report(
-        retests, target, n_boot=n_boot, seed=seed, interval=interval, notice=notice
+        retests, target, n_boot=n_boot, seed=seed, interval=interval, notice=notice, task=task
     )
     try:
         config = suite_of_manifest(read_manifest(folder))
