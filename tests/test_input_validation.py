@@ -469,7 +469,8 @@ def _is_goal(value: object) -> bool:
 # (the field the error must name, where the value goes in a valid suite, which values are valid)
 SUITE_PLACES = [
     ("name", lambda v: {"name": v}, lambda v: isinstance(v, str) and v.strip() == v != ""),
-    ("goal", lambda v: {"goal": v}, _is_goal),
+    # null is the task's default goal (review 43: a config without a goal takes its task's).
+    ("goal", lambda v: {"goal": v}, lambda v: v is None or _is_goal(v)),
     ("goal", lambda v: {"goal": [v, 1.5, 0.1]}, _number_in(-2.5, 2.5)),
     ("goal_box", lambda v: {"goal_box": [v, [0, 1], [0, 1]]}, lambda v: _is_x_range(v)),
     ("goal_box x", lambda v: {"goal_box": [[v, 0.5], [0, 1], [0, 1]]}, _number_in(-2.5, 0.5)),

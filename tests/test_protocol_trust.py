@@ -431,11 +431,12 @@ def test_the_committed_full_references_cover_every_cell_of_quick_and_full():
     assert path is not None and path.name == "references-full.json"
     assert packaged_references("quick") == path
     for size in ("quick", "full"):
-        config = protocol_config(size)
-        cells = load_references(path, config=config)  # plan, size, p^X and set must match
-        assert all((i.label, d) in cells for i, d in config.cells()), size
+        for tasks in (None, ["all"]):  # push alone, and every task (issue 35's task axis)
+            config = protocol_config(size, tasks=tasks)
+            cells = load_references(path, config=config)  # plan, size, p^X and set must match
+            assert all((i.label, d) in cells for i, d in config.cells()), (size, tasks)
     cells = load_references(path)
-    assert len(cells) == 72
+    assert len(cells) == 72 + 3 * 16  # push's 24 instances x 3 d, each task's 16 at d = 3
     for cell in cells.values():
         assert cell["f_ref"] < cell["f_straight"] and cell["noise_floor"] > 0
         assert min(cell["random_pool"]) >= cell["f_ref"] or "unstable_better" in cell

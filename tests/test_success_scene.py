@@ -94,6 +94,11 @@ def _fake_run(card_extra):  # type: ignore[no-untyped-def]
             coefficients=[0.4, 1.4, 0.18], free_energy=1.4, goal_error=1.0, confidence=0.5,
             final_distance=ENDS["final_distance"], iteration=0, candidate=0, status="ok",
             card=card, straight_tool={}, out_dir=out,
+            # The run's evaluation log, which the command counts the successes of.
+            evaluations=pd.DataFrame(
+                {"status": ["ok"], "free_energy": [1.4], "c1": [0.4], "c2": [1.4], "c3": [0.18],
+                 "iteration": [0], "candidate": [0], **{k: [v] for k, v in ENDS.items()}}
+            ),
         )
     return run_design
 

@@ -581,7 +581,7 @@ def round_section_floors() -> tuple[float, dict[int, float]]:
     Returns:
         The project's median relative floor (the equivalence reference's,
         :func:`benchmarks.suites.equivalence.median_relative_floor`), and the median over the
-        committed full protocol references' cells of noise floor / |F_ref|, per degree d.
+        committed full protocol references' push cells of noise floor / |F_ref|, per degree d.
 
     Raises:
         ValueError: a reference is missing or holds no floor.
@@ -594,6 +594,8 @@ def round_section_floors() -> tuple[float, dict[int, float]]:
         raise ValueError("the full protocol references are not packaged: no floor to quote")
     by_degree: dict[int, list[float]] = {}
     for (_, degree), cell in load_references(path).items():
+        if cell.get("task", "push") != "push":
+            continue  # the RL benchmark is push's: the other tasks' cells are not its floors
         by_degree.setdefault(int(degree), []).append(
             float(cell["noise_floor"]) / abs(float(cell["f_ref"]))
         )

@@ -34,6 +34,11 @@ import pandas as pd
 from benchmarks.design.config import ADDED_FIELDS, DESIGN_SUITE, RUNTIME_FIELDS, DesignConfig
 from benchmarks.design.progress import phase
 from benchmarks.design.stepper import DesignStepper, best_evaluation, iteration_bests
+from benchmarks.design.success import (
+    SUCCESS_COLUMN,
+    evaluation_successes,
+    evaluations_success,
+)
 from benchmarks.execution import (
     RobustnessRequest,
     check_main_guard,
@@ -41,11 +46,6 @@ from benchmarks.execution import (
     evaluate_robustness_of_design,
     make_executor,
     map_robust,
-)
-from benchmarks.reports.success import (
-    SUCCESS_COLUMN,
-    evaluation_successes,
-    evaluations_success,
 )
 from benchmarks.storage import (
     DESIGN_RUN_FILES,

@@ -83,6 +83,7 @@ from benchmarks.protocol.suite import (
     read_protocol,
     write_protocol_record,
 )
+from benchmarks.protocol.task_report import REFERENCE_SUCCESS_NOTE, references_shown
 from benchmarks.reports.success import (
     design_succeeded,
     has_standing,
@@ -414,33 +415,6 @@ def _reference_table(
 
 
 #: What the references table's success column says, and what it cannot.
-REFERENCE_SUCCESS_NOTE = (
-    "F_ref succeeds: whether the reference design's box ends within the task's tolerance of "
-    "the goal, from its stored final distance (the references store no height or tilt). The "
-    "straight tool and random sampling are stored as F only (`f_straight`, `random_pool`), so "
-    "their success is not stored and not shown."
-)
-
-
-def references_shown(table: pd.DataFrame, task: str) -> pd.DataFrame:
-    """The references table as report.md shows it: with ``F_ref succeeds`` after its distance.
-
-    ``yes``/``no`` from ``final distance (m)`` and ``task``'s tolerance (the distance part of
-    its test: the references store no height or tilt), ``n/a`` where no distance is stored.
-    references.csv keeps its columns; the column is the page's.
-    """
-    from tooldesign_env.tasks import get_task
-
-    tolerance = get_task(task).tolerance
-    out = table.copy()
-    if "final distance (m)" not in out.columns:
-        return out
-    distance = out["final distance (m)"].astype(float)
-    flag = ["n/a" if not np.isfinite(d) else ("yes" if d <= tolerance else "no") for d in distance]
-    out.insert(out.columns.get_loc("final distance (m)") + 1, "F_ref succeeds", flag)
-    return out
-
-
 def _ladder_section(scores: pd.DataFrame, references: pd.DataFrame, alpha: float) -> list[str]:
     """The "ladder quality" part: the weak cells, and the verdicts without them."""
     weak = references[references["weak ladder"].astype(bool)]

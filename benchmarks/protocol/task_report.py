@@ -25,6 +25,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
 from benchmarks.protocol.suite import ProtocolConfig
@@ -33,6 +34,33 @@ __all__ = ["POOLED_TASKS", "task_sections"]
 
 #: The ``task`` label of the statistics pooled over every task.
 POOLED_TASKS = "all tasks"
+
+
+REFERENCE_SUCCESS_NOTE = (
+    "F_ref succeeds: whether the reference design's box ends within the task's tolerance of "
+    "the goal, from its stored final distance (the references store no height or tilt). The "
+    "straight tool and random sampling are stored as F only (`f_straight`, `random_pool`), so "
+    "their success is not stored and not shown."
+)
+
+
+def references_shown(table: pd.DataFrame, task: str) -> pd.DataFrame:
+    """The references table as report.md shows it: with ``F_ref succeeds`` after its distance.
+
+    ``yes``/``no`` from ``final distance (m)`` and ``task``'s tolerance (the distance part of
+    its test: the references store no height or tilt), ``n/a`` where no distance is stored.
+    references.csv keeps its columns; the column is the page's.
+    """
+    from tooldesign_env.tasks import get_task
+
+    tolerance = get_task(task).tolerance
+    out = table.copy()
+    if "final distance (m)" not in out.columns:
+        return out
+    distance = out["final distance (m)"].astype(float)
+    flag = ["n/a" if not np.isfinite(d) else ("yes" if d <= tolerance else "no") for d in distance]
+    out.insert(out.columns.get_loc("final distance (m)") + 1, "F_ref succeeds", flag)
+    return out
 
 
 def _statistics(
@@ -150,7 +178,6 @@ def task_sections(
     Returns:
         The markdown lines, and the files written.
     """
-    from benchmarks.protocol.report import REFERENCE_SUCCESS_NOTE, references_shown
     from benchmarks.protocol.statistics import cluster_runs, held_out_gap
     from benchmarks.storage import atomic_write_text
     from tooldesign_env.tasks import get_task
